@@ -1,0 +1,27 @@
+"""pyrt: a Python renderer whose ray queries run on Embree and whose shading is vectorized NumPy.
+
+Public API::
+
+    import pyrt
+    scene = pyrt.Scene(pyrt.Camera(position=(0, 1, 4), target=(0, 0.5, 0), fov=40, width=640, height=480))
+    scene.add_sphere((0, 0.5, 0), 0.5, pyrt.Lambert(albedo=(0.8, 0.2, 0.2)))
+    scene.add_light(pyrt.PointLight((2, 3, 2), intensity=20.0))
+    image = pyrt.render(scene, spp=4)          # (H, W, 3) float32 linear radiance
+    pyrt.write_exr("out.exr", image); pyrt.write_png("out.png", image, tonemap="reinhard")
+"""
+from .camera import Camera, CameraError
+from .geometry import GeometryError
+from .integrator import RenderResult, RenderStats, render, render_full
+from .lights import DirectionalLight, Light, LightError, PointLight, SpotLight
+from .materials import Material, MaterialError, REGISTRY as MATERIALS, Lambert, BlinnPhong, Mirror, Glass, register
+from .scene import Scene, SceneError, transform_matrix
+from .io.images import read_exr, write_exr, write_png, tonemap_to_display
+from .io.scene_file import SceneFileError, load_scene
+
+__all__ = [
+    "Camera", "CameraError", "GeometryError", "RenderResult", "RenderStats", "render", "render_full",
+    "DirectionalLight", "Light", "LightError", "PointLight", "SpotLight", "Material", "MaterialError", "MATERIALS",
+    "Lambert", "BlinnPhong", "Mirror", "Glass", "register", "Scene", "SceneError", "transform_matrix",
+    "read_exr", "write_exr", "write_png", "tonemap_to_display", "SceneFileError", "load_scene",
+]
+__version__ = "0.1.0"

@@ -1,0 +1,194 @@
+"""Embree acceleration structure: the only module of pyrt that imports ``embreex``.
+
+:class:`Accel` builds one Embree scene from all meshes (geometry id -> mesh index) and answers
+batched closest-hit (:meth:`Accel.intersect`) and any-hit (:meth:`Accel.occluded`) queries.
+
+The binding's sharp edges, and how they are guarded here
+--------------------------------------------------------
+- It does no bounds checking and silently refuses float64: every array handed to it is built here,
+  float32, C-contiguous, with the shape checked.
+- It writes ``dists`` in place: we always pass our own copy, never a caller's array.
+- On a miss ``tfar`` keeps its input (1e37 by default): misses are masked (``geom_id == -1``,
+  ``t = inf``) before anyone computes ``o + t d``.
+- Geometry added after the first query is silently ignored: :meth:`Accel.add_mesh` raises after
+  :meth:`Accel.commit`.
+- tnear is fixed at 0: callers offset ray origins themselves (see :mod:`pyrt.offsets`).
+- Each ``run`` is a single-threaded loop that releases the GIL, so large batches are split into
+  chunks run on a thread pool (``threads`` workers, default: all cores).
+"""
+from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+import os
+
+import numpy as np
+from embreex import rtcore_scene
+from embreex.mesh_construction import TriangleMesh
+
+#: Larger batches are split over threads; below this a single call is cheaper.
+_CHUNK = 65536
+#: ``tmax`` values at or above this are "unbounded" (Embree's own default is 1e37; float32 max ~3.4e38).
+T_INFINITE = np.float32(1e37)
+
+
+@dataclass
+class Hits:
+    """Closest-hit results for a batch of N rays.
+
+    Attributes
+    ----------
+    hit : (N,) bool
+    t : (N,) float64
+        Distance along the ray in units of |d| (``inf`` on a miss).
+    mesh_id, prim_id : (N,) int64
+        Mesh index (order of :meth:`Accel.add_mesh`) and triangle index; -1 on a miss.
+    u, v : (N,) float64
+        Barycentrics: hit = (1-u-v) v0 + u v1 + v v2 (0 on a miss).
+    ng : (N, 3) float64
+        Unnormalised geometric normal, (v1-v0) x (v2-v0) orientation (zero on a miss).
+    """
+
+    hit: np.ndarray
+    t: np.ndarray
+    mesh_id: np.ndarray
+    prim_id: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+    ng: np.ndarray
+
+
+def _as_rays(origins, dirs, tmax, n_expected=None):
+    origins = np.asarray(origins)
+    dirs = np.asarray(dirs)
+    if origins.ndim != 2 or origins.shape[1] != 3:
+        raise ValueError(f"origins must have shape (N, 3), got {origins.shape}")
+    if dirs.shape != origins.shape:
+        raise ValueError(f"dirs must have the same shape as origins {origins.shape}, got {dirs.shape}")
+    n = origins.shape[0]
+    o = np.ascontiguousarray(origins, dtype=np.float32)
+    d = np.ascontiguousarray(dirs, dtype=np.float32)
+    if tmax is None:
+        tm = np.full(n, T_INFINITE, dtype=np.float32)
+    else:
+        tm = np.asarray(tmax, dtype=np.float64)
+        if tm.ndim == 0:
+            tm = np.full(n, tm)
+        if tm.shape != (n,):
+            raise ValueError(f"tmax must be a scalar or have shape ({n},), got {tm.shape}")
+        # always a fresh array: the binding writes it in place
+        tm = np.minimum(tm, T_INFINITE).astype(np.float32)
+    if not (np.all(np.isfinite(o)) and np.all(np.isfinite(d))):
+        raise ValueError("ray origins and directions must be finite")
+    return o, d, tm
+
+
+class Accel:
+    """One Embree scene over all meshes.
+
+    Parameters
+    ----------
+    threads : int, optional
+        Worker threads for large batches (default: ``os.cpu_count()``).
+    """
+
+    def __init__(self, *, threads=None):
+        self._scene = rtcore_scene.EmbreeScene()
+        self._meshes = []  # keep the float32 arrays alive
+        self._committed = False
+        self.threads = max(1, int(threads or os.cpu_count() or 1))
+        self._pool = None
+
+    @property
+    def n_meshes(self):
+        return len(self._meshes)
+
+    def add_mesh(self, vertices, faces):
+        """Add an indexed triangle mesh; returns its mesh id (0, 1, ...).
+
+        ``vertices`` (V, 3) finite floats, ``faces`` (F, 3) ints in [0, V). Raises after :meth:`commit`.
+        """
+        if self._committed:
+            raise RuntimeError("Accel: cannot add geometry after the scene is committed (first query)")
+        v = np.ascontiguousarray(vertices, dtype=np.float32)
+        f = np.ascontiguousarray(faces, dtype=np.int32)
+        if v.ndim != 2 or v.shape[1] != 3:
+            raise ValueError(f"vertices must have shape (V, 3), got {v.shape}")
+        if f.ndim != 2 or f.shape[1] != 3 or f.shape[0] == 0:
+            raise ValueError(f"faces must have shape (F, 3) with F > 0, got {f.shape}")
+        if not np.all(np.isfinite(v)):
+            raise ValueError("vertices must be finite")
+        if f.min() < 0 or f.max() >= v.shape[0]:
+            raise ValueError("face indices out of range of the vertex array")
+        TriangleMesh(self._scene, v, f)
+        self._meshes.append((v, f))
+        return len(self._meshes) - 1
+
+    def commit(self):
+        """Freeze the geometry (done implicitly by the first query)."""
+        if not self._meshes:
+            raise RuntimeError("Accel: the scene has no geometry")
+        self._committed = True
+
+    # -- threading ---------------------------------------------------------------------------
+    def _map(self, fn, n):
+        """Run ``fn(lo, hi)`` over [0, n) in chunks, on the pool when worthwhile."""
+        if n <= _CHUNK or self.threads == 1:
+            fn(0, n)
+            return
+        bounds = [(lo, min(lo + _CHUNK, n)) for lo in range(0, n, _CHUNK)]
+        if self._pool is None:
+            self._pool = ThreadPoolExecutor(max_workers=self.threads)
+        for fut in [self._pool.submit(fn, lo, hi) for lo, hi in bounds]:
+            fut.result()
+
+    def intersect(self, origins, dirs, tmax=None):
+        """Closest hit for each ray; see :class:`Hits`. ``t`` is in units of |dir|."""
+        if not self._committed:
+            self.commit()
+        o, d, tm = _as_rays(origins, dirs, tmax)
+        n = o.shape[0]
+        geom = np.full(n, -1, dtype=np.int64)
+        prim = np.full(n, -1, dtype=np.int64)
+        u = np.zeros(n)
+        v = np.zeros(n)
+        t = np.full(n, np.inf)
+        ng = np.zeros((n, 3))
+
+        def run(lo, hi):
+            dists = tm[lo:hi].copy()
+            res = self._scene.run(o[lo:hi], d[lo:hi], dists=dists, query="INTERSECT", output=True)
+            g = np.asarray(res["geomID"])
+            hit = g >= 0
+            geom[lo:hi] = g
+            prim[lo:hi] = np.where(hit, res["primID"], -1)
+            u[lo:hi] = np.where(hit, res["u"], 0.0)
+            v[lo:hi] = np.where(hit, res["v"], 0.0)
+            t[lo:hi] = np.where(hit, res["tfar"], np.inf)
+            ng[lo:hi] = np.where(hit[:, None], res["Ng"], 0.0)
+
+        if n:
+            self._map(run, n)
+        return Hits(hit=geom >= 0, t=t, mesh_id=geom, prim_id=prim, u=u, v=v, ng=ng)
+
+    def occluded(self, origins, dirs, tmax=None):
+        """True where something blocks the ray within (0, tmax) (units of |dir|)."""
+        if not self._committed:
+            self.commit()
+        o, d, tm = _as_rays(origins, dirs, tmax)
+        n = o.shape[0]
+        out = np.zeros(n, dtype=bool)
+
+        def run(lo, hi):
+            dists = tm[lo:hi].copy()
+            res = self._scene.run(o[lo:hi], d[lo:hi], dists=dists, query="OCCLUDED")
+            out[lo:hi] = np.asarray(res) == 0
+
+        if n:
+            self._map(run, n)
+        return out
+
+    def close(self):
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None

@@ -1,0 +1,299 @@
+"""From Embree hits to surface data.
+
+:class:`GeometryTable` concatenates every mesh of a scene into flat float64 arrays (world-space
+vertices, per-vertex shading normals and UVs, per-face material and flags), so that surface data
+for a batch of hits on many meshes is built with a few fancy-indexing operations and no Python
+loop over meshes.
+
+:func:`surface_from_hits` turns closest hits into a :class:`SurfaceBatch`: the hit point is rebuilt
+from the triangle's vertices and the barycentrics in float64 (``(1-u-v) v0 + u v1 + v v2``, not
+``o + t d``, which carries the error of ``t`` times the distance to the camera); the geometric normal
+is recomputed in float64 and turned toward the viewer; the shading normal is interpolated from vertex
+normals (smooth shading) or equals the geometric one (flat shading); UVs are interpolated; and when
+the rays carry differentials the UV footprint (du/dx, dv/dx, du/dy, dv/dy) is computed as in pbrt
+(the offset rays are intersected with the tangent plane; the offsets are expressed in barycentric
+derivatives, which give the UV and normal derivatives without needing a UV parameterisation).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+import warnings
+
+import numpy as np
+
+from shaders.vec import coordinate_frame, cross, dot, normalize
+
+
+class GeometryError(ValueError):
+    """A mesh cannot be rendered (non-finite vertices, bad indices, no valid triangle)."""
+
+
+@dataclass
+class MeshData:
+    """One mesh in world space (float64), after validation."""
+
+    vertices: np.ndarray          # (V, 3) world space
+    faces: np.ndarray             # (F, 3) int64
+    normals: np.ndarray | None    # (V, 3) unit world-space vertex normals or None (flat)
+    uv: np.ndarray | None         # (V, 2) or None
+    vertices_object: np.ndarray   # (V, 3) object space (for 3D procedural textures)
+    material_id: int
+    smooth: bool
+    name: str
+
+
+def validate_mesh(vertices, faces, name):
+    """Check a mesh and drop degenerate triangles.
+
+    Non-finite vertices and out-of-range indices raise :class:`GeometryError` naming the mesh.
+    Zero-area triangles (including repeated indices) are *skipped with a warning*: they cannot be
+    hit and have no normal. Returns ``(vertices float64, faces int64 with degenerate rows removed)``.
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces)
+    if v.ndim != 2 or v.shape[1] != 3 or v.shape[0] == 0:
+        raise GeometryError(f"mesh {name!r}: vertices must have shape (V, 3), got {v.shape}")
+    if f.ndim != 2 or f.shape[1] != 3 or f.shape[0] == 0:
+        raise GeometryError(f"mesh {name!r}: faces must have shape (F, 3) with F > 0, got {f.shape}")
+    if not np.issubdtype(f.dtype, np.integer):
+        raise GeometryError(f"mesh {name!r}: faces must be integer indices, got {f.dtype}")
+    bad = ~np.all(np.isfinite(v), axis=1)
+    if np.any(bad):
+        raise GeometryError(f"mesh {name!r}: {int(bad.sum())} vertices are not finite (NaN or Inf), "
+                            f"first at index {int(np.flatnonzero(bad)[0])}")
+    f = f.astype(np.int64)
+    if f.min() < 0 or f.max() >= v.shape[0]:
+        raise GeometryError(f"mesh {name!r}: face indices out of range [0, {v.shape[0]})")
+    area2 = np.linalg.norm(cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1)
+    scale = np.max(np.abs(v)) if v.size else 1.0
+    degenerate = area2 <= (np.finfo(np.float32).eps * max(scale, 1e-30)) ** 2
+    if np.all(degenerate):
+        raise GeometryError(f"mesh {name!r}: all {f.shape[0]} triangles are degenerate (zero area)")
+    if np.any(degenerate):
+        warnings.warn(f"mesh {name!r}: skipping {int(degenerate.sum())} degenerate (zero-area) triangles",
+                      stacklevel=3)
+        f = f[~degenerate]
+    return v, f
+
+
+class GeometryTable:
+    """All meshes of a scene concatenated (float64), indexed by (mesh id, triangle id)."""
+
+    def __init__(self, meshes):
+        self.meshes = list(meshes)
+        nv = [m.vertices.shape[0] for m in self.meshes]
+        nf = [m.faces.shape[0] for m in self.meshes]
+        self.vertex_offset = np.concatenate([[0], np.cumsum(nv)[:-1]]).astype(np.int64)
+        self.face_offset = np.concatenate([[0], np.cumsum(nf)[:-1]]).astype(np.int64)
+        self.vertices = np.concatenate([m.vertices for m in self.meshes])
+        self.vertices_object = np.concatenate([m.vertices_object for m in self.meshes])
+        self.faces = np.concatenate([m.faces + off for m, off in zip(self.meshes, self.vertex_offset)])
+        self.face_mesh = np.repeat(np.arange(len(self.meshes)), nf)
+        self.face_material = np.repeat([m.material_id for m in self.meshes], nf).astype(np.int64)
+        smooth = [m.smooth and m.normals is not None for m in self.meshes]
+        self.face_smooth = np.repeat(smooth, nf)
+        self.normals = np.concatenate([m.normals if m.normals is not None else np.zeros_like(m.vertices)
+                                       for m in self.meshes])
+        self.face_has_uv = np.repeat([m.uv is not None for m in self.meshes], nf)
+        self.uv = np.concatenate([m.uv if m.uv is not None else np.zeros((m.vertices.shape[0], 2))
+                                  for m in self.meshes])
+        self.any_smooth = bool(np.any(smooth))
+        self.any_uv = bool(np.any(self.face_has_uv))
+
+
+@dataclass
+class SurfaceBatch:
+    """Surface data at N hits (float64 unless noted). See the module docstring."""
+
+    p: np.ndarray
+    p_object: np.ndarray
+    ng: np.ndarray
+    ns: np.ndarray
+    front: np.ndarray
+    wo: np.ndarray
+    uv: np.ndarray
+    dpdu: np.ndarray
+    dpdv: np.ndarray
+    duvdx: np.ndarray
+    duvdy: np.ndarray
+    dpdx: np.ndarray
+    dpdy: np.ndarray
+    dndx: np.ndarray
+    dndy: np.ndarray
+    mesh_id: np.ndarray
+    prim_id: np.ndarray
+    face: np.ndarray
+    material_id: np.ndarray
+    bary: np.ndarray
+    t: np.ndarray
+    p_error: np.ndarray = field(default=None)
+    frame_s: np.ndarray = field(default=None)
+    frame_t: np.ndarray = field(default=None)
+
+    @property
+    def n_hits(self):
+        return self.p.shape[0]
+
+    def subset(self, idx):
+        """The batch restricted to ``idx`` (an index array or a boolean mask)."""
+        return SurfaceBatch(**{f.name: (getattr(self, f.name)[idx] if getattr(self, f.name) is not None else None)
+                               for f in fields(self)})
+
+    def set_shading_normal(self, ns):
+        """Replace the shading normals (unit, (N, 3)) and rebuild the local frame."""
+        self.ns = ns
+        self.frame_s, self.frame_t = coordinate_frame(ns)
+
+    def to_local(self, w):
+        return np.stack([dot(w, self.frame_s), dot(w, self.frame_t), dot(w, self.ns)], axis=1)
+
+    def to_world(self, w):
+        return w[:, 0:1] * self.frame_s + w[:, 1:2] * self.frame_t + w[:, 2:3] * self.ns
+
+
+def _solve_bary_derivative(e1, e2, dp):
+    """Least-squares (a, b) with a e1 + b e2 ~= dp, rows of (N, 3); zero where singular."""
+    a11 = dot(e1, e1)
+    a12 = dot(e1, e2)
+    a22 = dot(e2, e2)
+    r1 = dot(e1, dp)
+    r2 = dot(e2, dp)
+    det = a11 * a22 - a12 * a12
+    ok = np.abs(det) > 1e-300
+    inv = np.divide(1.0, det, out=np.zeros_like(det), where=ok)
+    return (a22 * r1 - a12 * r2) * inv, (a11 * r2 - a12 * r1) * inv
+
+
+def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=None):
+    """Build a :class:`SurfaceBatch` for the rays that hit (``hits.hit`` must be all True).
+
+    Parameters
+    ----------
+    geo : GeometryTable
+    hits : pyrt.accel.Hits
+        Restricted to hitting rays.
+    origins, dirs : (N, 3) float64
+        The rays (dirs unit length).
+    differentials : tuple of four (N, 3) arrays or None
+        ``(rx_o, rx_d, ry_o, ry_d)``: origins and directions of the x/y offset rays.
+    """
+    n = hits.t.shape[0]
+    face = geo.face_offset[hits.mesh_id] + hits.prim_id
+    tri = geo.faces[face]
+    v0, v1, v2 = geo.vertices[tri[:, 0]], geo.vertices[tri[:, 1]], geo.vertices[tri[:, 2]]
+    b1, b2 = hits.u, hits.v
+    b0 = 1.0 - b1 - b2
+    bary = np.stack([b0, b1, b2], axis=1)
+    p = b0[:, None] * v0 + b1[:, None] * v1 + b2[:, None] * v2
+    vo = geo.vertices_object
+    p_object = b0[:, None] * vo[tri[:, 0]] + b1[:, None] * vo[tri[:, 1]] + b2[:, None] * vo[tri[:, 2]]
+    e1 = v1 - v0
+    e2 = v2 - v0
+    ng_out = normalize(cross(e1, e2))         # outward (winding) normal
+    wo = -dirs
+    front = dot(ng_out, wo) >= 0
+    sign = np.where(front, 1.0, -1.0)
+    ng = ng_out * sign[:, None]
+
+    # shading normal
+    smooth = geo.face_smooth[face]
+    ns = ng.copy()
+    nrm = geo.normals
+    if np.any(smooth):
+        s = np.flatnonzero(smooth)
+        ni = (bary[s, 0:1] * nrm[tri[s, 0]] + bary[s, 1:2] * nrm[tri[s, 1]] + bary[s, 2:3] * nrm[tri[s, 2]])
+        ni = normalize(ni) * sign[s, None]
+        # An interpolated normal facing away from the viewer cannot shade anything: fall back to ng.
+        bad = (dot(ni, wo[s]) <= 0) | (dot(ni, ni) == 0)
+        ni[bad] = ng[s][bad]
+        ns[s] = ni
+
+    # uv and dp/du, dp/dv
+    uvs = geo.uv
+    uv0, uv1, uv2 = uvs[tri[:, 0]], uvs[tri[:, 1]], uvs[tri[:, 2]]
+    uv = b0[:, None] * uv0 + b1[:, None] * uv1 + b2[:, None] * uv2
+    du1, du2 = uv1 - uv0, uv2 - uv0
+    det = du1[:, 0] * du2[:, 1] - du1[:, 1] * du2[:, 0]
+    ok = np.abs(det) > 1e-20
+    inv = np.divide(1.0, det, out=np.zeros_like(det), where=ok)
+    dpdu = (du2[:, 1:2] * e1 - du1[:, 1:2] * e2) * inv[:, None]
+    dpdv = (du1[:, 0:1] * e2 - du2[:, 0:1] * e1) * inv[:, None]
+    if not np.all(ok):
+        s_, t_ = coordinate_frame(ng[~ok])
+        dpdu[~ok], dpdv[~ok] = s_, t_
+
+    zeros3 = np.zeros((n, 3))
+    dpdx = dpdy = dndx = dndy = zeros3
+    duvdx = duvdy = np.zeros((n, 2))
+    if differentials is not None:
+        rx_o, rx_d, ry_o, ry_d = differentials
+        d_plane = dot(ng, p)
+
+        def offset_point(o, d):
+            denom = dot(ng, d)
+            ok_ = np.abs(denom) > 1e-12
+            tt = np.divide(d_plane - dot(ng, o), denom, out=np.zeros_like(denom), where=ok_)
+            q = o + tt[:, None] * d
+            return np.where(ok_[:, None], q - p, 0.0)
+
+        dpdx = offset_point(rx_o, rx_d)
+        dpdy = offset_point(ry_o, ry_d)
+        bx1, bx2 = _solve_bary_derivative(e1, e2, dpdx)
+        by1, by2 = _solve_bary_derivative(e1, e2, dpdy)
+        duvdx = bx1[:, None] * du1 + bx2[:, None] * du2
+        duvdy = by1[:, None] * du1 + by2[:, None] * du2
+        if np.any(smooth):
+            dn1 = (nrm[tri[:, 1]] - nrm[tri[:, 0]]) * sign[:, None]
+            dn2 = (nrm[tri[:, 2]] - nrm[tri[:, 0]]) * sign[:, None]
+            sm = smooth[:, None]
+            dndx = np.where(sm, bx1[:, None] * dn1 + bx2[:, None] * dn2, 0.0)
+            dndy = np.where(sm, by1[:, None] * dn1 + by2[:, None] * dn2, 0.0)
+
+    surf = SurfaceBatch(p=p, p_object=p_object, ng=ng, ns=ns, front=front, wo=wo, uv=uv, dpdu=dpdu, dpdv=dpdv,
+                        duvdx=duvdx, duvdy=duvdy, dpdx=dpdx, dpdy=dpdy, dndx=dndx, dndy=dndy,
+                        mesh_id=hits.mesh_id, prim_id=hits.prim_id, face=face,
+                        material_id=geo.face_material[face], bary=bary, t=hits.t,
+                        p_error=np.abs(b0)[:, None] * np.abs(v0) + np.abs(b1)[:, None] * np.abs(v1)
+                        + np.abs(b2)[:, None] * np.abs(v2))
+    surf.set_shading_normal(ns)
+    return surf
+
+
+def reflect_differentials(surf, rx_d, ry_d, wr):
+    """Offset rays of a mirror reflection (pbrt's specular-reflection differentials).
+
+    ``wr = -wo + 2 (wo.n) n``  =>  ``dwr = -dwo + 2 (d(wo.n) n + (wo.n) dn)``.
+    Returns ``(rx_o, rx_d, ry_o, ry_d)`` for the reflected ray.
+    """
+    n = surf.ns
+    wo = surf.wo
+    cos_o = dot(wo, n)
+    out = []
+    for dp, d_in, dn in ((surf.dpdx, rx_d, surf.dndx), (surf.dpdy, ry_d, surf.dndy)):
+        dwo = -d_in - wo
+        dcos = dot(dwo, n) + dot(wo, dn)
+        dwr = -dwo + 2.0 * (dcos[:, None] * n + cos_o[:, None] * dn)
+        out += [surf.p + dp, wr + dwr]
+    return tuple(out)
+
+
+def refract_differentials(surf, rx_d, ry_d, wt, eta):
+    """Offset rays of a refraction; ``eta = eta_t / eta_i``.
+
+    ``wt = -wo/eta + mu n`` with ``mu = cos_o/eta - cos_t``, ``cos_t = -(wt.n)``; differentiating,
+    ``dwt = -dwo/eta + mu dn + dmu n`` and ``dmu = (1/eta - cos_o / (eta^2 cos_t)) d(cos_o)``.
+    """
+    n = surf.ns
+    wo = surf.wo
+    cos_o = dot(wo, n)
+    cos_t = -dot(wt, n)
+    mu = cos_o / eta - cos_t
+    safe_ct = np.where(np.abs(cos_t) > 1e-12, cos_t, 1e-12)
+    out = []
+    for dp, d_in, dn in ((surf.dpdx, rx_d, surf.dndx), (surf.dpdy, ry_d, surf.dndy)):
+        dwo = -d_in - wo
+        dcos = dot(dwo, n) + dot(wo, dn)
+        dmu = (1.0 / eta - cos_o / (eta * eta * safe_ct)) * dcos
+        dwt = -dwo / eta[:, None] + mu[:, None] * dn + dmu[:, None] * n
+        out += [surf.p + dp, wt + dwt]
+    return tuple(out)

@@ -1,0 +1,403 @@
+"""Whitted / direct-lighting integrator, wavefront style.
+
+The image is processed in chunks of pixels (bounded memory: a chunk holds at most
+``chunk_samples`` camera samples). For each chunk, one batch of rays per bounce depth:
+
+1. closest hits for the whole batch (:meth:`pyrt.accel.Accel.intersect`);
+2. misses add ``throughput * background`` (or the environment's radiance);
+3. hits become a :class:`pyrt.geometry.SurfaceBatch`; materials are evaluated once per material
+   *type* on the hits that use them (``np.flatnonzero(material_id == k)``);
+4. emission, direct light from every light (shadow rays through :meth:`Accel.occluded`, only where
+   the light can contribute: in front of the surface, inside the cone, non-zero BSDF) and the
+   optional constant ambient term are added for materials with a non-delta lobe;
+5. delta lobes (mirror reflection; glass reflection and Fresnel-weighted refraction with total
+   internal reflection) spawn the next batch with multiplied throughput; rays whose throughput
+   falls below ``throughput_cutoff`` (max over RGB) or that reach ``max_depth`` are dropped.
+
+This module knows nothing about Embree; it asks :class:`pyrt.accel.Accel` for hits and occlusion.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+import math
+import time
+import warnings
+
+import numpy as np
+
+from . import offsets
+from .accel import Accel, T_INFINITE
+from .geometry import refract_differentials, reflect_differentials, surface_from_hits
+
+
+@dataclass
+class RenderStats:
+    """Counters of one render (rays by kind, time), and optionally the traced rays themselves."""
+
+    primary_rays: int = 0
+    secondary_rays: int = 0
+    shadow_rays: int = 0
+    time_total: float = 0.0
+    time_intersect: float = 0.0
+    time_occluded: float = 0.0
+    nonfinite_samples: int = 0
+    recorded: list = field(default_factory=list)
+
+    @property
+    def rays(self):
+        return self.primary_rays + self.secondary_rays + self.shadow_rays
+
+
+class PreparedScene:
+    """A scene with its Embree acceleration structure and flat geometry table built once."""
+
+    def __init__(self, scene, *, threads=None):
+        self.scene = scene
+        self.geo = scene.geometry_table()
+        self.accel = Accel(threads=threads)
+        for m in self.geo.meshes:
+            self.accel.add_mesh(m.vertices, m.faces)
+        self.accel.commit()
+        mats = scene.materials
+        self.has_delta = np.array([m.has_delta for m in mats], dtype=bool)
+        self.has_diffuse = np.array([m.has_diffuse for m in mats], dtype=bool)
+        self.needs_differentials = any(_uses_texture(m) for m in mats)
+
+    def close(self):
+        self.accel.close()
+
+
+def _uses_texture(material):
+    return any(hasattr(v, "evaluate") for v in vars(material).values())
+
+
+class BSDFBatch:
+    """The BSDFs of all hits of a :class:`SurfaceBatch`, dispatched per material type."""
+
+    def __init__(self, surf, materials):
+        self.surf = surf
+        self.materials = materials
+        self.mat_id = surf.material_id
+
+    def _groups(self, idx):
+        mids = self.mat_id[idx]
+        for k in np.unique(mids):
+            sel = np.flatnonzero(mids == k)
+            yield self.materials[k], sel
+
+    def f_cos(self, idx, wi):
+        """BSDF * cos(theta_i) at hits ``idx`` for world directions ``wi`` (k, 3)."""
+        out = np.zeros((idx.shape[0], 3))
+        for mat, sel in self._groups(idx):
+            ctx = self.surf.subset(idx[sel])
+            out[sel] = mat.f_cos(ctx.to_local(ctx.wo), ctx.to_local(wi[sel]), ctx)
+        return out
+
+    def sample(self, idx, u):
+        """Sample the non-delta lobes at hits ``idx``: world ``wi``, weight f_cos/pdf, pdf."""
+        wi = np.zeros((idx.shape[0], 3))
+        weight = np.zeros((idx.shape[0], 3))
+        pdf = np.zeros(idx.shape[0])
+        for mat, sel in self._groups(idx):
+            ctx = self.surf.subset(idx[sel])
+            w, wt, p = mat.sample(ctx.to_local(ctx.wo), u[sel], ctx)
+            wi[sel], weight[sel], pdf[sel] = ctx.to_world(w), wt, p
+        return wi, weight, pdf
+
+    def pdf(self, idx, wi):
+        out = np.zeros(idx.shape[0])
+        for mat, sel in self._groups(idx):
+            ctx = self.surf.subset(idx[sel])
+            out[sel] = mat.pdf(ctx.to_local(ctx.wo), ctx.to_local(wi[sel]), ctx)
+        return out
+
+
+def _scatter_add(acc, idx, vals):
+    """acc[idx] += vals with repeated indices (per RGB channel, via bincount)."""
+    n = acc.shape[0]
+    for c in range(3):
+        acc[:, c] += np.bincount(idx, weights=vals[:, c], minlength=n)
+
+
+class Integrator:
+    """Whitted integrator over a :class:`PreparedScene`.
+
+    Parameters
+    ----------
+    max_depth : int
+        Maximum number of specular bounces (0 = direct light only).
+    throughput_cutoff : float
+        Specular rays whose max-channel throughput falls below this are dropped.
+    offset : str or callable
+        Ray-origin offset strategy (see :mod:`pyrt.offsets`).
+    record_rays : bool
+        Keep every traced ray (float32 origins, dirs, tmax, kind) in ``stats.recorded`` for benchmarks.
+    """
+
+    def __init__(self, prepared, *, max_depth=8, throughput_cutoff=1e-4, offset=None, record_rays=False):
+        if int(max_depth) != max_depth or max_depth < 0:
+            raise ValueError(f"max_depth must be a non-negative integer, got {max_depth!r}")
+        self.ps = prepared
+        self.scene = prepared.scene
+        self.max_depth = int(max_depth)
+        self.throughput_cutoff = float(throughput_cutoff)
+        self.offset = offsets.get_strategy(offset)
+        self.record_rays = record_rays
+        self.stats = RenderStats()
+
+    # -- Embree calls with bookkeeping -------------------------------------------------------
+    def _intersect(self, o, d, kind):
+        t0 = time.perf_counter()
+        h = self.ps.accel.intersect(o, d)
+        self.stats.time_intersect += time.perf_counter() - t0
+        if kind == "primary":
+            self.stats.primary_rays += o.shape[0]
+        else:
+            self.stats.secondary_rays += o.shape[0]
+        if self.record_rays:
+            self.stats.recorded.append(("intersect", o.astype(np.float32), d.astype(np.float32), None))
+        return h
+
+    def _occluded(self, o, d, tmax):
+        t0 = time.perf_counter()
+        occ = self.ps.accel.occluded(o, d, tmax)
+        self.stats.time_occluded += time.perf_counter() - t0
+        self.stats.shadow_rays += o.shape[0]
+        if self.record_rays:
+            self.stats.recorded.append(("occluded", o.astype(np.float32), d.astype(np.float32),
+                                        np.minimum(tmax, T_INFINITE).astype(np.float32)))
+        return occ
+
+    def background(self, d):
+        env = self.scene.environment
+        if env is not None:
+            return env.radiance(d)
+        return np.broadcast_to(self.scene.background, d.shape)
+
+    # -- one chunk ---------------------------------------------------------------------------
+    def render_samples(self, o, d, diffs, want_aovs=False, rng=None):
+        """Radiance (N, 3) float64 for camera rays ``o, d`` (and AOVs of the first hit if asked)."""
+        n = o.shape[0]
+        L = np.zeros((n, 3))
+        aovs = None
+        if want_aovs:
+            aovs = {"depth": np.full(n, np.inf), "normal": np.zeros((n, 3)), "albedo": np.zeros((n, 3))}
+        rng = rng if rng is not None else np.random.default_rng(0)
+        sample = np.arange(n)
+        thr = np.ones((n, 3))
+        materials = self.scene.materials
+        lights = self.scene.lights
+        ambient = self.scene.ambient
+        use_diffs = diffs is not None and self.ps.needs_differentials
+        for depth in range(self.max_depth + 1):
+            if o.shape[0] == 0:
+                break
+            hits = self._intersect(o, d, "primary" if depth == 0 else "secondary")
+            miss = ~hits.hit
+            if np.any(miss):
+                _scatter_add(L, sample[miss], thr[miss] * self.background(d[miss]))
+            h = np.flatnonzero(hits.hit)
+            if h.size == 0:
+                break
+            hsub = _subset_hits(hits, h)
+            dsub = None
+            if use_diffs:
+                dsub = tuple(x[h] for x in diffs)
+            surf = surface_from_hits(self.ps.geo, hsub, o[h], d[h], dsub)
+            s_idx, thr_h = sample[h], thr[h]
+            if aovs is not None and depth == 0:
+                aovs["depth"][s_idx] = hsub.t
+                aovs["normal"][s_idx] = surf.ns
+            mids = surf.material_id
+            present = np.unique(mids)
+            Lh = np.zeros((h.size, 3))
+            # emission and ambient, per material type
+            for k in present:
+                sel = np.flatnonzero(mids == k)
+                mat = materials[k]
+                ctx = surf.subset(sel)
+                Lh[sel] += mat.emission(ctx)
+                if aovs is not None and depth == 0:
+                    aovs["albedo"][s_idx[sel]] = mat.albedo(ctx)
+                if mat.has_diffuse and np.any(ambient > 0):
+                    Lh[sel] += mat.albedo(ctx) * ambient
+            # direct light at hits whose material has a non-delta lobe
+            diffuse_idx = np.flatnonzero(self.ps.has_diffuse[mids])
+            if diffuse_idx.size and lights:
+                dsurf = surf.subset(diffuse_idx)
+                bsdf = BSDFBatch(dsurf, materials)
+                visible = self._visibility(dsurf)
+                for light in lights:
+                    Lh[diffuse_idx] += light.estimate(dsurf, bsdf, visible, rng)
+            _scatter_add(L, s_idx, thr_h * Lh)
+            if depth == self.max_depth:
+                break
+            # specular continuation
+            new = self._spawn_specular(surf, thr_h, s_idx, dsub)
+            if new is None:
+                break
+            o, d, thr, sample, diffs = new
+        return L, aovs
+
+    def _visibility(self, surf):
+        def visible(idx, wi, dist):
+            sub = surf.subset(idx)
+            origins = self.offset(sub, wi)
+            finite = np.isfinite(dist)
+            tmax = np.where(finite, dist * offsets.SHADOW_TMAX_SCALE, np.inf)
+            return ~self._occluded(origins, wi, tmax)
+        return visible
+
+    def _spawn_specular(self, surf, thr_h, s_idx, dsub):
+        mids = surf.material_id
+        spec_idx = np.flatnonzero(self.ps.has_delta[mids])
+        if spec_idx.size == 0:
+            return None
+        parts = []
+        for k in np.unique(mids[spec_idx]):
+            sel = spec_idx[mids[spec_idx] == k]
+            ctx = surf.subset(sel)
+            wo_l = ctx.to_local(ctx.wo)
+            for lobe in self.scene.materials[k].delta_lobes(wo_l, ctx):
+                t_new = thr_h[sel] * lobe.weight
+                keep = np.flatnonzero(t_new.max(axis=1) > self.throughput_cutoff)
+                if keep.size == 0:
+                    continue
+                c = ctx.subset(keep)
+                w = normalize_rows(c.to_world(lobe.wi[keep]))
+                origins = self.offset(c, w)
+                new_d = None
+                if dsub is not None:
+                    gsel = sel[keep]
+                    rx_d, ry_d = dsub[1][gsel], dsub[3][gsel]
+                    if lobe.kind == "refract":
+                        new_d = refract_differentials(c, rx_d, ry_d, w, lobe.eta[keep])
+                    else:
+                        new_d = reflect_differentials(c, rx_d, ry_d, w)
+                parts.append((origins, w, t_new[keep], s_idx[sel[keep]], new_d))
+        if not parts:
+            return None
+        o = np.concatenate([p[0] for p in parts])
+        d = np.concatenate([p[1] for p in parts])
+        thr = np.concatenate([p[2] for p in parts])
+        sample = np.concatenate([p[3] for p in parts])
+        diffs = None
+        if dsub is not None:
+            diffs = tuple(np.concatenate([p[4][i] for p in parts]) for i in range(4))
+        return o, d, thr, sample, diffs
+
+
+def normalize_rows(w):
+    n = np.linalg.norm(w, axis=1, keepdims=True)
+    return np.divide(w, n, out=np.zeros_like(w), where=n > 0)
+
+
+def _subset_hits(hits, idx):
+    from .accel import Hits
+    return Hits(hit=hits.hit[idx], t=hits.t[idx], mesh_id=hits.mesh_id[idx], prim_id=hits.prim_id[idx],
+                u=hits.u[idx], v=hits.v[idx], ng=hits.ng[idx])
+
+
+@dataclass
+class RenderResult:
+    """Output of :func:`render_full`: linear radiance image, optional AOVs, statistics."""
+
+    image: np.ndarray
+    aovs: dict | None
+    stats: RenderStats
+
+
+def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4, offset=None, aovs=False,
+                progress=None, chunk_samples=1 << 17, threads=None, record_rays=False, prepared=None):
+    """Render ``scene`` and return a :class:`RenderResult` (see :func:`render` for parameters)."""
+    t_start = time.perf_counter()
+    cam = scene.camera
+    if spp is not None:
+        if int(spp) != spp or spp < 1:
+            raise ValueError(f"spp must be a positive integer, got {spp!r}")
+        from copy import copy
+        cam = copy(cam)
+        cam.spp = int(spp)
+    own = prepared is None
+    ps = prepared if prepared is not None else PreparedScene(scene, threads=threads)
+    integ = Integrator(ps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
+                       record_rays=record_rays)
+    W, H, S = cam.width, cam.height, cam.spp
+    n_pix = W * H
+    px_per_chunk = max(1, chunk_samples // S)
+    image = np.zeros((n_pix, 3))
+    aov_img = None
+    if aovs:
+        aov_img = {"depth": np.zeros(n_pix), "normal": np.zeros((n_pix, 3)), "albedo": np.zeros((n_pix, 3))}
+    chunks = range(0, n_pix, px_per_chunk)
+    try:
+        from tqdm.auto import tqdm
+        it = tqdm(chunks, desc="render", unit="chunk", disable=(not progress) if progress is not None else None,
+                  leave=False)
+    except ImportError:  # pragma: no cover - tqdm is a dependency
+        it = chunks
+    try:
+        for ci, lo in enumerate(it):
+            hi = min(lo + px_per_chunk, n_pix)
+            rng = np.random.default_rng([seed, ci])
+            o, d, pix, diffs = cam.generate_rays(lo, hi, rng)
+            L, a = integ.render_samples(o, d, diffs, want_aovs=aovs, rng=rng)
+            bad = ~np.all(np.isfinite(L), axis=1)
+            if np.any(bad):
+                integ.stats.nonfinite_samples += int(bad.sum())
+                L[bad] = 0.0
+            image[lo:hi] = L.reshape(hi - lo, S, 3).mean(axis=1)
+            if aovs:
+                dep = a["depth"].reshape(hi - lo, S)
+                hitm = np.isfinite(dep)
+                cnt = hitm.sum(axis=1)
+                aov_img["depth"][lo:hi] = np.where(cnt > 0, np.where(hitm, dep, 0).sum(1) / np.maximum(cnt, 1), np.inf)
+                aov_img["normal"][lo:hi] = a["normal"].reshape(hi - lo, S, 3).mean(axis=1)
+                aov_img["albedo"][lo:hi] = a["albedo"].reshape(hi - lo, S, 3).mean(axis=1)
+    finally:
+        if own:
+            ps.close()
+    if integ.stats.nonfinite_samples:
+        warnings.warn(f"render: {integ.stats.nonfinite_samples} samples had non-finite radiance and were "
+                      "set to 0 (this is a bug; please report the scene)", RuntimeWarning, stacklevel=2)
+    integ.stats.time_total = time.perf_counter() - t_start
+    img = image.reshape(H, W, 3).astype(np.float32)
+    if aov_img is not None:
+        aov_img = {"depth": aov_img["depth"].reshape(H, W).astype(np.float32),
+                   "normal": aov_img["normal"].reshape(H, W, 3).astype(np.float32),
+                   "albedo": aov_img["albedo"].reshape(H, W, 3).astype(np.float32)}
+    return RenderResult(image=img, aovs=aov_img, stats=integ.stats)
+
+
+def render(scene, **kwargs):
+    """Render ``scene`` to linear radiance.
+
+    Parameters
+    ----------
+    scene : pyrt.Scene
+    spp : int, optional
+        Samples per pixel (default: the camera's).
+    seed : int
+        Random seed; the same seed gives a bit-identical image.
+    max_depth : int
+        Maximum specular recursion depth (default 8).
+    throughput_cutoff : float
+        Drop specular rays whose throughput falls below this (default 1e-4).
+    offset : str or callable
+        Ray-offset strategy (:mod:`pyrt.offsets`), default the robust error-bound offset.
+    progress : bool, optional
+        Show a progress bar (default: only on a terminal).
+    chunk_samples : int
+        Camera samples per chunk (bounds memory; default 131072).
+    threads : int, optional
+        Embree worker threads (default: all cores).
+
+    Returns
+    -------
+    (H, W, 3) float32 ndarray
+        Linear scene radiance (W m^-2 sr^-1 per RGB channel).
+    """
+    return render_full(scene, **kwargs).image
+
+
+del math

@@ -1,0 +1,1 @@
+"""Readers and writers: images (EXR, PNG) and scene files."""

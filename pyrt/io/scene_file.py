@@ -1,0 +1,175 @@
+"""Scene files (TOML or JSON).
+
+Format (every key optional unless marked; unknown keys are errors naming the table)::
+
+    [camera]            # position, target, up, fov (degrees, vertical), width, height, spp
+    [render]            # max_depth, seed, background (RGB radiance), ambient (RGB radiance),
+                        # throughput_cutoff, offset (strategy name)
+    [materials.NAME]    # type = "lambert" | "blinn_phong" | "mirror" | "glass" | ... ; the rest are the
+                        # material constructor's keyword arguments (validated by it)
+    [[meshes]]          # file = "path" (relative to the scene file) OR primitive = "sphere" | "box" |
+                        # "plane" | "cylinder"; material = NAME (required); transform: translate, rotate
+                        # ([angle_deg, [x, y, z]] or a list of them), scale, or matrix (4x4);
+                        # smooth = "auto" | true | false; name
+                        # sphere: radius, subdivisions; box: extents; plane: size, normal;
+                        # cylinder: radius, height, sections
+    [[lights]]          # type = "point" | "spot" | "directional" + that light's keyword arguments
+
+Example: ``assets/default_scene.toml``.
+"""
+from __future__ import annotations
+
+import inspect
+import json
+import os
+import tomllib
+
+import numpy as np
+import trimesh
+
+from ..camera import Camera
+from ..lights import REGISTRY as LIGHTS
+from ..materials import REGISTRY as MATERIALS
+from ..scene import Scene, transform_matrix
+
+
+class SceneFileError(ValueError):
+    """A scene file is malformed; the message names the file and the offending table/key."""
+
+
+_CAMERA_KEYS = {"position", "target", "up", "fov", "width", "height", "spp", "jitter"}
+_RENDER_KEYS = {"max_depth", "seed", "background", "ambient", "throughput_cutoff", "offset"}
+_MESH_COMMON = {"file", "primitive", "material", "translate", "rotate", "scale", "matrix", "smooth", "name",
+                "crease_angle"}
+_PRIMITIVE_KEYS = {"sphere": {"radius", "subdivisions"}, "box": {"extents"}, "plane": {"size", "normal"},
+                   "cylinder": {"radius", "height", "sections"}}
+_TOP_KEYS = {"camera", "render", "materials", "meshes", "lights"}
+
+
+def _check_keys(where, table, allowed, path):
+    if not isinstance(table, dict):
+        raise SceneFileError(f"{path}: {where} must be a table, got {type(table).__name__}")
+    unknown = set(table) - set(allowed)
+    if unknown:
+        raise SceneFileError(f"{path}: unknown key(s) {sorted(unknown)} in {where}; allowed: {sorted(allowed)}")
+
+
+def _construct(cls, kwargs, where, path):
+    try:
+        return cls(**kwargs)
+    except TypeError as e:
+        sig = inspect.signature(cls.__init__)
+        allowed = [p for p in sig.parameters if p != "self"]
+        raise SceneFileError(f"{path}: {where}: {e}; allowed parameters: {allowed}") from None
+    except ValueError as e:
+        raise SceneFileError(f"{path}: {where}: {e}") from None
+
+
+def _primitive(kind, params, where, path):
+    if kind == "sphere":
+        return trimesh.creation.icosphere(subdivisions=int(params.get("subdivisions", 4)),
+                                          radius=float(params.get("radius", 1.0))), True
+    if kind == "box":
+        return trimesh.creation.box(extents=params.get("extents", (1.0, 1.0, 1.0))), False
+    if kind == "plane":
+        sx, sz = np.broadcast_to(np.asarray(params.get("size", 1.0), dtype=np.float64), (2,))
+        v = np.array([[-sx / 2, 0, sz / 2], [sx / 2, 0, sz / 2], [sx / 2, 0, -sz / 2], [-sx / 2, 0, -sz / 2]])
+        m = trimesh.Trimesh(vertices=v, faces=[[0, 1, 2], [0, 2, 3]], process=False)
+        m.visual = trimesh.visual.TextureVisuals(uv=np.array([[0, 0], [1, 0], [1, 1], [0, 1.0]]))
+        nrm = np.asarray(params.get("normal", (0, 1, 0)), dtype=np.float64)
+        if nrm.shape != (3,) or np.linalg.norm(nrm) == 0:
+            raise SceneFileError(f"{path}: {where}: plane normal must be a non-zero 3-vector")
+        m.apply_transform(trimesh.geometry.align_vectors([0, 1, 0], nrm / np.linalg.norm(nrm)))
+        return m, False
+    if kind == "cylinder":
+        return trimesh.creation.cylinder(radius=float(params.get("radius", 0.5)),
+                                         height=float(params.get("height", 1.0)),
+                                         sections=int(params.get("sections", 64))), "auto"
+    raise SceneFileError(f"{path}: {where}: unknown primitive {kind!r}; choose one of {sorted(_PRIMITIVE_KEYS)}")
+
+
+def load_scene(path):
+    """Load a TOML or JSON scene file into a :class:`pyrt.Scene`.
+
+    Returns ``(scene, render_options)`` where ``render_options`` holds the ``[render]`` keys that are
+    arguments of :func:`pyrt.render` (max_depth, seed, throughput_cutoff, offset).
+    """
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"scene file not found: {path}")
+    base = os.path.dirname(os.path.abspath(path))
+    try:
+        with open(path, "rb") as f:
+            if path.endswith(".json"):
+                data = json.load(f)
+            else:
+                data = tomllib.load(f)
+    except (tomllib.TOMLDecodeError, json.JSONDecodeError) as e:
+        raise SceneFileError(f"{path}: cannot parse: {e}") from None
+    _check_keys("the top level", data, _TOP_KEYS, path)
+    cam_t = data.get("camera", {})
+    _check_keys("[camera]", cam_t, _CAMERA_KEYS, path)
+    camera = _construct(Camera, cam_t, "[camera]", path)
+    rnd = data.get("render", {})
+    _check_keys("[render]", rnd, _RENDER_KEYS, path)
+    scene = _construct(Scene, {"camera": camera, **{k: rnd[k] for k in ("background", "ambient") if k in rnd}},
+                       "[render]", path)
+    options = {k: rnd[k] for k in ("max_depth", "seed", "throughput_cutoff", "offset") if k in rnd}
+
+    materials = {}
+    mats_t = data.get("materials", {})
+    if not isinstance(mats_t, dict):
+        raise SceneFileError(f"{path}: [materials] must be a table of named materials")
+    for name, spec in mats_t.items():
+        where = f"[materials.{name}]"
+        if not isinstance(spec, dict) or "type" not in spec:
+            raise SceneFileError(f"{path}: {where} needs a 'type' (one of {sorted(MATERIALS)})")
+        kind = spec["type"]
+        if kind not in MATERIALS:
+            raise SceneFileError(f"{path}: {where}: unknown material type {kind!r}; choose one of {sorted(MATERIALS)}")
+        kwargs = {k: v for k, v in spec.items() if k != "type"}
+        kwargs.setdefault("name", name)
+        materials[name] = _construct(MATERIALS[kind], kwargs, where, path)
+
+    for i, spec in enumerate(data.get("meshes", [])):
+        where = f"[[meshes]] #{i}" + (f" ({spec.get('name')})" if isinstance(spec, dict) and "name" in spec else "")
+        if not isinstance(spec, dict):
+            raise SceneFileError(f"{path}: {where} must be a table")
+        prim = spec.get("primitive")
+        allowed = _MESH_COMMON | _PRIMITIVE_KEYS.get(prim, set())
+        _check_keys(where, spec, allowed, path)
+        if ("file" in spec) == (prim is not None):
+            raise SceneFileError(f"{path}: {where}: give exactly one of 'file' or 'primitive'")
+        if "material" not in spec:
+            raise SceneFileError(f"{path}: {where}: missing 'material'")
+        if spec["material"] not in materials:
+            raise SceneFileError(f"{path}: {where}: unknown material {spec['material']!r}; defined: {sorted(materials)}")
+        smooth_default = "auto"
+        if prim is not None:
+            mesh, smooth_default = _primitive(prim, spec, where, path)
+        else:
+            fpath = spec["file"] if os.path.isabs(spec["file"]) else os.path.join(base, spec["file"])
+            if not os.path.exists(fpath):
+                raise SceneFileError(f"{path}: {where}: mesh file not found: {fpath}")
+            try:
+                mesh = trimesh.load(fpath, force="mesh")
+            except Exception as e:  # trimesh raises many types
+                raise SceneFileError(f"{path}: {where}: cannot load mesh file {fpath}: {e}") from None
+        try:
+            tf = transform_matrix(translate=spec.get("translate"), rotate=spec.get("rotate"),
+                                  scale=spec.get("scale"), matrix=spec.get("matrix"))
+            scene.add_mesh(mesh, materials[spec["material"]], transform=tf, smooth=spec.get("smooth", smooth_default),
+                           crease_angle=spec.get("crease_angle", 30.0), name=spec.get("name", f"mesh{i}"))
+        except ValueError as e:
+            raise SceneFileError(f"{path}: {where}: {e}") from None
+
+    for i, spec in enumerate(data.get("lights", [])):
+        where = f"[[lights]] #{i}"
+        if not isinstance(spec, dict) or "type" not in spec:
+            raise SceneFileError(f"{path}: {where} needs a 'type' (one of {sorted(LIGHTS)})")
+        kind = spec["type"]
+        if kind not in LIGHTS:
+            raise SceneFileError(f"{path}: {where}: unknown light type {kind!r}; choose one of {sorted(LIGHTS)}")
+        kwargs = {k: v for k, v in spec.items() if k != "type"}
+        scene.add_light(_construct(LIGHTS[kind], kwargs, where, path))
+    return scene, options

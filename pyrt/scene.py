@@ -1,0 +1,193 @@
+"""The scene: meshes with materials and transforms, lights, camera, background.
+
+A :class:`Scene` only holds validated parameters; rendering lives in :mod:`pyrt.integrator`.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import trimesh
+
+from .camera import Camera
+from .geometry import GeometryError, GeometryTable, MeshData, validate_mesh
+from .lights import Light
+from .materials import Material
+
+
+class SceneError(ValueError):
+    """Invalid scene content."""
+
+
+def _rgb(owner, name, v):
+    a = np.asarray(v, dtype=np.float64)
+    if a.ndim == 0:
+        a = np.repeat(a, 3)
+    if a.shape != (3,) or not np.all(np.isfinite(a)) or np.any(a < 0):
+        raise SceneError(f"{owner}: {name} must be a non-negative finite RGB triple, got {v!r}")
+    return a
+
+
+def transform_matrix(*, translate=None, rotate=None, scale=None, matrix=None):
+    """4x4 ``world_from_object``: ``matrix`` or ``T @ R @ S``.
+
+    ``rotate`` is ``(angle_degrees, axis)`` or a list of them applied in order; ``scale`` a scalar or 3.
+    """
+    if matrix is not None:
+        m = np.asarray(matrix, dtype=np.float64)
+        if m.shape != (4, 4) or not np.all(np.isfinite(m)):
+            raise SceneError(f"transform matrix must be 4x4 finite, got shape {m.shape}")
+        return m
+    m = np.eye(4)
+    if scale is not None:
+        s = np.broadcast_to(np.asarray(scale, dtype=np.float64), (3,))
+        if np.any(s == 0) or not np.all(np.isfinite(s)):
+            raise SceneError(f"scale must be finite and non-zero, got {scale!r}")
+        m = np.diag([*s, 1.0]) @ m
+    if rotate is not None:
+        rots = rotate if (len(rotate) and isinstance(rotate[0], (list, tuple))) else [rotate]
+        for angle, axis in rots:
+            ax = np.asarray(axis, dtype=np.float64)
+            if ax.shape != (3,) or np.linalg.norm(ax) == 0:
+                raise SceneError(f"rotation axis must be a non-zero 3-vector, got {axis!r}")
+            m = trimesh.transformations.rotation_matrix(math.radians(angle), ax) @ m
+    if translate is not None:
+        t = np.asarray(translate, dtype=np.float64)
+        if t.shape != (3,) or not np.all(np.isfinite(t)):
+            raise SceneError(f"translate must be 3 finite numbers, got {translate!r}")
+        m = trimesh.transformations.translation_matrix(t) @ m
+    return m
+
+
+class Scene:
+    """Container of meshes, materials, lights and a camera.
+
+    Parameters
+    ----------
+    camera : Camera, optional
+    background : RGB radiance seen where rays miss (default black)
+    ambient : RGB constant ambient radiance L_a; a hit adds ``albedo * L_a`` (the classic k_a L_a term,
+        with k_a the material's albedo). Default 0 (physically based).
+    """
+
+    def __init__(self, camera=None, *, background=(0.0, 0.0, 0.0), ambient=(0.0, 0.0, 0.0)):
+        self.camera = camera if camera is not None else Camera()
+        self.background = _rgb("Scene", "background", background)
+        self.ambient = _rgb("Scene", "ambient", ambient)
+        self.environment = None
+        self.materials: list[Material] = []
+        self.lights: list[Light] = []
+        self.meshes: list[MeshData] = []
+
+    # -- building -----------------------------------------------------------------------------
+    def add_material(self, material):
+        if not isinstance(material, Material):
+            raise SceneError(f"expected a pyrt Material, got {type(material).__name__}")
+        for i, m in enumerate(self.materials):
+            if m is material:
+                return i
+        self.materials.append(material)
+        return len(self.materials) - 1
+
+    def add_light(self, light):
+        if not isinstance(light, Light):
+            raise SceneError(f"expected a pyrt Light, got {type(light).__name__}")
+        self.lights.append(light)
+        return light
+
+    def add_mesh(self, mesh, material, *, transform=None, smooth="auto", crease_angle=30.0, name=None):
+        """Add a trimesh mesh (or a ``(vertices, faces)`` pair) with a material.
+
+        Parameters
+        ----------
+        mesh : trimesh.Trimesh or (vertices, faces)
+        material : Material
+        transform : (4, 4) array, optional
+            ``world_from_object``; normals use its inverse transpose.
+        smooth : {"auto", True, False}
+            Shading normals. True: trimesh's area-weighted vertex normals; "auto": split vertices at
+            edges sharper than ``crease_angle`` degrees (a box stays flat, a sphere is smooth);
+            False: flat shading (shading normal = geometric normal).
+        """
+        name = name or f"mesh{len(self.meshes)}"
+        if isinstance(mesh, (tuple, list)):
+            v, f = mesh
+            mesh = trimesh.Trimesh(vertices=np.asarray(v, dtype=np.float64), faces=np.asarray(f), process=False)
+        if not isinstance(mesh, trimesh.Trimesh):
+            raise SceneError(f"mesh {name!r}: expected trimesh.Trimesh, got {type(mesh).__name__}")
+        if smooth not in ("auto", True, False):
+            raise SceneError(f"mesh {name!r}: smooth must be 'auto', True or False, got {smooth!r}")
+        v_obj, faces = validate_mesh(mesh.vertices, mesh.faces, name)
+        uv = None
+        vis_uv = getattr(mesh.visual, "uv", None)
+        if vis_uv is not None and len(vis_uv) == len(mesh.vertices):
+            uv = np.asarray(vis_uv, dtype=np.float64)
+            if not np.all(np.isfinite(uv)):
+                raise GeometryError(f"mesh {name!r}: texture coordinates are not finite")
+        if faces.shape[0] != len(mesh.faces):
+            mesh = trimesh.Trimesh(vertices=v_obj, faces=faces, process=False)
+        normals = None
+        if smooth == "auto":
+            src = trimesh.Trimesh(vertices=v_obj, faces=faces, process=False)
+            if uv is not None:
+                src.visual = trimesh.visual.TextureVisuals(uv=uv)
+            sm = trimesh.graph.smooth_shade(src, angle=math.radians(crease_angle), facet_minarea=None)
+            v_obj, faces = np.asarray(sm.vertices, dtype=np.float64), np.asarray(sm.faces, dtype=np.int64)
+            normals = np.asarray(sm.vertex_normals, dtype=np.float64)
+            sm_uv = getattr(sm.visual, "uv", None)
+            uv = np.asarray(sm_uv, dtype=np.float64) if (uv is not None and sm_uv is not None) else None
+        elif smooth:
+            src = trimesh.Trimesh(vertices=v_obj, faces=faces, process=False)
+            normals = np.asarray(src.vertex_normals, dtype=np.float64)
+        m = np.eye(4) if transform is None else transform_matrix(matrix=transform)
+        v_world = v_obj @ m[:3, :3].T + m[:3, 3]
+        if not np.all(np.isfinite(v_world)):
+            raise GeometryError(f"mesh {name!r}: transformed vertices are not finite")
+        # Embree sees float32 vertices: keep exactly those (as float64) so that rebuilt hit points lie on
+        # the triangles Embree intersects.
+        v_world = v_world.astype(np.float32).astype(np.float64)
+        if normals is not None:
+            nm = np.linalg.inv(m[:3, :3]).T
+            normals = normals @ nm.T
+            ln = np.linalg.norm(normals, axis=1, keepdims=True)
+            normals = np.divide(normals, ln, out=np.zeros_like(normals), where=ln > 0)
+        mat_id = self.add_material(material)
+        self.meshes.append(MeshData(vertices=v_world, faces=faces, normals=normals, uv=uv, vertices_object=v_obj,
+                                    material_id=mat_id, smooth=normals is not None, name=name))
+        return len(self.meshes) - 1
+
+    # -- convenience primitives ----------------------------------------------------------------
+    def add_sphere(self, center, radius, material, *, subdivisions=4, smooth=True, name=None):
+        """Icosphere of ``radius`` at ``center`` (``subdivisions`` levels; 4 -> 5120 triangles)."""
+        if not radius > 0:
+            raise SceneError(f"sphere {name!r}: radius must be > 0, got {radius}")
+        m = trimesh.creation.icosphere(subdivisions=subdivisions, radius=radius)
+        return self.add_mesh(m, material, transform=transform_matrix(translate=center), smooth=smooth, name=name)
+
+    def add_box(self, center, extents, material, *, name=None):
+        m = trimesh.creation.box(extents=extents)
+        return self.add_mesh(m, material, transform=transform_matrix(translate=center), smooth=False, name=name)
+
+    def add_plane(self, center, size, material, *, normal=(0, 1, 0), name=None):
+        """Square of side ``size`` (or (sx, sz)) centred at ``center`` facing ``normal`` (default +y), with UVs."""
+        sx, sz = np.broadcast_to(np.asarray(size, dtype=np.float64), (2,))
+        v = np.array([[-sx / 2, 0, sz / 2], [sx / 2, 0, sz / 2], [sx / 2, 0, -sz / 2], [-sx / 2, 0, -sz / 2]])
+        f = np.array([[0, 1, 2], [0, 2, 3]])
+        mesh = trimesh.Trimesh(vertices=v, faces=f, process=False)
+        mesh.visual = trimesh.visual.TextureVisuals(uv=np.array([[0, 0], [1, 0], [1, 1], [0, 1.0]]))
+        nrm = np.asarray(normal, dtype=np.float64)
+        if nrm.shape != (3,) or np.linalg.norm(nrm) == 0:
+            raise SceneError(f"plane {name!r}: normal must be a non-zero 3-vector, got {normal!r}")
+        rot = trimesh.geometry.align_vectors([0, 1, 0], nrm / np.linalg.norm(nrm))
+        m = transform_matrix(translate=center) @ rot
+        return self.add_mesh(mesh, material, transform=m, smooth=False, name=name)
+
+    # -- queries ---------------------------------------------------------------------------------
+    def geometry_table(self):
+        if not self.meshes:
+            raise SceneError("the scene has no meshes")
+        return GeometryTable(self.meshes)
+
+    def bounds(self):
+        v = np.concatenate([m.vertices for m in self.meshes])
+        return v.min(axis=0), v.max(axis=0)

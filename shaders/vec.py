@@ -1,0 +1,98 @@
+"""Vector helpers on batches of 3-vectors ``(N, 3)``.
+
+All functions preserve the input float dtype and never produce NaN: zero-length inputs to
+:func:`normalize` give the zero vector, square roots are clamped.
+"""
+import numpy as np
+
+
+def dot(a, b):
+    """Row-wise dot product of ``(N, 3)`` arrays -> ``(N,)``."""
+    return np.einsum("ij,ij->i", a, b)
+
+
+def norm(a):
+    """Row-wise Euclidean length ``(N,)``."""
+    return np.sqrt(dot(a, a))
+
+
+def normalize(a):
+    """Unit vectors; rows of zero length stay zero (no NaN)."""
+    n = norm(a)
+    inv = np.divide(1.0, n, out=np.zeros_like(n), where=n > 0)
+    return a * inv[:, None]
+
+
+def safe_sqrt(x):
+    """``sqrt(max(x, 0))``."""
+    return np.sqrt(np.maximum(x, 0))
+
+
+def cross(a, b):
+    """Row-wise cross product."""
+    return np.cross(a, b)
+
+
+def reflect(wo, n):
+    """Mirror direction of ``wo`` about ``n`` (both pointing away from the surface).
+
+    ``wr = -wo + 2 (wo . n) n``.
+    """
+    return -wo + 2.0 * dot(wo, n)[:, None] * n
+
+
+def refract(wi, n, eta):
+    """Refract ``wi`` (pointing away from the surface) through the interface with normal ``n``.
+
+    Parameters
+    ----------
+    wi : (N, 3) ndarray
+        Unit direction toward the incoming side (away from the surface).
+    n : (N, 3) ndarray
+        Unit normal on the same side as ``wi`` (``dot(wi, n) >= 0``).
+    eta : (N,) ndarray
+        Relative index ``eta_t / eta_i`` (transmitted side over incident side).
+
+    Returns
+    -------
+    wt : (N, 3) ndarray
+        Transmitted direction (pointing away from the surface, into the other side); zero rows
+        where total internal reflection occurs.
+    tir : (N,) bool ndarray
+        True where total internal reflection occurs.
+
+    Notes
+    -----
+    Snell: sin(theta_t) = sin(theta_i) / eta;  wt = -wi/eta + (cos_i/eta - cos_t) n  (pbrt-v4 ``Refract``).
+    """
+    cos_i = dot(n, wi)
+    sin2_i = np.maximum(0.0, 1.0 - cos_i * cos_i)
+    sin2_t = sin2_i / (eta * eta)
+    tir = sin2_t >= 1.0
+    cos_t = safe_sqrt(1.0 - sin2_t)
+    wt = -wi / eta[:, None] + (cos_i / eta - cos_t)[:, None] * n
+    wt[tir] = 0.0
+    return wt, tir
+
+
+def coordinate_frame(n):
+    """Orthonormal tangent frame ``(s, t)`` around unit normals ``n`` (Duff et al. 2017).
+
+    Branchless, continuous except at one point; ``s, t, n`` is right handed.
+    """
+    sign = np.where(n[:, 2] >= 0, 1.0, -1.0).astype(n.dtype)
+    a = -1.0 / (sign + n[:, 2])
+    b = n[:, 0] * n[:, 1] * a
+    s = np.stack([1.0 + sign * n[:, 0] * n[:, 0] * a, sign * b, -sign * n[:, 0]], axis=1)
+    t = np.stack([b, sign + n[:, 1] * n[:, 1] * a, -n[:, 1]], axis=1)
+    return s.astype(n.dtype, copy=False), t.astype(n.dtype, copy=False)
+
+
+def to_local(v, s, t, n):
+    """Express world vectors ``v`` in the frame ``(s, t, n)`` (z = n)."""
+    return np.stack([dot(v, s), dot(v, t), dot(v, n)], axis=1)
+
+
+def to_world(v, s, t, n):
+    """Inverse of :func:`to_local`."""
+    return v[:, 0:1] * s + v[:, 1:2] * t + v[:, 2:3] * n
