@@ -105,9 +105,10 @@ def fr_schlick(cos_i, f0):
 
     Notes
     -----
-    Schlick (1994). For dielectrics with 1.3 <= eta <= 2 it stays within 0.05 of
-    :func:`fr_dielectric` over all angles on the outside (``tests/test_fresnel.py`` measures the
-    bound); it is not meant for the inside of a dielectric (no total internal reflection).
+    Schlick (1994). Against :func:`fr_dielectric` on the outside, the largest absolute error over
+    all angles is 0.060 (eta 1.33), 0.036 (1.5), 0.045 (2.0), 0.076 (2.42), near 80-85 degrees
+    (``tests/test_fresnel.py`` asserts these bounds); it is not meant for the inside of a
+    dielectric (no total internal reflection).
     """
     c = np.clip(cos_i, 0.0, 1.0)
     m = (1.0 - c) ** 5
