@@ -1,0 +1,21 @@
+"""Small helpers shared by the render tests: exact camera rays and ray-plane hits."""
+import numpy as np
+
+import pyrt
+
+
+def top_down_scene(size=64, height=3.0, fov=60.0, albedo=0.6, plane=4.0):
+    """A Lambertian square plane at y = 0 seen straight down from (0, height, 0), pixel-centre rays."""
+    cam = pyrt.Camera(position=(0, height, 0), target=(0, 0, 0), up=(0, 0, -1), fov=fov, width=size, height=size,
+                      spp=1, jitter=False)
+    scene = pyrt.Scene(cam)
+    scene.add_plane((0, 0, 0), plane, pyrt.Lambert(albedo=albedo), name="floor")
+    return scene
+
+
+def pixel_centre_hits_on_plane_y0(cam):
+    """Exact hit points of the pixel-centre rays with the plane y = 0 -> (H, W, 3)."""
+    ys, xs = np.mgrid[0:cam.height, 0:cam.width]
+    d = cam.directions(xs.ravel() + 0.5, ys.ravel() + 0.5)
+    t = -cam.position[1] / d[:, 1]
+    return (cam.position + t[:, None] * d).reshape(cam.height, cam.width, 3)
