@@ -25,6 +25,7 @@ Conventions (the kernels in :mod:`shaders.textures` and :mod:`shaders.noise` doc
 from __future__ import annotations
 
 import os
+import warnings
 
 import numpy as np
 
@@ -126,9 +127,14 @@ def load_image(path):
     try:
         if ext == ".exr":
             return _load_exr(path), False
-        from skimage import io as skio
+        if ext == ".png" and _png_is_16bit_colour(path):
+            img = _load_png16(path)
+        else:
+            from skimage import io as skio
 
-        img = skio.imread(path)
+            with warnings.catch_warnings():  # imageio's plugin probing warns on undecodable files
+                warnings.simplefilter("ignore", DeprecationWarning)
+                img = skio.imread(path)
     except TextureError:
         raise
     except Exception as exc:  # any decoder failure: say which file
@@ -143,6 +149,26 @@ def load_image(path):
     if np.issubdtype(img.dtype, np.floating):
         return img.astype(np.float32), False
     raise TextureError(f"texture file {path!r}: unsupported pixel type {img.dtype}")
+
+
+def _png_is_16bit_colour(path):
+    """True for a 16-bit PNG with colour or alpha (IHDR bit depth 16, colour type 2, 4 or 6).
+
+    Pillow (behind ``skimage.io``) silently truncates those to 8 bits; 16-bit grey is fine.
+    """
+    with open(path, "rb") as f:
+        head = f.read(26)
+    return len(head) == 26 and head[:8] == b"\x89PNG\r\n\x1a\n" and head[24] == 16 and head[25] in (2, 4, 6)
+
+
+def _load_png16(path):
+    """Read a 16-bit colour PNG with pypng (exact 16-bit values; pure Python, ~1 s per megapixel)."""
+    import png
+
+    width, height, rows, info = png.Reader(filename=path).asDirect()
+    planes = info["planes"]
+    img = np.vstack([np.asarray(row, dtype=np.uint16) for row in rows])
+    return img.reshape(height, width, planes)
 
 
 def _load_exr(path):
@@ -252,14 +278,15 @@ class ImageTexture(Texture):
         Required channel count after alpha is dropped (error naming the file otherwise).
     select : int, optional
         Use only this channel of the file (e.g. 1 = G of a glTF metallic-roughness map).
-    footprint_scale : float
-        Filter width in pixel steps for the footprint filters (1 = box pixel; pbrt-v4 uses 2).
+    footprint_scale : float, optional
+        Filter width in pixel steps for the footprint filters (1 = one-pixel box; pbrt-v4 uses 2).
+        Default: 1 for trilinear, 1.5 for anisotropic (``shaders.textures.DEFAULT_FOOTPRINT_SCALE``).
     max_anisotropy : float
         Anisotropic filter: largest major/minor axis ratio (pbrt-v4: 8).
     """
 
     def __init__(self, source, *, srgb=None, wrap="repeat", filter="trilinear", scale=(1.0, 1.0),
-                 offset=(0.0, 0.0), rotation_deg=0.0, channels=None, select=None, footprint_scale=1.0,
+                 offset=(0.0, 0.0), rotation_deg=0.0, channels=None, select=None, footprint_scale=None,
                  max_anisotropy=8.0, name=None):
         if isinstance(source, (str, os.PathLike)):
             self.path = os.fspath(source)
@@ -288,6 +315,8 @@ class ImageTexture(Texture):
         self.rotation_deg = float(rotation_deg)
         if not (np.all(np.isfinite(self.scale)) and np.all(np.isfinite(self.offset)) and np.isfinite(self.rotation_deg)):
             raise TextureError(f"texture {label}: scale, offset and rotation_deg must be finite")
+        if footprint_scale is None:
+            footprint_scale = _tex.DEFAULT_FOOTPRINT_SCALE.get(filter, 1.0)
         if not footprint_scale > 0 or not max_anisotropy >= 1:
             raise TextureError(f"texture {label}: need footprint_scale > 0 and max_anisotropy >= 1")
         self.footprint_scale = float(footprint_scale)

@@ -34,6 +34,7 @@ Footprints and level selection
     ``duvdx, duvdy`` (N, 2) are the UV changes per pixel step (from ray differentials). The filter
     *width* of one lookup is ``footprint_scale * |duv|``: ``footprint_scale = 1`` matches a box
     pixel filter of one pixel; pbrt-v4 uses 2 (its ellipses have half-axes ``dst0, dst1``).
+    Defaults: 1 for trilinear, 1.5 for EWA (:data:`DEFAULT_FOOTPRINT_SCALE`).
     Isotropic level (OpenGL spec / Heckbert): ``lambda = log2(footprint_scale * max(|dx|, |dy|))``
     with ``dx, dy`` the footprints in level-0 texels (Euclidean lengths, so rotation invariant).
     EWA (pbrt-v4 ``MIPMap::EWA``): ellipse half-axes ``footprint_scale / 2 * duv``, the minor
@@ -54,6 +55,11 @@ RECONSTRUCTION_FILTERS = ("nearest", "bilinear", "bicubic")
 FOOTPRINT_FILTERS = ("trilinear", "anisotropic")
 #: pbrt-v4 EWA Gaussian falloff exp(-alpha r^2) - exp(-alpha).
 EWA_ALPHA = 2.0
+#: Default filter width in pixel steps per footprint filter. Trilinear: a one-pixel box (pbrt-v4
+#: uses 2, which over-blurs since the isotropic level already takes the larger axis). EWA: 1.5
+#: (pbrt-v4: 2); on the grazing-plane test against a 256-spp box-filtered reference the RMS error
+#: was lowest near 1.5-1.75 for both a checkerboard and white noise (measured, see tests).
+DEFAULT_FOOTPRINT_SCALE = {"trilinear": 1.0, "anisotropic": 1.5}
 
 
 # ----------------------------------------------------------------------------- wrapping
@@ -360,7 +366,7 @@ def lookup_trilinear(levels, uv, duvdx, duvdy, wrap="repeat", footprint_scale=1.
 
 # ----------------------------------------------------------------------------- EWA
 
-def ewa_axes(duvdx, duvdy, shape, footprint_scale=1.0, max_anisotropy=8.0):
+def ewa_axes(duvdx, duvdy, shape, footprint_scale=1.5, max_anisotropy=8.0):
     """Ellipse half-axes in level-0 texels and the continuous EWA level (pbrt-v4 ``MIPMap::Filter``).
 
     Returns
@@ -448,7 +454,7 @@ def _ewa_level(image, uv, major, minor, wrap, max_taps=4_000_000):
     return out
 
 
-def lookup_ewa(levels, uv, duvdx, duvdy, wrap="repeat", footprint_scale=1.0, max_anisotropy=8.0):
+def lookup_ewa(levels, uv, duvdx, duvdy, wrap="repeat", footprint_scale=1.5, max_anisotropy=8.0):
     """Anisotropic EWA lookup (pbrt-v4 style), blended between two MIP levels.
 
     Parameters
@@ -458,7 +464,8 @@ def lookup_ewa(levels, uv, duvdx, duvdy, wrap="repeat", footprint_scale=1.0, max
     uv, duvdx, duvdy : (N, 2) float ndarray
     wrap : str or (str, str)
     footprint_scale : float
-        Filter width in pixel steps (ellipse half-axes ``footprint_scale / 2 * duv``).
+        Filter width in pixel steps (ellipse half-axes ``footprint_scale / 2 * duv``); default 1.5,
+        see :data:`DEFAULT_FOOTPRINT_SCALE`.
     max_anisotropy : float
         Largest allowed major/minor ratio (pbrt-v4: 8).
 
