@@ -77,7 +77,8 @@ def ggx_d(cos_h, alpha):
     """
     a2 = _alpha(alpha, cos_h.dtype) ** 2
     c2 = cos_h * cos_h
-    den = c2 * (a2 - 1.0) + 1.0  # >= a2 > 0 for c2 in [0, 1]
+    # sin^2 + alpha^2 cos^2 (= c2 (a2 - 1) + 1, written so that float32 keeps a2 at c = 1)
+    den = (1.0 - cos_h) * (1.0 + cos_h) + a2 * c2
     d = a2 / (np.pi * den * den)
     return np.where(cos_h > 0, d, 0.0).astype(cos_h.dtype, copy=False)
 
