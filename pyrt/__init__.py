@@ -17,11 +17,15 @@ from .materials import Material, MaterialError, REGISTRY as MATERIALS, Lambert, 
 from .scene import Scene, SceneError, transform_matrix
 from .io.images import read_exr, write_exr, write_png, tonemap_to_display
 from .io.scene_file import SceneFileError, load_scene
+from .textures import (CheckerTexture, ConstantTexture, FbmTexture, ImageTexture, NoiseTexture, NormalMap,
+                       PerlinTexture, Texture, TextureError, VoronoiTexture, perturb_normal)
 
 __all__ = [
     "Camera", "CameraError", "GeometryError", "RenderResult", "RenderStats", "render", "render_full",
     "DirectionalLight", "Light", "LightError", "PointLight", "SpotLight", "Material", "MaterialError", "MATERIALS",
     "Lambert", "BlinnPhong", "Mirror", "Glass", "register", "Scene", "SceneError", "transform_matrix",
     "read_exr", "write_exr", "write_png", "tonemap_to_display", "SceneFileError", "load_scene",
+    "Texture", "TextureError", "ConstantTexture", "ImageTexture", "CheckerTexture", "NoiseTexture", "PerlinTexture",
+    "FbmTexture", "VoronoiTexture", "NormalMap", "perturb_normal",
 ]
 __version__ = "0.1.0"

@@ -188,6 +188,24 @@ class Accel:
             self._map(run, n)
         return out
 
+    def replay(self, query, origins32, dirs32, tmax32):
+        """Run the binding alone on prepared float32 rays (benchmarks: "Embree-only" time).
+
+        Same chunking and thread pool as :meth:`intersect` / :meth:`occluded`, no post-processing.
+        ``query`` is "intersect" or "occluded"; arrays must already be float32 and C-contiguous.
+        """
+        if not self._committed:
+            self.commit()
+        n = origins32.shape[0]
+        q = "INTERSECT" if query == "intersect" else "OCCLUDED"
+
+        def run(lo, hi):
+            dists = tmax32[lo:hi].copy()
+            self._scene.run(origins32[lo:hi], dirs32[lo:hi], dists=dists, query=q, output=(q == "INTERSECT"))
+
+        if n:
+            self._map(run, n)
+
     def close(self):
         if self._pool is not None:
             self._pool.shutdown()

@@ -106,7 +106,7 @@ class Camera:
                 oy = (perm + u[:, 1]) / spp
         return col + ox, row + oy, pix
 
-    def generate_rays(self, pixel_lo, pixel_hi, rng):
+    def generate_rays(self, pixel_lo, pixel_hi, rng, *, differentials=True):
         """Primary rays for a range of pixels.
 
         Returns ``origins, dirs, pixel, differentials`` where ``differentials = (rx_o, rx_d, ry_o, ry_d)``
@@ -115,10 +115,12 @@ class Camera:
         """
         x, y, pix = self.pixel_samples(pixel_lo, pixel_hi, rng)
         d = self.directions(x, y)
+        o = np.broadcast_to(self.position, d.shape).copy()
+        if not differentials:
+            return o, d, pix, None
         scale = max(0.125, 1.0 / math.sqrt(self.spp))
         dx = self.directions(x + scale, y)
         dy = self.directions(x, y + scale)
-        o = np.broadcast_to(self.position, d.shape).copy()
         return o, d, pix, (o, dx, o, dy)
 
     def __repr__(self):

@@ -16,7 +16,7 @@ derivatives, which give the UV and normal derivatives without needing a UV param
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass
 import warnings
 
 import numpy as np
@@ -101,43 +101,50 @@ class GeometryTable:
         self.any_uv = bool(np.any(self.face_has_uv))
 
 
-@dataclass
 class SurfaceBatch:
-    """Surface data at N hits (float64 unless noted). See the module docstring."""
+    """Surface data at N hits (float64 unless noted). See the module docstring for the fields.
 
-    p: np.ndarray
-    p_object: np.ndarray
-    ng: np.ndarray
-    ns: np.ndarray
-    front: np.ndarray
-    wo: np.ndarray
-    uv: np.ndarray
-    dpdu: np.ndarray
-    dpdv: np.ndarray
-    duvdx: np.ndarray
-    duvdy: np.ndarray
-    dpdx: np.ndarray
-    dpdy: np.ndarray
-    dndx: np.ndarray
-    dndy: np.ndarray
-    mesh_id: np.ndarray
-    prim_id: np.ndarray
-    face: np.ndarray
-    material_id: np.ndarray
-    bary: np.ndarray
-    t: np.ndarray
-    p_error: np.ndarray = field(default=None)
-    frame_s: np.ndarray = field(default=None)
-    frame_t: np.ndarray = field(default=None)
+    :meth:`subset` returns a lazy view: a field is gathered (``base.field[idx]``) the first time it is
+    read and then cached, so restricting a batch to the hits of one material or one light costs only
+    the fields a kernel actually uses.
+    """
+
+    FIELDS = ("p", "p_object", "ng", "ns", "front", "wo", "uv", "dpdu", "dpdv", "duvdx", "duvdy", "dpdx", "dpdy",
+              "dndx", "dndy", "mesh_id", "prim_id", "face", "material_id", "bary", "t", "p_error",
+              "frame_s", "frame_t")
+
+    def __init__(self, lazy=None, **kwargs):
+        """``lazy`` maps field names to a function computing a dict of fields on first access."""
+        unknown = set(kwargs) - set(self.FIELDS)
+        if unknown:
+            raise TypeError(f"SurfaceBatch: unknown fields {sorted(unknown)}")
+        self.__dict__["_lazy"] = dict(lazy or {})
+        for name in self.FIELDS:
+            if name in kwargs or name not in self._lazy:
+                self.__dict__[name] = kwargs.get(name)
+        if self.frame_s is None and self.ns is not None:
+            self.frame_s, self.frame_t = coordinate_frame(self.ns)
+
+    def __getattr__(self, name):
+        # only called for fields not computed yet: evaluate their lazy group once
+        lazy = self.__dict__.get("_lazy", {})
+        if name in lazy:
+            for k, v in lazy[name]().items():
+                self.__dict__[k] = v
+                lazy.pop(k, None)
+            return self.__dict__[name]
+        raise AttributeError(name)
 
     @property
     def n_hits(self):
         return self.p.shape[0]
 
     def subset(self, idx):
-        """The batch restricted to ``idx`` (an index array or a boolean mask)."""
-        return SurfaceBatch(**{f.name: (getattr(self, f.name)[idx] if getattr(self, f.name) is not None else None)
-                               for f in fields(self)})
+        """The batch restricted to ``idx`` (an index array or a boolean mask), as a lazy view."""
+        idx = np.asarray(idx)
+        if idx.dtype == bool:
+            idx = np.flatnonzero(idx)
+        return _SurfaceSubset(self, idx)
 
     def set_shading_normal(self, ns):
         """Replace the shading normals (unit, (N, 3)) and rebuild the local frame."""
@@ -149,6 +156,30 @@ class SurfaceBatch:
 
     def to_world(self, w):
         return w[:, 0:1] * self.frame_s + w[:, 1:2] * self.frame_t + w[:, 2:3] * self.ns
+
+
+class _SurfaceSubset(SurfaceBatch):
+    """Lazy view of a :class:`SurfaceBatch` restricted to index array ``idx``."""
+
+    def __init__(self, base, idx):  # noqa: D107 - deliberately does not call SurfaceBatch.__init__
+        if isinstance(base, _SurfaceSubset):
+            idx = base._idx[idx]
+            base = base._base
+        self.__dict__["_base"] = base
+        self.__dict__["_idx"] = idx
+
+    def __getattr__(self, name):
+        # only called when the attribute is not cached in the instance dict yet
+        if name in SurfaceBatch.FIELDS:
+            val = getattr(self._base, name)
+            val = None if val is None else val[self._idx]
+            self.__dict__[name] = val
+            return val
+        raise AttributeError(name)
+
+    @property
+    def n_hits(self):
+        return self._idx.shape[0]
 
 
 def _solve_bary_derivative(e1, e2, dp):
@@ -185,8 +216,6 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
     b0 = 1.0 - b1 - b2
     bary = np.stack([b0, b1, b2], axis=1)
     p = b0[:, None] * v0 + b1[:, None] * v1 + b2[:, None] * v2
-    vo = geo.vertices_object
-    p_object = b0[:, None] * vo[tri[:, 0]] + b1[:, None] * vo[tri[:, 1]] + b2[:, None] * vo[tri[:, 2]]
     e1 = v1 - v0
     e2 = v2 - v0
     ng_out = normalize(cross(e1, e2))         # outward (winding) normal
@@ -208,24 +237,33 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
         ni[bad] = ng[s][bad]
         ns[s] = ni
 
-    # uv and dp/du, dp/dv
-    uvs = geo.uv
-    uv0, uv1, uv2 = uvs[tri[:, 0]], uvs[tri[:, 1]], uvs[tri[:, 2]]
-    uv = b0[:, None] * uv0 + b1[:, None] * uv1 + b2[:, None] * uv2
-    du1, du2 = uv1 - uv0, uv2 - uv0
-    det = du1[:, 0] * du2[:, 1] - du1[:, 1] * du2[:, 0]
-    ok = np.abs(det) > 1e-20
-    inv = np.divide(1.0, det, out=np.zeros_like(det), where=ok)
-    dpdu = (du2[:, 1:2] * e1 - du1[:, 1:2] * e2) * inv[:, None]
-    dpdv = (du1[:, 0:1] * e2 - du2[:, 0:1] * e1) * inv[:, None]
-    if not np.all(ok):
-        s_, t_ = coordinate_frame(ng[~ok])
-        dpdu[~ok], dpdv[~ok] = s_, t_
+    p_error = np.abs(b0)[:, None] * np.abs(v0) + np.abs(b1)[:, None] * np.abs(v1) + np.abs(b2)[:, None] * np.abs(v2)
 
-    zeros3 = np.zeros((n, 3))
-    dpdx = dpdy = dndx = dndy = zeros3
-    duvdx = duvdy = np.zeros((n, 2))
-    if differentials is not None:
+    # Fields most kernels never read are computed on first access (model no more than needed).
+    def uv_group():
+        uvs = geo.uv
+        uv0, uv1, uv2 = uvs[tri[:, 0]], uvs[tri[:, 1]], uvs[tri[:, 2]]
+        uv = b0[:, None] * uv0 + b1[:, None] * uv1 + b2[:, None] * uv2
+        du1, du2 = uv1 - uv0, uv2 - uv0
+        det = du1[:, 0] * du2[:, 1] - du1[:, 1] * du2[:, 0]
+        ok = np.abs(det) > 1e-20
+        inv = np.divide(1.0, det, out=np.zeros_like(det), where=ok)
+        dpdu = (du2[:, 1:2] * e1 - du1[:, 1:2] * e2) * inv[:, None]
+        dpdv = (du1[:, 0:1] * e2 - du2[:, 0:1] * e1) * inv[:, None]
+        if not np.all(ok):
+            s_, t_ = coordinate_frame(ng[~ok])
+            dpdu[~ok], dpdv[~ok] = s_, t_
+        return {"uv": uv, "dpdu": dpdu, "dpdv": dpdv}
+
+    def object_group():
+        vo = geo.vertices_object
+        return {"p_object": b0[:, None] * vo[tri[:, 0]] + b1[:, None] * vo[tri[:, 1]] + b2[:, None] * vo[tri[:, 2]]}
+
+    def differential_group():
+        zeros3 = np.zeros((n, 3))
+        if differentials is None:
+            return {"dpdx": zeros3, "dpdy": zeros3, "dndx": zeros3, "dndy": zeros3,
+                    "duvdx": np.zeros((n, 2)), "duvdy": np.zeros((n, 2))}
         rx_o, rx_d, ry_o, ry_d = differentials
         d_plane = dot(ng, p)
 
@@ -240,22 +278,25 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
         dpdy = offset_point(ry_o, ry_d)
         bx1, bx2 = _solve_bary_derivative(e1, e2, dpdx)
         by1, by2 = _solve_bary_derivative(e1, e2, dpdy)
-        duvdx = bx1[:, None] * du1 + bx2[:, None] * du2
-        duvdy = by1[:, None] * du1 + by2[:, None] * du2
+        uvs = geo.uv
+        du1 = uvs[tri[:, 1]] - uvs[tri[:, 0]]
+        du2 = uvs[tri[:, 2]] - uvs[tri[:, 0]]
+        out = {"dpdx": dpdx, "dpdy": dpdy, "dndx": zeros3, "dndy": zeros3,
+               "duvdx": bx1[:, None] * du1 + bx2[:, None] * du2, "duvdy": by1[:, None] * du1 + by2[:, None] * du2}
         if np.any(smooth):
             dn1 = (nrm[tri[:, 1]] - nrm[tri[:, 0]]) * sign[:, None]
             dn2 = (nrm[tri[:, 2]] - nrm[tri[:, 0]]) * sign[:, None]
             sm = smooth[:, None]
-            dndx = np.where(sm, bx1[:, None] * dn1 + bx2[:, None] * dn2, 0.0)
-            dndy = np.where(sm, by1[:, None] * dn1 + by2[:, None] * dn2, 0.0)
+            out["dndx"] = np.where(sm, bx1[:, None] * dn1 + bx2[:, None] * dn2, 0.0)
+            out["dndy"] = np.where(sm, by1[:, None] * dn1 + by2[:, None] * dn2, 0.0)
+        return out
 
-    surf = SurfaceBatch(p=p, p_object=p_object, ng=ng, ns=ns, front=front, wo=wo, uv=uv, dpdu=dpdu, dpdv=dpdv,
-                        duvdx=duvdx, duvdy=duvdy, dpdx=dpdx, dpdy=dpdy, dndx=dndx, dndy=dndy,
-                        mesh_id=hits.mesh_id, prim_id=hits.prim_id, face=face,
-                        material_id=geo.face_material[face], bary=bary, t=hits.t,
-                        p_error=np.abs(b0)[:, None] * np.abs(v0) + np.abs(b1)[:, None] * np.abs(v1)
-                        + np.abs(b2)[:, None] * np.abs(v2))
-    surf.set_shading_normal(ns)
+    lazy = {k: uv_group for k in ("uv", "dpdu", "dpdv")}
+    lazy["p_object"] = object_group
+    lazy.update({k: differential_group for k in ("dpdx", "dpdy", "dndx", "dndy", "duvdx", "duvdy")})
+    surf = SurfaceBatch(lazy=lazy, p=p, ng=ng, ns=ns, front=front, wo=wo, mesh_id=hits.mesh_id,
+                        prim_id=hits.prim_id, face=face, material_id=geo.face_material[face], bary=bary, t=hits.t,
+                        p_error=p_error)
     return surf
 
 

@@ -28,6 +28,7 @@ import numpy as np
 from . import offsets
 from .accel import Accel, T_INFINITE
 from .geometry import refract_differentials, reflect_differentials, surface_from_hits
+from .textures import apply_normal_maps
 
 
 @dataclass
@@ -62,6 +63,8 @@ class PreparedScene:
         self.has_delta = np.array([m.has_delta for m in mats], dtype=bool)
         self.has_diffuse = np.array([m.has_diffuse for m in mats], dtype=bool)
         self.needs_differentials = any(_uses_texture(m) for m in mats)
+        # materials with a tangent-space normal map (attribute ``normal_map``, see pyrt.textures)
+        self.has_normal_maps = any(getattr(m, "normal_map", None) is not None for m in mats)
 
     def close(self):
         self.accel.close()
@@ -204,6 +207,8 @@ class Integrator:
             if use_diffs:
                 dsub = tuple(x[h] for x in diffs)
             surf = surface_from_hits(self.ps.geo, hsub, o[h], d[h], dsub)
+            if self.ps.has_normal_maps:
+                apply_normal_maps(surf, materials)
             s_idx, thr_h = sample[h], thr[h]
             if aovs is not None and depth == 0:
                 aovs["depth"][s_idx] = hsub.t
@@ -308,8 +313,14 @@ class RenderResult:
 
 
 def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4, offset=None, aovs=False,
-                progress=None, chunk_samples=1 << 17, threads=None, record_rays=False, prepared=None):
-    """Render ``scene`` and return a :class:`RenderResult` (see :func:`render` for parameters)."""
+                progress=None, chunk_samples=1 << 16, threads=None, record_rays=False, prepared=None):
+    """Render ``scene`` and return a :class:`RenderResult` (see :func:`render` for parameters).
+
+    Chunks of pixels are shaded on a pool of ``threads`` workers (NumPy releases the GIL in its array
+    loops, Embree in its traversal). Every chunk has its own random stream
+    ``default_rng([seed, chunk_index])`` and writes a disjoint slice of the film, so the image does not
+    depend on the number of threads or the order in which chunks finish.
+    """
     t_start = time.perf_counter()
     cam = scene.camera
     if spp is not None:
@@ -318,55 +329,79 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         from copy import copy
         cam = copy(cam)
         cam.spp = int(spp)
+    if int(chunk_samples) != chunk_samples or chunk_samples < 1:
+        raise ValueError(f"chunk_samples must be a positive integer, got {chunk_samples!r}")
     own = prepared is None
     ps = prepared if prepared is not None else PreparedScene(scene, threads=threads)
-    integ = Integrator(ps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
-                       record_rays=record_rays)
     W, H, S = cam.width, cam.height, cam.spp
     n_pix = W * H
-    px_per_chunk = max(1, chunk_samples // S)
+    px_per_chunk = max(1, int(chunk_samples) // S)
     image = np.zeros((n_pix, 3))
     aov_img = None
     if aovs:
         aov_img = {"depth": np.zeros(n_pix), "normal": np.zeros((n_pix, 3)), "albedo": np.zeros((n_pix, 3))}
-    chunks = range(0, n_pix, px_per_chunk)
+    starts = list(range(0, n_pix, px_per_chunk))
+
+    def run_chunk(ci):
+        lo = starts[ci]
+        hi = min(lo + px_per_chunk, n_pix)
+        integ = Integrator(ps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
+                           record_rays=record_rays)
+        rng = np.random.default_rng([seed, ci])
+        o, d, pix, diffs = cam.generate_rays(lo, hi, rng, differentials=ps.needs_differentials)
+        L, a = integ.render_samples(o, d, diffs, want_aovs=aovs, rng=rng)
+        bad = ~np.all(np.isfinite(L), axis=1)
+        if np.any(bad):
+            integ.stats.nonfinite_samples += int(bad.sum())
+            L[bad] = 0.0
+        image[lo:hi] = L.reshape(hi - lo, S, 3).mean(axis=1)
+        if aovs:
+            dep = a["depth"].reshape(hi - lo, S)
+            hitm = np.isfinite(dep)
+            cnt = hitm.sum(axis=1)
+            aov_img["depth"][lo:hi] = np.where(cnt > 0, np.where(hitm, dep, 0).sum(1) / np.maximum(cnt, 1), np.inf)
+            aov_img["normal"][lo:hi] = a["normal"].reshape(hi - lo, S, 3).mean(axis=1)
+            aov_img["albedo"][lo:hi] = a["albedo"].reshape(hi - lo, S, 3).mean(axis=1)
+        return integ.stats
+
+    from tqdm.auto import tqdm
+    stats = RenderStats()
+    workers = max(1, min(ps.accel.threads if threads is None else int(threads), len(starts)))
+    bar = tqdm(total=len(starts), desc="render", unit="chunk", leave=False,
+               disable=(not progress) if progress is not None else None)
     try:
-        from tqdm.auto import tqdm
-        it = tqdm(chunks, desc="render", unit="chunk", disable=(not progress) if progress is not None else None,
-                  leave=False)
-    except ImportError:  # pragma: no cover - tqdm is a dependency
-        it = chunks
-    try:
-        for ci, lo in enumerate(it):
-            hi = min(lo + px_per_chunk, n_pix)
-            rng = np.random.default_rng([seed, ci])
-            o, d, pix, diffs = cam.generate_rays(lo, hi, rng)
-            L, a = integ.render_samples(o, d, diffs, want_aovs=aovs, rng=rng)
-            bad = ~np.all(np.isfinite(L), axis=1)
-            if np.any(bad):
-                integ.stats.nonfinite_samples += int(bad.sum())
-                L[bad] = 0.0
-            image[lo:hi] = L.reshape(hi - lo, S, 3).mean(axis=1)
-            if aovs:
-                dep = a["depth"].reshape(hi - lo, S)
-                hitm = np.isfinite(dep)
-                cnt = hitm.sum(axis=1)
-                aov_img["depth"][lo:hi] = np.where(cnt > 0, np.where(hitm, dep, 0).sum(1) / np.maximum(cnt, 1), np.inf)
-                aov_img["normal"][lo:hi] = a["normal"].reshape(hi - lo, S, 3).mean(axis=1)
-                aov_img["albedo"][lo:hi] = a["albedo"].reshape(hi - lo, S, 3).mean(axis=1)
+        if workers == 1:
+            results = []
+            for ci in range(len(starts)):
+                results.append(run_chunk(ci))
+                bar.update()
+        else:
+            from concurrent.futures import ThreadPoolExecutor
+            with ThreadPoolExecutor(max_workers=workers) as pool:
+                futs = [pool.submit(run_chunk, ci) for ci in range(len(starts))]
+                results = []
+                for f in futs:
+                    results.append(f.result())
+                    bar.update()
     finally:
+        bar.close()
         if own:
             ps.close()
-    if integ.stats.nonfinite_samples:
-        warnings.warn(f"render: {integ.stats.nonfinite_samples} samples had non-finite radiance and were "
+    for st in results:  # merge in chunk order (deterministic)
+        for k in ("primary_rays", "secondary_rays", "shadow_rays", "time_intersect", "time_occluded",
+                  "nonfinite_samples"):
+            setattr(stats, k, getattr(stats, k) + getattr(st, k))
+        stats.recorded.extend(st.recorded)
+    if stats.nonfinite_samples:
+        warnings.warn(f"render: {stats.nonfinite_samples} samples had non-finite radiance and were "
                       "set to 0 (this is a bug; please report the scene)", RuntimeWarning, stacklevel=2)
-    integ.stats.time_total = time.perf_counter() - t_start
+    stats.time_total = time.perf_counter() - t_start
     img = image.reshape(H, W, 3).astype(np.float32)
     if aov_img is not None:
         aov_img = {"depth": aov_img["depth"].reshape(H, W).astype(np.float32),
                    "normal": aov_img["normal"].reshape(H, W, 3).astype(np.float32),
                    "albedo": aov_img["albedo"].reshape(H, W, 3).astype(np.float32)}
-    return RenderResult(image=img, aovs=aov_img, stats=integ.stats)
+    return RenderResult(image=img, aovs=aov_img, stats=stats)
 
 
 def render(scene, **kwargs):
@@ -388,9 +423,9 @@ def render(scene, **kwargs):
     progress : bool, optional
         Show a progress bar (default: only on a terminal).
     chunk_samples : int
-        Camera samples per chunk (bounds memory; default 131072).
+        Camera samples per chunk (bounds memory; default 65536).
     threads : int, optional
-        Embree worker threads (default: all cores).
+        Worker threads for chunks and for Embree batches (default: all cores).
 
     Returns
     -------

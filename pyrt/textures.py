@@ -25,6 +25,7 @@ Conventions (the kernels in :mod:`shaders.textures` and :mod:`shaders.noise` doc
 from __future__ import annotations
 
 import os
+import threading
 import warnings
 
 import numpy as np
@@ -230,12 +231,14 @@ class MipPyramid:
     """Sequence view of a MIP pyramid whose levels are built on first access.
 
     ``pyramid[l]`` builds level ``l`` from level 0 (:func:`shaders.textures.build_mip_level`, an
-    exact box filter) the first time it is indexed and caches it; ``built`` lists the levels > 0
-    that exist. ``len(pyramid)`` is the full level count.
+    exact box filter) the first time it is indexed and caches it (under a lock: render threads
+    share textures); ``built`` lists the levels > 0 that exist. ``len(pyramid)`` is the full
+    level count.
     """
 
     def __init__(self, base):
         self._levels = [base] + [None] * (_tex.n_mip_levels(base.shape) - 1)
+        self._lock = threading.Lock()  # the renderer shades chunks on several threads
 
     def __len__(self):
         return len(self._levels)
@@ -245,7 +248,9 @@ class MipPyramid:
         if level < 0:
             level += len(self._levels)
         if self._levels[level] is None:
-            self._levels[level] = _tex.build_mip_level(self._levels[0], level)
+            with self._lock:
+                if self._levels[level] is None:
+                    self._levels[level] = _tex.build_mip_level(self._levels[0], level)
         return self._levels[level]
 
     @property
@@ -558,7 +563,8 @@ def perturb_normal(ctx, normal_map):
     (N, 3) float64
         Unit normals ``normalize(x t + y b + z ns)`` with the tangent frame of
         :func:`shaders.textures.tangent_frame`; exactly ``ctx.ns`` where the map is flat
-        (0.5, 0.5, 1) or degenerate.
+        (0.5, 0.5, 1) or degenerate, and where the perturbed normal would face away from
+        ``ctx.wo`` (when ``ctx`` has ``wo``).
     """
     ns = np.asarray(ctx.ns, dtype=np.float64)
     rgb = np.asarray(normal_map.evaluate(ctx), dtype=np.float64).reshape(ctx.n_hits, -1)
@@ -566,7 +572,37 @@ def perturb_normal(ctx, normal_map):
         raise TextureError(f"normal map {normal_map!r} must have 3 channels, got {rgb.shape[1]}")
     n_ts = _tex.decode_normal_map(rgb, getattr(normal_map, "strength", 1.0), getattr(normal_map, "flip_green", False))
     t, b = _tex.tangent_frame(ns, np.asarray(ctx.dpdu, dtype=np.float64), np.asarray(ctx.dpdv, dtype=np.float64))
-    return _tex.apply_tangent_normal(n_ts, ns, t, b)
+    n = _tex.apply_tangent_normal(n_ts, ns, t, b)
+    wo = getattr(ctx, "wo", None)
+    if wo is not None:
+        # A perturbed normal that turns away from the viewer cannot shade anything (every BRDF
+        # kernel returns 0 for wo below the horizon): keep the unperturbed normal there, as
+        # pyrt.geometry does for interpolated vertex normals.
+        away = np.einsum("ij,ij->i", n, np.asarray(wo, dtype=np.float64)) <= 0
+        n = np.where(away[:, None], ns, n)
+    return n
+
+
+def apply_normal_maps(surf, materials):
+    """Perturb ``surf``'s shading normals for every material with a ``normal_map`` attribute.
+
+    Called by the integrator right after the surface batch is built (before any material or AOV
+    reads ``ns``); rebuilds the local frame with ``surf.set_shading_normal``. Materials without
+    ``normal_map`` (or with ``None``) are untouched. Returns ``surf``.
+    """
+    mids = np.asarray(surf.material_id)
+    ns = None
+    for k in np.unique(mids):
+        nm = getattr(materials[int(k)], "normal_map", None)
+        if nm is None:
+            continue
+        sel = np.flatnonzero(mids == k)
+        if ns is None:
+            ns = np.array(surf.ns, dtype=np.float64, copy=True)
+        ns[sel] = perturb_normal(surf.subset(sel), nm)
+    if ns is not None:
+        surf.set_shading_normal(ns)
+    return surf
 
 
 # ----------------------------------------------------------------------------- scene files

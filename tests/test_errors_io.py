@@ -183,7 +183,7 @@ def test_memory_is_bounded_by_chunk_not_image():
     def peak(w, h, spp):
         scene.camera.width, scene.camera.height = w, h
         tracemalloc.start()
-        pyrt.render(scene, spp=spp, chunk_samples=1 << 14)
+        pyrt.render(scene, spp=spp, chunk_samples=1 << 14, threads=1)
         _, pk = tracemalloc.get_traced_memory()
         tracemalloc.stop()
         film = w * h * 3 * (8 + 4)  # float64 accumulation + float32 output
@@ -192,5 +192,5 @@ def test_memory_is_bounded_by_chunk_not_image():
     small = peak(128, 128, 1)  # exactly one chunk
     big = peak(256, 256, 4)    # 16x more samples, 16 chunks
     assert big < 2.0 * small, (small, big)
-    # with the default chunk (8x larger), extrapolated: chunk part <= 8 * big; 4K film is 0.3 GB
+    # default: chunks 4x larger, one in flight per core (2 here): chunk part <= 8 * big; 4K film is 0.3 GB
     assert 8 * big + 3840 * 2160 * 3 * 12 < 2e9

@@ -1,0 +1,135 @@
+"""Benchmark: pyrt end-to-end time vs the time Embree alone takes for exactly the same rays.
+
+Scene: a displaced icosphere (~82k triangles at the default size) on a ground plane, three lights
+(point, spot, directional), Lambert + Blinn-Phong + mirror materials, 640x480, 1 spp.
+
+For each run the render records every ray it traced (primary, secondary, shadow; float32, as given to
+Embree); the same rays are then replayed through the binding alone (same chunking, same thread pool,
+no shading, no post-processing). Reported: both times, their ratio, rays per second, peak RSS.
+Medians over ``--repeats`` runs (the machine is shared and noisy). Also sweeps triangle count
+(1k ... 1M) and resolution.
+
+Usage: python tools/bench.py [--repeats 3] [--quick] [--out out/bench]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import resource
+import statistics
+import time
+
+import numpy as np
+import trimesh
+
+import pyrt
+from pyrt.integrator import PreparedScene
+
+
+def bumpy_sphere(subdivisions, seed=0):
+    m = trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0)
+    v = m.vertices
+    bump = 1 + 0.03 * np.sin(9 * v[:, 0]) * np.sin(11 * v[:, 1]) * np.sin(7 * v[:, 2])
+    return trimesh.Trimesh(vertices=v * bump[:, None], faces=m.faces, process=False)
+
+
+def grid_mesh(n_tris):
+    """A displaced height-field patch with about ``n_tris`` triangles (for the triangle sweep)."""
+    k = max(2, int(np.sqrt(n_tris / 2)))
+    x, z = np.meshgrid(np.linspace(-1, 1, k + 1), np.linspace(-1, 1, k + 1))
+    y = 0.1 * np.sin(6 * x) * np.cos(5 * z) + 0.5
+    v = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+    i = np.arange(k * k).reshape(k, k)
+    r, c = np.divmod(i.ravel(), k)
+    a = r * (k + 1) + c
+    f = np.concatenate([np.column_stack([a, a + k + 1, a + 1]), np.column_stack([a + 1, a + k + 1, a + k + 2])])
+    return trimesh.Trimesh(vertices=v, faces=f, process=False)
+
+
+def make_scene(mesh, width=640, height=480):
+    cam = pyrt.Camera(position=(0, 1.6, 3.6), target=(0, 0.6, 0), fov=40, width=width, height=height, spp=1)
+    s = pyrt.Scene(cam)
+    s.add_plane((0, 0, 0), 8.0, pyrt.Lambert(albedo=0.7), name="ground")
+    s.add_mesh(mesh, pyrt.BlinnPhong(kd=0.5, ks=0.3, exponent=60), transform=pyrt.transform_matrix(translate=(0, 1.0, 0)),
+               smooth=True, name="model")
+    s.add_sphere((1.6, 0.4, 0.4), 0.4, pyrt.Mirror(0.9), subdivisions=4, name="mirror")
+    s.add_light(pyrt.PointLight((2, 4, 2), intensity=30))
+    s.add_light(pyrt.SpotLight((-2, 3, 1), target=(0, 0.5, 0), intensity=40, inner_angle=15, outer_angle=25))
+    s.add_light(pyrt.DirectionalLight((-0.3, -1, -0.4), 1.5))
+    return s
+
+
+def measure(scene, repeats):
+    """Median end-to-end and Embree-only times over ``repeats`` runs."""
+    e2e, emb, stats = [], [], None
+    for _ in range(repeats):
+        ps = PreparedScene(scene)
+        t0 = time.perf_counter()
+        res = pyrt.render_full(scene, seed=0, record_rays=True, prepared=ps)
+        e2e.append(time.perf_counter() - t0)
+        rec = res.stats.recorded
+        t0 = time.perf_counter()
+        for kind, o, d, tm in rec:
+            ps.accel.replay(kind, o, d, tm if tm is not None else np.full(o.shape[0], 1e37, np.float32))
+        emb.append(time.perf_counter() - t0)
+        stats = res.stats
+        stats.recorded = []
+        ps.close()
+    return statistics.median(e2e), statistics.median(emb), stats
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--quick", action="store_true", help="smaller sweeps")
+    ap.add_argument("--out", default="out/bench")
+    args = ap.parse_args(argv)
+    os.makedirs(args.out, exist_ok=True)
+    machine = f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, {platform.python_version()}"
+    mesh = bumpy_sphere(6)
+    scene = make_scene(mesh)
+    # warm-up (imports, allocations)
+    pyrt.render(make_scene(bumpy_sphere(2), 64, 48))
+    t_e2e, t_emb, st = measure(scene, args.repeats)
+    peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    main_row = {"triangles": int(mesh.faces.shape[0]) + 2 + 1280, "resolution": "640x480", "spp": 1,
+                "primary": st.primary_rays, "secondary": st.secondary_rays, "shadow": st.shadow_rays,
+                "rays": st.rays, "embree_s": t_emb, "pyrt_s": t_e2e, "ratio": t_e2e / t_emb,
+                "pyrt_Mrays_per_s": st.rays / t_e2e / 1e6, "embree_Mrays_per_s": st.rays / t_emb / 1e6,
+                "peak_rss_MB": peak_mb}
+    lines = [f"# pyrt benchmark ({machine}; medians of {args.repeats} runs)", "",
+             "## Main scene", "",
+             "| triangles | rays (primary/secondary/shadow) | Embree only (s) | pyrt (s) | ratio | pyrt Mrays/s | peak RSS (MB) |",
+             "|---|---|---|---|---|---|---|",
+             f"| {main_row['triangles']} | {st.rays} ({st.primary_rays}/{st.secondary_rays}/{st.shadow_rays}) | "
+             f"{t_emb:.3f} | {t_e2e:.3f} | {t_e2e / t_emb:.2f}x | {main_row['pyrt_Mrays_per_s']:.2f} | {peak_mb:.0f} |",
+             ""]
+    print("\n".join(lines))
+    sweep_tris = []
+    counts = [1_000, 10_000, 100_000, 1_000_000] if not args.quick else [1_000, 100_000]
+    lines += ["## Triangle count (640x480, 1 spp)", "", "| triangles | Embree only (s) | pyrt (s) | ratio |", "|---|---|---|---|"]
+    for n in counts:
+        m = grid_mesh(n)
+        te, tb, _ = measure(make_scene(m), max(1, args.repeats - 1))
+        sweep_tris.append({"triangles": int(m.faces.shape[0]), "embree_s": tb, "pyrt_s": te, "ratio": te / tb})
+        lines.append(f"| {m.faces.shape[0]} | {tb:.3f} | {te:.3f} | {te / tb:.2f}x |")
+        print(lines[-1], flush=True)
+    lines += ["", "## Resolution (main scene, 1 spp)", "", "| resolution | Embree only (s) | pyrt (s) | ratio |", "|---|---|---|---|"]
+    sweep_res = []
+    res_list = [(160, 120), (320, 240), (640, 480), (1280, 960)] if not args.quick else [(160, 120), (640, 480)]
+    for w, h in res_list:
+        te, tb, _ = measure(make_scene(mesh, w, h), max(1, args.repeats - 1))
+        sweep_res.append({"resolution": f"{w}x{h}", "embree_s": tb, "pyrt_s": te, "ratio": te / tb})
+        lines.append(f"| {w}x{h} | {tb:.3f} | {te:.3f} | {te / tb:.2f}x |")
+        print(lines[-1], flush=True)
+    with open(os.path.join(args.out, "bench.md"), "w") as f:
+        f.write("\n".join(lines) + "\n")
+    with open(os.path.join(args.out, "bench.json"), "w") as f:
+        json.dump({"machine": machine, "main": main_row, "triangles": sweep_tris, "resolution": sweep_res}, f, indent=1)
+    print(f"wrote {args.out}/bench.md and bench.json")
+
+
+if __name__ == "__main__":
+    main()
