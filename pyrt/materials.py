@@ -215,10 +215,10 @@ class Glass(Material):
     """Smooth dielectric with index of refraction ``ior`` (relative to the surrounding medium, vacuum = 1).
 
     Exact unpolarised Fresnel reflectance R splits the ray: reflection weighted R, refraction
-    weighted 1 - R (``tint`` multiplies both); total internal reflection gives R = 1. Radiance is
-    *not* scaled by 1/eta^2 on refraction (pbrt's "importance" convention is not needed for a
-    camera-only Whitted tracer: we trace radiance and the eta^2 factors cancel on a round trip
-    through a closed object; the choice is documented and tested with R + T = 1).
+    weighted (1 - R) / eta^2 with ``eta = eta_t / eta_i`` (``tint`` multiplies both); total internal
+    reflection gives R = 1. The 1/eta^2 factor is the radiance compression across the interface
+    (radiance / eta^2 is invariant along a ray), as in pbrt-v4 and Mitsuba 3 in radiance mode; through
+    a closed object the factors of entering and leaving cancel. Energy: R + (1 - R) = 1 (tested).
     """
 
     type_name = "glass"
@@ -245,7 +245,7 @@ class Glass(Material):
         lobes = [DeltaLobe(wr, tint * R[:, None], "reflect")]
         T = 1.0 - R
         if np.any(T > 0):
-            lobes.append(DeltaLobe(wt, tint * T[:, None], "refract", eta))
+            lobes.append(DeltaLobe(wt, tint * (T / (eta * eta))[:, None], "refract", eta))
         return lobes
 
 
