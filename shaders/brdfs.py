@@ -26,7 +26,7 @@ def lambert_f_cos(wo, wi, albedo):
     albedo : (N, 3) ndarray
         Diffuse reflectance rho in [0, 1].
     """
-    return albedo * (_same_hemisphere_cos(wo, wi) / np.pi)[:, None]
+    return (albedo * (_same_hemisphere_cos(wo, wi) / np.pi)[:, None]).astype(wi.dtype, copy=False)
 
 
 def blinn_phong_normalization(exponent):
@@ -68,7 +68,7 @@ def blinn_phong_normalized_f_cos(wo, wi, kd, ks, exponent):
     hl = np.sqrt(np.einsum("ij,ij->i", h, h))
     cos_h = np.divide(h[:, 2], hl, out=np.zeros_like(hl), where=hl > 0)
     spec = blinn_phong_normalization(exponent) * np.power(np.maximum(cos_h, 0.0), exponent)
-    return (kd / np.pi + ks * spec[:, None]) * cos_i[:, None]
+    return ((kd / np.pi + ks * spec[:, None]) * cos_i[:, None]).astype(wi.dtype, copy=False)
 
 
 # ---------------------------------------------------------------------------------------------
