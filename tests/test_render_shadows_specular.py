@@ -132,3 +132,19 @@ def test_default_scene_is_finite_and_uses_every_light():
         s2.camera.width, s2.camera.height = 64, 48
         s2.lights = [l for l in s2.lights if type(l) is type(light)]
         assert pyrt.render(s2, spp=1).max() > 0
+
+
+def test_closed_glass_slab_transmits_geometric_series():
+    # head-on through a closed slab: every internal bounce is at normal incidence, so
+    # L = Le_front * T^2 / (1 - R^2) + Le_back * (R + R T^2 / (1 - R^2)), T = 1 - R (the eta^2 factors cancel)
+    cam = pyrt.Camera(position=(0, 0, 3), target=(0, 0, 0), fov=1.0, width=4, height=4, jitter=False)
+    scene = pyrt.Scene(cam)
+    scene.add_box((0, 0, 0), (10.0, 10.0, 0.5), pyrt.Glass(ior=1.5))
+    back, front = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+    _emitter_wall(scene, 5.0, back, (0, 0, -1))
+    _emitter_wall(scene, -5.0, front, (0, 0, 1))
+    img = pyrt.render(scene, max_depth=40, throughput_cutoff=0.0)
+    R = 0.04
+    T = 1 - R
+    np.testing.assert_allclose(img[..., 1], T * T / (1 - R * R), rtol=1e-5)
+    np.testing.assert_allclose(img[..., 0], R + R * T * T / (1 - R * R), rtol=1e-5)
