@@ -218,3 +218,48 @@ def test_trilinear_render_error_against_supersampled_reference():
     assert err["trilinear"] < 0.1
     assert err["trilinear"] < 0.4 * err["nearest"]
     assert err["anisotropic"] < err["trilinear"]
+
+
+def test_scene_file_textures_and_normal_map(tmp_path):
+    from skimage import io as skio
+
+    skio.imsave(tmp_path / "albedo.png", np.full((4, 4, 3), 188, np.uint8), check_contrast=False)
+    skio.imsave(tmp_path / "flat.png", np.tile(np.array([128, 128, 255], np.uint8), (4, 4, 1)), check_contrast=False)
+    (tmp_path / "scene.toml").write_text("""
+[camera]
+position = [0, 2, 0]
+target = [0, 0, 0]
+up = [0, 0, -1]
+width = 8
+height = 8
+jitter = false
+[render]
+ambient = [1, 1, 1]
+[materials.floor]
+type = "lambert"
+albedo = { type = "image", path = "albedo.png", filter = "bilinear" }
+normal_map = "flat.png"
+[materials.checker]
+type = "lambert"
+albedo = { type = "checker", color0 = 0.2, color1 = [0.9, 0.1, 0.1], scale = 4 }
+[[meshes]]
+primitive = "plane"
+size = 4
+material = "floor"
+""")
+    scene, opts = pyrt.load_scene(tmp_path / "scene.toml")
+    floor = scene.materials[0]
+    assert isinstance(floor.albedo_value, T.ImageTexture) and isinstance(floor.normal_map, T.NormalMap)
+    img = pyrt.render(scene, **opts)
+    from shaders.color import srgb_decode
+    np.testing.assert_allclose(img, srgb_decode(np.array(188 / 255.0)), rtol=1e-5)
+    (tmp_path / "bad.toml").write_text("""
+[materials.m]
+type = "lambert"
+albedo = { type = "image", path = "missing.png" }
+[[meshes]]
+primitive = "plane"
+material = "m"
+""")
+    with pytest.raises(pyrt.SceneFileError, match=r"materials.m\]\.albedo.*missing.png"):
+        pyrt.load_scene(tmp_path / "bad.toml")

@@ -6,7 +6,10 @@ Format (every key optional unless marked; unknown keys are errors naming the tab
     [render]            # max_depth, seed, background (RGB radiance), ambient (RGB radiance),
                         # throughput_cutoff, offset (strategy name)
     [materials.NAME]    # type = "lambert" | "blinn_phong" | "mirror" | "glass" | ... ; the rest are the
-                        # material constructor's keyword arguments (validated by it)
+                        # material constructor's keyword arguments (validated by it); a parameter
+                        # may be a texture table, e.g. albedo = {type = "image", path = "wood.png"}
+                        # (types in pyrt.textures.TEXTURE_TYPES, paths relative to the scene file);
+                        # normal_map = "normals.png" or {type = "normal_map", path = ..., strength = ...}
     [[meshes]]          # file = "path" (relative to the scene file) OR primitive = "sphere" | "box" |
                         # "plane" | "cylinder"; material = NAME (required); transform: translate, rotate
                         # ([angle_deg, [x, y, z]] or a list of them), scale, or matrix (4x4);
@@ -88,6 +91,16 @@ def _primitive(kind, params, where, path):
     raise SceneFileError(f"{path}: {where}: unknown primitive {kind!r}; choose one of {sorted(_PRIMITIVE_KEYS)}")
 
 
+def _texture(spec, where, base, path):
+    """A texture from an inline table ``{type = "image" | "checker" | ..., ...}`` (pyrt.textures)."""
+    from ..textures import TextureError, texture_from_dict
+
+    try:
+        return texture_from_dict(spec, base_dir=base)
+    except (TextureError, TypeError, ValueError) as e:
+        raise SceneFileError(f"{path}: {where}: {e}") from None
+
+
 def load_scene(path):
     """Load a TOML or JSON scene file into a :class:`pyrt.Scene`.
 
@@ -129,7 +142,12 @@ def load_scene(path):
             raise SceneFileError(f"{path}: {where}: unknown material type {kind!r}; choose one of {sorted(MATERIALS)}")
         kwargs = {k: v for k, v in spec.items() if k != "type"}
         kwargs.setdefault("name", name)
+        normal_map = kwargs.pop("normal_map", None)
+        kwargs = {k: _texture(v, f"{where}.{k}", base, path) if isinstance(v, dict) else v for k, v in kwargs.items()}
         materials[name] = _construct(MATERIALS[kind], kwargs, where, path)
+        if normal_map is not None:
+            spec_nm = {"type": "normal_map", "path": normal_map} if isinstance(normal_map, str) else normal_map
+            materials[name].normal_map = _texture(spec_nm, f"{where}.normal_map", base, path)
 
     for i, spec in enumerate(data.get("meshes", [])):
         where = f"[[meshes]] #{i}" + (f" ({spec.get('name')})" if isinstance(spec, dict) and "name" in spec else "")
