@@ -95,7 +95,7 @@ class Scene:
         self.lights.append(light)
         return light
 
-    def add_mesh(self, mesh, material, *, transform=None, smooth="auto", crease_angle=30.0, name=None):
+    def add_mesh(self, mesh, material, *, transform=None, smooth="auto", crease_angle=30.0, name=None, normals=None):
         """Add a trimesh mesh (or a ``(vertices, faces)`` pair) with a material.
 
         Parameters
@@ -108,6 +108,8 @@ class Scene:
             Shading normals. True: trimesh's area-weighted vertex normals; "auto": split vertices at
             edges sharper than ``crease_angle`` degrees (a box stays flat, a sphere is smooth);
             False: flat shading (shading normal = geometric normal).
+        normals : (V, 3) array, optional
+            Object-space vertex normals to use as given (smooth shading; overrides ``smooth``).
         """
         name = name or f"mesh{len(self.meshes)}"
         if isinstance(mesh, (tuple, list)):
@@ -126,8 +128,14 @@ class Scene:
                 raise GeometryError(f"mesh {name!r}: texture coordinates are not finite")
         if faces.shape[0] != len(mesh.faces):
             mesh = trimesh.Trimesh(vertices=v_obj, faces=faces, process=False)
+        given = normals
         normals = None
-        if smooth == "auto":
+        if given is not None:
+            normals = np.asarray(given, dtype=np.float64)
+            if normals.shape != v_obj.shape or not np.all(np.isfinite(normals)):
+                raise GeometryError(f"mesh {name!r}: normals must be finite with shape {v_obj.shape}, "
+                                    f"got {normals.shape}")
+        elif smooth == "auto":
             src = trimesh.Trimesh(vertices=v_obj, faces=faces, process=False)
             if uv is not None:
                 src.visual = trimesh.visual.TextureVisuals(uv=uv)
