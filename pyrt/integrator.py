@@ -171,9 +171,13 @@ class Integrator:
                                         np.minimum(tmax, T_INFINITE).astype(np.float32)))
         return occ
 
-    def background(self, d):
+    def background(self, d, primary=False):
+        """Radiance of missed rays: the environment (or the scene background colour). Camera rays
+        (``primary``) see ``environment.background`` instead when ``environment.hide_background`` is set."""
         env = self.scene.environment
         if env is not None:
+            if primary and getattr(env, "hide_background", False):
+                return np.broadcast_to(env.background, d.shape)
             return env.radiance(d)
         return np.broadcast_to(self.scene.background, d.shape)
 
@@ -198,7 +202,7 @@ class Integrator:
             hits = self._intersect(o, d, "primary" if depth == 0 else "secondary")
             miss = ~hits.hit
             if np.any(miss):
-                _scatter_add(L, sample[miss], thr[miss] * self.background(d[miss]))
+                _scatter_add(L, sample[miss], thr[miss] * self.background(d[miss], primary=depth == 0))
             h = np.flatnonzero(hits.hit)
             if h.size == 0:
                 break

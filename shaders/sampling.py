@@ -44,3 +44,68 @@ def square_to_uniform_sphere(u):
 def uniform_sphere_pdf(w):
     """pdf of :func:`square_to_uniform_sphere`."""
     return np.full(w.shape[0], 1.0 / (4.0 * np.pi))
+
+
+def square_to_uniform_cone(u, cos_max):
+    """Uniform direction inside the cone ``theta <= theta_max`` around +z, pdf = 1 / (2 pi (1 - cos_max)).
+
+    Parameters
+    ----------
+    u : (N, 2) float ndarray in [0, 1)^2
+    cos_max : float or (N,) ndarray
+        Cosine of the cone half-angle, in [-1, 1].
+
+    Returns
+    -------
+    (N, 3) ndarray, unit directions (z = cone axis), dtype of ``u``.
+    """
+    cos_max = np.asarray(cos_max, dtype=u.dtype)
+    z = 1.0 - u[:, 0] * (1.0 - cos_max)
+    r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
+    phi = 2.0 * np.pi * u[:, 1]
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1).astype(u.dtype, copy=False)
+
+
+def uniform_cone_pdf(cos_max):
+    """pdf of :func:`square_to_uniform_cone` inside the cone (the caller zeroes directions outside)."""
+    one_minus = 1.0 - np.asarray(cos_max, dtype=np.float64)
+    return np.divide(1.0, 2.0 * np.pi * one_minus, out=np.zeros_like(one_minus), where=one_minus > 0)
+
+
+def radical_inverse_base2(i):
+    """Van der Corput radical inverse in base 2 of non-negative integers ``i`` -> float64 in [0, 1)."""
+    i = np.asarray(i, dtype=np.uint64)
+    out = np.zeros(i.shape, dtype=np.float64)
+    scale = 0.5
+    for _ in range(32):  # enough for i < 2^32
+        out += (i & np.uint64(1)) * scale
+        i = i >> np.uint64(1)
+        scale *= 0.5
+    return out
+
+
+def hammersley(n):
+    """The ``n``-point Hammersley set ``((i + 1/2) / n, radical_inverse_2(i))``, (n, 2) float64.
+
+    A deterministic, well-stratified point set for quadratures that must be noise-free (prefiltered
+    environment maps, the preview estimator).
+    """
+    i = np.arange(n)
+    return np.stack([(i + 0.5) / n, radical_inverse_base2(i)], axis=1)
+
+
+def power_heuristic(pdf_f, pdf_g, beta=2.0, n_f=1, n_g=1):
+    """Veach's power heuristic weight of strategy f: ``(n_f p_f)^beta / ((n_f p_f)^beta + (n_g p_g)^beta)``.
+
+    ``beta = 1`` is the balance heuristic. Lanes where both densities are zero get weight 0 (no NaN).
+    Densities may be ``inf`` for nothing here: callers pass finite solid-angle pdfs.
+    """
+    a = (n_f * np.asarray(pdf_f, dtype=np.float64)) ** beta
+    b = (n_g * np.asarray(pdf_g, dtype=np.float64)) ** beta
+    s = a + b
+    return np.divide(a, s, out=np.zeros_like(s), where=s > 0)
+
+
+def balance_heuristic(pdf_f, pdf_g, n_f=1, n_g=1):
+    """Veach's balance heuristic ``n_f p_f / (n_f p_f + n_g p_g)`` (:func:`power_heuristic` with beta = 1)."""
+    return power_heuristic(pdf_f, pdf_g, 1.0, n_f, n_g)

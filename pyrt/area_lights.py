@@ -1,0 +1,293 @@
+"""Area lights: rectangle, disk and sphere emitters sampled as many point lights (soft shadows).
+
+Units and conventions
+---------------------
+- Each light emits constant radiance ``L_e`` (W m^-2 sr^-1, times ``color``) from its surface:
+  rectangle and disk from their **front side only** (the side ``normal`` points to), the sphere
+  outward. Give ``radiance`` or ``power`` (W): a one-sided Lambertian emitter of area ``A`` has
+  ``power = pi A L_e``; the sphere ``power = 4 pi^2 r^2 L_e``. The radiant intensity of a small
+  rectangle or disk is ``I(theta) = L_e A cos theta = (power / pi) cos theta`` (Lambert's cosine law);
+  a small sphere is isotropic, ``I = power / (4 pi)``, like a point light of the same power.
+- Direct light at a hit is estimated with ``n_samples`` shadow rays toward points on the light,
+  stratified per hit (jittered ``k x k`` grid when ``n_samples = k^2``, otherwise Latin-hypercube
+  strata), so partially visible lights give a penumbra and fully hidden ones an umbra. Rectangles
+  and disks are sampled uniformly by area (``E = L_e cos theta_l A / r^2`` per sample); spheres
+  uniformly inside the cone they subtend (``E = L_e 2 pi (1 - cos theta_max)``), zero for points
+  inside the sphere.
+- Visible to camera rays: :meth:`AreaLight.add_to` adds the light *and* a mesh with an
+  :class:`AreaEmitter` material (one-sided emission, receives no light). Shadow rays toward the
+  light stop at ``1 - 1e-4`` of the distance to the sampled point (:data:`pyrt.offsets.SHADOW_TMAX_SCALE`);
+  the sampled point lies on the emitter's plane (rectangle, disk) or on the exact sphere, which
+  encloses the inscribed triangle mesh, so a light's own mesh never shadows its samples.
+"""
+from __future__ import annotations
+
+import math
+import numbers
+
+import numpy as np
+import trimesh
+
+from shaders import sampling
+from shaders.vec import coordinate_frame
+
+from .lights import REGISTRY as _LIGHTS
+from .lights import Light, LightError, _color, _nonneg, _vec3
+from .materials import Material, check_color, register
+
+
+@register
+class AreaEmitter(Material):
+    """Material of an area light's visible mesh: emits ``radiance`` (RGB, W m^-2 sr^-1) from its front side
+    (``two_sided=False``) or both sides, reflects nothing and receives no light (``has_diffuse = False``)."""
+
+    type_name = "area_emitter"
+    has_diffuse = False
+    has_delta = False
+
+    def __init__(self, radiance=1.0, *, two_sided=False, name=None):
+        self.name = name
+        self.radiance = check_color("radiance", radiance, f"AreaEmitter({name or ''})", lo=0.0)
+        self.two_sided = bool(two_sided)
+
+    def emission(self, ctx):
+        L = np.broadcast_to(self.radiance, (ctx.n_hits, 3))
+        if self.two_sided:
+            return np.array(L)
+        return np.where(ctx.front[:, None], L, 0.0)
+
+
+def stratified_samples(rng, n_hits, n_samples):
+    """Per-hit stratified points in [0, 1)^2, shape ``(n_samples, n_hits, 2)``.
+
+    ``k x k`` jittered grid if ``n_samples == k^2``, else Latin hypercube (``n_samples`` strata in
+    each dimension, randomly paired per hit). Every sample is uniformly distributed (unbiased).
+    """
+    k = math.isqrt(n_samples)
+    xi = rng.random((n_samples, n_hits, 2))
+    if k * k == n_samples:
+        s = np.arange(n_samples)
+        cell = np.stack([s % k, s // k], axis=1).astype(np.float64)
+        return (cell[:, None, :] + xi) / k
+    perm = rng.permuted(np.tile(np.arange(n_samples), (n_hits, 1)), axis=1).T   # (ns, n)
+    u = np.empty_like(xi)
+    u[..., 0] = (np.arange(n_samples)[:, None] + xi[..., 0]) / n_samples
+    u[..., 1] = (perm + xi[..., 1]) / n_samples
+    return u
+
+
+class AreaLight(Light):
+    """Base class of the area lights (see the module docstring)."""
+
+    delta = False
+
+    def _init_common(self, owner, radiance, power, color, n_samples, name):
+        self.name = name
+        if (radiance is None) == (power is None):
+            raise LightError(f"{owner}: give exactly one of radiance (W m^-2 sr^-1) or power (W)")
+        if not isinstance(n_samples, numbers.Integral) or isinstance(n_samples, bool) or n_samples < 1:
+            raise LightError(f"{owner}: n_samples must be a positive integer, got {n_samples!r}")
+        self.n_samples = int(n_samples)
+        self.color = _color(owner, color)
+        if power is not None:
+            radiance = _nonneg(owner, "power", power) / self._power_per_radiance()
+        self.radiance = _nonneg(owner, "radiance", radiance)
+
+    @property
+    def L(self):
+        """RGB emitted radiance (W m^-2 sr^-1)."""
+        return self.radiance * self.color
+
+    @property
+    def power(self):
+        """Emitted power (W) per unit of ``color``."""
+        return self.radiance * self._power_per_radiance()
+
+    def _power_per_radiance(self):
+        raise NotImplementedError
+
+    def mesh(self):
+        """The emitter's triangle mesh (world space) with outward/front winding."""
+        raise NotImplementedError
+
+    def add_to(self, scene, *, visible=True):
+        """Add the light to ``scene`` and, if ``visible``, its emissive mesh (seen by camera and mirror rays)."""
+        scene.add_light(self)
+        if visible:
+            scene.add_mesh(self.mesh(), AreaEmitter(self.L, name=self.name), smooth=self._smooth,
+                           name=f"{self.name or type(self).__name__}_emitter")
+        return self
+
+    _smooth = False
+
+    def estimate(self, surf, bsdf, visible, rng):
+        n = surf.n_hits
+        out = np.zeros((n, 3))
+        ns = self.n_samples
+        us = stratified_samples(rng, n, ns)
+        for s in range(ns):
+            wi, dist, E = self.sample(surf.p, us[s])
+            cos_g = np.einsum("ij,ij->i", wi, surf.ng)
+            idx = np.flatnonzero((cos_g > 0) & (E.max(axis=1) > 0))
+            if idx.size == 0:
+                continue
+            f = bsdf.f_cos(idx, wi[idx])
+            keep = f.max(axis=1) > 0
+            idx, f = idx[keep], f[keep]
+            if idx.size == 0:
+                continue
+            vis = visible(idx, wi[idx], dist[idx])
+            out[idx] += np.where(vis[:, None], f * E[idx], 0.0)
+        return out / ns
+
+
+def _planar_sample(p, x, n, L, area):
+    """Shared by rectangle and disk: light point ``x`` (N, 3) sampled with pdf 1/area on a plane of normal n."""
+    d = x - p
+    dist2 = np.einsum("ij,ij->i", d, d)
+    dist = np.sqrt(dist2)
+    inv = np.divide(1.0, dist, out=np.zeros_like(dist), where=dist > 0)
+    wi = d * inv[:, None]
+    cos_l = np.maximum(-(wi @ n), 0.0)       # one-sided: front = +normal
+    g = cos_l * area * inv * inv
+    return wi, dist, L[None, :] * g[:, None]
+
+
+class RectLight(AreaLight):
+    """Rectangle of ``size = (width, height)`` centred at ``center``, emitting toward ``normal``.
+
+    ``tangent`` (optional) is the direction of the ``width`` side (projected onto the plane);
+    by default an arbitrary frame around ``normal``.
+    """
+
+    def __init__(self, center, normal=(0.0, -1.0, 0.0), size=1.0, *, tangent=None, radiance=None, power=None,
+                 color=(1.0, 1.0, 1.0), n_samples=16, name=None):
+        owner = f"RectLight({name or ''})"
+        self.center = _vec3(owner, "center", center)
+        self.normal = _vec3(owner, "normal", normal, unit=True)
+        sz = np.broadcast_to(np.asarray(size, dtype=np.float64), (2,)).copy()
+        if not np.all(np.isfinite(sz)) or np.any(sz <= 0):
+            raise LightError(f"{owner}: size must be > 0 (a number or [width, height]), got {size!r}")
+        self.size = sz
+        if tangent is None:
+            t, _ = coordinate_frame(self.normal[None])
+            t = t[0]
+        else:
+            t = _vec3(owner, "tangent", tangent)
+            t = t - (t @ self.normal) * self.normal
+            if np.linalg.norm(t) < 1e-9:
+                raise LightError(f"{owner}: tangent must not be parallel to normal")
+            t = t / np.linalg.norm(t)
+        self.tangent = t
+        self.bitangent = np.cross(self.normal, t)     # (t, b, n) right-handed
+        self._init_common(owner, radiance, power, color, n_samples, name)
+
+    @property
+    def area(self):
+        return float(self.size[0] * self.size[1])
+
+    def _power_per_radiance(self):
+        return math.pi * self.area
+
+    def sample(self, p, u):
+        x = (self.center + (u[:, 0:1] - 0.5) * self.size[0] * self.tangent
+             + (u[:, 1:2] - 0.5) * self.size[1] * self.bitangent)
+        return _planar_sample(p, x, self.normal, self.L, self.area)
+
+    def mesh(self):
+        hx, hy = 0.5 * self.size
+        t, b = self.tangent, self.bitangent
+        v = np.array([self.center - hx * t - hy * b, self.center + hx * t - hy * b,
+                      self.center + hx * t + hy * b, self.center - hx * t + hy * b])
+        return trimesh.Trimesh(vertices=v, faces=[[0, 1, 2], [0, 2, 3]], process=False)   # (t x b) = n winding
+
+
+class DiskLight(AreaLight):
+    """Disk of ``radius`` centred at ``center``, emitting toward ``normal`` (one-sided)."""
+
+    #: polygon segments of the visible mesh (the light itself is sampled on the exact disk)
+    segments = 64
+
+    def __init__(self, center, normal=(0.0, -1.0, 0.0), radius=0.5, *, radiance=None, power=None,
+                 color=(1.0, 1.0, 1.0), n_samples=16, name=None):
+        owner = f"DiskLight({name or ''})"
+        self.center = _vec3(owner, "center", center)
+        self.normal = _vec3(owner, "normal", normal, unit=True)
+        if not isinstance(radius, numbers.Real) or not math.isfinite(radius) or radius <= 0:
+            raise LightError(f"{owner}: radius must be a finite number > 0, got {radius!r}")
+        self.radius = float(radius)
+        t, b = coordinate_frame(self.normal[None])
+        self.tangent, self.bitangent = t[0], b[0]
+        self._init_common(owner, radiance, power, color, n_samples, name)
+
+    @property
+    def area(self):
+        return math.pi * self.radius ** 2
+
+    def _power_per_radiance(self):
+        return math.pi * self.area
+
+    def sample(self, p, u):
+        q = sampling.square_to_uniform_disk_concentric(u) * self.radius
+        x = self.center + q[:, 0:1] * self.tangent + q[:, 1:2] * self.bitangent
+        return _planar_sample(p, x, self.normal, self.L, self.area)
+
+    def mesh(self):
+        a = 2.0 * np.pi * np.arange(self.segments) / self.segments
+        ring = (self.center + self.radius * (np.cos(a)[:, None] * self.tangent + np.sin(a)[:, None] * self.bitangent))
+        v = np.vstack([self.center, ring])
+        i = np.arange(self.segments)
+        f = np.stack([np.zeros_like(i), 1 + i, 1 + (i + 1) % self.segments], axis=1)
+        return trimesh.Trimesh(vertices=v, faces=f, process=False)
+
+
+class SphereLight(AreaLight):
+    """Sphere of ``radius`` at ``center`` emitting outward; sampled by the cone it subtends."""
+
+    _smooth = True
+    #: icosphere subdivisions of the visible mesh (3 -> 1280 triangles)
+    subdivisions = 3
+
+    def __init__(self, center, radius=0.5, *, radiance=None, power=None, color=(1.0, 1.0, 1.0), n_samples=16,
+                 name=None):
+        owner = f"SphereLight({name or ''})"
+        self.center = _vec3(owner, "center", center)
+        if not isinstance(radius, numbers.Real) or not math.isfinite(radius) or radius <= 0:
+            raise LightError(f"{owner}: radius must be a finite number > 0, got {radius!r}")
+        self.radius = float(radius)
+        self._init_common(owner, radiance, power, color, n_samples, name)
+
+    @property
+    def area(self):
+        return 4.0 * math.pi * self.radius ** 2
+
+    def _power_per_radiance(self):
+        return math.pi * self.area
+
+    def sample(self, p, u):
+        r = self.radius
+        dc = self.center - p
+        dist_c = np.sqrt(np.einsum("ij,ij->i", dc, dc))
+        outside = dist_c > r * (1.0 + 1e-9)
+        inv = np.divide(1.0, dist_c, out=np.zeros_like(dist_c), where=dist_c > 0)
+        wc = dc * inv[:, None]
+        sin2 = np.clip((r * inv) ** 2, 0.0, 1.0)
+        one_minus_cos = np.where(outside, sin2 / (1.0 + np.sqrt(1.0 - sin2)), 0.0)   # no cancellation
+        cos_max = 1.0 - one_minus_cos
+        wl = sampling.square_to_uniform_cone(u, cos_max)
+        s, t = coordinate_frame(np.where(outside[:, None], wc, np.array([0.0, 0.0, 1.0])))
+        wi = wl[:, 0:1] * s + wl[:, 1:2] * t + wl[:, 2:3] * wc
+        # nearest intersection with the exact sphere: |p + t wi - c|^2 = r^2
+        b = np.einsum("ij,ij->i", wi, dc)
+        disc = np.maximum(b * b - (dist_c * dist_c - r * r), 0.0)
+        dist = np.maximum(b - np.sqrt(disc), 0.0)
+        E = self.L[None, :] * 2.0 * np.pi * one_minus_cos[:, None]
+        return wi, dist, E
+
+    def mesh(self):
+        m = trimesh.creation.icosphere(subdivisions=self.subdivisions, radius=self.radius)
+        m.apply_translation(self.center)
+        return m
+
+
+_LIGHTS.update({"rect": RectLight, "disk": DiskLight, "sphere": SphereLight})
