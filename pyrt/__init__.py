@@ -15,6 +15,9 @@ from .integrator import RenderResult, RenderStats, render, render_full
 from .lights import DirectionalLight, Light, LightError, PointLight, SpotLight
 from .materials import Material, MaterialError, REGISTRY as MATERIALS, Lambert, BlinnPhong, Mirror, Glass, register
 from .scene import Scene, SceneError, transform_matrix
+from .environment import (ConstantEnvironment, CubeMapEnvironment, EnvironmentLight, EnvironmentMapError,
+                          LatLongEnvironment, procedural_sky, set_environment)
+from .area_lights import AreaEmitter, DiskLight, RectLight, SphereLight
 from .io.images import read_exr, write_exr, write_png, tonemap_to_display
 from .io.scene_file import SceneFileError, load_scene
 from .textures import (CheckerTexture, ConstantTexture, FbmTexture, ImageTexture, NoiseTexture, NormalMap,
@@ -25,6 +28,8 @@ __all__ = [
     "DirectionalLight", "Light", "LightError", "PointLight", "SpotLight", "Material", "MaterialError", "MATERIALS",
     "Lambert", "BlinnPhong", "Mirror", "Glass", "register", "Scene", "SceneError", "transform_matrix",
     "read_exr", "write_exr", "write_png", "tonemap_to_display", "SceneFileError", "load_scene",
+    "ConstantEnvironment", "CubeMapEnvironment", "EnvironmentLight", "EnvironmentMapError", "LatLongEnvironment",
+    "procedural_sky", "set_environment", "AreaEmitter", "DiskLight", "RectLight", "SphereLight",
     "Texture", "TextureError", "ConstantTexture", "ImageTexture", "CheckerTexture", "NoiseTexture", "PerlinTexture",
     "FbmTexture", "VoronoiTexture", "NormalMap", "perturb_normal",
 ]

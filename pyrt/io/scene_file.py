@@ -17,6 +17,15 @@ Format (every key optional unless marked; unknown keys are errors naming the tab
                         # sphere: radius, subdivisions; box: extents; plane: size, normal;
                         # cylinder: radius, height, sections
     [[lights]]          # type = "point" | "spot" | "directional" + that light's keyword arguments
+                        # area lights: type = "rect" (center, normal, size, tangent) | "disk" (center, normal,
+                        # radius) | "sphere" (center, radius); radiance or power, color, n_samples;
+                        # visible = true adds the emitting mesh (seen by camera rays)
+    [environment]       # type = "constant" (color) | "latlong" (file: EXR, relative to the scene file) |
+                        # "cube" (file: cross image, or faces = [6 files]) | "sky" (procedural: sun_direction,
+                        # sun_angle, sun_radiance, zenith, horizon, ground, width, height);
+                        # intensity, rotate ([angle_deg, [x, y, z]] or a list), filter, hide_background,
+                        # background; lighting = "mis" | "map" | "bsdf" | "cosine" | "uniform" | "preview" |
+                        # false (background only), samples, heuristic ("power" | "balance"), preview_samples
 
 Example: ``assets/default_scene.toml``.
 """
@@ -34,6 +43,8 @@ from ..camera import Camera
 from ..lights import REGISTRY as LIGHTS
 from ..materials import REGISTRY as MATERIALS
 from ..scene import Scene, transform_matrix
+from .. import area_lights as _area_lights  # noqa: F401  (registers "rect", "disk", "sphere" in LIGHTS)
+from .. import environment as _env
 
 
 class SceneFileError(ValueError):
@@ -46,7 +57,12 @@ _MESH_COMMON = {"file", "primitive", "material", "translate", "rotate", "scale",
                 "crease_angle"}
 _PRIMITIVE_KEYS = {"sphere": {"radius", "subdivisions"}, "box": {"extents"}, "plane": {"size", "normal"},
                    "cylinder": {"radius", "height", "sections"}}
-_TOP_KEYS = {"camera", "render", "materials", "meshes", "lights"}
+_TOP_KEYS = {"camera", "render", "materials", "meshes", "lights", "environment"}
+_ENV_COMMON = {"type", "intensity", "rotate", "hide_background", "background", "lighting", "samples", "heuristic",
+               "preview_samples", "name"}
+_ENV_KEYS = {"constant": {"color"}, "latlong": {"file", "filter"}, "cube": {"file", "faces", "filter"},
+             "sky": {"sun_direction", "sun_angle", "sun_radiance", "zenith", "horizon", "ground", "width", "height",
+                     "filter"}}
 
 
 def _check_keys(where, table, allowed, path):
@@ -189,5 +205,62 @@ def load_scene(path):
         if kind not in LIGHTS:
             raise SceneFileError(f"{path}: {where}: unknown light type {kind!r}; choose one of {sorted(LIGHTS)}")
         kwargs = {k: v for k, v in spec.items() if k != "type"}
-        scene.add_light(_construct(LIGHTS[kind], kwargs, where, path))
+        visible = kwargs.pop("visible", True) if hasattr(LIGHTS[kind], "add_to") else None
+        light = _construct(LIGHTS[kind], kwargs, where, path)
+        if visible is None:
+            scene.add_light(light)
+        else:
+            light.add_to(scene, visible=bool(visible))
+    if "environment" in data:
+        _load_environment(data["environment"], scene, base, path)
     return scene, options
+
+
+def _load_environment(spec, scene, base, path):
+    """The ``[environment]`` table -> ``scene.environment`` (+ an EnvironmentLight unless lighting = false)."""
+    where = "[environment]"
+    if not isinstance(spec, dict) or spec.get("type") not in _ENV_KEYS:
+        raise SceneFileError(f"{path}: {where} needs a 'type' (one of {sorted(_ENV_KEYS)})")
+    kind = spec["type"]
+    _check_keys(where, spec, _ENV_COMMON | _ENV_KEYS[kind], path)
+
+    def rel(p):
+        if not isinstance(p, str):
+            raise SceneFileError(f"{path}: {where}: file paths must be strings, got {p!r}")
+        full = p if os.path.isabs(p) else os.path.join(base, p)
+        if not os.path.exists(full):
+            raise SceneFileError(f"{path}: {where}: file not found: {full}")
+        return full
+
+    common = {k: spec[k] for k in ("intensity", "rotate", "hide_background", "background", "name") if k in spec}
+    if kind == "constant":
+        env = _construct(_env.ConstantEnvironment, {"color": spec.get("color", 1.0), **common}, where, path)
+    elif kind == "latlong":
+        if "file" not in spec:
+            raise SceneFileError(f"{path}: {where}: type 'latlong' needs 'file'")
+        env = _construct(_env.LatLongEnvironment, {"image": rel(spec["file"]), **common,
+                                                   **({"filter": spec["filter"]} if "filter" in spec else {})},
+                         where, path)
+    elif kind == "cube":
+        if ("file" in spec) == ("faces" in spec):
+            raise SceneFileError(f"{path}: {where}: type 'cube' needs exactly one of 'file' (cross) or 'faces'")
+        faces = rel(spec["file"]) if "file" in spec else [rel(f) for f in spec["faces"]]
+        env = _construct(_env.CubeMapEnvironment, {"faces": faces, **common,
+                                                   **({"filter": spec["filter"]} if "filter" in spec else {})},
+                         where, path)
+    else:
+        sky_kw = {k: spec[k] for k in _ENV_KEYS["sky"] - {"filter"} if k in spec}
+        try:
+            img = _env.procedural_sky(**sky_kw)
+        except (TypeError, ValueError) as e:
+            raise SceneFileError(f"{path}: {where}: {e}") from None
+        env = _construct(_env.LatLongEnvironment, {"image": img, **common,
+                                                   **({"filter": spec["filter"]} if "filter" in spec else {})},
+                         where, path)
+    lighting = spec.get("lighting", "mis")
+    try:
+        _env.set_environment(scene, env, lighting=lighting, n_samples=spec.get("samples", 1),
+                             heuristic=spec.get("heuristic", "power"),
+                             preview_samples=spec.get("preview_samples", 16))
+    except ValueError as e:
+        raise SceneFileError(f"{path}: {where}: {e}") from None
