@@ -13,6 +13,7 @@ from .camera import Camera, CameraError
 from .geometry import GeometryError
 from .integrator import RenderResult, RenderStats, render, render_full
 from .lights import DirectionalLight, Light, LightError, PointLight, SpotLight
+from .lights import GoniometricLight, IESLight, ProjectorLight
 from .materials import Material, MaterialError, REGISTRY as MATERIALS, Lambert, BlinnPhong, Mirror, Glass, register
 from .scene import Scene, SceneError, transform_matrix
 from .environment import (ConstantEnvironment, CubeMapEnvironment, EnvironmentLight, EnvironmentMapError,
@@ -25,7 +26,7 @@ from .textures import (CheckerTexture, ConstantTexture, FbmTexture, ImageTexture
 
 __all__ = [
     "Camera", "CameraError", "GeometryError", "RenderResult", "RenderStats", "render", "render_full",
-    "DirectionalLight", "Light", "LightError", "PointLight", "SpotLight", "Material", "MaterialError", "MATERIALS",
+    "DirectionalLight", "Light", "LightError", "PointLight", "SpotLight", "ProjectorLight", "GoniometricLight", "IESLight", "Material", "MaterialError", "MATERIALS",
     "Lambert", "BlinnPhong", "Mirror", "Glass", "register", "Scene", "SceneError", "transform_matrix",
     "read_exr", "write_exr", "write_png", "tonemap_to_display", "SceneFileError", "load_scene",
     "ConstantEnvironment", "CubeMapEnvironment", "EnvironmentLight", "EnvironmentMapError", "LatLongEnvironment",

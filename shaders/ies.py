@@ -132,7 +132,7 @@ def parse_ies(text):
 
 
 def _wrap_values(values, per_line=10):
-    vals = [f"{x:.6g}" for x in np.asarray(values, dtype=np.float64).ravel()]
+    vals = [f"{x:.9g}" for x in np.asarray(values, dtype=np.float64).ravel()]
     return "\n".join(" ".join(vals[i:i + per_line]) for i in range(0, len(vals), per_line))
 
 
@@ -164,7 +164,7 @@ def format_ies(vertical_angles, horizontal_angles, candela, *, keywords=None, lu
     for k, val in (keywords or {}).items():
         out.append(f"[{k}] {val}")
     out.append("TILT=NONE")
-    out.append(f"1 {lumens_per_lamp:.6g} 1 {v.size} {h.size} 1 2 0 0 0")
+    out.append(f"1 {lumens_per_lamp:.9g} 1 {v.size} {h.size} 1 2 0 0 0")
     out.append(f"1 1 {input_watts:.6g}")
     out.append(_wrap_values(v))
     out.append(_wrap_values(h))

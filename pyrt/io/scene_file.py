@@ -16,7 +16,8 @@ Format (every key optional unless marked; unknown keys are errors naming the tab
                         # smooth = "auto" | true | false; name
                         # sphere: radius, subdivisions; box: extents; plane: size, normal;
                         # cylinder: radius, height, sections
-    [[lights]]          # type = "point" | "spot" | "directional" + that light's keyword arguments
+    [[lights]]          # type = "point" | "spot" | "directional" | "projector" | "goniometric" | "ies" + that
+                        # light's keyword arguments (image / profile paths relative to the scene file)
                         # area lights: type = "rect" (center, normal, size, tangent) | "disk" (center, normal,
                         # radius) | "sphere" (center, radius); radiance or power, color, n_samples;
                         # visible = true adds the emitting mesh (seen by camera rays)
@@ -40,7 +41,7 @@ import numpy as np
 import trimesh
 
 from ..camera import Camera
-from ..lights import REGISTRY as LIGHTS
+from ..lights import PATH_ARGUMENTS as LIGHT_PATH_ARGUMENTS, REGISTRY as LIGHTS
 from ..materials import REGISTRY as MATERIALS
 from ..scene import Scene, transform_matrix
 from .. import area_lights as _area_lights  # noqa: F401  (registers "rect", "disk", "sphere" in LIGHTS)
@@ -205,6 +206,9 @@ def load_scene(path):
         if kind not in LIGHTS:
             raise SceneFileError(f"{path}: {where}: unknown light type {kind!r}; choose one of {sorted(LIGHTS)}")
         kwargs = {k: v for k, v in spec.items() if k != "type"}
+        for k in LIGHT_PATH_ARGUMENTS:  # image / IES files relative to the scene file
+            if isinstance(kwargs.get(k), str) and not os.path.isabs(kwargs[k]):
+                kwargs[k] = os.path.join(base, kwargs[k])
         visible = kwargs.pop("visible", True) if hasattr(LIGHTS[kind], "add_to") else None
         light = _construct(LIGHTS[kind], kwargs, where, path)
         if visible is None:
