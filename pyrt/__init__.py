@@ -15,6 +15,8 @@ from .integrator import RenderResult, RenderStats, render, render_full
 from .lights import DirectionalLight, Light, LightError, PointLight, SpotLight
 from .lights import GoniometricLight, IESLight, ProjectorLight
 from .materials import Material, MaterialError, REGISTRY as MATERIALS, Lambert, BlinnPhong, Mirror, Glass, register
+from .materials import (BlinnPhongClassic, CookTorrance, MetallicRoughness, Phong, PhongClassic,  # material library
+                        Ward)
 from .scene import Scene, SceneError, transform_matrix
 from .environment import (ConstantEnvironment, CubeMapEnvironment, EnvironmentLight, EnvironmentMapError,
                           LatLongEnvironment, procedural_sky, set_environment)
@@ -27,7 +29,8 @@ from .textures import (CheckerTexture, ConstantTexture, FbmTexture, ImageTexture
 __all__ = [
     "Camera", "CameraError", "GeometryError", "RenderResult", "RenderStats", "render", "render_full",
     "DirectionalLight", "Light", "LightError", "PointLight", "SpotLight", "ProjectorLight", "GoniometricLight", "IESLight", "Material", "MaterialError", "MATERIALS",
-    "Lambert", "BlinnPhong", "Mirror", "Glass", "register", "Scene", "SceneError", "transform_matrix",
+    "Lambert", "BlinnPhong", "Mirror", "Glass", "register", "Phong", "PhongClassic", "BlinnPhongClassic", "Ward",
+    "CookTorrance", "MetallicRoughness", "Scene", "SceneError", "transform_matrix",
     "read_exr", "write_exr", "write_png", "tonemap_to_display", "SceneFileError", "load_scene",
     "ConstantEnvironment", "CubeMapEnvironment", "EnvironmentLight", "EnvironmentMapError", "LatLongEnvironment",
     "procedural_sky", "set_environment", "AreaEmitter", "DiskLight", "RectLight", "SphereLight",
