@@ -398,12 +398,13 @@ def ewa_axes(duvdx, duvdy, shape, footprint_scale=1.5, max_anisotropy=8.0):
     return major, minor, lam
 
 
-def _ewa_level(image, uv, major, minor, wrap, max_taps=4_000_000):
+def _ewa_level(image, uv, major, minor, wrap, max_taps=2_000_000):
     """EWA-filter ``image`` (one level) at ``uv`` with half-axes given in *this level's* texels.
 
-    Ragged gather: every lookup owns the texels of its ellipse's bounding box; all taps of all
-    lookups are flattened into one array (``np.repeat``) and reduced with ``np.bincount``.
-    Processed in chunks of at most ``max_taps`` taps.
+    Ragged gather over the texels inside each ellipse: for every lookup and texel row the exact
+    x-interval where ``r^2 < 1`` is solved (a quadratic in x), so no tap outside the ellipse is
+    visited; all taps of all lookups are flattened into one array (``np.repeat``) and reduced with
+    ``np.bincount``. Processed in chunks of at most ``max_taps`` taps.
     """
     n = len(uv)
     c = image.shape[2]
@@ -417,39 +418,45 @@ def _ewa_level(image, uv, major, minor, wrap, max_taps=4_000_000):
     sxy = major[:, 0] * major[:, 1] + minor[:, 0] * minor[:, 1]
     det = sxx * syy - sxy * sxy  # >= 1 since Sigma >= I
     ia, ib, ic = syy / det, -2.0 * sxy / det, sxx / det  # r^2 = ia dx^2 + ib dx dy + ic dy^2
-    ex, ey = np.sqrt(sxx), np.sqrt(syy)  # bounding-box half extents of r^2 < 1
-    x0 = np.ceil(x - ex).astype(np.int64)
-    x1 = np.floor(x + ex).astype(np.int64)
+    ey = np.sqrt(syy)  # row half extent of r^2 < 1
     y0 = np.ceil(y - ey).astype(np.int64)
-    y1 = np.floor(y + ey).astype(np.int64)
-    nx = np.maximum(x1 - x0 + 1, 0)
-    ny = np.maximum(y1 - y0 + 1, 0)
-    counts = nx * ny
-    csum = np.cumsum(counts)
+    ny = np.maximum(np.floor(y + ey).astype(np.int64) - y0 + 1, 0)
+    # One entry per (lookup, row): the x-interval of the ellipse on that row.
+    row_owner = np.repeat(np.arange(n), ny)
+    row_k = np.arange(len(row_owner)) - np.repeat(np.cumsum(ny) - ny, ny)
+    iy_r = y0[row_owner] + row_k
+    dy_r = iy_r - y[row_owner]
+    a_r, b_r = ia[row_owner], ib[row_owner] * dy_r
+    disc = b_r * b_r - 4.0 * a_r * (ic[row_owner] * dy_r * dy_r - 1.0)
+    half = np.sqrt(np.maximum(disc, 0.0)) / (2.0 * a_r)
+    mid = x[row_owner] - b_r / (2.0 * a_r)
+    ix0_r = np.ceil(mid - half).astype(np.int64)
+    nx_r = np.where(disc > 0, np.maximum(np.floor(mid + half).astype(np.int64) - ix0_r + 1, 0), 0)
+    taps = np.bincount(row_owner, weights=nx_r, minlength=n).astype(np.int64)
+    tap_csum = np.cumsum(taps)
+    row_start = np.concatenate([[0], np.cumsum(ny)])
+    cut = -np.exp(-EWA_ALPHA)
     start = 0
-    cut = 0.0 - np.exp(-EWA_ALPHA)
     while start < n:
-        base_taps = csum[start - 1] if start > 0 else 0
-        stop = int(np.searchsorted(csum, base_taps + max_taps, side="right"))
-        stop = max(stop, start + 1)
-        sl = slice(start, stop)
-        cnt = counts[sl]
-        owner = np.repeat(np.arange(start, stop), cnt)
-        first = np.repeat(np.cumsum(cnt) - cnt, cnt)
-        k = np.arange(len(owner)) - first
-        nx_o = nx[owner]
-        ix = x0[owner] + k % nx_o
-        iy = y0[owner] + k // nx_o
+        base = tap_csum[start - 1] if start > 0 else 0
+        stop = max(int(np.searchsorted(tap_csum, base + max_taps, side="right")), start + 1)
+        rs = slice(row_start[start], row_start[stop])
+        cnt = nx_r[rs]
+        r_idx = np.repeat(np.arange(rs.start, rs.stop), cnt)
+        kx = np.arange(len(r_idx)) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+        owner = row_owner[r_idx]
+        ix = ix0_r[r_idx] + kx
         dx = ix - x[owner]
-        dy = iy - y[owner]
+        dy = dy_r[r_idx]
         r2 = ia[owner] * dx * dx + ib[owner] * dx * dy + ic[owner] * dy * dy
         w = np.where(r2 < 1.0, np.exp(-EWA_ALPHA * np.minimum(r2, 1.0)) + cut, 0.0)
-        texels = _gather(image, ix, iy, wrap)
+        texels = _gather(image, ix, iy_r[r_idx], wrap)
         local = owner - start
-        wsum = np.bincount(local, weights=w, minlength=stop - start)
+        m = stop - start
+        wsum = np.bincount(local, weights=w, minlength=m)
         for ch in range(c):
-            out[sl, ch] = np.bincount(local, weights=w * texels[:, ch], minlength=stop - start)
-        out[sl] /= np.where(wsum > 0, wsum, 1.0)[:, None]
+            out[start:stop, ch] = np.bincount(local, weights=w * texels[:, ch], minlength=m)
+        out[start:stop] /= np.where(wsum > 0, wsum, 1.0)[:, None]
         start = stop
     return out
 
