@@ -431,7 +431,8 @@ class ProjectorLight(SpotLight):
     ``I(w) = intensity * color * g(cos theta) * image(uv(w))``: the image covers the square
     ``[-tan(outer), tan(outer)]^2`` on the plane one unit along ``direction``, so the outer cone is
     the disc inscribed in it; image ``+u`` (right) lies along ``cross(direction, up)`` and ``+v``
-    (up) along ``up`` projected perpendicular to ``direction``. A white image gives exactly the
+    (up) along ``up`` projected perpendicular to ``direction`` (default ``up``: +y, or -z when the
+    projector points straight up or down). A white image gives exactly the
     plain :class:`SpotLight`. ``image`` is a file path, an ``(H, W[, C])`` array or an
     :class:`pyrt.textures.ImageTexture`; it is looked up bilinearly with clamped edges; 8/16-bit
     files are sRGB-decoded unless ``srgb=False``. ``outer_angle < 90``. The default
@@ -439,7 +440,7 @@ class ProjectorLight(SpotLight):
     ``candela`` (scale of a white texel on the axis).
     """
 
-    def __init__(self, position, direction=None, *, image, target=None, up=(0.0, 1.0, 0.0), intensity=None,
+    def __init__(self, position, direction=None, *, image, target=None, up=None, intensity=None,
                  candela=None, inner_angle=None, outer_angle=30.0, spot_falloff="smoothstep", srgb=None,
                  color=None, temperature=None, falloff="inverse_square", epsilon=None, range=None,  # noqa: A002
                  name=None):
@@ -453,6 +454,8 @@ class ProjectorLight(SpotLight):
         self.color = _resolve_color(owner, color, temperature)
         self._init_falloff(owner, falloff, epsilon, range)
         # image frame: x = right, y = up, z = direction (components only; handedness irrelevant)
+        if up is None:  # world +y, or -z for a projector pointing (nearly) straight up or down
+            up = (0.0, 0.0, -1.0) if abs(self.direction[1]) > 0.999 else (0.0, 1.0, 0.0)
         y, _, z = _frame(owner, self.direction, up, "up")
         self.frame = (np.cross(z, y), y, z)
         self.tan_half = math.tan(math.radians(self.outer_angle))
@@ -472,13 +475,18 @@ class ProjectorLight(SpotLight):
             out[idx] = self.I * g[idx, None] * self.image_factor(w[idx])
         return out
 
-    def radiant_power(self, n_theta=256, n_phi=512):
-        """Power (W, RGB) by Gauss-Legendre quadrature in cos(theta) over the outer cone times a
-        midpoint rule in phi (the image and falloff make it a table, not a closed form); the plain
-        spot closed form times the image value for a constant image."""
+    def radiant_power(self, n_theta=64, n_phi=256):
+        """Power (W, RGB) by Gauss-Legendre quadrature in cos(theta) on the inner cone and on the
+        falloff band (``n_theta`` nodes each) times a midpoint rule in phi (the image makes it a
+        table, not a closed form). For a constant image it reproduces the spot's closed form to
+        ~1e-12; for a detailed image its accuracy is that of the grid (test: 2e-4)."""
         x, wx = np.polynomial.legendre.leggauss(n_theta)
-        c = self.cos_outer + (1 - self.cos_outer) * (x + 1) / 2
-        wc = wx * (1 - self.cos_outer) / 2
+        c, wc = [], []
+        for lo, hi in ((self.cos_outer, self.cos_inner), (self.cos_inner, 1.0)):
+            c.append(lo + (hi - lo) * (x + 1) / 2)
+            wc.append(wx * (hi - lo) / 2)
+        c, wc = np.concatenate(c), np.concatenate(wc)
+        n_theta = c.size
         phi = (np.arange(n_phi) + 0.5) * 2 * np.pi / n_phi
         C, P = np.meshgrid(c, phi, indexing="ij")
         s = np.sqrt(np.maximum(0.0, 1 - C * C))
