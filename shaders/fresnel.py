@@ -106,7 +106,7 @@ def fr_schlick(cos_i, f0):
     Notes
     -----
     Schlick (1994). Against :func:`fr_dielectric` on the outside, the largest absolute error over
-    all angles is 0.060 (eta 1.33), 0.036 (1.5), 0.045 (2.0), 0.076 (2.42), near 80-85 degrees
+    all angles is 0.060 (eta 1.33), 0.036 (1.5), 0.045 (2.0), 0.076 (2.42), at 84-85 degrees
     (``tests/test_fresnel.py`` asserts these bounds); it is not meant for the inside of a
     dielectric (no total internal reflection).
     """
