@@ -170,7 +170,8 @@ class Lambert(Material):
 
 
 class BlinnPhong(Material):
-    """Energy-normalised Blinn-Phong: ``kd/pi + ks (n+8)/(8 pi) (n.h)^n`` (reciprocal).
+    """Energy-normalised Blinn-Phong: ``kd/pi + ks c(n) (n.h)^n`` (reciprocal), with the exact
+    normalisation ``c(n) = (n+2)(n+4) / (8 pi (2^(-n/2) + n))`` (shaders.brdfs.blinn_phong_normalization).
 
     ``kd + ks <= 1`` per channel is required so that the model conserves energy.
     """
