@@ -243,15 +243,16 @@ class ConstantEnvironment(Environment):
 def _prefilter_stack(image):
     """Roughness-indexed stack for :data:`PREFILTER_ALPHAS`: level 0 = the image, then GGX-prefiltered maps.
 
-    Output size per level ~ 8 texels across the lobe (``W_o ~ 2 pi / (alpha / 4)``, between 32 and the
-    source width), source read through an exact-box MIP pyramid.
+    Output texels about ``alpha / 2`` wide (``W_o = 2^ceil(log2(4 pi / alpha))``, between 32 and the
+    source width), source read through an exact-box MIP pyramid; 128 Hammersley samples per texel.
+    About 2.5 s for a 256 x 128 source.
     """
     img = np.asarray(image, dtype=np.float64)
     h, w = img.shape[:2]
     levels = [_tex.build_mip_level(img, lv) for lv in range(_tex.n_mip_levels(img.shape))]
     maps = [img]
     for a in PREFILTER_ALPHAS[1:]:
-        wo = int(min(w, max(32, 2 ** math.ceil(math.log2(8.0 * math.pi / a)))))
+        wo = int(min(w, max(32, 2 ** math.ceil(math.log2(4.0 * math.pi / a)))))
         ho = max(16, wo // 2)
         maps.append(K.prefilter_latlong_ggx(levels, a, (ho, wo), n_samples=128))
     return maps

@@ -501,12 +501,13 @@ def cube_to_latlong(faces, height, width, filter="bilinear"):
 
 # ----------------------------------------------------------------------------- spherical harmonics
 
-#: R&H 2001 eq. (3) constants
-_SH_C0 = 0.282095
-_SH_C1 = 0.488603
-_SH_C2 = 1.092548
-_SH_C20 = 0.315392
-_SH_C22 = 0.546274
+#: R&H 2001 eq. (3) constants, in closed form (R&H print them to 6 digits: 0.282095, 0.488603,
+#: 1.092548, 0.315392, 0.546274; the exact values keep the basis orthonormal to 1e-16)
+_SH_C0 = 0.5 / np.sqrt(np.pi)
+_SH_C1 = np.sqrt(3.0 / (4.0 * np.pi))
+_SH_C2 = np.sqrt(15.0 / (4.0 * np.pi))
+_SH_C20 = np.sqrt(5.0 / (16.0 * np.pi))
+_SH_C22 = np.sqrt(15.0 / (16.0 * np.pi))
 
 #: convolution with the clamped cosine, per coefficient (R&H eq. 8): A_0 = pi, A_1 = 2 pi / 3, A_2 = pi / 4
 SH9_COSINE_LOBE = np.array([np.pi] + [2.0 * np.pi / 3.0] * 3 + [np.pi / 4.0] * 5)
@@ -610,7 +611,7 @@ def prefilter_latlong_ggx(levels, alpha, out_shape, n_samples=128):
     pdf_l = _mf.ggx_d(cos_h, alpha) / 4.0                      # n = v: D (n.h) / (4 v.h) = D / 4
     omega_s = 1.0 / (n_samples * np.maximum(pdf_l, 1e-300))
     omega_p = 4.0 * np.pi / (h0 * w0)
-    lod = np.clip(0.5 * np.log2(omega_s / omega_p) + 1.0, 0.0, len(levels) - 1)
+    lod = np.clip(0.5 * np.log2(omega_s / omega_p) - 1.0, 0.0, len(levels) - 1)
     out = np.zeros((r.shape[0], levels[0].shape[2]))
     wsum = np.zeros(r.shape[0])
     for k in range(n_samples):
