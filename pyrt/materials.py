@@ -100,15 +100,26 @@ class Material:
     name = None
 
     def param(self, value, ctx, channels=3):
-        """Resolve a constant or a texture to an ``(N, channels)`` array (``(N,)`` if channels == 1)."""
+        """Resolve a constant or a texture to an ``(N, channels)`` array (``(N,)`` if channels == 1).
+
+        Texture lookups are cached on ``ctx`` (keyed by the texture object), so a material evaluated
+        for several lights on the same hits reads its textures once.
+        """
         n = ctx.n_hits
         if _is_texture(value):
+            cache = ctx.__dict__.setdefault("_param_cache", {})
+            key = (id(value), channels)
+            if key in cache:
+                return cache[key]
             out = np.asarray(value.evaluate(ctx), dtype=np.float64)
             if channels == 1:
-                return out.reshape(n, -1)[:, 0]
-            if out.ndim == 1 or out.shape[1] == 1:
-                return np.repeat(out.reshape(n, 1), 3, axis=1)
-            return out[:, :3]
+                out = out.reshape(n, -1)[:, 0]
+            elif out.ndim == 1 or out.shape[1] == 1:
+                out = np.repeat(out.reshape(n, 1), 3, axis=1)
+            else:
+                out = out[:, :3]
+            cache[key] = out
+            return out
         arr = np.asarray(value, dtype=np.float64)
         if channels == 1:
             return np.full(n, float(arr))
