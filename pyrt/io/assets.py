@@ -672,6 +672,8 @@ class _Gltf:
                 raise AssetError(f"{path}: GLB has no JSON chunk first")
             text = chunks[0][1]
             glb_bin = next((c for t, c in chunks[1:] if t == _CHUNK_BIN), None)
+        elif path.lower().endswith(".glb"):
+            raise AssetError(f"{path}: not a GLB file (the first 4 bytes are {data[:4]!r}, expected b'glTF')")
         else:
             text = data
         try:
@@ -982,6 +984,27 @@ def gltf_node_transforms(header):
         out[i] = world
         stack.extend((c, world) for c in nodes[i].get("children", []))
     return out
+
+
+def pack_glb(header, binary=b""):
+    """Encode a glTF JSON ``header`` (dict) and its binary buffer as GLB 2.0 bytes.
+
+    Buffer 0 of ``header`` must be the binary chunk (no ``uri``); chunks are padded to 4 bytes
+    (JSON with spaces, binary with zeros) as the specification requires.
+    """
+    js = json.dumps(header, separators=(",", ":")).encode("utf-8")
+    js += b" " * (-len(js) % 4)
+    binary = bytes(binary) + b"\0" * (-len(binary) % 4)
+    chunks = struct.pack("<II", len(js), _CHUNK_JSON) + js
+    if binary:
+        chunks += struct.pack("<II", len(binary), _CHUNK_BIN) + binary
+    return struct.pack("<III", _GLB_MAGIC, 2, 12 + len(chunks)) + chunks
+
+
+def read_gltf(path):
+    """The JSON header (dict) and the buffers (list of bytes) of a .gltf or .glb file."""
+    g = _Gltf(os.fspath(path))
+    return g.header, g.buffers
 
 
 def _strip_faces(idx, mode):
