@@ -169,7 +169,11 @@ def bounding_sphere(points):
 
 
 def up_transform(axis):
-    """4x4 rotation taking the unit vector of ``axis`` ("+z", ...) to +y (identity for "+y")."""
+    """4x4 rotation taking the unit vector of ``axis`` ("+z", ...) to +y: the smallest rotation.
+
+    A quarter turn about ``axis x y`` (so "+z" maps ``(x, y, z) -> (x, z, -y)``: a z-up model's
+    front, -y, faces +z, the default camera side), half a turn about x for "-y", identity for "+y".
+    """
     import trimesh
 
     a = np.asarray(AXES[axis], dtype=np.float64)
@@ -177,7 +181,7 @@ def up_transform(axis):
         return np.eye(4)
     if axis == "-y":
         return trimesh.transformations.rotation_matrix(math.pi, [1, 0, 0])
-    return trimesh.geometry.align_vectors(a, [0, 1, 0])
+    return trimesh.transformations.rotation_matrix(math.pi / 2, np.cross(a, [0.0, 1.0, 0.0]))
 
 
 def _base_area(v, f, up):

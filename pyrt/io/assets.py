@@ -55,12 +55,12 @@ from __future__ import annotations
 
 import base64
 from dataclasses import dataclass, field
-import io
 import json
 import math
 import os
 import re
 import struct
+import tempfile
 import time
 import urllib.parse
 
@@ -72,7 +72,7 @@ from shaders import color as _color
 from ..camera import Camera
 from ..lights import DirectionalLight, PointLight, SpotLight
 from ..materials import BlinnPhong, Glass, Material
-from ..textures import ImageTexture, NormalMap, TextureError
+from ..textures import ImageTexture, NormalMap, TextureError, load_image
 
 try:  # the glTF metallic-roughness BRDF (material library, issue 3)
     from ..materials import MetallicRoughness
@@ -791,45 +791,56 @@ class _Gltf:
         return np.maximum(y, -1.0) if info.min < 0 else y
 
     def image_array(self, ii):
-        """Image ``ii`` decoded to an (H, W[, C]) integer array (cached)."""
+        """Image ``ii`` decoded by :func:`pyrt.textures.load_image`: ``((H, W, C) float32 in its stored
+        encoding, label)``, cached. Embedded images go through a temporary file of their type."""
         if ii in self._img_cache:
             return self._img_cache[ii]
         im = self._get("images", ii)
-        if "uri" in im:
-            what = f"image {ii}" + (f" ({im['uri']})" if not im["uri"].startswith("data:") else "")
-            blob = self._read_uri(im["uri"], what)
-            label = im["uri"] if not im["uri"].startswith("data:") else f"image {ii} (data URI)"
-        elif "bufferView" in im:
-            blob, _ = self.view_bytes(im["bufferView"])
-            label = f"image {ii} (embedded)"
+        uri = im.get("uri")
+        if uri is not None and not uri.startswith("data:"):
+            fpath = os.path.join(self.base, urllib.parse.unquote(uri))
+            label = uri
+            if not os.path.isfile(fpath):
+                raise AssetError(f"{self.path}: image {ii} ({uri}): file not found: {fpath}")
+            arr = _load_image_file(fpath, f"{self.path}: image {ii} ({uri})")
         else:
-            raise AssetError(f"{self.path}: image {ii} has neither uri nor bufferView")
-        arr = _decode_image(blob, f"{self.path}: {label}")
+            if uri is not None:
+                blob, label = self._read_uri(uri, f"image {ii}"), f"image {ii} (data URI)"
+            elif "bufferView" in im:
+                blob, label = self.view_bytes(im["bufferView"])[0], f"image {ii} (embedded)"
+            else:
+                raise AssetError(f"{self.path}: image {ii} has neither uri nor bufferView")
+            arr = _decode_image_bytes(blob, f"{self.path}: {label}")
         self._img_cache[ii] = (arr, label)
         return arr, label
 
 
+def _load_image_file(path, label):
+    try:
+        return load_image(path)[0]
+    except TextureError as exc:
+        raise AssetError(f"{label}: {exc}") from None
+
+
+def _decode_image_bytes(blob, label):
+    """Decode PNG/JPEG bytes with pyrt's image reader (16-bit PNGs stay 16-bit) via a temporary file."""
+    if blob[:8] == b"\x89PNG\r\n\x1a\n":
+        ext = ".png"
+    elif blob[:3] == b"\xff\xd8\xff":
+        ext = ".jpg"
+    else:
+        raise AssetError(f"{label}: not a PNG or JPEG image (first bytes {blob[:8]!r})")
+    fd, tmp = tempfile.mkstemp(suffix=ext)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(blob)
+        return _load_image_file(tmp, label)
+    finally:
+        os.remove(tmp)
+
+
 _SUPPORTED_EXTENSIONS = {"KHR_lights_punctual", "KHR_texture_transform", "KHR_materials_emissive_strength",
                          "KHR_mesh_quantization"}
-
-
-def _decode_image(blob, label):
-    from PIL import Image, UnidentifiedImageError
-
-    try:
-        img = Image.open(io.BytesIO(blob))
-        img.load()
-    except (UnidentifiedImageError, OSError, ValueError) as exc:
-        raise AssetError(f"{label}: cannot decode image: {exc}") from None
-    if img.mode in ("P", "PA", "CMYK", "YCbCr", "LAB", "HSV", "1"):
-        img = img.convert("RGBA" if ("A" in img.mode or "transparency" in img.info) else "RGB")
-    arr = np.asarray(img)
-    if arr.dtype not in (np.uint8, np.uint16):
-        if np.issubdtype(arr.dtype, np.integer) and arr.max(initial=0) <= 65535:
-            arr = arr.astype(np.uint16)
-        else:
-            raise AssetError(f"{label}: unsupported image pixel type {arr.dtype} (mode {img.mode})")
-    return arr
 
 
 def gltf_uv_transform(ext):
