@@ -28,6 +28,8 @@ import numpy as np
 from . import offsets
 from .accel import Accel, T_INFINITE
 from .geometry import refract_differentials, reflect_differentials, surface_from_hits
+from . import gouraud
+from .dielectrics import NestedMedia
 from .textures import apply_normal_maps
 
 
@@ -62,6 +64,10 @@ class PreparedScene:
         mats = scene.materials
         self.has_delta = np.array([m.has_delta for m in mats], dtype=bool)
         self.has_diffuse = np.array([m.has_diffuse for m in mats], dtype=bool)
+        # nested dielectrics (pyrt.dielectrics): per-ray interface stacks only when the scene needs them
+        self.media = NestedMedia.for_scene(mats)
+        # faces shaded per vertex (pyrt.gouraud), None when no mesh asks for it
+        self.face_gouraud = gouraud.face_mask(self.geo, getattr(scene, "gouraud_meshes", ()))
         self.needs_differentials = any(_uses_texture(m) for m in mats)
         # materials with a tangent-space normal map (attribute ``normal_map``, see pyrt.textures)
         self.has_normal_maps = any(getattr(m, "normal_map", None) is not None for m in mats)
@@ -196,10 +202,17 @@ class Integrator:
         lights = self.scene.lights
         ambient = self.scene.ambient
         use_diffs = diffs is not None and self.ps.needs_differentials
+        media = self.ps.media
+        stack = media.empty(n) if media is not None else None
         for depth in range(self.max_depth + 1):
             if o.shape[0] == 0:
                 break
             hits = self._intersect(o, d, "primary" if depth == 0 else "secondary")
+            if media is not None:  # nested dielectrics: continue through false hits; Beer-Lambert absorption
+                hits, seg_t, stack = media.skip_false_hits(
+                    self.ps.geo, hits, o, d, stack, lambda o2, d2: self._intersect(o2, d2, "secondary"),
+                    lambda hs, o2, d2: self.offset(surface_from_hits(self.ps.geo, hs, o2, d2), d2))
+                thr = thr * media.attenuation(stack, seg_t)
             miss = ~hits.hit
             if np.any(miss):
                 _scatter_add(L, sample[miss], thr[miss] * self.background(d[miss], primary=depth == 0))
@@ -232,6 +245,11 @@ class Integrator:
                     Lh[sel] += mat.albedo(ctx) * ambient
             # direct light at hits whose material has a non-delta lobe
             diffuse_idx = np.flatnonzero(self.ps.has_diffuse[mids])
+            if self.ps.face_gouraud is not None and diffuse_idx.size and lights:
+                g = diffuse_idx[self.ps.face_gouraud[surf.face[diffuse_idx]]]
+                if g.size:  # Gouraud faces: lighting at the vertices, interpolated (pyrt.gouraud)
+                    Lh[g] += gouraud.direct_light(self, surf.subset(g), o[h[g]], rng)
+                    diffuse_idx = np.setdiff1d(diffuse_idx, g, assume_unique=True)
             if diffuse_idx.size and lights:
                 dsurf = surf.subset(diffuse_idx)
                 bsdf = BSDFBatch(dsurf, materials)
@@ -242,10 +260,10 @@ class Integrator:
             if depth == self.max_depth:
                 break
             # specular continuation
-            new = self._spawn_specular(surf, thr_h, s_idx, dsub)
+            new = self._spawn_specular(surf, thr_h, s_idx, dsub, None if media is None else stack[h])
             if new is None:
                 break
-            o, d, thr, sample, diffs = new
+            o, d, thr, sample, diffs, stack = new
         return L, aovs
 
     def _visibility(self, surf):
@@ -257,17 +275,20 @@ class Integrator:
             return ~self._occluded(origins, wi, tmax)
         return visible
 
-    def _spawn_specular(self, surf, thr_h, s_idx, dsub):
+    def _spawn_specular(self, surf, thr_h, s_idx, dsub, stack_h=None):
         mids = surf.material_id
         spec_idx = np.flatnonzero(self.ps.has_delta[mids])
         if spec_idx.size == 0:
             return None
+        media = self.ps.media if stack_h is not None else None
+        eta_h = None if media is None else media.eta_for_hits(stack_h, mids, surf.front)
         parts = []
         for k in np.unique(mids[spec_idx]):
             sel = spec_idx[mids[spec_idx] == k]
             ctx = surf.subset(sel)
             wo_l = ctx.to_local(ctx.wo)
-            for lobe in self.scene.materials[k].delta_lobes(wo_l, ctx):
+            kw = {"eta": eta_h[sel]} if media is not None and media.participates[k] else {}
+            for lobe in self.scene.materials[k].delta_lobes(wo_l, ctx, **kw):
                 t_new = thr_h[sel] * lobe.weight
                 keep = np.flatnonzero(t_new.max(axis=1) > self.throughput_cutoff)
                 if keep.size == 0:
@@ -283,7 +304,7 @@ class Integrator:
                         new_d = refract_differentials(c, rx_d, ry_d, w, lobe.eta[keep])
                     else:
                         new_d = reflect_differentials(c, rx_d, ry_d, w)
-                parts.append((origins, w, t_new[keep], s_idx[sel[keep]], new_d))
+                parts.append((origins, w, t_new[keep], s_idx[sel[keep]], new_d, sel[keep], lobe.kind == "refract"))
         if not parts:
             return None
         o = np.concatenate([p[0] for p in parts])
@@ -293,7 +314,12 @@ class Integrator:
         diffs = None
         if dsub is not None:
             diffs = tuple(np.concatenate([p[4][i] for p in parts]) for i in range(4))
-        return o, d, thr, sample, diffs
+        stack = None
+        if media is not None:  # the spawned rays' interface stacks (refraction crosses the interface)
+            src = np.concatenate([p[5] for p in parts])
+            refr = np.concatenate([np.full(p[5].size, p[6]) for p in parts])
+            stack = media.spawn_stacks(stack_h, mids, surf.front, src, refr)
+        return o, d, thr, sample, diffs, stack
 
 
 def normalize_rows(w):

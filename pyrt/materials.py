@@ -231,6 +231,14 @@ class Glass(Material):
     reflection gives R = 1. The 1/eta^2 factor is the radiance compression across the interface
     (radiance / eta^2 is invariant along a ray), as in pbrt-v4 and Mitsuba 3 in radiance mode; through
     a closed object the factors of entering and leaving cancel. Energy: R + (1 - R) = 1 (tested).
+
+    Nested dielectrics (:mod:`pyrt.dielectrics`, Schmidt & Budge 2002): ``priority`` decides which
+    volume wins where volumes overlap (higher wins; surfaces inside a higher-priority volume are
+    ignored) and ``absorption`` is the Beer-Lambert coefficient sigma_a (RGB, per scene unit) of the
+    medium the glass encloses (``pyrt.dielectrics.absorption_from_transmittance`` converts a colour
+    at a distance). With the defaults (priority 0, no absorption) and a single dielectric in the
+    scene nothing changes; otherwise the integrator passes ``eta`` (eta_t / eta_i from the ray's
+    interface stack) to :meth:`delta_lobes`.
     """
 
     type_name = "glass"
@@ -238,14 +246,21 @@ class Glass(Material):
     has_delta = True
     is_dielectric = True
 
-    def __init__(self, ior=1.5, *, tint=1.0, name=None):
+    def __init__(self, ior=1.5, *, tint=1.0, priority=0, absorption=0.0, name=None):
         self.name = name
         owner = f"Glass({name or ''})"
         self.ior = check_scalar("ior", ior, owner, lo=0.0, lo_open=True)
         self.tint = check_color("tint", tint, owner, lo=0.0, hi=1.0)
+        self.priority = check_scalar("priority", priority, owner)
+        self.absorption = check_color("absorption", absorption, owner, lo=0.0)
+        if _is_texture(self.absorption) or _is_texture(self.priority):
+            raise MaterialError(f"{owner}: priority and absorption must be constants, not textures")
 
-    def delta_lobes(self, wo, ctx):
-        eta = np.where(ctx.front, self.ior, 1.0 / self.ior)  # eta_t / eta_i
+    def delta_lobes(self, wo, ctx, *, eta=None):
+        """Reflection and refraction lobes; ``eta`` (N,) = eta_t / eta_i overrides the single-interface
+        ``ior`` (front) / ``1 / ior`` (back) when the ray's interface stack decides the indices."""
+        if eta is None:
+            eta = np.where(ctx.front, self.ior, 1.0 / self.ior)  # eta_t / eta_i
         cos_o = wo[:, 2]
         R = fresnel.fr_dielectric(cos_o, eta)
         nz = np.zeros_like(wo)

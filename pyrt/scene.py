@@ -78,6 +78,8 @@ class Scene:
         self.materials: list[Material] = []
         self.lights: list[Light] = []
         self.meshes: list[MeshData] = []
+        #: indices of meshes shaded per vertex (``add_mesh(..., shading="gouraud")``, see pyrt.gouraud)
+        self.gouraud_meshes: set[int] = set()
 
     # -- building -----------------------------------------------------------------------------
     def add_material(self, material):
@@ -95,7 +97,8 @@ class Scene:
         self.lights.append(light)
         return light
 
-    def add_mesh(self, mesh, material, *, transform=None, smooth="auto", crease_angle=30.0, name=None, normals=None):
+    def add_mesh(self, mesh, material, *, transform=None, smooth="auto", crease_angle=30.0, name=None, normals=None,
+                 shading=None):
         """Add a trimesh mesh (or a ``(vertices, faces)`` pair) with a material.
 
         Parameters
@@ -110,8 +113,17 @@ class Scene:
             False: flat shading (shading normal = geometric normal).
         normals : (V, 3) array, optional
             Object-space vertex normals to use as given (smooth shading; overrides ``smooth``).
+        shading : {None, "flat", "phong", "gouraud"}
+            The course's shading models. "flat": one normal per triangle (same as ``smooth=False``);
+            "phong": normals interpolated, lighting at every hit (the default with ``smooth``);
+            "gouraud": lighting evaluated at the three vertices (vertex normals per ``smooth``) and
+            the resulting radiance interpolated across the triangle (:mod:`pyrt.gouraud`).
         """
         name = name or f"mesh{len(self.meshes)}"
+        if shading not in (None, "flat", "phong", "gouraud"):
+            raise SceneError(f"mesh {name!r}: shading must be None, 'flat', 'phong' or 'gouraud', got {shading!r}")
+        if shading == "flat":
+            smooth = False
         if isinstance(mesh, (tuple, list)):
             v, f = mesh
             mesh = trimesh.Trimesh(vertices=np.asarray(v, dtype=np.float64), faces=np.asarray(f), process=False)
@@ -162,6 +174,8 @@ class Scene:
         mat_id = self.add_material(material)
         self.meshes.append(MeshData(vertices=v_world, faces=faces, normals=normals, uv=uv, vertices_object=v_obj,
                                     material_id=mat_id, smooth=normals is not None, name=name))
+        if shading == "gouraud":
+            self.gouraud_meshes.add(len(self.meshes) - 1)
         return len(self.meshes) - 1
 
     # -- convenience primitives ----------------------------------------------------------------
