@@ -249,10 +249,10 @@ class NestedMedia:
         Returns
         -------
         hits, t_total, stack
-            Hits with false hits replaced by what lies behind them; ``t_total`` (N,) the distance
-            from ``o`` to the final hit (``inf`` for misses); the updated stacks. Rays still on a
-            false hit after :data:`MAX_FALSE_HITS` rounds become misses with ``t_total = nan``
-            (the caller drops them).
+            Hits with false hits replaced by what lies behind them (their ``t`` measured from ``o``);
+            ``t_total`` (N,) the distance from ``o`` to the final hit (``inf`` for misses); the
+            updated stacks. Rays that needed more than :data:`MAX_FALSE_HITS` continuations become
+            misses with ``t_total = nan`` (:meth:`attenuation` gives them zero weight).
         """
         from .accel import Hits
 
@@ -299,5 +299,6 @@ class NestedMedia:
                 cur["hit"][still] = False
                 t_acc[still] = np.nan
         t_total = np.where(cur["hit"], t_acc + np.where(cur["hit"], cur["t"], 0.0), np.inf)
+        cur["t"] = np.where(cur["hit"], t_total, cur["t"])    # depth AOV: distance from the original origin
         t_total[np.isnan(t_acc)] = np.nan
         return Hits(**cur), t_total, stack

@@ -98,3 +98,27 @@ def test_shading_option_is_validated():
     scene = pyrt.Scene()
     with pytest.raises(pyrt.SceneError, match="shading must be"):
         scene.add_mesh((V, F), pyrt.Lambert(), shading="toon")
+
+
+def test_scene_file_shading_key(tmp_path):
+    f = tmp_path / "s.toml"
+    f.write_text("""
+[camera]
+width = 8
+height = 8
+[materials.red]
+type = "lambert"
+albedo = [0.8, 0.1, 0.1]
+[[meshes]]
+primitive = "sphere"
+subdivisions = 1
+material = "red"
+shading = "gouraud"
+[[lights]]
+type = "point"
+position = [2, 2, 3]
+intensity = 10
+""")
+    scene, _ = pyrt.load_scene(str(f))
+    assert scene.gouraud_meshes == {0}
+    assert np.all(np.isfinite(pyrt.render(scene)))

@@ -13,7 +13,7 @@ Format (every key optional unless marked; unknown keys are errors naming the tab
     [[meshes]]          # file = "path" (relative to the scene file) OR primitive = "sphere" | "box" |
                         # "plane" | "cylinder"; material = NAME (required); transform: translate, rotate
                         # ([angle_deg, [x, y, z]] or a list of them), scale, or matrix (4x4);
-                        # smooth = "auto" | true | false; name
+                        # smooth = "auto" | true | false; shading = "flat" | "phong" | "gouraud"; name
                         # sphere: radius, subdivisions; box: extents; plane: size, normal;
                         # cylinder: radius, height, sections
     [[lights]]          # type = "point" | "spot" | "directional" | "projector" | "goniometric" | "ies" + that
@@ -55,7 +55,7 @@ class SceneFileError(ValueError):
 _CAMERA_KEYS = {"position", "target", "up", "fov", "width", "height", "spp", "jitter"}
 _RENDER_KEYS = {"max_depth", "seed", "background", "ambient", "throughput_cutoff", "offset"}
 _MESH_COMMON = {"file", "primitive", "material", "translate", "rotate", "scale", "matrix", "smooth", "name",
-                "crease_angle"}
+                "crease_angle", "shading"}
 _PRIMITIVE_KEYS = {"sphere": {"radius", "subdivisions"}, "box": {"extents"}, "plane": {"size", "normal"},
                    "cylinder": {"radius", "height", "sections"}}
 _TOP_KEYS = {"camera", "render", "materials", "meshes", "lights", "environment"}
@@ -194,7 +194,8 @@ def load_scene(path):
             tf = transform_matrix(translate=spec.get("translate"), rotate=spec.get("rotate"),
                                   scale=spec.get("scale"), matrix=spec.get("matrix"))
             scene.add_mesh(mesh, materials[spec["material"]], transform=tf, smooth=spec.get("smooth", smooth_default),
-                           crease_angle=spec.get("crease_angle", 30.0), name=spec.get("name", f"mesh{i}"))
+                           crease_angle=spec.get("crease_angle", 30.0), name=spec.get("name", f"mesh{i}"),
+                           shading=spec.get("shading"))
         except ValueError as e:
             raise SceneFileError(f"{path}: {where}: {e}") from None
 
