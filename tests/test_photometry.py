@@ -161,3 +161,10 @@ def test_default_falloff_path_is_unchanged():
     # and the generic path agrees with it to rounding
     b = pyrt.PointLight((0.2, 1, 0), 3.0, range=1e9)
     np.testing.assert_allclose(b.sample(p, None)[2], a.sample(p, None)[2], rtol=1e-14)
+
+
+@pytest.mark.parametrize("kind", sorted(K.SPOT_FALLOFFS))
+def test_spot_falloff_kernels_keep_dtype(kind, dtype):
+    c = np.linspace(-1, 1, 7).astype(dtype)
+    g = K.SPOT_FALLOFFS[kind](c, 0.9, 0.7)
+    assert g.dtype == dtype and np.all(np.isfinite(g)) and g.min() >= 0 and g.max() <= 1
