@@ -111,7 +111,7 @@ class SurfaceBatch:
 
     FIELDS = ("p", "p_object", "ng", "ns", "front", "wo", "uv", "dpdu", "dpdv", "duvdx", "duvdy", "dpdx", "dpdy",
               "dndx", "dndy", "mesh_id", "prim_id", "face", "material_id", "bary", "t", "p_error",
-              "frame_s", "frame_t")
+              "frame_s", "frame_t", "tri_v", "tri_n")
 
     def __init__(self, lazy=None, **kwargs):
         """``lazy`` maps field names to a function computing a dict of fields on first access."""
@@ -150,6 +150,20 @@ class SurfaceBatch:
         """Replace the shading normals (unit, (N, 3)) and rebuild the local frame."""
         self.ns = ns
         self.frame_s, self.frame_t = coordinate_frame(ns)
+
+    def light_side(self, wi):
+        """True where light arriving from ``wi`` (N, 3) can reach the side of the surface seen by ``wo``.
+
+        ``ng . wi > 0``; on faces with interpolated vertex normals also where the interpolated vertex
+        normal (``tri_n``, before any normal map) faces ``wi``: the shadow-terminator zone of a
+        smooth-shaded low-poly mesh, where the shadow ray (from the origin lifted by
+        :func:`pyrt.offsets.terminator_point`) decides instead of the flat facet.
+        """
+        lit = dot(wi, self.ng) > 0
+        if self.tri_n is None:
+            return lit
+        n_interp = np.einsum("ij,ijk->ik", self.bary, self.tri_n)   # zero on flat faces
+        return lit | (dot(wi, n_interp) > 0)
 
     def to_local(self, w):
         return np.stack([dot(w, self.frame_s), dot(w, self.frame_t), dot(w, self.ns)], axis=1)
@@ -291,7 +305,17 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
             out["dndy"] = np.where(sm, by1[:, None] * dn1 + by2[:, None] * dn2, 0.0)
         return out
 
+    def triangle_group():
+        # the hit triangle's float32-exact vertices and its vertex normals turned to the ng side (zero on flat
+        # faces), for ray offsets (pyrt.offsets: local error bounds, shadow-terminator lift)
+        tri_n = np.zeros((n, 3, 3))
+        if np.any(smooth):
+            s = np.flatnonzero(smooth)
+            tri_n[s] = nrm[tri[s]] * sign[s, None, None]
+        return {"tri_v": np.stack([v0, v1, v2], axis=1), "tri_n": tri_n}
+
     lazy = {k: uv_group for k in ("uv", "dpdu", "dpdv")}
+    lazy.update({k: triangle_group for k in ("tri_v", "tri_n")})
     lazy["p_object"] = object_group
     lazy.update({k: differential_group for k in ("dpdx", "dpdy", "dndx", "dndy", "duvdx", "duvdy")})
     surf = SurfaceBatch(lazy=lazy, p=p, ng=ng, ns=ns, front=front, wo=wo, mesh_id=hits.mesh_id,

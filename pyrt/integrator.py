@@ -269,9 +269,7 @@ class Integrator:
     def _visibility(self, surf):
         def visible(idx, wi, dist):
             sub = surf.subset(idx)
-            origins = self.offset(sub, wi)
-            finite = np.isfinite(dist)
-            tmax = np.where(finite, dist * offsets.SHADOW_TMAX_SCALE, np.inf)
+            origins, tmax = self.offset.shadow(sub, wi, dist)   # offsets.Strategy: origin, tmax, terminator
             return ~self._occluded(origins, wi, tmax)
         return visible
 

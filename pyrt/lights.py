@@ -136,8 +136,8 @@ class Light:
                 u = rng.random((n, 2))
                 u[:, 0] = (s + u[:, 0]) / ns
             wi, dist, E = self.sample(surf.p, u)
-            cos_g = np.einsum("ij,ij->i", wi, surf.ng)
-            active = (cos_g > 0) & (E.max(axis=1) > 0)
+            # ng . wi > 0, or the interpolated vertex normal faces the light (shadow terminator, pyrt.offsets)
+            active = surf.light_side(wi) & (E.max(axis=1) > 0)
             idx = np.flatnonzero(active)
             if idx.size == 0:
                 continue

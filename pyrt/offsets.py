@@ -1,33 +1,171 @@
 """Ray-origin offsets for secondary and shadow rays: one place, selectable per render.
 
-A strategy is a function ``strategy(surf, w) -> origins`` taking a :class:`pyrt.geometry.SurfaceBatch`
-and the new rays' unit directions ``w`` (N, 3) and returning float64 ray origins (N, 3) that, once
-cast to float32 for Embree (whose rays start at t = 0), lie on the side of the surface the ray leaves
-toward and do not re-hit the surface they start on.
+Embree's rays start at t = 0 and read float32 origins, so a ray spawned at a surface point must start
+a little off the surface: too little and it re-hits the surface it leaves (shadow acne, black specks in
+mirrors and glass), too much and it starts beyond a nearby occluder (light leaking through thin walls,
+shadows detached from their casters, "peter-panning"). :mod:`pyrt.acne` measures every strategy below
+on stress scenes with analytic ground truth; ``python -m pyrt.acne`` prints the table.
 
-``surf.p_error`` holds ``sum_i |b_i| |v_i|`` (component-wise), the magnitude that bounds the
-float32 error of the hit point (the hit is rebuilt in float64 from the float32 vertices Embree sees).
+Interface
+---------
+A *strategy* is a :class:`Strategy`: ``strategy(surf, w) -> origins`` gives float64 origins (N, 3) of
+secondary rays with unit directions ``w`` (N, 3) leaving the hits of ``surf``
+(:class:`pyrt.geometry.SurfaceBatch`), and ``strategy.shadow(surf, wi, dist) -> (origins, tmax)`` gives
+shadow rays toward a light at distance ``dist`` (``inf`` for directional light). ``pyrt.render(scene,
+offset=...)`` takes a name of :data:`STRATEGIES` or any callable ``f(surf, w) -> origins``; a plain
+callable is wrapped by :func:`get_strategy` (its shadow rays end ``SHADOW_TMAX_SCALE`` short of the
+light, pbrt's rule, and it gets no terminator lift).
+
+Origin functions (``f(surf, w) -> origins``; all push to the side of the surface ``w`` leaves toward)
+---------------------------------------------------------------------------------------------------
+``none``            the hit point itself.
+``ray_epsilon``     ``p + RAY_EPSILON w`` (a fixed 1e-4 along the ray: acne at grazing angles and at
+                    large scales, leaks at small scales).
+``normal_epsilon``  ``p +- NORMAL_EPSILON ng``.
+``scaled_epsilon``  ``p +- (1 + max_j |p_j|) RAY_EPSILON_MITSUBA ng``: Mitsuba 3's relative epsilon
+                    (``math::RayEpsilon`` = 1500 * 2^-24), here along the normal. Its "1 +" stops it from
+                    scaling down (millimetre scenes leak) and far from the origin it grows with |p|.
+``wachter_binder_rtg``  Wachter & Binder, "A Fast and Robust Method for Avoiding Self-Intersection"
+                    (Ray Tracing Gems ch. 6): add ``256 n`` (as integers) to the float32 bit patterns of
+                    the coordinates; coordinates below 1/32 in magnitude get the fixed ``n / 65536``.
+``wachter_binder``  the same with a *scale-aware floor*: the published constants 1/32 and 1/65536 assume
+                    a scene of size ~1; a 1e-4-sized scene is smaller than the floor offset 1.5e-5 times
+                    a few, so it leaks. Here both thresholds are multiplied by the hit triangle's
+                    largest vertex coordinate magnitude ``s`` (``s/32`` and ``s/65536``), which leaves
+                    scenes of size 1 essentially unchanged.
+``error_bound``     pbrt-v4 ``OffsetRayOrigin``: push along ng past the bound ``gamma_7 sum_i |b_i v_i|``
+                    of the hit point's float32 error, plus :data:`EMBREE_REL_ERROR` for Embree's own
+                    float32 test, then one float32 ulp outward.
+``local_bound``     the bound this renderer actually needs (see :func:`local_bound`): hit points are
+                    rebuilt in float64 from float32 vertices, so their error is negligible and the
+                    remaining error is Embree's float32 ray-plane test, which scales with the *local*
+                    size of the triangle relative to the ray origin, not with the absolute coordinates.
+                    Rounding the origin to float32 is done outward per component, which can only
+                    increase the distance from the plane.
+
+Shadow rays
+-----------
+``tmax`` policies: ``"exact"`` (up to the light: a light mounted on a surface is hit by its own surface
+about half the time), ``"relative"`` (``t * SHADOW_TMAX_SCALE``, pbrt's ShadowEpsilon), ``"epsilon"``
+(``t - RAY_EPSILON``, for the fixed-epsilon strategy) and ``"robust"`` (:func:`robust_tmax`: the
+relative margin or the float32 uncertainty of the geometry at the light's end, whichever is larger).
+
+The shadow terminator (:func:`terminator_point`, Hanika, "Hacking the Shadow Terminator", Ray Tracing
+Gems II ch. 4): on a smooth-shaded low-poly mesh the interpolated normal faces the light over a band
+where the flat facet already faces away; the shadow ray from the flat facet then hits the mesh and the
+terminator turns into a staircase of facets. Lifting the shadow-ray origin onto the smooth surface
+implied by the vertex normals (convex regions only) lets those rays escape. Lights let these hits
+through with :meth:`pyrt.geometry.SurfaceBatch.light_side`.
+
+The default (:data:`DEFAULT`) is ``"robust"``: ``local_bound`` origins, ``"robust"`` tmax and the
+terminator lift on faces with interpolated normals — the only strategy with 0 acne and 0 leak pixels
+over the whole acne matrix (see ``python -m pyrt.acne`` and docs in the README).
 """
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
 from shaders.vec import dot
 
 _EPS32 = np.finfo(np.float32).eps / 2  # unit roundoff of float32, 2^-24
+_EPS64 = np.finfo(np.float64).eps / 2
 
 
-def _gamma(n):
-    return n * _EPS32 / (1 - n * _EPS32)
+def _gamma(n, eps=_EPS32):
+    return n * eps / (1 - n * eps)
+
+
+def _side(surf, w):
+    """+1 where ``w`` leaves on the ng side (the side of the viewer), -1 where it goes through."""
+    return np.where(dot(w, surf.ng) >= 0, 1.0, -1.0)
 
 
 def _round_away(origins, direction):
-    """Cast to float32 and step one float32 ulp further along ``direction``'s sign per component."""
+    """Cast to float32 and step one float32 ulp further along ``direction``'s sign per component.
+
+    Rounding to nearest moves a component by at most half an ulp; the extra step makes the move
+    along ``direction`` at least half an ulp, so the float32 origin is never closer to the surface
+    than the float64 one (along the normal the steps only add distance).
+    """
     o32 = origins.astype(np.float32)
     up = np.nextafter(o32, np.float32(np.inf))
     down = np.nextafter(o32, np.float32(-np.inf))
     o32 = np.where(direction > 0, up, np.where(direction < 0, down, o32))
     return o32.astype(np.float64)
+
+
+# ---------------------------------------------------------------------------------------- origin functions
+def none(surf, w):
+    """No offset: the hit point (self-intersects about half the time)."""
+    return np.array(surf.p, dtype=np.float64, copy=True)
+
+
+#: Fixed offset along the ray, in scene units (the classic "1e-4" of many hobby renderers).
+RAY_EPSILON = 1e-4
+#: Fixed offset along the geometric normal, in scene units.
+NORMAL_EPSILON = 1e-4
+#: Mitsuba 3's ``math::RayEpsilon<float>`` = 1500 * 2^-24 ~ 8.9e-5, used relative to ``1 + max|p|``.
+RAY_EPSILON_MITSUBA = 1500.0 * _EPS32
+
+
+def ray_epsilon(surf, w):
+    """``p + RAY_EPSILON w``: a fixed distance along the new ray."""
+    return surf.p + RAY_EPSILON * w
+
+
+def normal_epsilon(surf, w):
+    """``p +- NORMAL_EPSILON ng`` toward the side ``w`` leaves to."""
+    return surf.p + (NORMAL_EPSILON * _side(surf, w))[:, None] * surf.ng
+
+
+def scaled_epsilon(surf, w):
+    """``p +- (1 + max_j |p_j|) RAY_EPSILON_MITSUBA ng``: an epsilon relative to the hit coordinates."""
+    eps = (1.0 + np.max(np.abs(surf.p), axis=1)) * RAY_EPSILON_MITSUBA
+    return surf.p + (eps * _side(surf, w))[:, None] * surf.ng
+
+
+#: Wachter & Binder's constants (Ray Tracing Gems ch. 6): below ``origin`` use ``float_scale * n``,
+#: else add ``int_scale * n`` to the float32 bit pattern.
+WB_ORIGIN, WB_FLOAT_SCALE, WB_INT_SCALE = 1.0 / 32.0, 1.0 / 65536.0, 256.0
+
+
+def _wachter_binder(p, n, origin, float_scale):
+    """The RTG ch. 6 ``offset_ray(p, n)`` in float32; ``origin``/``float_scale`` scalars or (N, 1)."""
+    p32 = p.astype(np.float32)
+    n32 = n.astype(np.float32)
+    of_i = (np.float32(WB_INT_SCALE) * n32).astype(np.int32)      # C cast: truncation toward zero
+    bits = p32.view(np.int32)
+    p_i = np.where(p32 < 0, bits - of_i, bits + of_i).view(np.float32)
+    small = np.abs(p32) < np.asarray(origin, dtype=np.float32)
+    p_f = p32 + (np.asarray(float_scale, dtype=np.float32) * n32).astype(np.float32)
+    return np.where(small, p_f, p_i).astype(np.float64)
+
+
+def wachter_binder_rtg(surf, w):
+    """Wachter & Binder's integer-ulp offset with the published constants (floor 1/65536 ~ 1.5e-5)."""
+    n = _side(surf, w)[:, None] * surf.ng
+    return _wachter_binder(surf.p, n, WB_ORIGIN, WB_FLOAT_SCALE)
+
+
+def _triangle_scale(surf):
+    """Largest vertex-coordinate magnitude of each hit triangle (N, 1); tiny floor avoids 0."""
+    tv = surf.tri_v
+    s = np.max(np.abs(tv), axis=(1, 2)) if tv is not None else np.max(surf.p_error, axis=1)
+    return np.maximum(s, np.finfo(np.float32).tiny)[:, None]
+
+
+def wachter_binder(surf, w):
+    """Wachter & Binder with a scale-aware floor: thresholds ``s/32`` and ``s/65536``, ``s`` = max |vertex|.
+
+    The published floor ``n / 65536`` (1.5e-5) is as large as a 1e-4-sized scene's features; scaling it
+    (and the 1/32 switch) by the triangle's coordinate magnitude keeps the method's intent (a floor
+    ~2^-16 of the coordinates near the origin) at every scale.
+    """
+    n = _side(surf, w)[:, None] * surf.ng
+    s = _triangle_scale(surf)
+    return _wachter_binder(surf.p, n, WB_ORIGIN * s, WB_FLOAT_SCALE * s)
 
 
 #: Relative error of Embree's float32 ray-triangle test, in units of 2^-24 of the largest vertex
@@ -48,27 +186,192 @@ def error_bound(surf, w):
     """
     err = _gamma(7) * surf.p_error
     d = dot(np.abs(surf.ng), err) + EMBREE_REL_ERROR * _EPS32 * np.max(surf.p_error, axis=1)
-    side = np.where(dot(w, surf.ng) >= 0, 1.0, -1.0)
+    side = _side(surf, w)
     off = (d * side)[:, None] * surf.ng
     return _round_away(surf.p + off, off)
 
 
-STRATEGIES = {"error_bound": error_bound}
-DEFAULT = "error_bound"
+#: Embree's float32 ray-plane test, in units of 2^-24 of the triangle's extent around the hit point.
+#: Measured with :mod:`pyrt.acne`: LOCAL_REL_ERROR = 1 already gives 0 self-hits over the matrix;
+#: 16 is the margin (it costs nothing measurable: 16 ulps of a triangle's size).
+LOCAL_REL_ERROR = 16.0
+
+
+def local_bound(surf, w):
+    """Error bound for float64 hit points on float32 triangles, relative to the triangle's local size.
+
+    The hit point is rebuilt in float64 from the float32 vertices, so it lies on the triangle's plane to
+    ``gamma_4(float64) sum_i |b_i v_i|`` (negligible); Embree's float32 test computes ``v_i - o`` and
+    the plane distance with a relative error of a few 2^-24 of ``|v_i - o|``, i.e. of the triangle's
+    extent around the hit point ``L = max_i ||v_i - p||_inf`` -- *not* of the absolute coordinates
+    (far from the origin the differences are exact, Sterbenz). So
+    ``d = |n_g| . gamma_4(f64) sum_i|b_i v_i| + LOCAL_REL_ERROR * 2^-24 * L`` along ng, then the float32
+    cast rounds each component one ulp outward (:func:`_round_away`), which moves the origin at least
+    half an ulp *away* from the plane: the rounding of the origin needs no term of its own.
+
+    Assumption (shared with every per-triangle bound): a coplanar neighbour the ray may graze has a
+    size comparable to the hit triangle's.
+    """
+    tv = surf.tri_v
+    L = np.max(np.abs(tv - surf.p[:, None, :]), axis=(1, 2))
+    d = dot(np.abs(surf.ng), _gamma(4, _EPS64) * surf.p_error) + LOCAL_REL_ERROR * _EPS32 * L
+    off = (d * _side(surf, w))[:, None] * surf.ng
+    return _round_away(surf.p + off, off)
+
+
+# ---------------------------------------------------------------------------------------- shadow terminator
+def terminator_point(surf):
+    """Hanika's shadow-terminator lift (Ray Tracing Gems II, ch. 4, "Hacking the Shadow Terminator").
+
+    For each vertex ``v_i`` with normal ``n_i`` (turned to the side of ng), project the flat hit point
+    onto the vertex's tangent plane, but only upward (``min(0, (p - v_i) . n_i)``: convex regions), and
+    blend the three projections with the barycentrics::
+
+        p' = p - sum_i b_i min(0, (p - v_i) . n_i) n_i
+
+    Flat faces (``tri_n`` zero) are returned unchanged. Returns ``(N, 3)`` float64.
+
+    The implied surface blends tangent planes, which lie outside a sphere: on an 80-triangle sphere the
+    lifted point ends up to ~5 % of the radius *above* the exact sphere (less than the facet's depth
+    below it). Only shadow-ray origins move, so this can at worst let light past an occluder lying within
+    that distance of a coarse smooth-shaded mesh.
+    """
+    tn = surf.tri_n
+    if tn is None:
+        return surf.p
+    d = np.minimum(0.0, np.einsum("ijk,ijk->ij", surf.p[:, None, :] - surf.tri_v, tn))   # (N, 3)
+    return surf.p - np.einsum("ij,ijk->ik", surf.bary * d, tn)
+
+
+class _Lifted:
+    """A view of a surface batch with the hit point replaced (for offsets from a lifted origin)."""
+
+    def __init__(self, surf, p):
+        self._surf = surf
+        self.p = p
+        # the lift is computed in float64 from float64 data: its error is covered by widening the
+        # magnitude the bounds scale with
+        self.p_error = surf.p_error + np.abs(p - surf.p)
+
+    def __getattr__(self, name):
+        return getattr(self._surf, name)
+
+
+# ---------------------------------------------------------------------------------------- shadow tmax
+#: Shadow rays stop this fraction short of the light (pbrt-v4 uses 1 - ShadowEpsilon, 1e-4).
+SHADOW_TMAX_SCALE = 1.0 - 1e-4
+#: Robust tmax: the light end is also uncertain by the float32 rounding of the geometry around it
+#: (a light mounted on a wall: the wall's float32 vertices may put its surface up to ~1 ulp in front of
+#: the light). In units of 2^-24 of the largest coordinate magnitude of the ray's ends.
+LIGHT_END_REL_ERROR = 16.0
+
+
+def robust_tmax(origins, wi, end):
+    """``t_end - max((1 - SHADOW_TMAX_SCALE) t_end, LIGHT_END_REL_ERROR 2^-24 max(|o|, |end|))``.
+
+    ``t_end = (end - o) . wi`` is the distance from the (offset) origin to the light's point ``end``.
+    Never below half of ``t_end`` (a light closer than its own uncertainty is treated as visible
+    up to half the way).
+    """
+    t_end = dot(end - origins, wi)
+    mag = np.maximum(np.max(np.abs(origins), axis=1), np.max(np.abs(end), axis=1))
+    margin = np.maximum((1.0 - SHADOW_TMAX_SCALE) * t_end, LIGHT_END_REL_ERROR * _EPS32 * mag)
+    return np.maximum(t_end - margin, 0.5 * t_end)
+
+
+TMAX_POLICIES = ("exact", "relative", "epsilon", "robust")
+
+
+@dataclass(frozen=True)
+class Strategy:
+    """An offset strategy: origins for secondary rays and (origins, tmax) for shadow rays.
+
+    Parameters
+    ----------
+    name : str
+    origin : callable
+        ``origin(surf, w) -> (N, 3) float64`` ray origins.
+    tmax : {"exact", "relative", "epsilon", "robust"}
+        How far short of the light a shadow ray stops (see the module docstring).
+    terminator : bool
+        Lift shadow-ray origins on faces with interpolated normals (:func:`terminator_point`).
+    """
+
+    name: str
+    origin: object
+    tmax: str = "relative"
+    terminator: bool = False
+
+    def __post_init__(self):
+        if not callable(self.origin):
+            raise ValueError(f"Strategy {self.name!r}: origin must be callable(surf, w) -> origins")
+        if self.tmax not in TMAX_POLICIES:
+            raise ValueError(f"Strategy {self.name!r}: tmax must be one of {TMAX_POLICIES}, got {self.tmax!r}")
+
+    def __call__(self, surf, w):
+        """Origins (N, 3) float64 for secondary rays with unit directions ``w`` (N, 3)."""
+        return self.origin(surf, w)
+
+    def shadow(self, surf, wi, dist):
+        """Shadow rays toward a light at distance ``dist`` (N,) (``inf``: directional) along unit ``wi``.
+
+        Returns ``(origins (N, 3) float64, tmax (N,) float64)``, tmax in units of |wi| from the origin.
+        """
+        src, w_side = surf, wi
+        if self.terminator:
+            src = _Lifted(surf, terminator_point(surf))
+            # Terminator-zone rays (ng . wi < 0, let through by an interpolated normal) must start on the
+            # lifted side of their own facet: the origin function is given wi mirrored to that side.
+            cos_g = dot(wi, surf.ng)
+            w_side = np.where((cos_g < 0)[:, None], wi - (2.0 * cos_g)[:, None] * surf.ng, wi)
+        origins = np.asarray(self.origin(src, w_side), dtype=np.float64)
+        dist = np.asarray(dist, dtype=np.float64)
+        finite = np.isfinite(dist)
+        tmax = np.full(dist.shape, np.inf)
+        if np.any(finite):
+            f = np.flatnonzero(finite)
+            end = surf.p[f] + wi[f] * dist[f, None]       # the light's point (float64)
+            o, w = origins[f], wi[f]
+            if self.tmax == "robust":
+                tmax[f] = robust_tmax(o, w, end)
+            else:
+                t_end = dot(end - o, w)
+                if self.tmax == "exact":
+                    tmax[f] = t_end
+                elif self.tmax == "relative":
+                    tmax[f] = t_end * SHADOW_TMAX_SCALE
+                else:  # "epsilon"
+                    tmax[f] = np.maximum(t_end - RAY_EPSILON, 0.0)
+        return origins, tmax
+
+
+STRATEGIES = {
+    "none": Strategy("none", none, tmax="exact"),
+    "ray_epsilon": Strategy("ray_epsilon", ray_epsilon, tmax="epsilon"),
+    "normal_epsilon": Strategy("normal_epsilon", normal_epsilon),
+    "scaled_epsilon": Strategy("scaled_epsilon", scaled_epsilon),
+    "wachter_binder_rtg": Strategy("wachter_binder_rtg", wachter_binder_rtg),
+    "wachter_binder": Strategy("wachter_binder", wachter_binder),
+    "error_bound": Strategy("error_bound", error_bound),
+    "local_bound": Strategy("local_bound", local_bound),
+    "robust": Strategy("robust", local_bound, tmax="robust", terminator=True),
+}
+DEFAULT = "robust"
 
 
 def get_strategy(offset):
-    """Resolve ``offset`` (a name in :data:`STRATEGIES` or a callable) to a strategy function."""
-    if callable(offset):
+    """Resolve ``offset`` (a :class:`Strategy`, a name in :data:`STRATEGIES`, a callable or None).
+
+    A plain callable ``f(surf, w) -> origins`` becomes ``Strategy(name, f, tmax="relative")``.
+    """
+    if isinstance(offset, Strategy):
         return offset
+    if callable(offset):
+        return Strategy(getattr(offset, "__name__", "custom"), offset)
     if offset is None:
         offset = DEFAULT
     try:
         return STRATEGIES[offset]
-    except KeyError:
+    except (KeyError, TypeError):
         raise ValueError(f"unknown offset strategy {offset!r}; choose one of {sorted(STRATEGIES)} "
                          "or pass a callable(surf, w) -> origins") from None
-
-
-#: Shadow rays stop this fraction short of the light (pbrt-v4 uses 1 - ShadowEpsilon, 1e-4).
-SHADOW_TMAX_SCALE = 1.0 - 1e-4
