@@ -26,7 +26,11 @@ The pieces, each a function that can be used and tested alone
   wide). Its unshadowed radiance is the constant ``L_g = rho / pi * sum_i E_i max(0, sin el_i) +
   rho * L_a`` (:func:`ground_radiance`, the integrator's own formula), and the background (what
   misses see) is set to exactly ``L_g``: the ground disappears into the backdrop and only the
-  shadows it catches remain. With an environment map the background shows the map instead.
+  shadows it catches remain. The asset's own point/spot lights (``lights="asset"/"both"``) light
+  the ground unevenly; the backdrop then matches the ground under the model's centre. With an
+  environment map (``environment=``, an OpenEXR lat-long map, used as a light with
+  ``environment_lighting``/``environment_samples``) camera rays see the backdrop plus the map's
+  unshadowed SH irradiance on the ground (``rho / pi * E_sh(+y)``); without a ground they see the map.
 - **Exposure** (:func:`auto_exposure`): Reinhard et al. 2002's photographic key over the pixels that
   see the model (pixel-centre rays against the model only): ``scale = 0.18 / exp(mean(log(1e-4 +
   Y)))``, white point ``L_white = max(scale * Y_99.9, 1)`` for the extended Reinhard operator, so
@@ -107,6 +111,8 @@ class PreviewOptions:
     ground_albedo: float = 0.5
     environment: str | None = None       # OpenEXR lat-long map
     environment_intensity: float = 1.0
+    environment_lighting: str = "mis"    # EnvironmentLight strategy ("mis", "preview" = no shadows, no noise, ...)
+    environment_samples: int = 8         # environment light samples per hit
     exposure: float | None = None        # stops; None = automatic
     tonemap: str = "reinhard"
     turntable: int = 0                   # number of views (0 = a single view)
@@ -331,7 +337,8 @@ class PreviewScene:
         if o.environment:
             from .environment import LatLongEnvironment, set_environment
             self.environment = LatLongEnvironment(o.environment, intensity=o.environment_intensity)
-            set_environment(self.scene, self.environment, lighting="mis")
+            set_environment(self.scene, self.environment, lighting=o.environment_lighting,
+                            n_samples=o.environment_samples)
             self.asset_lights = list(self.scene.lights)
         if o.lights == "asset" and not asset.lights and self.environment is None:
             self.warnings.append("lights='asset' but the asset has no lights: the studio rig is used")
@@ -755,6 +762,8 @@ def _parser():
     ap.add_argument("--lights", default="studio", choices=["studio", "asset", "both"])
     ap.add_argument("--no-ground", action="store_true", help="no shadow-catcher ground plane")
     ap.add_argument("--env", help="lat-long environment map (OpenEXR)")
+    ap.add_argument("--env-lighting", default="mis", help="environment light strategy (mis, map, bsdf, preview, ...)")
+    ap.add_argument("--env-samples", type=int, default=8, help="environment light samples per hit")
     ap.add_argument("--exposure", type=float, help="exposure in stops (default: automatic)")
     ap.add_argument("--tonemap", default="reinhard", choices=["linear", "film", "reinhard"])
     ap.add_argument("--turntable", type=int, default=0, metavar="N", help="render N views around the model")
@@ -776,7 +785,8 @@ def main(argv=None):
     formats = tuple(args.format.split(",")) if args.format else ("png",)
     opts = PreviewOptions(width=args.width, height=args.height, spp=args.spp, fov=args.fov, azimuth=args.azimuth,
                           elevation=args.elevation, up=args.up, camera=args.camera, lights=args.lights,
-                          ground=not args.no_ground, environment=args.env, exposure=args.exposure,
+                          ground=not args.no_ground, environment=args.env, environment_lighting=args.env_lighting,
+                          environment_samples=args.env_samples, exposure=args.exposure,
                           tonemap=args.tonemap, turntable=args.turntable, formats=formats, aovs=args.aovs,
                           seed=args.seed, time_budget=args.budget, threads=args.threads)
     try:

@@ -443,3 +443,43 @@ def test_missing_file_and_empty_stl(tmp_path):
     p.write_text("solid empty\nendsolid empty\n")
     with pytest.raises(AssetError, match="no triangles"):
         load_asset(str(p))
+
+
+def test_gltf_color_0_is_linear_and_multiplies_base_colour(tmp_path):
+    quad = trimesh.Trimesh([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], [[0, 1, 2], [0, 2, 3]],
+                           vertex_colors=np.tile([[200, 100, 50, 255]], (4, 1)).astype(np.uint8), process=False)
+    p = tmp_path / "c.glb"
+    p.write_bytes(trimesh.Scene(quad).export(file_type="glb"))
+    a = load_asset(str(p))
+    np.testing.assert_allclose(a.meshes[0].colors, np.tile([200 / 255, 100 / 255, 50 / 255], (4, 1)), atol=1e-12)
+    scene = pyrt.Scene(pyrt.Camera((0, 0, 3), (0, 0, 0), fov=20, width=6, height=6, spp=1, jitter=False))
+    a.add_to_scene(scene)
+    alb = pyrt.render_full(scene, aovs=True).aovs["albedo"]
+    # no material: the glTF default (base colour factor 1) times COLOR_0, not sRGB-decoded
+    np.testing.assert_allclose(alb, np.broadcast_to([200 / 255, 100 / 255, 50 / 255], alb.shape), rtol=1e-6)
+
+
+def test_gltf_16bit_png_texture_keeps_16_bits(tmp_path):
+    png = pytest.importorskip("png")
+    img = (np.arange(2 * 3 * 3, dtype=np.uint16).reshape(2, 3, 3) * 3001 + 7)
+    buf = tmp_path / "t16.png"
+    with open(buf, "wb") as fh:
+        png.Writer(3, 2, greyscale=False, bitdepth=16).write(fh, img.reshape(2, -1).tolist())
+    box = trimesh.creation.box()
+    box.visual = trimesh.visual.TextureVisuals(uv=np.zeros((8, 2)), material=PBRMaterial(
+        metallicRoughnessTexture=Image.fromarray(np.zeros((2, 2, 3), np.uint8))))
+    blob = buf.read_bytes()
+    files = trimesh.Scene(box).export(file_type="gltf")
+    header = json.loads(files["model.gltf"])
+    for name, data in files.items():
+        (tmp_path / name).write_bytes(data)
+    header["images"] = [{"uri": "t16.png"}]
+    (tmp_path / "model.gltf").write_text(json.dumps(header))
+    # the same image embedded as a data URI
+    import base64
+    header["images"] = [{"uri": "data:image/png;base64," + base64.b64encode(blob).decode()}]
+    (tmp_path / "embedded.gltf").write_text(json.dumps(header))
+    for name in ("model.gltf", "embedded.gltf"):
+        m = load_asset(str(tmp_path / name)).materials[0]
+        np.testing.assert_allclose(m.roughness_texture.image[..., 0], img[..., 1] / 65535.0, rtol=1e-6)
+        np.testing.assert_allclose(m.metallic_texture.image[..., 0], img[..., 2] / 65535.0, rtol=1e-6)
