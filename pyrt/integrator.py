@@ -81,25 +81,48 @@ def _uses_texture(material):
 
 
 class BSDFBatch:
-    """The BSDFs of all hits of a :class:`SurfaceBatch`, dispatched per material type."""
+    """The BSDFs of all hits of a :class:`SurfaceBatch`, dispatched per material type.
+
+    Each material's hits form a persistent group context (built once per bounce), so texture lookups
+    cached by :meth:`pyrt.materials.Material.param` are shared by all lights. A query on most of a
+    group evaluates the whole group (inactive lanes are computed and discarded, which is cheaper than
+    gathering every field); a query on a small part of it gathers a lazy subset instead.
+    """
+
+    #: below this fraction of a group's hits, a query gathers a subset instead of evaluating the group
+    GATHER_FRACTION = 0.35
 
     def __init__(self, surf, materials):
         self.surf = surf
         self.materials = materials
         self.mat_id = surf.material_id
+        self.pos = np.zeros(surf.n_hits, dtype=np.int64)   # position of each hit inside its group
+        self.groups = {}
+        for k in np.unique(self.mat_id):
+            idx_k = np.flatnonzero(self.mat_id == k)
+            self.pos[idx_k] = np.arange(idx_k.size)
+            ctx = surf.subset(idx_k)
+            self.groups[int(k)] = (idx_k, ctx, ctx.to_local(ctx.wo))
 
     def _groups(self, idx):
         mids = self.mat_id[idx]
         for k in np.unique(mids):
             sel = np.flatnonzero(mids == k)
-            yield self.materials[k], sel
+            idx_k, ctx, wo_l = self.groups[int(k)]
+            p = self.pos[idx[sel]]
+            yield self.materials[k], sel, p, idx_k.size, ctx, wo_l
 
     def f_cos(self, idx, wi):
         """BSDF * cos(theta_i) at hits ``idx`` for world directions ``wi`` (k, 3)."""
         out = np.zeros((idx.shape[0], 3))
-        for mat, sel in self._groups(idx):
-            ctx = self.surf.subset(idx[sel])
-            out[sel] = mat.f_cos(ctx.to_local(ctx.wo), ctx.to_local(wi[sel]), ctx)
+        for mat, sel, p, n_k, ctx, wo_l in self._groups(idx):
+            if p.size >= self.GATHER_FRACTION * n_k:
+                w_full = ctx.ns.copy()          # harmless direction for lanes not queried
+                w_full[p] = wi[sel]
+                out[sel] = mat.f_cos(wo_l, ctx.to_local(w_full), ctx)[p]
+            else:
+                sub = ctx.subset(p)
+                out[sel] = mat.f_cos(wo_l[p], sub.to_local(wi[sel]), sub)
         return out
 
     def sample(self, idx, u):
@@ -107,17 +130,17 @@ class BSDFBatch:
         wi = np.zeros((idx.shape[0], 3))
         weight = np.zeros((idx.shape[0], 3))
         pdf = np.zeros(idx.shape[0])
-        for mat, sel in self._groups(idx):
-            ctx = self.surf.subset(idx[sel])
-            w, wt, p = mat.sample(ctx.to_local(ctx.wo), u[sel], ctx)
-            wi[sel], weight[sel], pdf[sel] = ctx.to_world(w), wt, p
+        for mat, sel, p, n_k, ctx, wo_l in self._groups(idx):
+            sub = ctx.subset(p)
+            w, wt, pd = mat.sample(wo_l[p], u[sel], sub)
+            wi[sel], weight[sel], pdf[sel] = sub.to_world(w), wt, pd
         return wi, weight, pdf
 
     def pdf(self, idx, wi):
         out = np.zeros(idx.shape[0])
-        for mat, sel in self._groups(idx):
-            ctx = self.surf.subset(idx[sel])
-            out[sel] = mat.pdf(ctx.to_local(ctx.wo), ctx.to_local(wi[sel]), ctx)
+        for mat, sel, p, n_k, ctx, wo_l in self._groups(idx):
+            sub = ctx.subset(p)
+            out[sel] = mat.pdf(wo_l[p], sub.to_local(wi[sel]), sub)
         return out
 
 
