@@ -75,7 +75,7 @@ from shaders import color as _color
 from .camera import Camera
 from .integrator import PreparedScene, render_full
 from .io.assets import Asset, AssetError, FORMATS, load_asset
-from .io.images import tonemap_to_display, write_exr, write_png
+from .io.images import tonemap_to_display, write_exr
 from .lights import DirectionalLight
 from .materials import Lambert
 from .scene import Scene
@@ -331,8 +331,8 @@ class PreviewScene:
         self.ground_mesh = None
         if o.ground:
             g = Lambert(o.ground_albedo, name="ground")
-            self.ground_mesh = self.scene.add_plane((self.center[0], self.ground_y - 1e-4 * self.radius, self.center[2]),
-                                                    100.0 * self.radius, g, name="ground")
+            foot = (self.center[0], self.ground_y - 1e-4 * self.radius, self.center[2])
+            self.ground_mesh = self.scene.add_plane(foot, 100.0 * self.radius, g, name="ground")
         self.environment = None
         if o.environment:
             from .environment import LatLongEnvironment, set_environment

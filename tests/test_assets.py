@@ -76,7 +76,8 @@ def round_trip(tmp_path, rng):
             {"type": "directional", "intensity": 6830.0},
         ]}}
         q = [math.sin(-math.pi / 4), 0.0, 0.0, math.cos(-math.pi / 4)]  # -90 deg about x: -Z -> -Y (down)
-        nodes.append({"name": "lamp", "translation": [1.0, 3.0, 0.0], "extensions": {"KHR_lights_punctual": {"light": 0}}})
+        nodes.append({"name": "lamp", "translation": [1.0, 3.0, 0.0],
+                      "extensions": {"KHR_lights_punctual": {"light": 0}}})
         nodes.append({"name": "spot", "translation": [0.0, 4.0, 0.0], "rotation": q,
                       "extensions": {"KHR_lights_punctual": {"light": 1}}})
         nodes.append({"name": "sun", "rotation": q, "extensions": {"KHR_lights_punctual": {"light": 2}}})

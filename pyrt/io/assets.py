@@ -71,7 +71,7 @@ from shaders import color as _color
 
 from ..camera import Camera
 from ..lights import DirectionalLight, PointLight, SpotLight
-from ..materials import BlinnPhong, Glass, Material
+from ..materials import BlinnPhong, Glass
 from ..textures import ImageTexture, NormalMap, TextureError, load_image
 
 try:  # the glTF metallic-roughness BRDF (material library, issue 3)
@@ -470,19 +470,22 @@ def _mtl_is_transparent(p):
     return (p.d is not None and p.d < 1.0) or (p.illum in (4, 6, 7, 9))
 
 
-def _mtl_material(p, vertex_colors=None, warnings=None):
-    warn = warnings.append if warnings is not None else (lambda s: None)
+def _mtl_kd_ks(p):
+    """``(kd, ks, s)``: Kd and Ks clipped to [0, 1] (defaults 0.8 and 0), ks already scaled by ``s <= 1``
+    so that ``kd * max(map_Kd) + ks <= 1`` in every channel."""
+    kd = np.clip(p.Kd if p.Kd is not None else np.full(3, 0.8), 0.0, 1.0)
+    ks = np.clip(p.Ks if p.Ks is not None else np.zeros(3), 0.0, 1.0)
+    kd_max = kd * (float(np.max(p.map_Kd.image)) if p.map_Kd is not None else 1.0)
+    s = _ks_scale(kd_max, ks)
+    return kd, ks * s, s
+
+
+def _mtl_material(p, vertex_colors=None):
     if _mtl_is_transparent(p):
         ior = p.Ni if (p.Ni is not None and p.Ni > 1.0) else 1.5
         tint = np.clip(p.Tf, 0, 1) if p.Tf is not None else 1.0
         return Glass(ior=ior, tint=tint, name=p.name)
-    kd = np.clip(p.Kd if p.Kd is not None else np.full(3, 0.8), 0.0, 1.0)
-    ks = np.clip(p.Ks if p.Ks is not None else np.zeros(3), 0.0, 1.0)
-    kd_max = kd.copy()
-    if p.map_Kd is not None:
-        kd_max = kd * float(np.max(p.map_Kd.image))
-    s = _ks_scale(kd_max, ks)
-    ks = ks * s
+    kd, ks, _ = _mtl_kd_ks(p)
     kd_param = kd if p.map_Kd is None else ScaledTexture(p.map_Kd, kd)
     if vertex_colors is not None:
         kd_param = ProductTexture(vertex_colors, kd_param)
@@ -1311,10 +1314,7 @@ def load_obj(path):
         if _mtl_is_transparent(p) and not (p.Ni is not None and p.Ni > 1.0):
             W.append(f"material {p.name!r}: transparent with Ni {p.Ni}; glass with ior 1.5 used")
         if not _mtl_is_transparent(p):
-            kd = np.clip(p.Kd if p.Kd is not None else np.full(3, 0.8), 0, 1)
-            kd_max = kd * (float(np.max(p.map_Kd.image)) if p.map_Kd is not None else 1.0)
-            ks = np.clip(p.Ks if p.Ks is not None else np.zeros(3), 0, 1)
-            s = _ks_scale(kd_max, ks)
+            s = _mtl_kd_ks(p)[2]
             if s < 1.0:
                 W.append(f"material {p.name!r}: Kd + Ks > 1; Ks scaled by {s:.3f} to conserve energy")
     return asset
