@@ -127,8 +127,7 @@ class AreaLight(Light):
         us = stratified_samples(rng, n, ns)
         for s in range(ns):
             wi, dist, E = self.sample(surf.p, us[s])
-            cos_g = np.einsum("ij,ij->i", wi, surf.ng)
-            idx = np.flatnonzero((cos_g > 0) & (E.max(axis=1) > 0))
+            idx = np.flatnonzero(surf.light_side(wi) & (E.max(axis=1) > 0))   # as pyrt.lights.Light.estimate
             if idx.size == 0:
                 continue
             f = bsdf.f_cos(idx, wi[idx])

@@ -505,8 +505,7 @@ class EnvironmentLight(Light):
                 if self.strategy == "mis":
                     u2[:, 1] = (s + u2[:, 1]) / ns
                 wi, weight, pdf_b = bsdf.sample(all_idx, u2)
-                cos_g = np.einsum("ij,ij->i", wi, surf.ng)
-                ok = (cos_g > 0) & (pdf_b > 0) & (weight.max(axis=1) > 0)
+                ok = surf.light_side(wi) & (pdf_b > 0) & (weight.max(axis=1) > 0)
                 idx = np.flatnonzero(ok)
                 if idx.size == 0:
                     continue
@@ -521,8 +520,8 @@ class EnvironmentLight(Light):
         return L_out / ns
 
     def _add_light_sample(self, L_out, surf, bsdf, visible, wi, pdf, mis):
-        cos_g = np.einsum("ij,ij->i", wi, surf.ng)
-        idx = np.flatnonzero((cos_g > 0) & (pdf > 0))
+        # ng . wi > 0, or the shadow-terminator zone (see SurfaceBatch.light_side): the shadow ray decides
+        idx = np.flatnonzero(surf.light_side(wi) & (pdf > 0))
         if idx.size == 0:
             return
         Le = self.environment.radiance(wi[idx])
