@@ -383,6 +383,8 @@ def default_matrix():
         for s in (1e-4, 1e-2, 1e2, 1e4):
             cases.append(Case(g, lt, scale=s))
         for t in (1e2, 1e4, 1e5):
+            if g == "wall_lamp" and t == 1e5:
+                continue   # float32 places the wall to 0.008: more than the lamp's radius, nothing is decidable
             cases.append(Case(g, lt, translation=t))
         cases.append(Case(g, lt, scale=1e2, translation=1e6))
         if g != "wall_lamp":

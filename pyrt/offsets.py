@@ -90,10 +90,8 @@ def _round_away(origins, direction):
     than the float64 one (along the normal the steps only add distance).
     """
     o32 = origins.astype(np.float32)
-    up = np.nextafter(o32, np.float32(np.inf))
-    down = np.nextafter(o32, np.float32(-np.inf))
-    o32 = np.where(direction > 0, up, np.where(direction < 0, down, o32))
-    return o32.astype(np.float64)
+    toward = np.where(direction > 0, np.float32(np.inf), np.where(direction < 0, np.float32(-np.inf), o32))
+    return np.nextafter(o32, toward.astype(np.float32)).astype(np.float64)
 
 
 # ---------------------------------------------------------------------------------------- origin functions
@@ -192,8 +190,10 @@ def error_bound(surf, w):
 
 
 #: Embree's float32 ray-plane test, in units of 2^-24 of the triangle's extent around the hit point.
-#: Measured with :mod:`pyrt.acne`: LOCAL_REL_ERROR = 1 already gives 0 self-hits over the matrix;
-#: 16 is the margin (it costs nothing measurable: 16 ulps of a triangle's size).
+#: Measured with the acne matrix (``robust``): 0 gives 114 failing cases (e.g. origins on the plane y = 0
+#: are only pushed to denormals, which Embree flushes to zero); 0.25, 1, 4 and 16 all give 0 failing cases
+#: and 0 self-hits in tests/test_offsets.py. 16 keeps a 64x margin over 0.25 at no measurable cost in
+#: leaks (16 ulps of the triangle's size).
 LOCAL_REL_ERROR = 16.0
 
 
