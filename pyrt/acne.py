@@ -44,11 +44,12 @@ pbrt's shadow ``tmax = (1 - 1e-4) t``; wrap it in :class:`pyrt.offsets.Strategy`
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 import argparse
 import importlib
 import math
 import sys
+import threading
 import time
 
 import numpy as np
@@ -564,6 +565,7 @@ class _Timed(offsets.Strategy):
 
     inner: object = None
     clock: list = field(default_factory=lambda: [0.0])
+    lock: object = field(default_factory=threading.Lock)   # chunks may run on several threads
 
     def __call__(self, surf, w):
         return self.inner(surf, w)
@@ -571,7 +573,9 @@ class _Timed(offsets.Strategy):
     def shadow(self, surf, wi, dist):
         t0 = time.perf_counter()
         r = self.inner.shadow(surf, wi, dist)
-        self.clock[0] += time.perf_counter() - t0
+        dt = time.perf_counter() - t0
+        with self.lock:
+            self.clock[0] += dt
         return r
 
 
@@ -741,5 +745,3 @@ def main(argv=None):
 
 if __name__ == "__main__":
     sys.exit(main())
-
-del replace
