@@ -29,7 +29,7 @@ import numpy as np
 import trimesh
 
 from shaders import sampling
-from shaders.vec import coordinate_frame
+from shaders.vec import coordinate_frame, max_component
 
 from .lights import REGISTRY as _LIGHTS
 from .lights import Light, LightError, _color, _nonneg, _vec3
@@ -127,11 +127,11 @@ class AreaLight(Light):
         us = stratified_samples(rng, n, ns)
         for s in range(ns):
             wi, dist, E = self.sample(surf.p, us[s])
-            idx = np.flatnonzero(surf.light_side(wi) & (E.max(axis=1) > 0))   # as pyrt.lights.Light.estimate
+            idx = np.flatnonzero(surf.light_side(wi) & (max_component(E) > 0))   # as pyrt.lights.Light.estimate
             if idx.size == 0:
                 continue
             f = bsdf.f_cos(idx, wi[idx])
-            keep = f.max(axis=1) > 0
+            keep = max_component(f) > 0
             idx, f = idx[keep], f[keep]
             if idx.size == 0:
                 continue

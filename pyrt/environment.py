@@ -46,6 +46,7 @@ import numpy as np
 from shaders import envmap as K
 from shaders import sampling
 from shaders import textures as _tex
+from shaders.vec import max_component
 
 from .lights import Light, LightError
 from .materials import Lambert
@@ -505,14 +506,14 @@ class EnvironmentLight(Light):
                 if self.strategy == "mis":
                     u2[:, 1] = (s + u2[:, 1]) / ns
                 wi, weight, pdf_b = bsdf.sample(all_idx, u2)
-                ok = surf.light_side(wi) & (pdf_b > 0) & (weight.max(axis=1) > 0)
+                ok = surf.light_side(wi) & (pdf_b > 0) & (max_component(weight) > 0)
                 idx = np.flatnonzero(ok)
                 if idx.size == 0:
                     continue
                 val = weight[idx] * env.radiance(wi[idx])
                 if self.strategy == "mis":
                     val *= self._mis(pdf_b[idx], env.pdf(wi[idx]))[:, None]
-                keep = val.max(axis=1) > 0
+                keep = max_component(val) > 0
                 idx, val = idx[keep], val[keep]
                 if idx.size:
                     vis = visible(idx, wi[idx], np.full(idx.size, np.inf))
@@ -525,7 +526,7 @@ class EnvironmentLight(Light):
         if idx.size == 0:
             return
         Le = self.environment.radiance(wi[idx])
-        lit = Le.max(axis=1) > 0
+        lit = max_component(Le) > 0
         idx, Le = idx[lit], Le[lit]
         if idx.size == 0:
             return
@@ -533,7 +534,7 @@ class EnvironmentLight(Light):
         val = f * Le / pdf[idx, None]
         if mis:
             val *= self._mis(pdf[idx], bsdf.pdf(idx, wi[idx]))[:, None]
-        keep = val.max(axis=1) > 0
+        keep = max_component(val) > 0
         idx, val = idx[keep], val[keep]
         if idx.size:
             vis = visible(idx, wi[idx], np.full(idx.size, np.inf))

@@ -162,7 +162,9 @@ class SurfaceBatch:
         lit = dot(wi, self.ng) > 0
         if self.tri_n is None:
             return lit
-        n_interp = np.einsum("ij,ijk->ik", self.bary, self.tri_n)   # zero on flat faces
+        n_interp = self.__dict__.get("_n_interp")   # direction-independent: once per batch, not per light
+        if n_interp is None:
+            n_interp = self.__dict__["_n_interp"] = np.einsum("ij,ijk->ik", self.bary, self.tri_n)  # 0 on flat
         return lit | (dot(wi, n_interp) > 0)
 
     def to_local(self, w):

@@ -31,6 +31,7 @@ from .geometry import refract_differentials, reflect_differentials, surface_from
 from . import gouraud
 from .dielectrics import NestedMedia
 from .textures import apply_normal_maps
+from shaders.vec import max_component
 
 
 @dataclass
@@ -311,7 +312,7 @@ class Integrator:
             kw = {"eta": eta_h[sel]} if media is not None and media.participates[k] else {}
             for lobe in self.scene.materials[k].delta_lobes(wo_l, ctx, **kw):
                 t_new = thr_h[sel] * lobe.weight
-                keep = np.flatnonzero(t_new.max(axis=1) > self.throughput_cutoff)
+                keep = np.flatnonzero(max_component(t_new) > self.throughput_cutoff)
                 if keep.size == 0:
                     continue
                 c = ctx.subset(keep)

@@ -65,6 +65,7 @@ import numpy as np
 from shaders import color as _colour
 from shaders import ies as _ies
 from shaders import lights as kernels
+from shaders.vec import max_component
 
 
 class LightError(ValueError):
@@ -137,12 +138,12 @@ class Light:
                 u[:, 0] = (s + u[:, 0]) / ns
             wi, dist, E = self.sample(surf.p, u)
             # ng . wi > 0, or the interpolated vertex normal faces the light (shadow terminator, pyrt.offsets)
-            active = surf.light_side(wi) & (E.max(axis=1) > 0)
+            active = surf.light_side(wi) & (max_component(E) > 0)
             idx = np.flatnonzero(active)
             if idx.size == 0:
                 continue
             f = bsdf.f_cos(idx, wi[idx])
-            keep = f.max(axis=1) > 0
+            keep = max_component(f) > 0
             idx, f = idx[keep], f[keep]
             if idx.size == 0:
                 continue

@@ -67,7 +67,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from shaders.vec import dot
+from shaders.vec import dot, max_component
 
 _EPS32 = np.finfo(np.float32).eps / 2  # unit roundoff of float32, 2^-24
 _EPS64 = np.finfo(np.float64).eps / 2
@@ -150,7 +150,7 @@ def wachter_binder_rtg(surf, w):
 def _triangle_scale(surf):
     """Largest vertex-coordinate magnitude of each hit triangle (N, 1); tiny floor avoids 0."""
     tv = surf.tri_v
-    s = np.max(np.abs(tv), axis=(1, 2)) if tv is not None else np.max(surf.p_error, axis=1)
+    s = np.max(np.abs(tv), axis=(1, 2)) if tv is not None else max_component(surf.p_error)
     return np.maximum(s, np.finfo(np.float32).tiny)[:, None]
 
 
@@ -183,7 +183,7 @@ def error_bound(surf, w):
     intersection test, which pbrt's bound (made for pbrt's intersector) does not.
     """
     err = _gamma(7) * surf.p_error
-    d = dot(np.abs(surf.ng), err) + EMBREE_REL_ERROR * _EPS32 * np.max(surf.p_error, axis=1)
+    d = dot(np.abs(surf.ng), err) + EMBREE_REL_ERROR * _EPS32 * max_component(surf.p_error)
     side = _side(surf, w)
     off = (d * side)[:, None] * surf.ng
     return _round_away(surf.p + off, off)
@@ -212,11 +212,19 @@ def local_bound(surf, w):
     Assumption (shared with every per-triangle bound): a coplanar neighbour the ray may graze has a
     size comparable to the hit triangle's.
     """
-    tv = surf.tri_v
-    L = np.max(np.abs(tv - surf.p[:, None, :]), axis=(1, 2))
-    d = dot(np.abs(surf.ng), _gamma(4, _EPS64) * surf.p_error) + LOCAL_REL_ERROR * _EPS32 * L
+    d = local_bound_magnitude(surf)
     off = (d * _side(surf, w))[:, None] * surf.ng
     return _round_away(surf.p + off, off)
+
+
+def local_bound_magnitude(surf):
+    """The distance along ng that :func:`local_bound` pushes by (N,): independent of the ray direction."""
+    tv = surf.tri_v
+    L = max_component(np.abs(tv - surf.p[:, None, :]).reshape(-1, 9))
+    return dot(np.abs(surf.ng), _gamma(4, _EPS64) * surf.p_error) + LOCAL_REL_ERROR * _EPS32 * L
+
+
+local_bound.magnitude = local_bound_magnitude
 
 
 # ---------------------------------------------------------------------------------------- shadow terminator
@@ -241,6 +249,20 @@ def terminator_point(surf):
         return surf.p
     d = np.minimum(0.0, np.einsum("ijk,ijk->ij", surf.p[:, None, :] - surf.tri_v, tn))   # (N, 3)
     return surf.p - np.einsum("ij,ijk->ik", surf.bary * d, tn)
+
+
+def _batch_cached(surf, key, fn):
+    """``fn(batch)`` for the whole batch ``surf`` is a lazy subset of, computed once, gathered for ``surf``.
+
+    Lights trace their shadow rays from subsets of the same surface batch; quantities that do not depend
+    on the light (terminator lift, offset distances) are cached on the underlying batch.
+    """
+    base = surf.__dict__.get("_base", surf)
+    cache = base.__dict__.setdefault("_offset_cache", {})
+    if key not in cache:
+        cache[key] = fn(base)
+    idx = surf.__dict__.get("_idx")
+    return cache[key] if idx is None or base is surf else cache[key][idx]
 
 
 class _Lifted:
@@ -274,7 +296,7 @@ def robust_tmax(origins, wi, end):
     up to half the way).
     """
     t_end = dot(end - origins, wi)
-    mag = np.maximum(np.max(np.abs(origins), axis=1), np.max(np.abs(end), axis=1))
+    mag = np.maximum(max_component(np.abs(origins)), max_component(np.abs(end)))
     margin = np.maximum((1.0 - SHADOW_TMAX_SCALE) * t_end, LIGHT_END_REL_ERROR * _EPS32 * mag)
     return np.maximum(t_end - margin, 0.5 * t_end)
 
@@ -316,15 +338,30 @@ class Strategy:
         """Shadow rays toward a light at distance ``dist`` (N,) (``inf``: directional) along unit ``wi``.
 
         Returns ``(origins (N, 3) float64, tmax (N,) float64)``, tmax in units of |wi| from the origin.
+
+        The direction-independent parts (the terminator lift, and the offset distance of origin
+        functions that publish it as ``origin.magnitude(surf)``) are computed once per surface batch
+        and shared by every light and sample (:func:`_batch_cached`).
         """
         src, w_side = surf, wi
         if self.terminator:
-            src = _Lifted(surf, terminator_point(surf))
+            src = _Lifted(surf, _batch_cached(surf, "terminator_point", terminator_point))
             # Terminator-zone rays (ng . wi < 0, let through by an interpolated normal) must start on the
             # lifted side of their own facet: the origin function is given wi mirrored to that side.
             cos_g = dot(wi, surf.ng)
             w_side = np.where((cos_g < 0)[:, None], wi - (2.0 * cos_g)[:, None] * surf.ng, wi)
-        origins = np.asarray(self.origin(src, w_side), dtype=np.float64)
+        magnitude = getattr(self.origin, "magnitude", None)
+        if magnitude is not None:
+            if self.terminator:
+                def lifted_magnitude(b):
+                    return magnitude(_Lifted(b, _batch_cached(b, "terminator_point", terminator_point)))
+                d = _batch_cached(surf, ("magnitude_lifted", self.origin), lifted_magnitude)
+            else:
+                d = _batch_cached(surf, ("magnitude", self.origin), magnitude)
+            off = (d * _side(surf, w_side))[:, None] * surf.ng
+            origins = _round_away(src.p + off, off)
+        else:
+            origins = np.asarray(self.origin(src, w_side), dtype=np.float64)
         dist = np.asarray(dist, dtype=np.float64)
         finite = np.isfinite(dist)
         tmax = np.full(dist.shape, np.inf)
