@@ -365,7 +365,7 @@ class RenderResult:
 
 
 def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4, offset=None, aovs=False,
-                progress=None, chunk_samples=1 << 16, threads=None, record_rays=False, prepared=None):
+                progress=None, chunk_samples=1 << 15, threads=None, record_rays=False, prepared=None):
     """Render ``scene`` and return a :class:`RenderResult` (see :func:`render` for parameters).
 
     Chunks of pixels are shaded on a pool of ``threads`` workers (NumPy releases the GIL in its array
@@ -475,7 +475,7 @@ def render(scene, **kwargs):
     progress : bool, optional
         Show a progress bar (default: only on a terminal).
     chunk_samples : int
-        Camera samples per chunk (bounds memory; default 65536).
+        Camera samples per chunk (bounds memory; default 32768: measured fastest on the benchmark scene).
     threads : int, optional
         Worker threads for chunks and for Embree batches (default: all cores).
 

@@ -192,5 +192,5 @@ def test_memory_is_bounded_by_chunk_not_image():
     small = peak(128, 128, 1)  # exactly one chunk
     big = peak(256, 256, 4)    # 16x more samples, 16 chunks
     assert big < 2.0 * small, (small, big)
-    # default: chunks 4x larger, one in flight per core (2 here): chunk part <= 8 * big; 4K film is 0.3 GB
+    # default: chunks 2x larger, one in flight per core (2 here): chunk part <= 4 * big (8 * big: margin); 4K film 0.3 GB
     assert 8 * big + 3840 * 2160 * 3 * 12 < 2e9
