@@ -271,9 +271,12 @@ class _Lifted:
     def __init__(self, surf, p):
         self._surf = surf
         self.p = p
+
+    @property
+    def p_error(self):
         # the lift is computed in float64 from float64 data: its error is covered by widening the
         # magnitude the bounds scale with
-        self.p_error = surf.p_error + np.abs(p - surf.p)
+        return self._surf.p_error + np.abs(self.p - self._surf.p)
 
     def __getattr__(self, name):
         return getattr(self._surf, name)
@@ -343,30 +346,36 @@ class Strategy:
         functions that publish it as ``origin.magnitude(surf)``) are computed once per surface batch
         and shared by every light and sample (:func:`_batch_cached`).
         """
-        src, w_side = surf, wi
-        if self.terminator:
-            src = _Lifted(surf, _batch_cached(surf, "terminator_point", terminator_point))
-            # Terminator-zone rays (ng . wi < 0, let through by an interpolated normal) must start on the
-            # lifted side of their own facet: the origin function is given wi mirrored to that side.
-            cos_g = dot(wi, surf.ng)
-            w_side = np.where((cos_g < 0)[:, None], wi - (2.0 * cos_g)[:, None] * surf.ng, wi)
         magnitude = getattr(self.origin, "magnitude", None)
         if magnitude is not None:
+            # Direction-independent distance along ng. Shadow rays leave on the viewer's side (light_side
+            # lets through ng . wi > 0, and terminator-zone rays are sent from the lifted side too).
             if self.terminator:
+                src = _Lifted(surf, _batch_cached(surf, "terminator_point", terminator_point))
+
                 def lifted_magnitude(b):
                     return magnitude(_Lifted(b, _batch_cached(b, "terminator_point", terminator_point)))
                 d = _batch_cached(surf, ("magnitude_lifted", self.origin), lifted_magnitude)
             else:
+                src = surf
                 d = _batch_cached(surf, ("magnitude", self.origin), magnitude)
-            off = (d * _side(surf, w_side))[:, None] * surf.ng
+                d = np.where(dot(wi, surf.ng) >= 0, d, -d)
+            off = d[:, None] * surf.ng
             origins = _round_away(src.p + off, off)
         else:
+            src, w_side = surf, wi
+            if self.terminator:
+                cos_g = dot(wi, surf.ng)
+                src = _Lifted(surf, _batch_cached(surf, "terminator_point", terminator_point))
+                # Terminator-zone rays (ng . wi < 0, let through by an interpolated normal) must start on
+                # the lifted side of their own facet: the origin function is given wi mirrored to that side.
+                w_side = np.where((cos_g < 0)[:, None], wi - (2.0 * cos_g)[:, None] * surf.ng, wi)
             origins = np.asarray(self.origin(src, w_side), dtype=np.float64)
         dist = np.asarray(dist, dtype=np.float64)
         finite = np.isfinite(dist)
         tmax = np.full(dist.shape, np.inf)
         if np.any(finite):
-            f = np.flatnonzero(finite)
+            f = slice(None) if np.all(finite) else np.flatnonzero(finite)
             end = surf.p[f] + wi[f] * dist[f, None]       # the light's point (float64)
             o, w = origins[f], wi[f]
             if self.tmax == "robust":
