@@ -471,7 +471,8 @@ def render(scene, **kwargs):
     throughput_cutoff : float
         Drop specular rays whose throughput falls below this (default 1e-4).
     offset : str or callable
-        Ray-offset strategy (:mod:`pyrt.offsets`), default the robust error-bound offset.
+        Ray-offset strategy (:mod:`pyrt.offsets`): a name, a Strategy or a callable; default "robust"
+        (local error bound + robust shadow tmax + shadow-terminator lift).
     progress : bool, optional
         Show a progress bar (default: only on a terminal).
     chunk_samples : int
