@@ -32,7 +32,7 @@ from shaders import sampling
 from shaders.vec import coordinate_frame, max_component
 
 from .lights import REGISTRY as _LIGHTS
-from .lights import Light, LightError, _color, _nonneg, _vec3
+from .lights import Light, LightError, _color, _nonneg, _vec3, stratified_samples  # noqa: F401 (re-export)
 from .materials import Material, check_color, register
 
 
@@ -55,25 +55,6 @@ class AreaEmitter(Material):
         if self.two_sided:
             return np.array(L)
         return np.where(ctx.front[:, None], L, 0.0)
-
-
-def stratified_samples(rng, n_hits, n_samples):
-    """Per-hit stratified points in [0, 1)^2, shape ``(n_samples, n_hits, 2)``.
-
-    ``k x k`` jittered grid if ``n_samples == k^2``, else Latin hypercube (``n_samples`` strata in
-    each dimension, randomly paired per hit). Every sample is uniformly distributed (unbiased).
-    """
-    k = math.isqrt(n_samples)
-    xi = rng.random((n_samples, n_hits, 2))
-    if k * k == n_samples:
-        s = np.arange(n_samples)
-        cell = np.stack([s % k, s // k], axis=1).astype(np.float64)
-        return (cell[:, None, :] + xi) / k
-    perm = rng.permuted(np.tile(np.arange(n_samples), (n_hits, 1)), axis=1).T   # (ns, n)
-    u = np.empty_like(xi)
-    u[..., 0] = (np.arange(n_samples)[:, None] + xi[..., 0]) / n_samples
-    u[..., 1] = (perm + xi[..., 1]) / n_samples
-    return u
 
 
 class AreaLight(Light):
@@ -119,25 +100,6 @@ class AreaLight(Light):
         return self
 
     _smooth = False
-
-    def estimate(self, surf, bsdf, visible, rng):
-        n = surf.n_hits
-        out = np.zeros((n, 3))
-        ns = self.n_samples
-        us = stratified_samples(rng, n, ns)
-        for s in range(ns):
-            wi, dist, E = self.sample(surf.p, us[s])
-            idx = np.flatnonzero(surf.light_side(wi) & (max_component(E) > 0))   # as pyrt.lights.Light.estimate
-            if idx.size == 0:
-                continue
-            f = bsdf.f_cos(idx, wi[idx])
-            keep = max_component(f) > 0
-            idx, f = idx[keep], f[keep]
-            if idx.size == 0:
-                continue
-            vis = visible(idx, wi[idx], dist[idx])
-            out[idx] += np.where(vis[:, None], f * E[idx], 0.0)
-        return out / ns
 
 
 def _planar_sample(p, x, n, L, area):

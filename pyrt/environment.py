@@ -48,6 +48,7 @@ from shaders import sampling
 from shaders import textures as _tex
 from shaders.vec import max_component
 
+from . import checks
 from .lights import Light, LightError
 from .materials import Lambert
 
@@ -65,12 +66,7 @@ class EnvironmentMapError(LightError):
 
 
 def _rgb(owner, name, v):
-    a = np.asarray(v, dtype=np.float64)
-    if a.ndim == 0:
-        a = np.repeat(a, 3)
-    if a.shape != (3,) or not np.all(np.isfinite(a)) or np.any(a < 0):
-        raise EnvironmentMapError(f"{owner}: {name} must be a non-negative finite RGB triple, got {v!r}")
-    return a
+    return checks.rgb(owner, name, v, EnvironmentMapError)
 
 
 def _rotation_matrix(owner, rotate):

@@ -67,6 +67,8 @@ from shaders import ies as _ies
 from shaders import lights as kernels
 from shaders.vec import max_component
 
+from . import checks
+
 
 class LightError(ValueError):
     """Invalid light parameters."""
@@ -93,12 +95,26 @@ def _nonneg(owner, name, v):
 
 
 def _color(owner, v):
-    a = np.asarray(v, dtype=np.float64)
-    if a.ndim == 0:
-        a = np.repeat(a, 3)
-    if a.shape != (3,) or not np.all(np.isfinite(a)) or np.any(a < 0):
-        raise LightError(f"{owner}: color must be a non-negative finite RGB triple, got {v!r}")
-    return a
+    return checks.rgb(owner, "color", v, LightError)
+
+
+def stratified_samples(rng, n_hits, n_samples):
+    """Per-hit stratified points in [0, 1)^2, shape ``(n_samples, n_hits, 2)``.
+
+    ``k x k`` jittered grid if ``n_samples == k^2``, else Latin hypercube (``n_samples`` strata in
+    each dimension, randomly paired per hit). Every sample is uniformly distributed (unbiased).
+    """
+    k = math.isqrt(n_samples)
+    xi = rng.random((n_samples, n_hits, 2))
+    if k * k == n_samples:
+        s = np.arange(n_samples)
+        cell = np.stack([s % k, s // k], axis=1).astype(np.float64)
+        return (cell[:, None, :] + xi) / k
+    perm = rng.permuted(np.tile(np.arange(n_samples), (n_hits, 1)), axis=1).T   # (ns, n)
+    u = np.empty_like(xi)
+    u[..., 0] = (np.arange(n_samples)[:, None] + xi[..., 0]) / n_samples
+    u[..., 1] = (perm + xi[..., 1]) / n_samples
+    return u
 
 
 class Light:
@@ -129,13 +145,10 @@ class Light:
         n = surf.n_hits
         L = np.zeros((n, 3))
         ns = self.n_samples
+        # delta lights ignore u; others get stratified samples (jittered grid or Latin hypercube)
+        us = np.zeros((ns, n, 2)) if self.delta else stratified_samples(rng, n, ns)
         for s in range(ns):
-            if self.delta:
-                u = np.zeros((n, 2))
-            else:
-                # stratify the samples of this light along the first dimension
-                u = rng.random((n, 2))
-                u[:, 0] = (s + u[:, 0]) / ns
+            u = us[s]
             wi, dist, E = self.sample(surf.p, u)
             # ng . wi > 0, or the interpolated vertex normal faces the light (shadow terminator, pyrt.offsets)
             active = surf.light_side(wi) & (max_component(E) > 0)

@@ -9,6 +9,7 @@ import math
 import numpy as np
 import trimesh
 
+from . import checks
 from .camera import Camera
 from .geometry import GeometryError, GeometryTable, MeshData, validate_mesh
 from .lights import Light
@@ -20,12 +21,7 @@ class SceneError(ValueError):
 
 
 def _rgb(owner, name, v):
-    a = np.asarray(v, dtype=np.float64)
-    if a.ndim == 0:
-        a = np.repeat(a, 3)
-    if a.shape != (3,) or not np.all(np.isfinite(a)) or np.any(a < 0):
-        raise SceneError(f"{owner}: {name} must be a non-negative finite RGB triple, got {v!r}")
-    return a
+    return checks.rgb(owner, name, v, SceneError)
 
 
 def transform_matrix(*, translate=None, rotate=None, scale=None, matrix=None):
