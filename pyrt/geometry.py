@@ -21,7 +21,7 @@ import warnings
 
 import numpy as np
 
-from shaders.vec import coordinate_frame, cross, dot, normalize
+from shaders.vec import coordinate_frame, cross, dot, normalize, put_rows, take_rows
 
 
 class GeometryError(ValueError):
@@ -188,7 +188,7 @@ class _SurfaceSubset(SurfaceBatch):
         # only called when the attribute is not cached in the instance dict yet
         if name in SurfaceBatch.FIELDS:
             val = getattr(self._base, name)
-            val = None if val is None else val[self._idx]
+            val = None if val is None else take_rows(val, self._idx)
             self.__dict__[name] = val
             return val
         raise AttributeError(name)
@@ -227,7 +227,8 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
     n = hits.t.shape[0]
     face = geo.face_offset[hits.mesh_id] + hits.prim_id
     tri = geo.faces[face]
-    v0, v1, v2 = geo.vertices[tri[:, 0]], geo.vertices[tri[:, 1]], geo.vertices[tri[:, 2]]
+    vtx = geo.vertices
+    v0, v1, v2 = take_rows(vtx, tri[:, 0]), take_rows(vtx, tri[:, 1]), take_rows(vtx, tri[:, 2])
     b1, b2 = hits.u, hits.v
     b0 = 1.0 - b1 - b2
     bary = np.stack([b0, b1, b2], axis=1)
@@ -246,12 +247,15 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
     nrm = geo.normals
     if np.any(smooth):
         s = np.flatnonzero(smooth)
-        ni = (bary[s, 0:1] * nrm[tri[s, 0]] + bary[s, 1:2] * nrm[tri[s, 1]] + bary[s, 2:3] * nrm[tri[s, 2]])
+        ts, bs = take_rows(tri, s), take_rows(bary, s)
+        ni = (bs[:, 0:1] * take_rows(nrm, ts[:, 0]) + bs[:, 1:2] * take_rows(nrm, ts[:, 1])
+              + bs[:, 2:3] * take_rows(nrm, ts[:, 2]))
         ni = normalize(ni) * sign[s, None]
         # An interpolated normal facing away from the viewer cannot shade anything: fall back to ng.
-        bad = (dot(ni, wo[s]) <= 0) | (dot(ni, ni) == 0)
-        ni[bad] = ng[s][bad]
-        ns[s] = ni
+        ng_s = take_rows(ng, s)
+        bad = (dot(ni, take_rows(wo, s)) <= 0) | (dot(ni, ni) == 0)
+        ni[bad] = ng_s[bad]
+        put_rows(ns, s, ni)
 
     p_error = np.abs(b0)[:, None] * np.abs(v0) + np.abs(b1)[:, None] * np.abs(v1) + np.abs(b2)[:, None] * np.abs(v2)
 

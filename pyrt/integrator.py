@@ -31,7 +31,7 @@ from .geometry import refract_differentials, reflect_differentials, surface_from
 from . import gouraud
 from .dielectrics import NestedMedia
 from .textures import apply_normal_maps
-from shaders.vec import max_component
+from shaders.vec import max_component, put_rows, take_rows
 
 
 @dataclass
@@ -70,11 +70,24 @@ class PreparedScene:
         # faces shaded per vertex (pyrt.gouraud), None when no mesh asks for it
         self.face_gouraud = gouraud.face_mask(self.geo, getattr(scene, "gouraud_meshes", ()))
         self.needs_differentials = any(_uses_texture(m) for m in mats)
+        #: materials whose emission() can be non-zero (the rest skip the emission pass)
+        self.emits = np.array([_may_emit(m) for m in mats], dtype=bool)
         # materials with a tangent-space normal map (attribute ``normal_map``, see pyrt.textures)
         self.has_normal_maps = any(getattr(m, "normal_map", None) is not None for m in mats)
 
     def close(self):
         self.accel.close()
+
+
+def _may_emit(material):
+    """False only when the material certainly emits nothing (the base class or a Lambert with zero emission)."""
+    from .materials import Lambert, Material
+    if type(material).emission is Material.emission:
+        return False
+    if type(material).emission is Lambert.emission:
+        e = material.emission_value
+        return hasattr(e, "evaluate") or bool(np.any(np.asarray(e) > 0))
+    return True
 
 
 def _uses_texture(material):
@@ -106,6 +119,10 @@ class BSDFBatch:
             self.groups[int(k)] = (idx_k, ctx, ctx.to_local(ctx.wo))
 
     def _groups(self, idx):
+        if len(self.groups) == 1:
+            (k, (idx_k, ctx, wo_l)), = self.groups.items()
+            yield self.materials[k], np.arange(idx.size), self.pos[idx], idx_k.size, ctx, wo_l
+            return
         mids = self.mat_id[idx]
         for k in np.unique(mids):
             sel = np.flatnonzero(mids == k)
@@ -117,13 +134,17 @@ class BSDFBatch:
         """BSDF * cos(theta_i) at hits ``idx`` for world directions ``wi`` (k, 3)."""
         out = np.zeros((idx.shape[0], 3))
         for mat, sel, p, n_k, ctx, wo_l in self._groups(idx):
+            wi_s = wi if sel.size == idx.size else take_rows(wi, sel)
             if p.size >= self.GATHER_FRACTION * n_k:
                 w_full = ctx.ns.copy()          # harmless direction for lanes not queried
-                w_full[p] = wi[sel]
-                out[sel] = mat.f_cos(wo_l, ctx.to_local(w_full), ctx)[p]
+                put_rows(w_full, p, wi_s)
+                val = take_rows(mat.f_cos(wo_l, ctx.to_local(w_full), ctx), p)
             else:
                 sub = ctx.subset(p)
-                out[sel] = mat.f_cos(wo_l[p], sub.to_local(wi[sel]), sub)
+                val = mat.f_cos(take_rows(wo_l, p), sub.to_local(wi_s), sub)
+            if sel.size == idx.size:
+                return np.asarray(val, dtype=np.float64)
+            put_rows(out, sel, val)
         return out
 
     def sample(self, idx, u):
@@ -246,26 +267,31 @@ class Integrator:
             hsub = _subset_hits(hits, h)
             dsub = None
             if use_diffs:
-                dsub = tuple(x[h] for x in diffs)
-            surf = surface_from_hits(self.ps.geo, hsub, o[h], d[h], dsub)
+                dsub = tuple(take_rows(x, h) for x in diffs)
+            surf = surface_from_hits(self.ps.geo, hsub, take_rows(o, h), take_rows(d, h), dsub)
             if self.ps.has_normal_maps:
                 apply_normal_maps(surf, materials)
-            s_idx, thr_h = sample[h], thr[h]
+            s_idx, thr_h = sample[h], take_rows(thr, h)
             if aovs is not None and depth == 0:
                 aovs["depth"][s_idx] = hsub.t
                 aovs["normal"][s_idx] = surf.ns
             mids = surf.material_id
-            present = np.unique(mids)
+            present = np.flatnonzero(np.bincount(mids, minlength=len(materials)))
             Lh = np.zeros((h.size, 3))
-            # emission and ambient, per material type
+            # emission and ambient, per material type (only for materials that have them)
+            use_ambient = np.any(ambient > 0)
             for k in present:
-                sel = np.flatnonzero(mids == k)
                 mat = materials[k]
+                want_albedo = aovs is not None and depth == 0
+                if not (self.ps.emits[k] or want_albedo or (mat.has_diffuse and use_ambient)):
+                    continue
+                sel = np.flatnonzero(mids == k)
                 ctx = surf.subset(sel)
-                Lh[sel] += mat.emission(ctx)
-                if aovs is not None and depth == 0:
+                if self.ps.emits[k]:
+                    Lh[sel] += mat.emission(ctx)
+                if want_albedo:
                     aovs["albedo"][s_idx[sel]] = mat.albedo(ctx)
-                if mat.has_diffuse and np.any(ambient > 0):
+                if mat.has_diffuse and use_ambient:
                     Lh[sel] += mat.albedo(ctx) * ambient
             # direct light at hits whose material has a non-delta lobe
             diffuse_idx = np.flatnonzero(self.ps.has_diffuse[mids])
@@ -278,8 +304,8 @@ class Integrator:
                 dsurf = surf.subset(diffuse_idx)
                 bsdf = BSDFBatch(dsurf, materials)
                 visible = self._visibility(dsurf)
-                for light in lights:
-                    Lh[diffuse_idx] += light.estimate(dsurf, bsdf, visible, rng)
+                Ld = sum(light.estimate(dsurf, bsdf, visible, rng) for light in lights)
+                put_rows(Lh, diffuse_idx, take_rows(Lh, diffuse_idx) + Ld)
             _scatter_add(L, s_idx, thr_h * Lh)
             if depth == self.max_depth:
                 break
@@ -352,7 +378,7 @@ def normalize_rows(w):
 def _subset_hits(hits, idx):
     from .accel import Hits
     return Hits(hit=hits.hit[idx], t=hits.t[idx], mesh_id=hits.mesh_id[idx], prim_id=hits.prim_id[idx],
-                u=hits.u[idx], v=hits.v[idx], ng=hits.ng[idx])
+                u=hits.u[idx], v=hits.v[idx], ng=take_rows(hits.ng, idx))
 
 
 @dataclass

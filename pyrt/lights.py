@@ -65,7 +65,7 @@ import numpy as np
 from shaders import color as _colour
 from shaders import ies as _ies
 from shaders import lights as kernels
-from shaders.vec import max_component
+from shaders.vec import max_component, put_rows, take_rows
 
 from . import checks
 
@@ -155,13 +155,16 @@ class Light:
             idx = np.flatnonzero(active)
             if idx.size == 0:
                 continue
-            f = bsdf.f_cos(idx, wi[idx])
-            keep = max_component(f) > 0
-            idx, f = idx[keep], f[keep]
-            if idx.size == 0:
+            wi_a = take_rows(wi, idx)
+            f = bsdf.f_cos(idx, wi_a)
+            keep = np.flatnonzero(max_component(f) > 0)
+            if keep.size == 0:
                 continue
-            vis = visible(idx, wi[idx], dist[idx])
-            L[idx] += np.where(vis[:, None], f * E[idx], 0.0)
+            if keep.size < idx.size:
+                idx, f, wi_a = idx[keep], take_rows(f, keep), take_rows(wi_a, keep)
+            vis = np.flatnonzero(visible(idx, wi_a, dist[idx]))
+            idx, f = idx[vis], take_rows(f, vis)
+            put_rows(L, idx, take_rows(L, idx) + f * take_rows(E, idx))
         return L / ns
 
 

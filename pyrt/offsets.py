@@ -67,7 +67,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from shaders.vec import dot, max_component
+from shaders.vec import dot, max_component, take_rows
 
 _EPS32 = np.finfo(np.float32).eps / 2  # unit roundoff of float32, 2^-24
 _EPS64 = np.finfo(np.float64).eps / 2
@@ -262,7 +262,7 @@ def _batch_cached(surf, key, fn):
     if key not in cache:
         cache[key] = fn(base)
     idx = surf.__dict__.get("_idx")
-    return cache[key] if idx is None or base is surf else cache[key][idx]
+    return cache[key] if idx is None or base is surf else take_rows(cache[key], idx)
 
 
 class _Lifted:

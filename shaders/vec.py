@@ -23,6 +23,28 @@ def normalize(a):
     return a * inv[:, None]
 
 
+def take_rows(a, idx):
+    """``a[idx]`` for an index array along axis 0 (rows of any trailing shape).
+
+    Same result as fancy indexing; ``np.take`` is about 4x faster for (N, 3) rows on NumPy 2.
+    """
+    return np.take(a, idx, axis=0)
+
+
+def put_rows(a, idx, values):
+    """``a[idx] = values`` for unique row indices, in place.
+
+    Rows are moved as opaque records (a void view), about 3-4x faster than fancy assignment for
+    (N, 3) float rows; falls back to fancy assignment for non-contiguous or mismatched arrays.
+    """
+    values = np.asarray(values, dtype=a.dtype)
+    if a.ndim == 2 and a.flags.c_contiguous and values.shape == (len(idx), a.shape[1]):
+        rec = np.dtype((np.void, a.dtype.itemsize * a.shape[1]))
+        a.view(rec).reshape(-1)[idx] = np.ascontiguousarray(values).view(rec).reshape(-1)
+    else:
+        a[idx] = values
+
+
 def max_component(a):
     """Row-wise maximum of the last axis: ``(N, C) -> (N,)``.
 
