@@ -111,7 +111,7 @@ class SurfaceBatch:
 
     FIELDS = ("p", "p_object", "ng", "ns", "front", "wo", "uv", "dpdu", "dpdv", "duvdx", "duvdy", "dpdx", "dpdy",
               "dndx", "dndy", "mesh_id", "prim_id", "face", "material_id", "bary", "t", "p_error",
-              "frame_s", "frame_t", "tri_v", "tri_n")
+              "frame_s", "frame_t", "tri_v", "tri_n", "smooth")
 
     def __init__(self, lazy=None, **kwargs):
         """``lazy`` maps field names to a function computing a dict of fields on first access."""
@@ -160,12 +160,23 @@ class SurfaceBatch:
         :func:`pyrt.offsets.terminator_point`) decides instead of the flat facet.
         """
         lit = dot(wi, self.ng) > 0
-        if self.tri_n is None:
-            return lit
-        n_interp = self.__dict__.get("_n_interp")   # direction-independent: once per batch, not per light
-        if n_interp is None:
-            n_interp = self.__dict__["_n_interp"] = np.einsum("ij,ijk->ik", self.bary, self.tri_n)  # 0 on flat
-        return lit | (dot(wi, n_interp) > 0)
+        cached = self.__dict__.get("_n_interp")   # direction-independent: once per batch, not per light
+        if cached is None:
+            if self.smooth is not None:
+                sm = np.flatnonzero(self.smooth)   # flat faces have no terminator zone: skip them
+                if sm.size == 0:
+                    cached = (sm, None)
+                else:
+                    cached = (sm, np.einsum("ij,ijk->ik", take_rows(self.bary, sm), take_rows(self.tri_n, sm)))
+            elif self.tri_n is None:
+                cached = (np.zeros(0, dtype=np.int64), None)
+            else:
+                cached = (np.arange(self.n_hits), np.einsum("ij,ijk->ik", self.bary, self.tri_n))
+            self.__dict__["_n_interp"] = cached
+        sm, n_interp = cached
+        if sm.size:
+            lit[sm] |= dot(take_rows(wi, sm), n_interp) > 0
+        return lit
 
     def to_local(self, w):
         return np.stack([dot(w, self.frame_s), dot(w, self.frame_t), dot(w, self.ns)], axis=1)
@@ -324,7 +335,7 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
     lazy.update({k: triangle_group for k in ("tri_v", "tri_n")})
     lazy["p_object"] = object_group
     lazy.update({k: differential_group for k in ("dpdx", "dpdy", "dndx", "dndy", "duvdx", "duvdy")})
-    surf = SurfaceBatch(lazy=lazy, p=p, ng=ng, ns=ns, front=front, wo=wo, mesh_id=hits.mesh_id,
+    surf = SurfaceBatch(lazy=lazy, p=p, ng=ng, ns=ns, front=front, wo=wo, mesh_id=hits.mesh_id, smooth=smooth,
                         prim_id=hits.prim_id, face=face, material_id=geo.face_material[face], bary=bary, t=hits.t,
                         p_error=p_error)
     return surf

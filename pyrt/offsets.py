@@ -244,6 +244,17 @@ def terminator_point(surf):
     below it). Only shadow-ray origins move, so this can at worst let light past an occluder lying within
     that distance of a coarse smooth-shaded mesh.
     """
+    smooth = surf.smooth
+    if smooth is not None:
+        sm = np.flatnonzero(smooth)
+        if sm.size == 0:
+            return surf.p
+        p = take_rows(surf.p, sm)
+        tn = take_rows(surf.tri_n, sm)
+        d = np.minimum(0.0, np.einsum("ijk,ijk->ij", p[:, None, :] - take_rows(surf.tri_v, sm), tn))
+        out = surf.p.copy()
+        out[sm] = p - np.einsum("ij,ijk->ik", take_rows(surf.bary, sm) * d, tn)
+        return out
     tn = surf.tri_n
     if tn is None:
         return surf.p
@@ -291,7 +302,7 @@ SHADOW_TMAX_SCALE = 1.0 - 1e-4
 LIGHT_END_REL_ERROR = 16.0
 
 
-def robust_tmax(origins, wi, end):
+def robust_tmax(origins, wi, end, o_mag=None):
     """``t_end - max((1 - SHADOW_TMAX_SCALE) t_end, LIGHT_END_REL_ERROR 2^-24 max(|o|, |end|))``.
 
     ``t_end = (end - o) . wi`` is the distance from the (offset) origin to the light's point ``end``.
@@ -299,7 +310,9 @@ def robust_tmax(origins, wi, end):
     up to half the way).
     """
     t_end = dot(end - origins, wi)
-    mag = np.maximum(max_component(np.abs(origins)), max_component(np.abs(end)))
+    if o_mag is None:
+        o_mag = max_component(np.abs(origins))
+    mag = np.maximum(o_mag, max_component(np.abs(end)))
     margin = np.maximum((1.0 - SHADOW_TMAX_SCALE) * t_end, LIGHT_END_REL_ERROR * _EPS32 * mag)
     return np.maximum(t_end - margin, 0.5 * t_end)
 
@@ -347,21 +360,25 @@ class Strategy:
         and shared by every light and sample (:func:`_batch_cached`).
         """
         magnitude = getattr(self.origin, "magnitude", None)
+        o_mag = None
         if magnitude is not None:
             # Direction-independent distance along ng. Shadow rays leave on the viewer's side (light_side
             # lets through ng . wi > 0, and terminator-zone rays are sent from the lifted side too).
             if self.terminator:
-                src = _Lifted(surf, _batch_cached(surf, "terminator_point", terminator_point))
-
-                def lifted_magnitude(b):
-                    return magnitude(_Lifted(b, _batch_cached(b, "terminator_point", terminator_point)))
-                d = _batch_cached(surf, ("magnitude_lifted", self.origin), lifted_magnitude)
+                # every shadow ray leaves from the lifted point on the viewer's side: the origin does not
+                # depend on the light at all, so it is built once per batch (with its magnitude for tmax)
+                def shadow_origin(b):
+                    lifted = _batch_cached(b, "terminator_point", terminator_point)
+                    off = magnitude(_Lifted(b, lifted))[:, None] * b.ng
+                    o = _round_away(lifted + off, off)
+                    return np.concatenate([o, max_component(np.abs(o))[:, None]], axis=1)
+                packed = _batch_cached(surf, ("shadow_origin", self.origin), shadow_origin)
+                origins, o_mag = packed[:, :3], packed[:, 3]
             else:
-                src = surf
                 d = _batch_cached(surf, ("magnitude", self.origin), magnitude)
                 d = np.where(dot(wi, surf.ng) >= 0, d, -d)
-            off = d[:, None] * surf.ng
-            origins = _round_away(src.p + off, off)
+                off = d[:, None] * surf.ng
+                origins = _round_away(surf.p + off, off)
         else:
             src, w_side = surf, wi
             if self.terminator:
@@ -379,7 +396,7 @@ class Strategy:
             end = surf.p[f] + wi[f] * dist[f, None]       # the light's point (float64)
             o, w = origins[f], wi[f]
             if self.tmax == "robust":
-                tmax[f] = robust_tmax(o, w, end)
+                tmax[f] = robust_tmax(o, w, end, None if o_mag is None else o_mag[f])
             else:
                 t_end = dot(end - o, w)
                 if self.tmax == "exact":
