@@ -21,7 +21,7 @@ import warnings
 
 import numpy as np
 
-from shaders.vec import coordinate_frame, cross, dot, normalize, put_rows, take_rows
+from shaders.vec import coordinate_frame, cross, dot, normalize, put_rows, take_rows, to_local
 
 
 class GeometryError(ValueError):
@@ -179,7 +179,7 @@ class SurfaceBatch:
         return lit
 
     def to_local(self, w):
-        return np.stack([dot(w, self.frame_s), dot(w, self.frame_t), dot(w, self.ns)], axis=1)
+        return to_local(w, self.frame_s, self.frame_t, self.ns)
 
     def to_world(self, w):
         return w[:, 0:1] * self.frame_s + w[:, 1:2] * self.frame_t + w[:, 2:3] * self.ns
