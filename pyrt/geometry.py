@@ -237,7 +237,7 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
     """
     n = hits.t.shape[0]
     face = geo.face_offset[hits.mesh_id] + hits.prim_id
-    tri = geo.faces[face]
+    tri = take_rows(geo.faces, face)
     vtx = geo.vertices
     v0, v1, v2 = take_rows(vtx, tri[:, 0]), take_rows(vtx, tri[:, 1]), take_rows(vtx, tri[:, 2])
     b1, b2 = hits.u, hits.v
@@ -273,7 +273,7 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
     # Fields most kernels never read are computed on first access (model no more than needed).
     def uv_group():
         uvs = geo.uv
-        uv0, uv1, uv2 = uvs[tri[:, 0]], uvs[tri[:, 1]], uvs[tri[:, 2]]
+        uv0, uv1, uv2 = take_rows(uvs, tri[:, 0]), take_rows(uvs, tri[:, 1]), take_rows(uvs, tri[:, 2])
         uv = b0[:, None] * uv0 + b1[:, None] * uv1 + b2[:, None] * uv2
         du1, du2 = uv1 - uv0, uv2 - uv0
         det = du1[:, 0] * du2[:, 1] - du1[:, 1] * du2[:, 0]
@@ -288,7 +288,7 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
 
     def object_group():
         vo = geo.vertices_object
-        return {"p_object": b0[:, None] * vo[tri[:, 0]] + b1[:, None] * vo[tri[:, 1]] + b2[:, None] * vo[tri[:, 2]]}
+        return {"p_object": b0[:, None] * take_rows(vo, tri[:, 0]) + b1[:, None] * take_rows(vo, tri[:, 1]) + b2[:, None] * take_rows(vo, tri[:, 2])}
 
     def differential_group():
         zeros3 = np.zeros((n, 3))
@@ -310,13 +310,13 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
         bx1, bx2 = _solve_bary_derivative(e1, e2, dpdx)
         by1, by2 = _solve_bary_derivative(e1, e2, dpdy)
         uvs = geo.uv
-        du1 = uvs[tri[:, 1]] - uvs[tri[:, 0]]
-        du2 = uvs[tri[:, 2]] - uvs[tri[:, 0]]
+        du1 = take_rows(uvs, tri[:, 1]) - take_rows(uvs, tri[:, 0])
+        du2 = take_rows(uvs, tri[:, 2]) - take_rows(uvs, tri[:, 0])
         out = {"dpdx": dpdx, "dpdy": dpdy, "dndx": zeros3, "dndy": zeros3,
                "duvdx": bx1[:, None] * du1 + bx2[:, None] * du2, "duvdy": by1[:, None] * du1 + by2[:, None] * du2}
         if np.any(smooth):
-            dn1 = (nrm[tri[:, 1]] - nrm[tri[:, 0]]) * sign[:, None]
-            dn2 = (nrm[tri[:, 2]] - nrm[tri[:, 0]]) * sign[:, None]
+            dn1 = (take_rows(nrm, tri[:, 1]) - take_rows(nrm, tri[:, 0])) * sign[:, None]
+            dn2 = (take_rows(nrm, tri[:, 2]) - take_rows(nrm, tri[:, 0])) * sign[:, None]
             sm = smooth[:, None]
             out["dndx"] = np.where(sm, bx1[:, None] * dn1 + bx2[:, None] * dn2, 0.0)
             out["dndy"] = np.where(sm, by1[:, None] * dn1 + by2[:, None] * dn2, 0.0)
@@ -328,7 +328,7 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
         tri_n = np.zeros((n, 3, 3))
         if np.any(smooth):
             s = np.flatnonzero(smooth)
-            tri_n[s] = nrm[tri[s]] * sign[s, None, None]
+            put_rows(tri_n, s, np.take(nrm, take_rows(tri, s), axis=0) * sign[s, None, None])
         return {"tri_v": np.stack([v0, v1, v2], axis=1), "tri_n": tri_n}
 
     lazy = {k: uv_group for k in ("uv", "dpdu", "dpdv")}

@@ -38,9 +38,12 @@ def put_rows(a, idx, values):
     (N, 3) float rows; falls back to fancy assignment for non-contiguous or mismatched arrays.
     """
     values = np.asarray(values, dtype=a.dtype)
-    if a.ndim == 2 and a.flags.c_contiguous and values.shape == (len(idx), a.shape[1]):
-        rec = np.dtype((np.void, a.dtype.itemsize * a.shape[1]))
-        a.view(rec).reshape(-1)[idx] = np.ascontiguousarray(values).view(rec).reshape(-1)
+    if len(idx) == 0:
+        return
+    if a.ndim >= 2 and a.flags.c_contiguous and values.shape == (len(idx),) + a.shape[1:]:
+        rec = np.dtype((np.void, a.dtype.itemsize * int(np.prod(a.shape[1:]))))
+        a.reshape(a.shape[0], -1).view(rec).reshape(-1)[idx] = \
+            np.ascontiguousarray(values).reshape(len(idx), -1).view(rec).reshape(-1)
     else:
         a[idx] = values
 
