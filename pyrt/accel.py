@@ -58,7 +58,7 @@ class Hits:
     ng: np.ndarray
 
 
-def _as_rays(origins, dirs, tmax, n_expected=None):
+def _as_rays(origins, dirs, tmax):
     origins = np.asarray(origins)
     dirs = np.asarray(dirs)
     if origins.ndim != 2 or origins.shape[1] != 3:
@@ -78,7 +78,8 @@ def _as_rays(origins, dirs, tmax, n_expected=None):
             raise ValueError(f"tmax must be a scalar or have shape ({n},), got {tm.shape}")
         # always a fresh array: the binding writes it in place
         tm = np.minimum(tm, T_INFINITE).astype(np.float32)
-    if not (np.all(np.isfinite(o)) and np.all(np.isfinite(d))):
+    # one float64 sum per array: NaN/Inf propagate, and float32 inputs cannot overflow a float64 sum
+    if not (np.isfinite(np.sum(o, dtype=np.float64)) and np.isfinite(np.sum(d, dtype=np.float64))):
         raise ValueError("ray origins and directions must be finite")
     return o, d, tm
 
