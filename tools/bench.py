@@ -102,6 +102,7 @@ def measure(scene, repeats):
         stats = res.stats
         stats.recorded = []
         ps.close()
+    measure.last_ratios = [a / b for a, b in zip(e2e, emb)]
     return statistics.median(e2e), statistics.median(emb), statistics.median(emb_chunked), stats
 
 
@@ -133,7 +134,8 @@ def main(argv=None):
              f"| {main_row['triangles']} | {st.rays} ({st.primary_rays}/{st.secondary_rays}/{st.shadow_rays}) | "
              f"{t_emb:.3f} | {t_emb_chunked:.3f} | {t_e2e:.3f} | {t_e2e / t_emb:.2f}x | "
              f"{main_row['pyrt_Mrays_per_s']:.2f} | {peak_mb:.0f} |",
-             "", "ratio = pyrt / Embree only on both cores (the same rays merged into one batch per query kind).", ""]
+             "", "ratio = pyrt / Embree only on both cores (the same rays merged into one batch per query kind); "
+             f"per-run ratios: {', '.join(f'{r:.2f}' for r in measure.last_ratios)}.", ""]
     print("\n".join(lines))
     sweep_tris = []
     counts = [1_000, 10_000, 100_000, 1_000_000] if not args.quick else [1_000, 100_000]
