@@ -21,7 +21,7 @@ import warnings
 
 import numpy as np
 
-from shaders.vec import coordinate_frame, cross, dot, normalize, put_rows, take_rows, to_local
+from shaders.vec import coordinate_frame, cross, dot, max_component, normalize, put_rows, take_rows, to_local
 
 
 class GeometryError(ValueError):
@@ -99,6 +99,12 @@ class GeometryTable:
                                   for m in self.meshes])
         self.any_smooth = bool(np.any(smooth))
         self.any_uv = bool(np.any(self.face_has_uv))
+        # per-face bounds for ray offsets (pyrt.offsets.local_bound): the largest extent of the triangle's
+        # bounding box (>= max_i ||v_i - p||_inf for any p on it) and the component-wise max |v_i|
+        # (>= sum_i b_i |v_i| for any p on it)
+        tri = self.vertices[self.faces]                               # (F, 3, 3)
+        self.face_extent = max_component(tri.max(axis=1) - tri.min(axis=1))
+        self.face_absmax = np.abs(tri).max(axis=1)
 
 
 class SurfaceBatch:
@@ -111,7 +117,7 @@ class SurfaceBatch:
 
     FIELDS = ("p", "p_object", "ng", "ns", "front", "wo", "uv", "dpdu", "dpdv", "duvdx", "duvdy", "dpdx", "dpdy",
               "dndx", "dndy", "mesh_id", "prim_id", "face", "material_id", "bary", "t", "p_error",
-              "frame_s", "frame_t", "tri_v", "tri_n", "smooth")
+              "frame_s", "frame_t", "tri_v", "tri_n", "smooth", "tri_extent", "tri_absmax")
 
     def __init__(self, lazy=None, **kwargs):
         """``lazy`` maps field names to a function computing a dict of fields on first access."""
@@ -333,6 +339,10 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
 
     lazy = {k: uv_group for k in ("uv", "dpdu", "dpdv")}
     lazy.update({k: triangle_group for k in ("tri_v", "tri_n")})
+
+    def bounds_group():
+        return {"tri_extent": geo.face_extent[face], "tri_absmax": take_rows(geo.face_absmax, face)}
+    lazy.update({k: bounds_group for k in ("tri_extent", "tri_absmax")})
     lazy["p_object"] = object_group
     lazy.update({k: differential_group for k in ("dpdx", "dpdy", "dndx", "dndy", "duvdx", "duvdy")})
     surf = SurfaceBatch(lazy=lazy, p=p, ng=ng, ns=ns, front=front, wo=wo, mesh_id=hits.mesh_id, smooth=smooth,

@@ -217,11 +217,27 @@ def local_bound(surf, w):
     return _round_away(surf.p + off, off)
 
 
+#: The same bound from precomputed per-face quantities (:class:`pyrt.geometry.GeometryTable`): the
+#: triangle's bounding-box extent E satisfies L <= E <= 2 L, so 8 E lies in [8 L, 16 L], inside the range
+#: the acne suite validated for LOCAL_REL_ERROR (0.25 ... 16 all give 0 failures).
+LOCAL_REL_ERROR_EXTENT = 8.0
+
+
 def local_bound_magnitude(surf):
-    """The distance along ng that :func:`local_bound` pushes by (N,): independent of the ray direction."""
-    tv = surf.tri_v
-    L = max_component(np.abs(tv - surf.p[:, None, :]).reshape(-1, 9))
-    return dot(np.abs(surf.ng), _gamma(4, _EPS64) * surf.p_error) + LOCAL_REL_ERROR * _EPS32 * L
+    """The distance along ng that :func:`local_bound` pushes by (N,): independent of the ray direction.
+
+    Uses the per-face bounds ``tri_extent`` / ``tri_absmax`` when the batch has them (no per-hit
+    reduction over the triangle's vertices), else the exact per-hit quantities.
+    """
+    ext = surf.tri_extent
+    if ext is None:
+        tv = surf.tri_v
+        L = max_component(np.abs(tv - surf.p[:, None, :]).reshape(-1, 9))
+        return dot(np.abs(surf.ng), _gamma(4, _EPS64) * surf.p_error) + LOCAL_REL_ERROR * _EPS32 * L
+    absmax = surf.tri_absmax
+    if isinstance(surf, _Lifted):
+        absmax = absmax + np.abs(surf.p - surf._surf.p)   # the lifted point may lie off the triangle
+    return dot(np.abs(surf.ng), _gamma(4, _EPS64) * absmax) + LOCAL_REL_ERROR_EXTENT * _EPS32 * ext
 
 
 local_bound.magnitude = local_bound_magnitude
