@@ -74,6 +74,16 @@ def _check_keys(where, table, allowed, path):
         raise SceneFileError(f"{path}: unknown key(s) {sorted(unknown)} in {where}; allowed: {sorted(allowed)}")
 
 
+def _typed(spec, registry, what, where, path):
+    """A table with a ``type`` from ``registry`` -> ``(type, the other keys)``; errors name the table."""
+    if not isinstance(spec, dict) or "type" not in spec:
+        raise SceneFileError(f"{path}: {where} needs a 'type' (one of {sorted(registry)})")
+    kind = spec["type"]
+    if kind not in registry:
+        raise SceneFileError(f"{path}: {where}: unknown {what} type {kind!r}; choose one of {sorted(registry)}")
+    return kind, {k: v for k, v in spec.items() if k != "type"}
+
+
 def _construct(cls, kwargs, where, path):
     try:
         return cls(**kwargs)
@@ -152,12 +162,7 @@ def load_scene(path):
         raise SceneFileError(f"{path}: [materials] must be a table of named materials")
     for name, spec in mats_t.items():
         where = f"[materials.{name}]"
-        if not isinstance(spec, dict) or "type" not in spec:
-            raise SceneFileError(f"{path}: {where} needs a 'type' (one of {sorted(MATERIALS)})")
-        kind = spec["type"]
-        if kind not in MATERIALS:
-            raise SceneFileError(f"{path}: {where}: unknown material type {kind!r}; choose one of {sorted(MATERIALS)}")
-        kwargs = {k: v for k, v in spec.items() if k != "type"}
+        kind, kwargs = _typed(spec, MATERIALS, "material", where, path)
         kwargs.setdefault("name", name)
         normal_map = kwargs.pop("normal_map", None)
         kwargs = {k: _texture(v, f"{where}.{k}", base, path) if isinstance(v, dict) else v for k, v in kwargs.items()}
@@ -201,12 +206,7 @@ def load_scene(path):
 
     for i, spec in enumerate(data.get("lights", [])):
         where = f"[[lights]] #{i}"
-        if not isinstance(spec, dict) or "type" not in spec:
-            raise SceneFileError(f"{path}: {where} needs a 'type' (one of {sorted(LIGHTS)})")
-        kind = spec["type"]
-        if kind not in LIGHTS:
-            raise SceneFileError(f"{path}: {where}: unknown light type {kind!r}; choose one of {sorted(LIGHTS)}")
-        kwargs = {k: v for k, v in spec.items() if k != "type"}
+        kind, kwargs = _typed(spec, LIGHTS, "light", where, path)
         for k in LIGHT_PATH_ARGUMENTS:  # image / IES files relative to the scene file
             if isinstance(kwargs.get(k), str) and not os.path.isabs(kwargs[k]):
                 kwargs[k] = os.path.join(base, kwargs[k])
