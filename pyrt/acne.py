@@ -570,9 +570,9 @@ class _Timed(offsets.Strategy):
     def __call__(self, surf, w):
         return self.inner(surf, w)
 
-    def shadow(self, surf, wi, dist):
+    def shadow(self, surf, wi, dist, end=None):
         t0 = time.perf_counter()
-        r = self.inner.shadow(surf, wi, dist)
+        r = self.inner.shadow(surf, wi, dist, end)
         dt = time.perf_counter() - t0
         with self.lock:
             self.clock[0] += dt

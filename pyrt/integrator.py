@@ -317,9 +317,10 @@ class Integrator:
         return L, aovs
 
     def _visibility(self, surf):
-        def visible(idx, wi, dist):
+        def visible(idx, wi, dist, end=None):
+            """Shadow rays from hits ``idx`` along ``wi`` to a light at ``dist`` (or at the point ``end``)."""
             sub = surf.subset(idx)
-            origins, tmax = self.offset.shadow(sub, wi, dist)   # offsets.Strategy: origin, tmax, terminator
+            origins, tmax = self.offset.shadow(sub, wi, dist, end)   # offsets.Strategy: origin, tmax, terminator
             return ~self._occluded(origins, wi, tmax)
         return visible
 

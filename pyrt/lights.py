@@ -120,6 +120,9 @@ def stratified_samples(rng, n_hits, n_samples):
 class Light:
     """Base class: ``n_samples`` shadow rays per hit and a :meth:`sample` method."""
 
+    #: True when every sample of the light is the point ``self.position`` (punctual lights): shadow rays
+    #: then end at that point exactly.
+    fixed_position = False
     n_samples = 1
     #: True for lights at a single point / direction (no randomness).
     delta = True
@@ -162,7 +165,7 @@ class Light:
                 continue
             if keep.size < idx.size:
                 idx, f, wi_a = idx[keep], take_rows(f, keep), take_rows(wi_a, keep)
-            vis = np.flatnonzero(visible(idx, wi_a, dist[idx]))
+            vis = np.flatnonzero(visible(idx, wi_a, dist[idx], self.position if self.fixed_position else None))
             idx, f = idx[vis], take_rows(f, vis)
             put_rows(L, idx, take_rows(L, idx) + f * take_rows(E, idx))
         return L / ns
@@ -213,6 +216,8 @@ class _PunctualLight(Light):
 
     Subclasses define :meth:`radiant_intensity`; :meth:`sample` is then ``E = I(-wi) f(r)``.
     """
+
+    fixed_position = True
 
     def _init_falloff(self, owner, falloff, epsilon, light_range):
         if falloff not in kernels.DISTANCE_FALLOFFS:

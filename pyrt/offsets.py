@@ -82,7 +82,7 @@ def _side(surf, w):
     return np.where(dot(w, surf.ng) >= 0, 1.0, -1.0)
 
 
-def _round_away(origins, direction):
+def _round_away(origins, direction, as32=False):
     """Cast to float32 and step one float32 ulp further along ``direction``'s sign per component.
 
     Rounding to nearest moves a component by at most half an ulp; the extra step makes the move
@@ -91,7 +91,8 @@ def _round_away(origins, direction):
     """
     o32 = origins.astype(np.float32)
     toward = np.where(direction > 0, np.float32(np.inf), np.where(direction < 0, np.float32(-np.inf), o32))
-    return np.nextafter(o32, toward.astype(np.float32)).astype(np.float64)
+    out = np.nextafter(o32, toward.astype(np.float32))
+    return out if as32 else out.astype(np.float64)
 
 
 # ---------------------------------------------------------------------------------------- origin functions
@@ -289,7 +290,10 @@ def _batch_cached(surf, key, fn):
     if key not in cache:
         cache[key] = fn(base)
     idx = surf.__dict__.get("_idx")
-    return cache[key] if idx is None or base is surf else take_rows(cache[key], idx)
+    val = cache[key]
+    if idx is None or base is surf:
+        return val
+    return tuple(take_rows(v, idx) for v in val) if isinstance(val, tuple) else take_rows(val, idx)
 
 
 class _Lifted:
@@ -321,14 +325,16 @@ LIGHT_END_REL_ERROR = 16.0
 def robust_tmax(origins, wi, end, o_mag=None):
     """``t_end - max((1 - SHADOW_TMAX_SCALE) t_end, LIGHT_END_REL_ERROR 2^-24 max(|o|, |end|))``.
 
-    ``t_end = (end - o) . wi`` is the distance from the (offset) origin to the light's point ``end``.
+    ``t_end = (end - o) . wi`` is the distance from the (offset) origin to the light's point ``end``
+    ((N, 3), or (3,) for one point shared by all rays).
     Never below half of ``t_end`` (a light closer than its own uncertainty is treated as visible
     up to half the way).
     """
     t_end = dot(end - origins, wi)
     if o_mag is None:
         o_mag = max_component(np.abs(origins))
-    mag = np.maximum(o_mag, max_component(np.abs(end)))
+    end_mag = np.abs(end).max() if end.ndim == 1 else max_component(np.abs(end))   # (3,): a single light point
+    mag = np.maximum(o_mag, end_mag)
     margin = np.maximum((1.0 - SHADOW_TMAX_SCALE) * t_end, LIGHT_END_REL_ERROR * _EPS32 * mag)
     return np.maximum(t_end - margin, 0.5 * t_end)
 
@@ -366,10 +372,13 @@ class Strategy:
         """Origins (N, 3) float64 for secondary rays with unit directions ``w`` (N, 3)."""
         return self.origin(surf, w)
 
-    def shadow(self, surf, wi, dist):
+    def shadow(self, surf, wi, dist, end=None):
         """Shadow rays toward a light at distance ``dist`` (N,) (``inf``: directional) along unit ``wi``.
 
-        Returns ``(origins (N, 3) float64, tmax (N,) float64)``, tmax in units of |wi| from the origin.
+        ``end`` (3,), optional: the light's position when all the rays end at one point (punctual lights);
+        otherwise the end points are ``p + wi dist``.
+        Returns ``(origins (N, 3) float64 or float32, tmax (N,) float64)``, tmax in units of |wi| from the
+        origin (float32 origins are exactly the float32 rays Embree will trace).
 
         The direction-independent parts (the terminator lift, and the offset distance of origin
         functions that publish it as ``origin.magnitude(surf)``) are computed once per surface batch
@@ -386,10 +395,9 @@ class Strategy:
                 def shadow_origin(b):
                     lifted = _batch_cached(b, "terminator_point", terminator_point)
                     off = magnitude(_Lifted(b, lifted))[:, None] * b.ng
-                    o = _round_away(lifted + off, off)
-                    return np.concatenate([o, max_component(np.abs(o))[:, None]], axis=1)
-                packed = _batch_cached(surf, ("shadow_origin", self.origin), shadow_origin)
-                origins, o_mag = packed[:, :3], packed[:, 3]
+                    o = _round_away(lifted + off, off, as32=True)
+                    return o, max_component(np.abs(o)).astype(np.float64)
+                origins, o_mag = _batch_cached(surf, ("shadow_origin", self.origin), shadow_origin)
             else:
                 d = _batch_cached(surf, ("magnitude", self.origin), magnitude)
                 d = np.where(dot(wi, surf.ng) >= 0, d, -d)
@@ -409,7 +417,10 @@ class Strategy:
         tmax = np.full(dist.shape, np.inf)
         if np.any(finite):
             f = slice(None) if np.all(finite) else np.flatnonzero(finite)
-            end = surf.p[f] + wi[f] * dist[f, None]       # the light's point (float64)
+            if end is None:
+                end = surf.p[f] + wi[f] * dist[f, None]       # the light's point (float64)
+            else:
+                end = np.asarray(end, dtype=np.float64)           # (3,): one point for every ray
             o, w = origins[f], wi[f]
             if self.tmax == "robust":
                 tmax[f] = robust_tmax(o, w, end, None if o_mag is None else o_mag[f])

@@ -194,9 +194,16 @@ def test_strategies_return_float64_and_do_not_mutate(name):
     o = st(surf, w)
     assert o.dtype == np.float64 and o.shape == (2, 3)
     o2, tmax = st.shadow(surf, w, np.array([1.0, np.inf]))
-    assert o2.dtype == np.float64 and tmax.dtype == np.float64
+    # shadow origins may be handed over as the exact float32 rays Embree traces
+    assert o2.dtype in (np.float64, np.float32) and tmax.dtype == np.float64
     assert tmax[1] == np.inf and 0 < tmax[0] <= 1.0 + 1e-12
     np.testing.assert_array_equal(surf.p, before)
+    # a punctual light's position given as the common end point gives the same tmax as p + w dist
+    end = p[0] + w[0] * 2.5
+    s1 = _flat_surf(p[:1])
+    _, t_pt = st.shadow(s1, w[:1], np.array([2.5]))
+    _, t_end = st.shadow(_flat_surf(p[:1]), w[:1], np.array([2.5]), end)
+    np.testing.assert_allclose(t_end, t_pt, rtol=1e-12)
 
 
 # ------------------------------------------------------------------------------------------------ Embree
