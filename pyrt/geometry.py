@@ -103,6 +103,7 @@ class GeometryTable:
         # bounding box (>= max_i ||v_i - p||_inf for any p on it) and the component-wise max |v_i|
         # (>= sum_i b_i |v_i| for any p on it)
         tri = self.vertices[self.faces]                               # (F, 3, 3)
+        self.face_normals = normalize(cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]))
         self.face_extent = max_component(tri.max(axis=1) - tri.min(axis=1))
         self.face_absmax = np.abs(tri).max(axis=1)
 
@@ -250,9 +251,7 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
     b0 = 1.0 - b1 - b2
     bary = np.stack([b0, b1, b2], axis=1)
     p = b0[:, None] * v0 + b1[:, None] * v1 + b2[:, None] * v2
-    e1 = v1 - v0
-    e2 = v2 - v0
-    ng_out = normalize(cross(e1, e2))         # outward (winding) normal
+    ng_out = take_rows(geo.face_normals, face)   # outward (winding) unit normal, precomputed per face
     wo = -dirs
     front = dot(ng_out, wo) >= 0
     sign = np.where(front, 1.0, -1.0)
@@ -274,10 +273,10 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
         ni[bad] = ng_s[bad]
         put_rows(ns, s, ni)
 
-    p_error = np.abs(b0)[:, None] * np.abs(v0) + np.abs(b1)[:, None] * np.abs(v1) + np.abs(b2)[:, None] * np.abs(v2)
 
     # Fields most kernels never read are computed on first access (model no more than needed).
     def uv_group():
+        e1, e2 = v1 - v0, v2 - v0
         uvs = geo.uv
         uv0, uv1, uv2 = take_rows(uvs, tri[:, 0]), take_rows(uvs, tri[:, 1]), take_rows(uvs, tri[:, 2])
         uv = b0[:, None] * uv0 + b1[:, None] * uv1 + b2[:, None] * uv2
@@ -302,6 +301,7 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
             return {"dpdx": zeros3, "dpdy": zeros3, "dndx": zeros3, "dndy": zeros3,
                     "duvdx": np.zeros((n, 2)), "duvdy": np.zeros((n, 2))}
         rx_o, rx_d, ry_o, ry_d = differentials
+        e1, e2 = v1 - v0, v2 - v0
         d_plane = dot(ng, p)
 
         def offset_point(o, d):
@@ -340,14 +340,18 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
     lazy = {k: uv_group for k in ("uv", "dpdu", "dpdv")}
     lazy.update({k: triangle_group for k in ("tri_v", "tri_n")})
 
+    def error_group():
+        return {"p_error": np.abs(b0)[:, None] * np.abs(v0) + np.abs(b1)[:, None] * np.abs(v1)
+                + np.abs(b2)[:, None] * np.abs(v2)}
+    lazy["p_error"] = error_group
+
     def bounds_group():
         return {"tri_extent": geo.face_extent[face], "tri_absmax": take_rows(geo.face_absmax, face)}
     lazy.update({k: bounds_group for k in ("tri_extent", "tri_absmax")})
     lazy["p_object"] = object_group
     lazy.update({k: differential_group for k in ("dpdx", "dpdy", "dndx", "dndy", "duvdx", "duvdy")})
     surf = SurfaceBatch(lazy=lazy, p=p, ng=ng, ns=ns, front=front, wo=wo, mesh_id=hits.mesh_id, smooth=smooth,
-                        prim_id=hits.prim_id, face=face, material_id=geo.face_material[face], bary=bary, t=hits.t,
-                        p_error=p_error)
+                        prim_id=hits.prim_id, face=face, material_id=geo.face_material[face], bary=bary, t=hits.t)
     return surf
 
 
