@@ -118,7 +118,7 @@ class SurfaceBatch:
 
     FIELDS = ("p", "p_object", "ng", "ns", "front", "wo", "uv", "dpdu", "dpdv", "duvdx", "duvdy", "dpdx", "dpdy",
               "dndx", "dndy", "mesh_id", "prim_id", "face", "material_id", "bary", "t", "p_error",
-              "frame_s", "frame_t", "tri_v", "tri_n", "smooth", "tri_extent", "tri_absmax")
+              "frame_s", "frame_t", "tri_v", "tri_n", "smooth", "tri_extent", "tri_absmax", "n_vertex")
 
     def __init__(self, lazy=None, **kwargs):
         """``lazy`` maps field names to a function computing a dict of fields on first access."""
@@ -162,19 +162,16 @@ class SurfaceBatch:
         """True where light arriving from ``wi`` (N, 3) can reach the side of the surface seen by ``wo``.
 
         ``ng . wi > 0``; on faces with interpolated vertex normals also where the interpolated vertex
-        normal (``tri_n``, before any normal map) faces ``wi``: the shadow-terminator zone of a
+        normal (``n_vertex``, before any normal map) faces ``wi``: the shadow-terminator zone of a
         smooth-shaded low-poly mesh, where the shadow ray (from the origin lifted by
         :func:`pyrt.offsets.terminator_point`) decides instead of the flat facet.
         """
         lit = dot(wi, self.ng) > 0
         cached = self.__dict__.get("_n_interp")   # direction-independent: once per batch, not per light
         if cached is None:
-            if self.smooth is not None:
+            if self.smooth is not None and self.n_vertex is not None:
                 sm = np.flatnonzero(self.smooth)   # flat faces have no terminator zone: skip them
-                if sm.size == 0:
-                    cached = (sm, None)
-                else:
-                    cached = (sm, np.einsum("ij,ijk->ik", take_rows(self.bary, sm), take_rows(self.tri_n, sm)))
+                cached = (sm, take_rows(self.n_vertex, sm))
             elif self.tri_n is None:
                 cached = (np.zeros(0, dtype=np.int64), None)
             else:
@@ -260,6 +257,7 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
     # shading normal
     smooth = geo.face_smooth[face]
     ns = ng.copy()
+    n_vertex = None
     nrm = geo.normals
     if np.any(smooth):
         s = np.flatnonzero(smooth)
@@ -267,6 +265,8 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
         ni = (bs[:, 0:1] * take_rows(nrm, ts[:, 0]) + bs[:, 1:2] * take_rows(nrm, ts[:, 1])
               + bs[:, 2:3] * take_rows(nrm, ts[:, 2]))
         ni = normalize(ni) * sign[s, None]
+        n_vertex = ng.copy()           # interpolated vertex normal before any fallback or normal map
+        put_rows(n_vertex, s, ni)
         # An interpolated normal facing away from the viewer cannot shade anything: fall back to ng.
         ng_s = take_rows(ng, s)
         bad = (dot(ni, take_rows(wo, s)) <= 0) | (dot(ni, ni) == 0)
@@ -351,6 +351,7 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
     lazy["p_object"] = object_group
     lazy.update({k: differential_group for k in ("dpdx", "dpdy", "dndx", "dndy", "duvdx", "duvdy")})
     surf = SurfaceBatch(lazy=lazy, p=p, ng=ng, ns=ns, front=front, wo=wo, mesh_id=hits.mesh_id, smooth=smooth,
+                        n_vertex=n_vertex,
                         prim_id=hits.prim_id, face=face, material_id=geo.face_material[face], bary=bary, t=hits.t)
     return surf
 
