@@ -32,6 +32,7 @@ The table :data:`METALS` holds the result rounded to 4 decimals.
 """
 import numpy as np
 
+from shaders import color
 from shaders.fresnel import fr_conductor
 
 #: wavelengths (nm) of the pbrt metal tables
@@ -112,37 +113,6 @@ SPECTRA = {
 #: course-notes single-wavelength value for steel (grey), see the module docstring
 STEEL_ETA_K = (2.485, 3.433)
 
-#: XYZ -> linear sRGB (Rec. 709 primaries, D65), IEC 61966-2-1
-_XYZ_TO_SRGB = np.array([[3.2404542, -1.5371385, -0.4985314],
-                         [-0.9692660, 1.8760108, 0.0415560],
-                         [0.0556434, -0.2040259, 1.0572252]])
-
-
-def _lobe(lam, mu, s1, s2):
-    t = (lam - mu) / np.where(lam < mu, s1, s2)
-    return np.exp(-0.5 * t * t)
-
-
-def cie1931_xyz(lam):
-    """CIE 1931 2-degree colour matching functions, Wyman-Sloan-Shirley (2013) multi-lobe fit.
-
-    Parameters
-    ----------
-    lam : (M,) ndarray
-        Wavelengths in nm.
-
-    Returns
-    -------
-    (M, 3) ndarray
-        x-bar, y-bar, z-bar.
-    """
-    x = (1.056 * _lobe(lam, 599.8, 37.9, 31.0) + 0.362 * _lobe(lam, 442.0, 16.0, 26.7)
-         - 0.065 * _lobe(lam, 501.1, 20.4, 26.2))
-    y = 0.821 * _lobe(lam, 568.8, 46.9, 40.5) + 0.286 * _lobe(lam, 530.9, 16.3, 31.1)
-    z = 1.217 * _lobe(lam, 437.0, 11.8, 36.0) + 0.681 * _lobe(lam, 459.0, 26.0, 13.8)
-    return np.stack([x, y, z], axis=1)
-
-
 def reflectance_to_rgb(lam, R):
     """Project spectral reflectances to white-balanced linear sRGB.
 
@@ -157,13 +127,12 @@ def reflectance_to_rgb(lam, R):
     -------
     (..., 3) ndarray
         Linear sRGB with a perfect reflector mapped to (1, 1, 1) (equal-energy illuminant,
-        trapezoidal integration on the given samples).
+        trapezoidal integration on the given samples; :func:`shaders.color.spectrum_to_xyz`).
     """
-    cmf = cie1931_xyz(lam)
-    w = np.gradient(lam)  # trapezoid-like weights on a non-uniform grid
-    xyz = np.einsum("...m,mc,m->...c", R, cmf, w)
-    white = np.einsum("mc,m->c", cmf, w)
-    return (xyz @ _XYZ_TO_SRGB.T) / (white @ _XYZ_TO_SRGB.T)
+    # one colorimetry for the whole project: shaders.color's CIE 1931 fit, trapezoid integral and matrix
+    rgb = color.xyz_to_srgb(color.spectrum_to_xyz(lam, R))
+    white = color.xyz_to_srgb(color.spectrum_to_xyz(lam, np.ones(np.shape(lam))))
+    return rgb / white
 
 
 def _fit_channel(cos_t, target, eta0, k0, iters=60):
