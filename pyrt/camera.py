@@ -15,6 +15,8 @@ import numpy as np
 
 from shaders.vec import normalize
 
+from .sampler import stratified_samples
+
 
 class CameraError(ValueError):
     """Invalid camera parameters."""
@@ -93,17 +95,9 @@ class Camera:
         if spp == 1 and not self.jitter:
             ox = oy = np.full(n, 0.5)
         else:
-            k = np.tile(np.arange(spp), pixel_hi - pixel_lo)
-            u = rng.random((n, 2))
-            m = int(math.isqrt(spp))
-            if m * m == spp:
-                ox = (k % m + u[:, 0]) / m
-                oy = (k // m + u[:, 1]) / m
-            else:
-                # Latin hypercube: permute the x strata per pixel
-                perm = np.argsort(rng.random((pixel_hi - pixel_lo, spp)), axis=1).ravel()
-                ox = (k + u[:, 0]) / spp
-                oy = (perm + u[:, 1]) / spp
+            u = stratified_samples(rng, pixel_hi - pixel_lo, spp)   # (spp, pixels, 2)
+            u = u.transpose(1, 0, 2).reshape(n, 2)                   # samples of a pixel contiguous
+            ox, oy = u[:, 0], u[:, 1]
         return col + ox, row + oy, pix
 
     def generate_rays(self, pixel_lo, pixel_hi, rng, *, differentials=True):
