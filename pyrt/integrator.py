@@ -31,7 +31,7 @@ from .geometry import refract_differentials, reflect_differentials, surface_from
 from . import gouraud
 from .dielectrics import NestedMedia
 from .textures import apply_normal_maps
-from shaders.vec import max_component, put_rows, take_rows
+from shaders.vec import dot, max_component, put_rows, take_rows
 
 
 @dataclass
@@ -339,11 +339,18 @@ class Integrator:
             kw = {"eta": eta_h[sel]} if media is not None and media.participates[k] else {}
             for lobe in self.scene.materials[k].delta_lobes(wo_l, ctx, **kw):
                 t_new = thr_h[sel] * lobe.weight
-                keep = np.flatnonzero(max_component(t_new) > self.throughput_cutoff)
+                w_all = ctx.to_world(lobe.wi)
+                # A delta direction computed about an interpolated shading normal can leave on the wrong
+                # side of the geometric surface (a reflection below it, a refraction above it). Such a
+                # ray is dropped (radiance 0): traced, it would enter a closed object and stay trapped
+                # there until max_depth (the same black), or leak through an open one.
+                cos_g = dot(w_all, ctx.ng)
+                right_side = cos_g < 0 if lobe.kind == "refract" else cos_g > 0
+                keep = np.flatnonzero((max_component(t_new) > self.throughput_cutoff) & right_side)
                 if keep.size == 0:
                     continue
                 c = ctx.subset(keep)
-                w = normalize_rows(c.to_world(lobe.wi[keep]))
+                w = normalize_rows(take_rows(w_all, keep))
                 origins = self.offset(c, w)
                 new_d = None
                 if dsub is not None:
