@@ -118,7 +118,7 @@ class SurfaceBatch:
 
     FIELDS = ("p", "p_object", "ng", "ns", "front", "wo", "uv", "dpdu", "dpdv", "duvdx", "duvdy", "dpdx", "dpdy",
               "dndx", "dndy", "mesh_id", "prim_id", "face", "material_id", "bary", "t", "p_error",
-              "frame_s", "frame_t", "tri_v", "tri_n", "smooth", "tri_extent", "tri_absmax", "n_vertex")
+              "frame_s", "frame_t", "tri_v", "tri_n", "smooth", "tri_extent", "tri_absmax", "n_vertex", "p_lift")
 
     def __init__(self, lazy=None, **kwargs):
         """``lazy`` maps field names to a function computing a dict of fields on first access."""
@@ -259,11 +259,12 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
     ns = ng.copy()
     n_vertex = None
     nrm = geo.normals
+    s = n_s = None
     if np.any(smooth):
         s = np.flatnonzero(smooth)
         ts, bs = take_rows(tri, s), take_rows(bary, s)
-        ni = (bs[:, 0:1] * take_rows(nrm, ts[:, 0]) + bs[:, 1:2] * take_rows(nrm, ts[:, 1])
-              + bs[:, 2:3] * take_rows(nrm, ts[:, 2]))
+        n_s = (take_rows(nrm, ts[:, 0]), take_rows(nrm, ts[:, 1]), take_rows(nrm, ts[:, 2]))  # kept for p_lift
+        ni = bs[:, 0:1] * n_s[0] + bs[:, 1:2] * n_s[1] + bs[:, 2:3] * n_s[2]
         ni = normalize(ni) * sign[s, None]
         n_vertex = ng.copy()           # interpolated vertex normal before any fallback or normal map
         put_rows(n_vertex, s, ni)
@@ -337,7 +338,27 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
             put_rows(tri_n, s, np.take(nrm, take_rows(tri, s), axis=0) * sign[s, None, None])
         return {"tri_v": np.stack([v0, v1, v2], axis=1), "tri_n": tri_n}
 
+    def lift_group():
+        # Hanika's shadow-terminator lift (pyrt.offsets.terminator_point) from the vertex normals gathered
+        # above for the shading normal: p' = p - sum_i b_i min(0, (p - v_i) . n_i) n_i, n_i on the ng side
+        if s is None:
+            return {"p_lift": p}
+        all_smooth = s.size == n
+        ps_ = p if all_smooth else take_rows(p, s)
+        sg = sign if all_smooth else take_rows(sign, s)
+        lift = np.zeros_like(ps_)
+        for i, vi in enumerate((v0, v1, v2)):
+            vi_s = vi if all_smooth else take_rows(vi, s)
+            h = np.minimum(0.0, dot(ps_ - vi_s, n_s[i]) * sg)      # height above v_i's tangent plane, <= 0
+            lift -= (bs[:, i] * h * sg)[:, None] * n_s[i]
+        if all_smooth:
+            return {"p_lift": ps_ + lift}
+        out = p.copy()
+        put_rows(out, s, ps_ + lift)
+        return {"p_lift": out}
+
     lazy = {k: uv_group for k in ("uv", "dpdu", "dpdv")}
+    lazy["p_lift"] = lift_group
     lazy.update({k: triangle_group for k in ("tri_v", "tri_n")})
 
     def error_group():

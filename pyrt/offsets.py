@@ -261,6 +261,9 @@ def terminator_point(surf):
     below it). Only shadow-ray origins move, so this can at worst let light past an occluder lying within
     that distance of a coarse smooth-shaded mesh.
     """
+    lifted = surf.p_lift   # computed with the surface (pyrt.geometry.surface_from_hits), when it was
+    if lifted is not None:
+        return lifted
     smooth = surf.smooth
     if smooth is not None:
         sm = np.flatnonzero(smooth)
