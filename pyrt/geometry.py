@@ -167,12 +167,16 @@ class SurfaceBatch:
         :func:`pyrt.offsets.terminator_point`) decides instead of the flat facet.
         """
         lit = dot(wi, self.ng) > 0
+        if self.n_vertex is not None:
+            # n_vertex equals ng on flat faces: one more dot over all lanes is cheaper than gathering
+            # the smooth ones
+            lit |= dot(wi, self.n_vertex) > 0
+            return lit
+        if self.smooth is not None:   # a batch from surface_from_hits without smooth faces
+            return lit
         cached = self.__dict__.get("_n_interp")   # direction-independent: once per batch, not per light
         if cached is None:
-            if self.smooth is not None and self.n_vertex is not None:
-                sm = np.flatnonzero(self.smooth)   # flat faces have no terminator zone: skip them
-                cached = (sm, take_rows(self.n_vertex, sm))
-            elif self.tri_n is None:
+            if self.tri_n is None:
                 cached = (np.zeros(0, dtype=np.int64), None)
             else:
                 cached = (np.arange(self.n_hits), np.einsum("ij,ijk->ik", self.bary, self.tri_n))
