@@ -30,6 +30,7 @@ from .accel import Accel, T_INFINITE
 from .geometry import refract_differentials, reflect_differentials, surface_from_hits
 from . import gouraud
 from .dielectrics import NestedMedia
+from .materials import CosineQuery
 from .textures import apply_normal_maps
 from shaders.vec import dot, max_component, put_rows, take_rows
 
@@ -94,13 +95,46 @@ def _uses_texture(material):
     return any(hasattr(v, "evaluate") for v in vars(material).values())
 
 
+class _Group:
+    """The hits of one material inside a :class:`BSDFBatch` (lazy local ``wo`` and ``n.wo``)."""
+
+    __slots__ = ("idx", "ctx", "_wo_l", "_cos_o")
+
+    def __init__(self, idx, ctx):
+        self.idx, self.ctx, self._wo_l, self._cos_o = idx, ctx, None, None
+
+    @property
+    def wo_l(self):
+        if self._wo_l is None:
+            self._wo_l = self.ctx.to_local(self.ctx.wo)
+        return self._wo_l
+
+    @property
+    def cos_o(self):
+        if self._cos_o is None:
+            self._cos_o = self._wo_l[:, 2] if self._wo_l is not None else dot(self.ctx.wo, self.ctx.ns)
+        return self._cos_o
+
+
+def _has_cosine_path(material):
+    """True when the material's ``f_cos_cosines`` fast path belongs to the same class as its ``f_cos``
+    (a subclass that overrides only ``f_cos`` must not inherit its parent's fast path)."""
+    cls = type(material)
+    if getattr(cls, "f_cos_cosines", None) is None:
+        return False
+    owner = lambda name: next(c for c in cls.__mro__ if name in c.__dict__)  # noqa: E731
+    return owner("f_cos") is owner("f_cos_cosines")
+
+
 class BSDFBatch:
     """The BSDFs of all hits of a :class:`SurfaceBatch`, dispatched per material type.
 
     Each material's hits form a persistent group context (built once per bounce), so texture lookups
-    cached by :meth:`pyrt.materials.Material.param` are shared by all lights. A query on most of a
-    group evaluates the whole group (inactive lanes are computed and discarded, which is cheaper than
-    gathering every field); a query on a small part of it gathers a lazy subset instead.
+    cached by :meth:`pyrt.materials.Material.param` are shared by all lights. Materials with the
+    isotropic fast path (``f_cos_cosines``) are evaluated on the queried lanes from world-space
+    cosines; for the others a query on most of a group evaluates the whole group in its local frame
+    (inactive lanes are computed and discarded, cheaper than gathering every field) and a query on a
+    small part of it gathers a lazy subset instead.
     """
 
     #: below this fraction of a group's hits, a query gathers a subset instead of evaluating the group
@@ -112,36 +146,43 @@ class BSDFBatch:
         self.mat_id = surf.material_id
         self.pos = np.zeros(surf.n_hits, dtype=np.int64)   # position of each hit inside its group
         self.groups = {}
-        for k in np.unique(self.mat_id):
-            idx_k = np.flatnonzero(self.mat_id == k)
+        self.cosine_path = {}
+        counts = np.bincount(self.mat_id)
+        for k in np.flatnonzero(counts):
+            idx_k = np.flatnonzero(self.mat_id == k) if counts[k] < self.mat_id.size else np.arange(counts[k])
             self.pos[idx_k] = np.arange(idx_k.size)
-            ctx = surf.subset(idx_k)
-            self.groups[int(k)] = (idx_k, ctx, ctx.to_local(ctx.wo))
+            self.groups[int(k)] = _Group(idx_k, surf.subset(idx_k))
+            self.cosine_path[int(k)] = _has_cosine_path(materials[k])
 
     def _groups(self, idx):
         if len(self.groups) == 1:
-            (k, (idx_k, ctx, wo_l)), = self.groups.items()
-            yield self.materials[k], np.arange(idx.size), self.pos[idx], idx_k.size, ctx, wo_l
+            (k, grp), = self.groups.items()
+            yield k, np.arange(idx.size), self.pos[idx], grp
             return
         mids = self.mat_id[idx]
-        for k in np.unique(mids):
+        counts = np.bincount(mids)
+        for k in np.flatnonzero(counts):
             sel = np.flatnonzero(mids == k)
-            idx_k, ctx, wo_l = self.groups[int(k)]
-            p = self.pos[idx[sel]]
-            yield self.materials[k], sel, p, idx_k.size, ctx, wo_l
+            yield int(k), sel, self.pos[idx[sel]], self.groups[int(k)]
 
     def f_cos(self, idx, wi):
         """BSDF * cos(theta_i) at hits ``idx`` for world directions ``wi`` (k, 3)."""
         out = np.zeros((idx.shape[0], 3))
-        for mat, sel, p, n_k, ctx, wo_l in self._groups(idx):
+        for k, sel, p, grp in self._groups(idx):
+            mat, ctx, n_k = self.materials[k], grp.ctx, grp.idx.size
             wi_s = wi if sel.size == idx.size else take_rows(wi, sel)
-            if p.size >= self.GATHER_FRACTION * n_k:
+            if self.cosine_path[k]:
+                full = p.size == n_k          # p is sorted and unique: all lanes, in order
+                ns = ctx.ns if full else take_rows(ctx.ns, p)
+                cos_o = grp.cos_o if full else grp.cos_o[p]
+                val = mat.f_cos_cosines(CosineQuery(ctx, None if full else p, wi_s, dot(wi_s, ns), cos_o))
+            elif p.size >= self.GATHER_FRACTION * n_k:
                 w_full = ctx.ns.copy()          # harmless direction for lanes not queried
                 put_rows(w_full, p, wi_s)
-                val = take_rows(mat.f_cos(wo_l, ctx.to_local(w_full), ctx), p)
+                val = take_rows(mat.f_cos(grp.wo_l, ctx.to_local(w_full), ctx), p)
             else:
                 sub = ctx.subset(p)
-                val = mat.f_cos(take_rows(wo_l, p), sub.to_local(wi_s), sub)
+                val = mat.f_cos(take_rows(grp.wo_l, p), sub.to_local(wi_s), sub)
             if sel.size == idx.size:
                 return np.asarray(val, dtype=np.float64)
             put_rows(out, sel, val)
@@ -152,17 +193,17 @@ class BSDFBatch:
         wi = np.zeros((idx.shape[0], 3))
         weight = np.zeros((idx.shape[0], 3))
         pdf = np.zeros(idx.shape[0])
-        for mat, sel, p, n_k, ctx, wo_l in self._groups(idx):
-            sub = ctx.subset(p)
-            w, wt, pd = mat.sample(wo_l[p], u[sel], sub)
+        for k, sel, p, grp in self._groups(idx):
+            sub = grp.ctx.subset(p)
+            w, wt, pd = self.materials[k].sample(grp.wo_l[p], u[sel], sub)
             wi[sel], weight[sel], pdf[sel] = sub.to_world(w), wt, pd
         return wi, weight, pdf
 
     def pdf(self, idx, wi):
         out = np.zeros(idx.shape[0])
-        for mat, sel, p, n_k, ctx, wo_l in self._groups(idx):
-            sub = ctx.subset(p)
-            out[sel] = mat.pdf(wo_l[p], sub.to_local(wi[sel]), sub)
+        for k, sel, p, grp in self._groups(idx):
+            sub = grp.ctx.subset(p)
+            out[sel] = self.materials[k].pdf(grp.wo_l[p], sub.to_local(wi[sel]), sub)
         return out
 
 

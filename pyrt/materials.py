@@ -16,6 +16,10 @@ the viewer), unit length, ``wo`` toward the viewer and ``wi`` toward the light.
     unbiased for any BRDF; models override it with better strategies.
 ``pdf(wo, wi, ctx) -> (N,)``
     Solid-angle density of :meth:`sample`.
+``f_cos_cosines(q) -> (K, 3)`` (optional fast path)
+    Isotropic models whose ``f_cos`` depends only on ``n.wi``, ``n.wo`` and ``wo.wi`` may define
+    it: ``q`` is a :class:`CosineQuery` (the cosines in world space for K lanes of ``ctx``), so
+    the integrator need not build local frames for every light. It must equal ``f_cos``.
 ``albedo(ctx) -> (N, 3)``
     Diffuse-like reflectance used by the constant ambient term and the albedo AOV.
 ``emission(ctx) -> (N, 3)``
@@ -55,6 +59,30 @@ class DeltaLobe:
 
 def _is_texture(v):
     return hasattr(v, "evaluate")
+
+
+class CosineQuery:
+    """A BSDF query on lanes ``lanes`` of a material's group ``ctx`` (None: all lanes), in world space.
+
+    ``cos_i = n_s . wi`` and ``cos_o = n_s . wo`` (K,) are given; ``cos_io()`` (``wo . wi``) is computed
+    on demand; :meth:`param` resolves a material parameter for the K lanes (textures are read once per
+    group, see :meth:`Material.param`, then gathered; constants stay (3,) or scalars).
+    """
+
+    __slots__ = ("ctx", "lanes", "wi", "cos_i", "cos_o")
+
+    def __init__(self, ctx, lanes, wi, cos_i, cos_o):
+        self.ctx, self.lanes, self.wi, self.cos_i, self.cos_o = ctx, lanes, wi, cos_i, cos_o
+
+    def cos_io(self):
+        wo = self.ctx.wo if self.lanes is None else np.take(self.ctx.wo, self.lanes, axis=0)
+        return np.einsum("ij,ij->i", self.wi, wo)
+
+    def param(self, material, value, channels=3):
+        if not _is_texture(value):
+            return float(value) if channels == 1 else np.asarray(value, dtype=np.float64)
+        out = material.param(value, self.ctx, channels)
+        return out if self.lanes is None else np.take(out, self.lanes, axis=0)
 
 
 def check_color(name, value, owner, *, lo=0.0, hi=None):
@@ -166,6 +194,9 @@ class Lambert(Material):
     def f_cos(self, wo, wi, ctx):
         return brdfs.lambert_f_cos(wo, wi, self.param(self.albedo_value, ctx))
 
+    def f_cos_cosines(self, q):
+        return brdfs.lambert_f_cos_cosines(q.cos_o, q.cos_i, q.param(self, self.albedo_value))
+
     def sample(self, wo, u, ctx):
         wi = sampling.square_to_cosine_hemisphere(u)
         pdf = sampling.cosine_hemisphere_pdf(wi)
@@ -202,6 +233,10 @@ class BlinnPhong(Material):
         # a constant exponent stays a scalar: np.power with a scalar exponent is ~20 % cheaper
         e = self.exponent if not _is_texture(self.exponent) else self.param(self.exponent, ctx, 1)
         return brdfs.blinn_phong_normalized_f_cos(wo, wi, self.param(self.kd, ctx), self.param(self.ks, ctx), e)
+
+    def f_cos_cosines(self, q):
+        return brdfs.blinn_phong_normalized_f_cos_cosines(q.cos_o, q.cos_i, q.cos_io(), q.param(self, self.kd),
+                                                          q.param(self, self.ks), q.param(self, self.exponent, 1))
 
     def albedo(self, ctx):
         return np.array(self.param(self.kd, ctx))

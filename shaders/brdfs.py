@@ -12,8 +12,12 @@ from shaders import microfacet as _mf
 
 def _same_hemisphere_cos(wo, wi):
     """cos(theta_i) where both directions are above the surface, else 0."""
-    active = (wo[:, 2] > 0) & (wi[:, 2] > 0)
-    return np.where(active, wi[:, 2], 0).astype(wi.dtype, copy=False)
+    return _upper_cos(wo[:, 2], wi[:, 2])
+
+
+def _upper_cos(cos_o, cos_i):
+    """``cos_i`` where both cosines are positive, else 0 (same dtype as ``cos_i``)."""
+    return np.where((cos_o > 0) & (cos_i > 0), cos_i, 0).astype(cos_i.dtype, copy=False)
 
 
 def lambert_f_cos(wo, wi, albedo):
@@ -26,7 +30,15 @@ def lambert_f_cos(wo, wi, albedo):
     albedo : (N, 3) ndarray
         Diffuse reflectance rho in [0, 1].
     """
-    return (albedo * (_same_hemisphere_cos(wo, wi) / np.pi)[:, None]).astype(wi.dtype, copy=False)
+    return lambert_f_cos_cosines(wo[:, 2], wi[:, 2], albedo)
+
+
+def lambert_f_cos_cosines(cos_o, cos_i, albedo):
+    """:func:`lambert_f_cos` from the cosines ``n.wo``, ``n.wi`` (N,) alone (no local frame needed).
+
+    ``albedo`` is (N, 3) or a (3,) colour for every lane.
+    """
+    return (albedo * (_upper_cos(cos_o, cos_i) / np.pi)[:, None]).astype(cos_i.dtype, copy=False)
 
 
 def blinn_phong_normalization(exponent):
@@ -63,12 +75,21 @@ def blinn_phong_normalized_f_cos(wo, wi, kd, ks, exponent):
     ``c(n)`` is :func:`blinn_phong_normalization` (exact at normal incidence, where the lobe's
     albedo peaks). The model is reciprocal.
     """
-    cos_i = _same_hemisphere_cos(wo, wi)
-    h = wo + wi
-    hl = np.sqrt(np.einsum("ij,ij->i", h, h))
-    cos_h = np.divide(h[:, 2], hl, out=np.zeros_like(hl), where=hl > 0)
+    return blinn_phong_normalized_f_cos_cosines(wo[:, 2], wi[:, 2], np.einsum("ij,ij->i", wo, wi),
+                                                kd, ks, exponent)
+
+
+def blinn_phong_normalized_f_cos_cosines(cos_o, cos_i, cos_io, kd, ks, exponent):
+    """:func:`blinn_phong_normalized_f_cos` from ``n.wo``, ``n.wi`` and ``wo.wi`` (N,) alone.
+
+    The half vector never has to be built: ``|wo + wi|^2 = 2 + 2 wo.wi`` and
+    ``n.h = (n.wo + n.wi) / |wo + wi|``. ``kd``, ``ks`` are (N, 3) or (3,); ``exponent`` scalar or (N,).
+    """
+    cos_i_up = _upper_cos(cos_o, cos_i)
+    hl = np.sqrt(np.maximum(2.0 + 2.0 * cos_io, 0.0))
+    cos_h = np.divide(cos_o + cos_i, hl, out=np.zeros_like(hl), where=hl > 0)
     spec = blinn_phong_normalization(exponent) * np.power(np.maximum(cos_h, 0.0), exponent)
-    return ((kd / np.pi + ks * spec[:, None]) * cos_i[:, None]).astype(wi.dtype, copy=False)
+    return ((kd / np.pi + ks * spec[:, None]) * cos_i_up[:, None]).astype(cos_i.dtype, copy=False)
 
 
 # ---------------------------------------------------------------------------------------------

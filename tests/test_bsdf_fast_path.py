@@ -1,0 +1,75 @@
+"""The isotropic fast path (Material.f_cos_cosines, world-space cosines) equals the local-frame f_cos."""
+import numpy as np
+import pytest
+
+import pyrt
+from pyrt import integrator
+from pyrt.geometry import SurfaceBatch
+from pyrt.materials import CosineQuery
+from shaders.vec import dot, normalize
+
+
+def _random_batch(n, seed):
+    rng = np.random.default_rng(seed)
+    ns = normalize(rng.normal(size=(n, 3)))
+    wo = normalize(rng.normal(size=(n, 3)))
+    wo = np.where((dot(wo, ns) < 0)[:, None], -wo, wo)      # the viewer is on the shading normal's side
+    wi = normalize(rng.normal(size=(n, 3)))                 # about half below the horizon
+    uv = rng.random((n, 2))
+    surf = SurfaceBatch(p=rng.normal(size=(n, 3)), ng=ns, ns=ns, wo=wo, front=np.ones(n, bool), uv=uv,
+                        duvdx=np.zeros((n, 2)), duvdy=np.zeros((n, 2)))
+    return surf, wi
+
+
+MATERIALS = {
+    "lambert": pyrt.Lambert(albedo=(0.7, 0.5, 0.2)),
+    "lambert_textured": pyrt.Lambert(albedo=pyrt.CheckerTexture((0.1, 0.2, 0.3), (0.9, 0.8, 0.7), scale=4)),
+    "blinn_phong": pyrt.BlinnPhong(kd=0.5, ks=0.3, exponent=60),
+    "blinn_phong_rough": pyrt.BlinnPhong(kd=(0.2, 0.3, 0.4), ks=(0.5, 0.4, 0.3), exponent=1.5),
+    "blinn_phong_textured": pyrt.BlinnPhong(kd=pyrt.CheckerTexture(0.1, 0.6, scale=3), ks=0.3,
+                                            exponent=pyrt.CheckerTexture(2.0, 200.0, scale=5)),
+}
+
+
+@pytest.mark.parametrize("name", sorted(MATERIALS))
+@pytest.mark.parametrize("lanes", ["all", "some"])
+def test_cosine_path_equals_local_frame_f_cos(name, lanes):
+    mat = MATERIALS[name]
+    surf, wi = _random_batch(4000, seed=len(name))
+    ref = mat.f_cos(surf.to_local(surf.wo), surf.to_local(wi), surf)
+    sel = None if lanes == "all" else np.flatnonzero(np.arange(surf.n_hits) % 3 == 1)
+    wi_q = wi if sel is None else wi[sel]
+    ns = surf.ns if sel is None else surf.ns[sel]
+    wo = surf.wo if sel is None else surf.wo[sel]
+    val = mat.f_cos_cosines(CosineQuery(surf, sel, wi_q, dot(wi_q, ns), dot(wo, ns)))
+    expect = ref if sel is None else ref[sel]
+    assert val.shape == expect.shape
+    assert np.count_nonzero(expect.max(axis=1) > 0) > 0.3 * len(expect)    # lit lanes and below-horizon
+    assert np.count_nonzero(expect.max(axis=1) == 0) > 0.3 * len(expect)   # lanes both exercised
+    np.testing.assert_allclose(val, expect, rtol=1e-9, atol=1e-14)
+
+
+def test_subclass_overriding_f_cos_does_not_inherit_the_fast_path():
+    class Tinted(pyrt.Lambert):
+        def f_cos(self, wo, wi, ctx):
+            return 0.5 * super().f_cos(wo, wi, ctx)
+
+    assert integrator._has_cosine_path(pyrt.Lambert())
+    assert integrator._has_cosine_path(pyrt.BlinnPhong())
+    assert not integrator._has_cosine_path(Tinted())
+    assert not integrator._has_cosine_path(pyrt.Mirror())
+
+
+def test_render_is_the_same_with_and_without_the_fast_path(monkeypatch):
+    cam = pyrt.Camera(position=(0, 1.5, 3), target=(0, 0.5, 0), fov=45, width=48, height=36, spp=2)
+    scene = pyrt.Scene(cam)
+    scene.add_plane((0, 0, 0), 6.0, pyrt.Lambert(albedo=pyrt.CheckerTexture(0.2, 0.8, scale=6)), name="floor")
+    scene.add_sphere((0, 0.6, 0), 0.6, MATERIALS["blinn_phong_textured"], subdivisions=3, name="ball")
+    scene.add_sphere((1.2, 0.4, 0.3), 0.4, pyrt.Phong(kd=0.4, ks=0.3, exponent=20), subdivisions=3, name="phong")
+    scene.add_light(pyrt.PointLight((2, 4, 2), intensity=30))
+    scene.add_light(pyrt.DirectionalLight((-0.3, -1, -0.4), 1.5))
+    fast = pyrt.render(scene, seed=3)
+    monkeypatch.setattr(integrator, "_has_cosine_path", lambda m: False)
+    slow = pyrt.render(scene, seed=3)
+    assert fast.max() > 0.1
+    np.testing.assert_allclose(fast, slow, rtol=1e-5, atol=1e-7)   # float32 image
