@@ -13,7 +13,6 @@ import math
 
 import numpy as np
 
-from shaders.vec import normalize
 
 from .sampler import stratified_samples
 
@@ -78,8 +77,11 @@ class Camera:
         th = self.tan_half
         sx = (2.0 * x / self.width - 1.0) * th * self.width / self.height
         sy = (1.0 - 2.0 * y / self.height) * th
-        d = self.forward[None, :] + sx[:, None] * self.right[None, :] + sy[:, None] * self.up_ortho[None, :]
-        return normalize(d)
+        # forward, right, up_ortho are orthonormal: |d|^2 = 1 + sx^2 + sy^2, no per-row norm needed
+        inv = 1.0 / np.sqrt(1.0 + sx * sx + sy * sy)
+        sx *= inv
+        sy *= inv
+        return inv[:, None] * self.forward[None, :] + sx[:, None] * self.right[None, :] + sy[:, None] * self.up_ortho[None, :]
 
     def pixel_samples(self, pixel_lo, pixel_hi, rng):
         """Raster positions for the samples of pixels ``[pixel_lo, pixel_hi)`` (row-major index).

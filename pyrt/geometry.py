@@ -129,8 +129,14 @@ class SurfaceBatch:
         for name in self.FIELDS:
             if name in kwargs or name not in self._lazy:
                 self.__dict__[name] = kwargs.get(name)
-        if self.frame_s is None and self.ns is not None:
-            self.frame_s, self.frame_t = coordinate_frame(self.ns)
+        if "frame_s" not in kwargs and self.ns is not None:
+            # the tangent frame is built on first use: kernels on the world-space cosine path never read it
+            def frame_group():
+                s, t = coordinate_frame(self.ns)
+                return {"frame_s": s, "frame_t": t}
+            self.__dict__.pop("frame_s", None)
+            self.__dict__.pop("frame_t", None)
+            self._lazy["frame_s"] = self._lazy["frame_t"] = frame_group
 
     def __getattr__(self, name):
         # only called for fields not computed yet: evaluate their lazy group once
