@@ -113,6 +113,12 @@ class Light:
     def sample(self, p, u):
         raise NotImplementedError
 
+    def sample_scalar(self, p, u):
+        """Optional fast form of :meth:`sample` for lights of one colour: ``(wi, dist, s, rgb)`` with
+        ``E = s[:, None] * rgb`` (``s`` (N,) or None for 1 everywhere, ``rgb`` (3,)); None when the
+        light's colour varies over directions (then :meth:`sample` is used)."""
+        return None
+
     def radiant_power(self):
         """Total emitted power (W) per RGB channel, (3,) float64."""
         raise NotImplementedError(f"{type(self).__name__} has no finite total power")
@@ -134,9 +140,18 @@ class Light:
         us = np.zeros((ns, n, 2)) if self.delta else stratified_samples(rng, n, ns)
         for s in range(ns):
             u = us[s]
-            wi, dist, E = self.sample(surf.p, u)
+            scalar = self.sample_scalar(surf.p, u)
+            if scalar is not None:   # E = s * rgb: no (N, 3) irradiance array
+                wi, dist, E_s, rgb = scalar
+                if not np.max(rgb) > 0:
+                    continue
+                active = surf.light_side(wi)
+                if E_s is not None:
+                    active &= E_s > 0
+            else:
+                wi, dist, E = self.sample(surf.p, u)
+                active = surf.light_side(wi) & (max_component(E) > 0)
             # ng . wi > 0, or the interpolated vertex normal faces the light (shadow terminator, pyrt.offsets)
-            active = surf.light_side(wi) & (max_component(E) > 0)
             idx = np.flatnonzero(active)
             if idx.size == 0:
                 continue
@@ -149,7 +164,13 @@ class Light:
                 idx, f, wi_a = idx[keep], take_rows(f, keep), take_rows(wi_a, keep)
             vis = np.flatnonzero(visible(idx, wi_a, dist[idx], self.position if self.fixed_position else None))
             idx, f = idx[vis], take_rows(f, vis)
-            put_rows(L, idx, take_rows(L, idx) + f * take_rows(E, idx))
+            if scalar is None:
+                f *= take_rows(E, idx)
+            else:
+                f *= rgb
+                if E_s is not None:
+                    f *= E_s[idx, None]
+            put_rows(L, idx, take_rows(L, idx) + f)
         return L / ns
 
 
@@ -287,6 +308,12 @@ class PointLight(_PunctualLight):
             return kernels.point_light(p, self.position, self.I)
         return super().sample(p, u)
 
+    def sample_scalar(self, p, u):
+        if not (self._physical and type(self) is PointLight):   # a subclass may override sample()
+            return None
+        wi, dist, s = kernels.point_light_scalar(p, self.position)
+        return wi, dist, s, self.I
+
 
 def _cone(owner, inner_angle, outer_angle, *, max_outer=180.0):
     inner = _nonneg(owner, "inner_angle", inner_angle)
@@ -379,6 +406,13 @@ class SpotLight(_PunctualLight):
                                       falloff=kernels.SPOT_FALLOFFS[self.spot_falloff])
         return super().sample(p, u)
 
+    def sample_scalar(self, p, u):
+        if not (self._physical and type(self) is SpotLight):
+            return None
+        wi, dist, s = kernels.spot_light_scalar(p, self.position, self.direction, self.cos_inner, self.cos_outer,
+                                                falloff=kernels.SPOT_FALLOFFS[self.spot_falloff])
+        return wi, dist, s, self.I
+
 
 class DirectionalLight(Light):
     """Light from infinitely far away travelling along ``direction``.
@@ -408,6 +442,12 @@ class DirectionalLight(Light):
 
     def sample(self, p, u):
         return kernels.directional_light(p, self.direction, self.E)
+
+    def sample_scalar(self, p, u):
+        if type(self) is not DirectionalLight:
+            return None
+        n = p.shape[0]
+        return np.broadcast_to(-self.direction, (n, 3)), np.full(n, np.inf), None, self.E
 
 
 # ----------------------------------------------------------------------------- textured lights

@@ -32,18 +32,35 @@ def spot_falloff_smoothstep(cos_theta, cos_inner, cos_outer):
     return smoothstep(cos_theta, cos_outer, cos_inner)
 
 
-def point_light(p, light_pos, I):
-    """Point light of intensity ``I`` (3,) W/sr at ``light_pos`` (3,).
+def point_light_scalar(p, light_pos):
+    """Direction and distance to a point light at ``light_pos`` (3,) and its falloff ``1/r^2`` (N,).
 
-    Returns ``wi, dist, E`` as described in the module docstring.
+    The irradiance of a point light of intensity ``I`` is ``E = I / r^2``: one colour times a
+    per-point scalar, which is all :func:`point_light` and :func:`spot_light` multiply out.
+    Returns ``wi, dist, s`` with ``E = I * s``.
     """
     d = np.asarray(light_pos, dtype=np.float64) - p
     dist2 = np.einsum("ij,ij->i", d, d)
     dist = np.sqrt(dist2)
     inv = np.divide(1.0, dist, out=np.zeros_like(dist), where=dist > 0)
     wi = d * inv[:, None]
-    E = np.asarray(I, dtype=np.float64)[None, :] * (inv * inv)[:, None]
-    return wi, dist, E
+    return wi, dist, inv * inv
+
+
+def spot_light_scalar(p, light_pos, axis, cos_inner, cos_outer, falloff=spot_falloff_smoothstep):
+    """:func:`point_light_scalar` times the cone falloff: ``E = I * s``, ``I`` the on-axis intensity."""
+    wi, dist, s = point_light_scalar(p, light_pos)
+    cos_theta = -(wi @ np.asarray(axis, dtype=np.float64))
+    return wi, dist, s * falloff(cos_theta, cos_inner, cos_outer)
+
+
+def point_light(p, light_pos, I):
+    """Point light of intensity ``I`` (3,) W/sr at ``light_pos`` (3,).
+
+    Returns ``wi, dist, E`` as described in the module docstring.
+    """
+    wi, dist, s = point_light_scalar(p, light_pos)
+    return wi, dist, np.asarray(I, dtype=np.float64)[None, :] * s[:, None]
 
 
 def spot_light(p, light_pos, axis, I, cos_inner, cos_outer, falloff=spot_falloff_smoothstep):
@@ -51,9 +68,8 @@ def spot_light(p, light_pos, axis, I, cos_inner, cos_outer, falloff=spot_falloff
 
     ``falloff(cos_theta, cos_inner, cos_outer)`` shapes the cone (default: pbrt smoothstep).
     """
-    wi, dist, E = point_light(p, light_pos, I)
-    cos_theta = -(wi @ np.asarray(axis, dtype=np.float64))
-    return wi, dist, E * falloff(cos_theta, cos_inner, cos_outer)[:, None]
+    wi, dist, s = spot_light_scalar(p, light_pos, axis, cos_inner, cos_outer, falloff)
+    return wi, dist, np.asarray(I, dtype=np.float64)[None, :] * s[:, None]
 
 
 def directional_light(p, direction, E):
