@@ -77,11 +77,14 @@ class Camera:
         th = self.tan_half
         sx = (2.0 * x / self.width - 1.0) * th * self.width / self.height
         sy = (1.0 - 2.0 * y / self.height) * th
-        # forward, right, up_ortho are orthonormal: |d|^2 = 1 + sx^2 + sy^2, no per-row norm needed
+        # forward, right, up_ortho are orthonormal: |d|^2 = 1 + sx^2 + sy^2, no per-row norm needed;
+        # d = [1, sx, sy] / |d| times the basis, one (N, 3) x (3, 3) product
         inv = 1.0 / np.sqrt(1.0 + sx * sx + sy * sy)
-        sx *= inv
-        sy *= inv
-        return inv[:, None] * self.forward[None, :] + sx[:, None] * self.right[None, :] + sy[:, None] * self.up_ortho[None, :]
+        coef = np.empty((inv.shape[0], 3))
+        coef[:, 0] = inv
+        np.multiply(sx, inv, out=coef[:, 1])
+        np.multiply(sy, inv, out=coef[:, 2])
+        return coef @ np.stack([self.forward, self.right, self.up_ortho])
 
     def pixel_samples(self, pixel_lo, pixel_hi, rng):
         """Raster positions for the samples of pixels ``[pixel_lo, pixel_hi)`` (row-major index).
