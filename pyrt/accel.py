@@ -172,6 +172,38 @@ class Accel:
             self._map(run, n)
         return Hits(hit=geom >= 0, t=t, mesh_id=geom, prim_id=prim, u=u, v=v, ng=ng)
 
+    def intersect_hits(self, origins, dirs, tmax=None):
+        """Closest hits of only the rays that hit: ``(idx, hits)``, ``hits`` restricted to the rays ``idx``.
+
+        Same values as ``intersect(...)`` restricted to ``idx = flatnonzero(hit)``, without building and
+        masking the full-size arrays first (what a renderer needs: misses are just the other rays).
+        """
+        if not self._committed:
+            self.commit()
+        o, d, tm = _as_rays(origins, dirs, tmax)
+        n = o.shape[0]
+        parts = {}
+
+        def run(lo, hi):
+            dists = tm[lo:hi].copy()
+            res = self._scene.run(o[lo:hi], d[lo:hi], dists=dists, query="INTERSECT", output=True)
+            k = np.flatnonzero(np.asarray(res["geomID"]) >= 0)
+            parts[lo] = (k + lo, {f: np.take(res[f], k, axis=0) for f in ("geomID", "primID", "u", "v", "tfar", "Ng")})
+
+        if n:
+            self._map(run, n)
+        order = sorted(parts)
+        if len(order) == 1:
+            idx, r = parts[order[0]]
+        else:
+            idx = np.concatenate([parts[lo][0] for lo in order]) if order else np.zeros(0, dtype=np.int64)
+            r = {f: np.concatenate([parts[lo][1][f] for lo in order]) for f in ("geomID", "primID", "u", "v", "tfar", "Ng")} \
+                if order else {f: np.zeros((0, 3) if f == "Ng" else 0, np.float32) for f in ("geomID", "primID", "u", "v", "tfar", "Ng")}
+        f64 = np.float64
+        return idx, Hits(hit=np.ones(idx.size, dtype=bool), t=r["tfar"].astype(f64), mesh_id=r["geomID"].astype(np.int64),
+                         prim_id=r["primID"].astype(np.int64), u=r["u"].astype(f64), v=r["v"].astype(f64),
+                         ng=r["Ng"].astype(f64))
+
     def occluded(self, origins, dirs, tmax=None):
         """True where something blocks the ray within (0, tmax) (units of |dir|)."""
         if not self._committed:

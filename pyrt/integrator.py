@@ -253,6 +253,19 @@ class Integrator:
             self.stats.recorded.append(("intersect", o.astype(np.float32), d.astype(np.float32), None))
         return h
 
+    def _intersect_hits(self, o, d, kind):
+        """Like :meth:`_intersect`, returning only the hits: ``(idx, hits restricted to idx)``."""
+        t0 = time.perf_counter()
+        idx, h = self.ps.accel.intersect_hits(o, d)
+        self.stats.time_intersect += time.perf_counter() - t0
+        if kind == "primary":
+            self.stats.primary_rays += o.shape[0]
+        else:
+            self.stats.secondary_rays += o.shape[0]
+        if self.record_rays:
+            self.stats.recorded.append(("intersect", o.astype(np.float32), d.astype(np.float32), None))
+        return idx, h
+
     def _occluded(self, o, d, tmax):
         t0 = time.perf_counter()
         occ = self.ps.accel.occluded(o, d, tmax)
@@ -293,19 +306,23 @@ class Integrator:
         for depth in range(self.max_depth + 1):
             if o.shape[0] == 0:
                 break
-            hits = self._intersect(o, d, "primary" if depth == 0 else "secondary")
+            kind = "primary" if depth == 0 else "secondary"
             if media is not None:  # nested dielectrics: continue through false hits; Beer-Lambert absorption
+                hits = self._intersect(o, d, kind)
                 hits, seg_t, stack = media.skip_false_hits(
                     self.ps.geo, hits, o, d, stack, lambda o2, d2: self._intersect(o2, d2, "secondary"),
                     lambda hs, o2, d2: self.offset(surface_from_hits(self.ps.geo, hs, o2, d2), d2))
                 thr = thr * media.attenuation(stack, seg_t)
-            miss = ~hits.hit
-            if np.any(miss):
+                h = np.flatnonzero(hits.hit)
+                hsub = _subset_hits(hits, h)
+            else:
+                h, hsub = self._intersect_hits(o, d, kind)
+            if h.size < o.shape[0]:
+                miss = np.ones(o.shape[0], dtype=bool)
+                miss[h] = False
                 _scatter_add(L, sample[miss], thr[miss] * self.background(d[miss], primary=depth == 0))
-            h = np.flatnonzero(hits.hit)
             if h.size == 0:
                 break
-            hsub = _subset_hits(hits, h)
             dsub = None
             if use_diffs:
                 dsub = tuple(take_rows(x, h) for x in diffs)

@@ -106,3 +106,26 @@ def test_threaded_batches_identical_to_single_thread(rng):
     h1, h2 = a1.intersect(o, d), a2.intersect(o, d)
     assert np.array_equal(h1.t, h2.t) and np.array_equal(h1.prim_id, h2.prim_id)
     assert np.array_equal(a1.occluded(o, d, np.full(n, 3.5)), a2.occluded(o, d, np.full(n, 3.5)))
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize("n", [0, 1000, 150_000])   # 150k: split over the pool, hits from several chunks
+def test_intersect_hits_is_intersect_restricted_to_the_hits(threads, n, rng):
+    s = trimesh.creation.icosphere(subdivisions=3)
+    b = trimesh.creation.box(extents=(1, 1, 1))
+    b.apply_translation((1.6, 0, 0))
+    a = Accel(threads=threads)
+    a.add_mesh(s.vertices, s.faces)
+    a.add_mesh(b.vertices, b.faces)
+    o = np.tile([0.0, 0.0, 4.0], (n, 1))
+    d = rng.normal(size=(n, 3)) * 0.4 + [0, 0, -1]            # a part of the rays miss
+    full = a.intersect(o, d)
+    idx, h = a.intersect_hits(o, d)
+    np.testing.assert_array_equal(idx, np.flatnonzero(full.hit))
+    if n:
+        assert 0.1 * n < idx.size < 0.9 * n and np.any(h.mesh_id == 1)
+    for f in ("t", "mesh_id", "prim_id", "u", "v", "ng"):
+        got, want = getattr(h, f), getattr(full, f)[idx]
+        assert got.dtype == want.dtype
+        np.testing.assert_array_equal(got, want)
+    assert h.hit.all() and h.hit.shape == idx.shape
