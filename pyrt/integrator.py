@@ -174,7 +174,7 @@ class BSDFBatch:
             if self.cosine_path[k]:
                 full = p.size == n_k          # p is sorted and unique: all lanes, in order
                 ns = ctx.ns if full else take_rows(ctx.ns, p)
-                cos_o = grp.cos_o if full else grp.cos_o[p]
+                cos_o = grp.cos_o if full else np.take(grp.cos_o, p)
                 val = mat.f_cos_cosines(CosineQuery(ctx, None if full else p, wi_s, dot(wi_s, ns), cos_o))
             elif p.size >= self.GATHER_FRACTION * n_k:
                 w_full = ctx.ns.copy()          # harmless direction for lanes not queried
@@ -207,8 +207,11 @@ class BSDFBatch:
         return out
 
 
-def _scatter_add(acc, idx, vals):
-    """acc[idx] += vals with repeated indices (per RGB channel, via bincount)."""
+def _scatter_add(acc, idx, vals, unique=False):
+    """acc[idx] += vals with repeated indices (per RGB channel, via bincount); ``unique``: idx has none."""
+    if unique:
+        put_rows(acc, idx, take_rows(acc, idx) + vals)
+        return
     n = acc.shape[0]
     for c in range(3):
         acc[:, c] += np.bincount(idx, weights=vals[:, c], minlength=n)
@@ -320,7 +323,7 @@ class Integrator:
             if h.size < o.shape[0]:
                 miss = np.ones(o.shape[0], dtype=bool)
                 miss[h] = False
-                _scatter_add(L, sample[miss], thr[miss] * self.background(d[miss], primary=depth == 0))
+                _scatter_add(L, sample[miss], thr[miss] * self.background(d[miss], primary=depth == 0), unique=depth == 0)
             if h.size == 0:
                 break
             dsub = None
@@ -364,7 +367,7 @@ class Integrator:
                 visible = self._visibility(dsurf)
                 Ld = sum(light.estimate(dsurf, bsdf, visible, rng) for light in lights)
                 put_rows(Lh, diffuse_idx, take_rows(Lh, diffuse_idx) + Ld)
-            _scatter_add(L, s_idx, thr_h * Lh)
+            _scatter_add(L, s_idx, thr_h * Lh, unique=depth == 0)   # camera rays: one per sample
             if depth == self.max_depth:
                 break
             # specular continuation

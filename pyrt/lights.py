@@ -162,7 +162,7 @@ class Light:
                 continue
             if keep.size < idx.size:
                 idx, f, wi_a = idx[keep], take_rows(f, keep), take_rows(wi_a, keep)
-            vis = np.flatnonzero(visible(idx, wi_a, dist[idx], self.position if self.fixed_position else None))
+            vis = np.flatnonzero(visible(idx, wi_a, np.take(dist, idx), self.position if self.fixed_position else None))
             idx, f = idx[vis], take_rows(f, vis)
             if scalar is None:
                 f *= take_rows(E, idx)
