@@ -143,36 +143,65 @@ class BSDFBatch:
     def __init__(self, surf, materials):
         self.surf = surf
         self.materials = materials
-        self.mat_id = surf.material_id
-        self.pos = np.zeros(surf.n_hits, dtype=np.int64)   # position of each hit inside its group
+        self.mat_id = mat_id = surf.material_id
         self.groups = {}
         self.cosine_path = {}
-        counts = np.bincount(self.mat_id)
-        for k in np.flatnonzero(counts):
-            idx_k = np.flatnonzero(self.mat_id == k) if counts[k] < self.mat_id.size else np.arange(counts[k])
-            self.pos[idx_k] = np.arange(idx_k.size)
+        counts = np.bincount(mat_id)
+        present = np.flatnonzero(counts)
+        # Hits sorted by material (the integrator orders them so): each group is a contiguous range and a
+        # query's sorted hit indices split into groups by two binary searches, no per-query partitioning.
+        self.contiguous = mat_id.size < 2 or not np.any(mat_id[1:] < mat_id[:-1])
+        self.pos = None if self.contiguous else np.zeros(mat_id.size, dtype=np.int64)  # position inside the group
+        starts = np.concatenate([[0], np.cumsum(counts[present])]) if self.contiguous else None
+        for j, k in enumerate(present):
+            if self.contiguous:
+                idx_k = np.arange(starts[j], starts[j + 1])
+            else:
+                idx_k = np.flatnonzero(mat_id == k)
+                self.pos[idx_k] = np.arange(idx_k.size)
             self.groups[int(k)] = _Group(idx_k, surf.subset(idx_k))
             self.cosine_path[int(k)] = _has_cosine_path(materials[k])
+        self.bounds = starts
 
     def _groups(self, idx):
-        if len(self.groups) == 1:
-            (k, grp), = self.groups.items()
-            yield k, np.arange(idx.size), self.pos[idx], grp
+        """Yield ``(material, sel, p, group)``: ``sel`` (slice or index array) picks the query entries of the
+        group, ``p`` their positions inside it."""
+        if self.contiguous and (idx.size < 2 or not np.any(idx[1:] <= idx[:-1])):   # strictly increasing
+            b = np.searchsorted(idx, self.bounds)
+            for j, (k, grp) in enumerate(self.groups.items()):
+                lo, hi = int(b[j]), int(b[j + 1])
+                if hi > lo:
+                    yield k, slice(lo, hi), idx[lo:hi] - self.bounds[j], grp
             return
+        pos = self.pos if self.pos is not None else self._positions()
         mids = self.mat_id[idx]
-        counts = np.bincount(mids)
-        for k in np.flatnonzero(counts):
+        for k in np.flatnonzero(np.bincount(mids)):
             sel = np.flatnonzero(mids == k)
-            yield int(k), sel, self.pos[idx[sel]], self.groups[int(k)]
+            yield int(k), sel, pos[idx[sel]], self.groups[int(k)]
+
+    def _positions(self):
+        pos = np.zeros(self.mat_id.size, dtype=np.int64)
+        for grp in self.groups.values():
+            pos[grp.idx] = np.arange(grp.idx.size)
+        self.pos = pos
+        return pos
+
+    @staticmethod
+    def _take(a, sel, n):
+        """``a[sel]`` for a slice (a view) or an index array (a gather; ``a`` itself if it selects all ``n``)."""
+        if isinstance(sel, slice):
+            return a[sel]
+        return a if sel.size == n else take_rows(a, sel)
 
     def f_cos(self, idx, wi):
         """BSDF * cos(theta_i) at hits ``idx`` for world directions ``wi`` (k, 3)."""
-        out = np.zeros((idx.shape[0], 3))
+        out = None
         for k, sel, p, grp in self._groups(idx):
             mat, ctx, n_k = self.materials[k], grp.ctx, grp.idx.size
-            wi_s = wi if sel.size == idx.size else take_rows(wi, sel)
+            wi_s = self._take(wi, sel, idx.size)
             if self.cosine_path[k]:
-                full = p.size == n_k          # p is sorted and unique: all lanes, in order
+                # all lanes, in order (p strictly increasing: always on the contiguous path)
+                full = p.size == n_k and (isinstance(sel, slice) or not np.any(p[1:] <= p[:-1]))
                 ns = ctx.ns if full else take_rows(ctx.ns, p)
                 cos_o = grp.cos_o if full else np.take(grp.cos_o, p)
                 val = mat.f_cos_cosines(CosineQuery(ctx, None if full else p, wi_s, dot(wi_s, ns), cos_o))
@@ -183,10 +212,15 @@ class BSDFBatch:
             else:
                 sub = ctx.subset(p)
                 val = mat.f_cos(take_rows(grp.wo_l, p), sub.to_local(wi_s), sub)
-            if sel.size == idx.size:
+            if p.size == idx.size:
                 return np.asarray(val, dtype=np.float64)
-            put_rows(out, sel, val)
-        return out
+            if out is None:
+                out = np.zeros((idx.shape[0], 3))
+            if isinstance(sel, slice):
+                out[sel] = val
+            else:
+                put_rows(out, sel, val)
+        return out if out is not None else np.zeros((idx.shape[0], 3))
 
     def sample(self, idx, u):
         """Sample the non-delta lobes at hits ``idx``: world ``wi``, weight f_cos/pdf, pdf."""
@@ -362,6 +396,10 @@ class Integrator:
                     Lh[g] += gouraud.direct_light(self, surf.subset(g), o[h[g]], rng)
                     diffuse_idx = np.setdiff1d(diffuse_idx, g, assume_unique=True)
             if diffuse_idx.size and lights:
+                dm = mids[diffuse_idx]
+                if dm.size > 1 and np.any(dm[1:] < dm[:-1]):
+                    # ordered by material: BSDFBatch then dispatches every light's query by slicing
+                    diffuse_idx = np.concatenate([diffuse_idx[dm == k] for k in np.flatnonzero(np.bincount(dm))])
                 dsurf = surf.subset(diffuse_idx)
                 bsdf = BSDFBatch(dsurf, materials)
                 visible = self._visibility(dsurf)
