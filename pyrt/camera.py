@@ -101,7 +101,7 @@ class Camera:
             ox = oy = np.full(n, 0.5)
         else:
             u = stratified_samples(rng, pixel_hi - pixel_lo, spp)   # (spp, pixels, 2)
-            u = u.transpose(1, 0, 2).reshape(n, 2)                   # samples of a pixel contiguous
+            u = u[0] if spp == 1 else u.transpose(1, 0, 2).reshape(n, 2)   # samples of a pixel contiguous
             ox, oy = u[:, 0], u[:, 1]
         return col + ox, row + oy, pix
 

@@ -535,11 +535,11 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         rng = np.random.default_rng([seed, ci])
         o, d, pix, diffs = cam.generate_rays(lo, hi, rng, differentials=ps.needs_differentials)
         L, a = integ.render_samples(o, d, diffs, want_aovs=aovs, rng=rng)
-        bad = ~np.all(np.isfinite(L), axis=1)
-        if np.any(bad):
+        if not np.isfinite(L).all():          # one flat pass; per-sample only when something is wrong
+            bad = ~np.all(np.isfinite(L), axis=1)
             integ.stats.nonfinite_samples += int(bad.sum())
             L[bad] = 0.0
-        image[lo:hi] = L.reshape(hi - lo, S, 3).mean(axis=1)
+        image[lo:hi] = L if S == 1 else L.reshape(hi - lo, S, 3).mean(axis=1)
         if aovs:
             dep = a["depth"].reshape(hi - lo, S)
             hitm = np.isfinite(dep)

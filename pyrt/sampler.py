@@ -18,6 +18,8 @@ def stratified_samples(rng, n_hits, n_samples):
     """
     k = math.isqrt(n_samples)
     xi = rng.random((n_samples, n_hits, 2))
+    if n_samples == 1:
+        return xi
     if k * k == n_samples:
         s = np.arange(n_samples)
         cell = np.stack([s % k, s // k], axis=1).astype(np.float64)
