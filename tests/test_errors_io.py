@@ -118,6 +118,26 @@ def test_no_nan_in_output_for_nasty_scenes():
     assert res.stats.nonfinite_samples == 0
 
 
+@pytest.mark.parametrize("spp", [1, 4])
+def test_a_nonfinite_sample_is_zeroed_counted_and_reported(spp):
+    """The last line of defence: a material bug producing NaN reaches neither the image nor its neighbours."""
+    class Broken(pyrt.Lambert):
+        def emission(self, ctx):
+            e = np.zeros((ctx.n_hits, 3))
+            e[ctx.p[:, 0] > 0.5] = np.nan
+            return e
+
+    cam = pyrt.Camera(position=(0, 3, 0.01), target=(0, 0, 0), fov=40, width=16, height=16, spp=spp)
+    s = pyrt.Scene(cam)
+    s.add_plane((0, 0, 0), 4, Broken(0.5))
+    s.add_light(pyrt.PointLight((0, 2, 0), intensity=5.0))
+    with pytest.warns(RuntimeWarning, match="non-finite"):
+        res = pyrt.render_full(s)
+    assert np.all(np.isfinite(res.image))
+    assert 0 < res.stats.nonfinite_samples < 16 * 16 * spp
+    assert res.image[:, :4].min() > 0            # the healthy half is lit as usual
+
+
 def test_exr_round_trip_and_aovs(tmp_path):
     img = np.random.default_rng(1).random((6, 5, 3)).astype(np.float32) * 10
     pyrt.write_exr(tmp_path / "a.exr", img)
