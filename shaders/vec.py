@@ -6,9 +6,57 @@ All functions preserve the input float dtype and never produce NaN: zero-length 
 import numpy as np
 
 
+# Performance note (NumPy 2, measured on 32768 rows): an elementwise op that broadcasts over the short last
+# axis of an (N, 3) array (``a * s[:, None]``, ``a * rgb``, ``s[:, None] * rgb``, ``p - a``) runs its inner
+# loop 3 elements at a time and costs 2-6x a column-by-column loop over the three strided columns; so does
+# ``einsum("ij,ij->i")``. The helpers below work column by column; the hot paths use them.
+
 def dot(a, b):
-    """Row-wise dot product of ``(N, 3)`` arrays -> ``(N,)``."""
-    return np.einsum("ij,ij->i", a, b)
+    """Row-wise dot product of ``(..., C)`` arrays (broadcastable; usually ``(N, 3)``) -> ``(...)``."""
+    a = np.asarray(a)
+    b = np.asarray(b)
+    out = a[..., 0] * b[..., 0]
+    for c in range(1, a.shape[-1]):
+        out += a[..., c] * b[..., c]
+    return out
+
+
+def scale_rows(a, s, out=None):
+    """``a * s[:, None]`` for ``a`` (N, C) and ``s`` (N,), column by column (``out`` may be ``a``)."""
+    if out is None:
+        out = np.empty(np.broadcast_shapes(a.shape, s.shape + (1,)), dtype=np.result_type(a, s))
+    for c in range(out.shape[-1]):
+        np.multiply(a[:, c], s, out=out[:, c])
+    return out
+
+
+def outer_rgb(s, rgb):
+    """``s[:, None] * rgb`` for ``s`` (N,) and a colour ``rgb`` (C,) -> (N, C), column by column."""
+    rgb = np.asarray(rgb)
+    out = np.empty(s.shape + rgb.shape, dtype=np.result_type(s, rgb))
+    for c in range(rgb.shape[0]):
+        np.multiply(s, rgb[c], out=out[:, c])
+    return out
+
+
+def mul_rgb(a, rgb, out=None):
+    """``a * rgb`` for ``a`` (N, C) and a colour ``rgb`` (C,) (or (N, C): plain product), column by column."""
+    rgb = np.asarray(rgb)
+    if rgb.ndim != 1:
+        return np.multiply(a, rgb, out=out)
+    if out is None:
+        out = np.empty(a.shape, dtype=np.result_type(a, rgb))
+    for c in range(a.shape[-1]):
+        np.multiply(a[:, c], rgb[c], out=out[:, c])
+    return out
+
+
+def sub_from_point(q, a):
+    """``q - a`` for a point ``q`` (3,) and rows ``a`` (N, 3), column by column -> float64 (N, 3)."""
+    out = np.empty(a.shape, dtype=np.result_type(a, np.float64))
+    for c in range(3):
+        np.subtract(q[c], a[:, c], out=out[:, c])
+    return out
 
 
 def norm(a):
@@ -20,7 +68,7 @@ def normalize(a):
     """Unit vectors; rows of zero length stay zero (no NaN)."""
     n = norm(a)
     inv = np.divide(1.0, n, out=np.zeros_like(n), where=n > 0)
-    return a * inv[:, None]
+    return scale_rows(a, inv)
 
 
 def take_rows(a, idx):
