@@ -65,7 +65,7 @@ import numpy as np
 from shaders import color as _colour
 from shaders import ies as _ies
 from shaders import lights as kernels
-from shaders.vec import max_component, put_rows, take_rows
+from shaders.vec import max_component, mul_rgb, put_rows, scale_rows, take_rows
 
 from . import checks
 from .sampler import stratified_samples
@@ -167,9 +167,9 @@ class Light:
             if scalar is None:
                 f *= take_rows(E, idx)
             else:
-                f *= rgb
+                mul_rgb(f, rgb, out=f)
                 if E_s is not None:
-                    f *= E_s[idx, None]
+                    scale_rows(f, np.take(E_s, idx), out=f)
             put_rows(L, idx, take_rows(L, idx) + f)
         return L / ns
 

@@ -7,6 +7,7 @@ as ``(N, 3)`` (RGB). Lanes where either direction is below the horizon return ze
 import numpy as np
 
 from shaders import fresnel as _fresnel
+from shaders import vec as _vec
 from shaders import microfacet as _mf
 
 
@@ -38,7 +39,10 @@ def lambert_f_cos_cosines(cos_o, cos_i, albedo):
 
     ``albedo`` is (N, 3) or a (3,) colour for every lane.
     """
-    return (albedo * (_upper_cos(cos_o, cos_i) / np.pi)[:, None]).astype(cos_i.dtype, copy=False)
+    c = _upper_cos(cos_o, cos_i) / np.pi
+    albedo = np.asarray(albedo)
+    out = _vec.outer_rgb(c, albedo) if albedo.ndim == 1 else _vec.scale_rows(albedo, c)
+    return out.astype(cos_i.dtype, copy=False)
 
 
 def blinn_phong_normalization(exponent):
@@ -89,7 +93,13 @@ def blinn_phong_normalized_f_cos_cosines(cos_o, cos_i, cos_io, kd, ks, exponent)
     hl = np.sqrt(np.maximum(2.0 + 2.0 * cos_io, 0.0))
     cos_h = np.divide(cos_o + cos_i, hl, out=np.zeros_like(hl), where=hl > 0)
     spec = blinn_phong_normalization(exponent) * np.power(np.maximum(cos_h, 0.0), exponent)
-    return ((kd / np.pi + ks * spec[:, None]) * cos_i_up[:, None]).astype(cos_i.dtype, copy=False)
+    kd, ks = np.asarray(kd), np.asarray(ks)
+    if kd.ndim == 1 and ks.ndim == 1:      # constant colours: two column-wise outer products
+        out = _vec.outer_rgb(cos_i_up / np.pi, kd)
+        out += _vec.outer_rgb(spec * cos_i_up, ks)
+    else:
+        out = (kd / np.pi + ks * spec[:, None]) * cos_i_up[:, None]
+    return out.astype(cos_i.dtype, copy=False)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -15,6 +15,8 @@ Units
 """
 import numpy as np
 
+from shaders import vec as _vec
+
 
 def smoothstep(x, edge0, edge1):
     """Hermite smoothstep: 0 below ``edge0``, 1 above ``edge1``, ``3t^2 - 2t^3`` between."""
@@ -39,18 +41,17 @@ def point_light_scalar(p, light_pos):
     per-point scalar, which is all :func:`point_light` and :func:`spot_light` multiply out.
     Returns ``wi, dist, s`` with ``E = I * s``.
     """
-    d = np.asarray(light_pos, dtype=np.float64) - p
-    dist2 = np.einsum("ij,ij->i", d, d)
-    dist = np.sqrt(dist2)
+    d = _vec.sub_from_point(np.asarray(light_pos, dtype=np.float64), p)
+    dist = np.sqrt(_vec.dot(d, d))
     inv = np.divide(1.0, dist, out=np.zeros_like(dist), where=dist > 0)
-    wi = d * inv[:, None]
+    wi = _vec.scale_rows(d, inv, out=d)
     return wi, dist, inv * inv
 
 
 def spot_light_scalar(p, light_pos, axis, cos_inner, cos_outer, falloff=spot_falloff_smoothstep):
     """:func:`point_light_scalar` times the cone falloff: ``E = I * s``, ``I`` the on-axis intensity."""
     wi, dist, s = point_light_scalar(p, light_pos)
-    cos_theta = -(wi @ np.asarray(axis, dtype=np.float64))
+    cos_theta = -_vec.dot(wi, np.asarray(axis, dtype=np.float64))
     return wi, dist, s * falloff(cos_theta, cos_inner, cos_outer)
 
 
@@ -60,7 +61,7 @@ def point_light(p, light_pos, I):
     Returns ``wi, dist, E`` as described in the module docstring.
     """
     wi, dist, s = point_light_scalar(p, light_pos)
-    return wi, dist, np.asarray(I, dtype=np.float64)[None, :] * s[:, None]
+    return wi, dist, _vec.outer_rgb(s, np.asarray(I, dtype=np.float64))
 
 
 def spot_light(p, light_pos, axis, I, cos_inner, cos_outer, falloff=spot_falloff_smoothstep):
@@ -69,7 +70,7 @@ def spot_light(p, light_pos, axis, I, cos_inner, cos_outer, falloff=spot_falloff
     ``falloff(cos_theta, cos_inner, cos_outer)`` shapes the cone (default: pbrt smoothstep).
     """
     wi, dist, s = spot_light_scalar(p, light_pos, axis, cos_inner, cos_outer, falloff)
-    return wi, dist, np.asarray(I, dtype=np.float64)[None, :] * s[:, None]
+    return wi, dist, _vec.outer_rgb(s, np.asarray(I, dtype=np.float64))
 
 
 def directional_light(p, direction, E):

@@ -180,8 +180,13 @@ def to_local(v, s, t, n):
     than stacking them).
     """
     out = np.empty(v.shape, dtype=np.result_type(v, s, t, n))
+    tmp = np.empty(v.shape[0], dtype=out.dtype)
     for c, axis in enumerate((s, t, n)):
-        np.einsum("ij,ij->i", v, axis, out=out[:, c])
+        col = out[:, c]
+        np.multiply(v[:, 0], axis[:, 0], out=col)
+        for k in (1, 2):
+            np.multiply(v[:, k], axis[:, k], out=tmp)
+            col += tmp
     return out
 
 
