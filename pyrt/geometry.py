@@ -21,7 +21,7 @@ import warnings
 
 import numpy as np
 
-from shaders.vec import coordinate_frame, cross, dot, max_component, normalize, put_rows, take_rows, to_local
+from shaders.vec import coordinate_frame, cross, dot, max_component, normalize, put_rows, scale_rows, take_rows, to_local
 
 
 class GeometryError(ValueError):
@@ -257,12 +257,15 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
     b1, b2 = hits.u, hits.v
     b0 = 1.0 - b1 - b2
     bary = np.stack([b0, b1, b2], axis=1)
-    p = b0[:, None] * v0 + b1[:, None] * v1 + b2[:, None] * v2
+    p = scale_rows(v0, b0)                      # b0 v0 + b1 v1 + b2 v2, column by column (shaders.vec)
+    tmp = scale_rows(v1, b1)
+    p += tmp
+    p += scale_rows(v2, b2, out=tmp)
     ng_out = take_rows(geo.face_normals, face)   # outward (winding) unit normal, precomputed per face
     wo = -dirs
     front = dot(ng_out, wo) >= 0
     sign = np.where(front, 1.0, -1.0)
-    ng = ng_out * sign[:, None]
+    ng = scale_rows(ng_out, sign)
 
     # shading normal
     smooth = geo.face_smooth[face]
@@ -274,8 +277,12 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
         s = np.flatnonzero(smooth)
         ts, bs = take_rows(tri, s), take_rows(bary, s)
         n_s = (take_rows(nrm, ts[:, 0]), take_rows(nrm, ts[:, 1]), take_rows(nrm, ts[:, 2]))  # kept for p_lift
-        ni = bs[:, 0:1] * n_s[0] + bs[:, 1:2] * n_s[1] + bs[:, 2:3] * n_s[2]
-        ni = normalize(ni) * sign[s, None]
+        ni = scale_rows(n_s[0], bs[:, 0])
+        tmp = scale_rows(n_s[1], bs[:, 1])
+        ni += tmp
+        ni += scale_rows(n_s[2], bs[:, 2], out=tmp)
+        ni = normalize(ni)
+        scale_rows(ni, np.take(sign, s), out=ni)
         n_vertex = ng.copy()           # interpolated vertex normal before any fallback or normal map
         put_rows(n_vertex, s, ni)
         # An interpolated normal facing away from the viewer cannot shade anything: fall back to ng.
@@ -360,7 +367,7 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
         for i, vi in enumerate((v0, v1, v2)):
             vi_s = vi if all_smooth else take_rows(vi, s)
             h = np.minimum(0.0, dot(ps_ - vi_s, n_s[i]) * sg)      # height above v_i's tangent plane, <= 0
-            lift -= (bs[:, i] * h * sg)[:, None] * n_s[i]
+            lift -= scale_rows(n_s[i], bs[:, i] * h * sg)
         if all_smooth:
             return {"p_lift": ps_ + lift}
         out = p.copy()

@@ -67,7 +67,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from shaders.vec import dot, max_component, take_rows
+from shaders.vec import dot, max_component, scale_rows, sub_from_point, take_rows
 
 _EPS32 = np.finfo(np.float32).eps / 2  # unit roundoff of float32, 2^-24
 _EPS64 = np.finfo(np.float64).eps / 2
@@ -333,7 +333,7 @@ def robust_tmax(origins, wi, end, o_mag=None):
     Never below half of ``t_end`` (a light closer than its own uncertainty is treated as visible
     up to half the way).
     """
-    t_end = dot(end - origins, wi)
+    t_end = dot(sub_from_point(end, origins) if end.ndim == 1 else end - origins, wi)
     if o_mag is None:
         o_mag = max_component(np.abs(origins))
     end_mag = np.abs(end).max() if end.ndim == 1 else max_component(np.abs(end))   # (3,): a single light point
@@ -397,7 +397,7 @@ class Strategy:
                 # depend on the light at all, so it is built once per batch (with its magnitude for tmax)
                 def shadow_origin(b):
                     lifted = _batch_cached(b, "terminator_point", terminator_point)
-                    off = magnitude(_Lifted(b, lifted))[:, None] * b.ng
+                    off = scale_rows(b.ng, magnitude(_Lifted(b, lifted)))
                     o = _round_away(lifted + off, off, as32=True)
                     return o, max_component(np.abs(o)).astype(np.float64)
                 origins, o_mag = _batch_cached(surf, ("shadow_origin", self.origin), shadow_origin)
