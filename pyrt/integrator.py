@@ -278,9 +278,11 @@ class Integrator:
         self.stats = RenderStats()
 
     # -- Embree calls with bookkeeping -------------------------------------------------------
-    def _intersect(self, o, d, kind):
+    def _intersect(self, o, d, kind, hits_only=False):
+        """Closest hits (:meth:`Accel.intersect`), or with ``hits_only`` ``(idx, hits restricted to idx)``
+        (:meth:`Accel.intersect_hits`); counts the rays by ``kind`` and records them if asked."""
         t0 = time.perf_counter()
-        h = self.ps.accel.intersect(o, d)
+        h = self.ps.accel.intersect_hits(o, d) if hits_only else self.ps.accel.intersect(o, d)
         self.stats.time_intersect += time.perf_counter() - t0
         if kind == "primary":
             self.stats.primary_rays += o.shape[0]
@@ -289,19 +291,6 @@ class Integrator:
         if self.record_rays:
             self.stats.recorded.append(("intersect", o.astype(np.float32), d.astype(np.float32), None))
         return h
-
-    def _intersect_hits(self, o, d, kind):
-        """Like :meth:`_intersect`, returning only the hits: ``(idx, hits restricted to idx)``."""
-        t0 = time.perf_counter()
-        idx, h = self.ps.accel.intersect_hits(o, d)
-        self.stats.time_intersect += time.perf_counter() - t0
-        if kind == "primary":
-            self.stats.primary_rays += o.shape[0]
-        else:
-            self.stats.secondary_rays += o.shape[0]
-        if self.record_rays:
-            self.stats.recorded.append(("intersect", o.astype(np.float32), d.astype(np.float32), None))
-        return idx, h
 
     def _occluded(self, o, d, tmax):
         t0 = time.perf_counter()
@@ -353,7 +342,7 @@ class Integrator:
                 h = np.flatnonzero(hits.hit)
                 hsub = _subset_hits(hits, h)
             else:
-                h, hsub = self._intersect_hits(o, d, kind)
+                h, hsub = self._intersect(o, d, kind, hits_only=True)
             if h.size < o.shape[0]:
                 miss = np.ones(o.shape[0], dtype=bool)
                 miss[h] = False
