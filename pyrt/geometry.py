@@ -130,13 +130,11 @@ class SurfaceBatch:
             if name in kwargs or name not in self._lazy:
                 self.__dict__[name] = kwargs.get(name)
         if "frame_s" not in kwargs and self.ns is not None:
-            # the tangent frame is built on first use: kernels on the world-space cosine path never read it
-            def frame_group():
-                s, t = coordinate_frame(self.ns)
-                return {"frame_s": s, "frame_t": t}
+            # the tangent frame is built on first use (__getattr__): kernels on the world-space cosine path
+            # never read it. (Not a lazy closure over self: that would be a reference cycle keeping every
+            # batch's arrays alive until the cyclic garbage collector runs.)
             self.__dict__.pop("frame_s", None)
             self.__dict__.pop("frame_t", None)
-            self._lazy["frame_s"] = self._lazy["frame_t"] = frame_group
 
     def __getattr__(self, name):
         # only called for fields not computed yet: evaluate their lazy group once
@@ -145,6 +143,9 @@ class SurfaceBatch:
             for k, v in lazy[name]().items():
                 self.__dict__[k] = v
                 lazy.pop(k, None)
+            return self.__dict__[name]
+        if name in ("frame_s", "frame_t") and "ns" in self.__dict__:
+            self.__dict__["frame_s"], self.__dict__["frame_t"] = coordinate_frame(self.ns)
             return self.__dict__[name]
         raise AttributeError(name)
 
