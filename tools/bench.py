@@ -9,7 +9,8 @@ float32, as given to Embree; same seed, so the same rays) and replays them throu
 Medians over ``--repeats`` runs (the machine is shared and noisy). Also sweeps triangle count
 (1k ... 1M) and resolution.
 
-Usage: python tools/bench.py [--repeats 3] [--quick] [--out out/bench]
+Usage: python tools/bench.py [--repeats 3] [--quick] [--out out/bench] [--chart docs/bench_chart.png]
+       python tools/bench.py --plot-only out/bench/bench.json --chart docs/bench_chart.png
 """
 from __future__ import annotations
 
@@ -106,12 +107,48 @@ def measure(scene, repeats):
     return statistics.median(e2e), statistics.median(emb), statistics.median(emb_chunked), stats
 
 
+def plot(result, path):
+    """Chart of a bench.json result: pyrt and Embree-only times against triangles and against pixels."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3.4))
+    tri = result["triangles"]
+    res = result["resolution"]
+    pixels = [int(r["resolution"].split("x")[0]) * int(r["resolution"].split("x")[1]) for r in res]
+    for ax, xs, rows, xlabel in ((axes[0], [r["triangles"] for r in tri], tri, "triangles (640x480, 1 spp)"),
+                                 (axes[1], pixels, res, "pixels (main scene, 1 spp)")):
+        ax.loglog(xs, [r["pyrt_s"] for r in rows], "o-", color="tab:blue", label="pyrt end to end")
+        ax.loglog(xs, [r["embree_s"] for r in rows], "s--", color="tab:gray", label="Embree only, same rays")
+        ax.loglog(xs, [3 * r["embree_s"] for r in rows], ":", color="tab:red", label="3x Embree (target)")
+        for x, r in zip(xs, rows):
+            ax.annotate(f"{r['ratio']:.1f}x", (x, r["pyrt_s"]), textcoords="offset points", xytext=(0, 6),
+                        ha="center", fontsize=8)
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel("seconds (median)")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[1].legend(fontsize=8, loc="lower right")
+    m = result["main"]
+    fig.suptitle(f"pyrt vs Embree alone on the same rays ({result['machine']}); main scene "
+                 f"{m['ratio']:.2f}x", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--quick", action="store_true", help="smaller sweeps")
     ap.add_argument("--out", default="out/bench")
+    ap.add_argument("--chart", help="also write the chart here (e.g. docs/bench_chart.png)")
+    ap.add_argument("--plot-only", metavar="BENCH_JSON", help="only draw the chart of an earlier bench.json")
     args = ap.parse_args(argv)
+    if args.plot_only:
+        with open(args.plot_only) as f:
+            plot(json.load(f), args.chart or os.path.join(os.path.dirname(args.plot_only), "bench.png"))
+        return
     os.makedirs(args.out, exist_ok=True)
     machine = f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, {platform.python_version()}"
     mesh = bumpy_sphere(6)
@@ -156,9 +193,13 @@ def main(argv=None):
         print(lines[-1], flush=True)
     with open(os.path.join(args.out, "bench.md"), "w") as f:
         f.write("\n".join(lines) + "\n")
+    result = {"machine": machine, "main": main_row, "triangles": sweep_tris, "resolution": sweep_res}
     with open(os.path.join(args.out, "bench.json"), "w") as f:
-        json.dump({"machine": machine, "main": main_row, "triangles": sweep_tris, "resolution": sweep_res}, f, indent=1)
-    print(f"wrote {args.out}/bench.md and bench.json")
+        json.dump(result, f, indent=1)
+    plot(result, os.path.join(args.out, "bench.png"))
+    if args.chart:
+        plot(result, args.chart)
+    print(f"wrote {args.out}/bench.md, bench.json and bench.png")
 
 
 if __name__ == "__main__":
