@@ -21,6 +21,7 @@ import warnings
 
 import numpy as np
 
+from .offsets import terminator_lift
 from shaders.vec import coordinate_frame, cross, dot, max_component, normalize, put_rows, scale_rows, take_rows, to_local
 
 
@@ -362,17 +363,12 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
         if s is None:
             return {"p_lift": p}
         all_smooth = s.size == n
-        ps_ = p if all_smooth else take_rows(p, s)
-        sg = sign if all_smooth else take_rows(sign, s)
-        lift = np.zeros_like(ps_)
-        for i, vi in enumerate((v0, v1, v2)):
-            vi_s = vi if all_smooth else take_rows(vi, s)
-            h = np.minimum(0.0, dot(ps_ - vi_s, n_s[i]) * sg)      # height above v_i's tangent plane, <= 0
-            lift -= scale_rows(n_s[i], bs[:, i] * h * sg)
+        pick = (lambda a: a) if all_smooth else (lambda a: take_rows(a, s))
+        lifted = terminator_lift(pick(p), [pick(v0), pick(v1), pick(v2)], n_s, bs, sign=pick(sign))
         if all_smooth:
-            return {"p_lift": ps_ + lift}
+            return {"p_lift": lifted}
         out = p.copy()
-        put_rows(out, s, ps_ + lift)
+        put_rows(out, s, lifted)
         return {"p_lift": out}
 
     lazy = {k: uv_group for k in ("uv", "dpdu", "dpdv")}

@@ -269,17 +269,35 @@ def terminator_point(surf):
         sm = np.flatnonzero(smooth)
         if sm.size == 0:
             return surf.p
-        p = take_rows(surf.p, sm)
-        tn = take_rows(surf.tri_n, sm)
-        d = np.minimum(0.0, np.einsum("ijk,ijk->ij", p[:, None, :] - take_rows(surf.tri_v, sm), tn))
+        tv, tn = take_rows(surf.tri_v, sm), take_rows(surf.tri_n, sm)
         out = surf.p.copy()
-        out[sm] = p - np.einsum("ij,ijk->ik", take_rows(surf.bary, sm) * d, tn)
+        out[sm] = terminator_lift(take_rows(surf.p, sm), [tv[:, i] for i in range(3)], [tn[:, i] for i in range(3)],
+                                  take_rows(surf.bary, sm))
         return out
     tn = surf.tri_n
     if tn is None:
         return surf.p
-    d = np.minimum(0.0, np.einsum("ijk,ijk->ij", surf.p[:, None, :] - surf.tri_v, tn))   # (N, 3)
-    return surf.p - np.einsum("ij,ijk->ik", surf.bary * d, tn)
+    tv = surf.tri_v
+    return terminator_lift(surf.p, [tv[:, i] for i in range(3)], [tn[:, i] for i in range(3)], surf.bary)
+
+
+def terminator_lift(p, v, n, bary, sign=None):
+    """The lifted points of :func:`terminator_point`: ``p - sum_i b_i min(0, (p - v_i) . n_i) n_i``.
+
+    ``p`` (K, 3) hit points, ``v`` and ``n`` three (K, 3) arrays each (the triangle's vertices and vertex
+    normals), ``bary`` (K, 3); ``sign`` (K,) turns the normals to the side of ng (None: they already are).
+    """
+    lift = np.zeros_like(p)
+    for i in range(3):
+        h = dot(p - v[i], n[i])
+        if sign is not None:
+            h *= sign
+        np.minimum(h, 0.0, out=h)          # height above v_i's tangent plane, <= 0 (convex regions only)
+        w = bary[:, i] * h
+        if sign is not None:
+            w *= sign
+        lift -= scale_rows(n[i], w)
+    return p + lift
 
 
 def _batch_cached(surf, key, fn):
