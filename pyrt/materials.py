@@ -40,7 +40,7 @@ import numbers
 import numpy as np
 
 from shaders import brdfs, fresnel, sampling
-from shaders.vec import reflect, refract
+from shaders.vec import dot, reflect, refract
 
 
 class MaterialError(ValueError):
@@ -76,7 +76,7 @@ class CosineQuery:
 
     def cos_io(self):
         wo = self.ctx.wo if self.lanes is None else np.take(self.ctx.wo, self.lanes, axis=0)
-        return np.einsum("ij,ij->i", self.wi, wo)
+        return dot(self.wi, wo)
 
     def param(self, material, value, channels=3):
         if not _is_texture(value):

@@ -79,7 +79,7 @@ def blinn_phong_normalized_f_cos(wo, wi, kd, ks, exponent):
     ``c(n)`` is :func:`blinn_phong_normalization` (exact at normal incidence, where the lobe's
     albedo peaks). The model is reciprocal.
     """
-    return blinn_phong_normalized_f_cos_cosines(wo[:, 2], wi[:, 2], np.einsum("ij,ij->i", wo, wi),
+    return blinn_phong_normalized_f_cos_cosines(wo[:, 2], wi[:, 2], _vec.dot(wo, wi),
                                                 kd, ks, exponent)
 
 
