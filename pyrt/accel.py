@@ -26,6 +26,8 @@ import numpy as np
 from embreex import rtcore_scene
 from embreex.mesh_construction import TriangleMesh
 
+from shaders.vec import to_float32
+
 #: Larger batches are split over threads; below this a single call is cheaper.
 _CHUNK = 65536
 #: ``tmax`` values at or above this are "unbounded" (Embree's own default is 1e37; float32 max ~3.4e38).
@@ -66,8 +68,8 @@ def _as_rays(origins, dirs, tmax):
     if dirs.shape != origins.shape:
         raise ValueError(f"dirs must have the same shape as origins {origins.shape}, got {dirs.shape}")
     n = origins.shape[0]
-    o = np.ascontiguousarray(origins, dtype=np.float32)
-    d = np.ascontiguousarray(dirs, dtype=np.float32)
+    o = to_float32(origins)
+    d = to_float32(dirs)
     if tmax is None:
         tm = np.full(n, T_INFINITE, dtype=np.float32)
     else:
@@ -77,11 +79,17 @@ def _as_rays(origins, dirs, tmax):
         if tm.shape != (n,):
             raise ValueError(f"tmax must be a scalar or have shape ({n},), got {tm.shape}")
         # always a fresh array: the binding writes it in place
-        tm = np.minimum(tm, T_INFINITE).astype(np.float32)
-    # one float64 sum per array: NaN/Inf propagate, and float32 inputs cannot overflow a float64 sum
-    if not (np.isfinite(np.sum(o, dtype=np.float64)) and np.isfinite(np.sum(d, dtype=np.float64))):
+        tm = to_float32(np.minimum(tm, T_INFINITE))
+    if not (_all_finite(o) and _all_finite(d)):
         raise ValueError("ray origins and directions must be finite")
     return o, d, tm
+
+
+def _all_finite(a):
+    """True when every element of ``a`` is finite: one sum (NaN/Inf propagate; it releases the GIL, unlike a
+    float64-accumulating sum of float32 data), and the exact elementwise test only if the sum overflowed."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        return bool(np.isfinite(a.sum())) or bool(np.isfinite(a).all())
 
 
 class Accel:

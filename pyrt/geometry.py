@@ -290,7 +290,9 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
         # An interpolated normal facing away from the viewer cannot shade anything: fall back to ng.
         ng_s = take_rows(ng, s)
         bad = (dot(ni, take_rows(wo, s)) <= 0) | (dot(ni, ni) == 0)
-        ni[bad] = ng_s[bad]
+        if np.any(bad):
+            b_ = np.flatnonzero(bad)
+            put_rows(ni, b_, take_rows(ng_s, b_))
         put_rows(ns, s, ni)
 
 

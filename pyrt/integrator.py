@@ -346,7 +346,9 @@ class Integrator:
             if h.size < o.shape[0]:
                 miss = np.ones(o.shape[0], dtype=bool)
                 miss[h] = False
-                _scatter_add(L, sample[miss], thr[miss] * self.background(d[miss], primary=depth == 0), unique=depth == 0)
+                m = np.flatnonzero(miss)      # row gathers: boolean indexing of (N, 3) arrays is slow and keeps the GIL
+                _scatter_add(L, np.take(sample, m), take_rows(thr, m) * self.background(take_rows(d, m), primary=depth == 0),
+                             unique=depth == 0)
             if h.size == 0:
                 break
             dsub = None

@@ -67,7 +67,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from shaders.vec import dot, max_component, scale_rows, sub_from_point, take_rows
+from shaders.vec import dot, max_component, scale_rows, sub_from_point, take_rows, to_float32
 
 _EPS32 = np.finfo(np.float32).eps / 2  # unit roundoff of float32, 2^-24
 _EPS64 = np.finfo(np.float64).eps / 2
@@ -89,9 +89,9 @@ def _round_away(origins, direction, as32=False):
     along ``direction`` at least half an ulp, so the float32 origin is never closer to the surface
     than the float64 one (along the normal the steps only add distance).
     """
-    o32 = origins.astype(np.float32)
+    o32 = to_float32(origins)
     toward = np.where(direction > 0, np.float32(np.inf), np.where(direction < 0, np.float32(-np.inf), o32))
-    out = np.nextafter(o32, toward.astype(np.float32))
+    out = np.nextafter(o32, toward.astype(np.float32, copy=False))
     return out if as32 else out.astype(np.float64)
 
 

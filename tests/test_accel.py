@@ -129,3 +129,29 @@ def test_intersect_hits_is_intersect_restricted_to_the_hits(threads, n, rng):
         assert got.dtype == want.dtype
         np.testing.assert_array_equal(got, want)
     assert h.hit.all() and h.hit.shape == idx.shape
+
+
+def test_finite_check_exact_even_where_a_sum_overflows(two_meshes):
+    a = two_meshes[0]
+    big = np.full((4, 3), 3e38, dtype=np.float32)          # finite, but their float32 sum overflows
+    d = np.tile(np.float32([0, 0, -1]), (4, 1))
+    assert a.occluded(big, d).shape == (4,)                 # accepted: every value is finite
+    for bad in (np.nan, np.inf, -np.inf):
+        o = big.copy()
+        o[2, 1] = bad
+        with pytest.raises(ValueError, match="finite"):
+            a.occluded(o, d)
+        d_bad = d.copy()
+        d_bad[1, 0] = bad
+        with pytest.raises(ValueError, match="finite"):
+            a.intersect(np.zeros((4, 3)), d_bad)
+
+
+def test_to_float32_matches_astype():
+    from shaders.vec import to_float32
+    x = np.random.default_rng(0).normal(size=(1000, 3)) * 1e3
+    np.testing.assert_array_equal(to_float32(x), x.astype(np.float32))
+    y = x.astype(np.float32)
+    assert to_float32(y) is y
+    z = to_float32(x[:, ::2])                                # non-contiguous input
+    assert z.flags.c_contiguous and z.dtype == np.float32
