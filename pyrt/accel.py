@@ -26,7 +26,7 @@ import numpy as np
 from embreex import rtcore_scene
 from embreex.mesh_construction import TriangleMesh
 
-from shaders.vec import to_float32
+from shaders.vec import converted, to_float32
 
 #: Larger batches are split over threads; below this a single call is cheaper.
 _CHUNK = 65536
@@ -207,10 +207,10 @@ class Accel:
             idx = np.concatenate([parts[lo][0] for lo in order]) if order else np.zeros(0, dtype=np.int64)
             r = {f: np.concatenate([parts[lo][1][f] for lo in order]) for f in ("geomID", "primID", "u", "v", "tfar", "Ng")} \
                 if order else {f: np.zeros((0, 3) if f == "Ng" else 0, np.float32) for f in ("geomID", "primID", "u", "v", "tfar", "Ng")}
-        f64 = np.float64
-        return idx, Hits(hit=np.ones(idx.size, dtype=bool), t=r["tfar"].astype(f64), mesh_id=r["geomID"].astype(np.int64),
-                         prim_id=r["primID"].astype(np.int64), u=r["u"].astype(f64), v=r["v"].astype(f64),
-                         ng=r["Ng"].astype(f64))
+        f64, i64 = np.float64, np.int64
+        return idx, Hits(hit=np.ones(idx.size, dtype=bool), t=converted(r["tfar"], f64),
+                         mesh_id=converted(r["geomID"], i64), prim_id=converted(r["primID"], i64),
+                         u=converted(r["u"], f64), v=converted(r["v"], f64), ng=converted(r["Ng"], f64))
 
     def occluded(self, origins, dirs, tmax=None):
         """True where something blocks the ray within (0, tmax) (units of |dir|)."""

@@ -258,7 +258,8 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
     v0, v1, v2 = take_rows(vtx, tri[:, 0]), take_rows(vtx, tri[:, 1]), take_rows(vtx, tri[:, 2])
     b1, b2 = hits.u, hits.v
     b0 = 1.0 - b1 - b2
-    bary = np.stack([b0, b1, b2], axis=1)
+    bary = np.empty((n, 3))
+    bary[:, 0], bary[:, 1], bary[:, 2] = b0, b1, b2
     p = scale_rows(v0, b0)                      # b0 v0 + b1 v1 + b2 v2, column by column (shaders.vec)
     tmp = scale_rows(v1, b1)
     p += tmp

@@ -32,7 +32,7 @@ from . import gouraud
 from .dielectrics import NestedMedia
 from .materials import CosineQuery
 from .textures import apply_normal_maps
-from shaders.vec import dot, max_component, put_rows, take_rows
+from shaders.vec import dot, max_component, put_rows, take_rows, to_float32
 
 
 @dataclass
@@ -572,7 +572,7 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         warnings.warn(f"render: {stats.nonfinite_samples} samples had non-finite radiance and were "
                       "set to 0 (this is a bug; please report the scene)", RuntimeWarning, stacklevel=2)
     stats.time_total = time.perf_counter() - t_start
-    img = image.reshape(H, W, 3).astype(np.float32)
+    img = to_float32(image.reshape(H, W, 3))
     if aov_img is not None:
         aov_img = {"depth": aov_img["depth"].reshape(H, W).astype(np.float32),
                    "normal": aov_img["normal"].reshape(H, W, 3).astype(np.float32),

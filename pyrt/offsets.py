@@ -67,7 +67,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from shaders.vec import dot, max_component, scale_rows, sub_from_point, take_rows, to_float32
+from shaders.vec import converted, dot, max_component, scale_rows, sub_from_point, take_rows, to_float32
 
 _EPS32 = np.finfo(np.float32).eps / 2  # unit roundoff of float32, 2^-24
 _EPS64 = np.finfo(np.float64).eps / 2
@@ -92,7 +92,7 @@ def _round_away(origins, direction, as32=False):
     o32 = to_float32(origins)
     toward = np.where(direction > 0, np.float32(np.inf), np.where(direction < 0, np.float32(-np.inf), o32))
     out = np.nextafter(o32, toward.astype(np.float32, copy=False))
-    return out if as32 else out.astype(np.float64)
+    return out if as32 else converted(out, np.float64)
 
 
 # ---------------------------------------------------------------------------------------- origin functions
@@ -417,7 +417,7 @@ class Strategy:
                     lifted = _batch_cached(b, "terminator_point", terminator_point)
                     off = scale_rows(b.ng, magnitude(_Lifted(b, lifted)))
                     o = _round_away(lifted + off, off, as32=True)
-                    return o, max_component(np.abs(o)).astype(np.float64)
+                    return o, converted(max_component(np.abs(o)), np.float64)
                 origins, o_mag = _batch_cached(surf, ("shadow_origin", self.origin), shadow_origin)
             else:
                 d = _batch_cached(surf, ("magnitude", self.origin), magnitude)
