@@ -157,10 +157,11 @@ class Light:
                 continue
             wi_a = take_rows(wi, idx)
             f = bsdf.f_cos(idx, wi_a)
-            keep = np.flatnonzero(max_component(f) > 0)
-            if keep.size == 0:
-                continue
-            if keep.size < idx.size:
+            nonzero = max_component(f) > 0
+            if not nonzero.all():                  # (np.flatnonzero keeps the GIL: only when needed)
+                keep = np.flatnonzero(nonzero)
+                if keep.size == 0:
+                    continue
                 idx, f, wi_a = idx[keep], take_rows(f, keep), take_rows(wi_a, keep)
             vis = np.flatnonzero(visible(idx, wi_a, np.take(dist, idx), self.position if self.fixed_position else None))
             idx, f = idx[vis], take_rows(f, vis)
