@@ -427,16 +427,18 @@ class Integrator:
             ctx = surf.subset(sel)
             wo_l = ctx.to_local(ctx.wo)
             kw = {"eta": eta_h[sel]} if media is not None and media.participates[k] else {}
-            for lobe in self.scene.materials[k].delta_lobes(wo_l, ctx, **kw):
+            mat = self.scene.materials[k]
+            for lobe in mat.delta_lobes(wo_l, ctx, **kw):
                 t_new = thr_h[sel] * lobe.weight
                 w_all = ctx.to_world(lobe.wi)
-                # A delta direction computed about an interpolated shading normal can leave on the wrong
-                # side of the geometric surface (a reflection below it, a refraction above it). Such a
-                # ray is dropped (radiance 0): traced, it would enter a closed object and stay trapped
-                # there until max_depth (the same black), or leak through an open one.
-                cos_g = dot(w_all, ctx.ng)
-                right_side = cos_g < 0 if lobe.kind == "refract" else cos_g > 0
-                keep = np.flatnonzero((max_component(t_new) > self.throughput_cutoff) & right_side)
+                alive = max_component(t_new) > self.throughput_cutoff
+                if not mat.is_dielectric:
+                    # A mirror reflection about an interpolated shading normal can point below the geometric
+                    # surface. Such a ray is dropped (radiance 0): traced, it would enter the closed mirror
+                    # object and stay trapped there until max_depth (the same black), or leak through an open
+                    # one. Dielectrics keep theirs: inside glass the ray goes on and refracts out.
+                    alive &= dot(w_all, ctx.ng) > 0
+                keep = np.flatnonzero(alive)
                 if keep.size == 0:
                     continue
                 c = ctx.subset(keep)

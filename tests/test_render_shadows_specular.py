@@ -173,3 +173,21 @@ def test_specular_rays_never_leave_on_the_wrong_side_of_the_geometric_surface():
     img = res.image
     assert np.all(np.isfinite(img))
     assert img.max() <= 0.8 + 1e-6
+
+
+def test_glass_keeps_reflections_the_shading_normal_sends_inside():
+    """Only mirrors drop delta rays below the geometric surface: a glass ray that enters the object that way
+    goes on and refracts out (as in a renderer without the rule). Dropping them for glass would darken pixels."""
+    cam = pyrt.Camera(position=(0, 0, 3), target=(0, 0, 0), fov=45, width=64, height=64, spp=4)
+    images = []
+    for drop in (False, True):
+        scene = pyrt.Scene(cam, background=(0.2, 0.4, 0.8))
+        glass = pyrt.Glass(1.5)
+        if drop:
+            glass.is_dielectric = False      # what the mirror rule would do to glass
+        scene.add_sphere((0, 0, 0), 1.0, glass, subdivisions=1, name="glass")
+        images.append(pyrt.render(scene, seed=2))
+    kept, dropped = images
+    darker = (kept - dropped).max(axis=2) > 1e-3
+    assert darker.sum() > 0                                  # the case occurs on this coarse sphere
+    assert np.all(dropped <= kept + 1e-6)                    # and keeping the rays only adds light
