@@ -19,6 +19,7 @@ This module knows nothing about Embree; it asks :class:`pyrt.accel.Accel` for hi
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+import functools
 import math
 import time
 import warnings
@@ -119,7 +120,12 @@ class _Group:
 def _has_cosine_path(material):
     """True when the material's ``f_cos_cosines`` fast path belongs to the same class as its ``f_cos``
     (a subclass that overrides only ``f_cos`` must not inherit its parent's fast path)."""
-    cls = type(material)
+    return _class_has_cosine_path(type(material))
+
+
+@functools.lru_cache(maxsize=None)
+def _class_has_cosine_path(cls):
+    """:func:`_has_cosine_path` per class, decided once (not per bounce and chunk)."""
     if getattr(cls, "f_cos_cosines", None) is None:
         return False
     owner = lambda name: next(c for c in cls.__mro__ if name in c.__dict__)  # noqa: E731
