@@ -9,21 +9,21 @@ Public API::
     image = pyrt.render(scene, spp=4)          # (H, W, 3) float32 linear radiance
     pyrt.write_exr("out.exr", image); pyrt.write_png("out.png", image, tonemap="reinhard")
 """
-from .camera import Camera, CameraError
-from .geometry import GeometryError
-from .integrator import RenderResult, RenderStats, render, render_full
-from .lights import DirectionalLight, Light, LightError, PointLight, SpotLight
-from .lights import GoniometricLight, IESLight, ProjectorLight
-from .materials import Material, MaterialError, REGISTRY as MATERIALS, Lambert, BlinnPhong, Mirror, Glass, register
-from .materials import (BlinnPhongClassic, CookTorrance, MetallicRoughness, Phong, PhongClassic,  # material library
+from pyrt.core.camera import Camera, CameraError
+from pyrt.geometry.surface import GeometryError
+from pyrt.integrators.whitted import RenderResult, RenderStats, render, render_full
+from pyrt.lights.punctual import DirectionalLight, Light, LightError, PointLight, SpotLight
+from pyrt.lights.punctual import GoniometricLight, IESLight, ProjectorLight
+from pyrt.materials.library import Material, MaterialError, REGISTRY as MATERIALS, Lambert, BlinnPhong, Mirror, Glass, register
+from pyrt.materials.library import (BlinnPhongClassic, CookTorrance, MetallicRoughness, Phong, PhongClassic,  # material library
                         Ward)
-from .scene import Scene, SceneError, transform_matrix
-from .environment import (ConstantEnvironment, CubeMapEnvironment, EnvironmentLight, EnvironmentMapError,
+from pyrt.scene import Scene, SceneError, transform_matrix
+from pyrt.lights.environment import (ConstantEnvironment, CubeMapEnvironment, EnvironmentLight, EnvironmentMapError,
                           LatLongEnvironment, procedural_sky, set_environment)
-from .area_lights import AreaEmitter, DiskLight, RectLight, SphereLight
-from .io.images import read_exr, write_exr, write_png, tonemap_to_display
-from .io.scene_file import SceneFileError, load_scene
-from .textures import (CheckerTexture, ConstantTexture, FbmTexture, ImageTexture, NoiseTexture, NormalMap,
+from pyrt.lights.area import AreaEmitter, DiskLight, RectLight, SphereLight
+from pyrt.core.image_io import read_exr, write_exr, write_png, tonemap_to_display
+from pyrt.io.scene_file import SceneFileError, load_scene
+from pyrt.textures.texture import (CheckerTexture, ConstantTexture, FbmTexture, ImageTexture, NoiseTexture, NormalMap,
                        PerlinTexture, Texture, TextureError, VoronoiTexture, perturb_normal)
 
 __all__ = [

@@ -1,6 +1,6 @@
 """The scene: meshes with materials and transforms, lights, camera, background.
 
-A :class:`Scene` only holds validated parameters; rendering lives in :mod:`pyrt.integrator`.
+A :class:`Scene` only holds validated parameters; rendering lives in :mod:`pyrt.integrators`.
 """
 from __future__ import annotations
 
@@ -9,11 +9,11 @@ import math
 import numpy as np
 import trimesh
 
-from . import checks
-from .camera import Camera
-from .geometry import GeometryError, GeometryTable, MeshData, validate_mesh
-from .lights import Light
-from .materials import Material
+from pyrt.core import checks
+from pyrt.core.camera import Camera
+from pyrt.geometry.surface import GeometryError, GeometryTable, MeshData, validate_mesh
+from pyrt.lights.punctual import Light
+from pyrt.materials.library import Material
 
 
 class SceneError(ValueError):
@@ -74,7 +74,7 @@ class Scene:
         self.materials: list[Material] = []
         self.lights: list[Light] = []
         self.meshes: list[MeshData] = []
-        #: indices of meshes shaded per vertex (``add_mesh(..., shading="gouraud")``, see pyrt.gouraud)
+        #: indices of meshes shaded per vertex (``add_mesh(..., shading="gouraud")``, see pyrt.integrators.gouraud)
         self.gouraud_meshes: set[int] = set()
 
     # -- building -----------------------------------------------------------------------------
@@ -113,7 +113,7 @@ class Scene:
             The course's shading models. "flat": one normal per triangle (same as ``smooth=False``);
             "phong": normals interpolated, lighting at every hit (the default with ``smooth``);
             "gouraud": lighting evaluated at the three vertices (vertex normals per ``smooth``) and
-            the resulting radiance interpolated across the triangle (:mod:`pyrt.gouraud`).
+            the resulting radiance interpolated across the triangle (:mod:`pyrt.integrators.gouraud`).
         """
         name = name or f"mesh{len(self.meshes)}"
         if shading not in (None, "flat", "phong", "gouraud"):

@@ -6,9 +6,9 @@ as ``(N, 3)`` (RGB). Lanes where either direction is below the horizon return ze
 """
 import numpy as np
 
-from shaders import fresnel as _fresnel
-from shaders import vec as _vec
-from shaders import microfacet as _mf
+from . import fresnel as _fresnel
+from . import vec as _vec
+from . import microfacet as _mf
 
 
 def _same_hemisphere_cos(wo, wi):

@@ -61,11 +61,11 @@ from typing import NamedTuple
 
 import numpy as np
 
-from shaders import microfacet as _mf
-from shaders import sampling as _sampling
-from shaders import textures as _tex
-from shaders.color import luminance
-from shaders.vec import coordinate_frame, dot
+from . import microfacet as _mf
+from . import sampling as _sampling
+from . import textures as _tex
+from .color import luminance
+from .vec import coordinate_frame, dot
 
 _INV_2PI2 = 1.0 / (2.0 * np.pi * np.pi)
 

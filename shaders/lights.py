@@ -15,7 +15,7 @@ Units
 """
 import numpy as np
 
-from shaders import vec as _vec
+from . import vec as _vec
 
 
 def smoothstep(x, edge0, edge1):

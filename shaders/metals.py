@@ -32,8 +32,8 @@ The table :data:`METALS` holds the result rounded to 4 decimals.
 """
 import numpy as np
 
-from shaders import color
-from shaders.fresnel import fr_conductor
+from . import color
+from .fresnel import fr_conductor
 
 #: wavelengths (nm) of the pbrt metal tables
 LAMBDA_NM = np.array([

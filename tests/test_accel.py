@@ -1,9 +1,9 @@
-"""pyrt.accel against trimesh's own ray test and the binding's sharp edges."""
+"""pyrt.geometry.accel against trimesh's own ray test and the binding's sharp edges."""
 import numpy as np
 import pytest
 import trimesh
 
-from pyrt.accel import Accel
+from pyrt.geometry.accel import Accel
 
 
 @pytest.fixture
@@ -148,7 +148,7 @@ def test_finite_check_exact_even_where_a_sum_overflows(two_meshes):
 
 
 def test_to_float32_matches_astype():
-    from shaders.vec import to_float32
+    from pyrt.shaders.vec import to_float32
     x = np.random.default_rng(0).normal(size=(1000, 3)) * 1e3
     np.testing.assert_array_equal(to_float32(x), x.astype(np.float32))
     y = x.astype(np.float32)

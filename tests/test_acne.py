@@ -1,4 +1,4 @@
-"""The shadow-acne suite (pyrt.acne): the default offset strategy has 0 acne and 0 leak pixels on every
+"""The shadow-acne suite (pyrt.apps.acne): the default offset strategy has 0 acne and 0 leak pixels on every
 stress case; every weaker strategy fails where it is expected to (a suite that cannot catch acne is
 worthless); the exact-shape ground truth itself is checked against closed forms.
 
@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pyrt import acne, offsets
+from pyrt.apps import acne
+from pyrt.geometry import offsets
 
 W, H = 64, 48
 MATRIX = acne.default_matrix()

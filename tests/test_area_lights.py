@@ -8,8 +8,8 @@ import pytest
 from scipy import stats
 
 import pyrt
-from pyrt.area_lights import AreaEmitter, DiskLight, RectLight, SphereLight, stratified_samples
-from pyrt.integrator import Integrator, PreparedScene
+from pyrt.lights.area import AreaEmitter, DiskLight, RectLight, SphereLight, stratified_samples
+from pyrt.integrators.whitted import Integrator, PreparedScene
 
 
 def _mc_irradiance(light, p, n_recv, n=200000, seed=0):

@@ -12,8 +12,8 @@ from trimesh.visual.material import PBRMaterial
 import pyrt
 from pyrt.io import assets as A
 from pyrt.io.assets import AssetError, load_asset, pack_glb, read_gltf
-from shaders import color as C
-from shaders import textures as T
+from pyrt.shaders import color as C
+from pyrt.shaders import textures as T
 
 ASSETS = os.path.join(os.path.dirname(__file__), "..", "assets", "models")
 
@@ -214,7 +214,7 @@ def test_khr_texture_transform_in_flipped_space(ext, rng):
 
 
 def test_gltf_material_is_metallic_roughness_with_extras(round_trip):
-    from pyrt.materials import MetallicRoughness
+    from pyrt.materials.library import MetallicRoughness
 
     a = load_asset(path := round_trip[0])
     mat = A.to_pyrt_material(a.materials[0])

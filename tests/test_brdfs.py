@@ -14,9 +14,11 @@ import math
 import numpy as np
 import pytest
 
-from shaders import brdfs, fresnel, metals
-from shaders import microfacet as mf
-from shaders.vec import reflect
+from pyrt.shaders import brdfs
+from pyrt.shaders import fresnel
+from pyrt.shaders import metals
+from pyrt.shaders import microfacet as mf
+from pyrt.shaders.vec import reflect
 
 QUAD_TOL = 2e-3
 ONE = np.ones(3)

@@ -3,10 +3,10 @@ import numpy as np
 import pytest
 
 import pyrt
-from pyrt import integrator
-from pyrt.geometry import SurfaceBatch
-from pyrt.materials import CosineQuery
-from shaders.vec import dot, normalize
+from pyrt.integrators import whitted as integrator
+from pyrt.geometry.surface import SurfaceBatch
+from pyrt.materials.library import CosineQuery
+from pyrt.shaders.vec import dot, normalize
 
 
 def _random_batch(n, seed):

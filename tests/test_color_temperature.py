@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import pyrt
-from shaders import color as C
+from pyrt.shaders import color as C
 
 # CIE 1931 2-degree observer, tabulated values (CIE 15:2004 table T.4), at wavelengths in nm.
 CIE_TABLE = {

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from shaders import envmap as K
-from shaders import sampling
-from shaders.color import luminance
+from pyrt.shaders import envmap as K
+from pyrt.shaders import sampling
+from pyrt.shaders.color import luminance
 
 
 def _uniform_dirs(rng, n):
@@ -329,7 +329,7 @@ def test_sh_constant_environment_irradiance_is_pi_L():
 
 
 def _levels(img):
-    from shaders import textures as T
+    from pyrt.shaders import textures as T
     return [T.build_mip_level(img, lv) for lv in range(T.n_mip_levels(img.shape))]
 
 
@@ -342,7 +342,7 @@ def test_prefilter_constant_map_stays_constant():
 def test_prefilter_matches_brute_force_convolution(rng):
     """GGX-prefiltered value at a few directions vs direct quadrature of the same kernel
     ``D(r.h) max(0, r.l)`` over every texel (the kernel the importance sampler draws from)."""
-    from shaders import microfacet as mf
+    from pyrt.shaders import microfacet as mf
     h, w = 64, 128
     dirs = K.latlong_texel_directions(h, w)
     img = (1.0 + 0.8 * dirs[..., 0:1] + 0.5 * np.maximum(dirs[..., 1:2], 0) ** 4 * np.ones(3)).astype(np.float64)

@@ -2,7 +2,8 @@
 import numpy as np
 import pytest
 
-from shaders import fresnel, metals
+from pyrt.shaders import fresnel
+from pyrt.shaders import metals
 
 
 @pytest.mark.parametrize("eta", [1.2, 1.33, 1.5, 2.42])

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 import pyrt
-from pyrt.environment import (STRATEGIES, ConstantEnvironment, CubeMapEnvironment, EnvironmentLight,
+from pyrt.lights.environment import (STRATEGIES, ConstantEnvironment, CubeMapEnvironment, EnvironmentLight,
                               EnvironmentMapError, LatLongEnvironment, procedural_sky, set_environment)
-from shaders import envmap as K
+from pyrt.shaders import envmap as K
 
 UNBIASED = [s for s in STRATEGIES if s != "preview"]
 

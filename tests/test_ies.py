@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import pyrt
-from shaders import ies
+from pyrt.shaders import ies
 from sphere_quadrature import sphere_integral
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))

@@ -6,9 +6,11 @@ import numpy as np
 import pytest
 
 import pyrt
-from pyrt import materials as M
-from shaders import brdfs, fresnel, metals
-from shaders.vec import normalize
+from pyrt.materials import library as M
+from pyrt.shaders import brdfs
+from pyrt.shaders import fresnel
+from pyrt.shaders import metals
+from pyrt.shaders.vec import normalize
 
 
 class Ctx:

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from shaders import microfacet as mf
+from pyrt.shaders import microfacet as mf
 
 
 @functools.lru_cache(maxsize=None)

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import pyrt
-from pyrt.dielectrics import NestedMedia, absorption_from_transmittance, beer_lambert
-from pyrt.integrator import Integrator, PreparedScene
+from pyrt.integrators.media import NestedMedia, absorption_from_transmittance, beer_lambert
+from pyrt.integrators.whitted import Integrator, PreparedScene
 
 
 def _media(*glasses):
@@ -168,7 +168,7 @@ def _slab_scene(ior, sigma, thickness, background):
     return scene
 
 
-# Segment lengths are measured from the offset ray origins (pyrt.offsets: ~16 float32 ulps of the
+# Segment lengths are measured from the offset ray origins (pyrt.geometry.offsets: ~16 float32 ulps of the
 # coordinates past the surface), so the absorbed length is short by ~1e-6 here: rtol 2e-5.
 SLAB_RTOL = 2e-5
 

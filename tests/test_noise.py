@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from shaders import noise
+from pyrt.shaders import noise
 
 
 @pytest.fixture

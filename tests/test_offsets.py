@@ -1,4 +1,4 @@
-"""Ray-origin offsets (pyrt.offsets): each strategy's formula, side, float32 behaviour, self-intersection.
+"""Ray-origin offsets (pyrt.geometry.offsets): each strategy's formula, side, float32 behaviour, self-intersection.
 
 The scene-level behaviour (acne, leaks, terminator, lights on surfaces) is tested by tests/test_acne.py.
 """
@@ -9,9 +9,9 @@ import pytest
 import trimesh
 
 import pyrt
-from pyrt import offsets
-from pyrt.accel import Accel
-from pyrt.geometry import GeometryTable, MeshData, SurfaceBatch, surface_from_hits
+from pyrt.geometry import offsets
+from pyrt.geometry.accel import Accel
+from pyrt.geometry.surface import GeometryTable, MeshData, SurfaceBatch, surface_from_hits
 
 EPS32 = 2.0 ** -24
 
@@ -38,7 +38,7 @@ def _hits_on(geo, rng, n, camera, spread):
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     h = acc.intersect(o, d)
     keep = np.flatnonzero(h.hit)
-    from pyrt.integrator import _subset_hits
+    from pyrt.integrators.whitted import _subset_hits
     surf = surface_from_hits(geo, _subset_hits(h, keep), o[keep], d[keep])
     return acc, surf
 
@@ -263,7 +263,7 @@ def test_terminator_lift_lies_between_facet_and_sphere():
     assert np.all(r_q >= r_p - 1e-12)                 # lifted outward (convex)
     # The implied surface blends the vertices' tangent planes, which lie outside the sphere: the lift can
     # overshoot the sphere, but by less than the facet lies below it (a known property of the method,
-    # documented in pyrt.offsets.terminator_point).
+    # documented in pyrt.geometry.offsets.terminator_point).
     sag = 1.0 - r_p.min()
     assert np.all(r_q <= 1.0 + sag)
     assert np.mean(r_q - r_p) > 0.3 * np.mean(1.0 - r_p)   # and a real part of the way

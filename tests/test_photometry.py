@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 import pyrt
-from pyrt.integrator import PreparedScene, Integrator
-from shaders import lights as K
-from shaders.color import LUMINANCE_WEIGHTS
+from pyrt.integrators.whitted import PreparedScene, Integrator
+from pyrt.shaders import lights as K
+from pyrt.shaders.color import LUMINANCE_WEIGHTS
 from render_helpers import pixel_centre_hits_on_plane_y0, top_down_scene
 from sphere_quadrature import sphere_integral
 

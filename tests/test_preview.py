@@ -1,4 +1,4 @@
-"""Asset preview (pyrt.preview): framing, rig + shadow catcher, exposure, outputs, batches, Dask."""
+"""Asset preview (pyrt.apps.preview): framing, rig + shadow catcher, exposure, outputs, batches, Dask."""
 import io
 import math
 import os
@@ -11,9 +11,9 @@ import trimesh
 from PIL import Image
 
 import pyrt
-from pyrt import preview as P
+from pyrt.apps import preview as P
 from pyrt.io.assets import load_asset
-from shaders import color as C
+from pyrt.shaders import color as C
 
 ASSETS = os.path.join(os.path.dirname(__file__), "..", "assets", "models")
 BLOB = os.path.join(ASSETS, "blob.ply")

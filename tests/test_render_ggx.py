@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import pyrt
-from pyrt.materials import CookTorrance
-from shaders import metals
+from pyrt.materials.library import CookTorrance
+from pyrt.shaders import metals
 
 ALPHA = 0.25  # roughness 0.5
 I_LIGHT = 12.0

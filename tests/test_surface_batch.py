@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import pyrt
-from pyrt.geometry import surface_from_hits
-from pyrt.integrator import PreparedScene
+from pyrt.geometry.surface import surface_from_hits
+from pyrt.integrators.whitted import PreparedScene
 
 
 def _batch():

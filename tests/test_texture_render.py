@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import pyrt
-from pyrt import textures as T
-from shaders import textures as K
+from pyrt.textures import texture as T
+from pyrt.shaders import textures as K
 
 
 class Recording(T.Texture):
@@ -251,7 +251,7 @@ material = "floor"
     floor = scene.materials[0]
     assert isinstance(floor.albedo_value, T.ImageTexture) and isinstance(floor.normal_map, T.NormalMap)
     img = pyrt.render(scene, **opts)
-    from shaders.color import srgb_decode
+    from pyrt.shaders.color import srgb_decode
     np.testing.assert_allclose(img, srgb_decode(np.array(188 / 255.0)), rtol=1e-5)
     (tmp_path / "bad.toml").write_text("""
 [materials.m]

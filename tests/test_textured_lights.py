@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import pyrt
-from shaders import lights as K
+from pyrt.shaders import lights as K
 from render_helpers import top_down_scene
 from sphere_quadrature import sphere_integral
 

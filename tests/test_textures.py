@@ -11,9 +11,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from shaders import color
-from shaders import textures as K
-from pyrt import textures as T
+from pyrt.shaders import color
+from pyrt.shaders import textures as K
+from pyrt.textures import texture as T
 
 
 @pytest.fixture

@@ -2,7 +2,7 @@
 
 Writes to ``--out`` (default ``out/acne``):
 
-- ``table.txt``   the matrix (case x strategy: acne/leak pixels) and per-strategy totals (``python -m pyrt.acne``);
+- ``table.txt``   the matrix (case x strategy: acne/leak pixels) and per-strategy totals (``python -m pyrt.apps.acne``);
 - ``results.csv`` one row per (case, strategy): acne, leak, labelled and don't-care pixels, shadow rays, time;
 - ``summary.md``  per strategy: failing cases, acne, leak, error rate, cost (a Markdown table for the README);
 - ``chart.png``   error rate ((acne + leak) / labelled pixels over the whole matrix) against cost
@@ -31,7 +31,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import pyrt  # noqa: E402
-from pyrt import acne, offsets  # noqa: E402
+from pyrt.apps import acne  # noqa: E402
+from pyrt.geometry import offsets  # noqa: E402
 
 NAIVE = ("none", "ray_epsilon", "normal_epsilon", "scaled_epsilon", "wachter_binder_rtg", "error_bound")
 TIMING_CASES = (acne.Case("plane", "point"), acne.Case("sphere_lowpoly", "point"), acne.Case("contact", "point"),
@@ -50,7 +51,7 @@ def measure_cost(strategies, size, repeats=3):
     for case in TIMING_CASES:
         built = acne.build_case(case, w, h)
         truth = acne.truth_labels(built)
-        ps = pyrt.integrator.PreparedScene(built.scene)
+        ps = pyrt.integrators.PreparedScene(built.scene)
         try:
             for st in strategies:
                 best = None
@@ -179,7 +180,7 @@ def main(argv=None):
     ap.add_argument("--size", default="64x48", help="image size of the matrix run (default 64x48, as the tests)")
     ap.add_argument("--timing-size", default="192x144", help="image size of the cost measurement")
     ap.add_argument("--worst-size", default="192x144", help="image size of the worst-case figure")
-    ap.add_argument("--quick", action="store_true", help="pyrt.acne.quick_matrix() instead of the full matrix")
+    ap.add_argument("--quick", action="store_true", help="pyrt.apps.acne.quick_matrix() instead of the full matrix")
     ap.add_argument("--offset", action="append", default=[], help="module:function of an extra offset to test")
     ap.add_argument("--write-known", default=None, help="write the failing cases per strategy to this JSON file")
     a = ap.parse_args(argv)

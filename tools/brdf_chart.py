@@ -25,9 +25,10 @@ import time
 
 import numpy as np
 
-from shaders import brdfs, metals
-from shaders import microfacet as mf
-from shaders.vec import reflect
+from pyrt.shaders import brdfs
+from pyrt.shaders import metals
+from pyrt.shaders import microfacet as mf
+from pyrt.shaders.vec import reflect
 
 ONE, ZERO = np.ones(3), np.zeros(3)
 GOLD = metals.METALS["gold"]

@@ -4,7 +4,7 @@ Scene: a Lambertian sphere (albedo 0.8) and a glossy GGX sphere (CookTorrance, g
 roughness 0.35) under a procedural HDR sky (``pyrt.procedural_sky``: gradient + a small bright sun,
 256 x 128, generated at run time; ``--write-asset`` also saves it as ``assets/sky.exr``).
 
-For each strategy in ``pyrt.environment.STRATEGIES`` and N = 1, 2, 4, ... samples per hit, the image
+For each strategy in ``pyrt.lights.environment.STRATEGIES`` and N = 1, 2, 4, ... samples per hit, the image
 is rendered and its relative RMS error against a high-sample MIS reference is measured separately on
 the pixels of each sphere; the time is the render's wall time (``stats.time_total``, best of
 ``--repeats``; the importance table is built before timing, and the preview's one-off SH projection and
@@ -28,7 +28,7 @@ import time
 import numpy as np
 
 import pyrt
-from pyrt.environment import STRATEGIES, LatLongEnvironment, set_environment
+from pyrt.lights.environment import STRATEGIES, LatLongEnvironment, set_environment
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 

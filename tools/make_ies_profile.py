@@ -18,7 +18,7 @@ import os
 
 import numpy as np
 
-from shaders import ies
+from pyrt.shaders import ies
 
 
 def downlight_profile():

@@ -174,7 +174,7 @@ def plot_side_by_side(images, rows, tname, path):
     fig, axes = plt.subplots(2, 4, figsize=(16, 5.2))
     for ax, label in zip(axes.ravel(), order):
         disp = pyrt.tonemap_to_display(images[(tname, label)], tonemap_op="linear")
-        from shaders.color import srgb_encode
+        from pyrt.shaders.color import srgb_encode
 
         ax.imshow(srgb_encode(np.clip(disp, 0, 1)))
         r = err.get(label)

@@ -34,7 +34,7 @@ Conventions
   supported (warning).
 - **Instancing**: a glTF mesh used by several nodes is decoded once; its object-space arrays,
   smooth normals, UVs and materials are shared by the instances. The Embree scene holds one
-  world-space copy per instance (:mod:`pyrt.accel` has no instancing).
+  world-space copy per instance (:mod:`pyrt.geometry.accel` has no instancing).
 - **Normals**: file normals are used as given; meshes without normals get crease-angle smooth
   normals (:func:`crease_normals`, default 30 degrees), welded by position so UV seams and STL
   triangle soups are smoothed too. Meshes without UVs render (UV = 0; textures read one texel).
@@ -67,15 +67,15 @@ import urllib.parse
 import numpy as np
 import trimesh
 
-from shaders import color as _color
+from pyrt.shaders import color as _color
 
-from ..camera import Camera
-from ..lights import DirectionalLight, PointLight, SpotLight
-from ..materials import BlinnPhong, Glass
-from ..textures import ImageTexture, NormalMap, TextureError, load_image
+from pyrt.core.camera import Camera
+from pyrt.lights.punctual import DirectionalLight, PointLight, SpotLight
+from pyrt.materials.library import BlinnPhong, Glass
+from pyrt.textures.texture import ImageTexture, NormalMap, TextureError, load_image
 
 try:  # the glTF metallic-roughness BRDF (material library, issue 3)
-    from ..materials import MetallicRoughness
+    from pyrt.materials.library import MetallicRoughness
 except ImportError:  # pragma: no cover - reported loudly by make_metallic_roughness
     MetallicRoughness = None
 

@@ -40,12 +40,12 @@ import tomllib
 import numpy as np
 import trimesh
 
-from ..camera import Camera
-from ..lights import PATH_ARGUMENTS as LIGHT_PATH_ARGUMENTS, REGISTRY as LIGHTS
-from ..materials import REGISTRY as MATERIALS
-from ..scene import Scene, transform_matrix
-from .. import area_lights as _area_lights  # noqa: F401  (registers "rect", "disk", "sphere" in LIGHTS)
-from .. import environment as _env
+from pyrt.core.camera import Camera
+from pyrt.lights.punctual import PATH_ARGUMENTS as LIGHT_PATH_ARGUMENTS, REGISTRY as LIGHTS
+from pyrt.materials.library import REGISTRY as MATERIALS
+from pyrt.scene import Scene, transform_matrix
+from pyrt.lights import area as _area_lights  # noqa: F401  (registers "rect", "disk", "sphere" in LIGHTS)
+from pyrt.lights import environment as _env
 
 
 class SceneFileError(ValueError):
@@ -120,7 +120,7 @@ def _primitive(kind, params, where, path):
 
 def _texture(spec, where, base, path):
     """A texture from an inline table ``{type = "image" | "checker" | ..., ...}`` (pyrt.textures)."""
-    from ..textures import TextureError, texture_from_dict
+    from pyrt.textures.texture import TextureError, texture_from_dict
 
     try:
         return texture_from_dict(spec, base_dir=base)

@@ -3,8 +3,8 @@
 Embree's rays start at t = 0 and read float32 origins, so a ray spawned at a surface point must start
 a little off the surface: too little and it re-hits the surface it leaves (shadow acne, black specks in
 mirrors and glass), too much and it starts beyond a nearby occluder (light leaking through thin walls,
-shadows detached from their casters, "peter-panning"). :mod:`pyrt.acne` measures every strategy below
-on stress scenes with analytic ground truth; ``python -m pyrt.acne`` prints the table.
+shadows detached from their casters, "peter-panning"). :mod:`pyrt.apps.acne` measures every strategy below
+on stress scenes with analytic ground truth; ``python -m pyrt.apps.acne`` prints the table.
 
 Interface
 ---------
@@ -59,7 +59,7 @@ through with :meth:`pyrt.geometry.SurfaceBatch.light_side`.
 
 The default (:data:`DEFAULT`) is ``"robust"``: ``local_bound`` origins, ``"robust"`` tmax and the
 terminator lift on faces with interpolated normals — the only strategy with 0 acne and 0 leak pixels
-over the whole acne matrix (see ``python -m pyrt.acne`` and docs in the README).
+over the whole acne matrix (see ``python -m pyrt.apps.acne`` and docs in the README).
 """
 from __future__ import annotations
 
@@ -67,7 +67,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from shaders.vec import converted, dot, max_component, scale_rows, sub_from_point, take_rows, to_float32
+from pyrt.shaders.vec import converted, dot, max_component, scale_rows, sub_from_point, take_rows, to_float32
 
 _EPS32 = np.finfo(np.float32).eps / 2  # unit roundoff of float32, 2^-24
 _EPS64 = np.finfo(np.float64).eps / 2

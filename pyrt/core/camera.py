@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 
-from .sampler import stratified_samples
+from pyrt.core.sampler import stratified_samples
 
 
 class CameraError(ValueError):

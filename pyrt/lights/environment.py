@@ -43,14 +43,14 @@ import os
 
 import numpy as np
 
-from shaders import envmap as K
-from shaders import sampling
-from shaders import textures as _tex
-from shaders.vec import max_component
+from pyrt.shaders import envmap as K
+from pyrt.shaders import sampling
+from pyrt.shaders import textures as _tex
+from pyrt.shaders.vec import max_component
 
-from . import checks
-from .lights import Light, LightError
-from .materials import Lambert
+from pyrt.core import checks
+from pyrt.lights.punctual import Light, LightError
+from pyrt.materials.library import Lambert
 
 #: estimator names accepted by :class:`EnvironmentLight`
 STRATEGIES = ("uniform", "cosine", "map", "bsdf", "mis", "preview")
@@ -81,7 +81,7 @@ def _rotation_matrix(owner, rotate):
         if not np.allclose(m @ m.T, np.eye(3), atol=1e-6) or np.linalg.det(m) < 0:
             raise EnvironmentMapError(f"{owner}: rotate matrix must be a proper rotation (orthonormal, det +1)")
         return m
-    from .scene import SceneError, transform_matrix
+    from pyrt.scene import SceneError, transform_matrix
     try:
         return transform_matrix(rotate=rotate)[:3, :3]
     except (SceneError, TypeError, ValueError, IndexError) as e:
@@ -98,7 +98,7 @@ def load_environment_image(path):
     path = os.fspath(path)
     ext = os.path.splitext(path)[1].lower()
     if ext == ".exr":
-        from .io.images import read_exr
+        from pyrt.core.image_io import read_exr
         return read_exr(path)
     if ext in (".hdr", ".pic", ".rgbe"):
         raise EnvironmentMapError(f"{path}: Radiance .hdr is not supported (no maintained RGBE reader is "

@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .accel import Hits
-from .geometry import surface_from_hits
+from pyrt.geometry.accel import Hits
+from pyrt.geometry.surface import surface_from_hits
 
 #: barycentrics (u, v) of the three vertices: hit = (1-u-v) v0 + u v1 + v v2
 _VERTEX_UV = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
@@ -59,10 +59,10 @@ def direct_light(integrator, surf, origins, rng):
     """Gouraud direct lighting (N, 3) at the hits of ``surf`` (all on Gouraud faces).
 
     ``integrator`` supplies the geometry, materials, lights, shadow-ray visibility and BSDF dispatch
-    (:class:`pyrt.integrator.Integrator`); ``origins`` (N, 3) are the rays' origins (the viewer).
+    (:class:`pyrt.integrators.Integrator`); ``origins`` (N, 3) are the rays' origins (the viewer).
     """
-    from .integrator import BSDFBatch
-    from .textures import apply_normal_maps
+    from pyrt.integrators.whitted import BSDFBatch
+    from pyrt.textures.texture import apply_normal_maps
 
     ps = integrator.ps
     hits, o, d = vertex_rays(ps.geo, surf, origins)

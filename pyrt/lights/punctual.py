@@ -62,13 +62,13 @@ import os
 
 import numpy as np
 
-from shaders import color as _colour
-from shaders import ies as _ies
-from shaders import lights as kernels
-from shaders.vec import max_component, mul_rgb, put_rows, scale_rows, take_rows
+from pyrt.shaders import color as _colour
+from pyrt.shaders import ies as _ies
+from pyrt.shaders import lights as kernels
+from pyrt.shaders.vec import max_component, mul_rgb, put_rows, scale_rows, take_rows
 
-from . import checks
-from .sampler import stratified_samples
+from pyrt.core import checks
+from pyrt.core.sampler import stratified_samples
 
 
 class LightError(ValueError):
@@ -151,7 +151,7 @@ class Light:
             else:
                 wi, dist, E = self.sample(surf.p, u)
                 active = surf.light_side(wi) & (max_component(E) > 0)
-            # ng . wi > 0, or the interpolated vertex normal faces the light (shadow terminator, pyrt.offsets)
+            # ng . wi > 0, or the interpolated vertex normal faces the light (shadow terminator, pyrt.geometry.offsets)
             idx = np.flatnonzero(active)
             if idx.size == 0:
                 continue
@@ -455,7 +455,7 @@ class DirectionalLight(Light):
 
 def _image_texture(owner, image, wrap, srgb):
     """An :class:`pyrt.textures.ImageTexture` (bilinear, no MIP) from a path, an array or a texture."""
-    from .textures import ImageTexture, TextureError
+    from pyrt.textures.texture import ImageTexture, TextureError
 
     if isinstance(image, ImageTexture):
         return image

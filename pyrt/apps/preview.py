@@ -70,15 +70,15 @@ import warnings as _warnings
 
 import numpy as np
 
-from shaders import color as _color
+from pyrt.shaders import color as _color
 
-from .camera import Camera
-from .integrator import PreparedScene, render_full
-from .io.assets import Asset, AssetError, FORMATS, load_asset
-from .io.images import tonemap_to_display, write_exr
-from .lights import DirectionalLight
-from .materials import Lambert
-from .scene import Scene
+from pyrt.core.camera import Camera
+from pyrt.integrators.whitted import PreparedScene, render_full
+from pyrt.io.assets import Asset, AssetError, FORMATS, load_asset
+from pyrt.core.image_io import tonemap_to_display, write_exr
+from pyrt.lights.punctual import DirectionalLight
+from pyrt.materials.library import Lambert
+from pyrt.scene import Scene
 
 
 class PreviewError(ValueError):
@@ -335,7 +335,7 @@ class PreviewScene:
             self.ground_mesh = self.scene.add_plane(foot, 100.0 * self.radius, g, name="ground")
         self.environment = None
         if o.environment:
-            from .environment import LatLongEnvironment, set_environment
+            from pyrt.lights.environment import LatLongEnvironment, set_environment
             self.environment = LatLongEnvironment(o.environment, intensity=o.environment_intensity)
             set_environment(self.scene, self.environment, lighting=o.environment_lighting,
                             n_samples=o.environment_samples)

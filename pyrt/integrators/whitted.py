@@ -3,7 +3,7 @@
 The image is processed in chunks of pixels (bounded memory: a chunk holds at most
 ``chunk_samples`` camera samples). For each chunk, one batch of rays per bounce depth:
 
-1. closest hits for the whole batch (:meth:`pyrt.accel.Accel.intersect`);
+1. closest hits for the whole batch (:meth:`pyrt.geometry.accel.Accel.intersect`);
 2. misses add ``throughput * background`` (or the environment's radiance);
 3. hits become a :class:`pyrt.geometry.SurfaceBatch`; materials are evaluated once per material
    *type* on the hits that use them (``np.flatnonzero(material_id == k)``);
@@ -14,7 +14,7 @@ The image is processed in chunks of pixels (bounded memory: a chunk holds at mos
    internal reflection) spawn the next batch with multiplied throughput; rays whose throughput
    falls below ``throughput_cutoff`` (max over RGB) or that reach ``max_depth`` are dropped.
 
-This module knows nothing about Embree; it asks :class:`pyrt.accel.Accel` for hits and occlusion.
+This module knows nothing about Embree; it asks :class:`pyrt.geometry.accel.Accel` for hits and occlusion.
 """
 from __future__ import annotations
 
@@ -26,14 +26,14 @@ import warnings
 
 import numpy as np
 
-from . import offsets
-from .accel import Accel, T_INFINITE
-from .geometry import refract_differentials, reflect_differentials, surface_from_hits
-from . import gouraud
-from .dielectrics import NestedMedia
-from .materials import CosineQuery
-from .textures import apply_normal_maps
-from shaders.vec import dot, max_component, put_rows, take_rows, to_float32
+from pyrt.geometry import offsets
+from pyrt.geometry.accel import Accel, T_INFINITE
+from pyrt.geometry.surface import refract_differentials, reflect_differentials, surface_from_hits
+from pyrt.integrators import gouraud
+from pyrt.integrators.media import NestedMedia
+from pyrt.materials.library import CosineQuery
+from pyrt.textures.texture import apply_normal_maps
+from pyrt.shaders.vec import dot, max_component, put_rows, take_rows, to_float32
 
 
 @dataclass
@@ -67,9 +67,9 @@ class PreparedScene:
         mats = scene.materials
         self.has_delta = np.array([m.has_delta for m in mats], dtype=bool)
         self.has_diffuse = np.array([m.has_diffuse for m in mats], dtype=bool)
-        # nested dielectrics (pyrt.dielectrics): per-ray interface stacks only when the scene needs them
+        # nested dielectrics (pyrt.integrators.media): per-ray interface stacks only when the scene needs them
         self.media = NestedMedia.for_scene(mats)
-        # faces shaded per vertex (pyrt.gouraud), None when no mesh asks for it
+        # faces shaded per vertex (pyrt.integrators.gouraud), None when no mesh asks for it
         self.face_gouraud = gouraud.face_mask(self.geo, getattr(scene, "gouraud_meshes", ()))
         self.needs_differentials = any(_uses_texture(m) for m in mats)
         #: materials whose emission() can be non-zero (the rest skip the emission pass)
@@ -83,7 +83,7 @@ class PreparedScene:
 
 def _may_emit(material):
     """False only when the material certainly emits nothing (the base class or a Lambert with zero emission)."""
-    from .materials import Lambert, Material
+    from pyrt.materials.library import Lambert, Material
     if type(material).emission is Material.emission:
         return False
     if type(material).emission is Lambert.emission:
@@ -267,7 +267,7 @@ class Integrator:
     throughput_cutoff : float
         Specular rays whose max-channel throughput falls below this are dropped.
     offset : str or callable
-        Ray-origin offset strategy (see :mod:`pyrt.offsets`).
+        Ray-origin offset strategy (see :mod:`pyrt.geometry.offsets`).
     record_rays : bool
         Keep every traced ray (float32 origins, dirs, tmax, kind) in ``stats.recorded`` for benchmarks.
     """
@@ -389,7 +389,7 @@ class Integrator:
             diffuse_idx = np.flatnonzero(self.ps.has_diffuse[mids])
             if self.ps.face_gouraud is not None and diffuse_idx.size and lights:
                 g = diffuse_idx[self.ps.face_gouraud[surf.face[diffuse_idx]]]
-                if g.size:  # Gouraud faces: lighting at the vertices, interpolated (pyrt.gouraud)
+                if g.size:  # Gouraud faces: lighting at the vertices, interpolated (pyrt.integrators.gouraud)
                     Lh[g] += gouraud.direct_light(self, surf.subset(g), o[h[g]], rng)
                     diffuse_idx = np.setdiff1d(diffuse_idx, g, assume_unique=True)
             if diffuse_idx.size and lights:
@@ -482,7 +482,7 @@ def normalize_rows(w):
 
 
 def _subset_hits(hits, idx):
-    from .accel import Hits
+    from pyrt.geometry.accel import Hits
     return Hits(hit=hits.hit[idx], t=hits.t[idx], mesh_id=hits.mesh_id[idx], prim_id=hits.prim_id[idx],
                 u=hits.u[idx], v=hits.v[idx], ng=take_rows(hits.ng, idx))
 
@@ -603,7 +603,7 @@ def render(scene, **kwargs):
     throughput_cutoff : float
         Drop specular rays whose throughput falls below this (default 1e-4).
     offset : str or callable
-        Ray-offset strategy (:mod:`pyrt.offsets`): a name, a Strategy or a callable; default "robust"
+        Ray-offset strategy (:mod:`pyrt.geometry.offsets`): a name, a Strategy or a callable; default "robust"
         (local error bound + robust shadow tmax + shadow-terminator lift).
     progress : bool, optional
         Show a progress bar (default: only on a terminal).

@@ -6,7 +6,8 @@ import os
 import numpy as np
 import OpenEXR
 
-from shaders import color, tonemap
+from pyrt.shaders import color
+from pyrt.shaders import tonemap
 
 
 def _check_image(img, name="image"):

@@ -30,9 +30,9 @@ import warnings
 
 import numpy as np
 
-from shaders import color as _color
-from shaders import noise as _noise
-from shaders import textures as _tex
+from pyrt.shaders import color as _color
+from pyrt.shaders import noise as _noise
+from pyrt.shaders import textures as _tex
 
 
 class TextureError(ValueError):

@@ -39,8 +39,8 @@ Running it on your own offset function
 --------------------------------------
 ``run_matrix(offset=my_fn)`` with ``my_fn(surf, w) -> origins`` ((N, 3) float64; ``surf`` a
 :class:`pyrt.geometry.SurfaceBatch`: ``p``, ``ng`` (facing the viewer), ``p_error``, ``bary``,
-``tri_v``, ``tri_n``...), or ``python -m pyrt.acne --offset mymodule:my_fn``. A plain function gets
-pbrt's shadow ``tmax = (1 - 1e-4) t``; wrap it in :class:`pyrt.offsets.Strategy` to choose.
+``tri_v``, ``tri_n``...), or ``python -m pyrt.apps.acne --offset mymodule:my_fn``. A plain function gets
+pbrt's shadow ``tmax = (1 - 1e-4) t``; wrap it in :class:`pyrt.geometry.offsets.Strategy` to choose.
 """
 from __future__ import annotations
 
@@ -55,12 +55,12 @@ import time
 import numpy as np
 import trimesh
 
-from . import offsets
-from .camera import Camera
-from .integrator import PreparedScene, render_full
-from .lights import DirectionalLight, PointLight, SpotLight
-from .materials import Glass, Lambert, Mirror
-from .scene import Scene
+from pyrt.geometry import offsets
+from pyrt.core.camera import Camera
+from pyrt.integrators.whitted import PreparedScene, render_full
+from pyrt.lights.punctual import DirectionalLight, PointLight, SpotLight
+from pyrt.materials.library import Glass, Lambert, Mirror
+from pyrt.scene import Scene
 
 LIT, SHADOW, UNSURE, BACKGROUND = 1, 0, -1, -2
 
@@ -720,9 +720,9 @@ def _load_callable(spec):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m pyrt.acne", description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(prog="python -m pyrt.apps.acne", description=__doc__.split("\n\n")[0])
     ap.add_argument("--strategies", default=",".join(offsets.STRATEGIES),
-                    help="comma-separated names from pyrt.offsets.STRATEGIES (default: all)")
+                    help="comma-separated names from pyrt.geometry.offsets.STRATEGIES (default: all)")
     ap.add_argument("--offset", action="append", default=[],
                     help="module:function of your own offset f(surf, w) -> origins (repeatable); replaces "
                          "--strategies unless they are also given explicitly")

@@ -237,7 +237,7 @@ class NestedMedia:
         Parameters
         ----------
         geo : pyrt.geometry.GeometryTable
-        hits : pyrt.accel.Hits
+        hits : pyrt.geometry.accel.Hits
             Closest hits of the rays ``o, d`` (unit directions).
         stack : (N, K) int32
         intersect : callable
@@ -254,7 +254,7 @@ class NestedMedia:
             updated stacks. Rays that needed more than :data:`MAX_FALSE_HITS` continuations become
             misses with ``t_total = nan`` (:meth:`attenuation` gives them zero weight).
         """
-        from .accel import Hits
+        from pyrt.geometry.accel import Hits
 
         n = o.shape[0]
         t_acc = np.zeros(n)

@@ -12,7 +12,7 @@ The binding's sharp edges, and how they are guarded here
   ``t = inf``) before anyone computes ``o + t d``.
 - Geometry added after the first query is silently ignored: :meth:`Accel.add_mesh` raises after
   :meth:`Accel.commit`.
-- tnear is fixed at 0: callers offset ray origins themselves (see :mod:`pyrt.offsets`).
+- tnear is fixed at 0: callers offset ray origins themselves (see :mod:`pyrt.geometry.offsets`).
 - Each ``run`` is a single-threaded loop that releases the GIL, so large batches are split into
   chunks run on a thread pool (``threads`` workers, default: all cores).
 """
@@ -26,7 +26,7 @@ import numpy as np
 from embreex import rtcore_scene
 from embreex.mesh_construction import TriangleMesh
 
-from shaders.vec import converted, to_float32
+from pyrt.shaders.vec import converted, to_float32
 
 #: Larger batches are split over threads; below this a single call is cheaper.
 _CHUNK = 65536

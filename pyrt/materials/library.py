@@ -39,8 +39,10 @@ import numbers
 
 import numpy as np
 
-from shaders import brdfs, fresnel, sampling
-from shaders.vec import dot, reflect, refract
+from pyrt.shaders import brdfs
+from pyrt.shaders import fresnel
+from pyrt.shaders import sampling
+from pyrt.shaders.vec import dot, reflect, refract
 
 
 class MaterialError(ValueError):
@@ -268,10 +270,10 @@ class Glass(Material):
     (radiance / eta^2 is invariant along a ray), as in pbrt-v4 and Mitsuba 3 in radiance mode; through
     a closed object the factors of entering and leaving cancel. Energy: R + (1 - R) = 1 (tested).
 
-    Nested dielectrics (:mod:`pyrt.dielectrics`, Schmidt & Budge 2002): ``priority`` decides which
+    Nested dielectrics (:mod:`pyrt.integrators.media`, Schmidt & Budge 2002): ``priority`` decides which
     volume wins where volumes overlap (higher wins; surfaces inside a higher-priority volume are
     ignored) and ``absorption`` is the Beer-Lambert coefficient sigma_a (RGB, per scene unit) of the
-    medium the glass encloses (``pyrt.dielectrics.absorption_from_transmittance`` converts a colour
+    medium the glass encloses (``pyrt.integrators.media.absorption_from_transmittance`` converts a colour
     at a distance). With the defaults (priority 0, no absorption) and a single dielectric in the
     scene nothing changes; otherwise the integrator passes ``eta`` (eta_t / eta_i from the ray's
     interface stack) to :meth:`delta_lobes`.
@@ -332,9 +334,9 @@ def register(cls):
 # (shaders.microfacet.roughness_to_alpha); ``alpha`` may be given instead (not both).
 # =============================================================================================
 
-from shaders import microfacet as _mf  # noqa: E402
-from shaders import metals as _metals  # noqa: E402
-from shaders.color import luminance as _luminance  # noqa: E402
+from pyrt.shaders import microfacet as _mf  # noqa: E402
+from pyrt.shaders import metals as _metals  # noqa: E402
+from pyrt.shaders.color import luminance as _luminance  # noqa: E402
 
 
 def _constant(v):

@@ -16,7 +16,7 @@ Units and conventions
   inside the sphere.
 - Visible to camera rays: :meth:`AreaLight.add_to` adds the light *and* a mesh with an
   :class:`AreaEmitter` material (one-sided emission, receives no light). Shadow rays toward the
-  light stop at ``1 - 1e-4`` of the distance to the sampled point (:data:`pyrt.offsets.SHADOW_TMAX_SCALE`);
+  light stop at ``1 - 1e-4`` of the distance to the sampled point (:data:`pyrt.geometry.offsets.SHADOW_TMAX_SCALE`);
   the sampled point lies on the emitter's plane (rectangle, disk) or on the exact sphere, which
   encloses the inscribed triangle mesh, so a light's own mesh never shadows its samples.
 """
@@ -28,12 +28,12 @@ import numbers
 import numpy as np
 import trimesh
 
-from shaders import sampling
-from shaders.vec import coordinate_frame, max_component
+from pyrt.shaders import sampling
+from pyrt.shaders.vec import coordinate_frame, max_component
 
-from .lights import REGISTRY as _LIGHTS
-from .lights import Light, LightError, _color, _nonneg, _vec3, stratified_samples  # noqa: F401 (re-export)
-from .materials import Material, check_color, register
+from pyrt.lights.punctual import REGISTRY as _LIGHTS
+from pyrt.lights.punctual import Light, LightError, _color, _nonneg, _vec3, stratified_samples  # noqa: F401 (re-export)
+from pyrt.materials.library import Material, check_color, register
 
 
 @register

@@ -21,8 +21,8 @@ import warnings
 
 import numpy as np
 
-from .offsets import terminator_lift
-from shaders.vec import coordinate_frame, cross, dot, max_component, normalize, put_rows, scale_rows, take_rows, to_local
+from pyrt.geometry.offsets import terminator_lift
+from pyrt.shaders.vec import coordinate_frame, cross, dot, max_component, normalize, put_rows, scale_rows, take_rows, to_local
 
 
 class GeometryError(ValueError):
@@ -100,7 +100,7 @@ class GeometryTable:
                                   for m in self.meshes])
         self.any_smooth = bool(np.any(smooth))
         self.any_uv = bool(np.any(self.face_has_uv))
-        # per-face bounds for ray offsets (pyrt.offsets.local_bound): the largest extent of the triangle's
+        # per-face bounds for ray offsets (pyrt.geometry.offsets.local_bound): the largest extent of the triangle's
         # bounding box (>= max_i ||v_i - p||_inf for any p on it) and the component-wise max |v_i|
         # (>= sum_i b_i |v_i| for any p on it)
         tri = self.vertices[self.faces]                               # (F, 3, 3)
@@ -172,7 +172,7 @@ class SurfaceBatch:
         ``ng . wi > 0``; on faces with interpolated vertex normals also where the interpolated vertex
         normal (``n_vertex``, before any normal map) faces ``wi``: the shadow-terminator zone of a
         smooth-shaded low-poly mesh, where the shadow ray (from the origin lifted by
-        :func:`pyrt.offsets.terminator_point`) decides instead of the flat facet.
+        :func:`pyrt.geometry.offsets.terminator_point`) decides instead of the flat facet.
         """
         lit = dot(wi, self.ng) > 0
         if self.n_vertex is not None:
@@ -244,7 +244,7 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
     Parameters
     ----------
     geo : GeometryTable
-    hits : pyrt.accel.Hits
+    hits : pyrt.geometry.accel.Hits
         Restricted to hitting rays.
     origins, dirs : (N, 3) float64
         The rays (dirs unit length).
@@ -353,7 +353,7 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
 
     def triangle_group():
         # the hit triangle's float32-exact vertices and its vertex normals turned to the ng side (zero on flat
-        # faces), for ray offsets (pyrt.offsets: local error bounds, shadow-terminator lift)
+        # faces), for ray offsets (pyrt.geometry.offsets: local error bounds, shadow-terminator lift)
         tri_n = np.zeros((n, 3, 3))
         if np.any(smooth):
             s = np.flatnonzero(smooth)
@@ -361,7 +361,7 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
         return {"tri_v": np.stack([v0, v1, v2], axis=1), "tri_n": tri_n}
 
     def lift_group():
-        # Hanika's shadow-terminator lift (pyrt.offsets.terminator_point) from the vertex normals gathered
+        # Hanika's shadow-terminator lift (pyrt.geometry.offsets.terminator_point) from the vertex normals gathered
         # above for the shading normal: p' = p - sum_i b_i min(0, (p - v_i) . n_i) n_i, n_i on the ng side
         if s is None:
             return {"p_lift": p}
