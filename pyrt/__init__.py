@@ -9,6 +9,7 @@ Public API::
     image = pyrt.render(scene, spp=4)          # (H, W, 3) float32 linear radiance
     pyrt.write_exr("out.exr", image); pyrt.write_png("out.png", image, tonemap="reinhard")
 """
+from pyrt.core.errors import Error
 from pyrt.core.camera import Camera, CameraError
 from pyrt.geometry.surface import GeometryError
 from pyrt.integrators.whitted import RenderResult, RenderStats, render, render_full
@@ -27,7 +28,7 @@ from pyrt.textures.texture import (CheckerTexture, ConstantTexture, FbmTexture, 
                        PerlinTexture, Texture, TextureError, VoronoiTexture, perturb_normal)
 
 __all__ = [
-    "Camera", "CameraError", "GeometryError", "RenderResult", "RenderStats", "render", "render_full",
+    "Error", "Camera", "CameraError", "GeometryError", "RenderResult", "RenderStats", "render", "render_full",
     "DirectionalLight", "Light", "LightError", "PointLight", "SpotLight", "ProjectorLight", "GoniometricLight", "IESLight", "Material", "MaterialError", "MATERIALS",
     "Lambert", "BlinnPhong", "Mirror", "Glass", "register", "Phong", "PhongClassic", "BlinnPhongClassic", "Ward",
     "CookTorrance", "MetallicRoughness", "Scene", "SceneError", "transform_matrix",

@@ -14,9 +14,10 @@ from pyrt.core.camera import Camera
 from pyrt.geometry.surface import GeometryError, GeometryTable, MeshData, validate_mesh
 from pyrt.lights.punctual import Light
 from pyrt.materials.library import Material
+from pyrt.core.errors import Error
 
 
-class SceneError(ValueError):
+class SceneError(Error, ValueError):
     """Invalid scene content."""
 
 

@@ -79,13 +79,14 @@ from pyrt.core.image_io import tonemap_to_display, write_exr
 from pyrt.lights.punctual import DirectionalLight
 from pyrt.materials.library import Lambert
 from pyrt.scene import Scene
+from pyrt.core.errors import Error
 
 
-class PreviewError(ValueError):
+class PreviewError(Error, ValueError):
     """Invalid preview options or an asset that cannot be previewed."""
 
 
-class BudgetExceeded(RuntimeError):
+class BudgetExceeded(Error, RuntimeError):
     """The per-asset time budget ran out (the message says after what)."""
 
 

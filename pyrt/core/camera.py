@@ -15,9 +15,10 @@ import numpy as np
 
 
 from pyrt.core.sampler import stratified_samples
+from pyrt.core.errors import Error
 
 
-class CameraError(ValueError):
+class CameraError(Error, ValueError):
     """Invalid camera parameters."""
 
 

@@ -23,9 +23,10 @@ import numpy as np
 
 from pyrt.geometry.offsets import terminator_lift
 from pyrt.shaders.vec import coordinate_frame, cross, dot, max_component, normalize, put_rows, scale_rows, take_rows, to_local
+from pyrt.core.errors import Error
 
 
-class GeometryError(ValueError):
+class GeometryError(Error, ValueError):
     """A mesh cannot be rendered (non-finite vertices, bad indices, no valid triangle)."""
 
 

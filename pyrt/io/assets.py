@@ -73,6 +73,7 @@ from pyrt.core.camera import Camera
 from pyrt.lights.punctual import DirectionalLight, PointLight, SpotLight
 from pyrt.materials.library import BlinnPhong, Glass
 from pyrt.textures.texture import ImageTexture, NormalMap, TextureError, load_image
+from pyrt.core.errors import Error
 
 try:  # the glTF metallic-roughness BRDF (material library, issue 3)
     from pyrt.materials.library import MetallicRoughness
@@ -80,7 +81,7 @@ except ImportError:  # pragma: no cover - reported loudly by make_metallic_rough
     MetallicRoughness = None
 
 
-class AssetError(ValueError):
+class AssetError(Error, ValueError):
     """An asset file cannot be loaded; the message names the file and what is wrong."""
 
 

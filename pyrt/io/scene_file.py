@@ -46,9 +46,10 @@ from pyrt.materials.library import REGISTRY as MATERIALS
 from pyrt.scene import Scene, transform_matrix
 from pyrt.lights import area as _area_lights  # noqa: F401  (registers "rect", "disk", "sphere" in LIGHTS)
 from pyrt.lights import environment as _env
+from pyrt.core.errors import Error
 
 
-class SceneFileError(ValueError):
+class SceneFileError(Error, ValueError):
     """A scene file is malformed; the message names the file and the offending table/key."""
 
 

@@ -69,9 +69,10 @@ from pyrt.shaders.vec import max_component, mul_rgb, put_rows, scale_rows, take_
 
 from pyrt.core import checks
 from pyrt.core.sampler import stratified_samples
+from pyrt.core.errors import Error
 
 
-class LightError(ValueError):
+class LightError(Error, ValueError):
     """Invalid light parameters."""
 
 

@@ -43,9 +43,10 @@ from pyrt.shaders import brdfs
 from pyrt.shaders import fresnel
 from pyrt.shaders import sampling
 from pyrt.shaders.vec import dot, reflect, refract
+from pyrt.core.errors import Error
 
 
-class MaterialError(ValueError):
+class MaterialError(Error, ValueError):
     """A material parameter is missing, unknown or out of range."""
 
 

@@ -33,9 +33,10 @@ import numpy as np
 from pyrt.shaders import color as _color
 from pyrt.shaders import noise as _noise
 from pyrt.shaders import textures as _tex
+from pyrt.core.errors import Error
 
 
-class TextureError(ValueError):
+class TextureError(Error, ValueError):
     """A texture file or parameter is missing, unreadable or invalid (the message names it)."""
 
 
