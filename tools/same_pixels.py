@@ -160,7 +160,9 @@ def previews():
     with tempfile.TemporaryDirectory() as tmp:
         for m in models:
             out = os.path.join(tmp, "p.exr")
-            cmd = [os.path.join(os.path.dirname(sys.executable), "pyrt-preview"), m, "-o", out, "--width", "96", "--height", "72", "--spp", "2", "--quiet"]
+            # the previewer's entry point, run with the working copy first on sys.path (a worktree's code)
+            cmd = [sys.executable, "-c", "import sys; sys.path.insert(0, sys.argv.pop(1)); "
+                   "from pyrt.apps.preview import main; sys.exit(main(sys.argv[1:]))", ROOT, m, "-o", out, "--width", "96", "--height", "72", "--spp", "2", "--quiet"]
             r = subprocess.run(cmd, capture_output=True, text=True)
             if r.returncode != 0:
                 print(f"preview {m} failed: {r.stderr.strip()[-300:]}")

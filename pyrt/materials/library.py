@@ -127,8 +127,10 @@ class Material:
     is_dielectric = False
     #: registry name used by scene files: ``{"type": "lambert", ...}``
     type_name = None
-    #: parameters accepted by the scene file loader (name -> kind) filled by subclasses
+    #: the user's name for the material (messages, scene files)
     name = None
+    #: tangent-space normal map (a :class:`pyrt.NormalMap`) or None; applied to the shading normal before shading
+    normal_map = None
 
     def param(self, value, ctx, channels=3):
         """Resolve a constant or a texture to an ``(N, channels)`` array (``(N,)`` if channels == 1).
