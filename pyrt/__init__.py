@@ -15,8 +15,8 @@ from pyrt.geometry.surface import GeometryError
 from pyrt.integrators.whitted import RenderResult, RenderStats, render, render_full
 from pyrt.lights.punctual import DirectionalLight, Light, LightError, PointLight, SpotLight
 from pyrt.lights.punctual import GoniometricLight, IESLight, ProjectorLight
-from pyrt.materials.library import Material, MaterialError, REGISTRY as MATERIALS, Lambert, BlinnPhong, Mirror, Glass, register
-from pyrt.materials.library import (BlinnPhongClassic, CookTorrance, MetallicRoughness, Phong, PhongClassic,  # material library
+from pyrt.materials import Material, MaterialError, REGISTRY as MATERIALS, Lambert, BlinnPhong, Mirror, Glass, register
+from pyrt.materials import (BlinnPhongClassic, CookTorrance, MetallicRoughness, Phong, PhongClassic,  # material library
                         Ward)
 from pyrt.scene import Scene, SceneError, transform_matrix
 from pyrt.lights.environment import (ConstantEnvironment, CubeMapEnvironment, EnvironmentLight, EnvironmentMapError,

@@ -13,7 +13,7 @@ from pyrt.core import checks
 from pyrt.core.camera import Camera
 from pyrt.geometry.surface import GeometryError, GeometryTable, MeshData, validate_mesh
 from pyrt.lights.punctual import Light
-from pyrt.materials.library import Material
+from pyrt.materials import Material
 from pyrt.core.errors import Error
 
 

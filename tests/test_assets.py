@@ -214,7 +214,7 @@ def test_khr_texture_transform_in_flipped_space(ext, rng):
 
 
 def test_gltf_material_is_metallic_roughness_with_extras(round_trip):
-    from pyrt.materials.library import MetallicRoughness
+    from pyrt.materials import MetallicRoughness
 
     a = load_asset(path := round_trip[0])
     mat = A.to_pyrt_material(a.materials[0])

@@ -1,11 +1,11 @@
-"""The isotropic fast path (Material.f_cos_cosines, world-space cosines) equals the local-frame f_cos."""
+"""The isotropic fast path (IsotropicMaterial.f_cos_cosines, world-space cosines) equals the local-frame f_cos."""
 import numpy as np
 import pytest
 
 import pyrt
-from pyrt.integrators import whitted as integrator
+from pyrt.materials import dispatch
 from pyrt.geometry.surface import SurfaceBatch
-from pyrt.materials.library import CosineQuery
+from pyrt.materials import CosineQuery
 from pyrt.shaders.vec import dot, normalize
 
 
@@ -49,15 +49,27 @@ def test_cosine_path_equals_local_frame_f_cos(name, lanes):
     np.testing.assert_allclose(val, expect, rtol=1e-9, atol=1e-14)
 
 
-def test_subclass_overriding_f_cos_does_not_inherit_the_fast_path():
-    class Tinted(pyrt.Lambert):
-        def f_cos(self, wo, wi, ctx):
-            return 0.5 * super().f_cos(wo, wi, ctx)
+def test_isotropic_subclass_may_not_override_f_cos():
+    """The fast path is derived by construction: f_cos of an IsotropicMaterial is defined from f_cos_cosines,
+    so a subclass that overrode only f_cos would make the two disagree; it is refused at class creation."""
+    with pytest.raises(TypeError, match="f_cos_cosines"):
+        class Tinted(pyrt.Lambert):
+            def f_cos(self, wo, wi, ctx):
+                return 0.5 * super().f_cos(wo, wi, ctx)
 
-    assert integrator._has_cosine_path(pyrt.Lambert())
-    assert integrator._has_cosine_path(pyrt.BlinnPhong())
-    assert not integrator._has_cosine_path(Tinted())
-    assert not integrator._has_cosine_path(pyrt.Mirror())
+    class Dimmed(pyrt.Lambert):          # overriding the cosine kernel changes both paths
+        def f_cos_cosines(self, q):
+            return 0.5 * super().f_cos_cosines(q)
+
+    surf, wi = _random_batch(200, seed=1)
+    surf.__dict__["material_id"] = np.zeros(200, dtype=np.int64)
+    batch = dispatch.BSDFBatch(surf, [Dimmed(albedo=0.6)])
+    assert batch.cosine_path == {0: True}
+    idx = np.arange(200)
+    full = pyrt.Lambert(albedo=0.6).f_cos(surf.to_local(surf.wo), surf.to_local(wi), surf)
+    np.testing.assert_allclose(batch.f_cos(idx, wi), 0.5 * full, rtol=1e-12, atol=1e-15)
+    assert not dispatch.BSDFBatch(surf, [pyrt.Mirror()]).cosine_path[0]
+    assert not dispatch.BSDFBatch(surf, [pyrt.Phong()]).cosine_path[0]
 
 
 def test_render_is_the_same_with_and_without_the_fast_path(monkeypatch):
@@ -69,7 +81,7 @@ def test_render_is_the_same_with_and_without_the_fast_path(monkeypatch):
     scene.add_light(pyrt.PointLight((2, 4, 2), intensity=30))
     scene.add_light(pyrt.DirectionalLight((-0.3, -1, -0.4), 1.5))
     fast = pyrt.render(scene, seed=3)
-    monkeypatch.setattr(integrator, "_has_cosine_path", lambda m: False)
+    monkeypatch.setattr(dispatch, "IsotropicMaterial", type("NoMaterialIsIsotropic", (), {}))
     slow = pyrt.render(scene, seed=3)
     assert fast.max() > 0.1
     np.testing.assert_allclose(fast, slow, rtol=1e-5, atol=1e-7)   # float32 image
@@ -84,7 +96,7 @@ def test_bsdf_batch_dispatch_matches_per_material_evaluation(order):
     mid = np.arange(3000) % 3 if order == "interleaved" else np.repeat([0, 1, 2], 1000)
     surf.material_id = mid
     surf.__dict__["material_id"] = mid
-    batch = integrator.BSDFBatch(surf, mats)
+    batch = dispatch.BSDFBatch(surf, mats)
     assert batch.contiguous == (order == "sorted_by_material")
     rng = np.random.default_rng(0)
     queries = [np.arange(3000), np.flatnonzero(rng.random(3000) < 0.6), np.flatnonzero(rng.random(3000) < 0.1),

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import pyrt
-from pyrt.materials import library as M
+from pyrt import materials as M
 from pyrt.shaders import brdfs
 from pyrt.shaders import fresnel
 from pyrt.shaders import metals

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import pyrt
-from pyrt.materials.library import CookTorrance
+from pyrt.materials import CookTorrance
 from pyrt.shaders import metals
 
 ALPHA = 0.25  # roughness 0.5

@@ -59,7 +59,7 @@ from pyrt.geometry import offsets
 from pyrt.core.camera import Camera
 from pyrt.integrators.whitted import PreparedScene, render_full
 from pyrt.lights.punctual import DirectionalLight, PointLight, SpotLight
-from pyrt.materials.library import Glass, Lambert, Mirror
+from pyrt.materials import Glass, Lambert, Mirror
 from pyrt.scene import Scene
 
 LIT, SHADOW, UNSURE, BACKGROUND = 1, 0, -1, -2

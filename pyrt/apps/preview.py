@@ -77,7 +77,7 @@ from pyrt.integrators.whitted import PreparedScene, render_full
 from pyrt.io.assets import Asset, AssetError, FORMATS, load_asset
 from pyrt.core.image_io import tonemap_to_display, write_exr
 from pyrt.lights.punctual import DirectionalLight
-from pyrt.materials.library import Lambert
+from pyrt.materials import Lambert
 from pyrt.scene import Scene
 from pyrt.core.errors import Error
 

@@ -21,6 +21,8 @@ import numpy as np
 
 from pyrt.geometry.accel import Hits
 from pyrt.geometry.surface import surface_from_hits
+from pyrt.materials.dispatch import BSDFBatch
+from pyrt.textures.texture import apply_normal_maps
 
 #: barycentrics (u, v) of the three vertices: hit = (1-u-v) v0 + u v1 + v v2
 _VERTEX_UV = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
@@ -61,14 +63,11 @@ def direct_light(integrator, surf, origins, rng):
     ``integrator`` supplies the geometry, materials, lights, shadow-ray visibility and BSDF dispatch
     (:class:`pyrt.integrators.Integrator`); ``origins`` (N, 3) are the rays' origins (the viewer).
     """
-    from pyrt.integrators.whitted import BSDFBatch
-    from pyrt.textures.texture import apply_normal_maps
-
     ps = integrator.ps
     hits, o, d = vertex_rays(ps.geo, surf, origins)
     vsurf = surface_from_hits(ps.geo, hits, o, d, None)
     materials = integrator.scene.materials
-    if getattr(ps, "has_normal_maps", False):
+    if ps.has_normal_maps:
         apply_normal_maps(vsurf, materials)
     bsdf = BSDFBatch(vsurf, materials)
     visible = integrator._visibility(vsurf)

@@ -36,7 +36,6 @@ like :class:`pyrt.materials.Glass`.
 """
 from __future__ import annotations
 
-import inspect
 
 import numpy as np
 
@@ -66,15 +65,8 @@ def beer_lambert(sigma_a, dist):
 
 
 def _participates(m):
-    if not getattr(m, "is_dielectric", False):
-        return False
-    ior = getattr(m, "ior", None)
-    if not isinstance(ior, (int, float)) or isinstance(ior, bool):
-        return False
-    try:
-        return "eta" in inspect.signature(m.delta_lobes).parameters
-    except (TypeError, ValueError):
-        return False
+    """A dielectric with a constant index takes part in the interface stacks (Material.is_dielectric, .ior)."""
+    return bool(m.is_dielectric) and isinstance(m.ior, (int, float)) and not isinstance(m.ior, bool)
 
 
 class NestedMedia:
@@ -95,8 +87,8 @@ class NestedMedia:
         for k, m in enumerate(materials):
             if self.participates[k]:
                 self.ior[k] = float(m.ior)
-                prio[k] = float(getattr(m, "priority", 0.0))
-                sa = getattr(m, "absorption", 0.0)
+                prio[k] = float(m.priority)
+                sa = m.absorption
                 self.sigma_a[k] = np.broadcast_to(np.asarray(sa, dtype=np.float64), (3,))
         # dense integer ranks of the priorities (ties stay ties)
         _, self.rank = np.unique(prio, return_inverse=True)

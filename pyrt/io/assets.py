@@ -71,12 +71,12 @@ from pyrt.shaders import color as _color
 
 from pyrt.core.camera import Camera
 from pyrt.lights.punctual import DirectionalLight, PointLight, SpotLight
-from pyrt.materials.library import BlinnPhong, Glass
-from pyrt.textures.texture import ImageTexture, NormalMap, TextureError, load_image
+from pyrt.materials import BlinnPhong, Glass
+from pyrt.textures.texture import ImageTexture, NormalMap, Texture, TextureError, load_image
 from pyrt.core.errors import Error
 
 try:  # the glTF metallic-roughness BRDF (material library, issue 3)
-    from pyrt.materials.library import MetallicRoughness
+    from pyrt.materials import MetallicRoughness
 except ImportError:  # pragma: no cover - reported loudly by make_metallic_roughness
     MetallicRoughness = None
 
@@ -303,20 +303,20 @@ class Asset:
 
 # ============================================================================ materials
 
-class ScaledTexture:
+class ScaledTexture(Texture):
     """``factor * texture`` (factor a scalar or RGB); ``channels`` of the inner texture."""
 
     def __init__(self, texture, factor):
         self.texture = texture
         self.factor = np.asarray(factor, dtype=np.float64)
-        self.channels = getattr(texture, "channels", 3)
+        self.channels = texture.channels
 
     def evaluate(self, ctx):
         v = np.asarray(self.texture.evaluate(ctx), dtype=np.float64).reshape(ctx.n_hits, -1)
         return v * self.factor
 
 
-class ProductTexture:
+class ProductTexture(Texture):
     """Per-hit product of two textures (or a texture and a constant), e.g. vertex colour x base colour."""
 
     def __init__(self, a, b):
@@ -325,13 +325,13 @@ class ProductTexture:
 
     def evaluate(self, ctx):
         def val(x):
-            if hasattr(x, "evaluate"):
+            if isinstance(x, Texture):
                 return np.asarray(x.evaluate(ctx), dtype=np.float64).reshape(ctx.n_hits, -1)
             return np.broadcast_to(np.asarray(x, dtype=np.float64), (ctx.n_hits, 3))
         return val(self.a) * val(self.b)
 
 
-class VertexColorTexture:
+class VertexColorTexture(Texture):
     """Linear per-vertex colours interpolated with the hit's barycentrics.
 
     The colours are bound to scene meshes after :meth:`pyrt.Scene.add_mesh` (``bind(mesh_id,

@@ -42,7 +42,7 @@ import trimesh
 
 from pyrt.core.camera import Camera
 from pyrt.lights.punctual import PATH_ARGUMENTS as LIGHT_PATH_ARGUMENTS, REGISTRY as LIGHTS
-from pyrt.materials.library import REGISTRY as MATERIALS
+from pyrt.materials import REGISTRY as MATERIALS
 from pyrt.scene import Scene, transform_matrix
 from pyrt.lights import area as _area_lights  # noqa: F401  (registers "rect", "disk", "sphere" in LIGHTS)
 from pyrt.lights import environment as _env

@@ -33,7 +33,7 @@ from pyrt.shaders.vec import coordinate_frame, max_component
 
 from pyrt.lights.punctual import REGISTRY as _LIGHTS
 from pyrt.lights.punctual import Light, LightError, _color, _nonneg, _vec3, stratified_samples  # noqa: F401 (re-export)
-from pyrt.materials.library import Material, check_color, register
+from pyrt.materials import Material, check_color, register
 
 
 @register

@@ -50,7 +50,7 @@ from pyrt.shaders.vec import max_component
 
 from pyrt.core import checks
 from pyrt.lights.punctual import Light, LightError
-from pyrt.materials.library import Lambert
+from pyrt.materials import Lambert
 
 #: estimator names accepted by :class:`EnvironmentLight`
 STRATEGIES = ("uniform", "cosine", "map", "bsdf", "mis", "preview")

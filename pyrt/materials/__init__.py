@@ -1,7 +1,20 @@
-"""The material family: the declared interface, the registry and every reflection model."""
-from pyrt.materials.library import (REGISTRY, BlinnPhong, BlinnPhongClassic, CookTorrance, DeltaLobe, Glass, Lambert,
-                                    Material, MaterialError, MetallicRoughness, Mirror, Phong, PhongClassic, Ward,
-                                    register)
+"""The material family: the declared interface (:mod:`.base`), the registry and every reflection model.
 
-__all__ = ["REGISTRY", "BlinnPhong", "BlinnPhongClassic", "CookTorrance", "DeltaLobe", "Glass", "Lambert", "Material",
-           "MaterialError", "MetallicRoughness", "Mirror", "Phong", "PhongClassic", "Ward", "register"]
+- :mod:`pyrt.materials.base`: :class:`Material`, :class:`IsotropicMaterial`, :class:`DeltaLobe`, the
+  queries, parameter checks and the registry :data:`MATERIALS`;
+- :mod:`pyrt.materials.basic`: Lambert, Blinn-Phong, mirror, glass;
+- :mod:`pyrt.materials.library`: the rest of the course's models (Phong, classic models, Ward,
+  Cook-Torrance, glTF metallic-roughness);
+- :mod:`pyrt.materials.dispatch`: :class:`BSDFBatch`, the per-material-type dispatch of a batch of hits.
+"""
+from pyrt.materials.base import (MATERIALS, CosineQuery, DeltaLobe, IsotropicMaterial, LocalCosineQuery, Material,
+                                 MaterialError, check_color, check_scalar, is_texture, register)
+from pyrt.materials.basic import BlinnPhong, Glass, Lambert, Mirror
+from pyrt.materials.library import BlinnPhongClassic, CookTorrance, MetallicRoughness, Phong, PhongClassic, Ward
+
+#: the material registry under its older name
+REGISTRY = MATERIALS
+
+__all__ = ["MATERIALS", "REGISTRY", "CosineQuery", "DeltaLobe", "IsotropicMaterial", "LocalCosineQuery", "Material",
+           "MaterialError", "check_color", "check_scalar", "is_texture", "register", "BlinnPhong", "Glass", "Lambert",
+           "Mirror", "BlinnPhongClassic", "CookTorrance", "MetallicRoughness", "Phong", "PhongClassic", "Ward"]

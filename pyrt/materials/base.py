@@ -1,0 +1,290 @@
+"""The material interface, the registry and the per-hit parameter plumbing.
+
+The interface (every model implements it; the integrators know nothing else)
+----------------------------------------------------------------------------
+All directions are in the *local shading frame* of the hit (z = shading normal, turned toward
+the viewer), unit length, ``wo`` toward the viewer and ``wi`` toward the light.
+
+``f_cos(wo, wi, ctx) -> (N, 3)``
+    BRDF times cos(theta_i) of the non-delta lobes (zero for a pure mirror or glass).
+``delta_lobes(wo, ctx, *, eta=None) -> list[DeltaLobe]``
+    Perfectly specular lobes (mirror reflection, glass reflection and refraction): the
+    direction ``wi`` (local frame) and the weight (N, 3) the traced radiance is multiplied by.
+    ``eta`` (N,) is given to dielectrics whose indices a ray's interface stack decides.
+``sample(wo, u, ctx) -> (wi, weight, pdf)``
+    Sample a direction of the non-delta lobes from ``u`` (N, 2) in [0, 1)^2; ``weight`` is
+    ``f_cos / pdf``. The base implementation samples the cosine-weighted hemisphere, which is
+    unbiased for any BRDF; models override it with better strategies.
+``pdf(wo, wi, ctx) -> (N,)``
+    Solid-angle density of :meth:`sample`.
+``albedo(ctx) -> (N, 3)``
+    Diffuse-like reflectance used by the constant ambient term and the albedo AOV.
+``emission(ctx) -> (N, 3)``
+    Emitted radiance (W/m^2/sr), zero by default.
+
+Isotropic models derive from :class:`IsotropicMaterial` and implement ``f_cos_cosines(q)`` only:
+f * cos from ``n.wi``, ``n.wo`` and ``wo.wi``. Their ``f_cos`` is defined from it, so the
+world-space fast path of :class:`pyrt.materials.dispatch.BSDFBatch` (no local frame per light) and the
+local-frame ``f_cos`` are one formula by construction.
+
+``ctx`` is a :class:`pyrt.geometry.SurfaceBatch` restricted to the hits that use this material
+(``ctx.uv``, ``ctx.p``, ``ctx.front``, ...). A parameter may be a constant or a
+:class:`pyrt.textures.Texture`; :meth:`Material.param` resolves either to an array.
+
+Declared attributes the integrators read to model no more than the scene needs: ``has_diffuse``
+(receives direct and ambient light), ``has_delta`` (spawns specular rays), ``is_dielectric`` with
+``ior``, ``priority`` and ``absorption`` (refraction, nested media), ``emits`` (may emit), ``lambertian``
+(the environment preview's SH path), ``normal_map`` and ``uses_textures`` (ray differentials).
+
+A new model is one kernel in :mod:`pyrt.shaders` and one class registered with
+``@MATERIALS.register("name")``; the contract tests (tests/test_material_contracts.py) pick it up.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+import numbers
+
+import numpy as np
+
+from pyrt.core.errors import Error
+from pyrt.core.registry import Registry
+from pyrt.shaders import sampling
+from pyrt.shaders.vec import dot
+from pyrt.textures import Texture
+
+
+class MaterialError(Error, ValueError):
+    """A material parameter is missing, unknown or out of range."""
+
+
+@dataclass
+class DeltaLobe:
+    """One perfectly specular lobe: local direction ``wi`` (N, 3) and radiance weight (N, 3)."""
+
+    wi: np.ndarray
+    weight: np.ndarray
+    kind: str  # "reflect" or "refract"
+    eta: np.ndarray | None = None  # (N,) eta_t / eta_i for "refract" lobes (ray differentials)
+
+
+def is_texture(value):
+    """True when a material parameter is a :class:`pyrt.textures.Texture` (else a constant)."""
+    return isinstance(value, Texture)
+
+
+class CosineQuery:
+    """A BSDF query on lanes ``lanes`` of a material's group ``ctx`` (None: all lanes), in world space.
+
+    ``cos_i = n_s . wi`` and ``cos_o = n_s . wo`` (K,) are given; ``cos_io()`` (``wo . wi``) is computed
+    on demand; :meth:`param` resolves a material parameter for the K lanes (textures are read once per
+    group, see :meth:`Material.param`, then gathered; constants stay (3,) or scalars).
+    """
+
+    __slots__ = ("ctx", "lanes", "wi", "cos_i", "cos_o")
+
+    def __init__(self, ctx, lanes, wi, cos_i, cos_o):
+        self.ctx, self.lanes, self.wi, self.cos_i, self.cos_o = ctx, lanes, wi, cos_i, cos_o
+
+    def cos_io(self):
+        """``wo . wi`` (K,) for the queried lanes."""
+        wo = self.ctx.wo if self.lanes is None else np.take(self.ctx.wo, self.lanes, axis=0)
+        return dot(self.wi, wo)
+
+    def param(self, material, value, channels=3):
+        """A parameter for the K lanes: (K, channels) / (K,) for textures, (3,) or a float for constants."""
+        if not is_texture(value):
+            return float(value) if channels == 1 else np.asarray(value, dtype=np.float64)
+        out = material.param(value, self.ctx, channels)
+        return out if self.lanes is None else np.take(out, self.lanes, axis=0)
+
+
+class LocalCosineQuery:
+    """The same query in the local shading frame (``wo``, ``wi`` (N, 3), z = shading normal).
+
+    What :meth:`IsotropicMaterial.f_cos` hands to ``f_cos_cosines``: ``cos_o = wo_z``, ``cos_i = wi_z``,
+    ``cos_io() = wo . wi``; colour parameters resolve per hit (N, 3), scalars stay floats.
+    """
+
+    __slots__ = ("ctx", "wo", "wi", "cos_i", "cos_o")
+
+    def __init__(self, ctx, wo, wi):
+        self.ctx, self.wo, self.wi = ctx, wo, wi
+        self.cos_o, self.cos_i = wo[:, 2], wi[:, 2]
+
+    def cos_io(self):
+        """``wo . wi`` (N,)."""
+        return dot(self.wo, self.wi)
+
+    def param(self, material, value, channels=3):
+        """(N, 3) colours (textures or broadcast constants); (N,) scalar textures or a float constant."""
+        if channels == 1 and not is_texture(value):
+            return float(value)
+        return material.param(value, self.ctx, channels)
+
+
+def check_color(name, value, owner, *, lo=0.0, hi=None):
+    """Validate an RGB triple (or scalar grey) or a texture; return a float64 (3,) array or the texture."""
+    if is_texture(value):
+        return value
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.ndim == 0:
+        arr = np.repeat(arr, 3)
+    if arr.shape != (3,):
+        raise MaterialError(f"{owner}: {name} must be a scalar or an RGB triple, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise MaterialError(f"{owner}: {name} must be finite, got {arr.tolist()}")
+    if np.any(arr < lo) or (hi is not None and np.any(arr > hi)):
+        rng = f"[{lo}, {hi}]" if hi is not None else f">= {lo}"
+        raise MaterialError(f"{owner}: {name} must be in {rng}, got {arr.tolist()}")
+    return arr
+
+
+def check_scalar(name, value, owner, *, lo=None, hi=None, lo_open=False):
+    """Validate a real scalar (or a texture) with an optional range."""
+    if is_texture(value):
+        return value
+    if not isinstance(value, numbers.Real) or isinstance(value, bool) or not np.isfinite(value):
+        raise MaterialError(f"{owner}: {name} must be a finite number, got {value!r}")
+    v = float(value)
+    if lo is not None and (v < lo or (lo_open and v == lo)):
+        raise MaterialError(f"{owner}: {name} must be {'>' if lo_open else '>='} {lo}, got {v}")
+    if hi is not None and v > hi:
+        raise MaterialError(f"{owner}: {name} must be <= {hi}, got {v}")
+    return v
+
+
+
+class Material:
+    """Base class of every material: the interface in the module docstring, with defaults.
+
+    Subclasses set the flags and override the methods they need; every attribute the integrators
+    read is declared here.
+    """
+
+    #: receives direct and ambient light (has a non-delta lobe)
+    has_diffuse = True
+    #: spawns perfectly specular rays (:meth:`delta_lobes`)
+    has_delta = False
+    #: refracts (glass): the integrators then build refraction batches and, with several dielectrics
+    #: or absorption, per-ray interface stacks (:mod:`pyrt.integrators.media`)
+    is_dielectric = False
+    #: index of refraction of a dielectric (relative to vacuum), None for other materials
+    ior = None
+    #: nested-dielectric priority (higher wins where volumes overlap)
+    priority = 0.0
+    #: Beer-Lambert absorption coefficient sigma_a (RGB, per scene unit) of the enclosed medium
+    absorption = 0.0
+    #: may emit light (:meth:`emission` non-zero somewhere); derived for subclasses that override
+    #: :meth:`emission` without declaring it (see ``__init_subclass__``)
+    emits = False
+    #: a plain Lambertian BRDF albedo / pi (the environment preview uses SH irradiance for it);
+    #: not inherited: a subclass is Lambertian only if it says so
+    lambertian = False
+    #: registry name used by scene files: ``{"type": "lambert", ...}`` (set by :meth:`Registry.register`)
+    type_name = None
+    #: the user's name for the material (messages, scene files)
+    name = None
+    #: tangent-space normal map (a :class:`pyrt.NormalMap`) or None; applied to the shading normal before shading
+    normal_map = None
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if "lambertian" not in cls.__dict__:
+            cls.lambertian = False
+        if "emits" not in cls.__dict__ and cls.emission is not Material.emission:
+            cls.emits = True     # overrides emission() without saying when it is zero: assume it may emit
+
+    @property
+    def uses_textures(self):
+        """True when a parameter (or the normal map) is a texture: the integrators then carry ray differentials."""
+        return any(is_texture(v) for v in vars(self).values())
+
+    def param(self, value, ctx, channels=3):
+        """Resolve a constant or a texture to an ``(N, channels)`` array (``(N,)`` if channels == 1).
+
+        Texture lookups are cached on ``ctx`` (keyed by the texture object), so a material evaluated
+        for several lights on the same hits reads its textures once.
+        """
+        n = ctx.n_hits
+        if is_texture(value):
+            cache = ctx.__dict__.setdefault("_param_cache", {})
+            key = (id(value), channels)
+            if key in cache:
+                return cache[key]
+            out = np.asarray(value.evaluate(ctx), dtype=np.float64)
+            if channels == 1:
+                out = out.reshape(n, -1)[:, 0]
+            elif out.ndim == 1 or out.shape[1] == 1:
+                out = np.repeat(out.reshape(n, 1), 3, axis=1)
+            else:
+                out = out[:, :3]
+            cache[key] = out
+            return out
+        arr = np.asarray(value, dtype=np.float64)
+        if channels == 1:
+            return np.full(n, float(arr))
+        return np.broadcast_to(arr, (n, 3))
+
+    def f_cos(self, wo, wi, ctx):
+        """BRDF times cos(theta_i) (N, 3) of the non-delta lobes for local ``wo``, ``wi`` (N, 3)."""
+        return np.zeros_like(wi)
+
+    def delta_lobes(self, wo, ctx, *, eta=None):
+        """The perfectly specular lobes (list of :class:`DeltaLobe`) for local ``wo`` (N, 3).
+
+        ``eta`` (N,) = eta_t / eta_i from the ray's interface stack (dielectrics only; others ignore it).
+        """
+        return []
+
+    def sample(self, wo, u, ctx):
+        """Sample the non-delta lobes: local ``wi`` (N, 3), ``weight = f_cos / pdf`` (N, 3), ``pdf`` (N,) (sr^-1)."""
+        wi = sampling.square_to_cosine_hemisphere(u)
+        pdf = sampling.cosine_hemisphere_pdf(wi)
+        f = self.f_cos(wo, wi, ctx)
+        weight = f / np.where(pdf > 0, pdf, 1.0)[:, None]
+        return wi, weight, pdf
+
+    def pdf(self, wo, wi, ctx):
+        """Solid-angle density (N,) of :meth:`sample` for local ``wo``, ``wi``."""
+        return sampling.cosine_hemisphere_pdf(wi)
+
+    def albedo(self, ctx):
+        """Diffuse-like reflectance (N, 3): the ambient term and the albedo AOV."""
+        return np.zeros((ctx.n_hits, 3))
+
+    def emission(self, ctx):
+        """Emitted radiance (N, 3), W m^-2 sr^-1, toward ``ctx.wo``."""
+        return np.zeros((ctx.n_hits, 3))
+
+    def __repr__(self):
+        fields = ", ".join(f"{k}={v!r}" for k, v in vars(self).items())
+        return f"{type(self).__name__}({fields})"
+
+
+class IsotropicMaterial(Material):
+    """A material whose ``f_cos`` depends only on ``n.wi``, ``n.wo`` and ``wo.wi``.
+
+    Subclasses implement :meth:`f_cos_cosines`; :meth:`f_cos` is defined from it, so the dispatcher's
+    world-space fast path and the local-frame evaluation are the same formula by construction. A
+    subclass may not override ``f_cos`` (it would make the two disagree): override ``f_cos_cosines``.
+    """
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if "f_cos" in cls.__dict__:
+            raise TypeError(f"{cls.__name__}: an IsotropicMaterial defines f_cos_cosines, not f_cos "
+                            "(derive from Material for a model that needs the local frame)")
+
+    def f_cos_cosines(self, q):
+        """f * cos(theta_i) (K, 3) for a :class:`CosineQuery` or :class:`LocalCosineQuery` ``q``."""
+        raise NotImplementedError
+
+    def f_cos(self, wo, wi, ctx):
+        """BRDF times cos(theta_i) from :meth:`f_cos_cosines` in the local frame."""
+        return self.f_cos_cosines(LocalCosineQuery(ctx, wo, wi))
+
+
+#: scene-file ``type`` -> material class (one registry per family, :class:`pyrt.core.registry.Registry`)
+MATERIALS = Registry("material", Material)
+#: ``register(cls)`` or ``@register("name")``: add a material type to :data:`MATERIALS`
+register = MATERIALS.register
