@@ -13,15 +13,15 @@ from pyrt.core.errors import Error
 from pyrt.core.camera import Camera, CameraError
 from pyrt.geometry.surface import GeometryError
 from pyrt.integrators.whitted import RenderResult, RenderStats, render, render_full
-from pyrt.lights.punctual import DirectionalLight, Light, LightError, PointLight, SpotLight
-from pyrt.lights.punctual import GoniometricLight, IESLight, ProjectorLight
+from pyrt.lights import DirectionalLight, Light, LightError, PointLight, SpotLight
+from pyrt.lights import GoniometricLight, IESLight, ProjectorLight
 from pyrt.materials import Material, MaterialError, REGISTRY as MATERIALS, Lambert, BlinnPhong, Mirror, Glass, register
 from pyrt.materials import (BlinnPhongClassic, CookTorrance, MetallicRoughness, Phong, PhongClassic,  # material library
                         Ward)
 from pyrt.scene import Scene, SceneError, transform_matrix
-from pyrt.lights.environment import (ConstantEnvironment, CubeMapEnvironment, EnvironmentLight, EnvironmentMapError,
+from pyrt.lights import (ConstantEnvironment, CubeMapEnvironment, EnvironmentLight, EnvironmentMapError,
                           LatLongEnvironment, procedural_sky, set_environment)
-from pyrt.lights.area import AreaEmitter, DiskLight, RectLight, SphereLight
+from pyrt.lights import AreaEmitter, DiskLight, RectLight, SphereLight
 from pyrt.core.image_io import read_exr, write_exr, write_png, tonemap_to_display
 from pyrt.io.scene_file import SceneFileError, load_scene
 from pyrt.textures.texture import (CheckerTexture, ConstantTexture, FbmTexture, ImageTexture, NoiseTexture, NormalMap,

@@ -12,48 +12,13 @@ import trimesh
 from pyrt.core import checks
 from pyrt.core.camera import Camera
 from pyrt.geometry.surface import GeometryError, GeometryTable, MeshData, validate_mesh
-from pyrt.lights.punctual import Light
+from pyrt.lights.base import Light
 from pyrt.materials import Material
-from pyrt.core.errors import Error
-
-
-class SceneError(Error, ValueError):
-    """Invalid scene content."""
+from pyrt.core.transforms import SceneError, transform_matrix  # noqa: F401 (public here too)
 
 
 def _rgb(owner, name, v):
     return checks.rgb(owner, name, v, SceneError)
-
-
-def transform_matrix(*, translate=None, rotate=None, scale=None, matrix=None):
-    """4x4 ``world_from_object``: ``matrix`` or ``T @ R @ S``.
-
-    ``rotate`` is ``(angle_degrees, axis)`` or a list of them applied in order; ``scale`` a scalar or 3.
-    """
-    if matrix is not None:
-        m = np.asarray(matrix, dtype=np.float64)
-        if m.shape != (4, 4) or not np.all(np.isfinite(m)):
-            raise SceneError(f"transform matrix must be 4x4 finite, got shape {m.shape}")
-        return m
-    m = np.eye(4)
-    if scale is not None:
-        s = np.broadcast_to(np.asarray(scale, dtype=np.float64), (3,))
-        if np.any(s == 0) or not np.all(np.isfinite(s)):
-            raise SceneError(f"scale must be finite and non-zero, got {scale!r}")
-        m = np.diag([*s, 1.0]) @ m
-    if rotate is not None:
-        rots = rotate if (len(rotate) and isinstance(rotate[0], (list, tuple))) else [rotate]
-        for angle, axis in rots:
-            ax = np.asarray(axis, dtype=np.float64)
-            if ax.shape != (3,) or np.linalg.norm(ax) == 0:
-                raise SceneError(f"rotation axis must be a non-zero 3-vector, got {axis!r}")
-            m = trimesh.transformations.rotation_matrix(math.radians(angle), ax) @ m
-    if translate is not None:
-        t = np.asarray(translate, dtype=np.float64)
-        if t.shape != (3,) or not np.all(np.isfinite(t)):
-            raise SceneError(f"translate must be 3 finite numbers, got {translate!r}")
-        m = trimesh.transformations.translation_matrix(t) @ m
-    return m
 
 
 class Scene:

@@ -8,7 +8,8 @@ import pytest
 from scipy import stats
 
 import pyrt
-from pyrt.lights.area import AreaEmitter, DiskLight, RectLight, SphereLight, stratified_samples
+from pyrt.core.sampler import stratified_samples
+from pyrt.lights.area import AreaEmitter, DiskLight, RectLight, SphereLight
 from pyrt.integrators.whitted import Integrator, PreparedScene
 
 

@@ -1,4 +1,4 @@
-"""Lights' scalar fast path (Light.sample_scalar: E = s * rgb) agrees with Light.sample."""
+"""Lights' factored samples (LightSample with E = scale * rgb, from Light.sample_li) agree with Light.sample."""
 import numpy as np
 import pytest
 
@@ -15,31 +15,43 @@ LIGHTS = {
 
 
 @pytest.mark.parametrize("name", sorted(LIGHTS))
-def test_sample_scalar_equals_sample(name):
+def test_factored_sample_li_equals_sample(name):
     light = LIGHTS[name]
     rng = np.random.default_rng(1)
     p = rng.uniform(-3, 3, size=(5000, 3))
     wi, dist, E = light.sample(p, None)
-    wi_s, dist_s, s, rgb = light.sample_scalar(p, None)
-    np.testing.assert_array_equal(wi_s, wi)
-    np.testing.assert_array_equal(dist_s, dist)
-    E_s = np.broadcast_to(rgb, E.shape) if s is None else s[:, None] * rgb
-    np.testing.assert_allclose(E_s, E, rtol=1e-15, atol=0)
+    ls = light.sample_li(p, None)
+    assert ls.factored
+    s = ls.scale
+    np.testing.assert_array_equal(ls.wi, wi)
+    np.testing.assert_array_equal(ls.dist, dist)
+    np.testing.assert_allclose(ls.irradiance(), E, rtol=1e-15, atol=0)
+    np.testing.assert_array_equal(ls.active(), E.max(axis=1) > 0)
     if name.startswith("spot"):
         assert np.count_nonzero(s == 0) > 100 and np.count_nonzero(s > 0) > 100   # both sides of the cone
 
 
 def test_lights_with_textures_ranges_or_subclasses_use_the_general_path():
+    """The factored form is derived by construction: a subclass overriding sample() (or radiant_intensity)
+    gets the general sample_li built from its own sample()."""
     class Dimmed(pyrt.PointLight):
         def sample(self, p, u):
             wi, dist, E = super().sample(p, u)
             return wi, dist, 0.5 * E
 
-    assert Dimmed((0, 1, 0), intensity=1.0).sample_scalar(np.zeros((2, 3)), None) is None
-    assert pyrt.PointLight((0, 1, 0), intensity=1.0, falloff="smooth_range", range=2.0).sample_scalar(
-        np.zeros((2, 3)), None) is None
-    assert pyrt.ProjectorLight((0, 1, 0), target=(0, 0, 0), intensity=1.0,
-                               image=np.ones((4, 4, 3))).sample_scalar(np.zeros((2, 3)), None) is None
+    class Reddish(pyrt.DirectionalLight):
+        def sample(self, p, u):
+            wi, dist, E = super().sample(p, u)
+            return wi, dist, E * np.array([1.0, 0.5, 0.5])
+
+    p = np.array([[0.0, 0.0, 0.0], [0.5, 0.0, 0.2]])
+    for light in (Dimmed((0, 1, 0), intensity=1.0),
+                  pyrt.PointLight((0, 1, 0), intensity=1.0, falloff="smooth_range", range=2.0),
+                  pyrt.ProjectorLight((0, 1, 0), target=(0, 0, 0), intensity=1.0, image=np.ones((4, 4, 3))),
+                  Reddish((0, -1, 0), 2.0)):
+        ls = light.sample_li(p, None)
+        assert not ls.factored
+        np.testing.assert_array_equal(ls.irradiance(), light.sample(p, None)[2])
 
 
 def test_subclass_overriding_sample_is_rendered_with_its_own_sample():

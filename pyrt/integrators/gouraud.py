@@ -21,6 +21,7 @@ import numpy as np
 
 from pyrt.geometry.accel import Hits
 from pyrt.geometry.surface import surface_from_hits
+from pyrt.integrators import direct
 from pyrt.materials.dispatch import BSDFBatch
 from pyrt.textures.texture import apply_normal_maps
 
@@ -57,21 +58,29 @@ def vertex_rays(geo, surf, origins):
     return hits, o, d
 
 
-def direct_light(integrator, surf, origins, rng):
+def direct_light(ps, lights, visibility, surf, origins, rng):
     """Gouraud direct lighting (N, 3) at the hits of ``surf`` (all on Gouraud faces).
 
-    ``integrator`` supplies the geometry, materials, lights, shadow-ray visibility and BSDF dispatch
-    (:class:`pyrt.integrators.Integrator`); ``origins`` (N, 3) are the rays' origins (the viewer).
+    The direct-lighting estimator (:func:`pyrt.integrators.direct.estimate`) runs at the three vertices of
+    each hit's triangle and the results are interpolated with the hit's barycentrics.
+
+    Parameters
+    ----------
+    ps : PreparedScene
+        Geometry table (``ps.geo``), materials (``ps.scene.materials``), ``ps.has_normal_maps``.
+    lights : list of Light
+    visibility : callable
+        ``visibility(surf) -> visible(idx, wi, dist, end=None)`` (:meth:`Integrator.visibility`).
+    surf : SurfaceBatch
+    origins : (N, 3) float64 ndarray
+        The rays' origins (the viewer).
+    rng : numpy.random.Generator
     """
-    ps = integrator.ps
     hits, o, d = vertex_rays(ps.geo, surf, origins)
     vsurf = surface_from_hits(ps.geo, hits, o, d, None)
-    materials = integrator.scene.materials
+    materials = ps.scene.materials
     if ps.has_normal_maps:
         apply_normal_maps(vsurf, materials)
     bsdf = BSDFBatch(vsurf, materials)
-    visible = integrator._visibility(vsurf)
-    Lv = np.zeros((vsurf.n_hits, 3))
-    for light in integrator.scene.lights:
-        Lv += light.estimate(vsurf, bsdf, visible, rng)
+    Lv = direct.estimate(lights, vsurf, bsdf, visibility(vsurf), rng)
     return np.einsum("jc,jck->jk", surf.bary, Lv.reshape(-1, 3, 3))

@@ -28,6 +28,7 @@ import numpy as np
 from pyrt.geometry import offsets
 from pyrt.geometry.accel import Accel, T_INFINITE
 from pyrt.geometry.surface import refract_differentials, reflect_differentials, surface_from_hits
+from pyrt.integrators import direct
 from pyrt.integrators import gouraud
 from pyrt.integrators.media import NestedMedia
 from pyrt.materials.dispatch import BSDFBatch
@@ -69,7 +70,7 @@ class PreparedScene:
         # nested dielectrics (pyrt.integrators.media): per-ray interface stacks only when the scene needs them
         self.media = NestedMedia.for_scene(mats)
         # faces shaded per vertex (pyrt.integrators.gouraud), None when no mesh asks for it
-        self.face_gouraud = gouraud.face_mask(self.geo, getattr(scene, "gouraud_meshes", ()))
+        self.face_gouraud = gouraud.face_mask(self.geo, scene.gouraud_meshes)
         self.needs_differentials = any(m.uses_textures for m in mats)
         #: materials whose emission() can be non-zero (the rest skip the emission pass)
         self.emits = np.array([m.emits for m in mats], dtype=bool)
@@ -146,7 +147,7 @@ class Integrator:
         (``primary``) see ``environment.background`` instead when ``environment.hide_background`` is set."""
         env = self.scene.environment
         if env is not None:
-            if primary and getattr(env, "hide_background", False):
+            if primary and env.hide_background:
                 return np.broadcast_to(env.background, d.shape)
             return env.radiance(d)
         return np.broadcast_to(self.scene.background, d.shape)
@@ -223,7 +224,7 @@ class Integrator:
             if self.ps.face_gouraud is not None and diffuse_idx.size and lights:
                 g = diffuse_idx[self.ps.face_gouraud[surf.face[diffuse_idx]]]
                 if g.size:  # Gouraud faces: lighting at the vertices, interpolated (pyrt.integrators.gouraud)
-                    Lh[g] += gouraud.direct_light(self, surf.subset(g), o[h[g]], rng)
+                    Lh[g] += gouraud.direct_light(self.ps, lights, self.visibility, surf.subset(g), o[h[g]], rng)
                     diffuse_idx = np.setdiff1d(diffuse_idx, g, assume_unique=True)
             if diffuse_idx.size and lights:
                 dm = mids[diffuse_idx]
@@ -232,8 +233,8 @@ class Integrator:
                     diffuse_idx = np.concatenate([diffuse_idx[dm == k] for k in np.flatnonzero(np.bincount(dm))])
                 dsurf = surf.subset(diffuse_idx)
                 bsdf = BSDFBatch(dsurf, materials)
-                visible = self._visibility(dsurf)
-                Ld = sum(light.estimate(dsurf, bsdf, visible, rng) for light in lights)
+                visible = self.visibility(dsurf)
+                Ld = direct.estimate(lights, dsurf, bsdf, visible, rng)
                 put_rows(Lh, diffuse_idx, take_rows(Lh, diffuse_idx) + Ld)
             _scatter_add(L, s_idx, thr_h * Lh, unique=depth == 0)   # camera rays: one per sample
             if depth == self.max_depth:
@@ -245,7 +246,9 @@ class Integrator:
             o, d, thr, sample, diffs, stack = new
         return L, aovs
 
-    def _visibility(self, surf):
+    def visibility(self, surf):
+        """``visible(idx, wi, dist, end=None)`` for the hits of ``surf``: shadow rays through Embree's occlusion
+        query from the offset origins (:mod:`pyrt.geometry.offsets`) to the light, True where unblocked."""
         def visible(idx, wi, dist, end=None):
             """Shadow rays from hits ``idx`` along ``wi`` to a light at ``dist`` (or at the point ``end``)."""
             sub = surf.subset(idx)

@@ -537,9 +537,9 @@ def _transform_light(light, m):
     import copy
 
     out = copy.copy(light)
-    if hasattr(out, "position"):
+    if out.position is not None:
         out.position = m[:3, :3] @ light.position + m[:3, 3]
-    if hasattr(out, "direction"):
+    if out.direction is not None:
         d = m[:3, :3] @ light.direction
         out.direction = d / np.linalg.norm(d)
     return out

@@ -41,10 +41,9 @@ import numpy as np
 import trimesh
 
 from pyrt.core.camera import Camera
-from pyrt.lights.punctual import PATH_ARGUMENTS as LIGHT_PATH_ARGUMENTS, REGISTRY as LIGHTS
+from pyrt.lights import LIGHTS, PATH_ARGUMENTS as LIGHT_PATH_ARGUMENTS
 from pyrt.materials import REGISTRY as MATERIALS
 from pyrt.scene import Scene, transform_matrix
-from pyrt.lights import area as _area_lights  # noqa: F401  (registers "rect", "disk", "sphere" in LIGHTS)
 from pyrt.lights import environment as _env
 from pyrt.core.errors import Error
 
@@ -211,7 +210,7 @@ def load_scene(path):
         for k in LIGHT_PATH_ARGUMENTS:  # image / IES files relative to the scene file
             if isinstance(kwargs.get(k), str) and not os.path.isabs(kwargs[k]):
                 kwargs[k] = os.path.join(base, kwargs[k])
-        visible = kwargs.pop("visible", True) if hasattr(LIGHTS[kind], "add_to") else None
+        visible = kwargs.pop("visible", True) if LIGHTS[kind].has_mesh else None
         light = _construct(LIGHTS[kind], kwargs, where, path)
         if visible is None:
             scene.add_light(light)

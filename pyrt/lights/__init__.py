@@ -1,11 +1,25 @@
-"""The light family: punctual, textured (projector, goniometric, IES), area and environment lights."""
-from pyrt.lights.punctual import (LUMINOUS_EFFICACY, REGISTRY, DirectionalLight, GoniometricLight, IESLight, Light,
-                                  LightError, PointLight, ProjectorLight, SpotLight)
-from pyrt.lights.area import AreaEmitter, DiskLight, RectLight, SphereLight
-from pyrt.lights.environment import (ConstantEnvironment, CubeMapEnvironment, Environment, EnvironmentLight,
-                                     EnvironmentMapError, LatLongEnvironment, procedural_sky, set_environment)
+"""The light family: the declared interface (:mod:`.base`), punctual, textured, area and environment lights.
 
-__all__ = ["LUMINOUS_EFFICACY", "REGISTRY", "DirectionalLight", "GoniometricLight", "IESLight", "Light", "LightError",
-           "PointLight", "ProjectorLight", "SpotLight", "AreaEmitter", "DiskLight", "RectLight", "SphereLight",
-           "ConstantEnvironment", "CubeMapEnvironment", "Environment", "EnvironmentLight", "EnvironmentMapError",
-           "LatLongEnvironment", "procedural_sky", "set_environment"]
+- :mod:`pyrt.lights.base`: :class:`Light`, :class:`LightSample`, the registry :data:`LIGHTS`;
+- :mod:`pyrt.lights.punctual`: point, spot, directional;
+- :mod:`pyrt.lights.textured`: projector (gobo), goniometric, IES;
+- :mod:`pyrt.lights.area`: rectangle, disk, sphere (and the :class:`AreaEmitter` material of their meshes);
+- :mod:`pyrt.lights.environment`: constant, lat-long and cube-map environments (:data:`ENVIRONMENTS`) and
+  :class:`EnvironmentLight`.
+"""
+from pyrt.lights.base import LIGHTS, LUMINOUS_EFFICACY, PATH_ARGUMENTS, Light, LightError, LightSample
+from pyrt.lights.punctual import DirectionalLight, PointLight, SpotLight
+from pyrt.lights.textured import GoniometricLight, IESLight, ProjectorLight
+from pyrt.lights.area import AreaEmitter, AreaLight, DiskLight, RectLight, SphereLight
+from pyrt.lights.environment import (ENVIRONMENTS, ConstantEnvironment, CubeMapEnvironment, Environment,
+                                     EnvironmentLight, EnvironmentMapError, LatLongEnvironment, procedural_sky,
+                                     set_environment)
+
+#: the light registry under its older name
+REGISTRY = LIGHTS
+
+__all__ = ["LIGHTS", "REGISTRY", "LUMINOUS_EFFICACY", "PATH_ARGUMENTS", "Light", "LightError", "LightSample",
+           "DirectionalLight", "PointLight", "SpotLight", "GoniometricLight", "IESLight", "ProjectorLight",
+           "AreaEmitter", "AreaLight", "DiskLight", "RectLight", "SphereLight", "ENVIRONMENTS", "ConstantEnvironment",
+           "CubeMapEnvironment", "Environment", "EnvironmentLight", "EnvironmentMapError", "LatLongEnvironment",
+           "procedural_sky", "set_environment"]

@@ -31,8 +31,7 @@ import trimesh
 from pyrt.shaders import sampling
 from pyrt.shaders.vec import coordinate_frame, max_component
 
-from pyrt.lights.punctual import REGISTRY as _LIGHTS
-from pyrt.lights.punctual import Light, LightError, _color, _nonneg, _vec3, stratified_samples  # noqa: F401 (re-export)
+from pyrt.lights.base import LIGHTS, Light, LightError, _color, _nonneg, _vec3
 from pyrt.materials import Material, check_color, register
 
 
@@ -61,6 +60,7 @@ class AreaLight(Light):
     """Base class of the area lights (see the module docstring)."""
 
     delta = False
+    has_mesh = True
 
     def _init_common(self, owner, radiance, power, color, n_samples, name):
         self.name = name
@@ -114,6 +114,7 @@ def _planar_sample(p, x, n, L, area):
     return wi, dist, L[None, :] * g[:, None]
 
 
+@LIGHTS.register("rect")
 class RectLight(AreaLight):
     """Rectangle of ``size = (width, height)`` centred at ``center``, emitting toward ``normal``.
 
@@ -163,6 +164,7 @@ class RectLight(AreaLight):
         return trimesh.Trimesh(vertices=v, faces=[[0, 1, 2], [0, 2, 3]], process=False)   # (t x b) = n winding
 
 
+@LIGHTS.register("disk")
 class DiskLight(AreaLight):
     """Disk of ``radius`` centred at ``center``, emitting toward ``normal`` (one-sided)."""
 
@@ -202,6 +204,7 @@ class DiskLight(AreaLight):
         return trimesh.Trimesh(vertices=v, faces=f, process=False)
 
 
+@LIGHTS.register("sphere")
 class SphereLight(AreaLight):
     """Sphere of ``radius`` at ``center`` emitting outward; sampled by the cone it subtends."""
 
@@ -249,6 +252,3 @@ class SphereLight(AreaLight):
         m = trimesh.creation.icosphere(subdivisions=self.subdivisions, radius=self.radius)
         m.apply_translation(self.center)
         return m
-
-
-_LIGHTS.update({"rect": RectLight, "disk": DiskLight, "sphere": SphereLight})

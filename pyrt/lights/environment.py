@@ -49,8 +49,10 @@ from pyrt.shaders import textures as _tex
 from pyrt.shaders.vec import max_component
 
 from pyrt.core import checks
-from pyrt.lights.punctual import Light, LightError
-from pyrt.materials import Lambert
+from pyrt.core.image_io import read_exr
+from pyrt.core.registry import Registry
+from pyrt.core.transforms import SceneError, transform_matrix
+from pyrt.lights.base import Light, LightError, LightSample
 
 #: estimator names accepted by :class:`EnvironmentLight`
 STRATEGIES = ("uniform", "cosine", "map", "bsdf", "mis", "preview")
@@ -81,7 +83,6 @@ def _rotation_matrix(owner, rotate):
         if not np.allclose(m @ m.T, np.eye(3), atol=1e-6) or np.linalg.det(m) < 0:
             raise EnvironmentMapError(f"{owner}: rotate matrix must be a proper rotation (orthonormal, det +1)")
         return m
-    from pyrt.scene import SceneError, transform_matrix
     try:
         return transform_matrix(rotate=rotate)[:3, :3]
     except (SceneError, TypeError, ValueError, IndexError) as e:
@@ -98,7 +99,6 @@ def load_environment_image(path):
     path = os.fspath(path)
     ext = os.path.splitext(path)[1].lower()
     if ext == ".exr":
-        from pyrt.core.image_io import read_exr
         return read_exr(path)
     if ext in (".hdr", ".pic", ".rgbe"):
         raise EnvironmentMapError(f"{path}: Radiance .hdr is not supported (no maintained RGBE reader is "
@@ -138,6 +138,10 @@ class Environment:
     """
 
     type_name = None
+    #: camera rays that miss see :attr:`background` instead of the map
+    hide_background = False
+    #: radiance (3,) seen by camera rays when :attr:`hide_background` is set
+    background = np.zeros(3)
 
     def __init__(self, *, intensity=1.0, rotate=None, hide_background=False, background=0.0, name=None):
         owner = f"{type(self).__name__}({name or ''})"
@@ -215,10 +219,13 @@ class Environment:
         return f"{type(self).__name__}(intensity={self.intensity}, name={self.name!r})"
 
 
+#: scene-file ``[environment] type`` -> environment class
+ENVIRONMENTS = Registry("environment", Environment)
+
+
+@ENVIRONMENTS.register("constant")
 class ConstantEnvironment(Environment):
     """Uniform radiance ``color * intensity`` from every direction (the white-furnace environment)."""
-
-    type_name = "constant"
 
     def __init__(self, color=1.0, *, intensity=1.0, rotate=None, hide_background=False, background=0.0, name=None):
         super().__init__(intensity=intensity, rotate=rotate, hide_background=hide_background,
@@ -255,6 +262,7 @@ def _prefilter_stack(image):
     return maps
 
 
+@ENVIRONMENTS.register("latlong")
 class LatLongEnvironment(Environment):
     """Lat-long (equirectangular) environment map.
 
@@ -268,7 +276,6 @@ class LatLongEnvironment(Environment):
         conservative (3x3-dilated, still unbiased) for ``bilinear``.
     """
 
-    type_name = "latlong"
 
     def __init__(self, image, *, intensity=1.0, rotate=None, filter="bilinear", hide_background=False,
                  background=0.0, name=None):
@@ -306,6 +313,7 @@ class LatLongEnvironment(Environment):
         return _prefilter_stack(self.image)
 
 
+@ENVIRONMENTS.register("cube")
 class CubeMapEnvironment(Environment):
     """Cube-map environment (OpenGL face convention, see :mod:`shaders.envmap`).
 
@@ -316,7 +324,6 @@ class CubeMapEnvironment(Environment):
         :func:`shaders.envmap.split_cross`.
     """
 
-    type_name = "cube"
 
     def __init__(self, faces, *, intensity=1.0, rotate=None, filter="bilinear", hide_background=False,
                  background=0.0, name=None):
@@ -470,102 +477,18 @@ class EnvironmentLight(Light):
         E = np.where((pdf > 0)[:, None], L / np.where(pdf > 0, pdf, 1.0)[:, None], 0.0)
         return wi, np.full(wi.shape[0], np.inf), E
 
-    def _mis(self, p_f, p_g):
-        if self.heuristic == "power":
-            return sampling.power_heuristic(p_f, p_g)
-        return sampling.balance_heuristic(p_f, p_g)
+    def sample_li(self, p, u):
+        """Environment importance samples as a :class:`LightSample` (``E = L / pdf``, ``dist = inf``)."""
+        wi, dist, E = self.sample(p, u)
+        return LightSample(wi, dist, E)
 
-    def estimate(self, surf, bsdf, visible, rng):
-        n = surf.n_hits
-        if self.strategy == "preview":
-            return self._preview(surf, bsdf)
-        env = self.environment
-        L_out = np.zeros((n, 3))
-        ns = self.n_samples
-        all_idx = np.arange(n)
-        for s in range(ns):
-            u = rng.random((n, 2))
-            u[:, 1] = (s + u[:, 1]) / ns     # stratify latitude (the table's marginal) / the 2nd warp dim
-            if self.strategy in ("uniform", "cosine", "map", "mis"):
-                if self.strategy == "uniform":
-                    wi = sampling.square_to_uniform_sphere(u)
-                    pdf = sampling.uniform_sphere_pdf(wi)
-                elif self.strategy == "cosine":
-                    wl = sampling.square_to_cosine_hemisphere(u)
-                    wi = surf.to_world(wl)
-                    pdf = sampling.cosine_hemisphere_pdf(wl)
-                else:
-                    wi, pdf = env.sample(u)
-                self._add_light_sample(L_out, surf, bsdf, visible, wi, pdf, mis=self.strategy == "mis")
-            if self.strategy in ("bsdf", "mis"):
-                u2 = rng.random((n, 2)) if self.strategy == "mis" else u
-                if self.strategy == "mis":
-                    u2[:, 1] = (s + u2[:, 1]) / ns
-                wi, weight, pdf_b = bsdf.sample(all_idx, u2)
-                ok = surf.light_side(wi) & (pdf_b > 0) & (max_component(weight) > 0)
-                idx = np.flatnonzero(ok)
-                if idx.size == 0:
-                    continue
-                val = weight[idx] * env.radiance(wi[idx])
-                if self.strategy == "mis":
-                    val *= self._mis(pdf_b[idx], env.pdf(wi[idx]))[:, None]
-                keep = max_component(val) > 0
-                idx, val = idx[keep], val[keep]
-                if idx.size:
-                    vis = visible(idx, wi[idx], np.full(idx.size, np.inf))
-                    L_out[idx] += np.where(vis[:, None], val, 0.0)
-        return L_out / ns
+    def pdf_li(self, p, wi):
+        """Solid-angle density (N,) of :meth:`sample_li` (the environment's importance sampling)."""
+        return self.environment.pdf(wi)
 
-    def _add_light_sample(self, L_out, surf, bsdf, visible, wi, pdf, mis):
-        # ng . wi > 0, or the shadow-terminator zone (see SurfaceBatch.light_side): the shadow ray decides
-        idx = np.flatnonzero(surf.light_side(wi) & (pdf > 0))
-        if idx.size == 0:
-            return
-        Le = self.environment.radiance(wi[idx])
-        lit = max_component(Le) > 0
-        idx, Le = idx[lit], Le[lit]
-        if idx.size == 0:
-            return
-        f = bsdf.f_cos(idx, wi[idx])
-        val = f * Le / pdf[idx, None]
-        if mis:
-            val *= self._mis(pdf[idx], bsdf.pdf(idx, wi[idx]))[:, None]
-        keep = max_component(val) > 0
-        idx, val = idx[keep], val[keep]
-        if idx.size:
-            vis = visible(idx, wi[idx], np.full(idx.size, np.inf))
-            L_out[idx] += np.where(vis[:, None], val, 0.0)
-
-    def _preview(self, surf, bsdf):
-        """Unshadowed, noise-free approximation (see the module docstring)."""
-        env = self.environment
-        n = surf.n_hits
-        L_out = np.zeros((n, 3))
-        mids = surf.material_id
-        lambert = np.array([type(bsdf.materials[k]) is Lambert for k in mids], dtype=bool) if n else \
-            np.zeros(0, dtype=bool)
-        li = np.flatnonzero(lambert)
-        if li.size:
-            for k in np.unique(mids[li]):
-                sel = li[mids[li] == k]
-                ctx = surf.subset(sel)
-                L_out[sel] = bsdf.materials[k].albedo(ctx) / np.pi * env.irradiance_sh(ctx.ns)
-        gi = np.flatnonzero(~lambert)
-        if gi.size:
-            K_ = self.preview_samples
-            pts = sampling.hammersley(K_)
-            acc = np.zeros((gi.size, 3))
-            for k in range(K_):
-                u = np.broadcast_to(pts[k], (gi.size, 2)).copy()
-                wi, weight, pdf = bsdf.sample(gi, u)
-                cos_g = np.einsum("ij,ij->i", wi, surf.ng[gi])
-                ok = np.flatnonzero((cos_g > 0) & (pdf > 0))
-                if ok.size == 0:
-                    continue
-                alpha = K.ggx_lobe_alpha_for_solid_angle(1.0 / (K_ * pdf[ok]))
-                acc[ok] += weight[ok] * env.prefiltered(wi[ok], alpha)
-            L_out[gi] = acc / K_
-        return L_out
+    def radiance(self, d):
+        """Radiance (N, 3) arriving from world directions ``d`` (N, 3)."""
+        return self.environment.radiance(d)
 
 
 def set_environment(scene, environment, *, lighting="mis", n_samples=1, heuristic="power", preview_samples=16):
@@ -584,5 +507,5 @@ def set_environment(scene, environment, *, lighting="mis", n_samples=1, heuristi
     return light
 
 
-#: scene-file ``[environment] type`` -> class
-REGISTRY = {cls.type_name: cls for cls in (ConstantEnvironment, LatLongEnvironment, CubeMapEnvironment)}
+#: scene-file ``[environment] type`` -> class (the old name of :data:`ENVIRONMENTS`)
+REGISTRY = ENVIRONMENTS

@@ -1,0 +1,183 @@
+"""The direct-lighting estimator: the integrators own it; lights only sample, materials only evaluate.
+
+For every light at every hit that can receive light, :func:`estimate` returns the reflected radiance
+``L = int f(wo, wi) L_i(wi) V(wi) cos theta_i dwi`` (N, 3) toward the viewer:
+
+- punctual and area lights by light sampling (:func:`light_sampling_estimate`: ``sample_li`` of the
+  light, one shadow ray per sample where light, BSDF and side allow), as pbrt-v4's ``SampleLd``;
+- environment lights (``light.environment`` set) by the strategy the light names
+  (:func:`environment_estimate`): uniform, cosine, map (light sampling), bsdf (the materials'
+  ``sample``), mis (one of each, power or balance heuristic) or the unshadowed ``preview``.
+
+``bsdf`` is a :class:`pyrt.materials.dispatch.BSDFBatch` over the hits (``f_cos``, ``sample``, ``pdf`` in
+world space); ``visible(idx, wi, dist, end=None)`` traces shadow rays from hits ``idx`` and returns a
+bool array (:meth:`pyrt.integrators.whitted.Integrator.visibility`); ``rng`` is the chunk's generator.
+Random numbers are drawn in a fixed order per light, so a seed gives a bit-identical image.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from pyrt.core.sampler import stratified_samples
+from pyrt.shaders import envmap as K
+from pyrt.shaders import sampling
+from pyrt.shaders.vec import max_component, put_rows, take_rows
+
+
+def estimate(lights, surf, bsdf, visible, rng):
+    """Direct light (N, 3) from every light in ``lights`` at the hits of ``surf`` (summed in order)."""
+    return sum(estimate_light(light, surf, bsdf, visible, rng) for light in lights)
+
+
+def estimate_light(light, surf, bsdf, visible, rng):
+    """Direct light (N, 3) from one light: the environment estimator or light sampling."""
+    if light.environment is not None:
+        return environment_estimate(light, surf, bsdf, visible, rng)
+    return light_sampling_estimate(light, surf, bsdf, visible, rng)
+
+
+
+def light_sampling_estimate(light, surf, bsdf, visible, rng):
+    """Direct light (N, 3) from ``light`` toward ``surf.wo`` at every hit of ``surf``, by light sampling.
+
+    ``light.n_samples`` samples per hit (stratified for non-delta lights), each one shadow ray where the
+    light can contribute: on the light's side of the surface (``surf.light_side``), ``E > 0`` and a
+    non-zero BSDF.
+    """
+    n = surf.n_hits
+    L = np.zeros((n, 3))
+    ns = light.n_samples
+    # delta lights ignore u; others get stratified samples (jittered grid or Latin hypercube)
+    us = np.zeros((ns, n, 2)) if light.delta else stratified_samples(rng, n, ns)
+    for s in range(ns):
+        u = us[s]
+        ls = light.sample_li(surf.p, u)
+        wi, dist = ls.wi, ls.dist
+        if ls.factored:          # E = scale * rgb: no (N, 3) irradiance array
+            if not np.max(ls.rgb) > 0:
+                continue
+            active = surf.light_side(wi)
+            if ls.scale is not None:
+                active &= ls.scale > 0
+        else:
+            active = surf.light_side(wi) & (max_component(ls.E) > 0)
+        # ng . wi > 0, or the interpolated vertex normal faces the light (shadow terminator, pyrt.geometry.offsets)
+        idx = np.flatnonzero(active)
+        if idx.size == 0:
+            continue
+        wi_a = take_rows(wi, idx)
+        f = bsdf.f_cos(idx, wi_a)
+        nonzero = max_component(f) > 0
+        if not nonzero.all():                  # (np.flatnonzero keeps the GIL: only when needed)
+            keep = np.flatnonzero(nonzero)
+            if keep.size == 0:
+                continue
+            idx, f, wi_a = idx[keep], take_rows(f, keep), take_rows(wi_a, keep)
+        vis = np.flatnonzero(visible(idx, wi_a, np.take(dist, idx), light.position if light.fixed_position else None))
+        idx, f = idx[vis], take_rows(f, vis)
+        ls.weight(f, idx)
+        put_rows(L, idx, take_rows(L, idx) + f)
+    return L / ns
+
+
+def _mis(heuristic, p_f, p_g):
+    """MIS weight of a sample with density ``p_f`` against the other strategy's ``p_g`` (Veach 1997)."""
+    if heuristic == "power":
+        return sampling.power_heuristic(p_f, p_g)
+    return sampling.balance_heuristic(p_f, p_g)
+
+def environment_estimate(light, surf, bsdf, visible, rng):
+    """Image-based lighting (N, 3) at the hits of ``surf`` with the strategy of ``light``
+    (a :class:`pyrt.EnvironmentLight`: ``strategy``, ``n_samples``, ``heuristic``, ``preview_samples``; see
+    :mod:`pyrt.lights.environment`). Unbiased for every strategy but ``preview``."""
+    n = surf.n_hits
+    if light.strategy == "preview":
+        return _environment_preview(light, surf, bsdf)
+    env = light.environment
+    L_out = np.zeros((n, 3))
+    ns = light.n_samples
+    all_idx = np.arange(n)
+    for s in range(ns):
+        u = rng.random((n, 2))
+        u[:, 1] = (s + u[:, 1]) / ns     # stratify latitude (the table's marginal) / the 2nd warp dim
+        if light.strategy in ("uniform", "cosine", "map", "mis"):
+            if light.strategy == "uniform":
+                wi = sampling.square_to_uniform_sphere(u)
+                pdf = sampling.uniform_sphere_pdf(wi)
+            elif light.strategy == "cosine":
+                wl = sampling.square_to_cosine_hemisphere(u)
+                wi = surf.to_world(wl)
+                pdf = sampling.cosine_hemisphere_pdf(wl)
+            else:
+                wi, pdf = env.sample(u)
+            _add_environment_sample(light, L_out, surf, bsdf, visible, wi, pdf, mis=light.strategy == "mis")
+        if light.strategy in ("bsdf", "mis"):
+            u2 = rng.random((n, 2)) if light.strategy == "mis" else u
+            if light.strategy == "mis":
+                u2[:, 1] = (s + u2[:, 1]) / ns
+            wi, weight, pdf_b = bsdf.sample(all_idx, u2)
+            ok = surf.light_side(wi) & (pdf_b > 0) & (max_component(weight) > 0)
+            idx = np.flatnonzero(ok)
+            if idx.size == 0:
+                continue
+            val = weight[idx] * env.radiance(wi[idx])
+            if light.strategy == "mis":
+                val *= _mis(light.heuristic, pdf_b[idx], env.pdf(wi[idx]))[:, None]
+            keep = max_component(val) > 0
+            idx, val = idx[keep], val[keep]
+            if idx.size:
+                vis = visible(idx, wi[idx], np.full(idx.size, np.inf))
+                L_out[idx] += np.where(vis[:, None], val, 0.0)
+    return L_out / ns
+
+def _add_environment_sample(light, L_out, surf, bsdf, visible, wi, pdf, mis):
+    """Add one environment-sampled direction per hit (``pdf`` its density), MIS-weighted if ``mis``."""
+    # ng . wi > 0, or the shadow-terminator zone (see SurfaceBatch.light_side): the shadow ray decides
+    idx = np.flatnonzero(surf.light_side(wi) & (pdf > 0))
+    if idx.size == 0:
+        return
+    Le = light.environment.radiance(wi[idx])
+    lit = max_component(Le) > 0
+    idx, Le = idx[lit], Le[lit]
+    if idx.size == 0:
+        return
+    f = bsdf.f_cos(idx, wi[idx])
+    val = f * Le / pdf[idx, None]
+    if mis:
+        val *= _mis(light.heuristic, pdf[idx], bsdf.pdf(idx, wi[idx]))[:, None]
+    keep = max_component(val) > 0
+    idx, val = idx[keep], val[keep]
+    if idx.size:
+        vis = visible(idx, wi[idx], np.full(idx.size, np.inf))
+        L_out[idx] += np.where(vis[:, None], val, 0.0)
+
+def _environment_preview(light, surf, bsdf):
+    """Unshadowed, noise-free approximation (``strategy="preview"``, see :mod:`pyrt.lights.environment`)."""
+    env = light.environment
+    n = surf.n_hits
+    L_out = np.zeros((n, 3))
+    mids = surf.material_id
+    lambert = np.array([bsdf.materials[k].lambertian for k in mids], dtype=bool) if n else \
+        np.zeros(0, dtype=bool)
+    li = np.flatnonzero(lambert)
+    if li.size:
+        for k in np.unique(mids[li]):
+            sel = li[mids[li] == k]
+            ctx = surf.subset(sel)
+            L_out[sel] = bsdf.materials[k].albedo(ctx) / np.pi * env.irradiance_sh(ctx.ns)
+    gi = np.flatnonzero(~lambert)
+    if gi.size:
+        K_ = light.preview_samples
+        pts = sampling.hammersley(K_)
+        acc = np.zeros((gi.size, 3))
+        for k in range(K_):
+            u = np.broadcast_to(pts[k], (gi.size, 2)).copy()
+            wi, weight, pdf = bsdf.sample(gi, u)
+            cos_g = np.einsum("ij,ij->i", wi, surf.ng[gi])
+            ok = np.flatnonzero((cos_g > 0) & (pdf > 0))
+            if ok.size == 0:
+                continue
+            alpha = K.ggx_lobe_alpha_for_solid_angle(1.0 / (K_ * pdf[ok]))
+            acc[ok] += weight[ok] * env.prefiltered(wi[ok], alpha)
+        L_out[gi] = acc / K_
+    return L_out

@@ -1,0 +1,218 @@
+"""The light interface: a light only samples; the integrators own the estimator.
+
+``Light.sample_li(p, u) -> LightSample``: for shading points ``p`` (N, 3) and random numbers ``u``
+(N, 2) in [0, 1)^2, the unit direction ``wi`` toward the light, the distance to it (``inf`` for
+directional and environment light) and the contribution ``E`` (W/m^2 per RGB channel) with the
+sampling pdf divided out: for a point light the irradiance on a surface perpendicular to ``wi``.
+:class:`LightSample` carries ``E`` either as an (N, 3) array or factored as a per-point scalar times
+one RGB colour (lights of one colour: no (N, 3) array, no per-light max or gather). A light that
+cannot contribute at a point returns ``E = 0`` there and costs no shadow ray.
+``Light.pdf_li(p, wi)`` is the solid-angle density of ``sample_li`` (0 for delta lights), what
+multiple importance sampling needs. :mod:`pyrt.integrators.direct` adds ``f_cos(wo, wi) * E * V``
+averaged over ``n_samples`` samples per hit.
+
+A new light is one kernel in :mod:`pyrt.shaders.lights` and one class here registered with
+``@LIGHTS.register("name")``; tests/test_light_contracts.py checks it.
+"""
+from __future__ import annotations
+
+import math
+import numbers
+
+import numpy as np
+
+from pyrt.core import checks
+from pyrt.core.errors import Error
+from pyrt.core.registry import Registry
+from pyrt.shaders import color as _colour
+from pyrt.shaders.vec import mul_rgb, scale_rows, take_rows
+
+
+class LightError(Error, ValueError):
+    """Invalid light parameters."""
+
+
+def _vec3(owner, name, v, *, unit=False):
+    a = np.asarray(v, dtype=np.float64)
+    if a.shape != (3,) or not np.all(np.isfinite(a)):
+        raise LightError(f"{owner}: {name} must be 3 finite numbers, got {v!r}")
+    if unit:
+        n = np.linalg.norm(a)
+        if n == 0:
+            raise LightError(f"{owner}: {name} is a zero-length direction")
+        a = a / n
+    return a
+
+
+def _nonneg(owner, name, v):
+    if not isinstance(v, numbers.Real) or isinstance(v, bool) or not math.isfinite(v):
+        raise LightError(f"{owner}: {name} must be a finite number, got {v!r}")
+    if v < 0:
+        raise LightError(f"{owner}: {name} must be >= 0, got {v}")
+    return float(v)
+
+
+def _color(owner, v):
+    return checks.rgb(owner, "color", v, LightError)
+
+
+
+class LightSample:
+    """Samples of a light at N shading points.
+
+    Attributes
+    ----------
+    wi : (N, 3) float64 ndarray
+        Unit directions toward the light.
+    dist : (N,) float64 ndarray
+        Distance to the sampled point (``inf`` for lights at infinity).
+    E : (N, 3) float64 ndarray or None
+        Contribution with the pdf divided out (W/m^2 per channel), when not factored.
+    scale : (N,) float64 ndarray or None
+        Factored form ``E = scale[:, None] * rgb`` (None: scale 1 everywhere).
+    rgb : (3,) float64 ndarray or None
+        The light's colour in the factored form (None when ``E`` is given).
+    """
+
+    __slots__ = ("wi", "dist", "E", "scale", "rgb")
+
+    def __init__(self, wi, dist, E=None, *, scale=None, rgb=None):
+        if (E is None) == (rgb is None):
+            raise ValueError("LightSample: give E or rgb (with an optional scale), not both")
+        self.wi, self.dist, self.E, self.scale, self.rgb = wi, dist, E, scale, rgb
+
+    @property
+    def factored(self):
+        """True when ``E = scale * rgb`` (:attr:`rgb` set)."""
+        return self.rgb is not None
+
+    def active(self):
+        """(N,) bool: where the sample can contribute (E > 0 in some channel)."""
+        if self.rgb is None:
+            return self.E.max(axis=1) > 0 if self.E.size else np.zeros(0, dtype=bool)
+        if not np.max(self.rgb) > 0:
+            return np.zeros(self.wi.shape[0], dtype=bool)
+        return np.ones(self.wi.shape[0], dtype=bool) if self.scale is None else self.scale > 0
+
+    def irradiance(self):
+        """``E`` as an (N, 3) array."""
+        if self.rgb is None:
+            return self.E
+        n = self.wi.shape[0]
+        rgb = np.broadcast_to(self.rgb, (n, 3))
+        return np.array(rgb) if self.scale is None else self.scale[:, None] * rgb
+
+    def weight(self, f, idx):
+        """``f * E[idx]`` in place for f (k, 3) at the sample rows ``idx`` (k,); returns ``f``."""
+        if self.rgb is None:
+            f *= take_rows(self.E, idx)
+        else:
+            mul_rgb(f, self.rgb, out=f)
+            if self.scale is not None:
+                scale_rows(f, np.take(self.scale, idx), out=f)
+        return f
+
+
+class Light:
+    """Base class of every light.
+
+    Subclasses implement :meth:`sample` (``wi, dist, E``) or :meth:`sample_li`; the other is derived.
+    """
+
+    #: True when every sample of the light is the point :attr:`position` (punctual lights): shadow rays
+    #: then end at that point exactly.
+    fixed_position = False
+    #: the light's position (punctual lights), else None
+    position = None
+    #: the light's axis (spot, projector, IES) or travel direction (directional), unit (3,); else None
+    direction = None
+    #: shadow rays per hit (stratified when > 1)
+    n_samples = 1
+    #: True for lights at a single point / direction (no randomness: ``u`` is ignored)
+    delta = True
+    #: True for lights that can add a visible emitter mesh to a scene (:meth:`add_to`)
+    has_mesh = False
+    #: the :class:`pyrt.lights.environment.Environment` an environment light samples, else None; the
+    #: integrators then use the environment estimator (strategies, MIS) with the light's settings
+    environment = None
+    #: the user's name for the light
+    name = None
+    #: registry name used by scene files (set by :meth:`Registry.register`)
+    type_name = None
+
+    def sample(self, p, u):
+        """``(wi, dist, E)`` arrays at shading points ``p`` (N, 3) for random numbers ``u`` (N, 2)."""
+        s = self.sample_li(p, u)
+        return s.wi, s.dist, s.irradiance()
+
+    def sample_li(self, p, u):
+        """A :class:`LightSample` at shading points ``p`` (N, 3) for random numbers ``u`` (N, 2).
+
+        The default wraps :meth:`sample` (the unfactored form).
+        """
+        wi, dist, E = self.sample(p, u)
+        return LightSample(wi, dist, E)
+
+    def pdf_li(self, p, wi):
+        """Solid-angle density (N,) of :meth:`sample_li` toward ``wi`` (N, 3) from ``p``; 0 for delta lights."""
+        if self.delta:
+            return np.zeros(wi.shape[0])
+        raise NotImplementedError(f"{type(self).__name__} defines no pdf_li")
+
+    def radiant_power(self):
+        """Total emitted power (W) per RGB channel, (3,) float64."""
+        raise NotImplementedError(f"{type(self).__name__} has no finite total power")
+
+    def luminous_power(self):
+        """Total luminous flux (lm): ``683 * luminance(radiant_power())``."""
+        return float(LUMINOUS_EFFICACY * _colour.luminance(self.radiant_power()))
+
+    def add_to(self, scene, *, visible=True):
+        """Add the light to ``scene`` (lights with a mesh also add their emitter when ``visible``); returns it."""
+        scene.add_light(self)
+        return self
+
+
+LUMINOUS_EFFICACY = _colour.LUMINOUS_EFFICACY
+
+#: scene-file ``type`` -> light class
+LIGHTS = Registry("light", Light)
+#: light keyword arguments that are file paths (resolved relative to a scene file by the loader)
+PATH_ARGUMENTS = ("image", "profile")
+
+def _resolve_color(owner, color, temperature):
+    """RGB colour from ``color`` or ``temperature`` (kelvin, unit-luminance black body); default white."""
+    if temperature is not None:
+        if color is not None:
+            raise LightError(f"{owner}: give either color or temperature (kelvin), not both")
+        if (not isinstance(temperature, numbers.Real) or isinstance(temperature, bool)
+                or not math.isfinite(temperature) or not 100.0 <= temperature <= 1e6):
+            raise LightError(f"{owner}: temperature must be a number of kelvin in [100, 1e6], got {temperature!r}")
+        return _colour.kelvin_to_srgb(float(temperature))
+    return _color(owner, (1.0, 1.0, 1.0) if color is None else color)
+
+
+def _intensity(owner, *, solid_angle, intensity=None, power=None, candela=None, power_lm=None):
+    """Radiant intensity scale (W/sr) from exactly one of intensity (W/sr), power (W), candela, power_lm (lm).
+
+    ``solid_angle`` (sr) converts power to intensity (``None``: power not accepted).
+    """
+    given = {k: v for k, v in dict(intensity=intensity, power=power, candela=candela, power_lm=power_lm).items()
+             if v is not None}
+    allowed = ["intensity (W/sr)", "candela"] + (["power (W)", "power_lm (lm)"] if solid_angle is not None else [])
+    if len(given) != 1:
+        raise LightError(f"{owner}: give exactly one of {', '.join(allowed)}; got {sorted(given) or 'none'}")
+    (k, v), = given.items()
+    if solid_angle is None and k in ("power", "power_lm"):
+        raise LightError(f"{owner}: {k} is not accepted here; give one of {', '.join(allowed)}")
+    v = _nonneg(owner, k, v)
+    if k == "intensity":
+        return v
+    if k == "candela":
+        return v / LUMINOUS_EFFICACY
+    if solid_angle <= 0:
+        raise LightError(f"{owner}: the light emits into a zero solid angle; {k} cannot set its intensity")
+    if k == "power":
+        return v / solid_angle
+    return v / (LUMINOUS_EFFICACY * solid_angle)
+
