@@ -12,7 +12,8 @@ Public API::
 from pyrt.core.errors import Error
 from pyrt.core.camera import Camera, CameraError
 from pyrt.geometry.surface import GeometryError
-from pyrt.integrators.whitted import RenderResult, RenderStats, render, render_full
+from pyrt.integrators import PreparedScene, RenderStats
+from pyrt.render import RenderResult, render, render_full
 from pyrt.lights import DirectionalLight, Light, LightError, PointLight, SpotLight
 from pyrt.lights import GoniometricLight, IESLight, ProjectorLight
 from pyrt.materials import Material, MaterialError, REGISTRY as MATERIALS, Lambert, BlinnPhong, Mirror, Glass, register
@@ -28,7 +29,7 @@ from pyrt.textures.texture import (CheckerTexture, ConstantTexture, FbmTexture, 
                        PerlinTexture, Texture, TextureError, VoronoiTexture, perturb_normal)
 
 __all__ = [
-    "Error", "Camera", "CameraError", "GeometryError", "RenderResult", "RenderStats", "render", "render_full",
+    "Error", "Camera", "CameraError", "GeometryError", "RenderResult", "RenderStats", "PreparedScene", "render", "render_full",
     "DirectionalLight", "Light", "LightError", "PointLight", "SpotLight", "ProjectorLight", "GoniometricLight", "IESLight", "Material", "MaterialError", "MATERIALS",
     "Lambert", "BlinnPhong", "Mirror", "Glass", "register", "Phong", "PhongClassic", "BlinnPhongClassic", "Ward",
     "CookTorrance", "MetallicRoughness", "Scene", "SceneError", "transform_matrix",

@@ -8,9 +8,10 @@ import pytest
 from scipy import stats
 
 import pyrt
+from pyrt.core.rays import RayBatch
 from pyrt.core.sampler import stratified_samples
 from pyrt.lights.area import AreaEmitter, DiskLight, RectLight, SphereLight
-from pyrt.integrators.whitted import Integrator, PreparedScene
+from pyrt.integrators import Integrator, PreparedScene
 
 
 def _mc_irradiance(light, p, n_recv, n=200000, seed=0):
@@ -99,7 +100,7 @@ def _shade_points(scene, pts, *, rays_per_point=1, seed=0, above=0.1):
         integ = Integrator(ps, max_depth=0)
         o = np.repeat(np.asarray(pts, dtype=np.float64) + [0, above, 0], rays_per_point, axis=0)
         d = np.tile([0.0, -1.0, 0.0], (o.shape[0], 1))
-        L, _ = integ.render_samples(o, d, None, rng=np.random.default_rng(seed))
+        L, _ = integ.render_samples(RayBatch(o, d), rng=np.random.default_rng(seed))
     finally:
         ps.close()
     return L.reshape(len(pts), rays_per_point, 3)

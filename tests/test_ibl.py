@@ -108,7 +108,7 @@ def test_white_furnace_ggx_conductor_F1_does_not_exceed_L(roughness):
     assert np.all(m <= L + 4 * se), (m, se)
     if roughness >= 0.5:      # alpha = roughness^2 >= 0.25: smooth enough for the midpoint quadrature
         hit = np.isfinite(r.aovs["depth"]) & (r.aovs["depth"] < 1e30)
-        _, d, _, _ = cam.generate_rays(0, 32 * 32, np.random.default_rng(0))
+        d = cam.generate_rays(0, 32 * 32, np.random.default_rng(0)).directions
         mu = np.clip(-np.einsum("ij,ij->i", d, r.aovs["normal"].reshape(-1, 3).astype(np.float64)), 0, 1)[hit.ravel()]
         grid = np.linspace(0.0, 1.0, 41)
         E = _directional_albedo(mat, np.maximum(grid, 1e-3))[:, 0]
@@ -239,7 +239,7 @@ def test_hide_background_only_for_camera_rays():
     hit = (np.isfinite(r.aovs["depth"]) & (r.aovs["depth"] < 1e30)).ravel()
     img = r.image.reshape(-1, 3).astype(np.float64)
     np.testing.assert_allclose(img[~hit], np.broadcast_to([0.1, 0.2, 0.3], img[~hit].shape), rtol=1e-6)
-    _, d, _, _ = cam.generate_rays(0, 24 * 24, np.random.default_rng(0))
+    d = cam.generate_rays(0, 24 * 24, np.random.default_rng(0)).directions
     n = r.aovs["normal"].reshape(-1, 3).astype(np.float64)[hit]
     n /= np.linalg.norm(n, axis=1, keepdims=True)
     wo = -d[hit]
@@ -257,7 +257,8 @@ def test_environment_seen_directly_matches_radiance():
     sc.add_sphere((0, 0, 50), 0.1, pyrt.Lambert(0.5))        # something to build Embree with, behind the camera
     set_environment(sc, env, lighting=None)
     img = pyrt.render(sc, spp=1)
-    o, d, _, _ = cam.generate_rays(0, 64, np.random.default_rng(0))
+    rays = cam.generate_rays(0, 64, np.random.default_rng(0))
+    o, d = rays.origins, rays.directions
     np.testing.assert_allclose(img.reshape(-1, 3), env.radiance(d), rtol=1e-5)
 
 

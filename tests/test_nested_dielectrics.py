@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 import pyrt
+from pyrt.core.rays import RayBatch
 from pyrt.integrators.media import NestedMedia, absorption_from_transmittance, beer_lambert
-from pyrt.integrators.whitted import Integrator, PreparedScene
+from pyrt.integrators import Integrator, PreparedScene
 
 
 def _media(*glasses):
@@ -96,7 +97,7 @@ def test_glass_sphere_inside_water_sphere_bends_by_relative_index(offset):
         integ = Integrator(ps, max_depth=3, throughput_cutoff=0.0, record_rays=True)
         o = np.array([[offset[0], offset[1], 6.0]])
         d = np.array([[0.0, 0.0, -1.0]])
-        integ.render_samples(o, d, None)
+        integ.render_samples(RayBatch(o, d))
         batches = [(r[1].astype(np.float64), r[2].astype(np.float64)) for r in integ.stats.recorded
                    if r[0] == "intersect"]
 
@@ -195,7 +196,7 @@ def test_beer_lambert_slab_with_fresnel_series_at_normal_incidence():
     ps = PreparedScene(scene)
     try:
         integ = Integrator(ps, max_depth=12, throughput_cutoff=0.0)
-        L, _ = integ.render_samples(np.array([[0.0, 3.0, 0.0]]), np.array([[0.0, -1.0, 0.0]]), None)
+        L, _ = integ.render_samples(RayBatch(np.array([[0.0, 3.0, 0.0]]), np.array([[0.0, -1.0, 0.0]])))
     finally:
         ps.close()
     R = ((n - 1) / (n + 1)) ** 2

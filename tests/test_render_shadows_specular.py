@@ -164,7 +164,7 @@ def test_specular_rays_never_leave_on_the_wrong_side_of_the_geometric_surface():
     assert prim[1].shape[0] == 64 * 64 * 4  # one chunk
     # exactly one bounce: no secondary ray of depth 2 was ever traced
     assert len(secondary) == 1
-    from pyrt.integrators.whitted import PreparedScene
+    from pyrt.integrators import PreparedScene
     ps = PreparedScene(scene)
     h = ps.accel.intersect(secondary[0][1], secondary[0][2])
     assert not h.hit.any()

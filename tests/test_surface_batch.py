@@ -7,7 +7,7 @@ import pytest
 
 import pyrt
 from pyrt.geometry.surface import surface_from_hits
-from pyrt.integrators.whitted import PreparedScene
+from pyrt.integrators import PreparedScene
 
 
 def _batch():
@@ -16,7 +16,8 @@ def _batch():
     scene.add_plane((0, 0, 0), 4.0, pyrt.Lambert(0.5))
     scene.add_sphere((0, 0.5, 0), 0.5, pyrt.BlinnPhong(), subdivisions=2)
     ps = PreparedScene(scene)
-    o, d, _, _ = cam.generate_rays(0, 32 * 24, np.random.default_rng(0), differentials=False)
+    rays = cam.generate_rays(0, 32 * 24, np.random.default_rng(0), differentials=False)
+    o, d = rays.origins, rays.directions
     idx, hits = ps.accel.intersect_hits(o, d)
     return surface_from_hits(ps.geo, hits, o[idx], d[idx])
 

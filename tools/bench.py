@@ -26,7 +26,7 @@ import numpy as np
 import trimesh
 
 import pyrt
-from pyrt.integrators.whitted import PreparedScene
+from pyrt.integrators import PreparedScene
 
 
 def bumpy_sphere(subdivisions, seed=0):

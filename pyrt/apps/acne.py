@@ -57,7 +57,8 @@ import trimesh
 
 from pyrt.geometry import offsets
 from pyrt.core.camera import Camera
-from pyrt.integrators.whitted import PreparedScene, render_full
+from pyrt.integrators import PreparedScene
+from pyrt.render import render_full
 from pyrt.lights.punctual import DirectionalLight, PointLight, SpotLight
 from pyrt.materials import Glass, Lambert, Mirror
 from pyrt.scene import Scene
@@ -545,7 +546,8 @@ def build_case(case, width=64, height=48):
 def camera_rays32(cam):
     """The camera's pixel-centre rays as Embree sees them (float32), in float64, row-major."""
     n = cam.width * cam.height
-    o, d, _, _ = cam.generate_rays(0, n, np.random.default_rng(0))
+    rays = cam.generate_rays(0, n, np.random.default_rng(0))
+    o, d = rays.origins, rays.directions
     o32 = np.ascontiguousarray(o, dtype=np.float32).astype(np.float64)
     d32 = np.ascontiguousarray(d, dtype=np.float32).astype(np.float64)
     return o32, d32 / np.linalg.norm(d32, axis=1, keepdims=True)

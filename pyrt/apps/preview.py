@@ -73,7 +73,8 @@ import numpy as np
 from pyrt.shaders import color as _color
 
 from pyrt.core.camera import Camera
-from pyrt.integrators.whitted import PreparedScene, render_full
+from pyrt.integrators import PreparedScene
+from pyrt.render import render_full
 from pyrt.io.assets import Asset, AssetError, FORMATS, load_asset
 from pyrt.core.image_io import tonemap_to_display, write_exr
 from pyrt.lights.punctual import DirectionalLight

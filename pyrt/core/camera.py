@@ -14,6 +14,7 @@ import math
 import numpy as np
 
 
+from pyrt.core.rays import RayBatch
 from pyrt.core.sampler import stratified_samples
 from pyrt.core.errors import Error
 
@@ -107,21 +108,31 @@ class Camera:
         return col + ox, row + oy, pix
 
     def generate_rays(self, pixel_lo, pixel_hi, rng, *, differentials=True):
-        """Primary rays for a range of pixels.
+        """Primary rays for the pixels ``[pixel_lo, pixel_hi)`` (row-major), ``spp`` per pixel, contiguous.
 
-        Returns ``origins, dirs, pixel, differentials`` where ``differentials = (rx_o, rx_d, ry_o, ry_d)``
-        are the rays one (scaled) pixel to the right and below, scaled by ``max(1/8, 1/sqrt(spp))`` as
-        in pbrt-v4 so that supersampled renders filter less.
+        Parameters
+        ----------
+        pixel_lo, pixel_hi : int
+        rng : numpy.random.Generator
+            Draws the stratified sample positions.
+        differentials : bool
+            Also the rays one (scaled) pixel to the right and below, scaled by ``max(1/8, 1/sqrt(spp))``
+            as in pbrt-v4 so that supersampled renders filter less.
+
+        Returns
+        -------
+        RayBatch
+            ``(pixel_hi - pixel_lo) * spp`` rays at depth 0 with ``pixel`` set (and ``differentials``).
         """
         x, y, pix = self.pixel_samples(pixel_lo, pixel_hi, rng)
         d = self.directions(x, y)
         o = np.broadcast_to(self.position, d.shape).copy()
         if not differentials:
-            return o, d, pix, None
+            return RayBatch(o, d, pixel=pix)
         scale = max(0.125, 1.0 / math.sqrt(self.spp))
         dx = self.directions(x + scale, y)
         dy = self.directions(x, y + scale)
-        return o, d, pix, (o, dx, o, dy)
+        return RayBatch(o, d, pixel=pix, differentials=(o, dx, o, dy))
 
     def __repr__(self):
         return (f"Camera(position={self.position.tolist()}, target={self.target.tolist()}, up={self.up.tolist()}, "

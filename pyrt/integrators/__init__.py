@@ -1,1 +1,15 @@
-"""Integrators: the direct-lighting estimator and the Whitted recursion (they own the estimators)."""
+"""Integrators: they own the estimators; lights only sample, materials only evaluate.
+
+- :mod:`pyrt.integrators.direct`: the direct-lighting estimator (light sampling for every light; for
+  environment lights BSDF sampling and MIS);
+- :mod:`pyrt.integrators.whitted`: :class:`Integrator`, the Whitted recursion along delta lobes in
+  wavefront style (one :class:`pyrt.core.rays.RayBatch` per bounce);
+- :mod:`pyrt.integrators.gouraud`: lighting at the vertices for Gouraud-shaded meshes;
+- :mod:`pyrt.integrators.media`: nested dielectrics (interface stacks, Beer-Lambert absorption);
+- :mod:`pyrt.integrators.prepared`: :class:`PreparedScene` (the scene with its accelerator, built once)
+  and :class:`RenderStats`.
+"""
+from pyrt.integrators.prepared import PreparedScene, RenderStats
+from pyrt.integrators.whitted import Integrator
+
+__all__ = ["Integrator", "PreparedScene", "RenderStats"]

@@ -18,67 +18,20 @@ This module knows nothing about Embree; it asks :class:`pyrt.geometry.accel.Acce
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-import math
 import time
-import warnings
 
 import numpy as np
 
+from pyrt.core.rays import RayBatch
 from pyrt.geometry import offsets
-from pyrt.geometry.accel import Accel, T_INFINITE
+from pyrt.geometry.accel import T_INFINITE, Hits
 from pyrt.geometry.surface import refract_differentials, reflect_differentials, surface_from_hits
 from pyrt.integrators import direct
 from pyrt.integrators import gouraud
-from pyrt.integrators.media import NestedMedia
+from pyrt.integrators.prepared import RenderStats
 from pyrt.materials.dispatch import BSDFBatch
 from pyrt.textures.texture import apply_normal_maps
-from pyrt.shaders.vec import dot, max_component, put_rows, take_rows, to_float32
-
-
-@dataclass
-class RenderStats:
-    """Counters of one render (rays by kind, time), and optionally the traced rays themselves."""
-
-    primary_rays: int = 0
-    secondary_rays: int = 0
-    shadow_rays: int = 0
-    time_total: float = 0.0
-    time_intersect: float = 0.0
-    time_occluded: float = 0.0
-    nonfinite_samples: int = 0
-    recorded: list = field(default_factory=list)
-
-    @property
-    def rays(self):
-        return self.primary_rays + self.secondary_rays + self.shadow_rays
-
-
-class PreparedScene:
-    """A scene with its Embree acceleration structure and flat geometry table built once."""
-
-    def __init__(self, scene, *, threads=None):
-        self.scene = scene
-        self.geo = scene.geometry_table()
-        self.accel = Accel(threads=threads)
-        for m in self.geo.meshes:
-            self.accel.add_mesh(m.vertices, m.faces)
-        self.accel.commit()
-        mats = scene.materials
-        self.has_delta = np.array([m.has_delta for m in mats], dtype=bool)
-        self.has_diffuse = np.array([m.has_diffuse for m in mats], dtype=bool)
-        # nested dielectrics (pyrt.integrators.media): per-ray interface stacks only when the scene needs them
-        self.media = NestedMedia.for_scene(mats)
-        # faces shaded per vertex (pyrt.integrators.gouraud), None when no mesh asks for it
-        self.face_gouraud = gouraud.face_mask(self.geo, scene.gouraud_meshes)
-        self.needs_differentials = any(m.uses_textures for m in mats)
-        #: materials whose emission() can be non-zero (the rest skip the emission pass)
-        self.emits = np.array([m.emits for m in mats], dtype=bool)
-        # materials with a tangent-space normal map (Material.normal_map, see pyrt.textures)
-        self.has_normal_maps = any(m.normal_map is not None for m in mats)
-
-    def close(self):
-        self.accel.close()
+from pyrt.shaders.vec import dot, max_component, put_rows, take_rows
 
 
 def _scatter_add(acc, idx, vals, unique=False):
@@ -153,22 +106,22 @@ class Integrator:
         return np.broadcast_to(self.scene.background, d.shape)
 
     # -- one chunk ---------------------------------------------------------------------------
-    def render_samples(self, o, d, diffs, want_aovs=False, rng=None):
-        """Radiance (N, 3) float64 for camera rays ``o, d`` (and AOVs of the first hit if asked)."""
-        n = o.shape[0]
+    def render_samples(self, rays, want_aovs=False, rng=None):
+        """Radiance (N, 3) float64 for the camera rays of the :class:`pyrt.core.rays.RayBatch` ``rays`` (their
+        ``sample`` indices are 0..N-1), and the first hit's AOVs if asked (``depth``, ``normal``, ``albedo``)."""
+        n = rays.size
         L = np.zeros((n, 3))
         aovs = None
         if want_aovs:
             aovs = {"depth": np.full(n, np.inf), "normal": np.zeros((n, 3)), "albedo": np.zeros((n, 3))}
         rng = rng if rng is not None else np.random.default_rng(0)
-        sample = np.arange(n)
-        thr = np.ones((n, 3))
+        o, d, thr, sample, diffs = rays.origins, rays.directions, rays.throughput, rays.sample, rays.differentials
         materials = self.scene.materials
         lights = self.scene.lights
         ambient = self.scene.ambient
         use_diffs = diffs is not None and self.ps.needs_differentials
         media = self.ps.media
-        stack = media.empty(n) if media is not None else None
+        stack = (media.empty(n) if rays.stack is None else rays.stack) if media is not None else None
         for depth in range(self.max_depth + 1):
             if o.shape[0] == 0:
                 break
@@ -243,7 +196,8 @@ class Integrator:
             new = self._spawn_specular(surf, thr_h, s_idx, dsub, None if media is None else stack[h])
             if new is None:
                 break
-            o, d, thr, sample, diffs, stack = new
+            o, d, thr, sample, diffs, stack = (new.origins, new.directions, new.throughput, new.sample,
+                                               new.differentials, new.stack)
         return L, aovs
 
     def visibility(self, surf):
@@ -257,6 +211,8 @@ class Integrator:
         return visible
 
     def _spawn_specular(self, surf, thr_h, s_idx, dsub, stack_h=None):
+        """The next :class:`RayBatch`: every delta lobe of the hits' materials (mirror, glass reflection and
+        refraction) with multiplied throughput, or None when no ray survives."""
         mids = surf.material_id
         spec_idx = np.flatnonzero(self.ps.has_delta[mids])
         if spec_idx.size == 0:
@@ -309,7 +265,7 @@ class Integrator:
             src = np.concatenate([p[5] for p in parts])
             refr = np.concatenate([np.full(p[5].size, p[6]) for p in parts])
             stack = media.spawn_stacks(stack_h, mids, surf.front, src, refr)
-        return o, d, thr, sample, diffs, stack
+        return RayBatch(o, d, sample=sample, throughput=thr, differentials=diffs, stack=stack)
 
 
 def normalize_rows(w):
@@ -318,142 +274,5 @@ def normalize_rows(w):
 
 
 def _subset_hits(hits, idx):
-    from pyrt.geometry.accel import Hits
     return Hits(hit=hits.hit[idx], t=hits.t[idx], mesh_id=hits.mesh_id[idx], prim_id=hits.prim_id[idx],
                 u=hits.u[idx], v=hits.v[idx], ng=take_rows(hits.ng, idx))
-
-
-@dataclass
-class RenderResult:
-    """Output of :func:`render_full`: linear radiance image, optional AOVs, statistics."""
-
-    image: np.ndarray
-    aovs: dict | None
-    stats: RenderStats
-
-
-def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4, offset=None, aovs=False,
-                progress=None, chunk_samples=1 << 15, threads=None, record_rays=False, prepared=None):
-    """Render ``scene`` and return a :class:`RenderResult` (see :func:`render` for parameters).
-
-    Chunks of pixels are shaded on a pool of ``threads`` workers (NumPy releases the GIL in its array
-    loops, Embree in its traversal). Every chunk has its own random stream
-    ``default_rng([seed, chunk_index])`` and writes a disjoint slice of the film, so the image does not
-    depend on the number of threads or the order in which chunks finish.
-    """
-    t_start = time.perf_counter()
-    cam = scene.camera
-    if spp is not None:
-        if int(spp) != spp or spp < 1:
-            raise ValueError(f"spp must be a positive integer, got {spp!r}")
-        from copy import copy
-        cam = copy(cam)
-        cam.spp = int(spp)
-    if int(chunk_samples) != chunk_samples or chunk_samples < 1:
-        raise ValueError(f"chunk_samples must be a positive integer, got {chunk_samples!r}")
-    own = prepared is None
-    ps = prepared if prepared is not None else PreparedScene(scene, threads=threads)
-    W, H, S = cam.width, cam.height, cam.spp
-    n_pix = W * H
-    px_per_chunk = max(1, int(chunk_samples) // S)
-    image = np.zeros((n_pix, 3))
-    aov_img = None
-    if aovs:
-        aov_img = {"depth": np.zeros(n_pix), "normal": np.zeros((n_pix, 3)), "albedo": np.zeros((n_pix, 3))}
-    starts = list(range(0, n_pix, px_per_chunk))
-
-    def run_chunk(ci):
-        lo = starts[ci]
-        hi = min(lo + px_per_chunk, n_pix)
-        integ = Integrator(ps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
-                           record_rays=record_rays)
-        rng = np.random.default_rng([seed, ci])
-        o, d, pix, diffs = cam.generate_rays(lo, hi, rng, differentials=ps.needs_differentials)
-        L, a = integ.render_samples(o, d, diffs, want_aovs=aovs, rng=rng)
-        if not np.isfinite(L).all():          # one flat pass; per-sample only when something is wrong
-            bad = ~np.all(np.isfinite(L), axis=1)
-            integ.stats.nonfinite_samples += int(bad.sum())
-            L[bad] = 0.0
-        image[lo:hi] = L if S == 1 else L.reshape(hi - lo, S, 3).mean(axis=1)
-        if aovs:
-            dep = a["depth"].reshape(hi - lo, S)
-            hitm = np.isfinite(dep)
-            cnt = hitm.sum(axis=1)
-            aov_img["depth"][lo:hi] = np.where(cnt > 0, np.where(hitm, dep, 0).sum(1) / np.maximum(cnt, 1), np.inf)
-            aov_img["normal"][lo:hi] = a["normal"].reshape(hi - lo, S, 3).mean(axis=1)
-            aov_img["albedo"][lo:hi] = a["albedo"].reshape(hi - lo, S, 3).mean(axis=1)
-        return integ.stats
-
-    from tqdm.auto import tqdm
-    stats = RenderStats()
-    workers = max(1, min(ps.accel.threads if threads is None else int(threads), len(starts)))
-    bar = tqdm(total=len(starts), desc="render", unit="chunk", leave=False,
-               disable=(not progress) if progress is not None else None)
-    try:
-        if workers == 1:
-            results = []
-            for ci in range(len(starts)):
-                results.append(run_chunk(ci))
-                bar.update()
-        else:
-            from concurrent.futures import ThreadPoolExecutor
-            with ThreadPoolExecutor(max_workers=workers) as pool:
-                futs = [pool.submit(run_chunk, ci) for ci in range(len(starts))]
-                results = []
-                for f in futs:
-                    results.append(f.result())
-                    bar.update()
-    finally:
-        bar.close()
-        if own:
-            ps.close()
-    for st in results:  # merge in chunk order (deterministic)
-        for k in ("primary_rays", "secondary_rays", "shadow_rays", "time_intersect", "time_occluded",
-                  "nonfinite_samples"):
-            setattr(stats, k, getattr(stats, k) + getattr(st, k))
-        stats.recorded.extend(st.recorded)
-    if stats.nonfinite_samples:
-        warnings.warn(f"render: {stats.nonfinite_samples} samples had non-finite radiance and were "
-                      "set to 0 (this is a bug; please report the scene)", RuntimeWarning, stacklevel=2)
-    stats.time_total = time.perf_counter() - t_start
-    img = to_float32(image.reshape(H, W, 3))
-    if aov_img is not None:
-        aov_img = {"depth": aov_img["depth"].reshape(H, W).astype(np.float32),
-                   "normal": aov_img["normal"].reshape(H, W, 3).astype(np.float32),
-                   "albedo": aov_img["albedo"].reshape(H, W, 3).astype(np.float32)}
-    return RenderResult(image=img, aovs=aov_img, stats=stats)
-
-
-def render(scene, **kwargs):
-    """Render ``scene`` to linear radiance.
-
-    Parameters
-    ----------
-    scene : pyrt.Scene
-    spp : int, optional
-        Samples per pixel (default: the camera's).
-    seed : int
-        Random seed; the same seed gives a bit-identical image.
-    max_depth : int
-        Maximum specular recursion depth (default 8).
-    throughput_cutoff : float
-        Drop specular rays whose throughput falls below this (default 1e-4).
-    offset : str or callable
-        Ray-offset strategy (:mod:`pyrt.geometry.offsets`): a name, a Strategy or a callable; default "robust"
-        (local error bound + robust shadow tmax + shadow-terminator lift).
-    progress : bool, optional
-        Show a progress bar (default: only on a terminal).
-    chunk_samples : int
-        Camera samples per chunk (bounds memory; default 32768: measured fastest on the benchmark scene).
-    threads : int, optional
-        Worker threads for chunks and for Embree batches (default: all cores).
-
-    Returns
-    -------
-    (H, W, 3) float32 ndarray
-        Linear scene radiance (W m^-2 sr^-1 per RGB channel).
-    """
-    return render_full(scene, **kwargs).image
-
-
-del math

@@ -1,0 +1,124 @@
+"""Film: where radiance samples become pixels.
+
+A :class:`Film` accumulates weighted radiance samples per pixel in float64 (the sum of weights, of
+weighted radiance and, when asked, of weighted squared radiance: the per-pixel statistics adaptive
+sampling reads), averages the first-hit AOVs (depth, normal, albedo), applies the non-finite policy
+and gives the image as float32.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from pyrt.core.errors import Error
+from pyrt.shaders.vec import to_float32
+
+#: what a film does with a sample whose radiance is NaN or infinite
+NONFINITE_POLICIES = ("zero", "raise")
+
+
+class FilmError(Error, ArithmeticError):
+    """A non-finite radiance sample reached a film whose policy is ``"raise"``."""
+
+
+class Film:
+    """Per-pixel accumulation of radiance samples.
+
+    Parameters
+    ----------
+    width, height : int
+        Image size in pixels.
+    aovs : bool
+        Also average the first-hit depth, shading normal and albedo of the samples.
+    nonfinite : {"zero", "raise"}
+        A sample with non-finite radiance is set to 0 and counted (:attr:`nonfinite_samples`), or raises
+        :class:`FilmError`.
+    second_moment : bool
+        Also accumulate the weighted squared radiance, so :meth:`variance` can estimate the variance of
+        each pixel's mean (costs one more (H*W, 3) float64 buffer).
+    """
+
+    def __init__(self, width, height, *, aovs=False, nonfinite="zero", second_moment=False):
+        if nonfinite not in NONFINITE_POLICIES:
+            raise ValueError(f"Film: nonfinite must be one of {NONFINITE_POLICIES}, got {nonfinite!r}")
+        self.width, self.height = int(width), int(height)
+        n = self.width * self.height
+        self.nonfinite = nonfinite
+        self.weight = np.zeros(n)                 # sum of sample weights per pixel
+        self.sum = np.zeros((n, 3))               # sum of weighted radiance
+        self.sum_sq = np.zeros((n, 3)) if second_moment else None
+        self.nonfinite_samples = 0
+        self._aov = None
+        if aovs:
+            self._aov = {"depth": np.zeros(n), "depth_weight": np.zeros(n), "normal": np.zeros((n, 3)),
+                         "albedo": np.zeros((n, 3))}
+
+    @property
+    def n_pixels(self):
+        """H * W."""
+        return self.weight.shape[0]
+
+    def add_block(self, lo, hi, L, aovs=None):
+        """Add the samples of the pixels ``[lo, hi)`` (row-major): ``L`` (n * S, 3), the S samples of a pixel
+        contiguous, each of weight 1. Returns the number of non-finite samples (set to 0).
+
+        ``aovs``: the samples' first-hit ``depth`` (n*S,), ``normal`` and ``albedo`` (n*S, 3) (depth ``inf``
+        for a miss; the pixel's depth is the mean over the samples that hit, ``inf`` if none did).
+        """
+        n = hi - lo
+        S = L.shape[0] // n if n else 1
+        bad = 0
+        if not np.isfinite(L).all():          # one flat pass; per-sample only when something is wrong
+            if self.nonfinite == "raise":
+                raise FilmError(f"Film: non-finite radiance in pixels [{lo}, {hi})")
+            rows = ~np.all(np.isfinite(L), axis=1)
+            bad = int(rows.sum())
+            L[rows] = 0.0
+            self.nonfinite_samples += bad
+        block = L if S == 1 else L.reshape(n, S, 3).sum(axis=1)
+        self.sum[lo:hi] += block
+        self.weight[lo:hi] += S
+        if self.sum_sq is not None:
+            self.sum_sq[lo:hi] += (L * L) if S == 1 else (L * L).reshape(n, S, 3).sum(axis=1)
+        if aovs is not None and self._aov is not None:
+            a = self._aov
+            dep = aovs["depth"].reshape(n, S)
+            hitm = np.isfinite(dep)
+            a["depth"][lo:hi] += np.where(hitm, dep, 0).sum(1)
+            a["depth_weight"][lo:hi] += hitm.sum(axis=1)
+            a["normal"][lo:hi] += aovs["normal"].reshape(n, S, 3).sum(axis=1)
+            a["albedo"][lo:hi] += aovs["albedo"].reshape(n, S, 3).sum(axis=1)
+        return bad
+
+    def _mean(self, acc):
+        w = self.weight if acc.ndim == 1 else self.weight[:, None]
+        return np.divide(acc, w, out=np.zeros_like(acc), where=w > 0)
+
+    def mean(self):
+        """Per-pixel mean radiance (H*W, 3) float64 (0 where no sample was added)."""
+        return self._mean(self.sum)
+
+    def variance(self):
+        """Estimated variance (H*W, 3) of each pixel's mean: ``(E[L^2] - E[L]^2) / (n - 1)`` (needs
+        ``second_moment=True``; inf where a pixel has fewer than two samples)."""
+        if self.sum_sq is None:
+            raise ValueError("Film.variance needs second_moment=True")
+        w = self.weight[:, None]
+        m = self.mean()
+        var = np.maximum(self._mean(self.sum_sq) - m * m, 0.0) * w / np.maximum(w - 1, 1)
+        return np.where(w > 1, var / np.maximum(w, 1), np.inf)
+
+    def image(self):
+        """The image (H, W, 3) float32: linear radiance."""
+        return to_float32(self.mean().reshape(self.height, self.width, 3))
+
+    def aovs(self):
+        """The AOV images as float32: ``depth`` (H, W), ``normal`` and ``albedo`` (H, W, 3); None without AOVs."""
+        if self._aov is None:
+            return None
+        a = self._aov
+        H, W = self.height, self.width
+        cnt = a["depth_weight"]
+        depth = np.where(cnt > 0, a["depth"] / np.maximum(cnt, 1), np.inf)
+        return {"depth": depth.reshape(H, W).astype(np.float32),
+                "normal": self._mean(a["normal"]).reshape(H, W, 3).astype(np.float32),
+                "albedo": self._mean(a["albedo"]).reshape(H, W, 3).astype(np.float32)}

@@ -1,0 +1,60 @@
+"""RayBatch: the rays of one wavefront (camera rays, or the specular rays of one bounce).
+
+The integrators trace a whole batch per query (:class:`pyrt.geometry.Accel`), shade the hits and spawn
+the next batch (depth + 1). Everything a ray carries lives here, batch-first.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+class RayBatch:
+    """N rays with what they carry.
+
+    Parameters
+    ----------
+    origins, directions : (N, 3) float64 ndarray
+        Ray origins and unit directions (world space).
+    sample : (N,) int64 ndarray, optional
+        Index of the camera sample each ray's radiance goes to (within the chunk); default ``arange(N)``.
+    throughput : (N, 3) float64 ndarray, optional
+        Product of the lobe weights along the path so far; default ones.
+    depth : int
+        Specular bounces so far (0 for camera rays).
+    differentials : tuple of four (N, 3) ndarrays, optional
+        ``(rx_origin, rx_direction, ry_origin, ry_direction)``: the rays one (scaled) pixel to the right and
+        below (pbrt-v4 ray differentials), for texture filtering; None when no texture needs them.
+    stack : (N, K) int ndarray, optional
+        Nested-dielectric interface stacks (:mod:`pyrt.integrators.media`), only when the scene needs them.
+    pixel : (N,) int64 ndarray, optional
+        Raster index (row-major) of the pixel each camera ray belongs to.
+    tmax : (N,) float64 ndarray, optional
+        Parametric end of each ray; None for unbounded rays.
+    """
+
+    __slots__ = ("origins", "directions", "sample", "throughput", "depth", "differentials", "stack", "pixel",
+                 "tmax")
+
+    def __init__(self, origins, directions, *, sample=None, throughput=None, depth=0, differentials=None,
+                 stack=None, pixel=None, tmax=None):
+        n = origins.shape[0]
+        self.origins = origins
+        self.directions = directions
+        self.sample = np.arange(n) if sample is None else sample
+        self.throughput = np.ones((n, 3)) if throughput is None else throughput
+        self.depth = int(depth)
+        self.differentials = differentials
+        self.stack = stack
+        self.pixel = pixel
+        self.tmax = tmax
+
+    @property
+    def size(self):
+        """Number of rays N."""
+        return self.origins.shape[0]
+
+    def __len__(self):
+        return self.size
+
+    def __repr__(self):
+        return f"RayBatch({self.size} rays, depth {self.depth})"

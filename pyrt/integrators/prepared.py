@@ -1,0 +1,75 @@
+"""What an integrator runs on and what it counts: the prepared scene and the ray statistics."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pyrt.geometry.accel import Accel
+from pyrt.integrators import gouraud
+from pyrt.integrators.media import NestedMedia
+
+
+@dataclass
+class RenderStats:
+    """Counters of one render (rays by kind, time), and optionally the traced rays themselves."""
+
+    primary_rays: int = 0
+    secondary_rays: int = 0
+    shadow_rays: int = 0
+    time_total: float = 0.0
+    time_intersect: float = 0.0
+    time_occluded: float = 0.0
+    nonfinite_samples: int = 0
+    recorded: list = field(default_factory=list)
+
+    @property
+    def rays(self):
+        return self.primary_rays + self.secondary_rays + self.shadow_rays
+
+
+class PreparedScene:
+    """A scene with its Embree acceleration structure and flat geometry table built once.
+
+    Parameters
+    ----------
+    scene : pyrt.Scene
+    threads : int, optional
+        Worker threads of the accelerator's batch queries (default: all cores).
+
+    Besides ``geo`` (:class:`pyrt.geometry.GeometryTable`) and ``accel`` (:class:`pyrt.geometry.Accel`) it
+    holds what the integrators look at before they render, to model no more than the scene needs:
+    per-material flags (``has_delta``, ``has_diffuse``, ``emits``), the nested-media tables (``media``,
+    None without several dielectrics), the Gouraud face mask, ``needs_differentials`` and ``has_normal_maps``.
+    Close it (or use it as a context manager) to free the Embree scene.
+    """
+
+    def __init__(self, scene, *, threads=None):
+        self.scene = scene
+        self.geo = scene.geometry_table()
+        self.accel = Accel(threads=threads)
+        for m in self.geo.meshes:
+            self.accel.add_mesh(m.vertices, m.faces)
+        self.accel.commit()
+        mats = scene.materials
+        self.has_delta = np.array([m.has_delta for m in mats], dtype=bool)
+        self.has_diffuse = np.array([m.has_diffuse for m in mats], dtype=bool)
+        # nested dielectrics (pyrt.integrators.media): per-ray interface stacks only when the scene needs them
+        self.media = NestedMedia.for_scene(mats)
+        # faces shaded per vertex (pyrt.integrators.gouraud), None when no mesh asks for it
+        self.face_gouraud = gouraud.face_mask(self.geo, scene.gouraud_meshes)
+        self.needs_differentials = any(m.uses_textures for m in mats)
+        #: materials whose emission() can be non-zero (the rest skip the emission pass)
+        self.emits = np.array([m.emits for m in mats], dtype=bool)
+        # materials with a tangent-space normal map (Material.normal_map, see pyrt.textures)
+        self.has_normal_maps = any(m.normal_map is not None for m in mats)
+
+    def close(self):
+        """Release the Embree scene."""
+        self.accel.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
