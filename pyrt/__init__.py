@@ -25,6 +25,8 @@ from pyrt.lights import (ConstantEnvironment, CubeMapEnvironment, EnvironmentLig
 from pyrt.lights import AreaEmitter, DiskLight, RectLight, SphereLight
 from pyrt.core.image_io import read_exr, write_exr, write_png, tonemap_to_display
 from pyrt.io.scene_file import SceneFileError, load_scene
+from pyrt.io.scene_file import load_dict
+from pyrt.io.assets import AssetError, load_asset
 from pyrt.textures.texture import (CheckerTexture, ConstantTexture, FbmTexture, ImageTexture, NoiseTexture, NormalMap,
                        PerlinTexture, Texture, TextureError, VoronoiTexture, perturb_normal)
 
@@ -38,5 +40,6 @@ __all__ = [
     "procedural_sky", "set_environment", "AreaEmitter", "DiskLight", "RectLight", "SphereLight",
     "Texture", "TextureError", "ConstantTexture", "ImageTexture", "CheckerTexture", "NoiseTexture", "PerlinTexture",
     "FbmTexture", "VoronoiTexture", "NormalMap", "perturb_normal",
+    "load_dict", "load_asset", "AssetError",
 ]
 __version__ = "0.1.0"

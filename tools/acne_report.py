@@ -39,6 +39,17 @@ TIMING_CASES = (acne.Case("plane", "point"), acne.Case("sphere_lowpoly", "point"
                 acne.Case("glass", "directional"))
 
 
+def _pyplot():
+    """``matplotlib.pyplot`` on the Agg backend; a clear message if the 'charts' extra is not installed."""
+    try:
+        import matplotlib
+    except ImportError:
+        raise SystemExit("this tool needs the 'charts' extra: pip install 'pyrt-embree[charts]'") from None
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
 def _size(text):
     w, h = (int(x) for x in text.lower().split("x"))
     return w, h
@@ -89,9 +100,7 @@ def summary_markdown(results, cost):
 
 
 def draw_chart(path, results, cost):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = _pyplot()
     summ = acne.summarize(results)
     floor = 1e-4   # 0 errors are drawn on this line (log axis)
     fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=100)
@@ -138,9 +147,7 @@ def _overlay(r):
 
 
 def draw_worst(path, results, size, naive=NAIVE):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = _pyplot()
     w, h = size
     rows = []
     shown = set()

@@ -29,6 +29,17 @@ import pyrt
 from pyrt.integrators import PreparedScene
 
 
+def _pyplot():
+    """``matplotlib.pyplot`` on the Agg backend; a clear message if the 'charts' extra is not installed."""
+    try:
+        import matplotlib
+    except ImportError:
+        raise SystemExit("this tool needs the 'charts' extra: pip install 'pyrt-embree[charts]'") from None
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
 def bumpy_sphere(subdivisions, seed=0):
     m = trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0)
     v = m.vertices
@@ -109,9 +120,7 @@ def measure(scene, repeats):
 
 def plot(result, path):
     """Chart of a bench.json result: pyrt and Embree-only times against triangles and against pixels."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = _pyplot()
 
     fig, axes = plt.subplots(1, 2, figsize=(9, 3.4))
     tri = result["triangles"]

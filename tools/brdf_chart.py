@@ -34,6 +34,17 @@ ONE, ZERO = np.ones(3), np.zeros(3)
 GOLD = metals.METALS["gold"]
 
 
+def _pyplot():
+    """``matplotlib.pyplot`` on the Agg backend; a clear message if the 'charts' extra is not installed."""
+    try:
+        import matplotlib
+    except ImportError:
+        raise SystemExit("this tool needs the 'charts' extra: pip install 'pyrt-embree[charts]'") from None
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
 def models(roughness=0.4, exponent=30.0):
     """name -> f_cos(wo, wi) over representative parameters (specular lobes only, ks = 1)."""
     a = roughness * roughness
@@ -59,9 +70,7 @@ def models(roughness=0.4, exponent=30.0):
 
 
 def polar_chart(path):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = _pyplot()
     ms = models()
     th = np.radians(np.linspace(-89.5, 89.5, 721))
     wo = np.stack([np.sin(th), np.zeros_like(th), np.cos(th)], 1)
@@ -105,9 +114,7 @@ def _albedo(fcos, theta_o_deg, n_theta=160, n_phi=96):
 
 
 def energy_chart(path):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = _pyplot()
     rough = np.linspace(0.05, 1.0, 20)
     curves = {
         "GGX, smith correlated": lambda a: lambda o, i: brdfs.cook_torrance_f_cos(o, i, ZERO, ONE, a, fresnel="none"),
@@ -138,9 +145,7 @@ def energy_chart(path):
 
 
 def cost_chart(path, n=200_000):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = _pyplot()
     rng = np.random.default_rng(0)
 
     def dirs():

@@ -33,6 +33,17 @@ from pyrt.lights.environment import STRATEGIES, LatLongEnvironment, set_environm
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
+def _pyplot():
+    """``matplotlib.pyplot`` on the Agg backend; a clear message if the 'charts' extra is not installed."""
+    try:
+        import matplotlib
+    except ImportError:
+        raise SystemExit("this tool needs the 'charts' extra: pip install 'pyrt-embree[charts]'") from None
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
 def make_sky(width=256, height=128):
     return pyrt.procedural_sky(width, height, sun_direction=(0.5, 0.6, 0.45), sun_angle=3.0,
                                sun_radiance=(3000.0, 2700.0, 2300.0))
@@ -118,9 +129,7 @@ def run(out, width, height, ref_samples, counts, repeats=3):
 
 
 def plot(rows, path, width, height, ref_samples, t_sh, t_pref, ref_err):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = _pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.4), sharey=True)
     markers = {"uniform": "o", "cosine": "s", "map": "^", "bsdf": "v", "mis": "D", "preview": "*"}
     for ax, key, title in ((axes[0], "rel_rmse_diffuse", "diffuse sphere (Lambert 0.8)"),

@@ -47,6 +47,17 @@ CANDIDATES = [  # (label, filter, spp, jitter)
 ]
 
 
+def _pyplot():
+    """``matplotlib.pyplot`` on the Agg backend; a clear message if the 'charts' extra is not installed."""
+    try:
+        import matplotlib
+    except ImportError:
+        raise SystemExit("this tool needs the 'charts' extra: pip install 'pyrt-embree[charts]'") from None
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
 def checker_image(n=256, checks=8):
     """(n, n, 3) float32 checkerboard of ``checks`` x ``checks`` cells, values 0.05 / 0.85 (linear)."""
     yy, xx = np.mgrid[0:n, 0:n]
@@ -130,10 +141,7 @@ def run(width, height, ref_spp, out_dir, repeats=2):
 
 
 def plot_chart(rows, path, width, height, ref_spp):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = _pyplot()
 
     tnames = sorted({r["texture"] for r in rows})
     fig, axes = plt.subplots(1, len(tnames), figsize=(6 * len(tnames), 4.5))
@@ -164,10 +172,7 @@ def plot_chart(rows, path, width, height, ref_spp):
 
 
 def plot_side_by_side(images, rows, tname, path):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = _pyplot()
 
     order = ["reference", "nearest", "bilinear", "trilinear", "anisotropic", "ss4", "ss16", "ss64"]
     err = {r["method"]: r for r in rows if r["texture"] == tname}

@@ -28,6 +28,9 @@ Format (every key optional unless marked; unknown keys are errors naming the tab
                         # background; lighting = "mis" | "map" | "bsdf" | "cosine" | "uniform" | "preview" |
                         # false (background only), samples, heuristic ("power" | "balance"), preview_samples
 
+The same structure as a Python dict (Mitsuba's ``mi.load_dict`` idea) goes to :func:`load_dict`;
+:func:`load_scene` parses a file and calls it.
+
 Example: ``assets/default_scene.toml``.
 """
 from __future__ import annotations
@@ -41,11 +44,12 @@ import numpy as np
 import trimesh
 
 from pyrt.core.camera import Camera
+from pyrt.core.errors import Error
 from pyrt.lights import LIGHTS, PATH_ARGUMENTS as LIGHT_PATH_ARGUMENTS
+from pyrt.lights import environment as _env
 from pyrt.materials import REGISTRY as MATERIALS
 from pyrt.scene import Scene, transform_matrix
-from pyrt.lights import environment as _env
-from pyrt.core.errors import Error
+from pyrt.textures import TextureError, texture_from_dict
 
 
 class SceneFileError(Error, ValueError):
@@ -120,8 +124,6 @@ def _primitive(kind, params, where, path):
 
 def _texture(spec, where, base, path):
     """A texture from an inline table ``{type = "image" | "checker" | ..., ...}`` (pyrt.textures)."""
-    from pyrt.textures.texture import TextureError, texture_from_dict
-
     try:
         return texture_from_dict(spec, base_dir=base)
     except (TextureError, TypeError, ValueError) as e:
@@ -131,13 +133,33 @@ def _texture(spec, where, base, path):
 def load_scene(path):
     """Load a TOML or JSON scene file into a :class:`pyrt.Scene`.
 
-    Returns ``(scene, render_options)`` where ``render_options`` holds the ``[render]`` keys that are
-    arguments of :func:`pyrt.render` (max_depth, seed, throughput_cutoff, offset).
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A ``.toml`` or ``.json`` file (the format in this module's docstring). Paths inside it (meshes,
+        textures, light images and profiles, environment maps) are relative to the file's folder.
+
+    Returns
+    -------
+    scene : pyrt.Scene
+    render_options : dict
+        The ``[render]`` keys that are arguments of :func:`pyrt.render` (max_depth, seed,
+        throughput_cutoff, offset).
+
+    Raises
+    ------
+    FileNotFoundError
+        ``path`` does not exist.
+    SceneFileError
+        The file cannot be parsed or describes no valid scene; the message names the file and the key.
+
+    See Also
+    --------
+    load_dict : the same from a dict.
     """
     path = os.fspath(path)
     if not os.path.exists(path):
         raise FileNotFoundError(f"scene file not found: {path}")
-    base = os.path.dirname(os.path.abspath(path))
     try:
         with open(path, "rb") as f:
             if path.endswith(".json"):
@@ -146,6 +168,64 @@ def load_scene(path):
                 data = tomllib.load(f)
     except (tomllib.TOMLDecodeError, json.JSONDecodeError) as e:
         raise SceneFileError(f"{path}: cannot parse: {e}") from None
+    return _load(data, os.path.dirname(os.path.abspath(path)), path)
+
+
+def load_dict(spec, *, base_dir=None):
+    """Build a :class:`pyrt.Scene` from a dict with the structure of a scene file.
+
+    The keys are the tables of a scene file (this module's docstring): ``camera``, ``render``,
+    ``materials`` (name -> ``{"type": ..., parameters}``), ``meshes`` and ``lights`` (lists of dicts),
+    ``environment``. Types are looked up in the family registries (``pyrt.materials.REGISTRY``,
+    ``pyrt.lights.REGISTRY``, ``pyrt.lights.environment.REGISTRY``, textures through
+    :func:`pyrt.textures.texture_from_dict`). Values may be lists, tuples or arrays. ``spec`` is not
+    modified.
+
+    Parameters
+    ----------
+    spec : dict
+        The scene description.
+    base_dir : str or os.PathLike, optional
+        Folder that relative paths in ``spec`` (mesh files, texture images, light images and profiles,
+        environment maps) are resolved against. Default: the current working directory at the call.
+
+    Returns
+    -------
+    scene : pyrt.Scene
+    render_options : dict
+        The ``render`` keys that are arguments of :func:`pyrt.render` (max_depth, seed,
+        throughput_cutoff, offset).
+
+    Raises
+    ------
+    SceneFileError
+        An unknown key or type, a missing required key, a file not found or a parameter refused by its
+        constructor; the message names the table and key (``[materials.red]``, ``[[meshes]] #0`` ...).
+
+    See Also
+    --------
+    load_scene : the same from a TOML or JSON file.
+
+    Examples
+    --------
+    >>> import pyrt
+    >>> scene, options = pyrt.load_dict({
+    ...     "camera": {"position": [0, 1, 4], "target": [0, 0.5, 0], "width": 64, "height": 48},
+    ...     "render": {"seed": 1},
+    ...     "materials": {"red": {"type": "lambert", "albedo": [0.8, 0.2, 0.2]}},
+    ...     "meshes": [{"primitive": "sphere", "radius": 0.5, "translate": [0, 0.5, 0], "material": "red"}],
+    ...     "lights": [{"type": "point", "position": [2, 3, 2], "intensity": 20.0}],
+    ... })
+    >>> image = pyrt.render(scene, spp=1, **options)
+    >>> image.shape
+    (48, 64, 3)
+    """
+    base = os.path.abspath(os.fspath(base_dir) if base_dir is not None else os.getcwd())
+    return _load(spec, base, "scene dict")
+
+
+def _load(data, base, path):
+    """:func:`load_dict` with the label ``path`` that starts every error message."""
     _check_keys("the top level", data, _TOP_KEYS, path)
     cam_t = data.get("camera", {})
     _check_keys("[camera]", cam_t, _CAMERA_KEYS, path)
@@ -176,6 +256,8 @@ def load_scene(path):
         if not isinstance(spec, dict):
             raise SceneFileError(f"{path}: {where} must be a table")
         prim = spec.get("primitive")
+        if prim is not None and (not isinstance(prim, str) or prim not in _PRIMITIVE_KEYS):
+            raise SceneFileError(f"{path}: {where}: unknown primitive {prim!r}; choose one of {sorted(_PRIMITIVE_KEYS)}")
         allowed = _MESH_COMMON | _PRIMITIVE_KEYS.get(prim, set())
         _check_keys(where, spec, allowed, path)
         if ("file" in spec) == (prim is not None):
@@ -224,7 +306,7 @@ def load_scene(path):
 def _load_environment(spec, scene, base, path):
     """The ``[environment]`` table -> ``scene.environment`` (+ an EnvironmentLight unless lighting = false)."""
     where = "[environment]"
-    if not isinstance(spec, dict) or spec.get("type") not in _ENV_KEYS:
+    if not isinstance(spec, dict) or not isinstance(spec.get("type"), str) or spec["type"] not in _ENV_KEYS:
         raise SceneFileError(f"{path}: {where} needs a 'type' (one of {sorted(_ENV_KEYS)})")
     kind = spec["type"]
     _check_keys(where, spec, _ENV_COMMON | _ENV_KEYS[kind], path)
@@ -239,18 +321,18 @@ def _load_environment(spec, scene, base, path):
 
     common = {k: spec[k] for k in ("intensity", "rotate", "hide_background", "background", "name") if k in spec}
     if kind == "constant":
-        env = _construct(_env.ConstantEnvironment, {"color": spec.get("color", 1.0), **common}, where, path)
+        env = _construct(_env.REGISTRY["constant"], {"color": spec.get("color", 1.0), **common}, where, path)
     elif kind == "latlong":
         if "file" not in spec:
             raise SceneFileError(f"{path}: {where}: type 'latlong' needs 'file'")
-        env = _construct(_env.LatLongEnvironment, {"image": rel(spec["file"]), **common,
+        env = _construct(_env.REGISTRY["latlong"], {"image": rel(spec["file"]), **common,
                                                    **({"filter": spec["filter"]} if "filter" in spec else {})},
                          where, path)
     elif kind == "cube":
         if ("file" in spec) == ("faces" in spec):
             raise SceneFileError(f"{path}: {where}: type 'cube' needs exactly one of 'file' (cross) or 'faces'")
         faces = rel(spec["file"]) if "file" in spec else [rel(f) for f in spec["faces"]]
-        env = _construct(_env.CubeMapEnvironment, {"faces": faces, **common,
+        env = _construct(_env.REGISTRY["cube"], {"faces": faces, **common,
                                                    **({"filter": spec["filter"]} if "filter" in spec else {})},
                          where, path)
     else:
@@ -259,7 +341,7 @@ def _load_environment(spec, scene, base, path):
             img = _env.procedural_sky(**sky_kw)
         except (TypeError, ValueError) as e:
             raise SceneFileError(f"{path}: {where}: {e}") from None
-        env = _construct(_env.LatLongEnvironment, {"image": img, **common,
+        env = _construct(_env.REGISTRY["latlong"], {"image": img, **common,
                                                    **({"filter": spec["filter"]} if "filter" in spec else {})},
                          where, path)
     lighting = spec.get("lighting", "mis")
