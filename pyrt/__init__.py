@@ -24,8 +24,8 @@ from pyrt.lights.environment import (ConstantEnvironment, CubeMapEnvironment, En
 from pyrt.lights.area import AreaEmitter, DiskLight, RectLight, SphereLight
 from pyrt.core.image_io import read_exr, write_exr, write_png, tonemap_to_display
 from pyrt.io.scene_file import SceneFileError, load_scene
-from pyrt.textures.texture import (CheckerTexture, ConstantTexture, FbmTexture, ImageTexture, NoiseTexture, NormalMap,
-                       PerlinTexture, Texture, TextureError, VoronoiTexture, perturb_normal)
+from pyrt.textures import (CheckerTexture, ConstantTexture, FbmTexture, ImageTexture, NoiseTexture, NormalMap,
+                           PerlinTexture, Texture, TextureError, VoronoiTexture, perturb_normal)
 
 __all__ = [
     "Error", "Camera", "CameraError", "GeometryError", "RenderResult", "RenderStats", "render", "render_full",

@@ -1,4 +1,4 @@
-"""Tests for shaders/textures.py and pyrt/textures.py (no renderer needed).
+"""Tests for shaders/textures.py and the pyrt.textures package (no renderer needed).
 
 Ground truths: exact texel values for wrap modes and UV orientation; exact box averages for MIP
 levels; the analytic pixel footprint of a pinhole camera on a tilted plane for level selection;
@@ -6,14 +6,14 @@ a 256-spp supersampled bilinear reference of an analytically ray-traced grazing 
 filter-quality bounds.
 """
 import os
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
+from pyrt.geometry import SurfaceBatch
 from pyrt.shaders import color
 from pyrt.shaders import textures as K
-from pyrt.textures import texture as T
+from pyrt import textures as T
 
 
 @pytest.fixture
@@ -22,11 +22,12 @@ def rng():
 
 
 def ctx_of(uv, duvdx=None, duvdy=None, **kw):
+    """A :class:`pyrt.geometry.SurfaceBatch` at ``uv`` (hit points at the origin unless ``p`` is given)."""
     uv = np.asarray(uv, dtype=np.float64)
     n = len(uv)
     z = np.zeros((n, 2))
-    return SimpleNamespace(n_hits=n, uv=uv, duvdx=z if duvdx is None else duvdx,
-                           duvdy=z if duvdy is None else duvdy, **kw)
+    kw.setdefault("p", np.zeros((n, 3)))
+    return SurfaceBatch(uv=uv, duvdx=z if duvdx is None else duvdx, duvdy=z if duvdy is None else duvdy, **kw)
 
 
 # ----------------------------------------------------------------------------- wrap / orientation
@@ -524,8 +525,7 @@ def test_checker_texture_object_space():
     tex = T.CheckerTexture(0.0, 1.0, scale=1.0, space="object")
     p = np.array([[0.5, 0.5, 0.5], [1.5, 0.5, 0.5], [1.5, 1.5, 0.5]])
     n = len(p)
-    ctx = SimpleNamespace(n_hits=n, uv=np.zeros((n, 2)), p_object=p, duvdx=np.zeros((n, 2)),
-                          duvdy=np.zeros((n, 2)), dpdu=np.zeros((n, 3)), dpdv=np.zeros((n, 3)))
+    ctx = ctx_of(np.zeros((n, 2)), p=p, p_object=p, dpdu=np.zeros((n, 3)), dpdv=np.zeros((n, 3)))
     np.testing.assert_array_equal(tex.evaluate(ctx)[:, 0], [0, 1, 0])
 
 

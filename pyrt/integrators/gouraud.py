@@ -62,7 +62,7 @@ def direct_light(integrator, surf, origins, rng):
     (:class:`pyrt.integrators.Integrator`); ``origins`` (N, 3) are the rays' origins (the viewer).
     """
     from pyrt.integrators.whitted import BSDFBatch
-    from pyrt.textures.texture import apply_normal_maps
+    from pyrt.textures import apply_normal_maps
 
     ps = integrator.ps
     hits, o, d = vertex_rays(ps.geo, surf, origins)

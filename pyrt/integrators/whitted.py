@@ -32,7 +32,7 @@ from pyrt.geometry.surface import refract_differentials, reflect_differentials, 
 from pyrt.integrators import gouraud
 from pyrt.integrators.media import NestedMedia
 from pyrt.materials.library import CosineQuery
-from pyrt.textures.texture import apply_normal_maps
+from pyrt.textures import apply_normal_maps
 from pyrt.shaders.vec import dot, max_component, put_rows, take_rows, to_float32
 
 

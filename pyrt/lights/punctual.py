@@ -456,7 +456,7 @@ class DirectionalLight(Light):
 
 def _image_texture(owner, image, wrap, srgb):
     """An :class:`pyrt.textures.ImageTexture` (bilinear, no MIP) from a path, an array or a texture."""
-    from pyrt.textures.texture import ImageTexture, TextureError
+    from pyrt.textures import ImageTexture, TextureError
 
     if isinstance(image, ImageTexture):
         return image
