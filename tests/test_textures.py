@@ -447,6 +447,36 @@ def test_exr_is_linear_float(tmp_path, rng):
     np.testing.assert_array_equal(tex.image, img)
 
 
+def _write_exr_channels(path, channels):
+    import OpenEXR
+
+    with OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
+                      {k: np.ascontiguousarray(v) for k, v in channels.items()}) as f:
+        f.write(str(path))
+
+
+def test_exr_channel_layouts_load_as_stored(tmp_path, rng):
+    """pyrt.read_exr(layout="stored") is the texture loader's EXR reader: RGBA, Y, one channel, one layer,
+    mixed pixel types; alpha is dropped by the texture, not the reader."""
+    from pyrt.core.image_io import read_exr
+
+    r, g, b, a = (rng.uniform(0, 4, (3, 5)).astype(np.float32) for _ in range(4))
+    _write_exr_channels(tmp_path / "rgba.exr", {"R": r, "G": g, "B": b, "A": a.astype(np.float16)})
+    np.testing.assert_array_equal(read_exr(tmp_path / "rgba.exr", layout="stored"),
+                                  np.stack([r, g, b, a.astype(np.float16).astype(np.float32)], axis=-1))
+    np.testing.assert_array_equal(T.ImageTexture(tmp_path / "rgba.exr").image, np.stack([r, g, b], axis=-1))
+    np.testing.assert_array_equal(read_exr(tmp_path / "rgba.exr"), np.stack([r, g, b], axis=-1))
+    _write_exr_channels(tmp_path / "ya.exr", {"Y": r, "A": a})
+    np.testing.assert_array_equal(T.ImageTexture(tmp_path / "ya.exr").image[..., 0], r)
+    _write_exr_channels(tmp_path / "z.exr", {"Z": g})
+    np.testing.assert_array_equal(T.ImageTexture(tmp_path / "z.exr").image[..., 0], g)
+    _write_exr_channels(tmp_path / "layer.exr", {"diffuse.R": r, "diffuse.G": g, "diffuse.B": b})
+    np.testing.assert_array_equal(T.ImageTexture(tmp_path / "layer.exr").image, np.stack([r, g, b], axis=-1))
+    _write_exr_channels(tmp_path / "xq.exr", {"X": r, "Q": g})
+    with pytest.raises(T.TextureError, match=r"xq.exr.*not RGB\(A\), Y or a single channel"):
+        T.ImageTexture(tmp_path / "xq.exr")
+
+
 def test_missing_file_error_names_the_file(tmp_path):
     path = tmp_path / "nope.png"
     with pytest.raises(T.TextureError, match="nope.png"):

@@ -11,6 +11,6 @@ from pyrt.textures.image import FILTERS, ImageTexture, MipPyramid, load_image
 from pyrt.textures.normal_map import NormalMap, apply_normal_maps, flat_normal_map, perturb_normal
 from pyrt.textures.procedural import CheckerTexture, FbmTexture, NoiseTexture, PerlinTexture, VoronoiTexture
 
-__all__ = ["FILTERS", "TEXTURES", "CheckerTexture", "ConstantTexture", "FbmTexture", "ImageTexture", "MipPyramid", "NoiseTexture",
-           "NormalMap", "PerlinTexture", "Texture", "TextureError", "VoronoiTexture", "apply_normal_maps",
-           "flat_normal_map", "is_texture", "load_image", "perturb_normal", "texture_from_dict"]
+__all__ = ["FILTERS", "TEXTURES", "CheckerTexture", "ConstantTexture", "FbmTexture", "ImageTexture", "MipPyramid",
+           "NoiseTexture", "NormalMap", "PerlinTexture", "Texture", "TextureError", "VoronoiTexture",
+           "apply_normal_maps", "flat_normal_map", "is_texture", "load_image", "perturb_normal", "texture_from_dict"]

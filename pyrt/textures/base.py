@@ -21,11 +21,18 @@ class TextureError(Error, ValueError):
 class Texture:
     """Base class of every texture: ``evaluate(ctx) -> (N, C)`` float64, ``C = channels``.
 
-    What ``ctx`` provides
-    ---------------------
-    ``ctx`` is a :class:`pyrt.geometry.SurfaceBatch` (or a subset of one) for N hits. A texture reads only
-    the fields it needs; every field is always an attribute of the batch, ``None`` where the batch was built
-    without it:
+    Attributes
+    ----------
+    channels : int
+        Number of channels C of :meth:`evaluate`'s output: 1 (grey / data) or 3 (RGB).
+    type_name : str or None
+        Registry name used by scene files; set by ``TEXTURES.register``.
+
+    Notes
+    -----
+    What ``ctx`` provides: ``ctx`` is a :class:`pyrt.geometry.SurfaceBatch` (or a subset of one) for N
+    hits. A texture reads only the fields it needs; every field is always an attribute of the batch,
+    ``None`` where the batch was built without it:
 
     - ``n_hits`` : int, N.
     - ``uv`` : (N, 2) float64, mesh UVs (``(0, 0)`` = bottom-left of an image, ``v`` up).
