@@ -27,7 +27,7 @@ from pyrt.core.image_io import read_exr, write_exr, write_png, tonemap_to_displa
 from pyrt.io.scene_file import SceneFileError, load_scene
 from pyrt.io.scene_file import load_dict
 from pyrt.io.assets import AssetError, load_asset
-from pyrt.textures.texture import (CheckerTexture, ConstantTexture, FbmTexture, ImageTexture, NoiseTexture, NormalMap,
+from pyrt.textures import (CheckerTexture, ConstantTexture, FbmTexture, ImageTexture, NoiseTexture, NormalMap,
                        PerlinTexture, Texture, TextureError, VoronoiTexture, perturb_normal)
 
 __all__ = [

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import pyrt
-from pyrt.textures import texture as T
+from pyrt import textures as T
 from pyrt.shaders import textures as K
 
 

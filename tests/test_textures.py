@@ -1,4 +1,4 @@
-"""Tests for shaders/textures.py and pyrt/textures.py (no renderer needed).
+"""Tests for shaders/textures.py and the pyrt.textures package (no renderer needed).
 
 Ground truths: exact texel values for wrap modes and UV orientation; exact box averages for MIP
 levels; the analytic pixel footprint of a pinhole camera on a tilted plane for level selection;
@@ -6,14 +6,14 @@ a 256-spp supersampled bilinear reference of an analytically ray-traced grazing 
 filter-quality bounds.
 """
 import os
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
+from pyrt.geometry import SurfaceBatch
 from pyrt.shaders import color
 from pyrt.shaders import textures as K
-from pyrt.textures import texture as T
+from pyrt import textures as T
 
 
 @pytest.fixture
@@ -22,11 +22,12 @@ def rng():
 
 
 def ctx_of(uv, duvdx=None, duvdy=None, **kw):
+    """A :class:`pyrt.geometry.SurfaceBatch` at ``uv`` (hit points at the origin unless ``p`` is given)."""
     uv = np.asarray(uv, dtype=np.float64)
     n = len(uv)
     z = np.zeros((n, 2))
-    return SimpleNamespace(n_hits=n, uv=uv, duvdx=z if duvdx is None else duvdx,
-                           duvdy=z if duvdy is None else duvdy, **kw)
+    kw.setdefault("p", np.zeros((n, 3)))
+    return SurfaceBatch(uv=uv, duvdx=z if duvdx is None else duvdx, duvdy=z if duvdy is None else duvdy, **kw)
 
 
 # ----------------------------------------------------------------------------- wrap / orientation
@@ -446,6 +447,36 @@ def test_exr_is_linear_float(tmp_path, rng):
     np.testing.assert_array_equal(tex.image, img)
 
 
+def _write_exr_channels(path, channels):
+    import OpenEXR
+
+    with OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
+                      {k: np.ascontiguousarray(v) for k, v in channels.items()}) as f:
+        f.write(str(path))
+
+
+def test_exr_channel_layouts_load_as_stored(tmp_path, rng):
+    """pyrt.read_exr(layout="stored") is the texture loader's EXR reader: RGBA, Y, one channel, one layer,
+    mixed pixel types; alpha is dropped by the texture, not the reader."""
+    from pyrt.core.image_io import read_exr
+
+    r, g, b, a = (rng.uniform(0, 4, (3, 5)).astype(np.float32) for _ in range(4))
+    _write_exr_channels(tmp_path / "rgba.exr", {"R": r, "G": g, "B": b, "A": a.astype(np.float16)})
+    np.testing.assert_array_equal(read_exr(tmp_path / "rgba.exr", layout="stored"),
+                                  np.stack([r, g, b, a.astype(np.float16).astype(np.float32)], axis=-1))
+    np.testing.assert_array_equal(T.ImageTexture(tmp_path / "rgba.exr").image, np.stack([r, g, b], axis=-1))
+    np.testing.assert_array_equal(read_exr(tmp_path / "rgba.exr"), np.stack([r, g, b], axis=-1))
+    _write_exr_channels(tmp_path / "ya.exr", {"Y": r, "A": a})
+    np.testing.assert_array_equal(T.ImageTexture(tmp_path / "ya.exr").image[..., 0], r)
+    _write_exr_channels(tmp_path / "z.exr", {"Z": g})
+    np.testing.assert_array_equal(T.ImageTexture(tmp_path / "z.exr").image[..., 0], g)
+    _write_exr_channels(tmp_path / "layer.exr", {"diffuse.R": r, "diffuse.G": g, "diffuse.B": b})
+    np.testing.assert_array_equal(T.ImageTexture(tmp_path / "layer.exr").image, np.stack([r, g, b], axis=-1))
+    _write_exr_channels(tmp_path / "xq.exr", {"X": r, "Q": g})
+    with pytest.raises(T.TextureError, match=r"xq.exr.*not RGB\(A\), Y or a single channel"):
+        T.ImageTexture(tmp_path / "xq.exr")
+
+
 def test_missing_file_error_names_the_file(tmp_path):
     path = tmp_path / "nope.png"
     with pytest.raises(T.TextureError, match="nope.png"):
@@ -524,8 +555,7 @@ def test_checker_texture_object_space():
     tex = T.CheckerTexture(0.0, 1.0, scale=1.0, space="object")
     p = np.array([[0.5, 0.5, 0.5], [1.5, 0.5, 0.5], [1.5, 1.5, 0.5]])
     n = len(p)
-    ctx = SimpleNamespace(n_hits=n, uv=np.zeros((n, 2)), p_object=p, duvdx=np.zeros((n, 2)),
-                          duvdy=np.zeros((n, 2)), dpdu=np.zeros((n, 3)), dpdv=np.zeros((n, 3)))
+    ctx = ctx_of(np.zeros((n, 2)), p=p, p_object=p, dpdu=np.zeros((n, 3)), dpdv=np.zeros((n, 3)))
     np.testing.assert_array_equal(tex.evaluate(ctx)[:, 0], [0, 1, 0])
 
 

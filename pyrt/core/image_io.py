@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+import warnings
 
 import numpy as np
 import OpenEXR
@@ -45,21 +46,133 @@ def write_exr(path, image, *, aovs=None, half=False):
         f.write(str(path))
 
 
-def read_exr(path):
-    """Read an EXR file; returns ``(H, W, 3) float32`` RGB (plus nothing else). Errors name the file."""
+def _exr_float32(pixels):
+    """One EXR channel as float32: half and float exactly; UINT through float64 (exact), rounded once."""
+    a = np.asarray(pixels)
+    if not np.issubdtype(a.dtype, np.floating):
+        a = a.astype(np.float64)
+    return a.astype(np.float32)
+
+
+def _exr_stored_channels(chans):
+    """Names of the colour channels of an EXR file as stored, or None: R, G, B[, A], Y, or the one channel.
+
+    A file whose channels all sit in one layer (``diffuse.R``, ``diffuse.G``, ``diffuse.B``[, ``.A``]) counts as
+    that layer's RGB(A).
+    """
+    layers = {k.rpartition(".")[0] for k in chans}
+    prefix = layers.pop() + "." if len(layers) == 1 and "" not in layers else ""
+    rgba = [prefix + c for c in "RGBA"]
+    if all(c in chans for c in rgba):
+        return rgba
+    if all(c in chans for c in rgba[:3]) and (not prefix or len(chans) == 3):
+        return rgba[:3]
+    if "Y" in chans:
+        return ["Y"]
+    if len(chans) == 1:
+        return list(chans)
+    return None
+
+
+def read_exr(path, *, layout="rgb"):
+    """Read an OpenEXR file as float32. Errors name the file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+    layout : {"rgb", "stored"}
+        ``"rgb"`` (default): RGB, a luminance-only (``Y``) file repeated to grey. ``"stored"``: the colour
+        channels as stored (image textures): R, G, B and A if all four exist, else R, G, B, else ``Y``, else
+        the file's only channel whatever its name; a file whose channels all sit in one layer
+        (``diffuse.R`` ...) counts as that layer's RGB(A).
+
+    Returns
+    -------
+    (H, W, 3) float32 ndarray, or with ``layout="stored"`` (H, W, 4), (H, W, 3) or (H, W) float32 ndarray
+        Half and float channels exactly; UINT channels rounded to float32.
+
+    Raises
+    ------
+    FileNotFoundError
+        No such file.
+    OSError
+        OpenEXR cannot read the file.
+    ValueError
+        The file has none of the channels ``layout`` asks for.
+    """
+    if layout not in ("rgb", "stored"):
+        raise ValueError(f"read_exr: layout must be 'rgb' or 'stored', got {layout!r}")
     if not os.path.exists(path):
         raise FileNotFoundError(f"EXR file not found: {path}")
     try:
         with OpenEXR.File(str(path), separate_channels=True) as f:
             chans = f.channels()
+            if layout == "stored":
+                names = _exr_stored_channels(chans)
+                if names is None:
+                    raise ValueError(f"{path}: EXR channels {sorted(chans)} are not RGB(A), Y or a single channel")
+                if len(names) == 1:
+                    return _exr_float32(chans[names[0]].pixels)
+                return np.stack([_exr_float32(chans[c].pixels) for c in names], axis=-1)
             if all(c in chans for c in "RGB"):
-                return np.stack([np.asarray(chans[c].pixels, dtype=np.float32) for c in "RGB"], axis=-1)
+                return np.stack([_exr_float32(chans[c].pixels) for c in "RGB"], axis=-1)
             if "Y" in chans:
-                y = np.asarray(chans["Y"].pixels, dtype=np.float32)
+                y = _exr_float32(chans["Y"].pixels)
                 return np.repeat(y[..., None], 3, axis=-1)
             raise ValueError(f"{path}: no R, G, B (or Y) channels; found {sorted(chans)}")
     except (OSError, RuntimeError) as e:
         raise OSError(f"cannot read EXR file {path}: {e}") from e
+
+
+def read_image(path):
+    """Read an image file in its stored encoding (no colour decoding, no scaling).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        EXR (:func:`read_exr` with ``layout="stored"``); PNG, JPEG, TIFF, ... through ``skimage.io``, except
+        16-bit colour PNGs, which Pillow (behind ``skimage.io``) truncates to 8 bits: those are read exactly
+        with pypng (pure Python, ~1 s per megapixel).
+
+    Returns
+    -------
+    (H, W) or (H, W, C) ndarray
+        float32 for EXR; the decoder's dtype otherwise (uint8, uint16, bool or float).
+
+    Raises
+    ------
+    Exception
+        Whatever the decoder raises for a missing or unreadable file (callers name the file).
+    """
+    path = os.fspath(path)
+    ext = os.path.splitext(path)[1].lower()
+    if ext == ".exr":
+        return read_exr(path, layout="stored")
+    if ext == ".png" and _png_is_16bit_colour(path):
+        return _read_png16(path)
+    from skimage import io as skio
+
+    with warnings.catch_warnings():  # imageio's plugin probing warns on undecodable files
+        warnings.simplefilter("ignore", DeprecationWarning)
+        return np.asarray(skio.imread(path))
+
+
+def _png_is_16bit_colour(path):
+    """True for a 16-bit PNG with colour or alpha (IHDR bit depth 16, colour type 2, 4 or 6); 16-bit grey is fine."""
+    with open(path, "rb") as f:
+        head = f.read(26)
+    return len(head) == 26 and head[:8] == b"\x89PNG\r\n\x1a\n" and head[24] == 16 and head[25] in (2, 4, 6)
+
+
+def _read_png16(path):
+    """A 16-bit colour PNG as (H, W, C) uint16, exactly, with pypng."""
+    import png
+
+    width, height, rows, info = png.Reader(filename=path).asDirect()
+    planes = info["planes"]
+    img = np.vstack([np.asarray(row, dtype=np.uint16) for row in rows])
+    return img.reshape(height, width, planes)
 
 
 def tonemap_to_display(image, *, tonemap_op="reinhard", exposure=0.0, L_white=None):

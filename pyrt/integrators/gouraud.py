@@ -23,7 +23,7 @@ from pyrt.geometry.accel import Hits
 from pyrt.geometry.surface import surface_from_hits
 from pyrt.integrators import direct
 from pyrt.materials.dispatch import BSDFBatch
-from pyrt.textures.texture import apply_normal_maps
+from pyrt.textures import apply_normal_maps
 
 #: barycentrics (u, v) of the three vertices: hit = (1-u-v) v0 + u v1 + v v2
 _VERTEX_UV = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])

@@ -30,7 +30,7 @@ from pyrt.integrators import direct
 from pyrt.integrators import gouraud
 from pyrt.integrators.prepared import RenderStats
 from pyrt.materials.dispatch import BSDFBatch
-from pyrt.textures.texture import apply_normal_maps
+from pyrt.textures import apply_normal_maps
 from pyrt.shaders.vec import dot, max_component, put_rows, take_rows
 
 

@@ -72,7 +72,7 @@ from pyrt.shaders import color as _color
 from pyrt.core.camera import Camera
 from pyrt.lights.punctual import DirectionalLight, PointLight, SpotLight
 from pyrt.materials import BlinnPhong, Glass
-from pyrt.textures.texture import ImageTexture, NormalMap, Texture, TextureError, load_image
+from pyrt.textures import ImageTexture, NormalMap, Texture, TextureError, load_image
 from pyrt.core.errors import Error
 
 try:  # the glTF metallic-roughness BRDF (material library, issue 3)

@@ -8,7 +8,7 @@ Format (every key optional unless marked; unknown keys are errors naming the tab
     [materials.NAME]    # type = "lambert" | "blinn_phong" | "mirror" | "glass" | ... ; the rest are the
                         # material constructor's keyword arguments (validated by it); a parameter
                         # may be a texture table, e.g. albedo = {type = "image", path = "wood.png"}
-                        # (types in pyrt.textures.TEXTURE_TYPES, paths relative to the scene file);
+                        # (types in pyrt.textures.TEXTURES, paths relative to the scene file);
                         # normal_map = "normals.png" or {type = "normal_map", path = ..., strength = ...}
     [[meshes]]          # file = "path" (relative to the scene file) OR primitive = "sphere" | "box" |
                         # "plane" | "cylinder"; material = NAME (required); transform: translate, rotate

@@ -1,0 +1,286 @@
+"""Image textures: file loading for textures, lazy MIP pyramids, :class:`ImageTexture`.
+
+Conventions (the kernels in :mod:`pyrt.shaders.textures` document the maths)
+----------------------------------------------------------------------------
+- **UV orientation**: ``uv = (0, 0)`` is the bottom-left of the image, ``v`` up (OBJ / trimesh);
+  image row 0 is the top, so texel row = ``(1 - v) H``. glTF's ``(0, 0)`` is top-left: flip v.
+- **Colour**: 8/16-bit PNG/JPEG images are sRGB-encoded and are linearised on load when
+  ``srgb`` is true (the default for integer images); EXR and float arrays are linear (default
+  ``srgb=False``). Data textures (roughness, metallic, normal maps) must pass ``srgb=False``.
+  Alpha channels are dropped (RGBA -> RGB, grey+alpha -> grey).
+- **Wrap**: ``"repeat" | "mirror" | "clamp"``, one name or a ``(u, v)`` pair.
+- **Filters**: ``"nearest" | "bilinear" | "bicubic"`` (reconstruction on the full-resolution
+  image, footprint ignored) and ``"trilinear" | "anisotropic"`` (MIP-mapped, level from the ray
+  differential footprint; anisotropic = EWA, max anisotropy 8). Default ``"trilinear"``.
+- **Lazy MIP maps**: a pyramid level is built the first time a lookup with a non-zero weight on
+  it happens, i.e. only for textures that are minified (footprint > 1 texel) and only for the
+  levels that are read; ``ImageTexture.mip_levels_built`` lists them.
+"""
+from __future__ import annotations
+
+import os
+import threading
+
+import numpy as np
+
+from pyrt.core.image_io import read_image
+from pyrt.shaders import color as _color
+from pyrt.shaders import textures as _tex
+from pyrt.textures.base import TEXTURES, Texture, TextureError, footprints
+
+
+# ----------------------------------------------------------------------------- image loading
+
+def load_image(path):
+    """Read an image file as ``(H, W, C)`` float32 in its stored encoding, and whether it was integer.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        PNG/JPEG/TIFF (8 or 16 bit) or EXR, read by :func:`pyrt.core.image_io.read_image`.
+
+    Returns
+    -------
+    image : (H, W) or (H, W, C) float32 ndarray
+        Integer images divided by 255 or 65535 (still sRGB-encoded); EXR as stored (half/float channels
+        R, G, B[, A] or Y, or a single channel).
+    is_integer : bool
+        True for 8/16-bit (and 1-bit) images: their default is ``srgb=True``.
+
+    Raises
+    ------
+    TextureError
+        Naming the file when it is missing, unreadable or of an unsupported pixel type.
+    """
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise TextureError(f"texture file not found: {path!r}")
+    try:
+        img = read_image(path)
+    except Exception as exc:  # any decoder failure: say which file
+        raise TextureError(f"cannot read texture file {path!r}: {type(exc).__name__}: {exc}") from exc
+    img = np.asarray(img)
+    if img.dtype == np.uint8:
+        return (img.astype(np.float32) / 255.0), True
+    if img.dtype == np.uint16:
+        return (img.astype(np.float32) / 65535.0), True
+    if img.dtype == bool:
+        return img.astype(np.float32), True
+    if np.issubdtype(img.dtype, np.floating):
+        return img.astype(np.float32), False
+    raise TextureError(f"texture file {path!r}: unsupported pixel type {img.dtype}")
+
+
+def prepare_image(img, *, label, srgb, channels, select):
+    """Shape to (H, W, C), drop alpha, select/check channels, decode sRGB, check finiteness.
+
+    Returns
+    -------
+    (H, W, C) float32 ndarray, C-contiguous, linear.
+    """
+    img = np.asarray(img)
+    if img.ndim == 2:
+        img = img[:, :, None]
+    if img.ndim != 3 or img.shape[0] < 1 or img.shape[1] < 1:
+        raise TextureError(f"texture {label}: expected an (H, W) or (H, W, C) image, got shape {img.shape}")
+    c = img.shape[2]
+    if select is not None:
+        if not 0 <= select < c:
+            raise TextureError(f"texture {label}: select={select} but the image has {c} channel(s)")
+        img = img[:, :, select:select + 1]
+    elif c == 2:
+        img = img[:, :, :1]
+    elif c == 4:
+        img = img[:, :, :3]
+    elif c not in (1, 3):
+        raise TextureError(f"texture {label}: has {c} channels; expected 1 (grey), 2 (grey+alpha), 3 (RGB) or 4 (RGBA)")
+    if channels is not None and img.shape[2] != channels:
+        hint = "; pass select=k to use one channel" if channels == 1 else ""
+        raise TextureError(f"texture {label}: has {img.shape[2]} channel(s), expected {channels}{hint}")
+    img = np.ascontiguousarray(img, dtype=np.float32)
+    bad = ~np.isfinite(img)
+    if np.any(bad):
+        r, col, ch = np.argwhere(bad)[0]
+        raise TextureError(f"texture {label}: {int(bad.sum())} non-finite texel value(s), first at row {r}, "
+                           f"column {col}, channel {ch} ({img[r, col, ch]})")
+    if srgb:
+        img = _color.srgb_decode(img)
+    return img
+
+
+# ----------------------------------------------------------------------------- MIP pyramid
+
+class MipPyramid:
+    """Sequence view of a MIP pyramid whose levels are built on first access.
+
+    ``pyramid[l]`` builds level ``l`` from level 0 (:func:`pyrt.shaders.textures.build_mip_level`, an
+    exact box filter) the first time it is indexed and caches it (under a lock: render threads
+    share textures); ``built`` lists the levels > 0 that exist. ``len(pyramid)`` is the full
+    level count.
+
+    Parameters
+    ----------
+    base : (H, W, C) float32 ndarray
+        Level 0.
+    """
+
+    def __init__(self, base):
+        self._levels = [base] + [None] * (_tex.n_mip_levels(base.shape) - 1)
+        self._lock = threading.Lock()  # the renderer shades chunks on several threads
+
+    def __len__(self):
+        return len(self._levels)
+
+    def __getitem__(self, level):
+        level = int(level)
+        if level < 0:
+            level += len(self._levels)
+        if self._levels[level] is None:
+            with self._lock:
+                if self._levels[level] is None:
+                    self._levels[level] = _tex.build_mip_level(self._levels[0], level)
+        return self._levels[level]
+
+    @property
+    def built(self):
+        """Indices (> 0) of the levels built so far, ascending."""
+        return [i for i, lev in enumerate(self._levels) if i > 0 and lev is not None]
+
+
+# ----------------------------------------------------------------------------- image texture
+
+FILTERS = _tex.RECONSTRUCTION_FILTERS + _tex.FOOTPRINT_FILTERS
+
+
+@TEXTURES.register("image")
+class ImageTexture(Texture):
+    """Image texture from a file (PNG/JPEG 8/16-bit, EXR) or an array.
+
+    Parameters
+    ----------
+    source : str, os.PathLike or (H, W[, C]) array
+        File name or image array (row 0 = top). Integer arrays are divided by their dtype max.
+    srgb : bool, optional
+        Decode the sRGB transfer curve on load. Default: True for 8/16-bit images (colour
+        textures), False for EXR and float arrays. Pass False for data textures.
+    wrap : str or (str, str)
+        ``"repeat"``, ``"mirror"`` or ``"clamp"`` (per axis as a ``(u, v)`` pair).
+    filter : str
+        ``"nearest"``, ``"bilinear"``, ``"bicubic"``, ``"trilinear"`` (default) or ``"anisotropic"``.
+    scale, offset : (2,) float
+        UV transform ``uv' = R(rotation) (scale * uv) + offset``.
+    rotation_deg : float
+        Counter-clockwise UV rotation in degrees.
+    channels : {None, 1, 3}
+        Required channel count after alpha is dropped (error naming the file otherwise).
+    select : int, optional
+        Use only this channel of the file (e.g. 1 = G of a glTF metallic-roughness map).
+    footprint_scale : float, optional
+        Filter width in pixel steps for the footprint filters (1 = one-pixel box; pbrt-v4 uses 2).
+        Default: 1 for trilinear, 1.5 for anisotropic (``shaders.textures.DEFAULT_FOOTPRINT_SCALE``).
+    max_anisotropy : float
+        Anisotropic filter: largest major/minor axis ratio (pbrt-v4: 8).
+    name : str, optional
+        Label for messages (arrays have no file name).
+    """
+
+    def __init__(self, source, *, srgb=None, wrap="repeat", filter="trilinear", scale=(1.0, 1.0),
+                 offset=(0.0, 0.0), rotation_deg=0.0, channels=None, select=None, footprint_scale=None,
+                 max_anisotropy=8.0, name=None):
+        if isinstance(source, (str, os.PathLike)):
+            self.path = os.fspath(source)
+            label = repr(self.path)
+            img, is_int = load_image(self.path)
+        else:
+            self.path = None
+            label = name or "<array>"
+            img = np.asarray(source)
+            is_int = np.issubdtype(img.dtype, np.integer)
+            if is_int:
+                img = img.astype(np.float64) / np.iinfo(img.dtype).max
+            elif not np.issubdtype(img.dtype, np.floating):
+                raise TextureError(f"texture {label}: unsupported array dtype {img.dtype}")
+        self.name = name
+        self.srgb = bool(is_int) if srgb is None else bool(srgb)
+        if filter not in FILTERS:
+            raise TextureError(f"texture {label}: filter must be one of {FILTERS}, got {filter!r}")
+        try:
+            self.wrap = _tex.check_wrap(wrap)
+        except ValueError as exc:
+            raise TextureError(f"texture {label}: {exc}") from None
+        self.filter = filter
+        self.scale = tuple(float(s) for s in np.broadcast_to(np.asarray(scale, dtype=np.float64), (2,)))
+        self.offset = tuple(float(s) for s in np.broadcast_to(np.asarray(offset, dtype=np.float64), (2,)))
+        self.rotation_deg = float(rotation_deg)
+        if not (np.all(np.isfinite(self.scale)) and np.all(np.isfinite(self.offset)) and np.isfinite(self.rotation_deg)):
+            raise TextureError(f"texture {label}: scale, offset and rotation_deg must be finite")
+        if footprint_scale is None:
+            footprint_scale = _tex.DEFAULT_FOOTPRINT_SCALE.get(filter, 1.0)
+        if not footprint_scale > 0 or not max_anisotropy >= 1:
+            raise TextureError(f"texture {label}: need footprint_scale > 0 and max_anisotropy >= 1")
+        self.footprint_scale = float(footprint_scale)
+        self.max_anisotropy = float(max_anisotropy)
+        self._image = prepare_image(img, label=label, srgb=self.srgb, channels=channels, select=select)
+        self.channels = self._image.shape[2]
+        self._pyramid = MipPyramid(self._image)
+
+    @classmethod
+    def from_dict(cls, params, base_dir=None):
+        params = dict(params)
+        path = params.pop("path", None)
+        if path is None:
+            raise TextureError(f"{cls.type_name} texture needs a 'path'")
+        if base_dir is not None and not os.path.isabs(path):
+            path = os.path.join(base_dir, path)
+        return cls(path, **params)
+
+    @classmethod
+    def example(cls):
+        """A 4 x 4 linear RGB ramp (trilinear, repeat)."""
+        ramp = np.linspace(0.0, 1.0, 4 * 4 * 3).reshape(4, 4, 3)
+        return cls(ramp, name="example")
+
+    @property
+    def image(self):
+        """Level 0, linear values, (H, W, C) float32 (read-only view)."""
+        v = self._image.view()
+        v.flags.writeable = False
+        return v
+
+    @property
+    def mip_levels_built(self):
+        """MIP levels (> 0) built so far; each was read by at least one lookup."""
+        return self._pyramid.built
+
+    def lookup(self, uv, duvdx=None, duvdy=None):
+        """Filtered lookup at raw mesh UVs.
+
+        Parameters
+        ----------
+        uv : (N, 2) float ndarray
+            Mesh UVs (before this texture's UV transform).
+        duvdx, duvdy : (N, 2) float ndarray, optional
+            Footprints (UV change per pixel step); None = zeros (no filtering).
+
+        Returns
+        -------
+        (N, channels) float64 ndarray
+        """
+        uv = np.asarray(uv, dtype=np.float64)
+        n = len(uv)
+        duvdx = np.zeros((n, 2)) if duvdx is None else np.asarray(duvdx, dtype=np.float64)
+        duvdy = np.zeros((n, 2)) if duvdy is None else np.asarray(duvdy, dtype=np.float64)
+        uv, duvdx, duvdy = _tex.transform_uv(uv, duvdx, duvdy, scale=self.scale, offset=self.offset,
+                                             rotation=np.deg2rad(self.rotation_deg))
+        if self.filter in _tex.RECONSTRUCT:
+            out = _tex.RECONSTRUCT[self.filter](self._image, uv, self.wrap)
+        elif self.filter == "trilinear":
+            out = _tex.lookup_trilinear(self._pyramid, uv, duvdx, duvdy, self.wrap, self.footprint_scale)
+        else:
+            out = _tex.lookup_ewa(self._pyramid, uv, duvdx, duvdy, self.wrap, self.footprint_scale,
+                                  self.max_anisotropy)
+        return out.astype(np.float64)
+
+    def evaluate(self, ctx):
+        dx, dy = footprints(ctx)
+        return self.lookup(ctx.uv, dx, dy)
