@@ -108,7 +108,7 @@ def studio_rig(camera_azimuth, options=None):
     o = options or PreviewOptions()
     lights = []
     for name, daz, el, share in RIG:
-        E = o.key if share == "key" else o.key * getattr(o, share)
+        E = o.key if share == "key" else o.key * {"fill_ratio": o.fill_ratio, "rim_ratio": o.rim_ratio}[share]
         if E <= 0:
             continue
         az, e = math.radians(camera_azimuth + daz), math.radians(el)

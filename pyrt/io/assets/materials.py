@@ -5,15 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from pyrt.materials.library import BlinnPhong, Glass
+from pyrt.materials.library import BlinnPhong, Glass, MetallicRoughness
 from pyrt.textures.texture import Texture
 from pyrt.io.assets.common import AssetError, DefaultParams, MTLParams, PBRParams
-
-try:  # the glTF metallic-roughness BRDF (material library, issue 3)
-    from pyrt.materials.library import MetallicRoughness
-except ImportError:  # pragma: no cover - reported loudly by make_metallic_roughness
-    MetallicRoughness = None
-
 
 class ScaledTexture(Texture):
     """``factor * texture`` (factor a scalar or RGB); ``channels`` of the inner texture."""
@@ -112,21 +106,18 @@ class ObjMaterial(SurfaceExtras, BlinnPhong):
         self._init_extras(emission=emission, normal_map=normal_map)
 
 
-if MetallicRoughness is not None:
-    class GltfMaterial(SurfaceExtras, MetallicRoughness):
-        """The glTF material: :class:`pyrt.materials.MetallicRoughness` plus emission, occlusion, normal map."""
+class GltfMaterial(SurfaceExtras, MetallicRoughness):
+    """The glTF material: :class:`pyrt.materials.MetallicRoughness` plus emission, occlusion, normal map."""
 
-        type_name = None
+    type_name = None
 
-        def __init__(self, *, base_color, metallic, roughness, emission=None, occlusion=None,
-                     occlusion_strength=1.0, normal_map=None, double_sided=True, name=None):
-            MetallicRoughness.__init__(self, base_color=base_color, metallic=metallic, roughness=roughness,
-                                       name=name)
-            self._init_extras(emission=emission, occlusion=occlusion, occlusion_strength=occlusion_strength,
-                              normal_map=normal_map)
-            self.double_sided = bool(double_sided)
-else:  # pragma: no cover
-    GltfMaterial = None
+    def __init__(self, *, base_color, metallic, roughness, emission=None, occlusion=None,
+                 occlusion_strength=1.0, normal_map=None, double_sided=True, name=None):
+        MetallicRoughness.__init__(self, base_color=base_color, metallic=metallic, roughness=roughness,
+                                   name=name)
+        self._init_extras(emission=emission, occlusion=occlusion, occlusion_strength=occlusion_strength,
+                          normal_map=normal_map)
+        self.double_sided = bool(double_sided)
 
 
 def make_metallic_roughness(**kwargs):
