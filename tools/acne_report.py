@@ -51,7 +51,7 @@ def measure_cost(strategies, size, repeats=3):
     for case in TIMING_CASES:
         built = acne.build_case(case, w, h)
         truth = acne.truth_labels(built)
-        ps = pyrt.integrators.PreparedScene(built.scene)
+        ps = pyrt.integrators.whitted.PreparedScene(built.scene)
         try:
             for st in strategies:
                 best = None
