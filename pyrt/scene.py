@@ -11,6 +11,7 @@ import trimesh
 
 from pyrt.core import checks
 from pyrt.core.camera import Camera
+from pyrt.geometry.normals import crease_normals
 from pyrt.geometry.surface import GeometryError, GeometryTable, MeshData, validate_mesh
 from pyrt.lights.base import Light
 from pyrt.materials import Material
@@ -110,14 +111,8 @@ class Scene:
                 raise GeometryError(f"mesh {name!r}: normals must be finite with shape {v_obj.shape}, "
                                     f"got {normals.shape}")
         elif smooth == "auto":
-            src = trimesh.Trimesh(vertices=v_obj, faces=faces, process=False)
-            if uv is not None:
-                src.visual = trimesh.visual.TextureVisuals(uv=uv)
-            sm = trimesh.graph.smooth_shade(src, angle=math.radians(crease_angle), facet_minarea=None)
-            v_obj, faces = np.asarray(sm.vertices, dtype=np.float64), np.asarray(sm.faces, dtype=np.int64)
-            normals = np.asarray(sm.vertex_normals, dtype=np.float64)
-            sm_uv = getattr(sm.visual, "uv", None)
-            uv = np.asarray(sm_uv, dtype=np.float64) if (uv is not None and sm_uv is not None) else None
+            src, faces, normals = crease_normals(v_obj, faces, crease_angle, weld="edges")
+            v_obj, uv = v_obj[src], (None if uv is None else uv[src])
         elif smooth:
             src = trimesh.Trimesh(vertices=v_obj, faces=faces, process=False)
             normals = np.asarray(src.vertex_normals, dtype=np.float64)

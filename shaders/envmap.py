@@ -57,10 +57,10 @@ the irradiance formula only needs an orthonormal basis of the l <= 2 functions, 
 orientation). Irradiance ``E(n) = sum_lm A_l L_lm Y_lm(n)`` with ``A_0 = pi``, ``A_1 = 2 pi / 3``,
 ``A_2 = pi / 4`` (R&H eq. 8).
 """
-from typing import NamedTuple
 
 import numpy as np
 
+from .distribution import Distribution2D, distribution2d_build, distribution2d_pdf, distribution2d_sample  # noqa: F401 (API)
 from . import microfacet as _mf
 from . import sampling as _sampling
 from . import textures as _tex
@@ -155,106 +155,6 @@ def latlong_sampling_weights(image, filter="nearest"):
     h = img.shape[0]
     sin_c = np.sin(np.pi * (np.arange(h) + 0.5) / h)
     return lum * sin_c[:, None]
-
-
-# ----------------------------------------------------------------------------- 2D distribution
-
-
-class Distribution2D(NamedTuple):
-    """Piecewise-constant density on ``[0, 1)^2`` with ``H x W`` cells (row j <-> v, column i <-> u).
-
-    Attributes (all float64)
-    ------------------------
-    func : (H, W)  non-negative cell weights (as given)
-    cdf_cond : (H, W + 1)  per-row conditional CDFs (uniform for rows of zero weight)
-    cdf_marg : (H + 1,)  marginal CDF over rows (uniform if every weight is zero)
-    integral : float  mean weight ``sum(func) / (H W)``; 0 means "uniform fallback"
-    """
-
-    func: np.ndarray
-    cdf_cond: np.ndarray
-    cdf_marg: np.ndarray
-    integral: float
-
-
-def _cdf(w, axis):
-    """Normalised CDF along the last axis with a leading 0; uniform where the total is 0."""
-    n = w.shape[-1]
-    c = np.concatenate([np.zeros(w.shape[:-1] + (1,)), np.cumsum(w, axis=-1)], axis=-1)
-    tot = c[..., -1:]
-    uniform = np.broadcast_to(np.arange(n + 1) / n, c.shape)
-    out = np.where(tot > 0, c / np.where(tot > 0, tot, 1.0), uniform)
-    out[..., -1] = 1.0
-    return out
-
-
-def distribution2d_build(weights):
-    """Build a :class:`Distribution2D` from non-negative cell weights ``(H, W)`` (float64 throughout).
-
-    Raises ``ValueError`` for negative or non-finite weights. An all-zero table becomes the
-    uniform density (``integral == 0`` flags it).
-    """
-    f = np.asarray(weights, dtype=np.float64)
-    if f.ndim != 2 or f.size == 0:
-        raise ValueError(f"weights must be a non-empty (H, W) array, got shape {f.shape}")
-    if not np.all(np.isfinite(f)) or np.any(f < 0):
-        raise ValueError("weights must be finite and >= 0")
-    cdf_cond = _cdf(f, -1)
-    cdf_marg = _cdf(f.sum(axis=1), -1)
-    return Distribution2D(f, cdf_cond, cdf_marg, float(f.mean()))
-
-
-def _sample_cdf_rows(cdf, rows, u):
-    """For each lane, the cell index k with ``cdf[row, k] <= u < cdf[row, k+1]`` and the offset in the cell."""
-    n_cells = cdf.shape[1] - 1
-    # Global monotone array: row r's CDF shifted by r (values in [r, r+1]); float64 keeps ~1e-13 accuracy.
-    shifted = (cdf + np.arange(cdf.shape[0])[:, None]).ravel()
-    key = u + rows
-    pos = np.searchsorted(shifted, key, side="right") - 1
-    k = pos - rows * (n_cells + 1)
-    k = np.clip(k, 0, n_cells - 1)
-    # skip zero-width cells at the top end (u exactly at a CDF plateau)
-    lo = cdf[rows, k]
-    hi = cdf[rows, k + 1]
-    width = hi - lo
-    frac = np.divide(u - lo, width, out=np.zeros_like(u), where=width > 0)
-    return k, np.clip(frac, 0.0, np.nextafter(1.0, 0.0))
-
-
-def distribution2d_sample(dist, u):
-    """Sample ``(u, v)`` in ``[0, 1)^2`` from ``dist`` with random numbers ``u`` (N, 2).
-
-    ``u[:, 1]`` picks the row (v) from the marginal, ``u[:, 0]`` the column (u) from the row's
-    conditional, so stratifying ``u[:, 1]`` stratifies latitude.
-
-    Returns
-    -------
-    uv : (N, 2) float64
-    pdf : (N,) float64
-        Density with respect to area in ``[0, 1)^2`` (``func / integral``; 1 for the uniform fallback).
-    """
-    u = np.asarray(u, dtype=np.float64)
-    h, w = dist.func.shape
-    zeros = np.zeros(u.shape[0], dtype=np.int64)
-    row, fv = _sample_cdf_rows(dist.cdf_marg[None, :], zeros, u[:, 1])
-    col, fu = _sample_cdf_rows(dist.cdf_cond, row, u[:, 0])
-    uv = np.stack([(col + fu) / w, (row + fv) / h], axis=1)
-    return uv, _cell_pdf(dist, row, col)
-
-
-def _cell_pdf(dist, row, col):
-    if dist.integral <= 0:
-        return np.ones(row.shape[0])
-    return dist.func[row, col] / dist.integral
-
-
-def distribution2d_pdf(dist, uv):
-    """Density of :func:`distribution2d_sample` at ``uv`` (N, 2) (area measure on ``[0, 1)^2``)."""
-    uv = np.asarray(uv, dtype=np.float64)
-    h, w = dist.func.shape
-    col = np.clip(np.floor(uv[:, 0] * w).astype(np.int64), 0, w - 1)
-    row = np.clip(np.floor(uv[:, 1] * h).astype(np.int64), 0, h - 1)
-    return _cell_pdf(dist, row, col)
 
 
 def latlong_sample(dist, u):

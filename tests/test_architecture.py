@@ -14,9 +14,8 @@ What is checked:
 (h) the engine layers declare rather than probe: no ``getattr(x, "name")`` / ``hasattr(x, "name")`` with a
     constant name (but for :data:`PROBE_ALLOWLIST`) and no ``inspect.signature``.
 
-Violations that exist today and are being removed are listed in :data:`KNOWN_VIOLATIONS`. A check fails on a
-violation not in that list *and* on a listed violation that no longer exists: the list can only shrink.
-Delete its entry when you fix one.
+:data:`KNOWN_VIOLATIONS` would list violations being removed (a check fails on a violation not in that list
+*and* on a listed violation that no longer exists: the list can only shrink); it is empty.
 """
 from __future__ import annotations
 
@@ -66,63 +65,13 @@ PROBE_ALLOWLIST = {
         "names a user-supplied offset callable (functools.partial and callable objects have no __name__)",
 }
 
-#: Violations found when this test was written (the other engineers are removing them). Each entry must still
-#: exist (else delete it); anything not listed fails.
+#: Violations the code still has, each listed precisely (a check fails on any violation not listed *and* on a
+#: listed one that no longer exists, so the list can only shrink). Empty: the restructuring removed them all.
 KNOWN_VIOLATIONS = {
-    # (a) (importer module, imported module) pointing up the layer order
-    "layers": {
-        ("pyrt.lights.environment", "pyrt.scene"),
-    },
-    # (c) (file, enclosing function, imported pyrt module)
-    "function_imports": {
-        ("pyrt/apps/cli.py", "main", "pyrt"),
-        ("pyrt/apps/preview.py", "__init__", "pyrt.lights.environment"),
-        ("pyrt/integrators/gouraud.py", "direct_light", "pyrt.integrators.whitted"),
-        ("pyrt/integrators/gouraud.py", "direct_light", "pyrt.textures.texture"),
-        ("pyrt/integrators/media.py", "skip_false_hits", "pyrt.geometry.accel"),
-        ("pyrt/integrators/whitted.py", "_may_emit", "pyrt.materials.library"),
-        ("pyrt/integrators/whitted.py", "_subset_hits", "pyrt.geometry.accel"),
-        ("pyrt/lights/environment.py", "_rotation_matrix", "pyrt.scene"),
-        ("pyrt/lights/environment.py", "load_environment_image", "pyrt.core.image_io"),
-        ("pyrt/lights/punctual.py", "_image_texture", "pyrt.textures.texture"),
-    },
-    # (f) file -> its length when listed: the ceiling until it is cut below MAX_LINES
-    "long_modules": {
-        "pyrt/apps/acne.py": 747,
-        "pyrt/apps/preview.py": 843,
-        "pyrt/integrators/whitted.py": 623,
-        "pyrt/io/assets.py": 1402,
-        "pyrt/lights/punctual.py": 649,
-        "pyrt/materials/library.py": 673,
-        "pyrt/textures/texture.py": 644,
-        "shaders/envmap.py": 660,
-    },
-    # (h) (file, "getattr" | "hasattr" | "inspect.signature", attribute) -> number of such calls
-    "probes": {
-        ("pyrt/geometry/offsets.py", "getattr", "magnitude"): 1,
-        ("pyrt/integrators/gouraud.py", "getattr", "has_normal_maps"): 1,
-        ("pyrt/integrators/media.py", "getattr", "absorption"): 1,
-        ("pyrt/integrators/media.py", "getattr", "ior"): 1,
-        ("pyrt/integrators/media.py", "getattr", "is_dielectric"): 1,
-        ("pyrt/integrators/media.py", "getattr", "priority"): 1,
-        ("pyrt/integrators/media.py", "inspect.signature", ""): 1,
-        ("pyrt/integrators/whitted.py", "getattr", "f_cos_cosines"): 1,
-        ("pyrt/integrators/whitted.py", "getattr", "gouraud_meshes"): 1,
-        ("pyrt/integrators/whitted.py", "getattr", "hide_background"): 1,
-        ("pyrt/integrators/whitted.py", "getattr", "normal_map"): 1,
-        ("pyrt/integrators/whitted.py", "hasattr", "evaluate"): 2,
-        ("pyrt/materials/library.py", "hasattr", "evaluate"): 1,
-        ("pyrt/textures/texture.py", "getattr", "channels"): 2,
-        ("pyrt/textures/texture.py", "getattr", "dpdx"): 1,
-        ("pyrt/textures/texture.py", "getattr", "dpdy"): 1,
-        ("pyrt/textures/texture.py", "getattr", "duvdx"): 1,
-        ("pyrt/textures/texture.py", "getattr", "duvdy"): 1,
-        ("pyrt/textures/texture.py", "getattr", "flip_green"): 1,
-        ("pyrt/textures/texture.py", "getattr", "normal_map"): 1,
-        ("pyrt/textures/texture.py", "getattr", "strength"): 1,
-        ("pyrt/textures/texture.py", "getattr", "wo"): 1,
-        ("pyrt/textures/texture.py", "hasattr", "evaluate"): 2,
-    },
+    "layers": set(),              # (importer module, imported module) pointing up the layer order
+    "function_imports": set(),    # (file, enclosing function, imported pyrt module)
+    "long_modules": {},           # file -> its length when listed
+    "probes": {},                 # (file, "getattr" | "hasattr" | "inspect.signature", attribute) -> count
 }
 
 

@@ -226,7 +226,7 @@ def test_gltf_material_is_metallic_roughness_with_extras(round_trip):
 
 
 def test_missing_metallic_roughness_class_fails_loudly(monkeypatch, round_trip):
-    monkeypatch.setattr(A, "GltfMaterial", None)
+    monkeypatch.setattr(A.materials, "GltfMaterial", None)   # the module make_metallic_roughness reads
     a = load_asset(round_trip[0])
     with pytest.raises(AssetError, match="MetallicRoughness is not available"):
         a.add_to_scene(pyrt.Scene())

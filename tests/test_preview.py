@@ -3,6 +3,7 @@ import io
 import math
 import os
 import shutil
+import sys
 import types
 
 import numpy as np
@@ -12,6 +13,7 @@ from PIL import Image
 
 import pyrt
 from pyrt.apps import preview as P
+from pyrt.apps.preview import batch as P_batch, render as P_render
 from pyrt.io.assets import load_asset
 from pyrt.shaders import color as C
 
@@ -206,7 +208,8 @@ def test_batch_glob_and_name_collisions(tmp_path):
 
 def test_time_budget(monkeypatch):
     clock = [0.0]
-    monkeypatch.setattr(P, "time", types.SimpleNamespace(perf_counter=lambda: clock[0]))
+    for module in (P_batch, P_render):                     # preview_asset's and render_preview's clocks
+        monkeypatch.setattr(module, "time", types.SimpleNamespace(perf_counter=lambda: clock[0]))
     real = P.PreviewScene.render_view
 
     def slow_view(self, azimuth, **kw):
@@ -219,6 +222,16 @@ def test_time_budget(monkeypatch):
     assert rep.status == "timeout" and "after 2/4 views" in rep.error
     o1 = P.PreviewOptions(turntable=2, time_budget=25.0, **TINY)
     assert P.preview_asset(BLOB, None, o1, return_files=True).status == "ok"
+
+
+def test_dask_missing_is_a_preview_error_naming_the_extra(monkeypatch, tmp_path, capsys):
+    monkeypatch.setitem(sys.modules, "distributed", None)      # makes ``import distributed`` fail
+    o = P.PreviewOptions(**TINY)
+    with pytest.raises(P.PreviewError, match="the 'preview' extra"):
+        P.preview_batch([BLOB], str(tmp_path / "out"), o, dask=True, progress=False)
+    assert not (tmp_path / "out").exists()                     # raised before anything is written
+    rc = P.main([BLOB, "--out-dir", str(tmp_path / "cli"), "--dask", "--width", "24", "--height", "18", "--quiet"])
+    assert rc == 2 and "pip install 'pyrt[preview]'" in capsys.readouterr().err
 
 
 def _batch_files(out):

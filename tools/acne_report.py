@@ -62,7 +62,7 @@ def measure_cost(strategies, size, repeats=3):
     for case in TIMING_CASES:
         built = acne.build_case(case, w, h)
         truth = acne.truth_labels(built)
-        ps = pyrt.integrators.PreparedScene(built.scene)
+        ps = pyrt.PreparedScene(built.scene)
         try:
             for st in strategies:
                 best = None
@@ -70,8 +70,8 @@ def measure_cost(strategies, size, repeats=3):
                     r = acne.run_case(case, st, built=built, prepared=ps, truth=truth)
                     if best is None or r.time_shadow < best[0]:
                         best = (r.time_shadow, r.shadow_rays)
-                t, n = cost.get(acne._strategy_name(st), (0.0, 0))
-                cost[acne._strategy_name(st)] = (t + best[0], n + best[1])
+                t, n = cost.get(acne.strategy_name(st), (0.0, 0))
+                cost[acne.strategy_name(st)] = (t + best[0], n + best[1])
         finally:
             ps.close()
     return {k: 1e6 * t / max(n, 1) for k, (t, n) in cost.items()}
@@ -193,7 +193,7 @@ def main(argv=None):
     a = ap.parse_args(argv)
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
-    strategies = list(offsets.STRATEGIES) + [acne._load_callable(s) for s in a.offset]
+    strategies = list(offsets.STRATEGIES) + [acne.load_callable(s) for s in a.offset]
     cases = acne.quick_matrix() if a.quick else acne.default_matrix()
     size = _size(a.size)
     t0 = time.perf_counter()

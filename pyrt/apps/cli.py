@@ -5,6 +5,8 @@ import argparse
 import sys
 import time
 
+import pyrt
+
 
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="pyrt", description="pyrt: Embree + NumPy renderer")
@@ -24,9 +26,6 @@ def main(argv=None):
     r.add_argument("--aovs", action="store_true", help="write depth/normal/albedo channels into EXR outputs")
     r.add_argument("--half", action="store_true", help="write half-float EXR")
     args = ap.parse_args(argv)
-
-    import pyrt
-
     try:
         scene, opts = pyrt.load_scene(args.scene)
     except (ValueError, FileNotFoundError) as e:

@@ -190,10 +190,58 @@ def tonemap_to_display(image, *, tonemap_op="reinhard", exposure=0.0, L_white=No
     return op(img.astype(np.float64), exposure=exposure)
 
 
-def write_png(path, image, *, tonemap="reinhard", exposure=0.0, L_white=None, bits=8):
-    """Tone-map (exposure in stops, then ``tonemap``), sRGB-encode and write an 8- or 16-bit PNG."""
-    from skimage import io as skio
+def encode_png(pixels):
+    """Encode display-ready pixels as PNG file bytes; the one PNG encoder (files and in-memory previews).
 
+    Parameters
+    ----------
+    pixels : (H, W, 3) uint8 or uint16 ndarray
+        sRGB-encoded (or any display-ready) values, row 0 at the top. uint8 is written as an 8-bit
+        PNG (Pillow, default settings: deterministic for a given array), uint16 as a 16-bit PNG
+        (pypng; Pillow has no 16-bit RGB mode).
+
+    Returns
+    -------
+    bytes
+        The PNG file.
+    """
+    a = np.asarray(pixels)
+    if a.ndim != 3 or a.shape[2] != 3:
+        raise ValueError(f"pixels must have shape (H, W, 3), got {a.shape}")
+    import io
+
+    buf = io.BytesIO()
+    if a.dtype == np.uint8:
+        from PIL import Image
+
+        Image.fromarray(np.ascontiguousarray(a)).save(buf, format="PNG")
+    elif a.dtype == np.uint16:
+        import png
+
+        h, w, _ = a.shape
+        png.Writer(w, h, greyscale=False, bitdepth=16).write(buf, a.reshape(h, w * 3))
+    else:
+        raise ValueError(f"pixels must be uint8 or uint16, got {a.dtype}")
+    return buf.getvalue()
+
+
+def write_png(path, image, *, tonemap="reinhard", exposure=0.0, L_white=None, bits=8):
+    """Tone-map (exposure in stops, then ``tonemap``), sRGB-encode and write an 8- or 16-bit PNG.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file (its folder is created).
+    image : (H, W, 3) float ndarray
+        Linear radiance.
+    tonemap : {"linear", "film", "reinhard"}
+    exposure : float
+        Stops applied before the operator.
+    L_white : float, optional
+        The extended Reinhard white point (``tonemap="reinhard"`` only).
+    bits : {8, 16}
+        Bits per channel (quantised with rounding; encoded by :func:`encode_png`).
+    """
     disp = tonemap_to_display(image, tonemap_op=tonemap, exposure=exposure, L_white=L_white)
     enc = color.srgb_encode(disp)
     if bits == 8:
@@ -202,5 +250,7 @@ def write_png(path, image, *, tonemap="reinhard", exposure=0.0, L_white=None, bi
         out = np.round(enc * 65535).astype(np.uint16)
     else:
         raise ValueError(f"bits must be 8 or 16, got {bits}")
+    data = encode_png(out)
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    skio.imsave(str(path), out, check_contrast=False)
+    with open(path, "wb") as fh:
+        fh.write(data)

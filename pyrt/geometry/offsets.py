@@ -241,7 +241,6 @@ def local_bound_magnitude(surf):
     return dot(np.abs(surf.ng), _gamma(4, _EPS64) * absmax) + LOCAL_REL_ERROR_EXTENT * _EPS32 * ext
 
 
-local_bound.magnitude = local_bound_magnitude
 
 
 # ---------------------------------------------------------------------------------------- shadow terminator
@@ -376,12 +375,17 @@ class Strategy:
         How far short of the light a shadow ray stops (see the module docstring).
     terminator : bool
         Lift shadow-ray origins on faces with interpolated normals (:func:`terminator_point`).
+    magnitude : callable, optional
+        ``magnitude(surf) -> (N, 1)``: the origin function's offset distance along ``ng`` when it does not
+        depend on the direction (e.g. :func:`local_bound_magnitude`); shadow rays then compute it once per
+        surface batch for every light and sample. None: the origin function is called per direction.
     """
 
     name: str
     origin: object
     tmax: str = "relative"
     terminator: bool = False
+    magnitude: object = None
 
     def __post_init__(self):
         if not callable(self.origin):
@@ -401,11 +405,10 @@ class Strategy:
         Returns ``(origins (N, 3) float64 or float32, tmax (N,) float64)``, tmax in units of |wi| from the
         origin (float32 origins are exactly the float32 rays Embree will trace).
 
-        The direction-independent parts (the terminator lift, and the offset distance of origin
-        functions that publish it as ``origin.magnitude(surf)``) are computed once per surface batch
-        and shared by every light and sample (:func:`_batch_cached`).
+        The direction-independent parts (the terminator lift, and the offset distance :attr:`magnitude`)
+        are computed once per surface batch and shared by every light and sample (:func:`_batch_cached`).
         """
-        magnitude = getattr(self.origin, "magnitude", None)
+        magnitude = self.magnitude
         o_mag = None
         if magnitude is not None:
             # Direction-independent distance along ng. Shadow rays leave on the viewer's side (light_side
@@ -464,10 +467,12 @@ STRATEGIES = {
     "wachter_binder_rtg": Strategy("wachter_binder_rtg", wachter_binder_rtg),
     "wachter_binder": Strategy("wachter_binder", wachter_binder),
     "error_bound": Strategy("error_bound", error_bound),
-    "local_bound": Strategy("local_bound", local_bound),
-    "robust": Strategy("robust", local_bound, tmax="robust", terminator=True),
+    "local_bound": Strategy("local_bound", local_bound, magnitude=local_bound_magnitude),
+    "robust": Strategy("robust", local_bound, tmax="robust", terminator=True, magnitude=local_bound_magnitude),
 }
 DEFAULT = "robust"
+#: origin functions whose offset distance does not depend on the direction -> that distance
+_MAGNITUDES = {local_bound: local_bound_magnitude}
 
 
 def get_strategy(offset):
@@ -478,7 +483,8 @@ def get_strategy(offset):
     if isinstance(offset, Strategy):
         return offset
     if callable(offset):
-        return Strategy(getattr(offset, "__name__", "custom"), offset)
+        # the library's origin functions keep their direction-independent fast path when passed bare
+        return Strategy(getattr(offset, "__name__", "custom"), offset, magnitude=_MAGNITUDES.get(offset))
     if offset is None:
         offset = DEFAULT
     try:

@@ -39,6 +39,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from pyrt.geometry.accel import Hits
+
 #: false hits skipped per ray and bounce before the ray is dropped (deeply overlapping volumes)
 MAX_FALSE_HITS = 32
 
@@ -246,7 +248,6 @@ class NestedMedia:
             updated stacks. Rays that needed more than :data:`MAX_FALSE_HITS` continuations become
             misses with ``t_total = nan`` (:meth:`attenuation` gives them zero weight).
         """
-        from pyrt.geometry.accel import Hits
 
         n = o.shape[0]
         t_acc = np.zeros(n)

@@ -50,7 +50,7 @@ from pyrt.core.errors import Error
 from pyrt.core.registry import Registry
 from pyrt.shaders import sampling
 from pyrt.shaders.vec import dot
-from pyrt.textures import Texture
+from pyrt.textures import is_texture
 
 
 class MaterialError(Error, ValueError):
@@ -65,11 +65,6 @@ class DeltaLobe:
     weight: np.ndarray
     kind: str  # "reflect" or "refract"
     eta: np.ndarray | None = None  # (N,) eta_t / eta_i for "refract" lobes (ray differentials)
-
-
-def is_texture(value):
-    """True when a material parameter is a :class:`pyrt.textures.Texture` (else a constant)."""
-    return isinstance(value, Texture)
 
 
 class CosineQuery:

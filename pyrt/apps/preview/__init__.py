@@ -1,0 +1,72 @@
+"""Asset preview: "show me this model, properly lit".
+
+``render_preview(path_or_asset, options)`` loads a model (:mod:`pyrt.io.assets`), turns it so that
+its up axis is +y, frames it, lights it with a studio rig over a shadow-catcher ground, picks an
+exposure and renders one view or a turntable. :func:`preview_batch` does that for a folder or glob
+of models, locally or on a Dask cluster, and :func:`main` is the ``pyrt-preview`` command.
+
+The pieces, each a function that can be used and tested alone
+------------------------------------------------------------
+- **Up axis** (:func:`detect_up_axis`): glTF is +y by specification. For OBJ/PLY/STL the candidate
+  ups +y and +z are scored by the area of downward-facing triangles within 1% of the model's extent
+  from its lowest point along that axis (the base a model stands on); the larger base wins; with no
+  base on either, STL (a CAD / 3D-printing format) is taken as +z and the others as +y. Override
+  with ``up="+z"`` etc.
+- **Framing** (:func:`frame_camera`): the bounding sphere (centre of the bounding box, radius to the
+  farthest vertex) is seen at ``azimuth``/``elevation`` (degrees; azimuth 0 looks from +z toward -z,
+  positive azimuth moves the camera toward +x) from the distance ``d = margin R / sin(a)``, where
+  ``a`` is the smaller of the vertical and horizontal half fields of view: the sphere's silhouette
+  cone (half-angle ``asin(R / d)``) then fits inside the image on both axes.
+- **Studio rig** (:func:`studio_rig`): key, fill and rim *directional* lights placed relative to the
+  camera (key high on the camera's left, fill low on its right, rim behind), irradiance in W/m^2.
+  Directional lights make the rig independent of the model's size and position (what "scaled to
+  the model" needs: the same picture at any scale) and give a ground that is lit uniformly, which
+  is what the shadow catcher needs.
+- **Shadow-catcher ground**: a Lambertian plane of albedo ``rho`` just below the model (100 radii
+  wide). Its unshadowed radiance is the constant ``L_g = rho / pi * sum_i E_i max(0, sin el_i) +
+  rho * L_a`` (:func:`ground_radiance`, the integrator's own formula), and the background (what
+  misses see) is set to exactly ``L_g``: the ground disappears into the backdrop and only the
+  shadows it catches remain. The asset's own point/spot lights (``lights="asset"/"both"``) light
+  the ground unevenly; the backdrop then matches the ground under the model's centre. With an
+  environment map (``environment=``, an OpenEXR lat-long map, used as a light with
+  ``environment_lighting``/``environment_samples``) camera rays see the backdrop plus the map's
+  unshadowed SH irradiance on the ground (``rho / pi * E_sh(+y)``); without a ground they see the map.
+- **Exposure** (:func:`auto_exposure`): Reinhard et al. 2002's photographic key over the pixels that
+  see the model (pixel-centre rays against the model only): ``scale = 0.18 / exp(mean(log(1e-4 +
+  Y)))``, white point ``L_white = max(scale * Y_99.9, 1)`` for the extended Reinhard operator, so
+  the model's log-average maps to mid-grey and at most 0.1% of its pixels clip. Fixed once per
+  asset (turntables do not flicker); ``exposure=`` overrides it.
+- **Outputs**: PNG (tone-mapped, sRGB) and/or EXR (linear radiance, optional depth/normal/albedo
+  channels); with ``aovs`` also ``_depth/_normal/_albedo.png`` previews. A turntable of N views
+  writes ``NAME_turntable/frame_###.png`` and a contact sheet ``NAME_sheet.png``.
+
+Batches and scale-out
+---------------------
+:func:`preview_batch` expands folders and globs, renders every asset with :func:`preview_asset`
+(which never raises: a failing asset becomes a report with status ``failed`` and its message) and
+returns one :class:`AssetReport` per asset (triangles, load and render time, warnings). With
+``dask=True`` (a ``distributed.LocalCluster``) or ``dask="tcp://host:8786"`` (an existing scheduler)
+each asset is one task; workers send the encoded files back and the client writes them, so a real
+cluster needs no shared output folder (the models must be readable by the workers). The work per
+asset is the same function with the same seeds, so the files are identical to a local run.
+``time_budget`` (s per asset) is checked before the load and before every view: a turntable stops
+with status ``timeout`` when the next view would exceed it (a single long view is not interrupted).
+
+Modules: :mod:`~pyrt.apps.preview.options` (options, errors), :mod:`~pyrt.apps.preview.rig` (up axis,
+framing, studio rig, ground, exposure), :mod:`~pyrt.apps.preview.render` (the preview scene, files),
+:mod:`~pyrt.apps.preview.batch` (batches, Dask), :mod:`~pyrt.apps.preview.cli` (``pyrt-preview``).
+"""
+from pyrt.apps.preview.options import AXES, BudgetExceeded, PreviewError, PreviewOptions
+from pyrt.apps.preview.rig import (RIG, auto_exposure, bounding_sphere, detect_up_axis, frame_camera, ground_radiance,
+                                   studio_rig, up_transform)
+from pyrt.apps.preview.render import PreviewResult, PreviewScene, contact_sheet, render_preview, write_files
+from pyrt.apps.preview.batch import (AssetReport, collect_inputs, format_summary, output_name, preview_asset,
+                                     preview_batch, summary_rows, write_summary)
+from pyrt.apps.preview.cli import main
+
+__all__ = [
+    "AXES", "BudgetExceeded", "PreviewError", "PreviewOptions", "RIG", "auto_exposure", "bounding_sphere",
+    "detect_up_axis", "frame_camera", "ground_radiance", "studio_rig", "up_transform", "PreviewResult", "PreviewScene",
+    "contact_sheet", "render_preview", "write_files", "AssetReport", "collect_inputs", "format_summary",
+    "output_name", "preview_asset", "preview_batch", "summary_rows", "write_summary", "main",
+]

@@ -1,0 +1,220 @@
+"""Batches: expand folders and globs, preview every asset (locally or one Dask task per asset) and
+write the summary table."""
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass, field
+import glob
+import os
+import time
+import traceback
+
+from pyrt.io.assets import FORMATS, AssetError
+from pyrt.apps.preview.options import BudgetExceeded, PreviewError, PreviewOptions
+from pyrt.apps.preview.render import render_preview, write_files
+
+
+# ============================================================================ batches
+
+@dataclass
+class AssetReport:
+    """One line of the batch summary."""
+
+    path: str
+    name: str
+    status: str = "ok"                  # "ok" | "failed" | "timeout"
+    triangles: int = 0
+    load_time: float = 0.0
+    render_time: float = 0.0
+    warnings: list = field(default_factory=list)
+    error: str = ""
+    outputs: list = field(default_factory=list)
+    exposure: float | None = None
+    files: dict | None = None           # encoded outputs (Dask mode, before the client writes them)
+
+
+def output_name(path, taken=None):
+    """Output stem for a model path: ``duck.glb`` -> ``duck_glb`` (``_2``, ... if already ``taken``)."""
+    base = os.path.basename(path).replace(".", "_")
+    name, k = base, 2
+    while taken is not None and name in taken:
+        name, k = f"{base}_{k}", k + 1
+    if taken is not None:
+        taken.add(name)
+    return name
+
+
+def preview_asset(path, out_dir=None, options=None, *, name=None, return_files=False):
+    """Preview one model for a batch; never raises. Writes under ``out_dir`` unless ``return_files``.
+
+    Returns an :class:`AssetReport`; a failing asset has ``status="failed"`` and the error message,
+    a budget overrun ``status="timeout"``.
+    """
+    o = options or PreviewOptions()
+    name = name or output_name(path)
+    rep = AssetReport(path=os.fspath(path), name=name)
+    t0 = time.perf_counter()
+    deadline = t0 + o.time_budget if o.time_budget else None
+    try:
+        res = render_preview(path, o, name=name, deadline=deadline)
+    except BudgetExceeded as exc:
+        rep.status, rep.error = "timeout", str(exc)
+        rep.load_time = time.perf_counter() - t0
+        return rep
+    except (AssetError, PreviewError, ValueError, OSError) as exc:
+        rep.status, rep.error = "failed", f"{type(exc).__name__}: {exc}"
+        return rep
+    except Exception as exc:  # a bug or an unexpected library error: report it, keep the batch going
+        tb = traceback.extract_tb(exc.__traceback__)[-1]
+        rep.status = "failed"
+        rep.error = f"{type(exc).__name__}: {exc} (at {os.path.basename(tb.filename)}:{tb.lineno})"
+        return rep
+    rep.triangles, rep.load_time, rep.render_time = res.triangles, res.load_time, res.render_time
+    rep.warnings, rep.exposure = list(dict.fromkeys(res.warnings)), res.exposure
+    if return_files:
+        rep.files = res.files
+        rep.outputs = sorted(res.files)
+    else:
+        rep.outputs = write_files(res.files, out_dir or ".")
+    return rep
+
+
+def collect_inputs(specs):
+    """Expand files, folders (their supported models, sorted) and glob patterns into model paths."""
+    out = []
+    for s in specs:
+        s = os.fspath(s)
+        if os.path.isdir(s):
+            out += sorted(os.path.join(s, f) for f in os.listdir(s)
+                          if os.path.splitext(f)[1].lower() in FORMATS and os.path.isfile(os.path.join(s, f)))
+        elif any(ch in s for ch in "*?["):
+            out += sorted(p for p in glob.glob(s, recursive=True) if os.path.isfile(p))
+        else:
+            out.append(s)
+    return list(dict.fromkeys(out))
+
+
+def preview_batch(inputs, out_dir, options=None, *, dask=None, n_workers=2, processes=False, progress=True):
+    """Preview every model of ``inputs`` (files, folders, globs) into ``out_dir``.
+
+    Parameters
+    ----------
+    dask : None, True, str or distributed.Client
+        None: render here, one asset after another. True: a ``distributed.LocalCluster`` with
+        ``n_workers`` single-threaded workers (``processes`` as given). A string: the address of an
+        existing scheduler. A Client: use it. Each asset is one task.
+    progress : bool
+        A tqdm progress bar over the assets.
+
+    Returns
+    -------
+    list of AssetReport, in input order. The summary table is also written to
+    ``out_dir/summary.csv`` and ``out_dir/summary.txt``.
+
+    Raises
+    ------
+    PreviewError
+        Invalid options, or ``dask`` asked for while dask/distributed are not installed (before
+        anything is rendered or written).
+    """
+    from tqdm.auto import tqdm
+
+    o = (options or PreviewOptions()).validate()
+    use_dask = not (dask is None or dask is False)
+    dist = _distributed() if use_dask else None
+    paths = collect_inputs(inputs)
+    taken = set()
+    names = [output_name(p, taken) for p in paths]
+    os.makedirs(out_dir, exist_ok=True)
+    if not use_dask:
+        reports = []
+        for p, nm in tqdm(list(zip(paths, names)), desc="preview", unit="asset", disable=not progress):
+            reports.append(preview_asset(p, out_dir, o, name=nm))
+    else:
+        reports = _batch_dask(dist, paths, names, out_dir, o, dask, n_workers, processes, progress)
+    write_summary(reports, out_dir)
+    return reports
+
+
+def _distributed():
+    """The ``distributed`` module (Dask's scheduler client), or a :class:`PreviewError` saying how to get it."""
+    try:
+        import distributed
+    except ImportError as exc:
+        raise PreviewError(f"running a batch on Dask needs the packages dask and distributed ({exc}): "
+                           "pip install 'pyrt[preview]' (the 'preview' extra)") from None
+    return distributed
+
+
+def _batch_dask(dist, paths, names, out_dir, o, dask, n_workers, processes, progress):
+    from tqdm.auto import tqdm
+
+    Client, LocalCluster, as_completed = dist.Client, dist.LocalCluster, dist.as_completed
+
+    cluster = client = None
+    own = True
+    if isinstance(dask, Client):
+        client, own = dask, False
+    elif dask is True:
+        cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=processes,
+                               dashboard_address=None)
+        client = Client(cluster)
+    else:
+        client = Client(str(dask))
+    try:
+        futures = [client.submit(preview_asset, os.path.abspath(p), None, o, name=nm, return_files=True,
+                                 key=f"pyrt-preview-{k}-{nm}", pure=False)
+                   for k, (p, nm) in enumerate(zip(paths, names))]
+        index = {f.key: k for k, f in enumerate(futures)}
+        reports = [None] * len(futures)
+        for fut in tqdm(as_completed(futures), total=len(futures), desc="preview (dask)", unit="asset",
+                        disable=not progress):
+            k = index[fut.key]
+            try:
+                rep = fut.result()
+            except Exception as exc:  # the task itself died (worker lost, ...)
+                rep = AssetReport(path=paths[k], name=names[k], status="failed",
+                                  error=f"task failed: {type(exc).__name__}: {exc}")
+            if rep.files is not None:
+                rep.outputs = write_files(rep.files, out_dir)
+                rep.files = None
+            rep.path = paths[k]
+            reports[k] = rep
+        return reports
+    finally:
+        if own:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+
+
+def summary_rows(reports):
+    """The summary table as rows of strings (header first)."""
+    rows = [["asset", "status", "triangles", "load s", "render s", "warnings", "message"]]
+    for r in reports:
+        msg = r.error or (r.warnings[0] if r.warnings else "")
+        rows.append([os.path.basename(r.path), r.status, str(r.triangles), f"{r.load_time:.2f}",
+                     f"{r.render_time:.2f}", str(len(r.warnings)), msg])
+    return rows
+
+
+def format_summary(reports, *, width=60):
+    """A fixed-width text table of :func:`summary_rows` (messages cut to ``width`` characters)."""
+    rows = [r[:-1] + [r[-1] if len(r[-1]) <= width else r[-1][:width - 3] + "..."] for r in summary_rows(reports)]
+    w = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+    lines = ["  ".join(c.ljust(w[i]) if i in (0, 1, 6) else c.rjust(w[i]) for i, c in enumerate(r)) for r in rows]
+    lines.insert(1, "  ".join("-" * x for x in w))
+    ok = sum(r.status == "ok" for r in reports)
+    lines.append(f"{ok}/{len(reports)} assets ok")
+    return "\n".join(lines)
+
+
+def write_summary(reports, out_dir):
+    with open(os.path.join(out_dir, "summary.csv"), "w", newline="") as fh:
+        wr = csv.writer(fh)
+        wr.writerow(["asset", "status", "triangles", "load_s", "render_s", "n_warnings", "error", "warnings"])
+        for r in reports:
+            wr.writerow([r.path, r.status, r.triangles, f"{r.load_time:.4f}", f"{r.render_time:.4f}",
+                         len(r.warnings), r.error, " | ".join(r.warnings)])
+    with open(os.path.join(out_dir, "summary.txt"), "w") as fh:
+        fh.write(format_summary(reports) + "\n")

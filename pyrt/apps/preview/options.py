@@ -1,0 +1,84 @@
+"""What a preview can be told (:class:`PreviewOptions`) and the previewer's errors."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from pyrt.core.errors import Error
+
+
+class PreviewError(Error, ValueError):
+    """Invalid preview options or an asset that cannot be previewed."""
+
+
+class BudgetExceeded(Error, RuntimeError):
+    """The per-asset time budget ran out (the message says after what)."""
+
+
+@dataclass
+class PreviewOptions:
+    """Everything a preview can be told. Angles in degrees, irradiance in W/m^2, times in seconds."""
+
+    width: int = 640
+    height: int = 480
+    spp: int = 4
+    fov: float = 35.0                    # vertical field of view
+    azimuth: float = 35.0                # camera azimuth around the up axis (0 = from +z)
+    elevation: float = 20.0              # camera elevation above the ground plane
+    margin: float = 1.05                 # bounding-sphere radius multiplier for framing
+    up: str = "auto"                     # "auto" or one of "+x", "-x", "+y", "-y", "+z", "-z"
+    camera: str = "auto"                 # "auto" (framed) or "asset" (the file's first camera)
+    lights: str = "studio"               # "studio", "asset" or "both"
+    key: float = 3.0                     # key-light irradiance (W/m^2)
+    fill_ratio: float = 0.35
+    rim_ratio: float = 0.7
+    ambient: float = 0.1                 # constant ambient radiance as a fraction of key / pi
+    ground: bool = True
+    ground_albedo: float = 0.5
+    environment: str | None = None       # OpenEXR lat-long map
+    environment_intensity: float = 1.0
+    environment_lighting: str = "mis"    # EnvironmentLight strategy ("mis", "preview" = no shadows, no noise, ...)
+    environment_samples: int = 8         # environment light samples per hit
+    exposure: float | None = None        # stops; None = automatic
+    tonemap: str = "reinhard"
+    turntable: int = 0                   # number of views (0 = a single view)
+    formats: tuple = ("png",)            # any of "png", "exr"
+    aovs: bool = False
+    seed: int = 0
+    max_depth: int = 4
+    crease_angle: float = 30.0
+    time_budget: float | None = None     # seconds per asset
+    threads: int | None = None           # Embree/shading threads per render (None = all cores)
+
+    def validate(self):
+        for name in ("width", "height", "spp"):
+            v = getattr(self, name)
+            if int(v) != v or v < 1:
+                raise PreviewError(f"{name} must be a positive integer, got {v!r}")
+        if not 0 < self.fov < 180:
+            raise PreviewError(f"fov must be in (0, 180) degrees, got {self.fov}")
+        if not -89.0 <= self.elevation <= 89.0:
+            raise PreviewError(f"elevation must be in [-89, 89] degrees, got {self.elevation}")
+        if not self.margin > 0:
+            raise PreviewError(f"margin must be > 0, got {self.margin}")
+        if self.up != "auto" and self.up not in AXES:
+            raise PreviewError(f"up must be 'auto' or one of {sorted(AXES)}, got {self.up!r}")
+        if self.camera not in ("auto", "asset"):
+            raise PreviewError(f"camera must be 'auto' or 'asset', got {self.camera!r}")
+        if self.lights not in ("studio", "asset", "both"):
+            raise PreviewError(f"lights must be 'studio', 'asset' or 'both', got {self.lights!r}")
+        bad = set(self.formats) - {"png", "exr"}
+        if bad or not self.formats:
+            raise PreviewError(f"formats must be a non-empty subset of ('png', 'exr'), got {self.formats!r}")
+        if int(self.turntable) != self.turntable or self.turntable < 0:
+            raise PreviewError(f"turntable must be an integer >= 0 (number of views), got {self.turntable!r}")
+        if not 0 <= self.ground_albedo <= 1:
+            raise PreviewError(f"ground_albedo must be in [0, 1], got {self.ground_albedo}")
+        for name in ("key", "fill_ratio", "rim_ratio", "ambient"):
+            if not getattr(self, name) >= 0:
+                raise PreviewError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if self.time_budget is not None and not self.time_budget > 0:
+            raise PreviewError(f"time_budget must be > 0 seconds, got {self.time_budget}")
+        return self
+
+
+AXES = {"+x": (1, 0, 0), "-x": (-1, 0, 0), "+y": (0, 1, 0), "-y": (0, -1, 0), "+z": (0, 0, 1), "-z": (0, 0, -1)}

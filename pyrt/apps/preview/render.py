@@ -1,0 +1,276 @@
+"""The preview scene (an asset in the studio, views at any azimuth) and :func:`render_preview`, which
+renders one view or a turntable into encoded files (PNG, EXR, AOV previews, contact sheet)."""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+import math
+import os
+import tempfile
+import time
+import warnings as _warnings
+
+import numpy as np
+
+from pyrt.shaders import color as _color
+
+from pyrt.core.camera import Camera
+from pyrt.core.image_io import encode_png, tonemap_to_display, write_exr
+from pyrt.integrators import PreparedScene
+from pyrt.render import render_full
+from pyrt.lights import LatLongEnvironment, set_environment
+from pyrt.materials import Lambert
+from pyrt.scene import Scene
+from pyrt.io.assets import Asset, load_asset
+from pyrt.apps.preview.options import BudgetExceeded, PreviewError, PreviewOptions
+from pyrt.apps.preview.rig import (auto_exposure, bounding_sphere, detect_up_axis, frame_camera, ground_radiance,
+                                   studio_rig, up_transform)
+
+
+# ============================================================================ the preview scene
+
+class PreviewScene:
+    """An asset placed in a studio: geometry prepared once, views rendered at any azimuth."""
+
+    def __init__(self, asset, options=None):
+        self.options = o = (options or PreviewOptions()).validate()
+        self.asset = asset
+        self.warnings = list(asset.warnings)
+        if o.up == "auto":
+            self.up_axis, self.up_reason = detect_up_axis(asset)
+        else:
+            self.up_axis, self.up_reason = o.up, "given"
+        self.up_matrix = up_transform(self.up_axis)
+        v = asset.world_vertices()
+        v = v @ self.up_matrix[:3, :3].T
+        self.center, self.radius = bounding_sphere(v)
+        if not self.radius > 0:
+            raise PreviewError(f"{asset.path}: the model has zero size")
+        self.ground_y = float(v[:, 1].min())
+        self.scene = Scene(Camera())
+        with _warnings.catch_warnings(record=True) as caught:
+            _warnings.simplefilter("always")
+            self.model_meshes = asset.add_to_scene(self.scene, transform=self.up_matrix,
+                                                   crease_angle=o.crease_angle, lights=o.lights in ("asset", "both"))
+        self.warnings += [str(w.message) for w in caught]
+        self.asset_lights = list(self.scene.lights)
+        self.ground_mesh = None
+        if o.ground:
+            g = Lambert(o.ground_albedo, name="ground")
+            foot = (self.center[0], self.ground_y - 1e-4 * self.radius, self.center[2])
+            self.ground_mesh = self.scene.add_plane(foot, 100.0 * self.radius, g, name="ground")
+        self.environment = None
+        if o.environment:
+            self.environment = LatLongEnvironment(o.environment, intensity=o.environment_intensity)
+            set_environment(self.scene, self.environment, lighting=o.environment_lighting,
+                            n_samples=o.environment_samples)
+            self.asset_lights = list(self.scene.lights)
+        if o.lights == "asset" and not asset.lights and self.environment is None:
+            self.warnings.append("lights='asset' but the asset has no lights: the studio rig is used")
+            self._use_rig = True
+        else:
+            self._use_rig = o.lights in ("studio", "both")
+        self.ambient_radiance = o.ambient * o.key / math.pi if self._use_rig else 0.0
+        self.scene.ambient = np.full(3, self.ambient_radiance)
+        self.prepared = PreparedScene(self.scene, threads=o.threads)
+        self.exposure = o.exposure
+        self.white = None
+
+    @property
+    def n_triangles(self):
+        return self.asset.n_triangles
+
+    def camera(self, azimuth):
+        o = self.options
+        if o.camera == "asset":
+            if not self.asset.cameras:
+                raise PreviewError(f"{self.asset.path}: camera='asset' but the file has no perspective camera")
+            ac = self.asset.cameras[0]
+            R = self.up_matrix[:3, :3]
+            cam = dataclasses.replace(ac, position=R @ ac.position, forward=R @ ac.forward, up=R @ ac.up)
+            return cam.to_pyrt(o.width, o.height, spp=o.spp)
+        return frame_camera(self.center, self.radius, fov=o.fov, azimuth=azimuth, elevation=o.elevation,
+                            width=o.width, height=o.height, margin=o.margin, spp=o.spp)
+
+    def _set_view(self, azimuth):
+        o = self.options
+        self.scene.camera = self.camera(azimuth)
+        rig = studio_rig(azimuth, o) if self._use_rig else []
+        bg = np.zeros(3)
+        if o.ground:
+            foot = (self.center[0], self.ground_y, self.center[2])
+            bg = ground_radiance(list(self.asset_lights) + rig, o.ground_albedo, self.ambient_radiance, at=foot)
+            if self.environment is not None:  # + the map's (SH, unshadowed) irradiance on the ground
+                up = np.array([[0.0, 1.0, 0.0]])
+                bg = bg + o.ground_albedo / math.pi * np.maximum(self.environment.irradiance_sh(up)[0], 0.0)
+        if self.environment is not None:
+            # with a ground, camera rays see the matched backdrop; without one, the map itself
+            self.environment.hide_background = bool(o.ground)
+            self.environment.background = bg
+        self.scene.background = bg
+        self.scene.lights[:] = list(self.asset_lights) + rig
+
+    def model_mask(self, camera=None):
+        """(H, W) bool: pixel-centre rays that hit the model (not the ground, not the background)."""
+        cam = camera or self.scene.camera
+        ys, xs = np.mgrid[0:cam.height, 0:cam.width]
+        d = cam.directions(xs.ravel() + 0.5, ys.ravel() + 0.5)
+        o = np.broadcast_to(cam.position, d.shape)
+        hits = self.prepared.accel.intersect(o, d)
+        model = hits.hit & np.isin(hits.mesh_id, self.model_meshes)
+        return model.reshape(cam.height, cam.width)
+
+    def render_view(self, azimuth, *, aovs=False):
+        """Render one view; the first call fixes the exposure (unless given). Returns a RenderResult."""
+        o = self.options
+        self._set_view(azimuth)
+        with _warnings.catch_warnings(record=True) as caught:
+            _warnings.simplefilter("always")
+            res = render_full(self.scene, seed=o.seed, max_depth=o.max_depth, aovs=aovs, progress=False,
+                              prepared=self.prepared, threads=o.threads)
+        self.warnings += [str(w.message) for w in caught]
+        if self.exposure is None:
+            self.exposure, self.white = auto_exposure(res.image, self.model_mask())
+        return res
+
+    def to_display(self, image):
+        """Tone-mapped, sRGB-encoded uint8 (H, W, 3) with this preview's exposure."""
+        o = self.options
+        kw = {"L_white": self.white} if (o.tonemap == "reinhard" and self.white is not None) else {}
+        disp = tonemap_to_display(image, tonemap_op=o.tonemap, exposure=self.exposure or 0.0, **kw)
+        return np.round(_color.srgb_encode(disp) * 255).astype(np.uint8)
+
+    def close(self):
+        self.prepared.close()
+
+
+# ============================================================================ rendering to files
+
+@dataclass
+class PreviewResult:
+    """What :func:`render_preview` produced."""
+
+    images: list                 # linear radiance (H, W, 3) float32 per view
+    aovs: list                   # per view: dict or None
+    azimuths: list
+    exposure: float
+    white: float | None
+    up_axis: str
+    up_reason: str
+    center: np.ndarray
+    radius: float
+    camera: Camera
+    triangles: int
+    load_time: float
+    render_time: float
+    warnings: list
+    files: dict = field(default_factory=dict)      # output name -> bytes (encoded files)
+
+
+def _png_bytes(arr):
+    """8-bit RGB PNG bytes (:func:`pyrt.core.image_io.encode_png`; deterministic for a given array)."""
+    return encode_png(np.ascontiguousarray(arr, dtype=np.uint8))
+
+
+def _exr_bytes(image, aovs):
+    with tempfile.TemporaryDirectory() as tmp:
+        p = os.path.join(tmp, "x.exr")
+        write_exr(p, image, aovs=aovs)
+        with open(p, "rb") as fh:
+            return fh.read()
+
+
+def contact_sheet(tiles, *, cols=None, pad=4, fill=255):
+    """Grid of equally sized uint8 (H, W, 3) tiles (row-major), ``pad`` pixels apart."""
+    n = len(tiles)
+    if n == 0:
+        raise PreviewError("contact_sheet needs at least one image")
+    h, w = tiles[0].shape[:2]
+    cols = cols or int(math.ceil(math.sqrt(n)))
+    rows = int(math.ceil(n / cols))
+    sheet = np.full((rows * h + (rows + 1) * pad, cols * w + (cols + 1) * pad, 3), fill, dtype=np.uint8)
+    for k, t in enumerate(tiles):
+        r, c = divmod(k, cols)
+        y, x = pad + r * (h + pad), pad + c * (w + pad)
+        sheet[y:y + h, x:x + w] = t
+    return sheet
+
+
+def _aov_pngs(aov):
+    out = {}
+    n = np.asarray(aov["normal"], dtype=np.float64)
+    out["normal"] = np.round(np.clip(0.5 * n + 0.5, 0, 1) * 255).astype(np.uint8)
+    out["albedo"] = np.round(_color.srgb_encode(np.clip(aov["albedo"], 0, 1)) * 255).astype(np.uint8)
+    z = np.asarray(aov["depth"], dtype=np.float64)
+    fin = np.isfinite(z)
+    if np.any(fin):
+        lo, hi = z[fin].min(), z[fin].max()
+        zz = np.where(fin, 1.0 - (z - lo) / max(hi - lo, 1e-300), 0.0)
+    else:
+        zz = np.zeros_like(z)
+    out["depth"] = np.repeat(np.round(zz * 255).astype(np.uint8)[..., None], 3, axis=2)
+    return out
+
+
+def render_preview(model, options=None, *, name="preview", deadline=None):
+    """Load (if given a path), set up and render a preview; encoded outputs in ``result.files``.
+
+    ``result.files`` maps names to bytes: ``NAME.png``/``NAME.exr`` (+ ``NAME_depth.png`` etc. with
+    ``aovs``) for a single view; ``NAME_turntable/frame_###.png`` (/``.exr``) and ``NAME_sheet.png``
+    for a turntable. ``deadline`` (a ``time.perf_counter()`` value) raises :class:`BudgetExceeded`
+    before a view that would not finish in time (estimated from the previous view).
+    """
+    o = (options or PreviewOptions()).validate()
+    t0 = time.perf_counter()
+    asset = model if isinstance(model, Asset) else load_asset(model)
+    load_time = asset.load_time if isinstance(model, Asset) else time.perf_counter() - t0
+    if deadline is not None and time.perf_counter() > deadline:
+        raise BudgetExceeded(f"time budget exceeded while loading ({load_time:.2f} s)")
+    ps = PreviewScene(asset, o)
+    try:
+        n_views = max(1, o.turntable)
+        az = [o.azimuth + 360.0 * k / n_views for k in range(n_views)] if o.turntable else [o.azimuth]
+        images, aovs = [], []
+        files = {}
+        t_render = 0.0
+        last = None
+        for k, a in enumerate(az):
+            if deadline is not None and last is not None and time.perf_counter() + last > deadline:
+                raise BudgetExceeded(f"time budget exceeded after {k}/{n_views} views "
+                                     f"({t_render:.2f} s rendering, {last:.2f} s per view)")
+            t1 = time.perf_counter()
+            res = ps.render_view(a, aovs=o.aovs)
+            last = time.perf_counter() - t1
+            t_render += last
+            images.append(res.image)
+            aovs.append(res.aovs)
+        disp = [ps.to_display(im) for im in images]
+        for k, (im, ao, dsp) in enumerate(zip(images, aovs, disp)):
+            stem = f"{name}_turntable/frame_{k:03d}" if o.turntable else name
+            if "png" in o.formats:
+                files[f"{stem}.png"] = _png_bytes(dsp)
+                if ao is not None:
+                    for kind, arr in _aov_pngs(ao).items():
+                        files[f"{stem}_{kind}.png"] = _png_bytes(arr)
+            if "exr" in o.formats:
+                files[f"{stem}.exr"] = _exr_bytes(im, ao)
+        if o.turntable:
+            files[f"{name}_sheet.png"] = _png_bytes(contact_sheet(disp))
+        return PreviewResult(images=images, aovs=aovs, azimuths=az, exposure=ps.exposure, white=ps.white,
+                             up_axis=ps.up_axis, up_reason=ps.up_reason, center=ps.center, radius=ps.radius,
+                             camera=ps.camera(az[0]), triangles=ps.n_triangles, load_time=load_time,
+                             render_time=t_render, warnings=ps.warnings, files=files)
+    finally:
+        ps.close()
+
+
+def write_files(files, out_dir):
+    """Write ``{relative name: bytes}`` under ``out_dir``; returns the paths written."""
+    paths = []
+    for rel, data in files.items():
+        p = os.path.join(out_dir, rel)
+        os.makedirs(os.path.dirname(os.path.abspath(p)), exist_ok=True)
+        with open(p, "wb") as fh:
+            fh.write(data)
+        paths.append(p)
+    return paths

@@ -1,0 +1,104 @@
+"""Load real assets (glTF 2.0 / GLB, OBJ + MTL, PLY, STL) into a :class:`pyrt.Scene`.
+
+``asset = load_asset(path)`` reads a file into an :class:`Asset` (object-space meshes, instances with
+their world transforms, materials, cameras, lights, warnings); ``asset.add_to_scene(scene)`` adds it
+to a scene. Every failure raises :class:`AssetError` with a message naming the file and the part
+that is wrong (a missing texture, an accessor past the end of its buffer, ...).
+
+Conventions
+-----------
+- **UVs** follow pyrt's convention (:mod:`pyrt.textures`): ``(0, 0)`` is the *bottom-left* of the
+  image, ``v`` up, texel row ``(1 - v) H``. glTF puts ``(0, 0)`` at the top-left, so glTF
+  ``TEXCOORD_n`` are stored as ``(u, 1 - v)`` (the same flip trimesh applies); OBJ, PLY and trimesh
+  UVs are already bottom-left and are used as they are. ``KHR_texture_transform`` is converted to
+  the flipped space (:func:`gltf_uv_transform`). glTF normal maps are "green = up in the image",
+  i.e. +v in pyrt's flipped UVs, which is :class:`pyrt.textures.NormalMap`'s default.
+- **Colour**: base-colour and emissive textures are sRGB and are linearised; metallic-roughness
+  (B = metallic, G = roughness), normal and occlusion (R) textures are linear data. glTF
+  ``COLOR_0`` is linear (spec); PLY / OBJ vertex colours are 8-bit sRGB by convention and are
+  linearised.
+- **glTF defaults** where a property is absent: baseColorFactor (1, 1, 1, 1), metallicFactor 1,
+  roughnessFactor 1, emissiveFactor (0, 0, 0), normal scale 1, occlusion strength 1,
+  doubleSided false, alphaMode OPAQUE; a primitive without a material gets the spec's default
+  material (all of the above). Emissive values (times ``KHR_materials_emissive_strength``) are
+  used as radiance in W m^-2 sr^-1.
+- **Lights** (``KHR_lights_punctual``): point/spot ``intensity`` is luminous intensity in candela,
+  directional ``intensity`` is illuminance in lux. They become radiant intensity
+  ``I = cd / K * color`` (W/sr) and irradiance ``E = lux / K * color`` (W/m^2) with
+  ``K = shaders.color.LUMINOUS_EFFICACY`` = 683 lm/W, through the lights' own ``candela=`` /
+  ``lux=`` arguments (:mod:`pyrt.lights`): the photometric value is the luminance (Rec. 709
+  weights) of the result exactly when ``luminance(color) = 1`` (e.g. white). Spot cones use glTF's
+  falloff (``spot_falloff="gltf"``), a ``range`` glTF's window (``falloff="gltf_range"``). Lights
+  point along the node's local -Z.
+- **Cameras**: perspective cameras look along local -Z with +Y up; orthographic cameras are not
+  supported (warning).
+- **Instancing**: a glTF mesh used by several nodes is decoded once; its object-space arrays,
+  smooth normals, UVs and materials are shared by the instances. The Embree scene holds one
+  world-space copy per instance (:mod:`pyrt.geometry.accel` has no instancing).
+- **Normals**: file normals are used as given; meshes without normals get crease-angle smooth
+  normals (:func:`crease_normals`, default 30 degrees), welded by position so UV seams and STL
+  triangle soups are smoothed too. Meshes without UVs render (UV = 0; textures read one texel).
+
+Modules: :mod:`~pyrt.io.assets.common` (errors, file types, material parameters),
+:mod:`~pyrt.io.assets.asset` (:class:`Asset` and adding it to a scene),
+:mod:`~pyrt.io.assets.materials` (parameters -> pyrt materials), :mod:`~pyrt.io.assets.gltf`,
+:mod:`~pyrt.io.assets.obj` (with the OBJ + MTL mapping), :mod:`~pyrt.io.assets.ply_stl`.
+"""
+from __future__ import annotations
+
+import os
+import time
+
+from pyrt.geometry.normals import crease_normals
+from pyrt.io.assets.common import (DEFAULT_CREASE_ANGLE, FORMATS, AssetError, DefaultParams, MTLParams, PBRParams,
+                                   TextureSlot)
+from pyrt.io.assets.materials import (GltfMaterial, ObjMaterial, ProductTexture, ScaledTexture, SurfaceExtras,
+                                      VertexColorTexture, make_metallic_roughness, to_pyrt_material)
+from pyrt.io.assets.asset import Asset, AssetCamera, AssetInstance, AssetLight, AssetMesh, light_from_photometric
+from pyrt.io.assets.gltf import gltf_node_transforms, gltf_uv_transform, load_gltf, pack_glb, read_gltf
+from pyrt.io.assets.obj import load_obj, parse_mtl
+from pyrt.io.assets.ply_stl import load_ply_stl
+
+__all__ = [
+    "load_asset", "Asset", "AssetMesh", "AssetInstance", "AssetCamera", "AssetLight", "AssetError", "FORMATS",
+    "DEFAULT_CREASE_ANGLE", "TextureSlot", "PBRParams", "MTLParams", "DefaultParams", "GltfMaterial", "ObjMaterial",
+    "SurfaceExtras", "ScaledTexture", "ProductTexture", "VertexColorTexture", "make_metallic_roughness",
+    "to_pyrt_material", "light_from_photometric", "crease_normals", "load_gltf", "read_gltf", "pack_glb",
+    "gltf_node_transforms", "gltf_uv_transform", "load_obj", "parse_mtl", "load_ply_stl",
+]
+
+
+def load_asset(path):
+    """Load any supported file (by extension: .gltf .glb .obj .ply .stl) into an :class:`Asset`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The model file.
+
+    Returns
+    -------
+    Asset
+        With ``load_time`` (seconds) set.
+
+    Raises
+    ------
+    AssetError
+        The file is missing, of an unsupported type, or cannot be loaded (the message says why).
+    """
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise AssetError(f"asset file not found: {path}")
+    ext = os.path.splitext(path)[1].lower()
+    fmt = FORMATS.get(ext)
+    if fmt is None:
+        raise AssetError(f"{path}: unsupported file type {ext!r}; supported: {sorted(FORMATS)}")
+    t0 = time.perf_counter()
+    if fmt == "gltf":
+        asset = load_gltf(path)
+    elif fmt == "obj":
+        asset = load_obj(path)
+    else:
+        asset = load_ply_stl(path, fmt)
+    asset.load_time = time.perf_counter() - t0
+    return asset

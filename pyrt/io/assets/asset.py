@@ -1,0 +1,216 @@
+"""The loaded asset: object-space meshes, their instances, cameras and lights, and how an asset is
+added to a :class:`pyrt.Scene` (crease-angle normals for meshes without normals, vertex colours,
+lights converted from photometric units)."""
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass, field
+import math
+
+import numpy as np
+import trimesh
+
+from pyrt.core.camera import Camera
+from pyrt.geometry.normals import crease_normals
+from pyrt.lights import DirectionalLight, PointLight, SpotLight
+from pyrt.io.assets.common import DEFAULT_CREASE_ANGLE, AssetError, DefaultParams, PBRParams
+from pyrt.io.assets.materials import VertexColorTexture, to_pyrt_material
+
+
+# ============================================================================ data model
+
+@dataclass
+class AssetMesh:
+    """One triangle mesh in object space (a glTF primitive, an OBJ material group, a PLY/STL file).
+
+    ``uv`` uses pyrt's convention (v up); ``colors`` are linear RGB per vertex; ``material`` indexes
+    :attr:`Asset.materials` (-1: the format's default material).
+    """
+
+    name: str
+    vertices: np.ndarray            # (V, 3) float64
+    faces: np.ndarray               # (F, 3) int64
+    normals: np.ndarray | None = None   # (V, 3) unit, from the file
+    uv: np.ndarray | None = None        # (V, 2) float64
+    colors: np.ndarray | None = None    # (V, 3) float64 linear
+    material: int = -1
+
+
+@dataclass
+class AssetInstance:
+    """A mesh placed in the world: ``world_from_object`` (4, 4) float64."""
+
+    mesh: int
+    world_from_object: np.ndarray
+    node: str = ""
+
+
+
+@dataclass
+class AssetCamera:
+    """A perspective camera: world position, unit forward and up, vertical fov (degrees)."""
+
+    name: str
+    position: np.ndarray
+    forward: np.ndarray
+    up: np.ndarray
+    yfov_deg: float
+    aspect: float | None = None
+
+    def to_pyrt(self, width, height, **kwargs):
+        """A :class:`pyrt.Camera` with this pose and field of view."""
+        return Camera(self.position, self.position + self.forward, self.up, fov=self.yfov_deg, width=width,
+                      height=height, **kwargs)
+
+
+@dataclass
+class AssetLight:
+    """A ``KHR_lights_punctual`` light in photometric units, placed in the world.
+
+    ``intensity`` is in candela (point, spot) or lux (directional); ``direction`` is the unit
+    direction the light travels (the node's -Z).
+    """
+
+    name: str
+    kind: str                       # "point" | "spot" | "directional"
+    color: np.ndarray
+    intensity: float
+    position: np.ndarray
+    direction: np.ndarray
+    range: float | None = None
+    inner_cone: float = 0.0         # radians
+    outer_cone: float = math.pi / 4
+
+    def to_pyrt(self):
+        """The pyrt light in radiometric units (conversion: see :mod:`pyrt.io.assets`, "Lights")."""
+        return light_from_photometric(self)
+
+
+@dataclass
+class Asset:
+    """A loaded asset. ``up_axis`` is "+y" when the format defines it (glTF), else None."""
+
+    path: str
+    format: str
+    meshes: list[AssetMesh] = field(default_factory=list)
+    instances: list[AssetInstance] = field(default_factory=list)
+    materials: list = field(default_factory=list)
+    cameras: list[AssetCamera] = field(default_factory=list)
+    lights: list[AssetLight] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    up_axis: str | None = None
+    load_time: float = 0.0
+
+    @property
+    def n_triangles(self):
+        """Triangles rendered (instances counted)."""
+        return int(sum(self.meshes[i.mesh].faces.shape[0] for i in self.instances))
+
+    def world_vertices(self):
+        """All instances' vertices in world space, (N, 3) float64."""
+        out = []
+        for inst in self.instances:
+            m = inst.world_from_object
+            out.append(self.meshes[inst.mesh].vertices @ m[:3, :3].T + m[:3, 3])
+        return np.concatenate(out) if out else np.zeros((0, 3))
+
+    def bounds(self):
+        v = self.world_vertices()
+        if v.shape[0] == 0:
+            raise AssetError(f"{self.path}: the asset has no geometry")
+        return v.min(axis=0), v.max(axis=0)
+
+    def add_to_scene(self, scene, *, transform=None, crease_angle=DEFAULT_CREASE_ANGLE, lights=True,
+                     name_prefix=""):
+        """Add the meshes (with materials) and, if ``lights``, the lights to ``scene``.
+
+        ``transform`` (4, 4) is applied on top of every instance's world transform (e.g. an up-axis
+        change). Returns the list of scene mesh indices added.
+        """
+        pre = np.eye(4) if transform is None else np.asarray(transform, dtype=np.float64)
+        prepared = {}
+        mats = {}
+        added = []
+        for k, inst in enumerate(self.instances):
+            if inst.mesh not in prepared:
+                prepared[inst.mesh] = _prepare_mesh(self.meshes[inst.mesh], crease_angle)
+            tm, normals, colors = prepared[inst.mesh]
+            am = self.meshes[inst.mesh]
+            key = am.material if colors is None else ("vc", inst.mesh)
+            if key not in mats:
+                mats[key] = self._material(am, colors)
+            material, vc_tex = mats[key]
+            m = pre @ inst.world_from_object
+            if abs(np.linalg.det(m[:3, :3])) < 1e-300:
+                self.warnings.append(f"instance {inst.node or k} of mesh {am.name!r} has a singular transform "
+                                     "(zero scale): skipped")
+                continue
+            mid = scene.add_mesh(tm, material, transform=m, normals=normals,
+                                 name=f"{name_prefix}{inst.node or am.name}#{k}")
+            if vc_tex is not None:
+                vc_tex.bind(mid, scene.meshes[mid].faces, colors)
+            added.append(mid)
+        if lights:
+            for L in self.lights:
+                light = L.to_pyrt()
+                if transform is not None:
+                    light = _transform_light(light, pre)
+                scene.add_light(light)
+        return added
+
+    def _material(self, am, colors):
+        """(pyrt material, vertex-colour texture or None) for a mesh."""
+        params = self.materials[am.material] if am.material >= 0 else (
+            PBRParams(name="gltf-default") if self.format == "gltf" else DefaultParams())
+        vc = VertexColorTexture() if colors is not None else None
+        return to_pyrt_material(params, vertex_colors=vc), vc
+
+
+# ============================================================================ lights
+
+def light_from_photometric(L):
+    """Convert an :class:`AssetLight` (candela / lux) to a pyrt light (W/sr / W/m^2).
+
+    Uses the lights' photometric constructors (``candela=``, ``lux=``; ``I = cd / 683``,
+    ``E = lux / 683`` times ``color``, see :mod:`pyrt.lights`), glTF's spot falloff
+    (``spot_falloff="gltf"``) and, when the light has a ``range``, glTF's range window
+    (``falloff="gltf_range"``).
+    """
+    color = np.asarray(L.color, dtype=np.float64)
+    if L.kind == "directional":
+        return DirectionalLight(L.direction, lux=L.intensity, color=color, name=L.name)
+    rng = {} if L.range is None else {"falloff": "gltf_range", "range": float(L.range)}
+    if L.kind == "point":
+        return PointLight(L.position, candela=L.intensity, color=color, name=L.name, **rng)
+    if L.kind == "spot":
+        return SpotLight(L.position, L.direction, candela=L.intensity, inner_angle=math.degrees(L.inner_cone),
+                         outer_angle=math.degrees(L.outer_cone), spot_falloff="gltf", color=color, name=L.name,
+                         **rng)
+    raise AssetError(f"unknown light type {L.kind!r}")
+
+
+def _transform_light(light, m):
+    """A copy of ``light`` (a light :func:`light_from_photometric` makes) moved by the 4x4 rigid transform ``m``."""
+    out = copy.copy(light)
+    if isinstance(out, (PointLight, SpotLight)):
+        out.position = m[:3, :3] @ light.position + m[:3, 3]
+    if isinstance(out, (DirectionalLight, SpotLight)):
+        d = m[:3, :3] @ light.direction
+        out.direction = d / np.linalg.norm(d)
+    return out
+
+
+# ============================================================================ meshes for the scene
+
+def _prepare_mesh(am, crease_angle):
+    """(trimesh in object space with UVs, object-space normals, linear colours or None) for add_mesh."""
+    v, f, uv, col, nrm = am.vertices, am.faces, am.uv, am.colors, am.normals
+    if nrm is None:
+        src, f, nrm = crease_normals(v, f, crease_angle)
+        v = v[src]
+        uv = None if uv is None else uv[src]
+        col = None if col is None else col[src]
+    tm = trimesh.Trimesh(vertices=v, faces=f, process=False)
+    if uv is not None:
+        tm.visual = trimesh.visual.TextureVisuals(uv=uv)
+    return tm, nrm, col

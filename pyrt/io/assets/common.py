@@ -1,0 +1,108 @@
+"""Shared by every asset format: the error class, the file types, the material parameter records
+and the trimesh helpers of the formats trimesh reads (OBJ geometry, PLY, STL)."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import trimesh
+
+from pyrt.shaders import color as _color
+
+from pyrt.core.errors import Error
+from pyrt.geometry.normals import DEFAULT_CREASE_ANGLE
+from pyrt.textures import ImageTexture, NormalMap
+
+__all__ = ["AssetError", "FORMATS", "DEFAULT_CREASE_ANGLE", "TextureSlot", "PBRParams", "MTLParams", "DefaultParams"]
+
+
+class AssetError(Error, ValueError):
+    """An asset file cannot be loaded; the message names the file and what is wrong."""
+
+
+FORMATS = {".gltf": "gltf", ".glb": "gltf", ".obj": "obj", ".ply": "ply", ".stl": "stl"}
+
+
+# ============================================================================ material parameters
+
+@dataclass
+class TextureSlot:
+    """A texture as the file describes it: the decoded texture and the parameters that apply to it."""
+
+    texture: ImageTexture
+    texcoord: int = 0
+    source: str = ""                # file name or "image 3 (embedded)"
+
+
+@dataclass
+class PBRParams:
+    """glTF metallic-roughness material parameters with the glTF defaults applied."""
+
+    name: str = ""
+    base_color_factor: np.ndarray = field(default_factory=lambda: np.ones(4))
+    base_color_texture: TextureSlot | None = None
+    metallic_factor: float = 1.0
+    roughness_factor: float = 1.0
+    metallic_roughness_texture: TextureSlot | None = None   # the raw RGB(A) data texture
+    metallic_texture: ImageTexture | None = None            # its B channel
+    roughness_texture: ImageTexture | None = None           # its G channel
+    normal_texture: NormalMap | None = None
+    normal_scale: float = 1.0
+    occlusion_texture: ImageTexture | None = None           # its R channel
+    occlusion_strength: float = 1.0
+    emissive_factor: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    emissive_texture: TextureSlot | None = None
+    emissive_strength: float = 1.0
+    double_sided: bool = False
+    alpha_mode: str = "OPAQUE"
+    alpha_cutoff: float = 0.5
+    texcoord: int = 0
+
+
+@dataclass
+class MTLParams:
+    """One ``newmtl`` block of an MTL file (values as written; None = absent)."""
+
+    name: str
+    Kd: np.ndarray | None = None
+    Ks: np.ndarray | None = None
+    Ke: np.ndarray | None = None
+    Tf: np.ndarray | None = None
+    Ns: float | None = None
+    Ni: float | None = None
+    d: float | None = None
+    illum: int | None = None
+    map_Kd: ImageTexture | None = None
+    map_Ke: ImageTexture | None = None
+    norm: NormalMap | None = None
+
+
+@dataclass
+class DefaultParams:
+    """The preview material for files without materials (PLY, STL): a grey dielectric "clay"."""
+
+    name: str = "default"
+    base_color: tuple = (0.8, 0.8, 0.8)
+    metallic: float = 0.0
+    roughness: float = 0.5
+
+
+# ============================================================================ trimesh-read formats
+
+def trimesh_load(path, fmt, **kw):
+    try:
+        return trimesh.load(path, process=False, **kw)
+    except Exception as exc:  # trimesh raises many exception types for malformed files
+        raise AssetError(f"{path}: cannot read {fmt} file: {type(exc).__name__}: {exc}") from None
+
+
+def vertex_colors(mesh):
+    """Linear RGB vertex colours (8-bit sRGB in the file) or None."""
+    vis = mesh.visual
+    if getattr(vis, "kind", None) != "vertex":
+        return None
+    c = np.asarray(vis.vertex_colors)
+    if c.shape[0] != len(mesh.vertices):
+        return None
+    rgb = c[:, :3].astype(np.float64) / 255.0 if c.dtype == np.uint8 else np.clip(c[:, :3], 0, 1)
+    return _color.srgb_decode(rgb)

@@ -1,0 +1,212 @@
+"""Loaded material parameters -> pyrt materials: the glTF metallic-roughness material with its extras
+(emission, occlusion, normal map), the OBJ/MTL Blinn-Phong mapping (:mod:`pyrt.io.assets.obj`) and the
+textures that combine factors, textures and vertex colours."""
+from __future__ import annotations
+
+import numpy as np
+
+from pyrt.materials import BlinnPhong, Glass, MetallicRoughness
+from pyrt.textures import Texture
+from pyrt.io.assets.common import AssetError, DefaultParams, MTLParams, PBRParams
+
+class ScaledTexture(Texture):
+    """``factor * texture`` (factor a scalar or RGB); ``channels`` of the inner texture."""
+
+    def __init__(self, texture, factor):
+        self.texture = texture
+        self.factor = np.asarray(factor, dtype=np.float64)
+        self.channels = texture.channels
+
+    def evaluate(self, ctx):
+        v = np.asarray(self.texture.evaluate(ctx), dtype=np.float64).reshape(ctx.n_hits, -1)
+        return v * self.factor
+
+
+class ProductTexture(Texture):
+    """Per-hit product of two textures (or a texture and a constant), e.g. vertex colour x base colour."""
+
+    def __init__(self, a, b):
+        self.a, self.b = a, b
+        self.channels = 3
+
+    def evaluate(self, ctx):
+        def val(x):
+            if isinstance(x, Texture):
+                return np.asarray(x.evaluate(ctx), dtype=np.float64).reshape(ctx.n_hits, -1)
+            return np.broadcast_to(np.asarray(x, dtype=np.float64), (ctx.n_hits, 3))
+        return val(self.a) * val(self.b)
+
+
+class VertexColorTexture(Texture):
+    """Linear per-vertex colours interpolated with the hit's barycentrics.
+
+    The colours are bound to scene meshes after :meth:`pyrt.Scene.add_mesh` (``bind(mesh_id,
+    faces, colors)``, with the mesh's final faces so that ``ctx.prim_id`` indexes them). Hits on
+    meshes that were not bound get white (1, 1, 1).
+    """
+
+    channels = 3
+
+    def __init__(self):
+        self._bound = {}
+
+    def bind(self, mesh_id, faces, colors):
+        self._bound[int(mesh_id)] = (np.asarray(faces, dtype=np.int64), np.asarray(colors, dtype=np.float64))
+
+    def evaluate(self, ctx):
+        out = np.ones((ctx.n_hits, 3))
+        for mid in np.unique(ctx.mesh_id):
+            if int(mid) not in self._bound:
+                continue
+            faces, colors = self._bound[int(mid)]
+            sel = np.flatnonzero(ctx.mesh_id == mid)
+            tri = faces[ctx.prim_id[sel]]
+            b = ctx.bary[sel]
+            out[sel] = (b[:, 0:1] * colors[tri[:, 0]] + b[:, 1:2] * colors[tri[:, 1]]
+                        + b[:, 2:3] * colors[tri[:, 2]])
+        return out
+
+
+class SurfaceExtras:
+    """Mixin adding glTF-style extras to a material: emission, occlusion and a normal map.
+
+    - ``emission_value`` (constant or texture): emitted radiance (W m^-2 sr^-1).
+    - ``occlusion`` (1-channel texture or None): ``1 + strength (occ - 1)``; multiplies
+      :meth:`albedo`, i.e. the constant ambient term (pyrt's only indirect light, which is what glTF
+      occlusion applies to) and the albedo AOV. Direct light is not occluded (glTF spec).
+    - ``normal_map`` (:class:`pyrt.textures.NormalMap` or None): applied by the integrator
+      (:func:`pyrt.textures.apply_normal_maps` perturbs the shading normal of every material with a
+      ``normal_map`` attribute before shading).
+    """
+
+    def _init_extras(self, emission=None, occlusion=None, occlusion_strength=1.0, normal_map=None):
+        self.emission_value = 0.0 if emission is None else emission
+        self.occlusion = occlusion
+        self.occlusion_strength = float(occlusion_strength)
+        self.normal_map = normal_map
+
+    def albedo(self, ctx):
+        a = super().albedo(ctx)
+        if self.occlusion is None:
+            return a
+        occ = self.param(self.occlusion, ctx, 1)
+        return a * (1.0 + self.occlusion_strength * (occ - 1.0))[:, None]
+
+    def emission(self, ctx):
+        return np.array(self.param(self.emission_value, ctx))
+
+
+class ObjMaterial(SurfaceExtras, BlinnPhong):
+    """An OBJ/MTL opaque material: energy-normalised Blinn-Phong plus MTL ``Ke`` emission."""
+
+    type_name = None
+
+    def __init__(self, kd, ks, exponent, *, emission=None, normal_map=None, name=None):
+        BlinnPhong.__init__(self, kd, ks, exponent, name=name)
+        self._init_extras(emission=emission, normal_map=normal_map)
+
+
+class GltfMaterial(SurfaceExtras, MetallicRoughness):
+    """The glTF material: :class:`pyrt.materials.MetallicRoughness` plus emission, occlusion, normal map."""
+
+    type_name = None
+
+    def __init__(self, *, base_color, metallic, roughness, emission=None, occlusion=None,
+                 occlusion_strength=1.0, normal_map=None, double_sided=True, name=None):
+        MetallicRoughness.__init__(self, base_color=base_color, metallic=metallic, roughness=roughness,
+                                   name=name)
+        self._init_extras(emission=emission, occlusion=occlusion, occlusion_strength=occlusion_strength,
+                          normal_map=normal_map)
+        self.double_sided = bool(double_sided)
+
+
+def make_metallic_roughness(**kwargs):
+    """Adapter: build the glTF metallic-roughness material (:class:`GltfMaterial`).
+
+    Raises :class:`AssetError` if the material library's ``MetallicRoughness`` class is missing:
+    no other model is substituted silently.
+    """
+    if GltfMaterial is None:
+        raise AssetError("pyrt.materials.MetallicRoughness is not available, so glTF metallic-roughness "
+                         "materials cannot be built (material library, issue 3)")
+    return GltfMaterial(**kwargs)
+
+
+def _slot_tex(slot):
+    return None if slot is None else slot.texture
+
+
+def to_pyrt_material(params, *, vertex_colors=None):
+    """A pyrt material for loaded parameters (:class:`PBRParams`, :class:`MTLParams`, :class:`DefaultParams`).
+
+    ``vertex_colors`` (a texture, e.g. :class:`VertexColorTexture`) multiplies the base colour /
+    diffuse colour (glTF ``COLOR_0`` semantics).
+    """
+    if isinstance(params, PBRParams):
+        base = params.base_color_factor[:3]
+        tex = _slot_tex(params.base_color_texture)
+        base_color = base if tex is None else ScaledTexture(tex, base)
+        if vertex_colors is not None:
+            base_color = ProductTexture(vertex_colors, base_color)
+        metallic = params.metallic_factor if params.metallic_texture is None else \
+            ScaledTexture(params.metallic_texture, params.metallic_factor)
+        roughness = params.roughness_factor if params.roughness_texture is None else \
+            ScaledTexture(params.roughness_texture, params.roughness_factor)
+        e = params.emissive_factor * params.emissive_strength
+        etex = _slot_tex(params.emissive_texture)
+        emission = (e if np.any(e > 0) else None) if etex is None else ScaledTexture(etex, e)
+        return make_metallic_roughness(base_color=base_color, metallic=metallic, roughness=roughness,
+                                       emission=emission, occlusion=params.occlusion_texture,
+                                       occlusion_strength=params.occlusion_strength,
+                                       normal_map=params.normal_texture, double_sided=params.double_sided,
+                                       name=params.name)
+    if isinstance(params, DefaultParams):
+        base = np.asarray(params.base_color, dtype=np.float64)
+        base_color = base if vertex_colors is None else ProductTexture(vertex_colors, base)
+        return make_metallic_roughness(base_color=base_color, metallic=params.metallic,
+                                       roughness=params.roughness, name=params.name)
+    if isinstance(params, MTLParams):
+        return _mtl_material(params, vertex_colors)
+    raise AssetError(f"unknown material parameters {type(params).__name__}")
+
+
+def mtl_is_transparent(p):
+    return (p.d is not None and p.d < 1.0) or (p.illum in (4, 6, 7, 9))
+
+
+def mtl_kd_ks(p):
+    """``(kd, ks, s)``: Kd and Ks clipped to [0, 1] (defaults 0.8 and 0), ks already scaled by ``s <= 1``
+    so that ``kd * max(map_Kd) + ks <= 1`` in every channel."""
+    kd = np.clip(p.Kd if p.Kd is not None else np.full(3, 0.8), 0.0, 1.0)
+    ks = np.clip(p.Ks if p.Ks is not None else np.zeros(3), 0.0, 1.0)
+    kd_max = kd * (float(np.max(p.map_Kd.image)) if p.map_Kd is not None else 1.0)
+    s = _ks_scale(kd_max, ks)
+    return kd, ks * s, s
+
+
+def _mtl_material(p, vertex_colors=None):
+    if mtl_is_transparent(p):
+        ior = p.Ni if (p.Ni is not None and p.Ni > 1.0) else 1.5
+        tint = np.clip(p.Tf, 0, 1) if p.Tf is not None else 1.0
+        return Glass(ior=ior, tint=tint, name=p.name)
+    kd, ks, _ = mtl_kd_ks(p)
+    kd_param = kd if p.map_Kd is None else ScaledTexture(p.map_Kd, kd)
+    if vertex_colors is not None:
+        kd_param = ProductTexture(vertex_colors, kd_param)
+    emission = None
+    ke = p.Ke if p.Ke is not None else np.zeros(3)
+    if p.map_Ke is not None:
+        emission = ScaledTexture(p.map_Ke, ke if p.Ke is not None else np.ones(3))
+    elif np.any(ke > 0):
+        emission = ke
+    exponent = float(p.Ns) if p.Ns is not None else 10.0
+    return ObjMaterial(kd_param, ks, max(exponent, 0.0), emission=emission, normal_map=p.norm, name=p.name)
+
+
+def _ks_scale(kd_max, ks):
+    """Uniform factor <= 1 on ks so that kd + ks <= 1 in every channel."""
+    room = 1.0 - kd_max
+    need = ks > room + 1e-12
+    if not np.any(need):
+        return 1.0
+    return float(np.min(np.where(ks > 0, np.clip(room, 0.0, None) / np.where(ks > 0, ks, 1.0), 1.0)))

@@ -1,0 +1,189 @@
+"""OBJ + MTL -> :class:`Asset` (geometry read by trimesh, materials parsed here).
+
+OBJ + MTL mapping (documented choice; the MTL "illum 2" model *is* Blinn-Phong)
+------------------------------------------------------------------------------
+- Opaque materials -> :class:`~pyrt.io.assets.materials.ObjMaterial` = energy-normalised :class:`pyrt.BlinnPhong`:
+  ``kd = Kd`` (times ``map_Kd``, sRGB), ``ks = Ks``, ``exponent = Ns``; if ``kd + ks > 1`` in a
+  channel, ``ks`` is scaled down uniformly (warning) so the model conserves energy.
+  ``Ke`` (and ``map_Ke``) is emitted radiance. ``Ka`` is not used (pyrt's ambient term uses the
+  albedo ``kd``).
+- Transparent materials (``d < 1``, ``Tr > 0`` or ``illum`` 4, 6, 7, 9) -> :class:`pyrt.Glass` with
+  ``ior = Ni`` (1.5 if ``Ni <= 1`` or absent, warning) and ``tint = Tf`` (default white).
+- ``map_Kd`` options ``-s`` and ``-o`` become the texture's UV scale and offset; ``norm`` is used as
+  a normal map; ``bump``/``map_Bump`` (height maps) and other maps are ignored with a warning.
+"""
+from __future__ import annotations
+
+import os
+import re
+
+import numpy as np
+import trimesh
+
+from pyrt.textures import ImageTexture, NormalMap, TextureError
+from pyrt.io.assets.common import AssetError, MTLParams, trimesh_load, vertex_colors
+from pyrt.io.assets.asset import Asset, AssetInstance, AssetMesh
+from pyrt.io.assets.materials import mtl_is_transparent, mtl_kd_ks
+
+
+_MTL_OPTS = {"-blendu": 1, "-blendv": 1, "-bm": 1, "-boost": 1, "-cc": 1, "-clamp": 1, "-imfchan": 1,
+             "-mm": 2, "-texres": 1, "-type": 1, "-o": 3, "-s": 3, "-t": 3}
+
+
+def _mtl_map(tokens, base, what, *, srgb, warnings, normal=False):
+    """Parse ``map_* [options] file`` -> texture (missing file: AssetError)."""
+    opts, i = {}, 0
+    while i < len(tokens) and tokens[i] in _MTL_OPTS:
+        k = tokens[i]
+        n = _MTL_OPTS[k]
+        vals = []
+        i += 1
+        while len(vals) < n and i < len(tokens):
+            try:
+                vals.append(float(tokens[i]))
+            except ValueError:
+                if k in ("-o", "-s", "-t") and vals:
+                    break
+                vals.append(tokens[i])
+            i += 1
+        opts[k] = vals
+    fname = " ".join(tokens[i:])
+    if not fname:
+        raise AssetError(f"{what}: no file name")
+    fpath = fname if os.path.isabs(fname) else os.path.join(base, fname.replace("\\", "/"))
+    if not os.path.isfile(fpath):
+        raise AssetError(f"{what}: texture file not found: {fpath}")
+    kw = {}
+    if "-s" in opts:
+        s = [float(x) for x in opts["-s"][:2]] + [1.0] * (2 - len(opts["-s"][:2]))
+        kw["scale"] = tuple(s)
+    if "-o" in opts:
+        o = [float(x) for x in opts["-o"][:2]] + [0.0] * (2 - len(opts["-o"][:2]))
+        kw["offset"] = tuple(o)
+    ignored = set(opts) - {"-s", "-o"}
+    if ignored:
+        warnings.append(f"{what}: map options {sorted(ignored)} ignored")
+    try:
+        if normal:
+            return NormalMap(fpath, **kw)
+        return ImageTexture(fpath, srgb=srgb, channels=3, **kw)
+    except TextureError as exc:
+        raise AssetError(f"{what}: {exc}") from None
+
+
+def parse_mtl(path, warnings=None):
+    """Parse an MTL file into {name: :class:`MTLParams`}; texture files are loaded (missing -> AssetError)."""
+    warnings = warnings if warnings is not None else []
+    base = os.path.dirname(os.path.abspath(path))
+    out, cur = {}, None
+    with open(path, "r", encoding="utf-8", errors="replace") as fh:
+        for lineno, line in enumerate(fh, 1):
+            line = line.strip()
+            if not line or line.startswith("#"):
+                continue
+            tok = line.split()
+            key, args = tok[0], tok[1:]
+            where = f"{path}:{lineno}"
+            if key == "newmtl":
+                name = " ".join(args)
+                cur = out[name] = MTLParams(name=name)
+                continue
+            if cur is None:
+                raise AssetError(f"{where}: '{key}' before any 'newmtl'")
+            try:
+                if key in ("Kd", "Ks", "Ke", "Tf"):
+                    if args and args[0] in ("spectral", "xyz"):
+                        warnings.append(f"{where}: {key} {args[0]} not supported; ignored")
+                        continue
+                    vals = [float(a) for a in args[:3]]
+                    vals = vals * 3 if len(vals) == 1 else vals
+                    if len(vals) != 3:
+                        raise ValueError("need 1 or 3 numbers")
+                    setattr(cur, key, np.asarray(vals, dtype=np.float64))
+                elif key in ("Ns", "Ni"):
+                    setattr(cur, key, float(args[0]))
+                elif key == "d":
+                    cur.d = float(args[-1])
+                elif key == "Tr":
+                    cur.d = 1.0 - float(args[0])
+                elif key == "illum":
+                    cur.illum = int(args[0])
+                elif key == "map_Kd":
+                    cur.map_Kd = _mtl_map(args, base, f"{where}: map_Kd", srgb=True, warnings=warnings)
+                elif key == "map_Ke":
+                    cur.map_Ke = _mtl_map(args, base, f"{where}: map_Ke", srgb=True, warnings=warnings)
+                elif key in ("norm", "map_Kn"):
+                    cur.norm = _mtl_map(args, base, f"{where}: {key}", srgb=False, warnings=warnings, normal=True)
+                elif key.startswith("map_") or key in ("bump", "disp", "decal", "refl"):
+                    warnings.append(f"{where}: {key} not supported; ignored")
+                elif key in ("Ka", "Pr", "Pm", "Ps", "Pc", "Pcr", "aniso", "anisor", "sharpness"):
+                    pass  # not used by the mapping (see the module docstring)
+                else:
+                    warnings.append(f"{where}: unknown MTL statement {key!r} ignored")
+            except AssetError:
+                raise
+            except (ValueError, IndexError) as exc:
+                raise AssetError(f"{where}: cannot parse {line!r}: {exc}") from None
+    return out
+
+
+def load_obj(path):
+    """Load an OBJ (+ MTL) file into an :class:`Asset` (MTL mapping: see the module docstring)."""
+    asset = Asset(path=path, format="obj")
+    W = asset.warnings
+    with open(path, "r", encoding="utf-8", errors="replace") as fh:
+        text = fh.read()
+    has_vn = re.search(r"^\s*vn\s", text, flags=re.M) is not None
+    mtls = {}
+    base = os.path.dirname(os.path.abspath(path))
+    for m in re.finditer(r"^\s*mtllib\s+(.+?)\s*$", text, flags=re.M):
+        mpath = os.path.join(base, m.group(1).replace("\\", "/"))
+        if not os.path.isfile(mpath):
+            raise AssetError(f"{path}: material library not found: {mpath}")
+        mtls.update(parse_mtl(mpath, W))
+    used = set(re.findall(r"^\s*usemtl\s+(.+?)\s*$", text, flags=re.M))
+    missing = used - set(mtls)
+    if missing:
+        W.append(f"{path}: material(s) {sorted(missing)} not defined in the MTL; default material used")
+    tm = trimesh_load(path, "OBJ")
+    names = list(mtls)
+    asset.materials = [mtls[n] for n in names]
+    geoms = tm.geometry.items() if isinstance(tm, trimesh.Scene) else [("mesh", tm)]
+    # trimesh groups OBJ faces by material; read each group's material name from the OBJ itself
+    groups = _obj_material_groups(text)
+    for gname, mesh in geoms:
+        if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+            continue
+        mname = _trimesh_obj_material_name(mesh, gname, groups)
+        mi = names.index(mname) if mname in names else -1
+        uv = getattr(mesh.visual, "uv", None)
+        uv = np.asarray(uv, dtype=np.float64) if uv is not None and len(uv) == len(mesh.vertices) else None
+        colors = vertex_colors(mesh)
+        normals = np.asarray(mesh.vertex_normals, dtype=np.float64) if has_vn else None
+        asset.meshes.append(AssetMesh(name=str(gname), vertices=np.asarray(mesh.vertices, dtype=np.float64),
+                                      faces=np.asarray(mesh.faces, dtype=np.int64), normals=normals, uv=uv,
+                                      colors=colors, material=mi))
+        asset.instances.append(AssetInstance(mesh=len(asset.meshes) - 1, world_from_object=np.eye(4),
+                                             node=str(gname)))
+    if not asset.instances:
+        raise AssetError(f"{path}: no triangles found in the OBJ file")
+    for p in asset.materials:
+        if mtl_is_transparent(p) and not (p.Ni is not None and p.Ni > 1.0):
+            W.append(f"material {p.name!r}: transparent with Ni {p.Ni}; glass with ior 1.5 used")
+        if not mtl_is_transparent(p):
+            s = mtl_kd_ks(p)[2]
+            if s < 1.0:
+                W.append(f"material {p.name!r}: Kd + Ks > 1; Ks scaled by {s:.3f} to conserve energy")
+    return asset
+
+
+def _obj_material_groups(text):
+    return re.findall(r"^\s*usemtl\s+(.+?)\s*$", text, flags=re.M)
+
+
+def _trimesh_obj_material_name(mesh, gname, groups):
+    mat = getattr(mesh.visual, "material", None)
+    name = getattr(mat, "name", None)
+    if name in groups:
+        return name
+    return gname if gname in groups else None
