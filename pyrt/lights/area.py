@@ -102,6 +102,18 @@ class AreaLight(Light):
     _smooth = False
 
 
+def _planar_pdf(p, wi, center, n, inside):
+    """Solid-angle pdf (N,) of uniform area sampling of a one-sided planar emitter: ``r^2 / (A cos_l)`` where
+    the ray ``p + t wi`` (t > 0) hits the emitter's front (``inside(local x, y) -> bool`` on its plane); the
+    area ``A`` is applied by the caller."""
+    cos_l = -(wi @ n)
+    t = np.divide((center - p) @ n, -cos_l, out=np.full(cos_l.shape, -1.0), where=cos_l > 0)
+    hit = (cos_l > 0) & (t > 0)
+    x = p + t[:, None] * wi - center
+    hit &= inside(x)
+    return np.where(hit, np.divide(t * t, cos_l, out=np.zeros_like(t), where=hit), 0.0)
+
+
 def _planar_sample(p, x, n, L, area):
     """Shared by rectangle and disk: light point ``x`` (N, 3) sampled with pdf 1/area on a plane of normal n."""
     d = x - p
@@ -121,6 +133,11 @@ class RectLight(AreaLight):
     ``tangent`` (optional) is the direction of the ``width`` side (projected onto the plane);
     by default an arbitrary frame around ``normal``.
     """
+
+    @classmethod
+    def example(cls):
+        """A 1 x 0.5 rectangle at height 2 facing down, 20 W."""
+        return cls((0.0, 2.0, 0.0), size=(1.0, 0.5), power=20.0)
 
     def __init__(self, center, normal=(0.0, -1.0, 0.0), size=1.0, *, tangent=None, radiance=None, power=None,
                  color=(1.0, 1.0, 1.0), n_samples=16, name=None):
@@ -156,6 +173,12 @@ class RectLight(AreaLight):
              + (u[:, 1:2] - 0.5) * self.size[1] * self.bitangent)
         return _planar_sample(p, x, self.normal, self.L, self.area)
 
+    def pdf_li(self, p, wi):
+        """Solid-angle density of :meth:`sample` (uniform by area): ``r^2 / (A cos theta_l)`` on the rectangle."""
+        hx, hy = 0.5 * self.size
+        inside = lambda x: (np.abs(x @ self.tangent) <= hx) & (np.abs(x @ self.bitangent) <= hy)  # noqa: E731
+        return _planar_pdf(p, wi, self.center, self.normal, inside) / self.area
+
     def mesh(self):
         hx, hy = 0.5 * self.size
         t, b = self.tangent, self.bitangent
@@ -170,6 +193,11 @@ class DiskLight(AreaLight):
 
     #: polygon segments of the visible mesh (the light itself is sampled on the exact disk)
     segments = 64
+
+    @classmethod
+    def example(cls):
+        """A disk of radius 0.4 at height 2 facing down, 20 W."""
+        return cls((0.0, 2.0, 0.0), radius=0.4, power=20.0)
 
     def __init__(self, center, normal=(0.0, -1.0, 0.0), radius=0.5, *, radiance=None, power=None,
                  color=(1.0, 1.0, 1.0), n_samples=16, name=None):
@@ -195,6 +223,11 @@ class DiskLight(AreaLight):
         x = self.center + q[:, 0:1] * self.tangent + q[:, 1:2] * self.bitangent
         return _planar_sample(p, x, self.normal, self.L, self.area)
 
+    def pdf_li(self, p, wi):
+        """Solid-angle density of :meth:`sample` (uniform by area): ``r^2 / (A cos theta_l)`` on the disk."""
+        inside = lambda x: np.einsum("ij,ij->i", x, x) <= self.radius ** 2  # noqa: E731
+        return _planar_pdf(p, wi, self.center, self.normal, inside) / self.area
+
     def mesh(self):
         a = 2.0 * np.pi * np.arange(self.segments) / self.segments
         ring = (self.center + self.radius * (np.cos(a)[:, None] * self.tangent + np.sin(a)[:, None] * self.bitangent))
@@ -211,6 +244,11 @@ class SphereLight(AreaLight):
     _smooth = True
     #: icosphere subdivisions of the visible mesh (3 -> 1280 triangles)
     subdivisions = 3
+
+    @classmethod
+    def example(cls):
+        """A sphere of radius 0.3 at height 2, 20 W."""
+        return cls((0.0, 2.0, 0.0), radius=0.3, power=20.0)
 
     def __init__(self, center, radius=0.5, *, radiance=None, power=None, color=(1.0, 1.0, 1.0), n_samples=16,
                  name=None):
@@ -247,6 +285,19 @@ class SphereLight(AreaLight):
         dist = np.maximum(b - np.sqrt(disc), 0.0)
         E = self.L[None, :] * 2.0 * np.pi * one_minus_cos[:, None]
         return wi, dist, E
+
+    def pdf_li(self, p, wi):
+        """Solid-angle density of :meth:`sample`: uniform in the cone the sphere subtends,
+        ``1 / (2 pi (1 - cos theta_max))`` inside it, 0 outside (and for points inside the sphere)."""
+        r = self.radius
+        dc = self.center - p
+        dist_c = np.sqrt(np.einsum("ij,ij->i", dc, dc))
+        outside = dist_c > r * (1.0 + 1e-9)
+        inv = np.divide(1.0, dist_c, out=np.zeros_like(dist_c), where=dist_c > 0)
+        sin2 = np.clip((r * inv) ** 2, 0.0, 1.0)
+        one_minus_cos = np.where(outside, sin2 / (1.0 + np.sqrt(1.0 - sin2)), 0.0)
+        in_cone = outside & (np.einsum("ij,ij->i", wi, dc) * inv >= 1.0 - one_minus_cos)
+        return np.where(in_cone, 1.0 / (2.0 * np.pi * np.where(in_cone, one_minus_cos, 1.0)), 0.0)
 
     def mesh(self):
         m = trimesh.creation.icosphere(subdivisions=self.subdivisions, radius=self.radius)

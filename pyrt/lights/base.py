@@ -140,6 +140,11 @@ class Light:
     #: registry name used by scene files (set by :meth:`Registry.register`)
     type_name = None
 
+    @classmethod
+    def example(cls):
+        """A typical instance for the contract tests (tests/test_light_contracts.py); every light defines one."""
+        raise NotImplementedError(f"{cls.__name__} defines no example()")
+
     def sample(self, p, u):
         """``(wi, dist, E)`` arrays at shading points ``p`` (N, 3) for random numbers ``u`` (N, 2)."""
         s = self.sample_li(p, u)

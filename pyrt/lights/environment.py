@@ -143,6 +143,11 @@ class Environment:
     #: radiance (3,) seen by camera rays when :attr:`hide_background` is set
     background = np.zeros(3)
 
+    @classmethod
+    def example(cls):
+        """A typical instance for the contract tests (tests/test_light_contracts.py)."""
+        return cls()
+
     def __init__(self, *, intensity=1.0, rotate=None, hide_background=False, background=0.0, name=None):
         owner = f"{type(self).__name__}({name or ''})"
         self.name = name
@@ -277,6 +282,11 @@ class LatLongEnvironment(Environment):
     """
 
 
+    @classmethod
+    def example(cls):
+        """A small procedural sky with a sun (64 x 32)."""
+        return cls(procedural_sky(64, 32))
+
     def __init__(self, image, *, intensity=1.0, rotate=None, filter="bilinear", hide_background=False,
                  background=0.0, name=None):
         super().__init__(intensity=intensity, rotate=rotate, hide_background=hide_background,
@@ -324,6 +334,11 @@ class CubeMapEnvironment(Environment):
         :func:`shaders.envmap.split_cross`.
     """
 
+
+    @classmethod
+    def example(cls):
+        """The small procedural sky as six 16 x 16 faces."""
+        return cls(K.latlong_to_cube(procedural_sky(64, 32), 16))
 
     def __init__(self, faces, *, intensity=1.0, rotate=None, filter="bilinear", hide_background=False,
                  background=0.0, name=None):

@@ -132,6 +132,11 @@ class PointLight(_PunctualLight):
     and ``range`` as in the module docstring.
     """
 
+    @classmethod
+    def example(cls):
+        """A 10 W/sr light at (0, 2, 0)."""
+        return cls((0.0, 2.0, 0.0), intensity=10.0, color=(1.0, 0.8, 0.6))
+
     def __init__(self, position, intensity=None, *, power=None, candela=None, power_lm=None, color=None,
                  temperature=None, falloff="inverse_square", epsilon=None, range=None, name=None):  # noqa: A002
         owner = f"PointLight({name or ''})"
@@ -210,6 +215,11 @@ class SpotLight(_PunctualLight):
     closed-form cone integral :func:`shaders.lights.spot_cone_solid_angle` of the chosen falloff.
     """
 
+    @classmethod
+    def example(cls):
+        """A spot at (0, 2, 0) pointing down, 20-40 degree cone."""
+        return cls((0.0, 2.0, 0.0), (0.0, -1.0, 0.0), intensity=10.0, inner_angle=20.0, outer_angle=40.0)
+
     def __init__(self, position, direction=None, *, target=None, intensity=None, power=None, candela=None,
                  power_lm=None, inner_angle=20.0, outer_angle=30.0, spot_falloff="smoothstep", color=None,
                  temperature=None, falloff="inverse_square", epsilon=None, range=None, name=None):  # noqa: A002
@@ -280,6 +290,11 @@ class DirectionalLight(Light):
     Give exactly one of ``irradiance`` E (W/m^2 on a surface perpendicular to the light) or ``lux``
     (illuminance, lm/m^2; E = lux / 683 per channel times ``color``); ``color`` or ``temperature``.
     """
+
+    @classmethod
+    def example(cls):
+        """2 W/m^2 travelling down and sideways."""
+        return cls((0.3, -1.0, -0.2), 2.0)
 
     def __init__(self, direction, irradiance=None, *, lux=None, color=None, temperature=None, name=None):
         owner = f"DirectionalLight({name or ''})"

@@ -48,6 +48,13 @@ class ProjectorLight(SpotLight):
     ``candela`` (scale of a white texel on the axis).
     """
 
+    @classmethod
+    def example(cls):
+        """A projector at (0, 2, 0) pointing down with an 8x8 gradient slide and a soft 20-40 degree edge."""
+        img = np.linspace(0.2, 1.0, 8)[:, None, None] * np.ones((8, 8, 3))
+        return cls((0.0, 2.0, 0.0), (0.0, -1.0, 0.0), image=img, intensity=10.0, inner_angle=20.0,
+                   outer_angle=40.0, srgb=False)
+
     def __init__(self, position, direction=None, *, image, target=None, up=None, intensity=None,
                  candela=None, inner_angle=None, outer_angle=30.0, spot_falloff="smoothstep", srgb=None,
                  color=None, temperature=None, falloff="inverse_square", epsilon=None, range=None,  # noqa: A002
@@ -120,6 +127,12 @@ class GoniometricLight(_PunctualLight):
     ``intensity`` (W/sr per unit texel) or ``candela``.
     """
 
+    @classmethod
+    def example(cls):
+        """A goniometric light at (0, 2, 0) brighter toward its up axis."""
+        img = np.linspace(1.0, 0.1, 8)[:, None, None] * np.ones((8, 16, 3))
+        return cls((0.0, 2.0, 0.0), img, intensity=5.0, srgb=False)
+
     def __init__(self, position, image, *, up=(0.0, 1.0, 0.0), reference=(1.0, 0.0, 0.0), intensity=None,
                  candela=None, srgb=None, color=None, temperature=None, falloff="inverse_square", epsilon=None,
                  range=None, name=None):  # noqa: A002
@@ -158,6 +171,16 @@ class IESLight(_PunctualLight):
     above). ``I(w) = scale * candela(V, H) / 683 * color`` (W/sr); the candela values are bilinearly
     interpolated (:func:`shaders.ies.ies_candela`). A spot-shaped profile is a spot light.
     """
+
+    @classmethod
+    def example(cls):
+        """A downlight at (0, 2, 0): a rotationally symmetric profile, 1000 cd at nadir falling to 0 at 90 degrees."""
+        v = np.linspace(0.0, 180.0, 19)
+        cd = np.where(v <= 90.0, 1000.0 * np.cos(np.radians(np.minimum(v, 90.0))) ** 2, 0.0)
+        profile = _ies.IESProfile(vertical_angles=v, horizontal_angles=np.array([0.0]), candela=cd[None, :],
+                                  lumens_per_lamp=-1.0, n_lamps=1, keywords={}, units=2, dimensions=(0.0, 0.0, 0.0),
+                                  input_watts=0.0)
+        return cls((0.0, 2.0, 0.0), profile)
 
     def __init__(self, position, profile, *, direction=(0.0, -1.0, 0.0), reference=None, scale=1.0, color=None,
                  temperature=None, falloff="inverse_square", epsilon=None, range=None, name=None):  # noqa: A002

@@ -181,6 +181,13 @@ class Material:
     name = None
     #: tangent-space normal map (a :class:`pyrt.NormalMap`) or None; applied to the shading normal before shading
     normal_map = None
+    #: f(wo, wi) = f(wi, wo) (Helmholtz reciprocity; the contract tests check it where declared)
+    reciprocal = True
+
+    @classmethod
+    def example(cls):
+        """A typical instance (default parameters) for the contract tests (tests/test_material_contracts.py)."""
+        return cls()
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)

@@ -119,6 +119,9 @@ class Phong(Material):
 
 
 class _Classic(Material):
+    #: the classic models divide by cos(theta_i): f depends on which direction is the light
+    reciprocal = False
+
     """Shared parameters of the classic (course) Phong / Blinn-Phong illumination models."""
 
     _kernel = None
