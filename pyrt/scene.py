@@ -46,6 +46,7 @@ class Scene:
 
     # -- building -----------------------------------------------------------------------------
     def add_material(self, material):
+        """Add ``material`` (once) and return its index in :attr:`materials`."""
         if not isinstance(material, Material):
             raise SceneError(f"expected a pyrt Material, got {type(material).__name__}")
         for i, m in enumerate(self.materials):
@@ -55,6 +56,7 @@ class Scene:
         return len(self.materials) - 1
 
     def add_light(self, light):
+        """Add a :class:`pyrt.Light`; returns it."""
         if not isinstance(light, Light):
             raise SceneError(f"expected a pyrt Light, got {type(light).__name__}")
         self.lights.append(light)
@@ -144,6 +146,7 @@ class Scene:
         return self.add_mesh(m, material, transform=transform_matrix(translate=center), smooth=smooth, name=name)
 
     def add_box(self, center, extents, material, *, name=None):
+        """An axis-aligned box of ``extents`` (3,) centred at ``center`` (flat shaded); returns the mesh index."""
         m = trimesh.creation.box(extents=extents)
         return self.add_mesh(m, material, transform=transform_matrix(translate=center), smooth=False, name=name)
 
@@ -163,10 +166,12 @@ class Scene:
 
     # -- queries ---------------------------------------------------------------------------------
     def geometry_table(self):
+        """The flat float64 :class:`pyrt.geometry.GeometryTable` of every mesh (what the accelerator is built from)."""
         if not self.meshes:
             raise SceneError("the scene has no meshes")
         return GeometryTable(self.meshes)
 
     def bounds(self):
+        """World bounding box ``(lo (3,), hi (3,))`` of all meshes."""
         v = np.concatenate([m.vertices for m in self.meshes])
         return v.min(axis=0), v.max(axis=0)

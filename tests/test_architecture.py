@@ -1,4 +1,4 @@
-"""The architecture of DESIGN.md, checked from the source text (AST only: no module is imported).
+"""The architecture of DESIGN.md, checked from the source text (AST only; the docstring check imports pyrt).
 
 What is checked:
 
@@ -20,11 +20,14 @@ What is checked:
 from __future__ import annotations
 
 import ast
+import inspect
 import pathlib
 import sys
 import tomllib
 
 import pytest
+
+import pyrt
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
@@ -371,3 +374,27 @@ def test_known_violations_are_listed_precisely(kind):
         else:
             f = entry if isinstance(entry, str) else entry[0]
             assert f in files, entry
+
+
+def test_every_public_name_and_method_has_a_docstring():
+    """numpydoc's minimum: every name in ``pyrt.__all__`` and every public method or property of the public
+    classes has a docstring (its own or the one it overrides)."""
+    missing = []
+    for name in pyrt.__all__:
+        obj = getattr(pyrt, name)
+        if not (inspect.isclass(obj) or inspect.isfunction(obj)):
+            continue
+        if not (inspect.getdoc(obj) or "").strip():
+            missing.append(name)
+        if not inspect.isclass(obj) or issubclass(obj, BaseException):
+            continue
+        for m in dir(obj):
+            v = inspect.getattr_static(obj, m)
+            if m.startswith("_") or not (isinstance(v, (property, classmethod, staticmethod)) or inspect.isfunction(v)):
+                continue
+            docs = [getattr(c.__dict__[m].fget if isinstance(c.__dict__[m], property)
+                            else getattr(c.__dict__[m], "__func__", c.__dict__[m]), "__doc__", None)
+                    for c in obj.__mro__ if m in c.__dict__]
+            if not any((d or "").strip() for d in docs):
+                missing.append(f"{name}.{m}")
+    assert not missing, missing

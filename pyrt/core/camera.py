@@ -72,6 +72,7 @@ class Camera:
 
     @property
     def tan_half(self):
+        """tan of half the vertical field of view."""
         return math.tan(math.radians(self.fov) / 2)
 
     def directions(self, x, y):

@@ -25,6 +25,7 @@ class RenderStats:
 
     @property
     def rays(self):
+        """All rays traced: primary + secondary + shadow."""
         return self.primary_rays + self.secondary_rays + self.shadow_rays
 
 

@@ -163,6 +163,7 @@ class RectLight(AreaLight):
 
     @property
     def area(self):
+        """Emitting area (m^2)."""
         return float(self.size[0] * self.size[1])
 
     def _power_per_radiance(self):
@@ -213,6 +214,7 @@ class DiskLight(AreaLight):
 
     @property
     def area(self):
+        """Emitting area (m^2)."""
         return math.pi * self.radius ** 2
 
     def _power_per_radiance(self):
@@ -261,6 +263,7 @@ class SphereLight(AreaLight):
 
     @property
     def area(self):
+        """Emitting area (m^2)."""
         return 4.0 * math.pi * self.radius ** 2
 
     def _power_per_radiance(self):

@@ -163,9 +163,11 @@ class Environment:
 
     # -- frames ------------------------------------------------------------------------------
     def to_local(self, d):
+        """World directions (N, 3) -> the environment's own frame (``R^T d``)."""
         return np.asarray(d, dtype=np.float64) @ self.rotation      # R^T d for row vectors
 
     def to_world(self, d):
+        """Directions (N, 3) in the environment's frame -> world (``R d``)."""
         return d @ self.rotation.T
 
     # -- public API (world directions) -----------------------------------------------------
@@ -371,6 +373,7 @@ class CubeMapEnvironment(Environment):
 
     @property
     def distribution(self):
+        """The importance-sampling table (built on first use, float64)."""
         if self._dist is None:
             self._dist = K.distribution2d_build(K.cube_sampling_weights(self.faces, self.filter))
         return self._dist

@@ -154,6 +154,7 @@ class PointLight(_PunctualLight):
 
     @property
     def power(self):
+        """Radiant power (W) of the scalar intensity, ``4 pi I`` (times ``color`` per channel)."""
         return 4 * math.pi * self.intensity
 
     def radiant_intensity(self, w):
@@ -249,6 +250,7 @@ class SpotLight(_PunctualLight):
 
     @property
     def I(self):
+        """RGB on-axis radiant intensity (W/sr): ``intensity * color``."""
         return self.intensity * self.color
 
     @property
@@ -308,6 +310,7 @@ class DirectionalLight(Light):
 
     @property
     def E(self):
+        """RGB irradiance (W/m^2) on a surface perpendicular to the light: ``irradiance * color``."""
         return self.irradiance * self.color
 
     @property
