@@ -113,13 +113,6 @@ def blinn_phong_normalized_f_cos_cosines(cos_o, cos_i, cos_io, kd, ks, exponent)
 
 
 
-def _half_vector(wo, wi):
-    """Unit half vector ``(wo + wi) / |wo + wi|`` (zero rows where wo = -wi)."""
-    h = wo + wi
-    hl = np.sqrt(np.einsum("ij,ij->i", h, h))
-    return h * np.divide(1.0, hl, out=np.zeros_like(hl), where=hl > 0)[:, None]
-
-
 def _cos_mirror(wo, wi):
     """``R(wi) . wo`` with R the mirror about the local normal: symmetric in wo and wi."""
     return wo[:, 2] * wi[:, 2] - wo[:, 0] * wi[:, 0] - wo[:, 1] * wi[:, 1]
@@ -182,7 +175,7 @@ def blinn_phong_classic_f_cos(wo, wi, kd, ks, exponent):
     n = wo.shape[0]
     cos_i = _same_hemisphere_cos(wo, wi)
     e = _lane(exponent, n, wi.dtype)
-    h = _half_vector(wo, wi)
+    h, _ = _vec.half_vector(wo, wi)
     spec = np.where(cos_i > 0, np.power(np.maximum(h[:, 2], 0.0), e), 0.0)
     return (_col(kd, n, wi.dtype) * (cos_i / np.pi)[:, None]
             + _col(ks, n, wi.dtype) * spec[:, None]).astype(wi.dtype, copy=False)
@@ -264,7 +257,7 @@ def microfacet_spec_cos(wo, wi, alpha, *, distribution="ggx", geometry="smith_co
     cos_i = _same_hemisphere_cos(wo, wi)
     active = cos_i > 0
     cos_o = np.where(active, wo[:, 2], 0.0)
-    h = _half_vector(wo, wi)
+    h, _ = _vec.half_vector(wo, wi)
     cos_h = h[:, 2]
     cos_oh = np.clip(np.einsum("ij,ij->i", wo, h), 0.0, 1.0)
     d = _mf.ndf(cos_h, alpha, distribution)

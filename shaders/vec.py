@@ -139,6 +139,17 @@ def cross(a, b):
     return np.cross(a, b)
 
 
+def half_vector(wo, wi):
+    """Unit half vectors ``(wo + wi) / |wo + wi|`` (N, 3) and the lengths ``|wo + wi|`` (N,).
+
+    Rows where ``wo = -wi`` (length 0) get the zero vector. The one formula of the half vector: the
+    microfacet BRDFs and their sampling pdfs use it.
+    """
+    h = wo + wi
+    hl = np.sqrt(np.einsum("ij,ij->i", h, h))
+    return h * np.divide(1.0, hl, out=np.zeros_like(hl), where=hl > 0)[:, None], hl
+
+
 def reflect(wo, n):
     """Mirror direction of ``wo`` about ``n`` (both pointing away from the surface).
 

@@ -196,7 +196,8 @@ def main(argv=None):
             n_bad += 1
             continue
         both_inf = np.isinf(ref) & np.isinf(img) & (np.sign(ref) == np.sign(img))
-        diff = np.where(both_inf, 0.0, np.abs(img.astype(np.float64) - ref))
+        a64, r64 = np.where(both_inf, 0.0, img.astype(np.float64)), np.where(both_inf, 0.0, ref.astype(np.float64))
+        diff = np.abs(a64 - r64)
         px = diff.reshape(diff.shape[0], diff.shape[1], -1).max(axis=2) if diff.ndim >= 2 else diff
         mx = float(np.nanmax(diff)) if diff.size else 0.0
         worst = max(worst, mx)

@@ -17,7 +17,7 @@ from pyrt.shaders import metals as _metals
 from pyrt.shaders import microfacet as _mf
 from pyrt.shaders import sampling
 from pyrt.shaders.color import luminance as _luminance
-from pyrt.shaders.vec import reflect
+from pyrt.shaders.vec import half_vector, reflect
 
 
 def _constant(v):
@@ -54,9 +54,7 @@ class _MicrofacetSampling:
     """
 
     def _spec_pdf(self, wo, wi, alpha):
-        h = wo + wi
-        hl = np.sqrt(np.einsum("ij,ij->i", h, h))
-        h = h / np.where(hl > 0, hl, 1.0)[:, None]
+        h, hl = half_vector(wo, wi)
         if self.distribution == "ggx":
             pdf_h = _mf.ggx_vndf_pdf(wo, h, alpha)
         else:  # Beckmann NDF sampling serves Beckmann and Blinn
