@@ -33,21 +33,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import pyrt  # noqa: E402
 from pyrt.apps import acne  # noqa: E402
 from pyrt.geometry import offsets  # noqa: E402
+from _charts import pyplot  # noqa: E402  (tools/_charts.py)
 
 NAIVE = ("none", "ray_epsilon", "normal_epsilon", "scaled_epsilon", "wachter_binder_rtg", "error_bound")
 TIMING_CASES = (acne.Case("plane", "point"), acne.Case("sphere_lowpoly", "point"), acne.Case("contact", "point"),
                 acne.Case("glass", "directional"))
-
-
-def _pyplot():
-    """``matplotlib.pyplot`` on the Agg backend; a clear message if the 'charts' extra is not installed."""
-    try:
-        import matplotlib
-    except ImportError:
-        raise SystemExit("this tool needs the 'charts' extra: pip install 'pyrt-embree[charts]'") from None
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
 
 
 def _size(text):
@@ -100,7 +90,7 @@ def summary_markdown(results, cost):
 
 
 def draw_chart(path, results, cost):
-    plt = _pyplot()
+    plt = pyplot()
     summ = acne.summarize(results)
     floor = 1e-4   # 0 errors are drawn on this line (log axis)
     fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=100)
@@ -147,7 +137,7 @@ def _overlay(r):
 
 
 def draw_worst(path, results, size, naive=NAIVE):
-    plt = _pyplot()
+    plt = pyplot()
     w, h = size
     rows = []
     shown = set()

@@ -27,17 +27,7 @@ import trimesh
 
 import pyrt
 from pyrt.integrators import PreparedScene
-
-
-def _pyplot():
-    """``matplotlib.pyplot`` on the Agg backend; a clear message if the 'charts' extra is not installed."""
-    try:
-        import matplotlib
-    except ImportError:
-        raise SystemExit("this tool needs the 'charts' extra: pip install 'pyrt-embree[charts]'") from None
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
+from _charts import pyplot  # noqa: E402  (tools/_charts.py)
 
 
 def bumpy_sphere(subdivisions, seed=0):
@@ -120,7 +110,7 @@ def measure(scene, repeats):
 
 def plot(result, path):
     """Chart of a bench.json result: pyrt and Embree-only times against triangles and against pixels."""
-    plt = _pyplot()
+    plt = pyplot()
 
     fig, axes = plt.subplots(1, 2, figsize=(9, 3.4))
     tri = result["triangles"]

@@ -29,20 +29,10 @@ from pyrt.shaders import brdfs
 from pyrt.shaders import metals
 from pyrt.shaders import microfacet as mf
 from pyrt.shaders.vec import reflect
+from _charts import pyplot  # noqa: E402  (tools/_charts.py)
 
 ONE, ZERO = np.ones(3), np.zeros(3)
 GOLD = metals.METALS["gold"]
-
-
-def _pyplot():
-    """``matplotlib.pyplot`` on the Agg backend; a clear message if the 'charts' extra is not installed."""
-    try:
-        import matplotlib
-    except ImportError:
-        raise SystemExit("this tool needs the 'charts' extra: pip install 'pyrt-embree[charts]'") from None
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
 
 
 def models(roughness=0.4, exponent=30.0):
@@ -70,7 +60,7 @@ def models(roughness=0.4, exponent=30.0):
 
 
 def polar_chart(path):
-    plt = _pyplot()
+    plt = pyplot()
     ms = models()
     th = np.radians(np.linspace(-89.5, 89.5, 721))
     wo = np.stack([np.sin(th), np.zeros_like(th), np.cos(th)], 1)
@@ -114,7 +104,7 @@ def _albedo(fcos, theta_o_deg, n_theta=160, n_phi=96):
 
 
 def energy_chart(path):
-    plt = _pyplot()
+    plt = pyplot()
     rough = np.linspace(0.05, 1.0, 20)
     curves = {
         "GGX, smith correlated": lambda a: lambda o, i: brdfs.cook_torrance_f_cos(o, i, ZERO, ONE, a, fresnel="none"),
@@ -145,7 +135,7 @@ def energy_chart(path):
 
 
 def cost_chart(path, n=200_000):
-    plt = _pyplot()
+    plt = pyplot()
     rng = np.random.default_rng(0)
 
     def dirs():

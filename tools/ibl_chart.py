@@ -29,19 +29,9 @@ import numpy as np
 
 import pyrt
 from pyrt.lights.environment import STRATEGIES, LatLongEnvironment, set_environment
+from _charts import pyplot  # noqa: E402  (tools/_charts.py)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-
-
-def _pyplot():
-    """``matplotlib.pyplot`` on the Agg backend; a clear message if the 'charts' extra is not installed."""
-    try:
-        import matplotlib
-    except ImportError:
-        raise SystemExit("this tool needs the 'charts' extra: pip install 'pyrt-embree[charts]'") from None
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
 
 
 def make_sky(width=256, height=128):
@@ -129,7 +119,7 @@ def run(out, width, height, ref_samples, counts, repeats=3):
 
 
 def plot(rows, path, width, height, ref_samples, t_sh, t_pref, ref_err):
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.4), sharey=True)
     markers = {"uniform": "o", "cosine": "s", "map": "^", "bsdf": "v", "mis": "D", "preview": "*"}
     for ax, key, title in ((axes[0], "rel_rmse_diffuse", "diffuse sphere (Lambert 0.8)"),

@@ -34,6 +34,7 @@ import time
 import numpy as np
 
 import pyrt
+from _charts import pyplot  # noqa: E402  (tools/_charts.py)
 
 CANDIDATES = [  # (label, filter, spp, jitter)
     ("nearest", "nearest", 1, False),
@@ -45,17 +46,6 @@ CANDIDATES = [  # (label, filter, spp, jitter)
     ("ss16", "bilinear", 16, True),
     ("ss64", "bilinear", 64, True),
 ]
-
-
-def _pyplot():
-    """``matplotlib.pyplot`` on the Agg backend; a clear message if the 'charts' extra is not installed."""
-    try:
-        import matplotlib
-    except ImportError:
-        raise SystemExit("this tool needs the 'charts' extra: pip install 'pyrt-embree[charts]'") from None
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
 
 
 def checker_image(n=256, checks=8):
@@ -141,7 +131,7 @@ def run(width, height, ref_spp, out_dir, repeats=2):
 
 
 def plot_chart(rows, path, width, height, ref_spp):
-    plt = _pyplot()
+    plt = pyplot()
 
     tnames = sorted({r["texture"] for r in rows})
     fig, axes = plt.subplots(1, len(tnames), figsize=(6 * len(tnames), 4.5))
@@ -172,7 +162,7 @@ def plot_chart(rows, path, width, height, ref_spp):
 
 
 def plot_side_by_side(images, rows, tname, path):
-    plt = _pyplot()
+    plt = pyplot()
 
     order = ["reference", "nearest", "bilinear", "trilinear", "anisotropic", "ss4", "ss16", "ss64"]
     err = {r["method"]: r for r in rows if r["texture"] == tname}

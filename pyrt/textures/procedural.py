@@ -102,26 +102,31 @@ class _NoiseBase(_Procedural):
         return lerp(resolve(self.low, ctx), resolve(self.high, ctx), t)
 
 
-@TEXTURES.register("noise")
-class NoiseTexture(_NoiseBase):
-    """Value noise mapped to ``low + (high - low) (0.5 + 0.5 n)``; ``scale`` = lattice cells per unit."""
+class _LatticeNoise(_NoiseBase):
+    """A single-octave lattice noise ``kernel(p, perm)`` in [-1, 1] mapped to ``low + (high - low) (0.5 + 0.5 n)``."""
+
+    #: the noise kernel (a function of points (N, 3) and the permutation table), set by each subclass
+    kernel = None
 
     def __init__(self, *, scale=4.0, space="uv", seed=0, low=0.0, high=1.0):
-        super().__init__(scale, space, seed, low, high, "NoiseTexture")
+        super().__init__(scale, space, seed, low, high, type(self).__name__)
 
     def _t(self, ctx):
-        return 0.5 + 0.5 * _noise.value_noise(self._point(ctx), self._perm)
+        return 0.5 + 0.5 * self.kernel(self._point(ctx), self._perm)
+
+
+@TEXTURES.register("noise")
+class NoiseTexture(_LatticeNoise):
+    """Value noise mapped to ``low + (high - low) (0.5 + 0.5 n)``; ``scale`` = lattice cells per unit."""
+
+    kernel = staticmethod(_noise.value_noise)
 
 
 @TEXTURES.register("perlin")
-class PerlinTexture(_NoiseBase):
+class PerlinTexture(_LatticeNoise):
     """Perlin gradient noise mapped to ``low + (high - low) (0.5 + 0.5 n)``."""
 
-    def __init__(self, *, scale=4.0, space="uv", seed=0, low=0.0, high=1.0):
-        super().__init__(scale, space, seed, low, high, "PerlinTexture")
-
-    def _t(self, ctx):
-        return 0.5 + 0.5 * _noise.perlin(self._point(ctx), self._perm)
+    kernel = staticmethod(_noise.perlin)
 
 
 @TEXTURES.register("fbm")
