@@ -196,6 +196,7 @@ class Integrator:
             new = self._spawn_specular(surf, thr_h, s_idx, dsub, None if media is None else stack[h])
             if new is None:
                 break
+            new.depth = depth + 1
             o, d, thr, sample, diffs, stack = (new.origins, new.directions, new.throughput, new.sample,
                                                new.differentials, new.stack)
         return L, aovs
