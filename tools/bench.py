@@ -26,7 +26,7 @@ import numpy as np
 import trimesh
 
 import pyrt
-from pyrt.integrators import PreparedScene
+
 from _charts import pyplot  # noqa: E402  (tools/_charts.py)
 
 
@@ -83,7 +83,7 @@ def measure(scene, repeats):
     """
     e2e, emb, emb_chunked, stats = [], [], [], None
     for _ in range(repeats):
-        ps = PreparedScene(scene)
+        ps = pyrt.PreparedScene(scene)
         # Embree builds its BVH on the first query: do that before timing (build time is reported apart)
         ps.accel.intersect(np.zeros((1, 3)), np.ones((1, 3)))
         t0 = time.perf_counter()

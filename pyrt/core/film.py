@@ -91,6 +91,8 @@ class Film:
 
     def _mean(self, acc):
         w = self.weight if acc.ndim == 1 else self.weight[:, None]
+        if self.weight.min(initial=1.0) > 0:     # every pixel sampled (a finished render): a plain division
+            return acc / w
         return np.divide(acc, w, out=np.zeros_like(acc), where=w > 0)
 
     def mean(self):

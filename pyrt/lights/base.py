@@ -114,9 +114,21 @@ class LightSample:
 
 
 class Light:
-    """Base class of every light.
+    """Base class of every light: a light only samples, the integrators estimate.
 
-    Subclasses implement :meth:`sample` (``wi, dist, E``) or :meth:`sample_li`; the other is derived.
+    Subclasses implement :meth:`sample` (``wi, dist, E`` arrays) or :meth:`sample_li` (a
+    :class:`LightSample`); the other is derived. Non-delta lights also implement :meth:`pdf_li`.
+
+    Methods
+    -------
+    sample_li(p, u) -> LightSample
+        ``p`` (N, 3) float64 shading points (m), ``u`` (N, 2) float64 in [0, 1)^2 (ignored by delta lights).
+    pdf_li(p, wi) -> (N,) float64
+        Solid-angle density (sr^-1) of :meth:`sample_li`; 0 for delta lights.
+    radiant_power() -> (3,) float64
+        Total emitted power (W per RGB channel), where finite.
+    example() -> Light
+        A typical instance (classmethod) for the contract tests.
     """
 
     #: True when every sample of the light is the point :attr:`position` (punctual lights): shadow rays

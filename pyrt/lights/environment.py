@@ -123,7 +123,22 @@ def _image(owner, image):
 
 
 class Environment:
-    """Base class. Subclasses implement the ``_local`` methods in the environment's own frame.
+    """Base class of the environments: radiance arriving from infinitely far away.
+
+    Subclasses implement ``_radiance_local(d)`` (and, for importance sampling, ``_sample_local(u)`` /
+    ``_pdf_local(d)``; for the preview, ``_sh9_local()`` / ``_build_prefiltered()``) in the environment's own
+    frame; the public methods below rotate world directions into it.
+
+    Methods
+    -------
+    radiance(d) -> (N, 3) float64
+        Radiance (W m^-2 sr^-1) arriving from unit world directions ``d`` (N, 3).
+    sample(u) -> (d (N, 3), pdf (N,))
+        Importance-sampled directions for ``u`` (N, 2) in [0, 1)^2 and their solid-angle density (sr^-1).
+    pdf(d) -> (N,) float64
+        The density of :meth:`sample`.
+    irradiance_sh(n), prefiltered(d, alpha)
+        The noise-free preview's lookups (unshadowed SH irradiance; GGX-prefiltered radiance).
 
     Parameters (shared)
     -------------------
