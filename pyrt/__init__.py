@@ -23,7 +23,7 @@ from pyrt.scene import Scene, SceneError, transform_matrix
 from pyrt.lights import (ConstantEnvironment, CubeMapEnvironment, EnvironmentLight, EnvironmentMapError,
                           LatLongEnvironment, procedural_sky, set_environment)
 from pyrt.lights import AreaEmitter, DiskLight, RectLight, SphereLight
-from pyrt.core.image_io import read_exr, write_exr, write_png, tonemap_to_display
+from pyrt.core.image_io import atomic_write, read_exr, write_exr, write_png, tonemap_to_display
 from pyrt.io.scene_file import SceneFileError, load_scene
 from pyrt.io.scene_file import load_dict
 from pyrt.io.assets import AssetError, load_asset
@@ -35,7 +35,7 @@ __all__ = [
     "DirectionalLight", "Light", "LightError", "PointLight", "SpotLight", "ProjectorLight", "GoniometricLight", "IESLight", "Material", "MaterialError", "MATERIALS",
     "Lambert", "BlinnPhong", "Mirror", "Glass", "register", "Phong", "PhongClassic", "BlinnPhongClassic", "Ward",
     "CookTorrance", "MetallicRoughness", "Scene", "SceneError", "transform_matrix",
-    "read_exr", "write_exr", "write_png", "tonemap_to_display", "SceneFileError", "load_scene",
+    "atomic_write", "read_exr", "write_exr", "write_png", "tonemap_to_display", "SceneFileError", "load_scene",
     "ConstantEnvironment", "CubeMapEnvironment", "EnvironmentLight", "EnvironmentMapError", "LatLongEnvironment",
     "procedural_sky", "set_environment", "AreaEmitter", "DiskLight", "RectLight", "SphereLight",
     "Texture", "TextureError", "ConstantTexture", "ImageTexture", "CheckerTexture", "NoiseTexture", "PerlinTexture",

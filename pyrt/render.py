@@ -9,6 +9,7 @@ from __future__ import annotations
 from concurrent.futures import ThreadPoolExecutor
 from copy import copy
 from dataclasses import dataclass
+import threading
 import time
 import warnings
 
@@ -34,17 +35,34 @@ class RenderResult:
         Rays by kind, times, non-finite samples.
     film : Film
         The film the image was read from (per-pixel sample sums and weights).
+    complete : bool
+        False when the render was cancelled (``cancel`` set): only the chunks that finished are in the film;
+        the other pixels have weight 0 and are black in ``image`` (and 0 / infinite depth in the AOVs).
+    chunks_done, chunks_total : int
+        Chunks of pixels rendered, and in the whole image.
+    pixels_done : int
+        Pixels with all their samples (the pixels of the finished chunks).
     """
 
     image: np.ndarray
     aovs: dict | None
     stats: RenderStats
     film: Film | None = None
+    complete: bool = True
+    chunks_done: int = 0
+    chunks_total: int = 0
+    pixels_done: int = 0
+
+    @property
+    def fraction_done(self):
+        """Share of the image's pixels rendered, in [0, 1] (1 for a complete render)."""
+        n = self.image.shape[0] * self.image.shape[1]
+        return self.pixels_done / n if n else 1.0
 
 
 def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4, offset=None, aovs=False,
                 progress=None, chunk_samples=1 << 15, threads=None, record_rays=False, prepared=None,
-                nonfinite="zero"):
+                nonfinite="zero", cancel=None):
     """Render ``scene`` and return a :class:`RenderResult` with the image, AOVs and statistics.
 
     Parameters are those of :func:`render`, plus:
@@ -58,6 +76,13 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     nonfinite : {"zero", "raise"}
         The :class:`pyrt.core.film.Film` policy for samples with non-finite radiance (zeroed, counted and
         warned about; or an error).
+    cancel : threading.Event, optional
+        Cooperative cancellation: once set, no new chunk starts; the chunks running finish (each takes
+        tens of milliseconds) and the result is marked partial (``result.complete`` False, see
+        :class:`RenderResult`: unfinished pixels are black).
+
+    A ``KeyboardInterrupt`` while rendering cancels the chunks not yet started, waits for the running
+    ones, shuts the thread pool down and propagates (no thread is left running).
 
     Chunks of pixels are shaded on a pool of ``threads`` workers (NumPy releases the GIL in its array
     loops, Embree in its traversal). Every chunk has its own random stream
@@ -92,27 +117,31 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         integ.stats.nonfinite_samples += film.add_block(lo, hi, L, a)
         return integ.stats
 
+    abort = threading.Event()    # set on an error or a KeyboardInterrupt (the caller's ``cancel`` is not touched)
+
+    def run_or_skip(ci):
+        if abort.is_set() or (cancel is not None and cancel.is_set()):
+            return None
+        return run_chunk(ci)
+
     stats = RenderStats()
     workers = max(1, min(ps.accel.threads if threads is None else int(threads), len(starts)))
     bar = tqdm(total=len(starts), desc="render", unit="chunk", leave=False,
                disable=(not progress) if progress is not None else None)
+    results = []
     try:
         if workers == 1:
-            results = []
             for ci in range(len(starts)):
-                results.append(run_chunk(ci))
+                results.append(run_or_skip(ci))
                 bar.update()
         else:
-            with ThreadPoolExecutor(max_workers=workers) as pool:
-                futs = [pool.submit(run_chunk, ci) for ci in range(len(starts))]
-                results = []
-                for f in futs:
-                    results.append(f.result())
-                    bar.update()
+            results = _run_pool(run_or_skip, len(starts), workers, abort, bar)
     finally:
         bar.close()
         if own:
             ps.close()
+    done = [ci for ci, st in enumerate(results) if st is not None]
+    results = [results[ci] for ci in done]
     for st in results:  # merge in chunk order (deterministic)
         for k in ("primary_rays", "secondary_rays", "shadow_rays", "time_intersect", "time_occluded",
                   "nonfinite_samples"):
@@ -122,7 +151,32 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         warnings.warn(f"render: {stats.nonfinite_samples} samples had non-finite radiance and were "
                       "set to 0 (this is a bug; please report the scene)", RuntimeWarning, stacklevel=2)
     stats.time_total = time.perf_counter() - t_start
-    return RenderResult(image=film.image(), aovs=film.aovs(), stats=stats, film=film)
+    pixels_done = sum(min(starts[ci] + px_per_chunk, n_pix) - starts[ci] for ci in done)
+    return RenderResult(image=film.image(), aovs=film.aovs(), stats=stats, film=film,
+                        complete=len(done) == len(starts), chunks_done=len(done), chunks_total=len(starts),
+                        pixels_done=pixels_done)
+
+
+def _run_pool(run, n, workers, abort, bar):
+    """``[run(0), ..., run(n - 1)]`` on ``workers`` threads, in index order.
+
+    On any exception in the caller's thread (a ``KeyboardInterrupt`` above all) or in a chunk: set
+    ``abort``, cancel the chunks not started, wait for the running ones and re-raise; the pool is shut
+    down in every case.
+    """
+    pool = ThreadPoolExecutor(max_workers=workers)
+    try:
+        futs = [pool.submit(run, ci) for ci in range(n)]
+        results = []
+        for f in futs:
+            results.append(f.result())
+            bar.update()
+    except BaseException:
+        abort.set()
+        pool.shutdown(wait=True, cancel_futures=True)
+        raise
+    pool.shutdown(wait=True)
+    return results
 
 
 def render(scene, **kwargs):
@@ -148,6 +202,9 @@ def render(scene, **kwargs):
         Camera samples per chunk (bounds memory; default 32768: measured fastest on the benchmark scene).
     threads : int, optional
         Worker threads for chunks and for Embree batches (default: all cores).
+    cancel : threading.Event, optional
+        Stop early when set (no new chunk starts); the chunks not rendered stay black. Use
+        :func:`render_full` to learn whether the image is complete.
 
     Returns
     -------

@@ -1,60 +1,107 @@
-"""Command line: ``python -m pyrt render SCENE -o out.exr [-o out.png] [options]``."""
+"""Command line: ``python -m pyrt render SCENE -o out.exr [-o out.png] [options]``.
+
+Exit codes: 0 done; 2 an error, reported as one line ``pyrt: error: <message>`` (``--debug`` also prints
+the traceback), or argparse's usage line for a bad option value; 130 interrupted. The first SIGINT
+(Ctrl-C) or SIGTERM stops the render after the chunks in progress and writes what was rendered (the
+rest of the image is black, and a line says how much was kept); a second one aborts at once. Output
+paths are checked before the scene is loaded, and every file is replaced atomically.
+"""
 from __future__ import annotations
 
 import argparse
 import sys
+import threading
 import time
+import traceback
 
 import pyrt
+from pyrt.geometry.offsets import STRATEGIES
+from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, check_outputs, finite_float, interrupts,
+                              nonnegative_int, positive_float, positive_int)
 
 
-def main(argv=None):
+class CommandError(pyrt.Error, ValueError):
+    """A command-line run that cannot proceed (the message says why)."""
+
+
+def _parser():
     ap = argparse.ArgumentParser(prog="pyrt", description="pyrt: Embree + NumPy renderer")
+    ap.add_argument("--debug", action="store_true", help="print the traceback of an error")
     sub = ap.add_subparsers(dest="cmd", required=True)
     r = sub.add_parser("render", help="render a scene file (TOML or JSON)")
     r.add_argument("scene")
     r.add_argument("-o", "--output", action="append", required=True,
                    help="output file (.exr linear, .png tone-mapped); may be repeated")
-    r.add_argument("--spp", type=int, help="samples per pixel (overrides the scene)")
-    r.add_argument("--width", type=int)
-    r.add_argument("--height", type=int)
-    r.add_argument("--seed", type=int)
-    r.add_argument("--max-depth", type=int)
+    r.add_argument("--spp", type=positive_int, help="samples per pixel (overrides the scene)")
+    r.add_argument("--width", type=positive_int, help="image width in pixels (overrides the scene)")
+    r.add_argument("--height", type=positive_int, help="image height in pixels (overrides the scene)")
+    r.add_argument("--seed", type=nonnegative_int)
+    r.add_argument("--max-depth", type=nonnegative_int, help="maximum specular depth (0: direct light only)")
+    r.add_argument("--offset", choices=sorted(STRATEGIES), help="ray-origin offset strategy (default: robust)")
     r.add_argument("--tonemap", default="reinhard", choices=["linear", "film", "reinhard"])
-    r.add_argument("--exposure", type=float, default=0.0, help="exposure in stops for PNG output")
-    r.add_argument("--white", type=float, default=None, help="Reinhard L_white")
+    r.add_argument("--exposure", type=finite_float, default=0.0, help="exposure in stops for PNG output")
+    r.add_argument("--white", type=positive_float, default=None, help="Reinhard L_white (> 0)")
     r.add_argument("--aovs", action="store_true", help="write depth/normal/albedo channels into EXR outputs")
     r.add_argument("--half", action="store_true", help="write half-float EXR")
+    r.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                   help="print the traceback of an error")
+    return ap
+
+
+def main(argv=None):
+    """Run ``pyrt ...``; returns the exit code (0 done, 2 error, 130 interrupted)."""
+    ap = _parser()
     args = ap.parse_args(argv)
+    if args.white is not None and args.tonemap != "reinhard":
+        ap.error(f"--white applies to --tonemap reinhard only, not {args.tonemap}")
     try:
-        scene, opts = pyrt.load_scene(args.scene)
-    except (ValueError, FileNotFoundError) as e:
-        print(f"pyrt: error: {e}", file=sys.stderr)
-        return 2
-    if args.width:
+        return _render(args)
+    except KeyboardInterrupt:
+        print("pyrt: aborted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except (pyrt.Error, OSError, ValueError) as exc:
+        if args.debug:
+            traceback.print_exc()
+        print(f"pyrt: error: {exc}", file=sys.stderr)
+        return EXIT_ERROR
+
+
+def _render(args):
+    check_outputs(args.output)
+    scene, opts = pyrt.load_scene(args.scene)
+    if not scene.meshes:
+        raise CommandError(f"{args.scene}: the scene has no meshes; there is nothing to render")
+    if args.width is not None:
         scene.camera.width = args.width
-    if args.height:
+    if args.height is not None:
         scene.camera.height = args.height
-    if args.seed is not None:
-        opts["seed"] = args.seed
-    if args.max_depth is not None:
-        opts["max_depth"] = args.max_depth
-    for out in args.output:
-        if not out.lower().endswith((".exr", ".png")):
-            print(f"pyrt: error: output must end in .exr or .png: {out}", file=sys.stderr)
-            return 2
-    t0 = time.perf_counter()
-    res = pyrt.render_full(scene, spp=args.spp, aovs=args.aovs, progress=True, **opts)
-    dt = time.perf_counter() - t0
-    for out in args.output:
-        if out.lower().endswith(".exr"):
-            pyrt.write_exr(out, res.image, aovs=res.aovs, half=args.half)
-        else:
-            pyrt.write_png(out, res.image, tonemap=args.tonemap, exposure=args.exposure, L_white=args.white)
-        print(f"wrote {out}")
+    for key in ("seed", "max_depth", "offset"):
+        if getattr(args, key) is not None:
+            opts[key] = getattr(args, key)
+    cancel = threading.Event()
+    with interrupts(cancel, "pyrt"):
+        t0 = time.perf_counter()
+        res = pyrt.render_full(scene, spp=args.spp, aovs=args.aovs, progress=True, cancel=cancel, **opts)
+        dt = time.perf_counter() - t0
+        if res.chunks_done == 0:
+            print("pyrt: interrupted before any pixel was rendered; nothing written", file=sys.stderr)
+            return EXIT_INTERRUPTED
+        for out in args.output:
+            if out.lower().endswith(".exr"):
+                pyrt.write_exr(out, res.image, aovs=res.aovs, half=args.half)
+            else:
+                pyrt.write_png(out, res.image, tonemap=args.tonemap, exposure=args.exposure, L_white=args.white)
+            print(f"wrote {out}")
     s = res.stats
     print(f"{scene.camera.width}x{scene.camera.height}, {dt:.2f} s, {s.rays} rays "
           f"({s.primary_rays} primary, {s.secondary_rays} secondary, {s.shadow_rays} shadow)")
+    if not res.complete:
+        print(f"pyrt: interrupted: {res.chunks_done}/{res.chunks_total} chunks "
+              f"({100 * res.fraction_done:.0f} % of the pixels) rendered; the rest is black", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    if cancel.is_set():
+        print("pyrt: interrupted after the render had finished; the outputs are complete", file=sys.stderr)
+        return EXIT_INTERRUPTED
     return 0
 
 

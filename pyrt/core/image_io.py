@@ -1,7 +1,12 @@
-"""Image output: EXR (linear, float32 or half, optional AOVs) and PNG (tone-mapped, sRGB-encoded)."""
+"""Image output: EXR (linear, float32 or half, optional AOVs) and PNG (tone-mapped, sRGB-encoded).
+
+Every file is written through :func:`atomic_write`: to a temporary file in the target's folder, renamed
+over the target only when complete, so an interrupted or failed write leaves the previous file intact.
+"""
 from __future__ import annotations
 
 import os
+import secrets
 import warnings
 
 import numpy as np
@@ -9,6 +14,57 @@ import OpenEXR
 
 from pyrt.shaders import color
 from pyrt.shaders import tonemap
+
+
+def atomic_write(path, write):
+    """Create or replace the file ``path`` all at once: ``write(tmp)`` writes a temporary file, renamed over it.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The target. Its folder must exist.
+    write : callable
+        ``write(tmp_path)`` writes the whole file at ``tmp_path`` (a new, empty file named
+        ``.NAME.XXXXXXXX.tmp`` in the target's folder, so the rename never crosses file systems).
+
+    The temporary file is flushed to disk and ``os.replace``-d over ``path`` (atomic on POSIX and
+    Windows). If ``write`` raises -- any exception, ``KeyboardInterrupt`` included -- the temporary file
+    is removed, the previous ``path`` (if any) is left as it was, and the exception propagates. The new
+    file gets the permissions of the file it replaces, or the usual ones (``0o666`` minus the umask).
+    """
+    path = os.fspath(path)
+    folder, base = os.path.split(os.path.abspath(path))
+    try:
+        mode = os.stat(path).st_mode & 0o7777
+    except OSError:
+        mode = 0o666
+    tmp = os.path.join(folder, f".{base}.{secrets.token_hex(4)}.tmp")
+    os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, mode))
+    try:
+        write(tmp)
+        fd = os.open(tmp, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.remove(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def write_bytes(path, data):
+    """Write ``data`` (bytes, or str as UTF-8) to ``path`` through :func:`atomic_write`."""
+    blob = data.encode("utf-8") if isinstance(data, str) else bytes(data)
+
+    def put(tmp):
+        with open(tmp, "wb") as fh:
+            fh.write(blob)
+
+    atomic_write(path, put)
 
 
 def _check_image(img, name="image"):
@@ -25,7 +81,8 @@ def write_exr(path, image, *, aovs=None, half=False):
 
     Channels R, G, B (float32, or half with ``half=True``). ``aovs`` may hold ``depth`` (H, W) -> Z,
     ``normal`` (H, W, 3) -> N.X/N.Y/N.Z, ``albedo`` (H, W, 3) -> albedo.R/G/B; infinite depth (a miss)
-    is written as the largest float32.
+    is written as the largest float32. The folder is created; the file is replaced atomically
+    (:func:`atomic_write`).
     """
     img = _check_image(image)
     dt = np.float16 if half else np.float32
@@ -42,8 +99,12 @@ def write_exr(path, image, *, aovs=None, half=False):
     ch = {k: np.ascontiguousarray(v) for k, v in ch.items()}
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    with OpenEXR.File(header, ch) as f:
-        f.write(str(path))
+
+    def put(tmp):
+        with OpenEXR.File(header, ch) as f:
+            f.write(tmp)
+
+    atomic_write(path, put)
 
 
 def _exr_float32(pixels):
@@ -226,7 +287,7 @@ def encode_png(pixels):
 
 
 def write_png(path, image, *, tonemap="reinhard", exposure=0.0, L_white=None, bits=8):
-    """Tone-map (exposure in stops, then ``tonemap``), sRGB-encode and write an 8- or 16-bit PNG.
+    """Tone-map (exposure in stops, then ``tonemap``), sRGB-encode and write an 8- or 16-bit PNG atomically.
 
     Parameters
     ----------
@@ -252,5 +313,4 @@ def write_png(path, image, *, tonemap="reinhard", exposure=0.0, L_white=None, bi
         raise ValueError(f"bits must be 8 or 16, got {bits}")
     data = encode_png(out)
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    with open(path, "wb") as fh:
-        fh.write(data)
+    write_bytes(path, data)

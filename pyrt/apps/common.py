@@ -1,0 +1,134 @@
+"""What the command-line programs share: argparse value types, output-path checks made before any
+rendering, and the two-stage handling of SIGINT / SIGTERM (the first stops cleanly, the second aborts).
+
+Exit codes of the programs: 0 done, 2 an error (one line ``PROG: error: <message>``, or argparse's usage
+line), 130 interrupted.
+"""
+from __future__ import annotations
+
+import argparse
+from contextlib import contextmanager
+import math
+import os
+import signal
+import threading
+
+from pyrt.core.errors import Error
+
+#: The exit code of a program stopped by SIGINT / SIGTERM (128 + SIGINT, what shells report for Ctrl-C).
+EXIT_INTERRUPTED = 130
+#: The exit code of a run that ended with an error message.
+EXIT_ERROR = 2
+#: The output formats the renderers write, by file extension.
+OUTPUT_EXTENSIONS = (".exr", ".png")
+
+
+class OutputPathError(Error, ValueError):
+    """An output path that cannot be written (no such folder, not writable, unknown extension, repeated)."""
+
+
+# ============================================================================ argparse types
+
+def _integer(text):
+    try:
+        return int(text, 10)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+
+
+def positive_int(text):
+    """argparse type: an integer >= 1."""
+    v = _integer(text)
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}")
+    return v
+
+
+def nonnegative_int(text):
+    """argparse type: an integer >= 0."""
+    v = _integer(text)
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"must be a non-negative integer, got {text!r}")
+    return v
+
+
+def finite_float(text):
+    """argparse type: a finite number (no nan, no inf)."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
+    return v
+
+
+def positive_float(text):
+    """argparse type: a finite number > 0."""
+    v = finite_float(text)
+    if not v > 0:
+        raise argparse.ArgumentTypeError(f"must be a number > 0, got {text!r}")
+    return v
+
+
+# ============================================================================ output paths
+
+def check_output_folder(folder):
+    """Raise :class:`OutputPathError` unless ``folder`` is an existing, writable directory."""
+    folder = os.fspath(folder) or "."
+    if not os.path.isdir(folder):
+        what = "is not a folder" if os.path.exists(folder) else "does not exist"
+        raise OutputPathError(f"output folder {what}: {folder}")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise OutputPathError(f"output folder is not writable: {folder}")
+
+
+def check_outputs(paths, extensions=OUTPUT_EXTENSIONS):
+    """Check output files before anything is rendered; raise :class:`OutputPathError` naming the first problem.
+
+    Each path must end in one of ``extensions`` (any case), sit in an existing writable folder, not be a
+    folder itself, not be an existing read-only file, and no two paths may name the same file.
+    """
+    seen = {}
+    for p in paths:
+        p = os.fspath(p)
+        if not p.lower().endswith(tuple(extensions)):
+            raise OutputPathError(f"output must end in {' or '.join(extensions)}: {p}")
+        check_output_folder(os.path.dirname(p))
+        if os.path.isdir(p):
+            raise OutputPathError(f"output is a folder: {p}")
+        if os.path.exists(p) and not os.access(p, os.W_OK):
+            raise OutputPathError(f"output file is not writable: {p}")
+        key = os.path.normcase(os.path.realpath(p))
+        if key in seen:
+            raise OutputPathError(f"the same output file is given twice: {seen[key]} and {p}")
+        seen[key] = p
+
+
+# ============================================================================ interrupts
+
+@contextmanager
+def interrupts(cancel, prog, what="the chunks in progress"):
+    """SIGINT and SIGTERM while inside: the first sets ``cancel``, the second raises ``KeyboardInterrupt``.
+
+    ``cancel`` is a :class:`threading.Event` the work polls; on the first signal a line
+    ``PROG: stopping after WHAT (press Ctrl-C again to abort)`` goes to stderr. The previous handlers are
+    restored on exit. Outside the main thread (where Python cannot install handlers) nothing is changed.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield cancel
+        return
+
+    def handler(signum, frame):
+        if cancel.is_set():
+            raise KeyboardInterrupt
+        cancel.set()
+        # os.write, not print: a signal handler may run in the middle of another write to sys.stderr
+        os.write(2, f"\n{prog}: stopping after {what} (press Ctrl-C again to abort)\n".encode())
+
+    previous = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield cancel
+    finally:
+        for s, h in previous.items():
+            signal.signal(s, h)
