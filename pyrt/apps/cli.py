@@ -54,8 +54,10 @@ def main(argv=None):
     args = ap.parse_args(argv)
     if args.white is not None and args.tonemap != "reinhard":
         ap.error(f"--white applies to --tonemap reinhard only, not {args.tonemap}")
+    cancel = threading.Event()
     try:
-        return _render(args)
+        with interrupts(cancel, "pyrt"):
+            return _render(args, cancel)
     except KeyboardInterrupt:
         print("pyrt: aborted", file=sys.stderr)
         return EXIT_INTERRUPTED
@@ -66,7 +68,7 @@ def main(argv=None):
         return EXIT_ERROR
 
 
-def _render(args):
+def _render(args, cancel):
     check_outputs(args.output)
     scene, opts = pyrt.load_scene(args.scene)
     if not scene.meshes:
@@ -78,20 +80,18 @@ def _render(args):
     for key in ("seed", "max_depth", "offset"):
         if getattr(args, key) is not None:
             opts[key] = getattr(args, key)
-    cancel = threading.Event()
-    with interrupts(cancel, "pyrt"):
-        t0 = time.perf_counter()
-        res = pyrt.render_full(scene, spp=args.spp, aovs=args.aovs, progress=True, cancel=cancel, **opts)
-        dt = time.perf_counter() - t0
-        if res.chunks_done == 0:
-            print("pyrt: interrupted before any pixel was rendered; nothing written", file=sys.stderr)
-            return EXIT_INTERRUPTED
-        for out in args.output:
-            if out.lower().endswith(".exr"):
-                pyrt.write_exr(out, res.image, aovs=res.aovs, half=args.half)
-            else:
-                pyrt.write_png(out, res.image, tonemap=args.tonemap, exposure=args.exposure, L_white=args.white)
-            print(f"wrote {out}")
+    t0 = time.perf_counter()
+    res = pyrt.render_full(scene, spp=args.spp, aovs=args.aovs, progress=True, cancel=cancel, **opts)
+    dt = time.perf_counter() - t0
+    if res.chunks_done == 0:
+        print("pyrt: interrupted before any pixel was rendered; nothing written", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    for out in args.output:
+        if out.lower().endswith(".exr"):
+            pyrt.write_exr(out, res.image, aovs=res.aovs, half=args.half)
+        else:
+            pyrt.write_png(out, res.image, tonemap=args.tonemap, exposure=args.exposure, L_white=args.white)
+        print(f"wrote {out}")
     s = res.stats
     print(f"{scene.camera.width}x{scene.camera.height}, {dt:.2f} s, {s.rays} rays "
           f"({s.primary_rays} primary, {s.secondary_rays} secondary, {s.shadow_rays} shadow)")

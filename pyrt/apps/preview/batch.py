@@ -5,12 +5,14 @@ from __future__ import annotations
 import csv
 from dataclasses import dataclass, field
 import glob
+import io
 import os
 import time
 import traceback
 
+from pyrt.core.image_io import write_bytes
 from pyrt.io.assets import FORMATS, AssetError
-from pyrt.apps.preview.options import BudgetExceeded, PreviewError, PreviewOptions
+from pyrt.apps.preview.options import BudgetExceeded, PreviewError, PreviewInterrupted, PreviewOptions
 from pyrt.apps.preview.render import render_preview, write_files
 
 
@@ -22,7 +24,7 @@ class AssetReport:
 
     path: str
     name: str
-    status: str = "ok"                  # "ok" | "failed" | "timeout"
+    status: str = "ok"                  # "ok" | "failed" | "timeout" | "interrupted" | "skipped" (not started)
     triangles: int = 0
     load_time: float = 0.0
     render_time: float = 0.0
@@ -44,11 +46,12 @@ def output_name(path, taken=None):
     return name
 
 
-def preview_asset(path, out_dir=None, options=None, *, name=None, return_files=False):
+def preview_asset(path, out_dir=None, options=None, *, name=None, return_files=False, cancel=None):
     """Preview one model for a batch; never raises. Writes under ``out_dir`` unless ``return_files``.
 
     Returns an :class:`AssetReport`; a failing asset has ``status="failed"`` and the error message,
-    a budget overrun ``status="timeout"``.
+    a budget overrun ``status="timeout"``, a turntable cancelled between views (``cancel`` set)
+    ``status="interrupted"`` (no files written for it).
     """
     o = options or PreviewOptions()
     name = name or output_name(path)
@@ -56,7 +59,10 @@ def preview_asset(path, out_dir=None, options=None, *, name=None, return_files=F
     t0 = time.perf_counter()
     deadline = t0 + o.time_budget if o.time_budget else None
     try:
-        res = render_preview(path, o, name=name, deadline=deadline)
+        res = render_preview(path, o, name=name, deadline=deadline, cancel=cancel)
+    except PreviewInterrupted as exc:
+        rep.status, rep.error = "interrupted", str(exc)
+        return rep
     except BudgetExceeded as exc:
         rep.status, rep.error = "timeout", str(exc)
         rep.load_time = time.perf_counter() - t0
@@ -94,7 +100,8 @@ def collect_inputs(specs):
     return list(dict.fromkeys(out))
 
 
-def preview_batch(inputs, out_dir, options=None, *, dask=None, n_workers=2, processes=False, progress=True):
+def preview_batch(inputs, out_dir, options=None, *, dask=None, n_workers=2, processes=False, progress=True,
+                  cancel=None):
     """Preview every model of ``inputs`` (files, folders, globs) into ``out_dir``.
 
     Parameters
@@ -105,6 +112,9 @@ def preview_batch(inputs, out_dir, options=None, *, dask=None, n_workers=2, proc
         existing scheduler. A Client: use it. Each asset is one task.
     progress : bool
         A tqdm progress bar over the assets.
+    cancel : threading.Event, optional
+        Once set, the asset (locally: the view) in progress finishes and no new one starts; the assets
+        not started are reported ``skipped`` and the summary is written as usual.
 
     Returns
     -------
@@ -129,11 +139,18 @@ def preview_batch(inputs, out_dir, options=None, *, dask=None, n_workers=2, proc
     if not use_dask:
         reports = []
         for p, nm in tqdm(list(zip(paths, names)), desc="preview", unit="asset", disable=not progress):
-            reports.append(preview_asset(p, out_dir, o, name=nm))
+            if cancel is not None and cancel.is_set():
+                reports.append(_skipped(p, nm))
+            else:
+                reports.append(preview_asset(p, out_dir, o, name=nm, cancel=cancel))
     else:
-        reports = _batch_dask(dist, paths, names, out_dir, o, dask, n_workers, processes, progress)
+        reports = _batch_dask(dist, paths, names, out_dir, o, dask, n_workers, processes, progress, cancel)
     write_summary(reports, out_dir)
     return reports
+
+
+def _skipped(path, name):
+    return AssetReport(path=os.fspath(path), name=name, status="skipped", error="not started: interrupted")
 
 
 def _distributed():
@@ -146,7 +163,7 @@ def _distributed():
     return distributed
 
 
-def _batch_dask(dist, paths, names, out_dir, o, dask, n_workers, processes, progress):
+def _batch_dask(dist, paths, names, out_dir, o, dask, n_workers, processes, progress, cancel):
     from tqdm.auto import tqdm
 
     Client, LocalCluster, as_completed = dist.Client, dist.LocalCluster, dist.as_completed
@@ -180,7 +197,12 @@ def _batch_dask(dist, paths, names, out_dir, o, dask, n_workers, processes, prog
                 rep.files = None
             rep.path = paths[k]
             reports[k] = rep
-        return reports
+            if cancel is not None and cancel.is_set():
+                break
+        pending = [f for k, f in enumerate(futures) if reports[k] is None]
+        if pending:
+            client.cancel(pending)
+        return [r if r is not None else _skipped(paths[k], names[k]) for k, r in enumerate(reports)]
     finally:
         if own:
             client.close()
@@ -210,11 +232,12 @@ def format_summary(reports, *, width=60):
 
 
 def write_summary(reports, out_dir):
-    with open(os.path.join(out_dir, "summary.csv"), "w", newline="") as fh:
-        wr = csv.writer(fh)
-        wr.writerow(["asset", "status", "triangles", "load_s", "render_s", "n_warnings", "error", "warnings"])
-        for r in reports:
-            wr.writerow([r.path, r.status, r.triangles, f"{r.load_time:.4f}", f"{r.render_time:.4f}",
-                         len(r.warnings), r.error, " | ".join(r.warnings)])
-    with open(os.path.join(out_dir, "summary.txt"), "w") as fh:
-        fh.write(format_summary(reports) + "\n")
+    """Write ``out_dir/summary.csv`` (one row per asset) and ``summary.txt`` (:func:`format_summary`), atomically."""
+    buf = io.StringIO(newline="")
+    wr = csv.writer(buf)
+    wr.writerow(["asset", "status", "triangles", "load_s", "render_s", "n_warnings", "error", "warnings"])
+    for r in reports:
+        wr.writerow([r.path, r.status, r.triangles, f"{r.load_time:.4f}", f"{r.render_time:.4f}",
+                     len(r.warnings), r.error, " | ".join(r.warnings)])
+    write_bytes(os.path.join(out_dir, "summary.csv"), buf.getvalue())
+    write_bytes(os.path.join(out_dir, "summary.txt"), format_summary(reports) + "\n")

@@ -1,14 +1,25 @@
-"""The ``pyrt-preview`` command line."""
+"""The ``pyrt-preview`` command line.
+
+Exit codes: 0 every asset ok; 1 a batch in which some asset failed (the summary says which); 2 an error
+(``pyrt-preview: error: <message>``, ``--debug`` adds the traceback; or argparse's usage line); 130
+interrupted. The first SIGINT / SIGTERM lets the view in progress finish, keeps the finished assets'
+files, writes the summary and exits 130; a second one aborts at once.
+"""
 from __future__ import annotations
 
 import argparse
 import dataclasses
 import os
 import sys
+import threading
 import time
+import traceback
 
-from pyrt.io.assets import AssetError
-from pyrt.apps.preview.options import AXES, BudgetExceeded, PreviewError, PreviewOptions
+from pyrt.core.errors import Error
+from pyrt.io.assets import FORMATS
+from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, check_output_folder, check_outputs, finite_float,
+                              interrupts, nonnegative_int, positive_float, positive_int)
+from pyrt.apps.preview.options import AXES, PreviewError, PreviewInterrupted, PreviewOptions
 from pyrt.apps.preview.render import render_preview, write_files
 from pyrt.apps.preview.batch import collect_inputs, format_summary, preview_batch
 
@@ -22,81 +33,95 @@ def _parser():
     ap.add_argument("-o", "--output", action="append",
                     help="output file for a single model (.png and/or .exr; may be repeated)")
     ap.add_argument("--out-dir", help="output folder (batch mode; default: preview_out)")
-    ap.add_argument("--width", type=int, default=640)
-    ap.add_argument("--height", type=int, default=480)
-    ap.add_argument("--spp", type=int, default=4)
-    ap.add_argument("--fov", type=float, default=35.0, help="vertical field of view (degrees)")
-    ap.add_argument("--azimuth", type=float, default=35.0)
-    ap.add_argument("--elevation", type=float, default=20.0)
+    ap.add_argument("--width", type=positive_int, default=640)
+    ap.add_argument("--height", type=positive_int, default=480)
+    ap.add_argument("--spp", type=positive_int, default=4)
+    ap.add_argument("--fov", type=finite_float, default=35.0, help="vertical field of view (degrees)")
+    ap.add_argument("--azimuth", type=finite_float, default=35.0)
+    ap.add_argument("--elevation", type=finite_float, default=20.0)
     ap.add_argument("--up", default="auto", choices=["auto", *AXES])
     ap.add_argument("--camera", default="auto", choices=["auto", "asset"])
     ap.add_argument("--lights", default="studio", choices=["studio", "asset", "both"])
     ap.add_argument("--no-ground", action="store_true", help="no shadow-catcher ground plane")
     ap.add_argument("--env", help="lat-long environment map (OpenEXR)")
     ap.add_argument("--env-lighting", default="mis", help="environment light strategy (mis, map, bsdf, preview, ...)")
-    ap.add_argument("--env-samples", type=int, default=8, help="environment light samples per hit")
-    ap.add_argument("--exposure", type=float, help="exposure in stops (default: automatic)")
+    ap.add_argument("--env-samples", type=positive_int, default=8, help="environment light samples per hit")
+    ap.add_argument("--exposure", type=finite_float, help="exposure in stops (default: automatic)")
     ap.add_argument("--tonemap", default="reinhard", choices=["linear", "film", "reinhard"])
-    ap.add_argument("--turntable", type=int, default=0, metavar="N", help="render N views around the model")
+    ap.add_argument("--turntable", type=nonnegative_int, default=0, metavar="N", help="render N views around the model")
     ap.add_argument("--format", default=None, help="batch output formats, e.g. png,exr (default png)")
     ap.add_argument("--aovs", action="store_true", help="also write depth/normal/albedo")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--budget", type=float, help="time budget per asset (s)")
-    ap.add_argument("--threads", type=int, help="render threads per asset")
+    ap.add_argument("--seed", type=nonnegative_int, default=0)
+    ap.add_argument("--budget", type=positive_float, help="time budget per asset (s)")
+    ap.add_argument("--threads", type=positive_int, help="render threads per asset")
     ap.add_argument("--dask", nargs="?", const="local", default=None, metavar="SCHEDULER",
                     help="run the batch on Dask: a LocalCluster, or the given scheduler address")
-    ap.add_argument("--workers", type=int, default=2, help="LocalCluster workers (with --dask)")
+    ap.add_argument("--workers", type=positive_int, default=2, help="LocalCluster workers (with --dask)")
     ap.add_argument("--quiet", action="store_true")
+    ap.add_argument("--debug", action="store_true", help="print the traceback of an error")
     return ap
 
 
 def main(argv=None):
     """``pyrt-preview MODEL -o out.png`` (one model) or ``pyrt-preview FOLDER/ --out-dir out`` (batch)."""
     args = _parser().parse_args(argv)
+    cancel = threading.Event()
+    try:
+        with interrupts(cancel, "pyrt-preview", "the view in progress"):
+            return _run(args, cancel)
+    except KeyboardInterrupt:
+        print("pyrt-preview: aborted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except (Error, OSError, ValueError) as exc:
+        if args.debug:
+            traceback.print_exc()
+        print(f"pyrt-preview: error: {exc}", file=sys.stderr)
+        return EXIT_ERROR
+
+
+def _run(args, cancel):
     formats = tuple(args.format.split(",")) if args.format else ("png",)
     opts = PreviewOptions(width=args.width, height=args.height, spp=args.spp, fov=args.fov, azimuth=args.azimuth,
                           elevation=args.elevation, up=args.up, camera=args.camera, lights=args.lights,
                           ground=not args.no_ground, environment=args.env, environment_lighting=args.env_lighting,
                           environment_samples=args.env_samples, exposure=args.exposure,
                           tonemap=args.tonemap, turntable=args.turntable, formats=formats, aovs=args.aovs,
-                          seed=args.seed, time_budget=args.budget, threads=args.threads)
-    try:
-        opts.validate()
-    except PreviewError as exc:
-        print(f"pyrt-preview: error: {exc}", file=sys.stderr)
-        return 2
+                          seed=args.seed, time_budget=args.budget, threads=args.threads).validate()
     paths = collect_inputs(args.models)
-    single = args.output and len(paths) == 1 and os.path.isfile(paths[0])
-    if args.output and not single:
-        print("pyrt-preview: error: -o needs exactly one model file; use --out-dir for batches", file=sys.stderr)
-        return 2
-    if single:
-        return _main_single(paths[0], args.output, opts, args.quiet)
+    if not paths:
+        raise PreviewError(f"no models found in {' '.join(args.models)} "
+                           f"(looked for {', '.join(sorted(FORMATS))})")
+    if args.output:
+        if len(paths) != 1:
+            raise PreviewError(f"-o needs exactly one model file, got {len(paths)}; use --out-dir for batches")
+        if not os.path.isfile(paths[0]):
+            raise PreviewError(f"no such model file: {paths[0]}")
+        check_outputs(args.output)
+        return _main_single(paths[0], args.output, opts, args.quiet, cancel)
     out_dir = args.out_dir or "preview_out"
+    check_output_folder(out_dir if os.path.exists(out_dir) else os.path.dirname(os.path.abspath(out_dir)))
     dask = None if args.dask is None else (True if args.dask == "local" else args.dask)
-    try:
-        reports = preview_batch(paths, out_dir, opts, dask=dask, n_workers=args.workers, progress=not args.quiet)
-    except PreviewError as exc:
-        print(f"pyrt-preview: error: {exc}", file=sys.stderr)
-        return 2
+    reports = preview_batch(paths, out_dir, opts, dask=dask, n_workers=args.workers, progress=not args.quiet,
+                            cancel=cancel)
     print(format_summary(reports))
+    if cancel.is_set():
+        done = sum(r.status not in ("interrupted", "skipped") for r in reports)
+        print(f"pyrt-preview: interrupted: {done}/{len(reports)} assets finished and kept; "
+              f"summary in {os.path.join(out_dir, 'summary.txt')}", file=sys.stderr)
+        return EXIT_INTERRUPTED
     return 0 if all(r.status == "ok" for r in reports) else 1
 
 
-def _main_single(path, outputs, opts, quiet):
-    for out in outputs:
-        if not out.lower().endswith((".png", ".exr")):
-            print(f"pyrt-preview: error: output must end in .png or .exr: {out}", file=sys.stderr)
-            return 2
+def _main_single(path, outputs, opts, quiet, cancel):
     fmts = tuple(sorted({os.path.splitext(out)[1].lower()[1:] for out in outputs}))
     opts = dataclasses.replace(opts, formats=fmts)
     deadline = time.perf_counter() + opts.time_budget if opts.time_budget else None
     name = "view"
     try:
-        res = render_preview(path, opts, name=name, deadline=deadline)
-    except (AssetError, PreviewError, BudgetExceeded, ValueError, OSError) as exc:
-        print(f"pyrt-preview: error: {exc}", file=sys.stderr)
-        return 1
+        res = render_preview(path, opts, name=name, deadline=deadline, cancel=cancel)
+    except PreviewInterrupted as exc:
+        print(f"pyrt-preview: {exc}; nothing written", file=sys.stderr)
+        return EXIT_INTERRUPTED
     for out in outputs:
         stem, ext = os.path.splitext(out)
         base = os.path.basename(stem)
@@ -110,4 +135,7 @@ def _main_single(path, outputs, opts, quiet):
     if not quiet:
         print(f"{res.triangles} triangles, up {res.up_axis} ({res.up_reason}), load {res.load_time:.2f} s, "
               f"render {res.render_time:.2f} s, exposure {res.exposure:+.2f} stops")
+    if cancel.is_set():
+        print("pyrt-preview: interrupted after the view had finished; the outputs are complete", file=sys.stderr)
+        return EXIT_INTERRUPTED
     return 0

@@ -14,6 +14,10 @@ class BudgetExceeded(Error, RuntimeError):
     """The per-asset time budget ran out (the message says after what)."""
 
 
+class PreviewInterrupted(Error, RuntimeError):
+    """The preview was cancelled (``cancel`` set) before all its views were rendered (the message says when)."""
+
+
 @dataclass
 class PreviewOptions:
     """Everything a preview can be told. Angles in degrees, irradiance in W/m^2, times in seconds."""

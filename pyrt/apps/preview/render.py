@@ -15,14 +15,14 @@ import numpy as np
 from pyrt.shaders import color as _color
 
 from pyrt.core.camera import Camera
-from pyrt.core.image_io import encode_png, tonemap_to_display, write_exr
+from pyrt.core.image_io import encode_png, tonemap_to_display, write_bytes, write_exr
 from pyrt.integrators import PreparedScene
 from pyrt.render import render_full
 from pyrt.lights import LatLongEnvironment, set_environment
 from pyrt.materials import Lambert
 from pyrt.scene import Scene
 from pyrt.io.assets import Asset, load_asset
-from pyrt.apps.preview.options import BudgetExceeded, PreviewError, PreviewOptions
+from pyrt.apps.preview.options import BudgetExceeded, PreviewError, PreviewInterrupted, PreviewOptions
 from pyrt.apps.preview.rig import (auto_exposure, bounding_sphere, detect_up_axis, frame_camera, ground_radiance,
                                    studio_rig, up_transform)
 
@@ -212,13 +212,15 @@ def _aov_pngs(aov):
     return out
 
 
-def render_preview(model, options=None, *, name="preview", deadline=None):
+def render_preview(model, options=None, *, name="preview", deadline=None, cancel=None):
     """Load (if given a path), set up and render a preview; encoded outputs in ``result.files``.
 
     ``result.files`` maps names to bytes: ``NAME.png``/``NAME.exr`` (+ ``NAME_depth.png`` etc. with
     ``aovs``) for a single view; ``NAME_turntable/frame_###.png`` (/``.exr``) and ``NAME_sheet.png``
     for a turntable. ``deadline`` (a ``time.perf_counter()`` value) raises :class:`BudgetExceeded`
-    before a view that would not finish in time (estimated from the previous view).
+    before a view that would not finish in time (estimated from the previous view). ``cancel`` (a
+    :class:`threading.Event`) is checked before every view: once set, the view in progress finishes and
+    :class:`PreviewInterrupted` is raised before the next one (nothing is returned for an unfinished asset).
     """
     o = (options or PreviewOptions()).validate()
     t0 = time.perf_counter()
@@ -235,6 +237,8 @@ def render_preview(model, options=None, *, name="preview", deadline=None):
         t_render = 0.0
         last = None
         for k, a in enumerate(az):
+            if cancel is not None and cancel.is_set():
+                raise PreviewInterrupted(f"interrupted after {k}/{n_views} views")
             if deadline is not None and last is not None and time.perf_counter() + last > deadline:
                 raise BudgetExceeded(f"time budget exceeded after {k}/{n_views} views "
                                      f"({t_render:.2f} s rendering, {last:.2f} s per view)")
@@ -265,12 +269,11 @@ def render_preview(model, options=None, *, name="preview", deadline=None):
 
 
 def write_files(files, out_dir):
-    """Write ``{relative name: bytes}`` under ``out_dir``; returns the paths written."""
+    """Write ``{relative name: bytes}`` under ``out_dir`` (each file atomically); returns the paths written."""
     paths = []
     for rel, data in files.items():
         p = os.path.join(out_dir, rel)
         os.makedirs(os.path.dirname(os.path.abspath(p)), exist_ok=True)
-        with open(p, "wb") as fh:
-            fh.write(data)
+        write_bytes(p, data)
         paths.append(p)
     return paths

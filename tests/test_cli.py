@@ -1,0 +1,174 @@
+"""The command line ``python -m pyrt render``: bad option values, one-line errors before any rendering,
+exit codes, and SIGINT / SIGTERM keeping the finished part of the image."""
+import os
+import pathlib
+import re
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+import pyrt
+from pyrt.apps import cli
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+SCENE = str(ROOT / "assets/default_scene.toml")
+SMALL = ["--width", "16", "--height", "12", "--spp", "1"]
+INTERRUPTED = re.compile(r"pyrt: interrupted: (\d+)/(\d+) chunks \((\d+) % of the pixels\) rendered; the rest is black")
+
+
+def _env():
+    return dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+
+
+@pytest.mark.parametrize("option, value", [
+    ("--spp", "0"), ("--spp", "-3"), ("--spp", "2.5"), ("--spp", "many"),
+    ("--width", "0"), ("--width", "-10"), ("--height", "0"), ("--height", "-1"),
+    ("--max-depth", "-1"), ("--seed", "-1"), ("--seed", "x"),
+    ("--exposure", "nan"), ("--exposure", "inf"), ("--exposure", "abc"),
+    ("--white", "0"), ("--white", "-1"), ("--white", "nan"), ("--white", "inf"),
+    ("--offset", "bogus"),
+])
+def test_cli_rejects_bad_option_values(tmp_path, capsys, option, value):
+    out = tmp_path / "x.png"
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["render", SCENE, "-o", str(out), option, value])
+    err = capsys.readouterr().err
+    assert exc.value.code == 2
+    assert f"argument {option}" in err and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_cli_white_applies_to_reinhard_only(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["render", SCENE, "-o", str(tmp_path / "x.png"), "--tonemap", "film", "--white", "2"])
+    assert exc.value.code == 2 and "--white applies to --tonemap reinhard only" in capsys.readouterr().err
+
+
+def test_cli_accepts_max_depth_zero_and_every_offset(tmp_path, capsys):
+    out = tmp_path / "x.png"
+    assert cli.main(["render", SCENE, "-o", str(out), *SMALL, "--max-depth", "0", "--offset", "none",
+                     "--seed", "0"]) == 0
+    assert out.stat().st_size > 0
+
+
+def _write_corrupt_exr_scene(tmp_path):
+    (tmp_path / "sky.exr").write_bytes(b"v/1\x01 not an EXR file at all")
+    text = (ROOT / "assets/ibl_scene.toml").read_text()
+    (tmp_path / "ibl.toml").write_text(text)
+    return str(tmp_path / "ibl.toml")
+
+
+def _error_cases(tmp_path):
+    empty = tmp_path / "empty.toml"
+    empty.write_text("[camera]\nwidth = 8\nheight = 6\n")
+    (tmp_path / "folder.png").mkdir()
+    out = str(tmp_path / "x.png")
+    return {
+        "empty scene": (["render", str(empty), "-o", out], "the scene has no meshes"),
+        "unreadable EXR": (["render", _write_corrupt_exr_scene(tmp_path), "-o", out], "sky.exr"),
+        "missing scene": (["render", str(tmp_path / "none.toml"), "-o", out], "scene file not found"),
+        "no such output folder": (["render", SCENE, "-o", str(tmp_path / "no" / "x.png")],
+                                  "output folder does not exist"),
+        "output is a folder": (["render", SCENE, "-o", str(tmp_path / "folder.png")], "output is a folder"),
+        "unknown extension": (["render", SCENE, "-o", str(tmp_path / "x.jpg")], "output must end in .exr or .png"),
+        "same output twice": (["render", SCENE, "-o", out, "-o", str(tmp_path / "." / "x.png")],
+                              "the same output file is given twice"),
+    }
+
+
+@pytest.mark.parametrize("case", ["empty scene", "unreadable EXR", "missing scene", "no such output folder",
+                                  "output is a folder", "unknown extension", "same output twice"])
+def test_cli_errors_are_one_line_exit_2_before_rendering(tmp_path, capsys, case, monkeypatch):
+    argv, message = _error_cases(tmp_path)[case]
+
+    def no_render(*a, **k):
+        raise AssertionError("rendered although the run could not succeed")
+
+    monkeypatch.setattr(pyrt, "render_full", no_render)
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("pyrt: error: ") and message in err, err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_cli_debug_shows_the_traceback(tmp_path, capsys):
+    argv, _ = _error_cases(tmp_path)["empty scene"]
+    assert cli.main(["--debug", *argv]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" in err and "pyrt: error: " in err
+    assert cli.main([*argv, "--debug"]) == 2                 # after the subcommand too
+    assert "Traceback" in capsys.readouterr().err
+
+
+def _start_render(tmp_path, outputs, spp="16"):
+    """A ~5 s render in a subprocess; returns it once the progress bar shows that chunks are running."""
+    errf = open(tmp_path / "stderr.txt", "w+")
+    args = [sys.executable, "-m", "pyrt", "render", SCENE, "--spp", spp]
+    for o in outputs:
+        args += ["-o", str(o)]
+    p = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=errf, text=True, env=_env(), cwd=tmp_path)
+    t_end = time.monotonic() + 60
+    while "chunk/s" not in (tmp_path / "stderr.txt").read_text() and time.monotonic() < t_end:
+        time.sleep(0.05)
+    time.sleep(0.3)
+    return p, errf
+
+
+def test_cli_sigint_writes_the_finished_chunks_and_exits_130(tmp_path):
+    exr, png = tmp_path / "a.exr", tmp_path / "a.png"
+    p, errf = _start_render(tmp_path, [exr, png])
+    t0 = time.monotonic()
+    p.send_signal(signal.SIGINT)
+    out, _ = p.communicate(timeout=60)
+    stopped = time.monotonic() - t0
+    err = (tmp_path / "stderr.txt").read_text()
+    errf.close()
+    assert p.returncode == 130, err
+    m = INTERRUPTED.search(err)
+    assert m, err
+    done, total, pct = map(int, m.groups())
+    assert 0 < done < total and 0 < pct < 100
+    assert "Traceback" not in err and f"wrote {exr}" in out and f"wrote {png}" in out
+    assert stopped < 5.0                                  # chunks of ~50 ms, then two small writes
+    img = pyrt.read_exr(exr)
+    assert img.shape == (480, 640, 3)
+    rows = img.reshape(480, -1).any(axis=1)
+    assert rows[0] and not rows[-1]                       # chunks are rendered top down: the bottom is black
+    assert abs(rows.mean() - pct / 100) < 0.05
+    from PIL import Image
+    assert Image.open(png).size == (640, 480)
+    assert sorted(os.listdir(tmp_path)) == ["a.exr", "a.png", "stderr.txt"]   # no temporary file left
+
+
+def test_cli_second_sigint_aborts_and_keeps_the_previous_file(tmp_path):
+    png = tmp_path / "a.png"
+    pyrt.write_png(png, np.full((4, 4, 3), 0.5, np.float32))
+    before = png.read_bytes()
+    p, errf = _start_render(tmp_path, [png])
+    p.send_signal(signal.SIGINT)
+    time.sleep(0.02)
+    p.send_signal(signal.SIGINT)
+    p.communicate(timeout=60)
+    err = (tmp_path / "stderr.txt").read_text()
+    errf.close()
+    assert p.returncode == 130, err
+    assert "pyrt: aborted" in err and "Traceback" not in err
+    assert png.read_bytes() == before
+    assert sorted(os.listdir(tmp_path)) == ["a.png", "stderr.txt"]
+
+
+@pytest.mark.slow
+def test_cli_sigterm_is_an_interrupt(tmp_path):
+    exr = tmp_path / "a.exr"
+    p, errf = _start_render(tmp_path, [exr])
+    p.send_signal(signal.SIGTERM)
+    p.communicate(timeout=60)
+    err = (tmp_path / "stderr.txt").read_text()
+    errf.close()
+    assert p.returncode == 130 and INTERRUPTED.search(err), err
+    assert pyrt.read_exr(exr).shape == (480, 640, 3)
