@@ -49,14 +49,17 @@ returns one :class:`AssetReport` per asset (triangles, load and render time, war
 each asset is one task; workers send the encoded files back and the client writes them, so a real
 cluster needs no shared output folder (the models must be readable by the workers). The work per
 asset is the same function with the same seeds, so the files are identical to a local run.
-``time_budget`` (s per asset) is checked before the load and before every view: a turntable stops
+``cancel`` (a threading.Event, set by the first Ctrl-C of ``pyrt-preview``) is checked before every asset and
+view: the view in progress finishes, an unfinished asset is reported ``interrupted`` (no files), the assets not
+started ``skipped``, and the summary is written. ``time_budget`` (s per asset) is checked before the load and
+before every view: a turntable stops
 with status ``timeout`` when the next view would exceed it (a single long view is not interrupted).
 
 Modules: :mod:`~pyrt.apps.preview.options` (options, errors), :mod:`~pyrt.apps.preview.rig` (up axis,
 framing, studio rig, ground, exposure), :mod:`~pyrt.apps.preview.render` (the preview scene, files),
 :mod:`~pyrt.apps.preview.batch` (batches, Dask), :mod:`~pyrt.apps.preview.cli` (``pyrt-preview``).
 """
-from pyrt.apps.preview.options import AXES, BudgetExceeded, PreviewError, PreviewOptions
+from pyrt.apps.preview.options import AXES, BudgetExceeded, PreviewError, PreviewInterrupted, PreviewOptions
 from pyrt.apps.preview.rig import (RIG, auto_exposure, bounding_sphere, detect_up_axis, frame_camera, ground_radiance,
                                    studio_rig, up_transform)
 from pyrt.apps.preview.render import PreviewResult, PreviewScene, contact_sheet, render_preview, write_files
@@ -65,7 +68,7 @@ from pyrt.apps.preview.batch import (AssetReport, collect_inputs, format_summary
 from pyrt.apps.preview.cli import main
 
 __all__ = [
-    "AXES", "BudgetExceeded", "PreviewError", "PreviewOptions", "RIG", "auto_exposure", "bounding_sphere",
+    "AXES", "BudgetExceeded", "PreviewError", "PreviewInterrupted", "PreviewOptions", "RIG", "auto_exposure", "bounding_sphere",
     "detect_up_axis", "frame_camera", "ground_radiance", "studio_rig", "up_transform", "PreviewResult", "PreviewScene",
     "contact_sheet", "render_preview", "write_files", "AssetReport", "collect_inputs", "format_summary",
     "output_name", "preview_asset", "preview_batch", "summary_rows", "write_summary", "main",

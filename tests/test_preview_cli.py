@@ -1,0 +1,103 @@
+"""``pyrt-preview``: bad option values, one-line errors before rendering, and interrupts that keep the
+finished assets and write the summary."""
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+
+from pyrt.apps import preview as P
+
+ROOT = os.path.join(os.path.dirname(__file__), "..")
+BLOB = os.path.join(ROOT, "assets", "models", "blob.ply")
+TINY = dict(width=24, height=18, spp=1)
+
+
+class CancelAfter(threading.Event):
+    """Reports itself set from its ``k + 1``-th check on (the batch checks before each asset and each view)."""
+
+    def __init__(self, k):
+        super().__init__()
+        self.k, self.checks = k, 0
+
+    def is_set(self):
+        self.checks += 1
+        return self.checks > self.k or super().is_set()
+
+
+@pytest.mark.parametrize("option, value", [
+    ("--width", "0"), ("--width", "-10"), ("--height", "0"), ("--spp", "0"), ("--seed", "-1"),
+    ("--exposure", "nan"), ("--turntable", "-1"), ("--budget", "0"), ("--threads", "0"), ("--env-samples", "0"),
+    ("--fov", "nan"),
+])
+def test_preview_cli_rejects_bad_option_values(tmp_path, capsys, option, value):
+    with pytest.raises(SystemExit) as exc:
+        P.main([BLOB, "-o", str(tmp_path / "v.png"), option, value])
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and f"argument {option}" in err and "Traceback" not in err
+
+
+def test_preview_cli_errors_are_one_line(tmp_path, capsys):
+    (tmp_path / "empty").mkdir()
+    cases = [
+        ([str(tmp_path / "empty"), "--out-dir", str(tmp_path / "o")], "no models found"),
+        ([str(tmp_path / "none.glb"), "-o", str(tmp_path / "v.png")], "no such model file"),
+        ([BLOB, "-o", str(tmp_path / "no" / "v.png")], "output folder does not exist"),
+        ([BLOB, "-o", str(tmp_path / "v.png"), "-o", str(tmp_path / "v.png")], "the same output file is given twice"),
+        ([BLOB, "--out-dir", str(tmp_path / "a" / "b")], "output folder does not exist"),
+        ([BLOB, "-o", str(tmp_path / "v.png"), "--fov", "0"], "fov must be in"),
+    ]
+    for argv, message in cases:
+        assert P.main(argv + ["--quiet"]) == 2, argv
+        err = capsys.readouterr().err
+        assert err.startswith("pyrt-preview: error: ") and message in err, err
+        assert len(err.strip().splitlines()) == 1
+    assert sorted(os.listdir(tmp_path)) == ["empty"]       # nothing rendered, nothing written
+
+
+def test_preview_batch_cancel_keeps_finished_assets_and_writes_the_summary(tmp_path):
+    d = tmp_path / "models"
+    d.mkdir()
+    for n in ("a", "b", "c"):
+        shutil.copy(BLOB, d / f"{n}.ply")
+    o = P.PreviewOptions(turntable=2, **TINY)
+    # checks: asset a, view 0, view 1 (3), asset b, view 0 (5) -> b is cut after one view, c not started
+    reps = P.preview_batch([str(d)], str(tmp_path / "out"), o, progress=False, cancel=CancelAfter(5))
+    assert [r.status for r in reps] == ["ok", "interrupted", "skipped"]
+    assert reps[1].error == "interrupted after 1/2 views"
+    files = sorted(os.listdir(tmp_path / "out"))
+    assert files == ["a_ply_sheet.png", "a_ply_turntable", "summary.csv", "summary.txt"]
+    assert "1/3 assets ok" in (tmp_path / "out" / "summary.txt").read_text()
+
+
+def test_render_preview_cancelled_between_views_raises():
+    o = P.PreviewOptions(turntable=3, **TINY)
+    with pytest.raises(P.PreviewInterrupted, match="after 1/3 views"):
+        P.render_preview(BLOB, o, cancel=CancelAfter(1))
+
+
+def test_preview_cli_sigint_exits_130_with_the_summary(tmp_path):
+    d = tmp_path / "models"
+    d.mkdir()
+    for k in range(40):
+        shutil.copy(BLOB, d / f"m{k:02d}.ply")
+    env = dict(os.environ, PYTHONPATH=os.path.abspath(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    out = tmp_path / "out"
+    p = subprocess.Popen([sys.executable, "-m", "pyrt.apps.preview", str(d), "--out-dir", str(out), "--width", "96",
+                          "--height", "72", "--spp", "2", "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         text=True, env=env)
+    t_end = time.monotonic() + 60
+    while not (out.exists() and any(f.endswith(".png") for f in os.listdir(out))) and time.monotonic() < t_end:
+        time.sleep(0.05)
+    p.send_signal(signal.SIGINT)
+    stdout, err = p.communicate(timeout=60)
+    assert p.returncode == 130, err
+    assert "pyrt-preview: interrupted: " in err and "Traceback" not in err
+    summary = (out / "summary.txt").read_text()
+    assert "skipped" in summary
+    ok = [f for f in os.listdir(out) if f.endswith(".png")]
+    assert 0 < len(ok) < 40 and f"{len(ok)}/40 assets ok" in summary
