@@ -164,6 +164,29 @@ class Scene:
         m = transform_matrix(translate=center) @ rot
         return self.add_mesh(mesh, material, transform=m, smooth=False, name=name)
 
+    # -- checks ----------------------------------------------------------------------------------
+    def validate(self):
+        """Check every parameter again as it is now; raise the family's :class:`pyrt.Error` naming the object.
+
+        :class:`pyrt.PreparedScene` calls it before every render, so an attribute assigned after
+        construction (``light.intensity = float("nan")``, ``mat.albedo_value = 2.0``, ``camera.fov = 0``)
+        is an error rather than a silently wrong image: the camera, ``background`` and ``ambient``, every
+        material, every light and every environment (the scene's and those of its lights) are checked by
+        their own ``validate()``.
+        """
+        self.camera.validate()
+        _rgb("Scene", "background", self.background)
+        _rgb("Scene", "ambient", self.ambient)
+        for m in self.materials:
+            m.validate()
+        envs = [self.environment] if self.environment is not None else []
+        for lt in self.lights:
+            lt.validate()
+            if lt.environment is not None and all(lt.environment is not e for e in envs):
+                envs.append(lt.environment)
+        for env in envs:
+            env.validate()
+
     # -- queries ---------------------------------------------------------------------------------
     def geometry_table(self):
         """The flat float64 :class:`pyrt.geometry.GeometryTable` of every mesh (what the accelerator is built from)."""

@@ -46,6 +46,7 @@ class PreparedScene:
     """
 
     def __init__(self, scene, *, threads=None):
+        scene.validate()      # parameters changed since construction are errors here, not wrong images
         self.scene = scene
         self.geo = scene.geometry_table()
         self.accel = Accel(threads=threads)
