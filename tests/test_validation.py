@@ -90,3 +90,54 @@ def test_every_example_validates_and_rejects_a_nan_parameter(registry):
             setattr(bad, k, NAN)
             with pytest.raises(pyrt.Error, match=k):
                 bad.validate()
+
+
+@pytest.mark.parametrize("call, words", [
+    (lambda s, m: s.add_sphere((0, 0, 0), 0.0, m), r"sphere: radius must be a finite number > 0"),
+    (lambda s, m: s.add_sphere((0, 0, 0), -0.5, m, name="ball"), r"sphere 'ball': radius"),
+    (lambda s, m: s.add_sphere((0, 0, 0), NAN, m), "radius"),
+    (lambda s, m: s.add_sphere((0, 0, 0), math.inf, m), "radius"),
+    (lambda s, m: s.add_sphere((0, 0, 0), 1.0, m, subdivisions=-1), "subdivisions"),
+    (lambda s, m: s.add_sphere((0, 0, 0), 1.0, m, subdivisions=2.5), "subdivisions"),
+    (lambda s, m: s.add_sphere((0, 0, 0), 1.0, m, subdivisions=99), "subdivisions"),
+    (lambda s, m: s.add_box((0, 0, 0), (1, 0, 1), m), "box: extents"),
+    (lambda s, m: s.add_box((0, 0, 0), (1, NAN, 1), m), "box: extents"),
+    (lambda s, m: s.add_box((0, 0, 0), -1, m), "box: extents"),
+    (lambda s, m: s.add_plane((0, 0, 0), 0, m), "plane: size"),
+    (lambda s, m: s.add_plane((0, 0, 0), (1, -2), m), "plane: size"),
+    (lambda s, m: s.add_plane((0, 0, 0), math.inf, m), "plane: size"),
+])
+def test_primitive_sizes_are_checked(call, words):
+    with pytest.raises(pyrt.Error, match=words):
+        call(pyrt.Scene(), pyrt.Lambert())
+
+
+def test_mesh_with_a_nan_vertex_names_the_non_finite_vertex():
+    v = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, NAN]]
+    with pytest.raises(pyrt.GeometryError, match=r"'quad'.*non-finite vertex.*index 3"):
+        pyrt.Scene().add_mesh((v, [[0, 1, 2], [1, 3, 2]]), pyrt.Lambert(), name="quad")
+
+
+def test_mesh_without_faces_says_it_has_no_triangles():
+    with pytest.raises(pyrt.GeometryError, match=r"mesh 'dots' has no triangles"):
+        pyrt.Scene().add_mesh(([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.zeros((0, 3), int)), pyrt.Lambert(),
+                              name="dots")
+    with pytest.raises(pyrt.GeometryError, match=r"mesh 'empty' has no triangles"):
+        pyrt.Scene().add_mesh((np.zeros((0, 3)), np.zeros((0, 3), int)), pyrt.Lambert(), name="empty")
+
+
+@pytest.mark.parametrize("option, value", [
+    ("throughput_cutoff", -1.0), ("throughput_cutoff", NAN), ("throughput_cutoff", math.inf),
+    ("threads", -1), ("threads", 0), ("threads", 1.5), ("max_depth", -1), ("max_depth", 2.5),
+    ("spp", 0), ("spp", NAN), ("chunk_samples", 0),
+])
+def test_render_options_out_of_range_are_errors(option, value):
+    scene, _, _ = _lit_scene()
+    with pytest.raises(pyrt.RenderError, match=rf"render: {option} must be"):
+        pyrt.render(scene, **{option: value})
+
+
+def test_render_options_at_their_limits_are_accepted():
+    scene, _, _ = _lit_scene()
+    a = pyrt.render(scene, throughput_cutoff=0.0, threads=1, max_depth=0, spp=1.0, seed=1)
+    assert np.all(np.isfinite(a))

@@ -57,3 +57,22 @@ def _short(value):
             return repr(value.tolist())
         return f"an array {value.shape} with {int((~np.isfinite(value)).sum())} non-finite values"
     return repr(value)
+
+
+def integer(owner, name, value, error=ValueError, *, lo=1):
+    """``value`` as an int when it is an integer >= ``lo`` (``3.0`` counts, ``True`` and ``2.5`` do not); else ``error``."""
+    ok = isinstance(value, (numbers.Integral, float, np.floating)) and not isinstance(value, bool)
+    ok = ok and math.isfinite(value) and int(value) == value and int(value) >= lo
+    if not ok:
+        what = "a positive integer" if lo == 1 else f"an integer >= {lo}"
+        raise error(f"{owner}: {name} must be {what}, got {value!r}")
+    return int(value)
+
+
+def finite_number(owner, name, value, error=ValueError, *, lo=None):
+    """``value`` as a float when it is a finite real number (>= ``lo`` if given); else ``error``."""
+    ok = isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
+    if not ok or (lo is not None and value < lo):
+        rng = f" >= {lo}" if lo is not None else ""
+        raise error(f"{owner}: {name} must be a finite number{rng}, got {value!r}")
+    return float(value)
