@@ -146,6 +146,9 @@ class Scene:
             raise GeometryError(f"mesh {name!r}: transformed vertices are not finite")
         # Embree sees float32 vertices: keep exactly those (as float64) so that rebuilt hit points lie on
         # the triangles Embree intersects.
+        if not np.all(np.abs(v_world) <= np.finfo(np.float32).max):
+            raise GeometryError(f"mesh {name!r}: transformed vertices lie beyond the float32 range (|x| < 3.4e38) "
+                                "Embree traces in")
         v_world = v_world.astype(np.float32).astype(np.float64)
         if normals is not None:
             nm = np.linalg.inv(m[:3, :3]).T
