@@ -9,7 +9,7 @@ Public API::
     image = pyrt.render(scene, spp=4)          # (H, W, 3) float32 linear radiance
     pyrt.write_exr("out.exr", image); pyrt.write_png("out.png", image, tonemap="reinhard")
 """
-from pyrt.core.errors import Error
+from pyrt.core.errors import Error, RenderError
 from pyrt.core.camera import Camera, CameraError
 from pyrt.geometry.surface import GeometryError
 from pyrt.integrators import PreparedScene, RenderStats
@@ -40,6 +40,6 @@ __all__ = [
     "procedural_sky", "set_environment", "AreaEmitter", "DiskLight", "RectLight", "SphereLight",
     "Texture", "TextureError", "ConstantTexture", "ImageTexture", "CheckerTexture", "NoiseTexture", "PerlinTexture",
     "FbmTexture", "VoronoiTexture", "NormalMap", "perturb_normal",
-    "load_dict", "load_asset", "AssetError",
+    "load_dict", "load_asset", "AssetError", "RenderError",
 ]
 __version__ = "0.1.0"

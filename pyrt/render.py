@@ -16,6 +16,8 @@ import warnings
 import numpy as np
 from tqdm.auto import tqdm
 
+from pyrt.core import checks
+from pyrt.core.errors import RenderError
 from pyrt.core.film import Film
 from pyrt.integrators.prepared import PreparedScene, RenderStats
 from pyrt.integrators.whitted import Integrator
@@ -92,12 +94,10 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     t_start = time.perf_counter()
     cam = scene.camera
     if spp is not None:
-        if int(spp) != spp or spp < 1:
-            raise ValueError(f"spp must be a positive integer, got {spp!r}")
         cam = copy(cam)
-        cam.spp = int(spp)
-    if int(chunk_samples) != chunk_samples or chunk_samples < 1:
-        raise ValueError(f"chunk_samples must be a positive integer, got {chunk_samples!r}")
+        cam.spp = checks.integer("render", "spp", spp, RenderError)
+    chunk_samples = checks.integer("render", "chunk_samples", chunk_samples, RenderError)
+    threads = None if threads is None else checks.integer("render", "threads", threads, RenderError)
     own = prepared is None
     ps = prepared if prepared is not None else PreparedScene(scene, threads=threads)
     W, H, S = cam.width, cam.height, cam.spp

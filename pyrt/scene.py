@@ -5,6 +5,7 @@ A :class:`Scene` only holds validated parameters; rendering lives in :mod:`pyrt.
 from __future__ import annotations
 
 import math
+import numbers
 
 import numpy as np
 import trimesh
@@ -20,6 +21,27 @@ from pyrt.core.transforms import SceneError, transform_matrix  # noqa: F401 (pub
 
 def _rgb(owner, name, v):
     return checks.rgb(owner, name, v, SceneError)
+
+
+#: the finest :meth:`Scene.add_sphere` tessellation (9 levels: 5.2 million triangles)
+MAX_SUBDIVISIONS = 9
+
+
+def _who(kind, name):
+    """A primitive as messages name it: ``sphere 'ball'`` (or just ``sphere``)."""
+    return f"{kind} {name!r}" if name else kind
+
+
+def _positive_sizes(who, name, value, n):
+    """``value`` (a number or ``n`` numbers) as float64 (n,), each finite and > 0; else a :class:`SceneError`."""
+    try:
+        a = np.broadcast_to(np.asarray(value, dtype=np.float64), (n,)).copy()
+    except (TypeError, ValueError):
+        a = None
+    if a is None or isinstance(value, bool) or not np.all(np.isfinite(a)) or not np.all(a > 0):
+        raise SceneError(f"{who}: {name} must be {'a finite number' if n == 1 else f'{n} finite numbers'} > 0, "
+                         f"got {value!r}")
+    return a
 
 
 class Scene:
@@ -124,6 +146,9 @@ class Scene:
             raise GeometryError(f"mesh {name!r}: transformed vertices are not finite")
         # Embree sees float32 vertices: keep exactly those (as float64) so that rebuilt hit points lie on
         # the triangles Embree intersects.
+        if not np.all(np.abs(v_world) <= np.finfo(np.float32).max):
+            raise GeometryError(f"mesh {name!r}: transformed vertices lie beyond the float32 range (|x| < 3.4e38) "
+                                "Embree traces in")
         v_world = v_world.astype(np.float32).astype(np.float64)
         if normals is not None:
             nm = np.linalg.inv(m[:3, :3]).T
@@ -139,20 +164,27 @@ class Scene:
 
     # -- convenience primitives ----------------------------------------------------------------
     def add_sphere(self, center, radius, material, *, subdivisions=4, smooth=True, name=None):
-        """Icosphere of ``radius`` at ``center`` (``subdivisions`` levels; 4 -> 5120 triangles)."""
-        if not radius > 0:
-            raise SceneError(f"sphere {name!r}: radius must be > 0, got {radius}")
-        m = trimesh.creation.icosphere(subdivisions=subdivisions, radius=radius)
+        """Icosphere of ``radius`` (finite, > 0) at ``center`` (``subdivisions`` levels, an integer in
+        0..:data:`MAX_SUBDIVISIONS`; 4 -> 5120 triangles, each level four times more)."""
+        who = _who("sphere", name)
+        (radius,) = _positive_sizes(who, "radius", radius, 1)
+        if (not isinstance(subdivisions, numbers.Integral) or isinstance(subdivisions, bool)
+                or not 0 <= subdivisions <= MAX_SUBDIVISIONS):
+            raise SceneError(f"{who}: subdivisions must be an integer in 0..{MAX_SUBDIVISIONS}, got {subdivisions!r}")
+        m = trimesh.creation.icosphere(subdivisions=int(subdivisions), radius=radius)
         return self.add_mesh(m, material, transform=transform_matrix(translate=center), smooth=smooth, name=name)
 
     def add_box(self, center, extents, material, *, name=None):
-        """An axis-aligned box of ``extents`` (3,) centred at ``center`` (flat shaded); returns the mesh index."""
+        """An axis-aligned box of ``extents`` (3 finite numbers > 0, or one for a cube) centred at ``center``
+        (flat shaded); returns the mesh index."""
+        extents = _positive_sizes(_who("box", name), "extents", extents, 3)
         m = trimesh.creation.box(extents=extents)
         return self.add_mesh(m, material, transform=transform_matrix(translate=center), smooth=False, name=name)
 
     def add_plane(self, center, size, material, *, normal=(0, 1, 0), name=None):
-        """Square of side ``size`` (or (sx, sz)) centred at ``center`` facing ``normal`` (default +y), with UVs."""
-        sx, sz = np.broadcast_to(np.asarray(size, dtype=np.float64), (2,))
+        """Square of side ``size`` (or (sx, sz); finite, > 0) centred at ``center`` facing ``normal``
+        (default +y), with UVs."""
+        sx, sz = _positive_sizes(_who("plane", name), "size", size, 2)
         v = np.array([[-sx / 2, 0, sz / 2], [sx / 2, 0, sz / 2], [sx / 2, 0, -sz / 2], [-sx / 2, 0, -sz / 2]])
         f = np.array([[0, 1, 2], [0, 2, 3]])
         mesh = trimesh.Trimesh(vertices=v, faces=f, process=False)
@@ -163,6 +195,29 @@ class Scene:
         rot = trimesh.geometry.align_vectors([0, 1, 0], nrm / np.linalg.norm(nrm))
         m = transform_matrix(translate=center) @ rot
         return self.add_mesh(mesh, material, transform=m, smooth=False, name=name)
+
+    # -- checks ----------------------------------------------------------------------------------
+    def validate(self):
+        """Check every parameter again as it is now; raise the family's :class:`pyrt.Error` naming the object.
+
+        :class:`pyrt.PreparedScene` calls it before every render, so an attribute assigned after
+        construction (``light.intensity = float("nan")``, ``mat.albedo_value = 2.0``, ``camera.fov = 0``)
+        is an error rather than a silently wrong image: the camera, ``background`` and ``ambient``, every
+        material, every light and every environment (the scene's and those of its lights) are checked by
+        their own ``validate()``.
+        """
+        self.camera.validate()
+        _rgb("Scene", "background", self.background)
+        _rgb("Scene", "ambient", self.ambient)
+        for m in self.materials:
+            m.validate()
+        envs = [self.environment] if self.environment is not None else []
+        for lt in self.lights:
+            lt.validate()
+            if lt.environment is not None and all(lt.environment is not e for e in envs):
+                envs.append(lt.environment)
+        for env in envs:
+            env.validate()
 
     # -- queries ---------------------------------------------------------------------------------
     def geometry_table(self):

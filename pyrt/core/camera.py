@@ -30,6 +30,17 @@ def _vec3(name, v):
     return a
 
 
+def _count(name, val):
+    """A positive integer as int, else a :class:`CameraError` naming it."""
+    try:
+        ok = int(val) == val and int(val) >= 1
+    except (TypeError, ValueError, OverflowError):
+        ok = False
+    if not ok:
+        raise CameraError(f"Camera: {name} must be a positive integer, got {val!r}")
+    return int(val)
+
+
 class Camera:
     """Pinhole camera.
 
@@ -61,14 +72,29 @@ class Camera:
             raise CameraError("Camera: up is zero or parallel to the view direction")
         self.right = right / np.linalg.norm(right)
         self.up_ortho = np.cross(self.right, self.forward)
-        if not (0 < float(fov) < 180):
-            raise CameraError(f"Camera: fov must be in (0, 180) degrees, got {fov}")
-        self.fov = float(fov)
-        for nm, val in (("width", width), ("height", height), ("spp", spp)):
-            if int(val) != val or int(val) < 1:
-                raise CameraError(f"Camera: {nm} must be a positive integer, got {val!r}")
-        self.width, self.height, self.spp = int(width), int(height), int(spp)
+        self.fov, self.width, self.height, self.spp = fov, width, height, spp
         self.jitter = bool(jitter)
+        self.validate()
+
+    def validate(self):
+        """Check the parameters as they are now; :class:`CameraError` otherwise.
+
+        The constructor ends with it and :class:`pyrt.PreparedScene` calls it before every render (so an
+        attribute assigned later cannot smuggle in a NaN): position, target, up and the derived frame
+        finite, ``fov`` in (0, 180) degrees, ``width``, ``height``, ``spp`` positive integers (stored as int).
+        """
+        for nm, v in (("position", self.position), ("target", self.target), ("up", self.up),
+                      ("forward", self.forward), ("right", self.right), ("up_ortho", self.up_ortho)):
+            _vec3(nm, v)
+        try:
+            fov = float(self.fov)
+        except (TypeError, ValueError):
+            fov = math.nan
+        if not 0 < fov < 180:
+            raise CameraError(f"Camera: fov must be in (0, 180) degrees, got {self.fov!r}")
+        self.fov = fov
+        self.width, self.height, self.spp = (_count(nm, v) for nm, v in
+                                             (("width", self.width), ("height", self.height), ("spp", self.spp)))
 
     @property
     def tan_half(self):

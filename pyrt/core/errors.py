@@ -10,3 +10,7 @@ from __future__ import annotations
 
 class Error(Exception):
     """Base class of every pyrt error."""
+
+
+class RenderError(Error, ValueError):
+    """An invalid render option (``spp``, ``max_depth``, ``throughput_cutoff``, ``threads``, ...)."""

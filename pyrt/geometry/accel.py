@@ -26,6 +26,8 @@ import numpy as np
 from embreex import rtcore_scene
 from embreex.mesh_construction import TriangleMesh
 
+from pyrt.core import checks
+from pyrt.core.errors import RenderError
 from pyrt.shaders.vec import converted, to_float32
 
 #: Larger batches are split over threads; below this a single call is cheaper.
@@ -102,10 +104,11 @@ class Accel:
     """
 
     def __init__(self, *, threads=None):
+        self.threads = (os.cpu_count() or 1) if threads is None else checks.integer("render", "threads", threads,
+                                                                                    RenderError)
         self._scene = rtcore_scene.EmbreeScene()
         self._meshes = []  # keep the float32 arrays alive
         self._committed = False
-        self.threads = max(1, int(threads or os.cpu_count() or 1))
         self._pool = None
 
     @property

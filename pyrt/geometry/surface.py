@@ -53,16 +53,18 @@ def validate_mesh(vertices, faces, name):
     """
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces)
+    if f.size == 0:     # an OBJ of points or lines only: say what is missing, not a shape
+        raise GeometryError(f"mesh {name!r} has no triangles")
     if v.ndim != 2 or v.shape[1] != 3 or v.shape[0] == 0:
         raise GeometryError(f"mesh {name!r}: vertices must have shape (V, 3), got {v.shape}")
-    if f.ndim != 2 or f.shape[1] != 3 or f.shape[0] == 0:
-        raise GeometryError(f"mesh {name!r}: faces must have shape (F, 3) with F > 0, got {f.shape}")
+    if f.ndim != 2 or f.shape[1] != 3:
+        raise GeometryError(f"mesh {name!r}: faces must have shape (F, 3), got {f.shape}")
     if not np.issubdtype(f.dtype, np.integer):
         raise GeometryError(f"mesh {name!r}: faces must be integer indices, got {f.dtype}")
     bad = ~np.all(np.isfinite(v), axis=1)
     if np.any(bad):
-        raise GeometryError(f"mesh {name!r}: {int(bad.sum())} vertices are not finite (NaN or Inf), "
-                            f"first at index {int(np.flatnonzero(bad)[0])}")
+        raise GeometryError(f"mesh {name!r}: {int(bad.sum())} non-finite vertex coordinates (NaN or Inf): "
+                            f"vertices are not finite, first at index {int(np.flatnonzero(bad)[0])}")
     f = f.astype(np.int64)
     if f.min() < 0 or f.max() >= v.shape[0]:
         raise GeometryError(f"mesh {name!r}: face indices out of range [0, {v.shape[0]})")

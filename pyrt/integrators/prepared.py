@@ -5,6 +5,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from pyrt.geometry import precision
 from pyrt.geometry.accel import Accel
 from pyrt.integrators import gouraud
 from pyrt.integrators.media import NestedMedia
@@ -46,8 +47,11 @@ class PreparedScene:
     """
 
     def __init__(self, scene, *, threads=None):
+        scene.validate()      # parameters changed since construction are errors here, not wrong images
         self.scene = scene
         self.geo = scene.geometry_table()
+        # meshes float32 ray tracing distorts or loses: warned about; nothing left to render: an error
+        precision.check_range(scene.meshes, scene.camera.position)
         self.accel = Accel(threads=threads)
         for m in self.geo.meshes:
             self.accel.add_mesh(m.vertices, m.faces)

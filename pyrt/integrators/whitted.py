@@ -22,6 +22,8 @@ import time
 
 import numpy as np
 
+from pyrt.core import checks
+from pyrt.core.errors import RenderError
 from pyrt.core.rays import RayBatch
 from pyrt.geometry import offsets
 from pyrt.geometry.accel import T_INFINITE, Hits
@@ -60,12 +62,11 @@ class Integrator:
     """
 
     def __init__(self, prepared, *, max_depth=8, throughput_cutoff=1e-4, offset=None, record_rays=False):
-        if int(max_depth) != max_depth or max_depth < 0:
-            raise ValueError(f"max_depth must be a non-negative integer, got {max_depth!r}")
+        self.max_depth = checks.integer("render", "max_depth", max_depth, RenderError, lo=0)
+        self.throughput_cutoff = checks.finite_number("render", "throughput_cutoff", throughput_cutoff, RenderError,
+                                                      lo=0.0)
         self.ps = prepared
         self.scene = prepared.scene
-        self.max_depth = int(max_depth)
-        self.throughput_cutoff = float(throughput_cutoff)
         self.offset = offsets.get_strategy(offset)
         self.record_rays = record_rays
         self.stats = RenderStats()

@@ -46,8 +46,14 @@ class AreaEmitter(Material):
 
     def __init__(self, radiance=1.0, *, two_sided=False, name=None):
         self.name = name
-        self.radiance = check_color("radiance", radiance, f"AreaEmitter({name or ''})", lo=0.0)
+        self.radiance = radiance
         self.two_sided = bool(two_sided)
+        self.validate()
+
+    def validate(self):
+        """``radiance``: a non-negative finite RGB triple (normalised to (3,) float64)."""
+        self.radiance = check_color("radiance", self.radiance, self.label, lo=0.0)
+        super().validate()
 
     def emission(self, ctx):
         L = np.broadcast_to(self.radiance, (ctx.n_hits, 3))
@@ -73,6 +79,20 @@ class AreaLight(Light):
         if power is not None:
             radiance = _nonneg(owner, "power", power) / self._power_per_radiance()
         self.radiance = _nonneg(owner, "radiance", radiance)
+        self.validate()
+
+    def validate(self):
+        """The base checks, then ``center`` (3 finite numbers), ``radiance`` >= 0, ``color`` >= 0 and the
+        light's size (:meth:`_validate_size`)."""
+        super().validate()
+        _vec3(self.label, "center", self.center)
+        _nonneg(self.label, "radiance", self.radiance)
+        _color(self.label, self.color)
+        self._validate_size()
+
+    def _validate_size(self):
+        """Radius > 0 (disk, sphere); the rectangle overrides it."""
+        _radius(self.label, self.radius)
 
     @property
     def L(self):
@@ -102,6 +122,13 @@ class AreaLight(Light):
     _smooth = False
 
 
+def _radius(owner, radius):
+    """A finite radius > 0 as a float, else a :class:`LightError` naming ``owner``."""
+    if not isinstance(radius, numbers.Real) or isinstance(radius, bool) or not math.isfinite(radius) or radius <= 0:
+        raise LightError(f"{owner}: radius must be a finite number > 0, got {radius!r}")
+    return float(radius)
+
+
 def _planar_pdf(p, wi, center, n, inside):
     """Solid-angle pdf (N,) of uniform area sampling of a one-sided planar emitter: ``r^2 / (A cos_l)`` where
     the ray ``p + t wi`` (t > 0) hits the emitter's front (``inside(local x, y) -> bool`` on its plane); the
@@ -126,6 +153,17 @@ def _planar_sample(p, x, n, L, area):
     return wi, dist, L[None, :] * g[:, None]
 
 
+def _size(owner, size):
+    """A rectangle's (width, height) > 0 as float64 (2,) (a number means a square), else a :class:`LightError`."""
+    try:
+        sz = np.broadcast_to(np.asarray(size, dtype=np.float64), (2,)).copy()
+    except (TypeError, ValueError):
+        sz = np.full(2, np.nan)
+    if not np.all(np.isfinite(sz)) or np.any(sz <= 0):
+        raise LightError(f"{owner}: size must be > 0 (a number or [width, height]), got {size!r}")
+    return sz
+
+
 @LIGHTS.register("rect")
 class RectLight(AreaLight):
     """Rectangle of ``size = (width, height)`` centred at ``center``, emitting toward ``normal``.
@@ -144,10 +182,7 @@ class RectLight(AreaLight):
         owner = f"RectLight({name or ''})"
         self.center = _vec3(owner, "center", center)
         self.normal = _vec3(owner, "normal", normal, unit=True)
-        sz = np.broadcast_to(np.asarray(size, dtype=np.float64), (2,)).copy()
-        if not np.all(np.isfinite(sz)) or np.any(sz <= 0):
-            raise LightError(f"{owner}: size must be > 0 (a number or [width, height]), got {size!r}")
-        self.size = sz
+        self.size = _size(owner, size)
         if tangent is None:
             t, _ = coordinate_frame(self.normal[None])
             t = t[0]
@@ -160,6 +195,10 @@ class RectLight(AreaLight):
         self.tangent = t
         self.bitangent = np.cross(self.normal, t)     # (t, b, n) right-handed
         self._init_common(owner, radiance, power, color, n_samples, name)
+
+    def _validate_size(self):
+        """Width and height > 0."""
+        _size(self.label, self.size)
 
     @property
     def area(self):
@@ -205,9 +244,7 @@ class DiskLight(AreaLight):
         owner = f"DiskLight({name or ''})"
         self.center = _vec3(owner, "center", center)
         self.normal = _vec3(owner, "normal", normal, unit=True)
-        if not isinstance(radius, numbers.Real) or not math.isfinite(radius) or radius <= 0:
-            raise LightError(f"{owner}: radius must be a finite number > 0, got {radius!r}")
-        self.radius = float(radius)
+        self.radius = _radius(owner, radius)
         t, b = coordinate_frame(self.normal[None])
         self.tangent, self.bitangent = t[0], b[0]
         self._init_common(owner, radiance, power, color, n_samples, name)
@@ -256,9 +293,7 @@ class SphereLight(AreaLight):
                  name=None):
         owner = f"SphereLight({name or ''})"
         self.center = _vec3(owner, "center", center)
-        if not isinstance(radius, numbers.Real) or not math.isfinite(radius) or radius <= 0:
-            raise LightError(f"{owner}: radius must be a finite number > 0, got {radius!r}")
-        self.radius = float(radius)
+        self.radius = _radius(owner, radius)
         self._init_common(owner, radiance, power, color, n_samples, name)
 
     @property

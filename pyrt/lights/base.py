@@ -157,6 +157,25 @@ class Light:
         """A typical instance for the contract tests (tests/test_light_contracts.py); every light defines one."""
         raise NotImplementedError(f"{cls.__name__} defines no example()")
 
+    @property
+    def label(self):
+        """The light as messages name it: ``"PointLight(key)"``."""
+        return f"{type(self).__name__}({self.name or ''})"
+
+    def validate(self):
+        """Check the light's parameters as they are now; raise :class:`LightError` naming the light.
+
+        Constructors end with it and :class:`pyrt.PreparedScene` calls it again before every render, so
+        a parameter assigned after construction (``light.intensity = float("nan")``) is an error rather
+        than a light that silently contributes nothing. The base checks that every public numeric
+        attribute is finite (:func:`pyrt.core.checks.finite_attributes`) and that ``n_samples`` is a
+        positive integer; subclasses add their ranges and call ``super().validate()``.
+        """
+        checks.finite_attributes(self.label, self, LightError)
+        n = self.n_samples
+        if not isinstance(n, numbers.Integral) or isinstance(n, bool) or n < 1:
+            raise LightError(f"{self.label}: n_samples must be a positive integer, got {n!r}")
+
     def sample(self, p, u):
         """``(wi, dist, E)`` arrays at shading points ``p`` (N, 3) for random numbers ``u`` (N, 2)."""
         s = self.sample_li(p, u)

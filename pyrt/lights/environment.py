@@ -176,6 +176,18 @@ class Environment:
         self._sh = None
         self._prefiltered = None
 
+    def validate(self):
+        """Check the parameters as they are now (:class:`pyrt.PreparedScene` calls it before every render).
+
+        ``intensity`` a finite number >= 0, ``background`` a non-negative RGB triple and every public numeric
+        attribute (the rotation, the map's texels) finite; else an :class:`EnvironmentMapError` naming it.
+        """
+        owner = f"{type(self).__name__}({self.name or ''})"
+        checks.finite_attributes(owner, self, EnvironmentMapError)
+        if not isinstance(self.intensity, numbers.Real) or isinstance(self.intensity, bool) or not self.intensity >= 0:
+            raise EnvironmentMapError(f"{owner}: intensity must be a finite number >= 0, got {self.intensity!r}")
+        _rgb(owner, "background", self.background)
+
     # -- frames ------------------------------------------------------------------------------
     def to_local(self, d):
         """World directions (N, 3) -> the environment's own frame (``R^T d``)."""

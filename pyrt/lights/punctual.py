@@ -53,8 +53,8 @@ import math
 
 import numpy as np
 
-from pyrt.lights.base import (LIGHTS, LUMINOUS_EFFICACY, Light, LightError, LightSample, _intensity, _nonneg,
-                              _resolve_color, _vec3)
+from pyrt.lights.base import (LIGHTS, LUMINOUS_EFFICACY, Light, LightError, LightSample, _color, _intensity,
+                              _nonneg, _resolve_color, _vec3)
 from pyrt.shaders import color as _colour
 from pyrt.shaders import lights as kernels
 
@@ -92,6 +92,19 @@ class _PunctualLight(Light):
         elif epsilon is not None:
             raise LightError(f"{owner}: epsilon is only used by falloff 'inverse_square_eps'")
         self.epsilon = epsilon
+
+    def validate(self):
+        """The base checks, then ``position`` (3 finite numbers), ``intensity`` >= 0, ``color`` >= 0 and the
+        distance falloff's ``range`` (> 0 or None) and ``epsilon``."""
+        super().validate()
+        owner = self.label
+        _vec3(owner, "position", self.position)
+        _nonneg(owner, "intensity", self.intensity)
+        _color(owner, self.color)
+        if self.range is not None and not _nonneg(owner, "range", self.range) > 0:
+            raise LightError(f"{owner}: range must be > 0 (or None for no range)")
+        if self.epsilon is not None:
+            _nonneg(owner, "epsilon", self.epsilon)
 
     @property
     def _physical(self):
@@ -146,6 +159,7 @@ class PointLight(_PunctualLight):
                                     candela=candela, power_lm=power_lm)
         self.color = _resolve_color(owner, color, temperature)
         self._init_falloff(owner, falloff, epsilon, range)
+        self.validate()
 
     @property
     def I(self):
@@ -233,6 +247,13 @@ class SpotLight(_PunctualLight):
                                     candela=candela, power_lm=power_lm)
         self.color = _resolve_color(owner, color, temperature)
         self._init_falloff(owner, falloff, epsilon, range)
+        self.validate()
+
+    def validate(self):
+        """The punctual checks, then a finite non-zero ``direction`` and the cone angles."""
+        super().validate()
+        _vec3(self.label, "direction", self.direction, unit=True)
+        _cone(self.label, self.inner_angle, self.outer_angle)
 
     def _init_cone(self, owner, inner_angle, outer_angle, spot_falloff, max_outer=180.0):
         self.inner_angle, self.outer_angle = _cone(owner, inner_angle, outer_angle, max_outer=max_outer)
@@ -307,6 +328,14 @@ class DirectionalLight(Light):
         self.irradiance = (_nonneg(owner, "irradiance", irradiance) if lux is None
                            else _nonneg(owner, "lux", lux) / LUMINOUS_EFFICACY)
         self.color = _resolve_color(owner, color, temperature)
+        self.validate()
+
+    def validate(self):
+        """The base checks, then a finite non-zero ``direction``, ``irradiance`` >= 0 and ``color`` >= 0."""
+        super().validate()
+        _vec3(self.label, "direction", self.direction, unit=True)
+        _nonneg(self.label, "irradiance", self.irradiance)
+        _color(self.label, self.color)
 
     @property
     def E(self):

@@ -75,6 +75,7 @@ class ProjectorLight(SpotLight):
         self.frame = (np.cross(z, y), y, z)
         self.tan_half = math.tan(math.radians(self.outer_angle))
         self.texture = _image_texture(owner, image, "clamp", srgb)
+        self.validate()
 
     def image_factor(self, w):
         """Image value (N, 3) toward world directions ``w`` from the light (0 behind the projector)."""
@@ -147,6 +148,7 @@ class GoniometricLight(_PunctualLight):
         self.up = _vec3(owner, "up", up, unit=True)
         self.frame = _frame(owner, self.up, reference, "reference")
         self.texture = _image_texture(owner, image, ("repeat", "clamp"), srgb)
+        self.validate()
 
     def radiant_intensity(self, w):
         uv = kernels.latlong_uv(kernels.to_light_frame(w, *self.frame))
@@ -214,6 +216,7 @@ class IESLight(_PunctualLight):
         if reference is None:
             reference = (0.0, 0.0, 1.0) if abs(z[0]) > 0.9 else (1.0, 0.0, 0.0)
         self.frame = _frame(owner, z, reference, "reference")
+        self.validate()
 
     def radiant_intensity(self, w):
         V, H = _ies.ies_angles(kernels.to_light_frame(w, *self.frame))

@@ -46,6 +46,7 @@ import numbers
 
 import numpy as np
 
+from pyrt.core import checks
 from pyrt.core.errors import Error
 from pyrt.core.registry import Registry
 from pyrt.shaders import sampling
@@ -188,6 +189,23 @@ class Material:
     def example(cls):
         """A typical instance (default parameters) for the contract tests (tests/test_material_contracts.py)."""
         return cls()
+
+    @property
+    def label(self):
+        """The material as messages name it: ``"Lambert(floor)"``."""
+        return f"{type(self).__name__}({self.name or ''})"
+
+    def validate(self):
+        """Check the parameters as they are now; raise :class:`MaterialError` naming the material.
+
+        :class:`pyrt.PreparedScene` calls it before every render, so a parameter assigned after
+        construction (``mat.albedo_value = float("nan")``) is an error, not a silently wrong image. The
+        base checks that every public numeric attribute is finite
+        (:func:`pyrt.core.checks.finite_attributes`); a subclass whose constructor stores its parameters
+        through ``validate()`` re-runs its range checks there (and may normalise: a scalar grey becomes
+        an RGB triple), then calls ``super().validate()``.
+        """
+        checks.finite_attributes(self.label, self, MaterialError)
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)

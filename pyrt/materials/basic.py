@@ -28,9 +28,14 @@ class Lambert(IsotropicMaterial):
 
     def __init__(self, albedo=0.8, *, emission=0.0, name=None):
         self.name = name
-        owner = f"Lambert({name or ''})"
-        self.albedo_value = check_color("albedo", albedo, owner, lo=0.0, hi=1.0)
-        self.emission_value = check_color("emission", emission, owner, lo=0.0)
+        self.albedo_value, self.emission_value = albedo, emission
+        self.validate()
+
+    def validate(self):
+        """``albedo`` in [0, 1] and ``emission`` >= 0 (RGB, grey or a texture)."""
+        self.albedo_value = check_color("albedo", self.albedo_value, self.label, lo=0.0, hi=1.0)
+        self.emission_value = check_color("emission", self.emission_value, self.label, lo=0.0)
+        super().validate()
 
     @property
     def emits(self):
@@ -67,12 +72,18 @@ class BlinnPhong(IsotropicMaterial):
 
     def __init__(self, kd=0.5, ks=0.04, exponent=64.0, *, name=None):
         self.name = name
-        owner = f"BlinnPhong({name or ''})"
-        self.kd = check_color("kd", kd, owner, lo=0.0, hi=1.0)
-        self.ks = check_color("ks", ks, owner, lo=0.0, hi=1.0)
-        self.exponent = check_scalar("exponent", exponent, owner, lo=0.0)
+        self.kd, self.ks, self.exponent = kd, ks, exponent
+        self.validate()
+
+    def validate(self):
+        """``kd``, ``ks`` in [0, 1] with ``kd + ks <= 1`` per channel, ``exponent`` >= 0."""
+        owner = self.label
+        self.kd = check_color("kd", self.kd, owner, lo=0.0, hi=1.0)
+        self.ks = check_color("ks", self.ks, owner, lo=0.0, hi=1.0)
+        self.exponent = check_scalar("exponent", self.exponent, owner, lo=0.0)
         if not is_texture(self.kd) and not is_texture(self.ks) and np.any(self.kd + self.ks > 1.0 + 1e-12):
             raise MaterialError(f"{owner}: kd + ks must be <= 1 per channel, got {(self.kd + self.ks).tolist()}")
+        super().validate()
 
     def f_cos_cosines(self, q):
         """:func:`pyrt.shaders.brdfs.blinn_phong_normalized_f_cos_cosines` (a constant exponent stays a float)."""
@@ -92,7 +103,13 @@ class Mirror(Material):
 
     def __init__(self, reflectance=1.0, *, name=None):
         self.name = name
-        self.reflectance = check_color("reflectance", reflectance, f"Mirror({name or ''})", lo=0.0, hi=1.0)
+        self.reflectance = reflectance
+        self.validate()
+
+    def validate(self):
+        """``reflectance`` in [0, 1]."""
+        self.reflectance = check_color("reflectance", self.reflectance, self.label, lo=0.0, hi=1.0)
+        super().validate()
 
     def delta_lobes(self, wo, ctx, *, eta=None):
         """The mirror lobe: ``reflect(wo)`` weighted by the reflectance."""
@@ -126,13 +143,19 @@ class Glass(Material):
 
     def __init__(self, ior=1.5, *, tint=1.0, priority=0, absorption=0.0, name=None):
         self.name = name
-        owner = f"Glass({name or ''})"
-        self.ior = check_scalar("ior", ior, owner, lo=0.0, lo_open=True)
-        self.tint = check_color("tint", tint, owner, lo=0.0, hi=1.0)
-        self.priority = check_scalar("priority", priority, owner)
-        self.absorption = check_color("absorption", absorption, owner, lo=0.0)
+        self.ior, self.tint, self.priority, self.absorption = ior, tint, priority, absorption
+        self.validate()
+
+    def validate(self):
+        """``ior`` > 0, ``tint`` in [0, 1], ``absorption`` >= 0, a finite ``priority``; the last two constants."""
+        owner = self.label
+        self.ior = check_scalar("ior", self.ior, owner, lo=0.0, lo_open=True)
+        self.tint = check_color("tint", self.tint, owner, lo=0.0, hi=1.0)
+        self.priority = check_scalar("priority", self.priority, owner)
+        self.absorption = check_color("absorption", self.absorption, owner, lo=0.0)
         if is_texture(self.absorption) or is_texture(self.priority):
             raise MaterialError(f"{owner}: priority and absorption must be constants, not textures")
+        super().validate()
 
     def delta_lobes(self, wo, ctx, *, eta=None):
         """Reflection and refraction lobes; ``eta`` (N,) = eta_t / eta_i overrides the single-interface
