@@ -104,11 +104,13 @@ class DefaultParams:
 
 # ============================================================================ trimesh-read formats
 
-def trimesh_load(path, fmt, **kw):
+def trimesh_load(path, fmt, *, label=None, **kw):
+    """``trimesh.load(path, process=False)`` (vertices as in the file: NaN is kept, to be refused by the caller);
+    any failure is an :class:`AssetError` naming the file (``label``, default ``path``)."""
     try:
         return trimesh.load(path, process=False, **kw)
     except Exception as exc:  # trimesh raises many exception types for malformed files
-        raise AssetError(f"{path}: cannot read {fmt} file: {type(exc).__name__}: {exc}") from None
+        raise AssetError(f"{label or path}: cannot read {fmt} file: {type(exc).__name__}: {exc}") from None
 
 
 def vertex_colors(mesh):
