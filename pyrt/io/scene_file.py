@@ -268,7 +268,10 @@ def _load(data, base, path):
             raise SceneFileError(f"{path}: {where}: unknown material {spec['material']!r}; defined: {sorted(materials)}")
         smooth_default = "auto"
         if prim is not None:
-            mesh, smooth_default = _primitive(prim, spec, where, path)
+            try:
+                mesh, smooth_default = _primitive(prim, spec, where, path)
+            except (ValueError, TypeError, IndexError, OverflowError) as e:  # trimesh.creation on bad sizes
+                raise SceneFileError(f"{path}: {where}: invalid {prim} parameters: {type(e).__name__}: {e}") from None
         else:
             fpath = spec["file"] if os.path.isabs(spec["file"]) else os.path.join(base, spec["file"])
             if not os.path.exists(fpath):
