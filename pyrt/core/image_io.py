@@ -5,8 +5,10 @@ over the target only when complete, so an interrupted or failed write leaves the
 """
 from __future__ import annotations
 
+import mmap
 import os
 import secrets
+import struct
 import warnings
 
 import numpy as np
@@ -14,6 +16,8 @@ import OpenEXR
 
 from pyrt.shaders import color
 from pyrt.shaders import tonemap
+
+from pyrt.core.errors import Error
 
 
 def atomic_write(path, write):
@@ -135,6 +139,133 @@ def _exr_stored_channels(chans):
     return None
 
 
+# ----------------------------------------------------------------------------- reading (hostile files refused)
+
+MAX_IMAGE_PIXELS = 1 << 27
+"""The largest image :func:`read_image` and :func:`read_exr` decode: 2^27 = 134,217,728 pixels (16384 x 8192, the
+largest lat-long environment maps in use). Checked from the header before any pixel memory is allocated: a bigger
+file (or a decompression bomb claiming 100000 x 100000) is an :class:`ImageFileError`. Pillow's own bomb limit is
+178,956,970 pixels, so Pillow never sees a larger image."""
+
+_PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+_EXR_MAGIC = b"\x76\x2f\x31\x01"
+_OTHER_MAGIC = ((b"\xff\xd8\xff", "JPEG"), (b"II*\0", "TIFF"), (b"MM\0*", "TIFF"), (b"BM", "BMP"), (b"GIF8", "GIF"))
+# EXR scanlines per chunk by compression (OpenEXR's ImfCompression.h: NONE, RLE, ZIPS, ZIP, PIZ, PXR24, B44, B44A,
+# DWAA, DWAB)
+_EXR_LINES_PER_CHUNK = {0: 1, 1: 1, 2: 1, 3: 16, 4: 32, 5: 16, 6: 32, 7: 32, 8: 32, 9: 256}
+
+
+class ImageFileError(Error, OSError):
+    """An image file is missing, corrupt, truncated, of an unknown type or too large; the message names the file."""
+
+
+class ImageNotFoundError(ImageFileError, FileNotFoundError):
+    """The image file does not exist (also a :class:`FileNotFoundError`)."""
+
+
+def _check_pixel_count(path, kind, width, height, channels=1):
+    if width < 1 or height < 1:
+        raise ImageFileError(f"{path}: {kind} header says {width} x {height} pixels (empty image)")
+    if width * height > MAX_IMAGE_PIXELS or width * height * channels > 4 * MAX_IMAGE_PIXELS:
+        raise ImageFileError(f"{path}: {kind} header says {width} x {height} pixels"
+                             f"{f' x {channels} channels' if channels > 4 else ''}; the limit is "
+                             f"{MAX_IMAGE_PIXELS} pixels (pyrt.core.image_io.MAX_IMAGE_PIXELS) — refused before "
+                             "decoding (corrupt header or decompression bomb?)")
+
+
+def _exr_header(path, data):
+    """Parse the header of a single-part EXR file (``data``: its bytes) far enough to refuse it safely.
+
+    Returns (width, height, channel count). Raises :class:`ImageFileError` for a truncated or malformed header,
+    an absurd size, or (scanline files) a line-offset table pointing past the end of the file.
+    """
+    size = len(data)
+    if size < 8:
+        raise ImageFileError(f"{path}: not a readable EXR file (truncated at byte {size}: no header)")
+    flags = struct.unpack_from("<I", data, 4)[0]
+    off, attrs = 8, {}
+    while True:
+        if off >= size:
+            raise ImageFileError(f"{path}: not a readable EXR file (truncated at byte {size}, inside the header)")
+        if data[off] == 0:
+            off += 1
+            break
+        name_end = data.find(b"\0", off, off + 256)
+        type_end = data.find(b"\0", name_end + 1, name_end + 257) if name_end >= 0 else -1
+        if name_end < 0 or type_end < 0 or type_end + 5 > size:
+            raise ImageFileError(f"{path}: not a readable EXR file (malformed or truncated header at byte {off})")
+        name = data[off:name_end].decode("latin-1")
+        n = struct.unpack_from("<i", data, type_end + 1)[0]
+        start = type_end + 5
+        if n < 0 or start + n > size:
+            raise ImageFileError(f"{path}: not a readable EXR file (truncated at byte {size}: header attribute "
+                                 f"{name!r} at byte {off} claims {n} bytes)" if n >= 0 else
+                                 f"{path}: not a readable EXR file (header attribute {name!r} has size {n})")
+        attrs[name] = data[start:start + n]
+        off = start + n
+    if "dataWindow" not in attrs or len(attrs["dataWindow"]) != 16 or "channels" not in attrs:
+        raise ImageFileError(f"{path}: not a readable EXR file (the header has no dataWindow or channels)")
+    x0, y0, x1, y1 = struct.unpack("<4i", attrs["dataWindow"])
+    width, height = x1 - x0 + 1, y1 - y0 + 1
+    nchan, ch, o = 0, attrs["channels"], 0
+    while o < len(ch) and ch[o] != 0:   # chlist: (name\0, 16 bytes of type and sampling)*, \0
+        o = ch.find(b"\0", o) + 17
+        nchan += 1
+        if o <= 16:
+            raise ImageFileError(f"{path}: not a readable EXR file (malformed channel list)")
+    _check_pixel_count(path, "EXR", width, height, nchan)
+    tiled, multipart = bool(flags & 0x200), bool(flags & 0x1000)
+    comp = attrs.get("compression", b"\0")[0]
+    if not tiled and not multipart and comp in _EXR_LINES_PER_CHUNK:
+        nchunks = -(-height // _EXR_LINES_PER_CHUNK[comp])
+        if off + 8 * nchunks > size:
+            raise ImageFileError(f"{path}: not a readable EXR file (truncated at byte {size}: the line-offset table "
+                                 f"needs {off + 8 * nchunks} bytes)")
+        last = int(np.frombuffer(data, dtype="<u8", count=nchunks, offset=off).max())
+        end = last + 8 + (struct.unpack_from("<i", data, last + 4)[0] if last + 8 <= size else 0)
+        if end > size:
+            raise ImageFileError(f"{path}: not a readable EXR file (truncated at byte {size}: the pixel data "
+                                 f"runs to at least byte {end})")
+    return width, height, nchan
+
+
+def _png_header(path, data):
+    """Check a PNG's structure without decoding it: IHDR size against the limit, every chunk inside the file,
+    an IEND at the end. Returns (width, height, bit depth, colour type)."""
+    size = len(data)
+    if size < 33 or data[12:16] != b"IHDR":
+        raise ImageFileError(f"{path}: not a readable PNG file (truncated at byte {size}: no complete IHDR header)"
+                             if size < 33 else f"{path}: not a readable PNG file (the first chunk is not IHDR)")
+    width, height, depth, ctype = struct.unpack_from(">IIBB", data, 16)
+    if ctype not in _PNG_CHANNELS:
+        raise ImageFileError(f"{path}: not a readable PNG file (IHDR colour type {ctype} does not exist)")
+    _check_pixel_count(path, "PNG", width, height, _PNG_CHANNELS[ctype])
+    off = 8
+    while True:
+        if off + 8 > size:
+            raise ImageFileError(f"{path}: not a readable PNG file (truncated at byte {size}: no IEND chunk)")
+        n, ctag = struct.unpack_from(">I4s", data, off)
+        if off + 12 + n > size:
+            raise ImageFileError(f"{path}: not a readable PNG file (truncated at byte {size}: chunk "
+                                 f"{ctag.decode('latin-1')!r} at byte {off} claims {n} bytes)")
+        off += 12 + n
+        if ctag == b"IEND":
+            return width, height, depth, ctype
+
+
+_PNG_CHANNELS = {0: 1, 2: 3, 3: 3, 4: 2, 6: 4}
+
+
+def _file_bytes(path, kind):
+    """The file's bytes as a read-only memory map (b"" for an empty file); a missing file is ImageNotFoundError."""
+    if not os.path.isfile(path):
+        raise ImageNotFoundError(f"{kind} file not found: {path}")
+    with open(path, "rb") as fh:
+        if os.fstat(fh.fileno()).st_size == 0:
+            return b""
+        return mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
+
+
 def read_exr(path, *, layout="rgb"):
     """Read an OpenEXR file as float32. Errors name the file.
 
@@ -155,44 +286,57 @@ def read_exr(path, *, layout="rgb"):
 
     Raises
     ------
-    FileNotFoundError
-        No such file.
-    OSError
-        OpenEXR cannot read the file.
-    ValueError
-        The file has none of the channels ``layout`` asks for.
+    ImageNotFoundError
+        No such file (also a ``FileNotFoundError``).
+    ImageFileError
+        Not an EXR file, a truncated or corrupt one, one larger than :data:`MAX_IMAGE_PIXELS` (refused from
+        the header, before the pixels are read), or one without the channels ``layout`` asks for.
     """
     if layout not in ("rgb", "stored"):
         raise ValueError(f"read_exr: layout must be 'rgb' or 'stored', got {layout!r}")
-    if not os.path.exists(path):
-        raise FileNotFoundError(f"EXR file not found: {path}")
+    path = os.fspath(path)
+    data = _file_bytes(path, "EXR")
+    try:
+        if data[:4] != _EXR_MAGIC:
+            raise ImageFileError(f"{path}: not an EXR file (the first bytes are {bytes(data[:8])!r}, expected "
+                                 f"{_EXR_MAGIC!r})" if len(data) else f"{path}: not an EXR file (the file is empty)")
+        _exr_header(path, data)
+        size = len(data)
+    finally:
+        if isinstance(data, mmap.mmap):
+            data.close()
     try:
         with OpenEXR.File(str(path), separate_channels=True) as f:
-            chans = f.channels()
-            if layout == "stored":
-                names = _exr_stored_channels(chans)
-                if names is None:
-                    raise ValueError(f"{path}: EXR channels {sorted(chans)} are not RGB(A), Y or a single channel")
-                if len(names) == 1:
-                    return _exr_float32(chans[names[0]].pixels)
-                return np.stack([_exr_float32(chans[c].pixels) for c in names], axis=-1)
-            if all(c in chans for c in "RGB"):
-                return np.stack([_exr_float32(chans[c].pixels) for c in "RGB"], axis=-1)
-            if "Y" in chans:
-                y = _exr_float32(chans["Y"].pixels)
-                return np.repeat(y[..., None], 3, axis=-1)
-            raise ValueError(f"{path}: no R, G, B (or Y) channels; found {sorted(chans)}")
-    except (OSError, RuntimeError) as e:
-        raise OSError(f"cannot read EXR file {path}: {e}") from e
+            chans = {name: ch.pixels for name, ch in f.channels().items()}  # the File clears its dict on exit
+    except (OSError, RuntimeError, ValueError) as e:
+        raise ImageFileError(f"{path}: not a readable EXR file (corrupt or truncated; the file has {size} bytes): "
+                             f"OpenEXR: {e}") from None
+    if layout == "stored":
+        names = _exr_stored_channels(chans)
+        if names is None:
+            raise ImageFileError(f"{path}: EXR channels {sorted(chans)} are not RGB(A), Y or a single channel")
+        if len(names) == 1:
+            return _exr_float32(chans[names[0]])
+        return np.stack([_exr_float32(chans[c]) for c in names], axis=-1)
+    if all(c in chans for c in "RGB"):
+        return np.stack([_exr_float32(chans[c]) for c in "RGB"], axis=-1)
+    if "Y" in chans:
+        y = _exr_float32(chans["Y"])
+        return np.repeat(y[..., None], 3, axis=-1)
+    raise ImageFileError(f"{path}: no R, G, B (or Y) channels; found {sorted(chans)}")
 
 
 def read_image(path):
     """Read an image file in its stored encoding (no colour decoding, no scaling).
 
+    The type is taken from the file's first bytes, not its name. The structure is checked before anything is
+    decoded: a PNG's chunks must lie inside the file, an EXR's header and line-offset table must be complete,
+    and no image may claim more than :data:`MAX_IMAGE_PIXELS` pixels.
+
     Parameters
     ----------
     path : str or os.PathLike
-        EXR (:func:`read_exr` with ``layout="stored"``); PNG, JPEG, TIFF, ... through ``skimage.io``, except
+        EXR (:func:`read_exr` with ``layout="stored"``); PNG, JPEG, TIFF, BMP, GIF through ``skimage.io``, except
         16-bit colour PNGs, which Pillow (behind ``skimage.io``) truncates to 8 bits: those are read exactly
         with pypng (pure Python, ~1 s per megapixel).
 
@@ -203,27 +347,52 @@ def read_image(path):
 
     Raises
     ------
-    Exception
-        Whatever the decoder raises for a missing or unreadable file (callers name the file).
+    ImageNotFoundError
+        No such file.
+    ImageFileError
+        An unknown file type, a truncated or corrupt file, or one too large; the message names the file and
+        the part (``"wood.png: not a readable PNG file (truncated at byte 1234: chunk 'IDAT' at byte 57 claims
+        8192 bytes)"``).
     """
     path = os.fspath(path)
-    ext = os.path.splitext(path)[1].lower()
-    if ext == ".exr":
+    data = _file_bytes(path, "image")
+    try:
+        size = len(data)
+        if data[:4] == _EXR_MAGIC:
+            kind = "EXR"
+        elif data[:8] == _PNG_MAGIC:
+            kind = "PNG"
+            png16 = _png_header(path, data)[2:] in ((16, 2), (16, 4), (16, 6))
+        else:
+            kind = next((k for m, k in _OTHER_MAGIC if data[:len(m)] == m), None)
+            if kind is None:
+                raise ImageFileError(f"{path}: not a readable image (the file is empty)" if not size else
+                                     f"{path}: not a readable image: the first bytes {bytes(data[:8])!r} are not "
+                                     "those of a PNG, JPEG, TIFF, BMP, GIF or OpenEXR file")
+    finally:
+        if isinstance(data, mmap.mmap):
+            data.close()
+    if kind == "EXR":
         return read_exr(path, layout="stored")
-    if ext == ".png" and _png_is_16bit_colour(path):
-        return _read_png16(path)
-    from skimage import io as skio
+    try:
+        if kind == "PNG" and png16:
+            return _read_png16(path)
+        from PIL import Image
+        from skimage import io as skio
 
-    with warnings.catch_warnings():  # imageio's plugin probing warns on undecodable files
-        warnings.simplefilter("ignore", DeprecationWarning)
-        return np.asarray(skio.imread(path))
-
-
-def _png_is_16bit_colour(path):
-    """True for a 16-bit PNG with colour or alpha (IHDR bit depth 16, colour type 2, 4 or 6); 16-bit grey is fine."""
-    with open(path, "rb") as f:
-        head = f.read(26)
-    return len(head) == 26 and head[:8] == b"\x89PNG\r\n\x1a\n" and head[24] == 16 and head[25] in (2, 4, 6)
+        with warnings.catch_warnings():  # imageio's plugin probing warns on undecodable files; the size is checked
+            warnings.simplefilter("ignore", DeprecationWarning)
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            if kind != "PNG":
+                with Image.open(path) as im:
+                    _check_pixel_count(path, kind, *im.size)
+            return np.asarray(skio.imread(path))
+    except ImageFileError:
+        raise
+    except Exception as exc:  # any decoder failure (Pillow, imageio, pypng raise many types): name the file
+        msg = str(exc).split("\n")[0]  # imageio appends "pip install imageio[pyav]" hints on further lines
+        raise ImageFileError(f"{path}: not a readable {kind} file (corrupt or truncated image data; the file has "
+                             f"{size} bytes): {type(exc).__name__}: {msg}") from None
 
 
 def _read_png16(path):

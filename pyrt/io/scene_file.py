@@ -268,15 +268,25 @@ def _load(data, base, path):
             raise SceneFileError(f"{path}: {where}: unknown material {spec['material']!r}; defined: {sorted(materials)}")
         smooth_default = "auto"
         if prim is not None:
-            mesh, smooth_default = _primitive(prim, spec, where, path)
+            try:
+                mesh, smooth_default = _primitive(prim, spec, where, path)
+            except (ValueError, TypeError, IndexError, OverflowError) as e:  # trimesh.creation on bad sizes
+                raise SceneFileError(f"{path}: {where}: invalid {prim} parameters: {type(e).__name__}: {e}") from None
         else:
             fpath = spec["file"] if os.path.isabs(spec["file"]) else os.path.join(base, spec["file"])
             if not os.path.exists(fpath):
                 raise SceneFileError(f"{path}: {where}: mesh file not found: {fpath}")
-            try:
-                mesh = trimesh.load(fpath, force="mesh")
+            try:  # unprocessed first: processing drops the faces of NaN vertices without a word
+                mesh = trimesh.load(fpath, force="mesh", process=False)
             except Exception as e:  # trimesh raises many types
                 raise SceneFileError(f"{path}: {where}: cannot load mesh file {fpath}: {e}") from None
+            if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+                raise SceneFileError(f"{path}: {where}: mesh file {fpath}: no triangles found")
+            if not np.all(np.isfinite(mesh.vertices)):
+                bad = int(np.flatnonzero(~np.all(np.isfinite(mesh.vertices), axis=1))[0])
+                raise SceneFileError(f"{path}: {where}: mesh file {fpath}: vertex {bad + 1} is not finite "
+                                     f"({mesh.vertices[bad].tolist()})")
+            mesh.process()  # what trimesh.load(process=True) does: merge vertices (same mesh as before)
         try:
             tf = transform_matrix(translate=spec.get("translate"), rotate=spec.get("rotate"),
                                   scale=spec.get("scale"), matrix=spec.get("matrix"))

@@ -23,7 +23,7 @@ import threading
 
 import numpy as np
 
-from pyrt.core.image_io import read_image
+from pyrt.core.image_io import ImageFileError, read_image
 from pyrt.shaders import color as _color
 from pyrt.shaders import textures as _tex
 from pyrt.textures.base import TEXTURES, Texture, TextureError, footprints
@@ -50,15 +50,16 @@ def load_image(path):
     Raises
     ------
     TextureError
-        Naming the file when it is missing, unreadable or of an unsupported pixel type.
+        Naming the file when it is missing, unreadable (not an image, truncated, corrupt: the message says
+        which part), larger than :data:`pyrt.core.image_io.MAX_IMAGE_PIXELS`, or of an unsupported pixel type.
     """
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise TextureError(f"texture file not found: {path!r}")
     try:
         img = read_image(path)
-    except Exception as exc:  # any decoder failure: say which file
-        raise TextureError(f"cannot read texture file {path!r}: {type(exc).__name__}: {exc}") from exc
+    except ImageFileError as exc:  # names the file and the part: "wood.png: not a readable PNG file (...)"
+        raise TextureError(str(exc)) from None
     img = np.asarray(img)
     if img.dtype == np.uint8:
         return (img.astype(np.float32) / 255.0), True

@@ -41,7 +41,8 @@ Conventions
 
 Modules: :mod:`~pyrt.io.assets.common` (errors, file types, material parameters),
 :mod:`~pyrt.io.assets.asset` (:class:`Asset` and adding it to a scene),
-:mod:`~pyrt.io.assets.materials` (parameters -> pyrt materials), :mod:`~pyrt.io.assets.gltf`,
+:mod:`~pyrt.io.assets.materials` (parameters -> pyrt materials), :mod:`~pyrt.io.assets.gltf` (and its container
+:mod:`~pyrt.io.assets.gltf_file`, which documents the files a glTF may name),
 :mod:`~pyrt.io.assets.obj` (with the OBJ + MTL mapping), :mod:`~pyrt.io.assets.ply_stl`.
 """
 from __future__ import annotations
@@ -51,7 +52,7 @@ import time
 
 from pyrt.geometry.normals import crease_normals
 from pyrt.io.assets.common import (DEFAULT_CREASE_ANGLE, FORMATS, AssetError, DefaultParams, MTLParams, PBRParams,
-                                   TextureSlot)
+                                   TextureSlot, malformed_is_asset_error)
 from pyrt.io.assets.materials import (GltfMaterial, ObjMaterial, ProductTexture, ScaledTexture, SurfaceExtras,
                                       VertexColorTexture, make_metallic_roughness, to_pyrt_material)
 from pyrt.io.assets.asset import Asset, AssetCamera, AssetInstance, AssetLight, AssetMesh, light_from_photometric
@@ -94,11 +95,12 @@ def load_asset(path):
     if fmt is None:
         raise AssetError(f"{path}: unsupported file type {ext!r}; supported: {sorted(FORMATS)}")
     t0 = time.perf_counter()
-    if fmt == "gltf":
-        asset = load_gltf(path)
-    elif fmt == "obj":
-        asset = load_obj(path)
-    else:
-        asset = load_ply_stl(path, fmt)
+    with malformed_is_asset_error(path, fmt.upper() if fmt != "gltf" else "glTF"):
+        if fmt == "gltf":
+            asset = load_gltf(path)
+        elif fmt == "obj":
+            asset = load_obj(path)
+        else:
+            asset = load_ply_stl(path, fmt)
     asset.load_time = time.perf_counter() - t0
     return asset

@@ -2,7 +2,9 @@
 and the trimesh helpers of the formats trimesh reads (OBJ geometry, PLY, STL)."""
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass, field
+import struct
 
 import numpy as np
 import trimesh
@@ -18,6 +20,19 @@ __all__ = ["AssetError", "FORMATS", "DEFAULT_CREASE_ANGLE", "TextureSlot", "PBRP
 
 class AssetError(Error, ValueError):
     """An asset file cannot be loaded; the message names the file and what is wrong."""
+
+
+@contextlib.contextmanager
+def malformed_is_asset_error(path, fmt):
+    """Turn what a malformed file makes Python raise (a JSON string where a number belongs, a missing key ...)
+    into an :class:`AssetError` naming the file; pyrt's own errors pass through unchanged. The loaders check the
+    common cases with precise messages first; this is the net under them."""
+    try:
+        yield
+    except Error:
+        raise
+    except (TypeError, KeyError, AttributeError, ValueError, IndexError, OverflowError, struct.error) as exc:
+        raise AssetError(f"{path}: malformed {fmt} file: {type(exc).__name__}: {exc}") from None
 
 
 FORMATS = {".gltf": "gltf", ".glb": "gltf", ".obj": "obj", ".ply": "ply", ".stl": "stl"}
@@ -89,11 +104,13 @@ class DefaultParams:
 
 # ============================================================================ trimesh-read formats
 
-def trimesh_load(path, fmt, **kw):
+def trimesh_load(path, fmt, *, label=None, **kw):
+    """``trimesh.load(path, process=False)`` (vertices as in the file: NaN is kept, to be refused by the caller);
+    any failure is an :class:`AssetError` naming the file (``label``, default ``path``)."""
     try:
         return trimesh.load(path, process=False, **kw)
     except Exception as exc:  # trimesh raises many exception types for malformed files
-        raise AssetError(f"{path}: cannot read {fmt} file: {type(exc).__name__}: {exc}") from None
+        raise AssetError(f"{label or path}: cannot read {fmt} file: {type(exc).__name__}: {exc}") from None
 
 
 def vertex_colors(mesh):

@@ -1,230 +1,24 @@
-"""glTF 2.0 (.gltf with files or data URIs, .glb) -> :class:`Asset`, and :func:`pack_glb` to write GLB.
+"""glTF 2.0 (.gltf with files or data URIs, .glb) -> :class:`Asset`; the container (GLB chunks, buffers, URIs,
+accessors, images, :func:`pack_glb`) is :mod:`pyrt.io.assets.gltf_file`, which also says what files a glTF may
+make pyrt read.
 
 Conventions (UV flip, colour spaces, defaults, ``KHR_lights_punctual`` units, cameras, instancing): see
 :mod:`pyrt.io.assets`.
 """
 from __future__ import annotations
 
-import base64
-import json
 import math
-import os
-import struct
-import tempfile
-import urllib.parse
 
 import numpy as np
 import trimesh
 
-from pyrt.textures import ImageTexture, NormalMap, TextureError, load_image
-from pyrt.io.assets.common import AssetError, PBRParams, TextureSlot
+from pyrt.textures import ImageTexture, NormalMap, TextureError
+from pyrt.io.assets.common import AssetError, PBRParams, TextureSlot, malformed_is_asset_error
 from pyrt.io.assets.asset import Asset, AssetCamera, AssetInstance, AssetLight, AssetMesh
+from pyrt.io.assets.gltf_file import SUPPORTED_EXTENSIONS, GltfFile, pack_glb, read_gltf
 
-_COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
-_NCOMP = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+__all__ = ["load_gltf", "gltf_node_transforms", "gltf_uv_transform", "pack_glb", "read_gltf"]
 _WRAP = {10497: "repeat", 33071: "clamp", 33648: "mirror"}
-_GLB_MAGIC = 0x46546C67
-_CHUNK_JSON = 0x4E4F534A
-_CHUNK_BIN = 0x004E4942
-
-
-class _Gltf:
-    """A parsed glTF container: JSON header, buffers (bytes), base directory for URIs."""
-
-    def __init__(self, path):
-        self.path = path
-        self.base = os.path.dirname(os.path.abspath(path))
-        with open(path, "rb") as fh:
-            data = fh.read()
-        glb_bin = None
-        if data[:4] == b"glTF":
-            if len(data) < 20:
-                raise AssetError(f"{path}: truncated GLB header ({len(data)} bytes)")
-            magic, version, length = struct.unpack_from("<III", data, 0)
-            if version != 2:
-                raise AssetError(f"{path}: GLB version {version} is not supported (need 2)")
-            if length > len(data):
-                raise AssetError(f"{path}: GLB header says {length} bytes but the file has {len(data)} (truncated)")
-            off, chunks = 12, []
-            while off + 8 <= length:
-                clen, ctype = struct.unpack_from("<II", data, off)
-                if off + 8 + clen > length:
-                    raise AssetError(f"{path}: GLB chunk at byte {off} runs past the end of the file")
-                chunks.append((ctype, data[off + 8: off + 8 + clen]))
-                off += 8 + clen
-            if not chunks or chunks[0][0] != _CHUNK_JSON:
-                raise AssetError(f"{path}: GLB has no JSON chunk first")
-            text = chunks[0][1]
-            glb_bin = next((c for t, c in chunks[1:] if t == _CHUNK_BIN), None)
-        elif path.lower().endswith(".glb"):
-            raise AssetError(f"{path}: not a GLB file (the first 4 bytes are {data[:4]!r}, expected b'glTF')")
-        else:
-            text = data
-        try:
-            self.header = json.loads(text.decode("utf-8") if isinstance(text, bytes) else text)
-        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise AssetError(f"{path}: not valid glTF JSON: {exc}") from None
-        if not isinstance(self.header, dict) or "asset" not in self.header:
-            raise AssetError(f"{path}: not a glTF file (no 'asset' object)")
-        ver = str(self.header["asset"].get("version", ""))
-        if not ver.startswith("2"):
-            raise AssetError(f"{path}: glTF version {ver!r} is not supported (need 2.x)")
-        required = set(self.header.get("extensionsRequired", [])) - _SUPPORTED_EXTENSIONS
-        if required:
-            raise AssetError(f"{path}: requires unsupported glTF extension(s) {sorted(required)}")
-        self.buffers = []
-        for i, b in enumerate(self.header.get("buffers", [])):
-            uri = b.get("uri")
-            if uri is None:
-                if glb_bin is None:
-                    raise AssetError(f"{path}: buffer {i} has no uri and there is no GLB binary chunk")
-                blob = glb_bin
-            else:
-                blob = self._read_uri(uri, f"buffer {i}")
-            if len(blob) < b.get("byteLength", 0):
-                raise AssetError(f"{path}: buffer {i} has {len(blob)} bytes, byteLength says {b['byteLength']}")
-            self.buffers.append(blob)
-        self._acc_cache = {}
-        self._img_cache = {}
-
-    def _read_uri(self, uri, what):
-        if uri.startswith("data:"):
-            try:
-                head, payload = uri.split(",", 1)
-                return base64.b64decode(payload) if head.endswith(";base64") else urllib.parse.unquote_to_bytes(payload)
-            except (ValueError, base64.binascii.Error) as exc:
-                raise AssetError(f"{self.path}: {what}: malformed data URI: {exc}") from None
-        fpath = os.path.join(self.base, urllib.parse.unquote(uri))
-        if not os.path.isfile(fpath):
-            raise AssetError(f"{self.path}: {what}: file not found: {fpath}")
-        with open(fpath, "rb") as fh:
-            return fh.read()
-
-    def _get(self, kind, i):
-        arr = self.header.get(kind, [])
-        if not isinstance(i, int) or not 0 <= i < len(arr):
-            raise AssetError(f"{self.path}: reference to {kind}[{i}] but the file has {len(arr)}")
-        return arr[i]
-
-    def view_bytes(self, vi):
-        bv = self._get("bufferViews", vi)
-        buf_i = bv.get("buffer")
-        if not isinstance(buf_i, int) or not 0 <= buf_i < len(self.buffers):
-            raise AssetError(f"{self.path}: bufferView {vi} refers to missing buffer {buf_i}")
-        off, length = bv.get("byteOffset", 0), bv.get("byteLength", 0)
-        buf = self.buffers[buf_i]
-        if off + length > len(buf):
-            raise AssetError(f"{self.path}: bufferView {vi} (bytes {off}..{off + length}) runs past the end of "
-                             f"buffer {buf_i} ({len(buf)} bytes)")
-        return buf[off: off + length], bv.get("byteStride")
-
-    def accessor(self, ai):
-        """Accessor ``ai`` as float64 (count, ncomp) (normalised integers mapped to [0, 1] / [-1, 1])."""
-        if ai in self._acc_cache:
-            return self._acc_cache[ai]
-        a = self._get("accessors", ai)
-        try:
-            dt = np.dtype(_COMPONENT[a["componentType"]]).newbyteorder("<")
-            nc = _NCOMP[a["type"]]
-            count = int(a["count"])
-        except KeyError as exc:
-            raise AssetError(f"{self.path}: accessor {ai}: missing or invalid {exc}") from None
-        if "bufferView" in a:
-            raw, stride = self.view_bytes(a["bufferView"])
-            off = a.get("byteOffset", 0)
-            elem = dt.itemsize * nc
-            stride = stride or elem
-            need = off + (count - 1) * stride + elem if count else 0
-            if need > len(raw):
-                raise AssetError(f"{self.path}: accessor {ai} reads {need} bytes past bufferView "
-                                 f"{a['bufferView']} of {len(raw)} bytes")
-            u8 = np.frombuffer(raw, dtype=np.uint8, count=need - off if count else 0, offset=off)
-            if count:
-                rows = np.lib.stride_tricks.as_strided(u8, shape=(count, elem), strides=(stride, 1))
-                out = np.ascontiguousarray(rows).view(dt).reshape(count, nc)
-            else:
-                out = np.zeros((0, nc), dtype=dt)
-        else:
-            out = np.zeros((count, nc), dtype=dt)
-        out = self._normalise(out, a.get("normalized", False))
-        sp = a.get("sparse")
-        if sp:
-            n = int(sp["count"])
-            ib, _ = self.view_bytes(sp["indices"]["bufferView"])
-            idt = np.dtype(_COMPONENT[sp["indices"]["componentType"]]).newbyteorder("<")
-            idx = np.frombuffer(ib, dtype=idt, count=n, offset=sp["indices"].get("byteOffset", 0)).astype(np.int64)
-            vb, _ = self.view_bytes(sp["values"]["bufferView"])
-            vals = np.frombuffer(vb, dtype=dt, count=n * nc, offset=sp["values"].get("byteOffset", 0)).reshape(n, nc)
-            out = out.copy()
-            if idx.size and (idx.max() >= count or idx.min() < 0):
-                raise AssetError(f"{self.path}: accessor {ai}: sparse index out of range")
-            out[idx] = self._normalise(vals, a.get("normalized", False))
-        if not np.all(np.isfinite(out)):
-            raise AssetError(f"{self.path}: accessor {ai} holds NaN or Inf values")
-        self._acc_cache[ai] = out
-        return out
-
-    @staticmethod
-    def _normalise(x, normalized):
-        if np.issubdtype(x.dtype, np.floating):
-            return x.astype(np.float64)
-        if not normalized:
-            return x.astype(np.float64)
-        info = np.iinfo(x.dtype)
-        y = x.astype(np.float64) / info.max
-        return np.maximum(y, -1.0) if info.min < 0 else y
-
-    def image_array(self, ii):
-        """Image ``ii`` decoded by :func:`pyrt.textures.load_image`: ``((H, W, C) float32 in its stored
-        encoding, label)``, cached. Embedded images go through a temporary file of their type."""
-        if ii in self._img_cache:
-            return self._img_cache[ii]
-        im = self._get("images", ii)
-        uri = im.get("uri")
-        if uri is not None and not uri.startswith("data:"):
-            fpath = os.path.join(self.base, urllib.parse.unquote(uri))
-            label = uri
-            if not os.path.isfile(fpath):
-                raise AssetError(f"{self.path}: image {ii} ({uri}): file not found: {fpath}")
-            arr = _load_image_file(fpath, f"{self.path}: image {ii} ({uri})")
-        else:
-            if uri is not None:
-                blob, label = self._read_uri(uri, f"image {ii}"), f"image {ii} (data URI)"
-            elif "bufferView" in im:
-                blob, label = self.view_bytes(im["bufferView"])[0], f"image {ii} (embedded)"
-            else:
-                raise AssetError(f"{self.path}: image {ii} has neither uri nor bufferView")
-            arr = _decode_image_bytes(blob, f"{self.path}: {label}")
-        self._img_cache[ii] = (arr, label)
-        return arr, label
-
-
-def _load_image_file(path, label):
-    try:
-        return load_image(path)[0]
-    except TextureError as exc:
-        raise AssetError(f"{label}: {exc}") from None
-
-
-def _decode_image_bytes(blob, label):
-    """Decode PNG/JPEG bytes with pyrt's image reader (16-bit PNGs stay 16-bit) via a temporary file."""
-    if blob[:8] == b"\x89PNG\r\n\x1a\n":
-        ext = ".png"
-    elif blob[:3] == b"\xff\xd8\xff":
-        ext = ".jpg"
-    else:
-        raise AssetError(f"{label}: not a PNG or JPEG image (first bytes {blob[:8]!r})")
-    fd, tmp = tempfile.mkstemp(suffix=ext)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(blob)
-        return _load_image_file(tmp, label)
-    finally:
-        os.remove(tmp)
-
-
-_SUPPORTED_EXTENSIONS = {"KHR_lights_punctual", "KHR_texture_transform", "KHR_materials_emissive_strength",
-                         "KHR_mesh_quantization"}
 
 
 def gltf_uv_transform(ext):
@@ -244,13 +38,13 @@ def gltf_uv_transform(ext):
 def _gltf_texture(g, info, what, *, srgb, kind="image", warnings=None, **extra):
     """Build a texture from a glTF textureInfo ``info`` ({index, texCoord, extensions})."""
     ti = info.get("index")
-    tex = g._get("textures", ti)
+    tex = g.get("textures", ti)
     src = tex.get("source")
     if src is None:
         raise AssetError(f"{g.path}: {what}: texture {ti} has no image source in a supported format "
                          f"(extensions {sorted(tex.get('extensions', {}))})")
     arr, label = g.image_array(src)
-    sampler = g._get("samplers", tex["sampler"]) if "sampler" in tex else {}
+    sampler = g.get("samplers", tex["sampler"]) if "sampler" in tex else {}
     wrap = (_WRAP.get(sampler.get("wrapS", 10497), "repeat"), _WRAP.get(sampler.get("wrapT", 10497), "repeat"))
     filt = "nearest" if sampler.get("magFilter") == 9728 and sampler.get("minFilter") in (9728, None) else "trilinear"
     texcoord = int(info.get("texCoord", 0))
@@ -271,7 +65,7 @@ def _gltf_texture(g, info, what, *, srgb, kind="image", warnings=None, **extra):
 
 
 def _gltf_material(g, mi, warnings):
-    m = g._get("materials", mi)
+    m = g.get("materials", mi)
     name = m.get("name", f"material{mi}")
     pbr = m.get("pbrMetallicRoughness", {})
     what = f"material {mi} ({name})"
@@ -323,7 +117,7 @@ def _gltf_material(g, mi, warnings):
     if len(sets) > 1:
         warnings.append(f"{what}: textures use several UV sets {sorted(sets)}; all read TEXCOORD_{min(sets)}")
     P.texcoord = min(sets) if sets else 0
-    other = set(m.get("extensions", {})) - _SUPPORTED_EXTENSIONS
+    other = set(m.get("extensions", {})) - SUPPORTED_EXTENSIONS
     if other:
         warnings.append(f"{what}: material extension(s) {sorted(other)} ignored")
     return P
@@ -381,27 +175,6 @@ def gltf_node_transforms(header):
     return out
 
 
-def pack_glb(header, binary=b""):
-    """Encode a glTF JSON ``header`` (dict) and its binary buffer as GLB 2.0 bytes.
-
-    Buffer 0 of ``header`` must be the binary chunk (no ``uri``); chunks are padded to 4 bytes
-    (JSON with spaces, binary with zeros) as the specification requires.
-    """
-    js = json.dumps(header, separators=(",", ":")).encode("utf-8")
-    js += b" " * (-len(js) % 4)
-    binary = bytes(binary) + b"\0" * (-len(binary) % 4)
-    chunks = struct.pack("<II", len(js), _CHUNK_JSON) + js
-    if binary:
-        chunks += struct.pack("<II", len(binary), _CHUNK_BIN) + binary
-    return struct.pack("<III", _GLB_MAGIC, 2, 12 + len(chunks)) + chunks
-
-
-def read_gltf(path):
-    """The JSON header (dict) and the buffers (list of bytes) of a .gltf or .glb file."""
-    g = _Gltf(os.fspath(path))
-    return g.header, g.buffers
-
-
 def _strip_faces(idx, mode):
     n = idx.size
     if n < 3:
@@ -415,8 +188,20 @@ def _strip_faces(idx, mode):
 
 
 def load_gltf(path):
-    """Load a glTF 2.0 (.gltf + files / data URIs) or GLB file into an :class:`Asset`."""
-    g = _Gltf(path)
+    """Load a glTF 2.0 (.gltf + files / data URIs) or GLB file into an :class:`Asset`.
+
+    Raises
+    ------
+    AssetError
+        Naming the file and the part for anything malformed, truncated, too large or refused (remote URIs:
+        :mod:`pyrt.io.assets.gltf_file`).
+    """
+    with malformed_is_asset_error(path, "glTF"):
+        return _load_gltf(path)
+
+
+def _load_gltf(path):
+    g = GltfFile(path)
     h = g.header
     asset = Asset(path=path, format="gltf", up_axis="+y")
     W = asset.warnings
@@ -432,7 +217,7 @@ def load_gltf(path):
     def decode_mesh(mi):
         if mi in mesh_prims:
             return mesh_prims[mi]
-        m = g._get("meshes", mi)
+        m = g.get("meshes", mi)
         ids = []
         for pi, p in enumerate(m.get("primitives", [])):
             where = f"mesh {mi} ({m.get('name', '')}) primitive {pi}"
@@ -501,7 +286,7 @@ def load_gltf(path):
             for am in decode_mesh(node["mesh"]):
                 asset.instances.append(AssetInstance(mesh=am, world_from_object=M, node=nname))
         if "camera" in node:
-            cam = g._get("cameras", node["camera"])
+            cam = g.get("cameras", node["camera"])
             if cam.get("type") == "perspective" and "perspective" in cam:
                 pp = cam["perspective"]
                 asset.cameras.append(AssetCamera(

@@ -9,11 +9,16 @@ OBJ + MTL mapping (documented choice; the MTL "illum 2" model *is* Blinn-Phong)
   albedo ``kd``).
 - Transparent materials (``d < 1``, ``Tr > 0`` or ``illum`` 4, 6, 7, 9) -> :class:`pyrt.Glass` with
   ``ior = Ni`` (1.5 if ``Ni <= 1`` or absent, warning) and ``tint = Tf`` (default white).
+- Files named by the OBJ (``mtllib``) and the MTL (``map_Kd``, ``map_Ke``, ``norm``) are read only if they are
+  regular files: relative paths from the naming file's folder (``..`` allowed: model packs share texture folders)
+  or absolute paths (exporters write them). They are read as an MTL or decoded as an image, nothing else.
+- A vertex with a NaN or infinite coordinate is an error naming its line (trimesh would drop its faces).
 - ``map_Kd`` options ``-s`` and ``-o`` become the texture's UV scale and offset; ``norm`` is used as
   a normal map; ``bump``/``map_Bump`` (height maps) and other maps are ignored with a warning.
 """
 from __future__ import annotations
 
+import io
 import os
 import re
 
@@ -131,8 +136,12 @@ def load_obj(path):
     """Load an OBJ (+ MTL) file into an :class:`Asset` (MTL mapping: see the module docstring)."""
     asset = Asset(path=path, format="obj")
     W = asset.warnings
-    with open(path, "r", encoding="utf-8", errors="replace") as fh:
-        text = fh.read()
+    with open(path, "rb") as fh:
+        raw = fh.read()
+    try:  # trimesh decodes non-UTF-8 bytes with a charset detector that may not be installed: give it text
+        text, utf8 = raw.decode("utf-8"), True
+    except UnicodeDecodeError:
+        text, utf8 = raw.decode("utf-8", errors="replace"), False
     has_vn = re.search(r"^\s*vn\s", text, flags=re.M) is not None
     mtls = {}
     base = os.path.dirname(os.path.abspath(path))
@@ -145,7 +154,9 @@ def load_obj(path):
     missing = used - set(mtls)
     if missing:
         W.append(f"{path}: material(s) {sorted(missing)} not defined in the MTL; default material used")
-    tm = trimesh_load(path, "OBJ")
+    tm = trimesh_load(path, "OBJ") if utf8 else trimesh_load(
+        io.BytesIO(text.encode("utf-8")), "OBJ", file_type="obj", resolver=trimesh.resolvers.FilePathResolver(path),
+        label=path)
     names = list(mtls)
     asset.materials = [mtls[n] for n in names]
     geoms = tm.geometry.items() if isinstance(tm, trimesh.Scene) else [("mesh", tm)]
@@ -166,7 +177,9 @@ def load_obj(path):
         asset.instances.append(AssetInstance(mesh=len(asset.meshes) - 1, world_from_object=np.eye(4),
                                              node=str(gname)))
     if not asset.instances:
-        raise AssetError(f"{path}: no triangles found in the OBJ file")
+        raise AssetError(f"{path}: no triangles found in the OBJ file (no 'f' statements with 3 or more vertices)")
+    if not all(np.all(np.isfinite(m.vertices)) for m in asset.meshes):
+        raise AssetError(f"{path}: {_first_nonfinite_vertex(text)} (NaN or Inf coordinates are not rendered)")
     for p in asset.materials:
         if mtl_is_transparent(p) and not (p.Ni is not None and p.Ni > 1.0):
             W.append(f"material {p.name!r}: transparent with Ni {p.Ni}; glass with ior 1.5 used")
@@ -187,3 +200,19 @@ def _trimesh_obj_material_name(mesh, gname, groups):
     if name in groups:
         return name
     return gname if gname in groups else None
+
+
+def _first_nonfinite_vertex(text):
+    """Where the first ``v`` statement with a NaN or infinite coordinate is: "line 12: vertex 4 'v 0 nan 1'"."""
+    k = 0
+    for lineno, line in enumerate(text.splitlines(), 1):
+        tok = line.split()
+        if tok[:1] == ["v"]:
+            k += 1
+            try:
+                finite = all(np.isfinite(float(t)) for t in tok[1:4])
+            except ValueError:
+                finite = False
+            if not finite:
+                return f"line {lineno}: vertex {k} {line.strip()[:60]!r} is not finite"
+    return "a vertex position is not finite"

@@ -1,0 +1,344 @@
+"""The glTF 2.0 container: a .gltf (JSON + files or data URIs) or .glb file read into its JSON header, its
+buffers and its decoded accessors and images, every count and length checked against the bytes that exist;
+:func:`pack_glb` writes GLB.
+
+What a glTF file may make pyrt read (documented choice; the glTF specification allows only these)
+-------------------------------------------------------------------------------------------------
+- ``data:`` URIs (base64 or percent-encoded), decoded in memory;
+- relative URI references, percent-decoded and resolved from the folder of the .gltf/.glb file; ``..`` steps are
+  allowed (model packs share texture folders), and the target must be a regular file;
+- nothing else: a URI with a scheme (``https://``, ``http://``, ``file:``, ...) or an absolute path is refused
+  with an :class:`AssetError` — pyrt never opens a network connection.
+
+Sizes are checked before memory is allocated: a buffer shorter than its ``byteLength``, a bufferView outside its
+buffer, an accessor reading past its bufferView, a negative count or offset, a stride shorter than an element,
+and an accessor without a bufferView of more than :data:`MAX_ZERO_ACCESSOR_COUNT` elements are all errors naming
+the file and the part.
+"""
+from __future__ import annotations
+
+import base64
+import binascii
+import json
+import os
+import re
+import struct
+import tempfile
+import urllib.parse
+
+import numpy as np
+
+from pyrt.textures import TextureError, load_image
+from pyrt.io.assets.common import AssetError, malformed_is_asset_error
+
+_COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
+_NCOMP = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+_GLB_MAGIC = 0x46546C67
+_CHUNK_JSON = 0x4E4F534A
+_CHUNK_BIN = 0x004E4942
+_SCHEME = re.compile(r"^[A-Za-z][A-Za-z0-9+.\-]*:")
+
+MAX_ZERO_ACCESSOR_COUNT = 1 << 24
+"""The most elements an accessor without a bufferView (all zeros, optionally with sparse values) may have:
+16,777,216 (a 16M-vertex mesh). Such an accessor is the only part of a glTF file whose size the file's own bytes
+do not bound, so a hostile ``count`` would otherwise allocate unbounded memory."""
+
+SUPPORTED_EXTENSIONS = {"KHR_lights_punctual", "KHR_texture_transform", "KHR_materials_emissive_strength",
+                        "KHR_mesh_quantization"}
+
+
+def _int(value, what, path, *, lo=0):
+    """A JSON integer >= ``lo`` (bool is not an integer here), else AssetError."""
+    if isinstance(value, bool) or not isinstance(value, int) or value < lo:
+        raise AssetError(f"{path}: {what} must be an integer >= {lo}, got {value!r}")
+    return value
+
+
+class GltfFile:
+    """A parsed glTF container: JSON header, buffers (bytes), the base directory of its URIs.
+
+    Parameters
+    ----------
+    path : str
+        The .gltf or .glb file.
+
+    Raises
+    ------
+    AssetError
+        A truncated or malformed GLB, invalid JSON, an unsupported version or required extension, a buffer
+        shorter than its ``byteLength``, a refused URI (see the module docstring).
+    """
+
+    def __init__(self, path):
+        self.path = path
+        self.base = os.path.dirname(os.path.abspath(path))
+        with open(path, "rb") as fh:
+            data = fh.read()
+        glb_bin = None
+        if data[:4] == b"glTF":
+            text, glb_bin = self._glb_chunks(data)
+        elif path.lower().endswith(".glb"):
+            raise AssetError(f"{path}: not a GLB file (the first 4 bytes are {data[:4]!r}, expected b'glTF')")
+        else:
+            text = data
+        try:
+            self.header = json.loads(text.decode("utf-8") if isinstance(text, bytes) else text)
+        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise AssetError(f"{path}: not valid glTF JSON: {exc}") from None
+        except RecursionError:
+            raise AssetError(f"{path}: not valid glTF JSON: nested too deeply") from None
+        if not isinstance(self.header, dict) or not isinstance(self.header.get("asset"), dict):
+            raise AssetError(f"{path}: not a glTF file (no 'asset' object)")
+        ver = str(self.header["asset"].get("version", ""))
+        if not ver.startswith("2"):
+            raise AssetError(f"{path}: glTF version {ver!r} is not supported (need 2.x)")
+        required = set(self.header.get("extensionsRequired", [])) - SUPPORTED_EXTENSIONS
+        if required:
+            raise AssetError(f"{path}: requires unsupported glTF extension(s) {sorted(required)}")
+        self.buffers = []
+        for i, b in enumerate(self.header.get("buffers", [])):
+            if not isinstance(b, dict):
+                raise AssetError(f"{path}: buffer {i} must be an object, got {b!r}")
+            claimed = _int(b.get("byteLength", 0), f"buffer {i} byteLength", path)
+            uri = b.get("uri")
+            if uri is None:
+                if glb_bin is None:
+                    raise AssetError(f"{path}: buffer {i} has no uri and there is no GLB binary chunk")
+                blob, where = glb_bin, "the GLB binary chunk has"
+            else:
+                blob = self.read_uri(uri, f"buffer {i}")
+                where = "its data URI holds" if uri.startswith("data:") else f"{uri!r} has"
+            if len(blob) < claimed:
+                raise AssetError(f"{path}: buffer {i} claims {claimed} bytes (byteLength), {where} {len(blob)}")
+            self.buffers.append(blob)
+        self._acc_cache = {}
+        self._img_cache = {}
+
+    def _glb_chunks(self, data):
+        """(JSON chunk, binary chunk or None) of GLB bytes; every length checked against the file."""
+        path = self.path
+        if len(data) < 20:
+            raise AssetError(f"{path}: truncated GLB header ({len(data)} bytes)")
+        magic, version, length = struct.unpack_from("<III", data, 0)
+        if version != 2:
+            raise AssetError(f"{path}: GLB version {version} is not supported (need 2)")
+        if length > len(data):
+            raise AssetError(f"{path}: GLB header says {length} bytes but the file has {len(data)} (truncated)")
+        off, chunks = 12, []
+        while off + 8 <= length:
+            clen, ctype = struct.unpack_from("<II", data, off)
+            if off + 8 + clen > length:
+                raise AssetError(f"{path}: GLB chunk {len(chunks)} at byte {off} claims {clen} bytes, the file "
+                                 f"has {length - off - 8} after its header (truncated)")
+            chunks.append((ctype, data[off + 8: off + 8 + clen]))
+            off += 8 + clen
+        if not chunks or chunks[0][0] != _CHUNK_JSON:
+            raise AssetError(f"{path}: GLB has no JSON chunk first")
+        return chunks[0][1], next((c for t, c in chunks[1:] if t == _CHUNK_BIN), None)
+
+    def resolve(self, uri, what):
+        """The local file a relative URI reference names (percent-decoded, from the file's folder).
+
+        Raises
+        ------
+        AssetError
+            For a URI with a scheme (``https://`` ...: pyrt reads no network), an absolute path, or a missing
+            file.
+        """
+        if not isinstance(uri, str) or not uri:
+            raise AssetError(f"{self.path}: {what}: uri must be a non-empty string, got {uri!r}")
+        if _SCHEME.match(uri):
+            raise AssetError(f"{self.path}: {what}: uri {uri[:80]!r} is not read: only relative paths and data: "
+                             "URIs are allowed (pyrt does not download files)")
+        rel = urllib.parse.unquote(uri)
+        if os.path.isabs(rel) or rel.startswith(("/", "\\")):
+            raise AssetError(f"{self.path}: {what}: uri {uri[:80]!r} is an absolute path; glTF URIs must be "
+                             "relative to the file's folder")
+        fpath = os.path.join(self.base, rel)
+        if not os.path.isfile(fpath):
+            raise AssetError(f"{self.path}: {what}: file not found: {fpath}")
+        return fpath
+
+    def read_uri(self, uri, what):
+        """The bytes a buffer or image URI names: a ``data:`` URI decoded, or a local file (:meth:`resolve`)."""
+        if isinstance(uri, str) and uri.startswith("data:"):
+            try:
+                head, payload = uri.split(",", 1)
+                return base64.b64decode(payload) if head.endswith(";base64") else urllib.parse.unquote_to_bytes(payload)
+            except (ValueError, binascii.Error) as exc:
+                raise AssetError(f"{self.path}: {what}: malformed data URI: {exc}") from None
+        with open(self.resolve(uri, what), "rb") as fh:
+            return fh.read()
+
+    def get(self, kind, i):
+        """Entry ``i`` of the top-level array ``kind`` (an object), or AssetError naming the reference."""
+        arr = self.header.get(kind, [])
+        if not isinstance(arr, list):
+            raise AssetError(f"{self.path}: '{kind}' must be an array")
+        if isinstance(i, bool) or not isinstance(i, int) or not 0 <= i < len(arr):
+            raise AssetError(f"{self.path}: reference to {kind}[{i!r}] but the file has {len(arr)}")
+        if not isinstance(arr[i], dict):
+            raise AssetError(f"{self.path}: {kind}[{i}] must be an object, got {type(arr[i]).__name__}")
+        return arr[i]
+
+    def view_bytes(self, vi):
+        """The bytes of bufferView ``vi`` and its ``byteStride`` (None if absent), checked against its buffer."""
+        bv = self.get("bufferViews", vi)
+        buf_i = bv.get("buffer")
+        if isinstance(buf_i, bool) or not isinstance(buf_i, int) or not 0 <= buf_i < len(self.buffers):
+            raise AssetError(f"{self.path}: bufferView {vi} refers to missing buffer {buf_i!r}")
+        off = _int(bv.get("byteOffset", 0), f"bufferView {vi} byteOffset", self.path)
+        length = _int(bv.get("byteLength", 0), f"bufferView {vi} byteLength", self.path)
+        stride = bv.get("byteStride")
+        if stride is not None:
+            _int(stride, f"bufferView {vi} byteStride", self.path, lo=1)
+        buf = self.buffers[buf_i]
+        if off + length > len(buf):
+            raise AssetError(f"{self.path}: bufferView {vi} (bytes {off}..{off + length}) runs past the end of "
+                             f"buffer {buf_i} ({len(buf)} bytes)")
+        return buf[off: off + length], stride
+
+    def accessor(self, ai):
+        """Accessor ``ai`` as float64 (count, ncomp) (normalised integers mapped to [0, 1] / [-1, 1])."""
+        if ai in self._acc_cache:
+            return self._acc_cache[ai]
+        a = self.get("accessors", ai)
+        try:
+            dt = np.dtype(_COMPONENT[a["componentType"]]).newbyteorder("<")
+            nc = _NCOMP[a["type"]]
+        except (KeyError, TypeError) as exc:
+            raise AssetError(f"{self.path}: accessor {ai}: missing or invalid componentType/type {exc}") from None
+        count = _int(a.get("count"), f"accessor {ai} count", self.path)
+        if "bufferView" in a:
+            raw, stride = self.view_bytes(a["bufferView"])
+            off = _int(a.get("byteOffset", 0), f"accessor {ai} byteOffset", self.path)
+            elem = dt.itemsize * nc
+            stride = stride or elem
+            if stride < elem:
+                raise AssetError(f"{self.path}: accessor {ai}: byteStride {stride} is shorter than one element "
+                                 f"({elem} bytes)")
+            need = off + (count - 1) * stride + elem if count else 0
+            if need > len(raw):
+                raise AssetError(f"{self.path}: accessor {ai} reads {need} bytes past bufferView "
+                                 f"{a['bufferView']} of {len(raw)} bytes ({count} elements claimed)")
+            u8 = np.frombuffer(raw, dtype=np.uint8, count=need - off if count else 0, offset=off)
+            if count:
+                rows = np.lib.stride_tricks.as_strided(u8, shape=(count, elem), strides=(stride, 1))
+                out = np.ascontiguousarray(rows).view(dt).reshape(count, nc)
+            else:
+                out = np.zeros((0, nc), dtype=dt)
+        else:
+            if count > MAX_ZERO_ACCESSOR_COUNT:
+                raise AssetError(f"{self.path}: accessor {ai} has no bufferView and claims {count} elements; the "
+                                 f"limit is {MAX_ZERO_ACCESSOR_COUNT}")
+            out = np.zeros((count, nc), dtype=dt)
+        out = self._normalise(out, a.get("normalized", False))
+        sp = a.get("sparse")
+        if sp:
+            out = self._sparse(ai, sp, out, dt, nc, count, a.get("normalized", False))
+        if not np.all(np.isfinite(out)):
+            raise AssetError(f"{self.path}: accessor {ai} holds NaN or Inf values")
+        self._acc_cache[ai] = out
+        return out
+
+    def _sparse(self, ai, sp, out, dt, nc, count, normalized):
+        """``out`` with accessor ``ai``'s sparse values substituted (every count checked against the bytes)."""
+        what = f"accessor {ai} sparse"
+        try:
+            n = _int(sp["count"], f"{what} count", self.path)
+            ind, vals = sp["indices"], sp["values"]
+            idt = np.dtype(_COMPONENT[ind["componentType"]]).newbyteorder("<")
+        except (KeyError, TypeError) as exc:
+            raise AssetError(f"{self.path}: {what}: missing or invalid {exc}") from None
+        ib, _ = self.view_bytes(ind["bufferView"])
+        vb, _ = self.view_bytes(vals["bufferView"])
+        ioff = _int(ind.get("byteOffset", 0), f"{what} indices byteOffset", self.path)
+        voff = _int(vals.get("byteOffset", 0), f"{what} values byteOffset", self.path)
+        if ioff + n * idt.itemsize > len(ib) or voff + n * nc * dt.itemsize > len(vb):
+            raise AssetError(f"{self.path}: {what}: {n} indices/values run past their bufferViews")
+        idx = np.frombuffer(ib, dtype=idt, count=n, offset=ioff).astype(np.int64)
+        v = np.frombuffer(vb, dtype=dt, count=n * nc, offset=voff).reshape(n, nc)
+        if idx.size and (idx.max() >= count or idx.min() < 0):
+            raise AssetError(f"{self.path}: {what}: index {int(idx.max())} out of range for {count} elements")
+        out = out.copy()
+        out[idx] = self._normalise(v, normalized)
+        return out
+
+    @staticmethod
+    def _normalise(x, normalized):
+        if np.issubdtype(x.dtype, np.floating):
+            return x.astype(np.float64)
+        if not normalized:
+            return x.astype(np.float64)
+        info = np.iinfo(x.dtype)
+        y = x.astype(np.float64) / info.max
+        return np.maximum(y, -1.0) if info.min < 0 else y
+
+    def image_array(self, ii):
+        """Image ``ii`` decoded by :func:`pyrt.textures.load_image`: ``((H, W, C) float32 in its stored
+        encoding, label)``, cached. Embedded images go through a temporary file of their type."""
+        if ii in self._img_cache:
+            return self._img_cache[ii]
+        im = self.get("images", ii)
+        uri = im.get("uri")
+        if uri is not None and not (isinstance(uri, str) and uri.startswith("data:")):
+            label = uri
+            fpath = self.resolve(uri, f"image {ii} ({str(uri)[:80]})")
+            arr = _load_image_file(fpath, f"{self.path}: image {ii} ({uri})")
+        else:
+            if uri is not None:
+                blob, label = self.read_uri(uri, f"image {ii}"), f"image {ii} (data URI)"
+            elif "bufferView" in im:
+                blob, label = self.view_bytes(im["bufferView"])[0], f"image {ii} (embedded)"
+            else:
+                raise AssetError(f"{self.path}: image {ii} has neither uri nor bufferView")
+            arr = _decode_image_bytes(blob, f"{self.path}: {label}")
+        self._img_cache[ii] = (arr, label)
+        return arr, label
+
+
+def _load_image_file(path, label):
+    try:
+        return load_image(path)[0]
+    except TextureError as exc:
+        raise AssetError(f"{label}: {exc}") from None
+
+
+def _decode_image_bytes(blob, label):
+    """Decode PNG/JPEG bytes with pyrt's image reader (16-bit PNGs stay 16-bit) via a temporary file."""
+    if blob[:8] == b"\x89PNG\r\n\x1a\n":
+        ext = ".png"
+    elif blob[:3] == b"\xff\xd8\xff":
+        ext = ".jpg"
+    else:
+        raise AssetError(f"{label}: not a PNG or JPEG image (first bytes {blob[:8]!r})")
+    fd, tmp = tempfile.mkstemp(suffix=ext)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(blob)
+        return _load_image_file(tmp, label)
+    finally:
+        os.remove(tmp)
+
+
+def pack_glb(header, binary=b""):
+    """Encode a glTF JSON ``header`` (dict) and its binary buffer as GLB 2.0 bytes.
+
+    Buffer 0 of ``header`` must be the binary chunk (no ``uri``); chunks are padded to 4 bytes
+    (JSON with spaces, binary with zeros) as the specification requires.
+    """
+    js = json.dumps(header, separators=(",", ":")).encode("utf-8")
+    js += b" " * (-len(js) % 4)
+    binary = bytes(binary) + b"\0" * (-len(binary) % 4)
+    chunks = struct.pack("<II", len(js), _CHUNK_JSON) + js
+    if binary:
+        chunks += struct.pack("<II", len(binary), _CHUNK_BIN) + binary
+    return struct.pack("<III", _GLB_MAGIC, 2, 12 + len(chunks)) + chunks
+
+
+def read_gltf(path):
+    """The JSON header (dict) and the buffers (list of bytes) of a .gltf or .glb file."""
+    path = os.fspath(path)
+    with malformed_is_asset_error(path, "glTF"):
+        g = GltfFile(path)
+    return g.header, g.buffers
