@@ -189,9 +189,9 @@ class Scene:
         f = np.array([[0, 1, 2], [0, 2, 3]])
         mesh = trimesh.Trimesh(vertices=v, faces=f, process=False)
         mesh.visual = trimesh.visual.TextureVisuals(uv=np.array([[0, 0], [1, 0], [1, 1], [0, 1.0]]))
-        nrm = np.asarray(normal, dtype=np.float64)
-        if nrm.shape != (3,) or np.linalg.norm(nrm) == 0:
-            raise SceneError(f"plane {name!r}: normal must be a non-zero 3-vector, got {normal!r}")
+        nrm = checks.numbers_array(_who("plane", name), "normal", normal, SceneError)
+        if nrm.shape != (3,) or not np.all(np.isfinite(nrm)) or np.linalg.norm(nrm) == 0:
+            raise SceneError(f"{_who('plane', name)}: normal must be a finite non-zero 3-vector, got {normal!r}")
         rot = trimesh.geometry.align_vectors([0, 1, 0], nrm / np.linalg.norm(nrm))
         m = transform_matrix(translate=center) @ rot
         return self.add_mesh(mesh, material, transform=m, smooth=False, name=name)

@@ -76,3 +76,15 @@ def test_camera_rays_are_a_ray_batch():
     np.testing.assert_array_equal(rays.sample, np.arange(24))
     assert np.all(rays.throughput == 1) and len(rays.differentials) == 4
     np.testing.assert_allclose(np.linalg.norm(rays.directions, axis=1), 1.0, rtol=1e-12)
+
+
+def test_radiance_beyond_float32_is_clipped_with_a_warning_or_raises():
+    film = Film(2, 1)
+    film.add_block(0, 2, np.array([[1.0, 2.0, 3.0], [1e39, 0.5, 0.0]]))
+    with pytest.warns(RuntimeWarning, match="float32 range"):
+        img = film.image()
+    assert np.isfinite(img).all() and img[0, 1, 0] == np.finfo(np.float32).max and img[0, 0, 2] == 3.0
+    strict = Film(2, 1, nonfinite="raise")
+    strict.add_block(0, 2, np.array([[1.0, 2.0, 3.0], [1e39, 0.5, 0.0]]))
+    with pytest.raises(FilmError):
+        strict.image()

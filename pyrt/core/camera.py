@@ -14,6 +14,7 @@ import math
 import numpy as np
 
 
+from pyrt.core import checks
 from pyrt.core.rays import RayBatch
 from pyrt.core.sampler import stratified_samples
 from pyrt.core.errors import Error
@@ -24,7 +25,7 @@ class CameraError(Error, ValueError):
 
 
 def _vec3(name, v):
-    a = np.asarray(v, dtype=np.float64)
+    a = checks.numbers_array("Camera", name, v, CameraError)
     if a.shape != (3,) or not np.all(np.isfinite(a)):
         raise CameraError(f"Camera: {name} must be 3 finite numbers, got {v!r}")
     return a

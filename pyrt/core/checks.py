@@ -7,9 +7,18 @@ import numbers
 import numpy as np
 
 
+def numbers_array(owner, name, value, error=ValueError):
+    """``value`` as a float64 array; ``error`` naming ``owner`` and ``name`` when it is not numbers at all
+    (a string, a dict, a ragged list: NumPy's own TypeError / ValueError would not say which parameter)."""
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise error(f"{owner}: {name} must be a number or a list of numbers, got {value!r}") from None
+
+
 def rgb(owner, name, value, error=ValueError):
     """A non-negative finite RGB triple (a scalar means grey) as float64 (3,); else ``error`` naming it."""
-    a = np.asarray(value, dtype=np.float64)
+    a = numbers_array(owner, name, value, error)
     if a.ndim == 0:
         a = np.repeat(a, 3)
     if a.shape != (3,) or not np.all(np.isfinite(a)) or np.any(a < 0):

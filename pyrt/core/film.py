@@ -7,6 +7,8 @@ and gives the image as float32.
 """
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from pyrt.core.errors import Error
@@ -120,14 +122,30 @@ class Film:
         return np.where(w > 1, var / np.maximum(w, 1), np.inf)
 
     def image(self):
-        """The image (H, W, 3) float32: linear radiance (the float64 mean rounded once to float32)."""
+        """The image (H, W, 3) float32: linear radiance (the float64 mean rounded once to float32).
+
+        Radiance beyond the float32 range (> 3.4e38, e.g. an absurdly bright background) would become inf:
+        with the ``"zero"`` policy such values are clipped to the largest float32 and a ``RuntimeWarning``
+        says how many; with ``"raise"`` it is a :class:`FilmError`.
+        """
         w = self.weight
         lo, hi = w.min(initial=1.0), w.max(initial=1.0)
         if lo > 0 and lo == hi:     # uniform weights: divide straight into the float32 image, no float64 temporary
             out = np.empty((self.n_pixels, 3), dtype=np.float32)
-            np.divide(self.sum, lo, out=out, casting="same_kind")
-            return out.reshape(self.height, self.width, 3)
-        return to_float32(self.mean().reshape(self.height, self.width, 3))
+            with np.errstate(over="ignore"):
+                np.divide(self.sum, lo, out=out, casting="same_kind")
+        else:
+            with np.errstate(over="ignore"):
+                out = to_float32(self.mean())
+        if not np.isfinite(out).all():      # only float32 overflow can get here: the sums are finite
+            n_over = int((~np.isfinite(out)).any(axis=1).sum())
+            if self.nonfinite == "raise":
+                raise FilmError(f"Film: radiance beyond the float32 range in {n_over} pixels")
+            warnings.warn(f"Film: radiance beyond the float32 range (3.4e38) in {n_over} pixels was clipped "
+                          "to the largest float32 value", RuntimeWarning, stacklevel=2)
+            big = np.finfo(np.float32).max
+            np.clip(out, -big, big, out=out, where=~np.isfinite(out))
+        return out.reshape(self.height, self.width, 3)
 
     def aovs(self):
         """The AOV images as float32: ``depth`` (H, W), ``normal`` and ``albedo`` (H, W, 3); None without AOVs."""

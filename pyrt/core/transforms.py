@@ -6,6 +6,7 @@ import math
 import numpy as np
 import trimesh
 
+from pyrt.core.checks import numbers_array
 from pyrt.core.errors import Error
 
 
@@ -37,25 +38,33 @@ def transform_matrix(*, translate=None, rotate=None, scale=None, matrix=None):
         On a non-finite or malformed argument.
     """
     if matrix is not None:
-        m = np.asarray(matrix, dtype=np.float64)
+        m = numbers_array("transform", "matrix", matrix, SceneError)
         if m.shape != (4, 4) or not np.all(np.isfinite(m)):
             raise SceneError(f"transform matrix must be 4x4 finite, got shape {m.shape}")
         return m
     m = np.eye(4)
     if scale is not None:
-        s = np.broadcast_to(np.asarray(scale, dtype=np.float64), (3,))
+        s = numbers_array("transform", "scale", scale, SceneError)
+        if s.shape not in ((), (3,)):
+            raise SceneError(f"scale must be a number or 3 numbers, got {scale!r}")
+        s = np.broadcast_to(s, (3,))
         if np.any(s == 0) or not np.all(np.isfinite(s)):
             raise SceneError(f"scale must be finite and non-zero, got {scale!r}")
         m = np.diag([*s, 1.0]) @ m
     if rotate is not None:
-        rots = rotate if (len(rotate) and isinstance(rotate[0], (list, tuple))) else [rotate]
-        for angle, axis in rots:
-            ax = np.asarray(axis, dtype=np.float64)
-            if ax.shape != (3,) or np.linalg.norm(ax) == 0:
-                raise SceneError(f"rotation axis must be a non-zero 3-vector, got {axis!r}")
+        try:
+            rots = rotate if (len(rotate) and isinstance(rotate[0], (list, tuple))) else [rotate]
+            pairs = [(float(angle), numbers_array("transform", "rotation axis", axis, SceneError))
+                     for angle, axis in rots]
+        except (TypeError, ValueError, IndexError):
+            raise SceneError(f"rotate must be (angle_degrees, [x, y, z]) or a list of them, got {rotate!r}") from None
+        for angle, ax in pairs:
+            if not math.isfinite(angle) or ax.shape != (3,) or not np.all(np.isfinite(ax)) or np.linalg.norm(ax) == 0:
+                raise SceneError(f"rotation must be a finite angle (degrees) and a finite non-zero 3-vector axis, "
+                                 f"got {angle!r}, {ax.tolist()!r}")
             m = trimesh.transformations.rotation_matrix(math.radians(angle), ax) @ m
     if translate is not None:
-        t = np.asarray(translate, dtype=np.float64)
+        t = numbers_array("transform", "translate", translate, SceneError)
         if t.shape != (3,) or not np.all(np.isfinite(t)):
             raise SceneError(f"translate must be 3 finite numbers, got {translate!r}")
         m = trimesh.transformations.translation_matrix(t) @ m

@@ -33,7 +33,7 @@ class LightError(Error, ValueError):
 
 
 def _vec3(owner, name, v, *, unit=False):
-    a = np.asarray(v, dtype=np.float64)
+    a = checks.numbers_array(owner, name, v, LightError)
     if a.shape != (3,) or not np.all(np.isfinite(a)):
         raise LightError(f"{owner}: {name} must be 3 finite numbers, got {v!r}")
     if unit:

@@ -449,7 +449,9 @@ def procedural_sky(width=256, height=128, *, sun_direction=(0.4, 0.5, -0.3), sun
         Sky radiance ``horizon + (zenith - horizon) * sqrt(y)`` above the horizon, ``ground`` below,
         plus the sun (``sun_radiance`` times the fraction of the texel it covers).
     """
-    sd = np.asarray(sun_direction, dtype=np.float64)
+    sd = checks.numbers_array("procedural_sky", "sun_direction", sun_direction, EnvironmentMapError)
+    if sd.shape != (3,) or not np.all(np.isfinite(sd)) or not np.linalg.norm(sd) > 0:
+        raise EnvironmentMapError(f"procedural_sky: sun_direction must be a finite non-zero 3-vector, got {sun_direction!r}")
     sd = sd / np.linalg.norm(sd)
     dirs = K.latlong_texel_directions(height, width)
     y = dirs[..., 1:2]

@@ -122,7 +122,7 @@ def check_color(name, value, owner, *, lo=0.0, hi=None):
     """Validate an RGB triple (or scalar grey) or a texture; return a float64 (3,) array or the texture."""
     if is_texture(value):
         return value
-    arr = np.asarray(value, dtype=np.float64)
+    arr = checks.numbers_array(owner, name, value, MaterialError)
     if arr.ndim == 0:
         arr = np.repeat(arr, 3)
     if arr.shape != (3,):

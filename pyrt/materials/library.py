@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pyrt.core import checks
 from pyrt.materials.base import Material, MaterialError, check_color, check_scalar, is_texture, register
 from pyrt.shaders import brdfs
 from pyrt.shaders import fresnel
@@ -204,7 +205,7 @@ class Ward(Material):
         if tangent is None:
             self.tangent = None
         else:
-            t = np.asarray(tangent, dtype=np.float64)
+            t = checks.numbers_array(owner, "tangent", tangent, MaterialError)
             if t.shape != (3,) or not np.all(np.isfinite(t)) or np.linalg.norm(t) == 0:
                 raise MaterialError(f"{owner}: tangent must be a non-zero finite 3-vector, got {tangent!r}")
             self.tangent = t / np.linalg.norm(t)

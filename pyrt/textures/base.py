@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pyrt.core import checks
 from pyrt.core.errors import Error
 from pyrt.core.registry import Registry, RegistryError
 
@@ -142,7 +143,7 @@ def as_value(value, owner, name):
     """A constant parameter as a float64 (C,) array (C = 1 or 3), or a texture unchanged."""
     if is_texture(value):
         return value
-    arr = np.atleast_1d(np.asarray(value, dtype=np.float64))
+    arr = np.atleast_1d(checks.numbers_array(owner, name, value, TextureError))
     if arr.ndim != 1 or arr.shape[0] not in (1, 3) or not np.all(np.isfinite(arr)):
         raise TextureError(f"{owner}: {name} must be a finite scalar, an RGB triple or a texture, got {value!r}")
     return arr
