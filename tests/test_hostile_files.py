@@ -351,3 +351,20 @@ def test_scene_file_mesh_with_nan_or_no_faces(tmp_path, body, part):
     with pytest.raises(pyrt.SceneFileError) as e:
         pyrt.load_scene(tmp_path / "s.toml")
     _refused(e, "m.obj", part)
+
+
+def test_an_obj_naming_a_non_mtl_file_does_not_echo_its_content(tmp_path):
+    """A hostile OBJ may name any readable file as its MTL: the error says it is not an MTL, without quoting it."""
+    secret = tmp_path / "secret.txt"
+    secret.write_text("zqxj:x:0:0:qwzkv\n")
+    obj = tmp_path / "m.obj"
+    obj.write_text(f"mtllib {secret}\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    with pytest.raises(pyrt.Error) as exc:
+        pyrt.load_asset(str(obj))
+    assert "not an MTL file" in str(exc.value) and "zqxj" not in str(exc.value) and "qwzkv" not in str(exc.value)
+
+
+def test_missing_scene_file_is_a_pyrt_error_and_a_file_not_found_error(tmp_path):
+    with pytest.raises(pyrt.Error) as exc:
+        pyrt.load_scene(str(tmp_path / "nope.toml"))
+    assert isinstance(exc.value, FileNotFoundError) and "scene file not found" in str(exc.value)

@@ -56,6 +56,10 @@ class SceneFileError(Error, ValueError):
     """A scene file is malformed; the message names the file and the offending table/key."""
 
 
+class SceneFileNotFoundError(SceneFileError, FileNotFoundError):
+    """The scene file does not exist."""
+
+
 _CAMERA_KEYS = {"position", "target", "up", "fov", "width", "height", "spp", "jitter"}
 _RENDER_KEYS = {"max_depth", "seed", "background", "ambient", "throughput_cutoff", "offset"}
 _MESH_COMMON = {"file", "primitive", "material", "translate", "rotate", "scale", "matrix", "smooth", "name",
@@ -148,8 +152,8 @@ def load_scene(path):
 
     Raises
     ------
-    FileNotFoundError
-        ``path`` does not exist.
+    SceneFileNotFoundError
+        ``path`` does not exist (a :class:`SceneFileError` and a ``FileNotFoundError``).
     SceneFileError
         The file cannot be parsed or describes no valid scene; the message names the file and the key.
 
@@ -159,7 +163,7 @@ def load_scene(path):
     """
     path = os.fspath(path)
     if not os.path.exists(path):
-        raise FileNotFoundError(f"scene file not found: {path}")
+        raise SceneFileNotFoundError(f"scene file not found: {path}")
     try:
         with open(path, "rb") as f:
             if path.endswith(".json"):

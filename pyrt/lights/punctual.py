@@ -257,12 +257,20 @@ class SpotLight(_PunctualLight):
 
     def _init_cone(self, owner, inner_angle, outer_angle, spot_falloff, max_outer=180.0):
         self.inner_angle, self.outer_angle = _cone(owner, inner_angle, outer_angle, max_outer=max_outer)
-        self.cos_inner = math.cos(math.radians(self.inner_angle))
-        self.cos_outer = math.cos(math.radians(self.outer_angle))
         if spot_falloff not in kernels.SPOT_FALLOFFS:
             raise LightError(f"{owner}: spot_falloff must be one of {sorted(kernels.SPOT_FALLOFFS)}, "
                              f"got {spot_falloff!r}")
         self.spot_falloff = spot_falloff
+
+    @property
+    def cos_inner(self):
+        """cos of the inner cone half-angle (derived from :attr:`inner_angle`, so it never goes stale)."""
+        return math.cos(math.radians(self.inner_angle))
+
+    @property
+    def cos_outer(self):
+        """cos of the outer cone half-angle (derived from :attr:`outer_angle`)."""
+        return math.cos(math.radians(self.outer_angle))
 
     @property
     def cone_solid_angle(self):

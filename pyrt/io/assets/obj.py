@@ -93,8 +93,8 @@ def parse_mtl(path, warnings=None):
                 name = " ".join(args)
                 cur = out[name] = MTLParams(name=name)
                 continue
-            if cur is None:
-                raise AssetError(f"{where}: '{key}' before any 'newmtl'")
+            if cur is None:   # (not echoing the token: a hostile OBJ may name any file as its MTL)
+                raise AssetError(f"{where}: not an MTL file (a statement before any 'newmtl')")
             try:
                 if key in ("Kd", "Ks", "Ke", "Tf"):
                     if args and args[0] in ("spectral", "xyz"):
@@ -124,7 +124,8 @@ def parse_mtl(path, warnings=None):
                 elif key in ("Ka", "Pr", "Pm", "Ps", "Pc", "Pcr", "aniso", "anisor", "sharpness"):
                     pass  # not used by the mapping (see the module docstring)
                 else:
-                    warnings.append(f"{where}: unknown MTL statement {key!r} ignored")
+                    shown = repr(key) if re.fullmatch(r"[A-Za-z_]\w{0,15}", key) else "(not shown)"
+                    warnings.append(f"{where}: unknown MTL statement {shown} ignored")
             except AssetError:
                 raise
             except (ValueError, IndexError) as exc:
