@@ -44,6 +44,9 @@ class RenderResult:
         Chunks of pixels rendered, and in the whole image.
     pixels_done : int
         Pixels with all their samples (the pixels of the finished chunks).
+    pixels_filled : int
+        Pixels of the unfinished chunks that got one sample each after a cancellation (``fill=True``), so the
+        image has no black holes; 0 otherwise.
     """
 
     image: np.ndarray
@@ -54,6 +57,7 @@ class RenderResult:
     chunks_done: int = 0
     chunks_total: int = 0
     pixels_done: int = 0
+    pixels_filled: int = 0
 
     @property
     def fraction_done(self):
@@ -64,7 +68,7 @@ class RenderResult:
 
 def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4, offset=None, aovs=False,
                 progress=None, chunk_samples=1 << 15, threads=None, record_rays=False, prepared=None,
-                nonfinite="zero", cancel=None):
+                nonfinite="zero", cancel=None, fill=False, fill_budget=2.0):
     """Render ``scene`` and return a :class:`RenderResult` with the image, AOVs and statistics.
 
     Parameters are those of :func:`render`, plus:
@@ -82,6 +86,13 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         Cooperative cancellation: once set, no new chunk starts; the chunks running finish (each takes
         tens of milliseconds) and the result is marked partial (``result.complete`` False, see
         :class:`RenderResult`: unfinished pixels are black).
+    fill : bool
+        After a cancellation, give every pixel of the unfinished chunks one sample (random stream
+        ``default_rng([seed, chunk_index, 1])``) when that is estimated, from the speed of the chunks done, to
+        take at most ``fill_budget`` seconds: the image is then complete, at 1 spp in those pixels
+        (``result.pixels_filled``). What the command line does on Ctrl-C.
+    fill_budget : float
+        Seconds the fill may take (estimate); above it the unfinished pixels stay black.
 
     A ``KeyboardInterrupt`` while rendering cancels the chunks not yet started, waits for the running
     ones, shuts the thread pool down and propagates (no thread is left running).
@@ -136,12 +147,46 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
                 bar.update()
         else:
             results = _run_pool(run_or_skip, len(starts), workers, abort, bar)
-    finally:
-        bar.close()
+    except BaseException:
         if own:
             ps.close()
+        raise
+    finally:
+        bar.close()
     done = [ci for ci, st in enumerate(results) if st is not None]
     results = [results[ci] for ci in done]
+    pixels_done = sum(min(starts[ci] + px_per_chunk, n_pix) - starts[ci] for ci in done)
+    pixels_filled = 0
+    pending = [ci for ci in range(len(starts)) if results and ci not in set(done)]
+    if fill and pending and pixels_done:
+        # seconds per pixel-sample so far; the fill gives the pending pixels one sample each
+        rate = (time.perf_counter() - t_start) / (pixels_done * S)
+        if (n_pix - pixels_done) * rate <= fill_budget:
+            cam1 = copy(cam)
+            cam1.spp = 1
+            fps = ps
+
+            def fill_chunk(k):
+                ci = pending[k]
+                lo, hi = starts[ci], min(starts[ci] + px_per_chunk, n_pix)
+                integ = Integrator(fps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset)
+                rng = np.random.default_rng([seed, ci, 1])
+                rays = cam1.generate_rays(lo, hi, rng, differentials=fps.needs_differentials)
+                L, a = integ.render_samples(rays, want_aovs=aovs, rng=rng)
+                integ.stats.nonfinite_samples += film.add_block(lo, hi, L, a)
+                return integ.stats
+
+            fill_bar = tqdm(total=len(pending), desc="fill", unit="chunk", leave=False,
+                            disable=(not progress) if progress is not None else None)
+            try:
+                results += _run_pool(fill_chunk, len(pending), workers, threading.Event(), fill_bar)
+            finally:
+                fill_bar.close()
+                if own:
+                    ps.close()
+            pixels_filled = n_pix - pixels_done
+    if own:
+        ps.close()
     for st in results:  # merge in chunk order (deterministic)
         for k in ("primary_rays", "secondary_rays", "shadow_rays", "time_intersect", "time_occluded",
                   "nonfinite_samples"):
@@ -151,10 +196,9 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         warnings.warn(f"render: {stats.nonfinite_samples} samples had non-finite radiance and were "
                       "set to 0 (this is a bug; please report the scene)", RuntimeWarning, stacklevel=2)
     stats.time_total = time.perf_counter() - t_start
-    pixels_done = sum(min(starts[ci] + px_per_chunk, n_pix) - starts[ci] for ci in done)
     return RenderResult(image=film.image(), aovs=film.aovs(), stats=stats, film=film,
                         complete=len(done) == len(starts), chunks_done=len(done), chunks_total=len(starts),
-                        pixels_done=pixels_done)
+                        pixels_done=pixels_done, pixels_filled=pixels_filled)
 
 
 def _run_pool(run, n, workers, abort, bar):

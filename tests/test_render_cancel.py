@@ -57,6 +57,22 @@ def test_cancel_keeps_the_finished_chunks_and_leaves_the_rest_black(scene):
     assert part.stats.primary_rays == 1280 * 2
 
 
+def test_fill_gives_the_unfinished_pixels_one_sample_each(scene):
+    """``fill=True`` (what the CLI does on Ctrl-C): the finished chunks stay bit-identical at full spp, every other
+    pixel gets exactly one sample (no black hole), and the result says how many pixels were filled."""
+    full = pyrt.render_full(scene, threads=1, **KW)
+    part = pyrt.render_full(scene, threads=1, cancel=CancelAfter(5), fill=True, fill_budget=60.0, **KW)
+    assert not part.complete and part.pixels_done == 1280 and part.pixels_filled == 64 * 48 - 1280
+    a, b = full.image.reshape(-1, 3), part.image.reshape(-1, 3)
+    assert np.array_equal(a[:1280], b[:1280])
+    assert np.all(part.film.weight[1280:] == 1) and np.all(part.film.weight[:1280] == 2)
+    # the filled pixels are an unbiased 1-spp estimate of the same image: same mean over the region (5 %)
+    np.testing.assert_allclose(b[1280:].mean(axis=0), a[1280:].mean(axis=0), rtol=0.05)
+    assert np.isfinite(b).all()
+    none = pyrt.render_full(scene, threads=1, cancel=CancelAfter(5), fill=True, fill_budget=0.0, **KW)
+    assert none.pixels_filled == 0 and not np.any(none.image.reshape(-1, 3)[1280:])   # over budget: black
+
+
 def test_cancel_before_the_start_renders_nothing(scene):
     ev = threading.Event()
     ev.set()

@@ -81,7 +81,7 @@ def _render(args, cancel):
         if getattr(args, key) is not None:
             opts[key] = getattr(args, key)
     t0 = time.perf_counter()
-    res = pyrt.render_full(scene, spp=args.spp, aovs=args.aovs, progress=True, cancel=cancel, **opts)
+    res = pyrt.render_full(scene, spp=args.spp, aovs=args.aovs, progress=True, cancel=cancel, fill=True, **opts)
     dt = time.perf_counter() - t0
     if res.chunks_done == 0:
         print("pyrt: interrupted before any pixel was rendered; nothing written", file=sys.stderr)
@@ -96,8 +96,11 @@ def _render(args, cancel):
     print(f"{scene.camera.width}x{scene.camera.height}, {dt:.2f} s, {s.rays} rays "
           f"({s.primary_rays} primary, {s.secondary_rays} secondary, {s.shadow_rays} shadow)")
     if not res.complete:
+        rest = (f"the other pixels got 1 sample each (noisier)" if res.pixels_filled
+                else "the rest is black")
+        spp = scene.camera.spp if args.spp is None else args.spp
         print(f"pyrt: interrupted: {res.chunks_done}/{res.chunks_total} chunks "
-              f"({100 * res.fraction_done:.0f} % of the pixels) rendered; the rest is black", file=sys.stderr)
+              f"({100 * res.fraction_done:.0f} % of the pixels) rendered at {spp} spp; {rest}", file=sys.stderr)
         return EXIT_INTERRUPTED
     if cancel.is_set():
         print("pyrt: interrupted after the render had finished; the outputs are complete", file=sys.stderr)
