@@ -141,3 +141,15 @@ def test_render_options_at_their_limits_are_accepted():
     scene, _, _ = _lit_scene()
     a = pyrt.render(scene, throughput_cutoff=0.0, threads=1, max_depth=0, spp=1.0, seed=1)
     assert np.all(np.isfinite(a))
+
+
+@pytest.mark.parametrize("name, attr, bad", [("phong", "exponent", -1.0), ("phong_classic", "ka", 2.0),
+                                             ("ward", "alpha_x", 0.0), ("cook_torrance", "rough", -0.5),
+                                             ("metallic_roughness", "metallic", 1.5)])
+def test_library_material_out_of_range_after_construction_is_an_error(name, attr, bad):
+    """The library's declared ``ranges`` are re-checked before every render, not only in the constructor."""
+    mat = pyrt.MATERIALS[name].example()
+    mat.validate()
+    setattr(mat, attr, bad)
+    with pytest.raises(pyrt.MaterialError, match=attr):
+        mat.validate()

@@ -184,6 +184,9 @@ class Material:
     normal_map = None
     #: f(wo, wi) = f(wi, wo) (Helmholtz reciprocity; the contract tests check it where declared)
     reciprocal = True
+    #: ``{attribute: ("color" | "scalar", lo, hi, lo_open)}``: the ranges :meth:`validate` re-checks before every
+    #: render (the constructor's checks, declared once for the classes that list them; None values skipped)
+    ranges = {}
 
     @classmethod
     def example(cls):
@@ -206,6 +209,14 @@ class Material:
         an RGB triple), then calls ``super().validate()``.
         """
         checks.finite_attributes(self.label, self, MaterialError)
+        for attr, (kind, lo, hi, lo_open) in self.ranges.items():
+            value = getattr(self, attr)
+            if value is None:
+                continue
+            if kind == "color":
+                check_color(attr, value, self.label, lo=lo, hi=hi)
+            else:
+                check_scalar(attr, value, self.label, lo=lo, hi=hi, lo_open=lo_open)
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
