@@ -112,3 +112,13 @@ def test_preview_files_and_summary_are_atomic(tmp_path, monkeypatch):
     assert (tmp_path / "summary.csv").read_bytes() == csv_before
     assert (tmp_path / "summary.txt").read_bytes() == txt_before
     assert sorted(os.listdir(tmp_path)) == ["summary.csv", "summary.txt", "v.png"]
+
+
+def test_writing_to_a_folder_or_a_nan_image_is_a_named_pyrt_error(tmp_path):
+    img = np.zeros((4, 4, 3), np.float32)
+    with pytest.raises(pyrt.Error, match="is a folder"):
+        pyrt.write_png(tmp_path, img)
+    img[1, 2, 0] = np.nan
+    with pytest.raises(pyrt.Error, match="1 NaN or Inf"):
+        pyrt.write_exr(tmp_path / "x.exr", img)
+    assert sorted(os.listdir(tmp_path)) == []

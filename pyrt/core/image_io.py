@@ -38,6 +38,10 @@ def atomic_write(path, write):
     """
     path = os.fspath(path)
     folder, base = os.path.split(os.path.abspath(path))
+    if os.path.isdir(path):
+        raise ImageWriteError(f"cannot write {path}: it is a folder")
+    if not os.path.isdir(folder):
+        raise ImageWriteError(f"cannot write {path}: the folder {folder} does not exist")
     try:
         mode = os.stat(path).st_mode & 0o7777
     except OSError:
@@ -71,12 +75,16 @@ def write_bytes(path, data):
     atomic_write(path, put)
 
 
+class ImageWriteError(Error, ValueError):
+    """An image cannot be written: wrong shape, non-finite values, or the target is a folder."""
+
+
 def _check_image(img, name="image"):
     a = np.asarray(img)
     if a.ndim != 3 or a.shape[2] != 3:
-        raise ValueError(f"{name} must have shape (H, W, 3), got {a.shape}")
+        raise ImageWriteError(f"{name} must have shape (H, W, 3), got {a.shape}")
     if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} contains NaN or Inf values")
+        raise ImageWriteError(f"{name} contains {int((~np.isfinite(a)).sum())} NaN or Inf values; nothing written")
     return a
 
 
