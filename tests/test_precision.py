@@ -58,3 +58,14 @@ def test_coordinates_beyond_float32_are_refused():
     s.camera.position = np.array([0.0, 0.0, 1e39])
     with pytest.raises(pyrt.GeometryError, match="camera"):
         pyrt.render(s)
+
+
+def test_a_scene_smaller_than_the_measured_limit_is_warned_about():
+    from pyrt.geometry.precision import PrecisionWarning, SMALLEST_EXTENT
+    S = SMALLEST_EXTENT / 100
+    cam = pyrt.Camera(position=(0, S, 4 * S), target=(0, 0.5 * S, 0), width=8, height=6)
+    scene = pyrt.Scene(cam)
+    scene.add_sphere((0, 0.5 * S, 0), 0.5 * S, pyrt.Lambert(0.5))
+    scene.add_light(pyrt.PointLight((S, 3 * S, S), intensity=1e-20))
+    with pytest.warns(PrecisionWarning, match="across"):
+        pyrt.render(scene)
