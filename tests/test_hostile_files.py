@@ -8,8 +8,11 @@ import zlib
 
 import numpy as np
 import pytest
+from pathlib import Path
 
 import pyrt
+
+ROOT_MODELS = Path(__file__).resolve().parents[1] / "assets" / "models"
 from pyrt.core.image_io import MAX_IMAGE_PIXELS, ImageFileError, read_exr, read_image
 from pyrt.io.assets import AssetError, load_asset, pack_glb
 from pyrt.textures import ImageTexture, TextureError, load_image
@@ -368,3 +371,16 @@ def test_missing_scene_file_is_a_pyrt_error_and_a_file_not_found_error(tmp_path)
     with pytest.raises(pyrt.Error) as exc:
         pyrt.load_scene(str(tmp_path / "nope.toml"))
     assert isinstance(exc.value, FileNotFoundError) and "scene file not found" in str(exc.value)
+
+
+def test_truncated_binary_stl_and_out_of_range_ply_faces_are_named_errors(tmp_path):
+    good = (ROOT_MODELS / "bracket.stl").read_bytes()
+    stl = tmp_path / "t.stl"
+    stl.write_bytes(good[:120])
+    with pytest.raises(pyrt.Error, match=r"binary header says \d+ triangles"):
+        pyrt.load_asset(str(stl))
+    ply = tmp_path / "f.ply"
+    ply.write_text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                   "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n")
+    with pytest.raises(pyrt.Error, match="does not exist"):
+        pyrt.load_asset(str(ply))

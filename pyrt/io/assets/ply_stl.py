@@ -28,6 +28,8 @@ def load_ply_stl(path, fmt):
         One mesh (``material = -1``: the default clay) with one identity instance.
     """
     asset = Asset(path=path, format=fmt)
+    if fmt == "stl":
+        _check_binary_stl_size(path)
     tm = trimesh_load(path, fmt.upper())
     if isinstance(tm, trimesh.Scene):
         meshes = [g for g in tm.dump() if isinstance(g, trimesh.Trimesh)] if hasattr(tm, "dump") else []
@@ -43,10 +45,30 @@ def load_ply_stl(path, fmt):
     v = np.asarray(tm.vertices, dtype=np.float64)
     if not np.all(np.isfinite(v)):
         raise AssetError(f"{path}: vertex positions contain NaN or Inf")
+    f = np.asarray(tm.faces, dtype=np.int64)
+    if f.min() < 0 or f.max() >= len(v):
+        raise AssetError(f"{path}: face {int(np.flatnonzero((f < 0).any(1) | (f >= len(v)).any(1))[0])} refers to a "
+                         f"vertex that does not exist (indices must be in [0, {len(v)}))")
     asset.meshes.append(AssetMesh(name=os.path.basename(path), vertices=v, faces=np.asarray(tm.faces, dtype=np.int64),
                                   normals=normals, uv=uv, colors=colors, material=-1))
     asset.instances.append(AssetInstance(mesh=0, world_from_object=np.eye(4), node=os.path.basename(path)))
     return asset
+
+
+def _check_binary_stl_size(path):
+    """A binary STL (not starting with ``solid``) is 84 + 50 n bytes for the n triangles its header names: a
+    truncated or padded one is refused here (trimesh would try to decode it as text and fail obscurely)."""
+    size = os.path.getsize(path)
+    with open(path, "rb") as fh:
+        head = fh.read(84)
+    if head[:5].lower() == b"solid" and b"\0" not in head:   # ASCII STL (binary headers may say "solid" too)
+        return
+    if len(head) < 84:
+        raise AssetError(f"{path}: not a readable STL file (truncated: {size} bytes, a binary STL header is 84)")
+    n = int.from_bytes(head[80:84], "little")
+    if size != 84 + 50 * n:
+        raise AssetError(f"{path}: not a readable STL file (binary header says {n} triangles = {84 + 50 * n} "
+                         f"bytes, the file has {size})")
 
 
 def _ply_has_normals(path):
