@@ -12,10 +12,11 @@ from pathlib import Path
 
 import pyrt
 
-ROOT_MODELS = Path(__file__).resolve().parents[1] / "assets" / "models"
 from pyrt.core.image_io import MAX_IMAGE_PIXELS, ImageFileError, read_exr, read_image
 from pyrt.io.assets import AssetError, load_asset, pack_glb
 from pyrt.textures import ImageTexture, TextureError, load_image
+
+ROOT_MODELS = Path(__file__).resolve().parents[1] / "assets" / "models"
 
 
 def _png_chunk(tag, payload):
