@@ -19,6 +19,7 @@ from pyrt.lights import GoniometricLight, IESLight, ProjectorLight
 from pyrt.materials import Material, MaterialError, REGISTRY as MATERIALS, Lambert, BlinnPhong, Mirror, Glass, register
 from pyrt.materials import (BlinnPhongClassic, CookTorrance, MetallicRoughness, Phong, PhongClassic,  # material library
                         Ward)
+from pyrt.materials import Conductor, LearnOpenGLPBR, OrenNayar  # issue 16
 from pyrt.scene import Scene, SceneError, transform_matrix
 from pyrt.lights import (ConstantEnvironment, CubeMapEnvironment, EnvironmentLight, EnvironmentMapError,
                           LatLongEnvironment, procedural_sky, set_environment)
@@ -34,7 +35,7 @@ __all__ = [
     "Error", "Camera", "CameraError", "GeometryError", "RenderResult", "RenderStats", "PreparedScene", "render", "render_full",
     "DirectionalLight", "Light", "LightError", "PointLight", "SpotLight", "ProjectorLight", "GoniometricLight", "IESLight", "Material", "MaterialError", "MATERIALS",
     "Lambert", "BlinnPhong", "Mirror", "Glass", "register", "Phong", "PhongClassic", "BlinnPhongClassic", "Ward",
-    "CookTorrance", "MetallicRoughness", "Scene", "SceneError", "transform_matrix",
+    "CookTorrance", "MetallicRoughness", "Conductor", "LearnOpenGLPBR", "OrenNayar", "Scene", "SceneError", "transform_matrix",
     "atomic_write", "read_exr", "write_exr", "write_png", "tonemap_to_display", "SceneFileError", "load_scene",
     "ConstantEnvironment", "CubeMapEnvironment", "EnvironmentLight", "EnvironmentMapError", "LatLongEnvironment",
     "procedural_sky", "set_environment", "AreaEmitter", "DiskLight", "RectLight", "SphereLight",

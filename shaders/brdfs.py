@@ -330,3 +330,53 @@ def gltf_metallic_roughness_f_cos(wo, wi, base_color, metallic, roughness, *,
     cos_i = _same_hemisphere_cos(wo, wi)
     out = (1.0 - F) * c_diff * (cos_i / np.pi)[:, None] + F * spec[:, None]
     return out.astype(dt, copy=False)
+
+
+# ---------------------------------------------------------------------------------------------
+# Oren-Nayar (issue 16, item 7)
+# ---------------------------------------------------------------------------------------------
+
+
+def oren_nayar_ab(sigma):
+    """Coefficients ``A, B`` of the qualitative Oren-Nayar model for facet-slope deviation ``sigma`` (radians).
+
+    ``A = 1 - 0.5 s^2 / (s^2 + 0.33)``, ``B = 0.45 s^2 / (s^2 + 0.09)`` (Oren & Nayar 1994, eq. 30;
+    pbrt-v3 ``OrenNayar``). ``sigma = 0`` gives ``A = 1, B = 0`` (Lambert).
+    """
+    s2 = np.asarray(sigma, dtype=np.float64) ** 2
+    return 1.0 - 0.5 * s2 / (s2 + 0.33), 0.45 * s2 / (s2 + 0.09)
+
+
+def oren_nayar_f_cos_cosines(cos_o, cos_i, cos_io, albedo, sigma):
+    """Qualitative Oren-Nayar BRDF times cos(theta_i) from ``n.wo``, ``n.wi``, ``wo.wi`` (N,).
+
+    ::
+
+        f = rho / pi (A + B max(0, cos(phi_i - phi_o)) sin(alpha) tan(beta)),
+        alpha = max(theta_i, theta_o), beta = min(theta_i, theta_o)
+
+    with ``A, B`` from :func:`oren_nayar_ab` (Oren & Nayar 1994, "Generalization of Lambert's
+    reflectance model", eq. 30, the "qualitative" model without interreflections). Since
+    ``cos(phi_i - phi_o) sin(theta_i) sin(theta_o) = wo.wi - cos_o cos_i =: s`` and
+    ``{sin alpha, sin beta} = {sin theta_i, sin theta_o}``, the angular factor is exactly
+    ``max(0, s) / max(cos_i, cos_o)`` (no azimuths, no division by sin). Symmetric in wo, wi
+    (reciprocal); ``sigma = 0`` is Lambert exactly.
+
+    Parameters
+    ----------
+    cos_o, cos_i, cos_io : (N,) float ndarray
+    albedo : (3,) or (N, 3)
+        Diffuse reflectance rho in [0, 1].
+    sigma : float or (N,)
+        Standard deviation of the facet slope angle, radians (>= 0).
+    """
+    dt = cos_i.dtype
+    cos_i_up = _upper_cos(cos_o, cos_i)
+    active = cos_i_up > 0
+    a, b = oren_nayar_ab(sigma)
+    s = np.maximum(cos_io - cos_o * cos_i, 0.0)
+    t = np.where(active, np.maximum(cos_o, cos_i), 1.0)
+    g = (a + b * s / t) * cos_i_up / np.pi
+    albedo = np.asarray(albedo)
+    out = _vec.outer_rgb(g, albedo) if albedo.ndim == 1 else _vec.scale_rows(albedo, g)
+    return out.astype(dt, copy=False)
