@@ -5,16 +5,18 @@
 - :mod:`pyrt.materials.basic`: Lambert, Blinn-Phong, mirror, glass;
 - :mod:`pyrt.materials.library`: the rest of the course's models (Phong, classic models, Ward,
   Cook-Torrance, glTF metallic-roughness);
+- :mod:`pyrt.materials.rough_dielectric`: frosted glass (GGX reflection and transmission, Walter 2007);
 - :mod:`pyrt.materials.dispatch`: :class:`BSDFBatch`, the per-material-type dispatch of a batch of hits.
 """
 from pyrt.materials.base import (MATERIALS, CosineQuery, DeltaLobe, IsotropicMaterial, LocalCosineQuery, Material,
                                  MaterialError, check_color, check_scalar, is_texture, register)
 from pyrt.materials.basic import BlinnPhong, Glass, Lambert, Mirror
 from pyrt.materials.library import BlinnPhongClassic, CookTorrance, MetallicRoughness, Phong, PhongClassic, Ward
+from pyrt.materials.rough_dielectric import RoughDielectric
 
 #: the material registry under its older name
 REGISTRY = MATERIALS
 
 __all__ = ["MATERIALS", "REGISTRY", "CosineQuery", "DeltaLobe", "IsotropicMaterial", "LocalCosineQuery", "Material",
            "MaterialError", "check_color", "check_scalar", "is_texture", "register", "BlinnPhong", "Glass", "Lambert",
-           "Mirror", "BlinnPhongClassic", "CookTorrance", "MetallicRoughness", "Phong", "PhongClassic", "Ward"]
+           "Mirror", "BlinnPhongClassic", "CookTorrance", "MetallicRoughness", "Phong", "PhongClassic", "Ward", "RoughDielectric"]
