@@ -68,7 +68,7 @@ class RenderResult:
 
 def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4, offset=None, aovs=False,
                 progress=None, chunk_samples=1 << 15, threads=None, record_rays=False, prepared=None,
-                nonfinite="zero", cancel=None, fill=False, fill_budget=2.0):
+                nonfinite="zero", cancel=None, fill=False, fill_budget=2.0, transparent_shadows=False):
     """Render ``scene`` and return a :class:`RenderResult` with the image, AOVs and statistics.
 
     Parameters are those of :func:`render`, plus:
@@ -121,7 +121,7 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         lo = starts[ci]
         hi = min(lo + px_per_chunk, n_pix)
         integ = Integrator(ps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
-                           record_rays=record_rays)
+                           record_rays=record_rays, transparent_shadows=transparent_shadows)
         rng = np.random.default_rng([seed, ci])
         rays = cam.generate_rays(lo, hi, rng, differentials=ps.needs_differentials)
         L, a = integ.render_samples(rays, want_aovs=aovs, rng=rng)
@@ -169,7 +169,8 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
             def fill_chunk(k):
                 ci = pending[k]
                 lo, hi = starts[ci], min(starts[ci] + px_per_chunk, n_pix)
-                integ = Integrator(fps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset)
+                integ = Integrator(fps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
+                                   transparent_shadows=transparent_shadows)
                 rng = np.random.default_rng([seed, ci, 1])
                 rays = cam1.generate_rays(lo, hi, rng, differentials=fps.needs_differentials)
                 L, a = integ.render_samples(rays, want_aovs=aovs, rng=rng)
@@ -240,6 +241,10 @@ def render(scene, **kwargs):
     offset : str or callable
         Ray-offset strategy (:mod:`pyrt.geometry.offsets`): a name, a Strategy or a callable; default "robust"
         (local error bound + robust shadow tmax + shadow-terminator lift).
+    transparent_shadows : bool
+        Shadow rays pass straight through dielectrics, attenuated by the Fresnel transmittance of each
+        interface, the tint and Beer-Lambert absorption (:mod:`pyrt.integrators.shadows`: an approximation,
+        no caustics). Default False (strict Whitted: glass casts a shadow of 0, like an opaque object).
     progress : bool, optional
         Show a progress bar (default: only on a terminal).
     chunk_samples : int

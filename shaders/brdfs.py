@@ -380,3 +380,110 @@ def oren_nayar_f_cos_cosines(cos_o, cos_i, cos_io, albedo, sigma):
     albedo = np.asarray(albedo)
     out = _vec.outer_rgb(g, albedo) if albedo.ndim == 1 else _vec.scale_rows(albedo, g)
     return out.astype(dt, copy=False)
+# --------------------------------------------------------------------------- rough dielectric (BSDF)
+
+
+def _rough_dielectric_half(wo, wi, eta):
+    """Generalized half vector of Walter et al. 2007 (eq. 16), turned to +z, and the lane classes.
+
+    ``etap`` (N,) is the relative index seen from ``wo``'s side (``eta`` outside, ``1/eta`` inside);
+    reflection: ``h ~ wo + wi``; transmission: ``h ~ wo + etap wi``.
+    """
+    co, ci = wo[:, 2], wi[:, 2]
+    reflect = co * ci > 0
+    etap = np.where(co > 0, eta, 1.0 / eta)
+    h = wo + np.where(reflect, 1.0, etap)[:, None] * wi
+    h_len = np.sqrt(np.einsum("ij,ij->i", h, h))
+    ok = (h_len > 0) & (co != 0) & (ci != 0)
+    h = h / np.where(ok, h_len, 1.0)[:, None]
+    h = h * np.where(h[:, 2] < 0, -1.0, 1.0)[:, None]
+    doh, dih = np.einsum("ij,ij->i", wo, h), np.einsum("ij,ij->i", wi, h)
+    # microfacets seen from the wrong side (Walter eq. 7-8's chi+ terms)
+    ok &= (doh * co > 0) & (dih * ci > 0)
+    return h, reflect, etap, doh, dih, ok
+
+
+def rough_dielectric_f_cos(wo, wi, alpha, eta):
+    """GGX rough dielectric BSDF times |cos theta_i| (Walter, Marschner, Li & Torrance 2007, eqs. 20-21).
+
+    Parameters
+    ----------
+    wo, wi : (N, 3) float ndarray
+        Unit directions, local frame (z = macro normal, outside above); ``wi`` below the horizon
+        (opposite side to ``wo``) is transmission.
+    alpha : float
+        GGX width.
+    eta : float
+        Index of the inside over the outside (``ior``).
+
+    Returns
+    -------
+    (N,) ndarray
+        Reflection ``F D G2 / (4 |cos_o|)``; transmission
+        ``(1 - F) D G2 |wi.h| |wo.h| / (|cos_o| (wo.h + etap wi.h)^2)`` (the Jacobian of eq. 17 times
+        the 1/etap^2 radiance compression, pbrt-v4's radiance mode). F is the exact Fresnel at ``wo.h``,
+        G2 Smith height-correlated. 0 where the half vector is back-facing.
+    """
+    h, reflect, etap, doh, dih, ok = _rough_dielectric_half(wo, wi, eta)
+    co, ci = np.abs(wo[:, 2]), np.abs(wi[:, 2])
+    D = _mf.ggx_d(h[:, 2], alpha)
+    G = _mf.smith_g2_correlated(co, ci, alpha, "ggx")
+    F = _fresnel.fr_dielectric(doh, eta)
+    safe_co = np.where(ok, co, 1.0)
+    fr = F * D * G / (4.0 * safe_co)
+    denom = doh + etap * dih            # = (wo.h + etap wi.h); Walter writes it with eta_i, eta_o
+    denom2 = np.where(ok & ~reflect, denom * denom, 1.0)
+    ft = (1.0 - F) * D * G * np.abs(dih * doh) / (safe_co * denom2)
+    return np.where(ok, np.where(reflect, fr, ft), 0.0).astype(wo.dtype, copy=False)
+
+
+def rough_dielectric_pdf(wo, wi, alpha, eta):
+    """Density (N,) of :func:`sample_rough_dielectric`: VNDF density of h (from the side of ``wo``) times the
+    Fresnel choice, with the reflection (1 / (4 |wo.h|)) or refraction (``|wi.h| / (wo.h/etap + wi.h)^2``,
+    Walter eq. 17) Jacobian."""
+    h, reflect, etap, doh, dih, ok = _rough_dielectric_half(wo, wi, eta)
+    s = np.where(wo[:, 2] < 0, -1.0, 1.0)[:, None]
+    pdf_h = _mf.ggx_vndf_pdf(wo * s, h, alpha)
+    F = _fresnel.fr_dielectric(doh, eta)
+    jr = np.divide(1.0, 4.0 * np.abs(doh), out=np.zeros_like(doh), where=doh != 0)
+    den = doh / etap + dih
+    jt = np.divide(np.abs(dih), den * den, out=np.zeros_like(dih), where=den != 0)
+    pdf = pdf_h * np.where(reflect, F * jr, (1.0 - F) * jt)
+    return np.where(ok, pdf, 0.0).astype(wo.dtype, copy=False)
+
+
+#: the Fresnel choice of :func:`sample_rough_dielectric` reads the digits of u0 below 1/SPLIT
+SPLIT = 4096.0
+
+
+def sample_rough_dielectric(wo, u, alpha, eta):
+    """Sample the rough dielectric: a GGX visible normal h (Heitz 2018) from ``wo``'s side, then reflection
+    with probability F(wo.h) or refraction through h (Snell, relative index ``etap``) otherwise.
+
+    ``u`` (N, 2): h from ``u``; the reflect/refract choice from ``frac(SPLIT u0)``, the digits of u0 that h's
+    mapping does not resolve (two numbers carry three: the interface gives the BSDF two per sample).
+
+    Returns
+    -------
+    wi : (N, 3) ndarray
+        Unit directions (below the horizon for refraction; (0, 0, 0) where total internal reflection was
+        impossible to avoid, never: TIR gives F = 1 and reflection).
+    valid : (N,) bool
+        False where the sampled direction is not on the side the lobe needs (the weight is 0 there).
+    """
+    s = np.where(wo[:, 2] < 0, -1.0, 1.0)
+    wo_up = wo * s[:, None]
+    h = _mf.sample_ggx_vndf(wo_up, u, alpha)
+    doh = np.einsum("ij,ij->i", wo_up, h)
+    etap = np.where(s > 0, eta, 1.0 / eta)
+    F = _fresnel.fr_dielectric(doh, etap)
+    choice = np.mod(u[:, 0] * SPLIT, 1.0)
+    refl = choice < F
+    wr = 2.0 * doh[:, None] * h - wo_up
+    sin2_t = np.maximum(0.0, 1.0 - doh * doh) / (etap * etap)
+    cos_t = np.sqrt(np.maximum(0.0, 1.0 - sin2_t))
+    wt = -wo_up / etap[:, None] + (doh / etap - cos_t)[:, None] * h
+    wt /= np.maximum(np.linalg.norm(wt, axis=1), 1e-300)[:, None]
+    wi = np.where(refl[:, None], wr, wt)
+    valid = np.where(refl, wi[:, 2] > 0, wi[:, 2] < 0) & (wo_up[:, 2] > 0)
+    return (wi * s[:, None]).astype(wo.dtype, copy=False), valid

@@ -67,9 +67,15 @@ QUAD_W, QUAD_DW = _hemisphere_quadrature()
 
 
 def _albedo(mat, wo):
-    """Directional albedo (3,) of the non-delta lobes toward ``wo`` by quadrature."""
+    """Directional albedo (3,) of the non-delta lobes toward ``wo`` by quadrature: the upper hemisphere, plus
+    for a material that ``transmits`` the lower one (the mirrored nodes) with the transmitted radiance's
+    1/ior^2 compression undone (energy = reflected + transmitted power fraction)."""
     n = QUAD_W.shape[0]
-    return np.sum(mat.f_cos(np.tile(wo, (n, 1)), QUAD_W, Ctx(n)) * QUAD_DW[:, None], axis=0)
+    rho = np.sum(mat.f_cos(np.tile(wo, (n, 1)), QUAD_W, Ctx(n)) * QUAD_DW[:, None], axis=0)
+    if mat.transmits:
+        below = QUAD_W * [1.0, 1.0, -1.0]
+        rho = rho + mat.ior ** 2 * np.sum(mat.f_cos(np.tile(wo, (n, 1)), below, Ctx(n)) * QUAD_DW[:, None], axis=0)
+    return rho
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -96,7 +102,8 @@ def test_f_cos_is_finite_non_negative_and_zero_below_the_horizon(name):
     f = mat.f_cos(wo, wi, Ctx(4000))
     assert f.shape == (4000, 3) and f.dtype == np.float64
     assert np.all(np.isfinite(f)) and np.all(f >= 0)
-    assert np.all(f[wi[:, 2] <= 0] == 0)
+    if not mat.transmits:                                # a transmission lobe lives below the horizon
+        assert np.all(f[wi[:, 2] <= 0] == 0)
     assert f.max() > 0
 
 
@@ -116,7 +123,8 @@ def test_reciprocity_where_declared(name):
     np.testing.assert_allclose(f_ab, f_ba, rtol=1e-9, atol=1e-12)
 
 
-@pytest.mark.parametrize("name", [n for n in GLOSSY if not pyrt.MATERIALS[n].reciprocal])
+@pytest.mark.parametrize("name", [n for n in GLOSSY if not pyrt.MATERIALS[n].reciprocal
+                                  and not pyrt.MATERIALS[n].transmits])
 def test_declared_non_reciprocal_models_are_not_reciprocal(name):
     f_ab, f_ba = _reciprocity_pair(pyrt.MATERIALS[name].example())
     assert np.max(np.abs(f_ab - f_ba)) > 1e-3
@@ -142,7 +150,7 @@ def test_sample_weight_and_pdf_are_consistent(name, theta_o):
     n = 60_000
     wo = np.tile(_dir(theta_o, 30.0), (n, 1))
     wi, weight, pdf = mat.sample(wo, np.random.default_rng(3).random((n, 2)), Ctx(n))
-    up = wi[:, 2] > 0
+    up = (wi[:, 2] > 0) | (mat.transmits & (wi[:, 2] < 0))    # the lobes' support (full sphere: transmission)
     k = int(up.sum())
     np.testing.assert_allclose(pdf[up], mat.pdf(wo[up], wi[up], Ctx(k)), rtol=1e-9)
     ok = up & (pdf > 0)
@@ -150,6 +158,8 @@ def test_sample_weight_and_pdf_are_consistent(name, theta_o):
                                rtol=1e-9, atol=1e-300)
     assert np.all(np.isfinite(weight)) and np.all(weight[~up] == 0)
     rho = _albedo(mat, wo[0])
+    if mat.transmits:                                    # E[weight] counts transmission with its 1/ior^2
+        weight = np.where((wi[:, 2] < 0)[:, None], weight * mat.ior ** 2, weight)
     mean, se = weight.mean(0), weight.std(0) / math.sqrt(n)
     assert np.all(np.abs(mean - rho) <= 5 * se + 2e-3), (mean, rho, se)
 
@@ -244,3 +254,22 @@ def test_delta_lobes_conserve_energy(name, theta_o):
         else:
             total += lobe.weight * (lobe.eta ** 2)[:, None]
     assert np.all(total <= 1.0 + 1e-12) and total.max() > 0
+
+
+@pytest.mark.parametrize("name", [n for n in GLOSSY if pyrt.MATERIALS[n].transmits])
+def test_transmission_obeys_generalised_reciprocity(name):
+    """A BTDF in radiance mode: f(wo, wi) / eta_o^2 = f(wi, wo) / eta_i^2 (Veach 1997, sec. 5.2), eta of the
+    medium on each direction's side (outside 1 above, ``ior`` below); reflection is plainly reciprocal."""
+    mat = pyrt.MATERIALS[name].example()
+    rng = np.random.default_rng(6)
+    a = np.abs(rng.normal(size=(2000, 3)))
+    b = rng.normal(size=(2000, 3))
+    b[:, 2] = -np.abs(b[:, 2]) - 0.05
+    a /= np.linalg.norm(a, axis=1, keepdims=True)
+    b /= np.linalg.norm(b, axis=1, keepdims=True)
+    f_ab = mat.f_cos(a, b, Ctx(2000)) / np.abs(b[:, 2:3])
+    f_ba = mat.f_cos(b, a, Ctx(2000)) / np.abs(a[:, 2:3])
+    assert np.count_nonzero(f_ab[:, 0]) > 200
+    np.testing.assert_allclose(f_ab / 1.0 ** 2, f_ba / mat.ior ** 2, rtol=1e-9, atol=1e-12)
+    f_aa, f_aa2 = mat.f_cos(a, a[::-1], Ctx(2000)) / a[::-1, 2:3], mat.f_cos(a[::-1], a, Ctx(2000)) / a[:, 2:3]
+    np.testing.assert_allclose(f_aa, f_aa2, rtol=1e-9, atol=1e-12)

@@ -11,7 +11,8 @@ For every light at every hit that can receive light, :func:`estimate` returns th
 
 ``bsdf`` is a :class:`pyrt.materials.dispatch.BSDFBatch` over the hits (``f_cos``, ``sample``, ``pdf`` in
 world space); ``visible(idx, wi, dist, end=None)`` traces shadow rays from hits ``idx`` and returns a
-bool array (:meth:`pyrt.integrators.whitted.Integrator.visibility`); ``rng`` is the chunk's generator.
+bool array, or with transparent shadows a transmittance (k, 3) (:meth:`pyrt.integrators.whitted.Integrator.
+visibility`; :func:`_shadowed` and :func:`_shadowed_values` apply either); ``rng`` is the chunk's generator.
 Random numbers are drawn in a fixed order per light, so a seed gives a bit-identical image.
 """
 from __future__ import annotations
@@ -73,11 +74,28 @@ def light_sampling_estimate(light, surf, bsdf, visible, rng):
             if keep.size == 0:
                 continue
             idx, f, wi_a = idx[keep], take_rows(f, keep), take_rows(wi_a, keep)
-        vis = np.flatnonzero(visible(idx, wi_a, np.take(dist, idx), light.position if light.fixed_position else None))
-        idx, f = idx[vis], take_rows(f, vis)
+        idx, f = _shadowed(visible(idx, wi_a, np.take(dist, idx), light.position if light.fixed_position else None),
+                           idx, f)
         ls.weight(f, idx)
         put_rows(L, idx, take_rows(L, idx) + f)
     return L / ns
+
+
+def _shadowed(vis, idx, f):
+    """The rows ``idx`` and values ``f`` (k, 3) that light reaches: a bool ``vis`` (k,) keeps the unblocked
+    rows; a transmittance (k, 3) (transparent shadows) scales them and drops the rows it zeroes."""
+    if vis.ndim == 1:
+        keep = np.flatnonzero(vis)
+        return idx[keep], take_rows(f, keep)
+    keep = np.flatnonzero(max_component(vis) > 0)
+    return idx[keep], take_rows(f, keep) * take_rows(vis, keep)
+
+
+def _shadowed_values(vis, val):
+    """``val`` (k, 3) where unblocked (bool ``vis``), or scaled by the transmittance ``vis`` (k, 3)."""
+    if vis.ndim == 1:
+        return np.where(vis[:, None], val, 0.0)
+    return val * vis
 
 
 def _mis(heuristic, p_f, p_g):
@@ -127,7 +145,7 @@ def environment_estimate(light, surf, bsdf, visible, rng):
             idx, val = idx[keep], val[keep]
             if idx.size:
                 vis = visible(idx, wi[idx], np.full(idx.size, np.inf))
-                L_out[idx] += np.where(vis[:, None], val, 0.0)
+                L_out[idx] += _shadowed_values(vis, val)
     return L_out / ns
 
 def _add_environment_sample(light, L_out, surf, bsdf, visible, wi, pdf, mis):
@@ -149,7 +167,7 @@ def _add_environment_sample(light, L_out, surf, bsdf, visible, wi, pdf, mis):
     idx, val = idx[keep], val[keep]
     if idx.size:
         vis = visible(idx, wi[idx], np.full(idx.size, np.inf))
-        L_out[idx] += np.where(vis[:, None], val, 0.0)
+        L_out[idx] += _shadowed_values(vis, val)
 
 def _environment_preview(light, surf, bsdf):
     """Unshadowed, noise-free approximation (``strategy="preview"``, see :mod:`pyrt.lights.environment`)."""

@@ -41,7 +41,7 @@ class PreparedScene:
 
     Besides ``geo`` (:class:`pyrt.geometry.GeometryTable`) and ``accel`` (:class:`pyrt.geometry.Accel`) it
     holds what the integrators look at before they render, to model no more than the scene needs:
-    per-material flags (``has_delta``, ``has_diffuse``, ``emits``), the nested-media tables (``media``,
+    per-material flags (``has_delta``, ``has_diffuse``, ``dielectric``, ``emits``), the nested-media tables (``media``,
     None without several dielectrics), the Gouraud face mask, ``needs_differentials`` and ``has_normal_maps``.
     Close it (or use it as a context manager) to free the Embree scene.
     """
@@ -59,6 +59,8 @@ class PreparedScene:
         mats = scene.materials
         self.has_delta = np.array([m.has_delta for m in mats], dtype=bool)
         self.has_diffuse = np.array([m.has_diffuse for m in mats], dtype=bool)
+        #: dielectric materials (transparent shadows pass through them, pyrt.integrators.shadows)
+        self.dielectric = np.array([m.is_dielectric for m in mats], dtype=bool)
         # nested dielectrics (pyrt.integrators.media): per-ray interface stacks only when the scene needs them
         self.media = NestedMedia.for_scene(mats)
         # faces shaded per vertex (pyrt.integrators.gouraud), None when no mesh asks for it

@@ -30,6 +30,7 @@ from pyrt.geometry.accel import T_INFINITE, Hits
 from pyrt.geometry.surface import refract_differentials, reflect_differentials, surface_from_hits
 from pyrt.integrators import direct
 from pyrt.integrators import gouraud
+from pyrt.integrators import shadows
 from pyrt.integrators.prepared import RenderStats
 from pyrt.materials.dispatch import BSDFBatch
 from pyrt.textures import apply_normal_maps
@@ -59,9 +60,14 @@ class Integrator:
         Ray-origin offset strategy (see :mod:`pyrt.geometry.offsets`).
     record_rays : bool
         Keep every traced ray (float32 origins, dirs, tmax, kind) in ``stats.recorded`` for benchmarks.
+    transparent_shadows : bool
+        Shadow rays pass through dielectrics, attenuated by Fresnel transmittance, tint and absorption
+        (:mod:`pyrt.integrators.shadows`, an approximation; default off: strict Whitted). Only in scenes
+        that have a dielectric; elsewhere the switch changes nothing.
     """
 
-    def __init__(self, prepared, *, max_depth=8, throughput_cutoff=1e-4, offset=None, record_rays=False):
+    def __init__(self, prepared, *, max_depth=8, throughput_cutoff=1e-4, offset=None, record_rays=False,
+                 transparent_shadows=False):
         self.max_depth = checks.integer("render", "max_depth", max_depth, RenderError, lo=0)
         self.throughput_cutoff = checks.finite_number("render", "throughput_cutoff", throughput_cutoff, RenderError,
                                                       lo=0.0)
@@ -69,6 +75,10 @@ class Integrator:
         self.scene = prepared.scene
         self.offset = offsets.get_strategy(offset)
         self.record_rays = record_rays
+        if not isinstance(transparent_shadows, (bool, np.bool_)):
+            raise RenderError(f"render: transparent_shadows must be True or False, got {transparent_shadows!r}")
+        #: closest-hit shadow loops only where they can change something (the scene has a dielectric)
+        self.transparent_shadows = bool(transparent_shadows) and bool(np.any(prepared.dielectric))
         self.stats = RenderStats()
 
     # -- Embree calls with bookkeeping -------------------------------------------------------
@@ -95,6 +105,17 @@ class Integrator:
             self.stats.recorded.append(("occluded", o.astype(np.float32), d.astype(np.float32),
                                         np.minimum(tmax, T_INFINITE).astype(np.float32)))
         return occ
+
+    def _shadow_hits(self, o, d, tmax):
+        """Closest hits of shadow rays below ``tmax`` (transparent shadows), counted as shadow rays."""
+        t0 = time.perf_counter()
+        h = self.ps.accel.intersect(o, d, tmax)
+        self.stats.time_occluded += time.perf_counter() - t0
+        self.stats.shadow_rays += o.shape[0]
+        if self.record_rays:
+            self.stats.recorded.append(("intersect", o.astype(np.float32), d.astype(np.float32),
+                                        np.minimum(tmax, T_INFINITE).astype(np.float32)))
+        return h
 
     def background(self, d, primary=False):
         """Radiance of missed rays: the environment (or the scene background colour). Camera rays
@@ -204,7 +225,16 @@ class Integrator:
 
     def visibility(self, surf):
         """``visible(idx, wi, dist, end=None)`` for the hits of ``surf``: shadow rays through Embree's occlusion
-        query from the offset origins (:mod:`pyrt.geometry.offsets`) to the light, True where unblocked."""
+        query from the offset origins (:mod:`pyrt.geometry.offsets`) to the light, a bool array True where
+        unblocked; with :attr:`transparent_shadows` (and a dielectric in the scene) a transmittance (k, 3)
+        through the dielectrics on the way (:func:`pyrt.integrators.shadows.transmittance`) instead."""
+        if self.transparent_shadows:
+            def transmitted(idx, wi, dist, end=None):
+                """Transmittance (k, 3) of the shadow rays from hits ``idx`` along ``wi`` to the light."""
+                origins, tmax = self.offset.shadow(surf.subset(idx), wi, dist, end)
+                return shadows.transmittance(self.ps, self.offset, origins, wi, tmax, self._shadow_hits)
+            return transmitted
+
         def visible(idx, wi, dist, end=None):
             """Shadow rays from hits ``idx`` along ``wi`` to a light at ``dist`` (or at the point ``end``)."""
             sub = surf.subset(idx)

@@ -4,7 +4,7 @@ Format (every key optional unless marked; unknown keys are errors naming the tab
 
     [camera]            # position, target, up, fov (degrees, vertical), width, height, spp
     [render]            # max_depth, seed, background (RGB radiance), ambient (RGB radiance),
-                        # throughput_cutoff, offset (strategy name)
+                        # throughput_cutoff, offset (strategy name), transparent_shadows (bool)
     [materials.NAME]    # type = "lambert" | "blinn_phong" | "mirror" | "glass" | ... ; the rest are the
                         # material constructor's keyword arguments (validated by it); a parameter
                         # may be a texture table, e.g. albedo = {type = "image", path = "wood.png"}
@@ -61,7 +61,7 @@ class SceneFileNotFoundError(SceneFileError, FileNotFoundError):
 
 
 _CAMERA_KEYS = {"position", "target", "up", "fov", "width", "height", "spp", "jitter"}
-_RENDER_KEYS = {"max_depth", "seed", "background", "ambient", "throughput_cutoff", "offset"}
+_RENDER_KEYS = {"max_depth", "seed", "background", "ambient", "throughput_cutoff", "offset", "transparent_shadows"}
 _MESH_COMMON = {"file", "primitive", "material", "translate", "rotate", "scale", "matrix", "smooth", "name",
                 "crease_angle", "shading"}
 _PRIMITIVE_KEYS = {"sphere": {"radius", "subdivisions"}, "box": {"extents"}, "plane": {"size", "normal"},
@@ -148,7 +148,7 @@ def load_scene(path):
     scene : pyrt.Scene
     render_options : dict
         The ``[render]`` keys that are arguments of :func:`pyrt.render` (max_depth, seed,
-        throughput_cutoff, offset).
+        throughput_cutoff, offset, transparent_shadows).
 
     Raises
     ------
@@ -198,7 +198,7 @@ def load_dict(spec, *, base_dir=None):
     scene : pyrt.Scene
     render_options : dict
         The ``render`` keys that are arguments of :func:`pyrt.render` (max_depth, seed,
-        throughput_cutoff, offset).
+        throughput_cutoff, offset, transparent_shadows).
 
     Raises
     ------
@@ -238,7 +238,8 @@ def _load(data, base, path):
     _check_keys("[render]", rnd, _RENDER_KEYS, path)
     scene = _construct(Scene, {"camera": camera, **{k: rnd[k] for k in ("background", "ambient") if k in rnd}},
                        "[render]", path)
-    options = {k: rnd[k] for k in ("max_depth", "seed", "throughput_cutoff", "offset") if k in rnd}
+    options = {k: rnd[k] for k in ("max_depth", "seed", "throughput_cutoff", "offset", "transparent_shadows")
+               if k in rnd}
 
     materials = {}
     mats_t = data.get("materials", {})

@@ -6,6 +6,7 @@
 - :mod:`pyrt.materials.library`: the rest of the course's models (Phong, classic models, Ward,
   Cook-Torrance, glTF metallic-roughness);
 - :mod:`pyrt.materials.extra`: smooth conductor, Oren-Nayar, LearnOpenGL's PBR model (issue 16);
+- :mod:`pyrt.materials.rough_dielectric`: frosted glass (GGX reflection and transmission, Walter 2007);
 - :mod:`pyrt.materials.dispatch`: :class:`BSDFBatch`, the per-material-type dispatch of a batch of hits.
 """
 from pyrt.materials.base import (MATERIALS, CosineQuery, DeltaLobe, IsotropicMaterial, LocalCosineQuery, Material,
@@ -13,6 +14,7 @@ from pyrt.materials.base import (MATERIALS, CosineQuery, DeltaLobe, IsotropicMat
 from pyrt.materials.basic import BlinnPhong, Glass, Lambert, Mirror
 from pyrt.materials.library import BlinnPhongClassic, CookTorrance, MetallicRoughness, Phong, PhongClassic, Ward
 from pyrt.materials.extra import Conductor, LearnOpenGLPBR, OrenNayar
+from pyrt.materials.rough_dielectric import RoughDielectric
 
 #: the material registry under its older name
 REGISTRY = MATERIALS
@@ -20,4 +22,4 @@ REGISTRY = MATERIALS
 __all__ = ["MATERIALS", "REGISTRY", "CosineQuery", "DeltaLobe", "IsotropicMaterial", "LocalCosineQuery", "Material",
            "MaterialError", "check_color", "check_scalar", "is_texture", "register", "BlinnPhong", "Glass", "Lambert",
            "Mirror", "BlinnPhongClassic", "CookTorrance", "MetallicRoughness", "Phong", "PhongClassic", "Ward",
-           "Conductor", "LearnOpenGLPBR", "OrenNayar"]
+           "Conductor", "LearnOpenGLPBR", "OrenNayar", "RoughDielectric"]

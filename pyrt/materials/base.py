@@ -33,7 +33,7 @@ local-frame ``f_cos`` are one formula by construction.
 
 Declared attributes the integrators read to model no more than the scene needs: ``has_diffuse``
 (receives direct and ambient light), ``has_delta`` (spawns specular rays), ``is_dielectric`` with
-``ior``, ``priority`` and ``absorption`` (refraction, nested media), ``emits`` (may emit), ``lambertian``
+``ior``, ``tint``, ``priority`` and ``absorption`` (refraction, nested media), ``emits`` (may emit), ``lambertian``
 (the environment preview's SH path), ``normal_map`` and ``uses_textures`` (ray differentials).
 
 A new model is one kernel in :mod:`pyrt.shaders` and one class registered with
@@ -170,6 +170,8 @@ class Material:
     priority = 0.0
     #: Beer-Lambert absorption coefficient sigma_a (RGB, per scene unit) of the enclosed medium
     absorption = 0.0
+    #: colour filter (RGB or texture) of a dielectric's transmission per interface (refraction, transparent shadows)
+    tint = 1.0
     #: may emit light (:meth:`emission` non-zero somewhere); derived for subclasses that override
     #: :meth:`emission` without declaring it (see ``__init_subclass__``)
     emits = False
@@ -182,6 +184,9 @@ class Material:
     name = None
     #: tangent-space normal map (a :class:`pyrt.NormalMap`) or None; applied to the shading normal before shading
     normal_map = None
+    #: has a transmission lobe: ``f_cos``/``sample`` give directions below the local horizon (wi_z < 0);
+    #: the strict Whitted integrator lights only the viewer's side (rough glass needs the glossy integrator)
+    transmits = False
     #: f(wo, wi) = f(wi, wo) (Helmholtz reciprocity; the contract tests check it where declared)
     reciprocal = True
     #: ``{attribute: ("color" | "scalar", lo, hi, lo_open)}``: the ranges :meth:`validate` re-checks before every
