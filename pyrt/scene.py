@@ -53,10 +53,17 @@ class Scene:
     background : RGB radiance seen where rays miss (default black)
     ambient : RGB constant ambient radiance L_a; a hit adds ``albedo * L_a`` (the classic k_a L_a term,
         with k_a the material's albedo). Default 0 (physically based).
+    shading_normal_fallback : bool
+        Where a smooth face's interpolated vertex normal faces away from the viewer, shade with the
+        geometric normal instead (default True, pyrt's better picture). False keeps the back-facing
+        normal, so such hits shade black as in pbrt and Mitsuba (a reference switch, README conventions).
     """
 
-    def __init__(self, camera=None, *, background=(0.0, 0.0, 0.0), ambient=(0.0, 0.0, 0.0)):
+    def __init__(self, camera=None, *, background=(0.0, 0.0, 0.0), ambient=(0.0, 0.0, 0.0),
+                 shading_normal_fallback=True):
         self.camera = camera if camera is not None else Camera()
+        #: Replace a back-facing interpolated normal by the geometric one (see the class docstring).
+        self.shading_normal_fallback = bool(shading_normal_fallback)
         self.background = _rgb("Scene", "background", background)
         self.ambient = _rgb("Scene", "ambient", ambient)
         self.environment = None
@@ -224,7 +231,7 @@ class Scene:
         """The flat float64 :class:`pyrt.geometry.GeometryTable` of every mesh (what the accelerator is built from)."""
         if not self.meshes:
             raise SceneError("the scene has no meshes")
-        return GeometryTable(self.meshes)
+        return GeometryTable(self.meshes, shading_normal_fallback=self.shading_normal_fallback)
 
     def bounds(self):
         """World bounding box ``(lo (3,), hi (3,))`` of all meshes."""

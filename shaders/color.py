@@ -25,6 +25,31 @@ def srgb_decode(encoded):
     return np.where(x <= 0.04045, x / 12.92, np.power((x + 0.055) / 1.055, 2.4)).astype(x.dtype, copy=False)
 
 
+def gamma_encode(linear, gamma=2.2):
+    """Linear [0, 1] -> plain power-law encoding ``x ** (1 / gamma)`` (course notes 003/004).
+
+    The simple display curve (LearnOpenGL "Gamma correction": ``pow(color, vec3(1.0 / 2.2))``), beside
+    the exact piecewise sRGB curve :func:`srgb_encode`; with ``gamma=2.2`` the two differ by at most
+    ~0.035 (near black, where sRGB is linear). Input is clipped to [0, 1]; dtype preserved.
+    """
+    x = np.clip(linear, 0.0, 1.0)
+    return np.power(x, 1.0 / gamma).astype(x.dtype, copy=False)
+
+
+def gamma_decode(encoded, gamma=2.2):
+    """Power-law encoded [0, 1] -> linear ``x ** gamma`` (inverse of :func:`gamma_encode`).
+
+    With ``gamma=2.2`` this is the ``pow(texel, 2.2)`` texture decoding of the course notes and of
+    LearnOpenGL, beside the exact :func:`srgb_decode`. Input is clipped to [0, 1]; dtype preserved.
+    """
+    x = np.clip(encoded, 0.0, 1.0)
+    return np.power(x, gamma).astype(x.dtype, copy=False)
+
+
+#: Display encodings by name: ``name -> (encode, decode)``; ``"gamma"`` takes a ``gamma`` keyword.
+ENCODINGS = {"srgb": (srgb_encode, srgb_decode), "gamma": (gamma_encode, gamma_decode)}
+
+
 # ----------------------------------------------------------------------------- colorimetry (issue 8)
 #
 # CIE 1931 2-degree standard observer. No installed package ships the tabulated CIE data (numpy,

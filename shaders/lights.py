@@ -90,15 +90,19 @@ def directional_light(p, direction, E):
 #                                                               getSquareFalloffAttenuation: C1, exactly 0 at R
 #   "gltf_range"          clamp(1 - (r/R)^4, 0, 1) / r^2        the formula recommended by the glTF
 #                                                               KHR_lights_punctual README for ``range``
+#   "clq"                 1 / (Kc + Kl r + Kq r^2)              constant-linear-quadratic attenuation (course
+#                                                               notes 003; OpenGL fixed-function
+#                                                               GL_*_ATTENUATION, LearnOpenGL "Light casters");
+#                                                               (Kc, Kl, Kq) = (0, 0, 1) is "inverse_square"
 # Spot (cone) falloff ``g(cos theta)`` with cone half-angles inner <= outer:
 #   "smoothstep"    pbrt-v4 SpotLight: smoothstep(cos theta; cos outer, cos inner)   the default
 #   "gltf"          KHR_lights_punctual: clamp((cos theta - cos outer)/(cos inner - cos outer), 0, 1)^2
 #   "linear_angle"  Mitsuba 3 spot: clamp((outer - theta)/(outer - inner), 0, 1), linear in the angle
 
-DISTANCE_FALLOFFS = ("inverse_square", "inverse_square_eps", "smooth_range", "gltf_range")
+DISTANCE_FALLOFFS = ("inverse_square", "inverse_square_eps", "smooth_range", "gltf_range", "clq")
 
 
-def distance_falloff(dist, kind="inverse_square", *, eps=0.0, light_range=np.inf):
+def distance_falloff(dist, kind="inverse_square", *, eps=0.0, light_range=np.inf, clq=(0.0, 0.0, 1.0)):
     """Distance falloff factor ``f(r)`` (m^-2) of a punctual light; see the table above for ``kind``.
 
     Parameters
@@ -113,6 +117,8 @@ def distance_falloff(dist, kind="inverse_square", *, eps=0.0, light_range=np.inf
         Range R (m): every kind returns exactly 0 for ``r >= R`` (a hard cut for the inverse-square
         kinds, the smooth window reaches 0 there by itself); ``inf`` for no range. Required (finite)
         for the two ``*_range`` windows.
+    clq : (3,) float
+        ``clq`` only: the constant, linear (m^-1) and quadratic (m^-2) coefficients ``(Kc, Kl, Kq)`` >= 0.
 
     Returns
     -------
@@ -124,6 +130,10 @@ def distance_falloff(dist, kind="inverse_square", *, eps=0.0, light_range=np.inf
     if kind == "inverse_square_eps":
         re = r + dt.type(eps)
         f = np.divide(1.0, re * re, out=np.zeros_like(r), where=re > 0)
+    elif kind == "clq":
+        kc, kl, kq = (dt.type(k) for k in clq)
+        den = kc + r * (kl + kq * r)
+        f = np.divide(1.0, den, out=np.zeros_like(r), where=den > 0)
     else:
         r2 = r * r
         f = np.divide(1.0, r2, out=np.zeros_like(r), where=r2 > 0)

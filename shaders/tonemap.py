@@ -34,4 +34,15 @@ def reinhard(L, exposure=0.0, L_white=None):
     return np.clip(L * scale[..., None], 0.0, 1.0)
 
 
-OPERATORS = {"linear": linear, "film": film, "reinhard": reinhard}
+def reinhard_rgb(L, exposure=0.0):
+    """Per-channel Reinhard ``L / (1 + L)`` on each of R, G, B independently (course note 003).
+
+    Unlike :func:`reinhard` (luminance form, hue preserved) each channel saturates on its own, so bright
+    colours drift toward white. Reinhard et al. 2002, eq. 3, applied per channel as in LearnOpenGL's
+    "HDR" chapter (``mapped = hdrColor / (hdrColor + vec3(1.0))``).
+    """
+    L = np.maximum(L, 0.0) * (2.0 ** exposure)
+    return L / (1.0 + L)
+
+
+OPERATORS = {"linear": linear, "film": film, "reinhard": reinhard, "reinhard_rgb": reinhard_rgb}

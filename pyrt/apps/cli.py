@@ -41,7 +41,11 @@ def _parser():
     r.add_argument("--transparent-shadows", action=argparse.BooleanOptionalAction, default=None,
                    help="shadow rays pass through glass, Fresnel- and absorption-attenuated (overrides the scene; "
                         "default off)")
-    r.add_argument("--tonemap", default="reinhard", choices=["linear", "film", "reinhard"])
+    r.add_argument("--tonemap", default="reinhard", choices=["linear", "film", "reinhard", "reinhard_rgb"],
+                   help="reinhard: on luminance; reinhard_rgb: per channel L/(1+L)")
+    r.add_argument("--encoding", default="srgb", choices=["srgb", "gamma"],
+                   help="PNG transfer curve: exact sRGB or plain x^(1/gamma)")
+    r.add_argument("--gamma", type=positive_float, default=2.2, help="exponent of --encoding gamma")
     r.add_argument("--exposure", type=finite_float, default=0.0, help="exposure in stops for PNG output")
     r.add_argument("--white", type=positive_float, default=None, help="Reinhard L_white (> 0)")
     r.add_argument("--aovs", action="store_true", help="write depth/normal/albedo channels into EXR outputs")
@@ -93,7 +97,8 @@ def _render(args, cancel):
         if out.lower().endswith(".exr"):
             pyrt.write_exr(out, res.image, aovs=res.aovs, half=args.half)
         else:
-            pyrt.write_png(out, res.image, tonemap=args.tonemap, exposure=args.exposure, L_white=args.white)
+            pyrt.write_png(out, res.image, tonemap=args.tonemap, exposure=args.exposure, L_white=args.white,
+                           encoding=args.encoding, gamma=args.gamma)
         print(f"wrote {out}")
     s = res.stats
     print(f"{scene.camera.width}x{scene.camera.height}, {dt:.2f} s, {s.rays} rays "

@@ -414,7 +414,10 @@ def _read_png16(path):
 
 
 def tonemap_to_display(image, *, tonemap_op="reinhard", exposure=0.0, L_white=None):
-    """Linear radiance -> display-linear [0, 1] with the named operator (linear, film, reinhard)."""
+    """Linear radiance -> display-linear [0, 1] with the named operator (linear, film, reinhard, reinhard_rgb).
+
+    ``reinhard`` maps luminance (hue kept), ``reinhard_rgb`` maps each channel ``L / (1 + L)``.
+    """
     img = _check_image(image)
     try:
         op = tonemap.OPERATORS[tonemap_op]
@@ -463,8 +466,9 @@ def encode_png(pixels):
     return buf.getvalue()
 
 
-def write_png(path, image, *, tonemap="reinhard", exposure=0.0, L_white=None, bits=8):
-    """Tone-map (exposure in stops, then ``tonemap``), sRGB-encode and write an 8- or 16-bit PNG atomically.
+def write_png(path, image, *, tonemap="reinhard", exposure=0.0, L_white=None, bits=8, encoding="srgb",
+              gamma=2.2):
+    """Tone-map (exposure in stops, then ``tonemap``), encode and write an 8- or 16-bit PNG atomically.
 
     Parameters
     ----------
@@ -472,16 +476,30 @@ def write_png(path, image, *, tonemap="reinhard", exposure=0.0, L_white=None, bi
         Output file (its folder is created).
     image : (H, W, 3) float ndarray
         Linear radiance.
-    tonemap : {"linear", "film", "reinhard"}
+    tonemap : {"linear", "film", "reinhard", "reinhard_rgb"}
+        ``reinhard`` on luminance, ``reinhard_rgb`` per channel ``L / (1 + L)``.
     exposure : float
         Stops applied before the operator.
     L_white : float, optional
         The extended Reinhard white point (``tonemap="reinhard"`` only).
     bits : {8, 16}
         Bits per channel (quantised with rounding; encoded by :func:`encode_png`).
+    encoding : {"srgb", "gamma"}
+        Display transfer curve: the exact piecewise sRGB curve (IEC 61966-2-1, default) or the plain
+        power law ``x ** (1 / gamma)`` of the course notes.
+    gamma : float
+        Exponent of ``encoding="gamma"`` (> 0; default 2.2).
     """
+    if encoding == "srgb":
+        encode = color.srgb_encode
+    elif encoding == "gamma":
+        if not (np.isfinite(gamma) and gamma > 0):
+            raise ValueError(f"gamma must be a finite number > 0, got {gamma!r}")
+        encode = lambda x: color.gamma_encode(x, gamma)  # noqa: E731
+    else:
+        raise ValueError(f"unknown encoding {encoding!r}; choose one of {sorted(color.ENCODINGS)}")
     disp = tonemap_to_display(image, tonemap_op=tonemap, exposure=exposure, L_white=L_white)
-    enc = color.srgb_encode(disp)
+    enc = encode(disp)
     if bits == 8:
         out = np.round(enc * 255).astype(np.uint8)
     elif bits == 16:

@@ -60,6 +60,8 @@ through with :meth:`pyrt.geometry.SurfaceBatch.light_side`.
 The default (:data:`DEFAULT`) is ``"robust"``: ``local_bound`` origins, ``"robust"`` tmax and the
 terminator lift on faces with interpolated normals — the only strategy with 0 acne and 0 leak pixels
 over the whole acne matrix (see ``python -m pyrt.apps.acne`` and docs in the README).
+``"robust_no_terminator"`` is the same without the lift, for comparisons with renderers that trace
+the true triangles (an 80-face smooth sphere then leaves its terminator band black).
 """
 from __future__ import annotations
 
@@ -469,6 +471,10 @@ STRATEGIES = {
     "error_bound": Strategy("error_bound", error_bound),
     "local_bound": Strategy("local_bound", local_bound, magnitude=local_bound_magnitude),
     "robust": Strategy("robust", local_bound, tmax="robust", terminator=True, magnitude=local_bound_magnitude),
+    # reference switch: the robust offsets without the terminator lift, i.e. shadow rays from the true
+    # (flat) triangles as pbrt-v4 and Mitsuba 3 trace them (README conventions table)
+    "robust_no_terminator": Strategy("robust_no_terminator", local_bound, tmax="robust", terminator=False,
+                                     magnitude=local_bound_magnitude),
 }
 DEFAULT = "robust"
 #: origin functions whose offset distance does not depend on the direction -> that distance

@@ -81,10 +81,17 @@ def validate_mesh(vertices, faces, name):
 
 
 class GeometryTable:
-    """All meshes of a scene concatenated (float64), indexed by (mesh id, triangle id)."""
+    """All meshes of a scene concatenated (float64), indexed by (mesh id, triangle id).
 
-    def __init__(self, meshes):
+    ``shading_normal_fallback`` (default True): :func:`surface_from_hits` replaces an interpolated
+    normal facing away from the viewer by the geometric normal; False keeps it (such hits shade
+    black, as in pbrt-v4 and Mitsuba 3).
+    """
+
+    def __init__(self, meshes, *, shading_normal_fallback=True):
         self.meshes = list(meshes)
+        #: Replace back-facing interpolated normals by the geometric normal (see the class docstring).
+        self.shading_normal_fallback = bool(shading_normal_fallback)
         nv = [m.vertices.shape[0] for m in self.meshes]
         nf = [m.faces.shape[0] for m in self.meshes]
         self.vertex_offset = np.concatenate([[0], np.cumsum(nv)[:-1]]).astype(np.int64)
@@ -291,9 +298,12 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
         scale_rows(ni, np.take(sign, s), out=ni)
         n_vertex = ng.copy()           # interpolated vertex normal before any fallback or normal map
         put_rows(n_vertex, s, ni)
-        # An interpolated normal facing away from the viewer cannot shade anything: fall back to ng.
+        # An interpolated normal facing away from the viewer cannot shade anything: fall back to ng
+        # (geo.shading_normal_fallback; off, only a zero normal falls back and the hit shades black).
         ng_s = take_rows(ng, s)
-        bad = (dot(ni, take_rows(wo, s)) <= 0) | (dot(ni, ni) == 0)
+        bad = dot(ni, ni) == 0
+        if geo.shading_normal_fallback:
+            bad |= dot(ni, take_rows(wo, s)) <= 0
         if np.any(bad):
             b_ = np.flatnonzero(bad)
             put_rows(ni, b_, take_rows(ng_s, b_))

@@ -5,7 +5,8 @@
 - :mod:`pyrt.lights.textured`: projector (gobo), goniometric, IES;
 - :mod:`pyrt.lights.area`: rectangle, disk, sphere (and the :class:`AreaEmitter` material of their meshes);
 - :mod:`pyrt.lights.environment`: constant, lat-long and cube-map environments (:data:`ENVIRONMENTS`) and
-  :class:`EnvironmentLight`.
+  :class:`EnvironmentLight`;
+- :mod:`pyrt.lights.probes`: angular-map and mirror-ball light probes (registered in :data:`ENVIRONMENTS`).
 """
 from pyrt.lights.base import LIGHTS, LUMINOUS_EFFICACY, PATH_ARGUMENTS, Light, LightError, LightSample
 from pyrt.lights.punctual import DirectionalLight, PointLight, SpotLight
@@ -14,6 +15,7 @@ from pyrt.lights.area import AreaEmitter, AreaLight, DiskLight, RectLight, Spher
 from pyrt.lights.environment import (ENVIRONMENTS, ConstantEnvironment, CubeMapEnvironment, Environment,
                                      EnvironmentLight, EnvironmentMapError, LatLongEnvironment, procedural_sky,
                                      set_environment)
+from pyrt.lights.probes import AngularMapEnvironment, MirrorBallEnvironment
 
 #: the light registry under its older name
 REGISTRY = LIGHTS
@@ -22,4 +24,4 @@ __all__ = ["LIGHTS", "REGISTRY", "LUMINOUS_EFFICACY", "PATH_ARGUMENTS", "Light",
            "DirectionalLight", "PointLight", "SpotLight", "GoniometricLight", "IESLight", "ProjectorLight",
            "AreaEmitter", "AreaLight", "DiskLight", "RectLight", "SphereLight", "ENVIRONMENTS", "ConstantEnvironment",
            "CubeMapEnvironment", "Environment", "EnvironmentLight", "EnvironmentMapError", "LatLongEnvironment",
-           "procedural_sky", "set_environment"]
+           "procedural_sky", "set_environment", "AngularMapEnvironment", "MirrorBallEnvironment"]

@@ -35,7 +35,8 @@ Distance falloff and range
 --------------------------
 Point-like lights take ``falloff=`` one of :data:`shaders.lights.DISTANCE_FALLOFFS`
 (``"inverse_square"`` (default, physical), ``"inverse_square_eps"`` (with ``epsilon``),
-``"smooth_range"`` (UE4/Filament window, needs ``range``), ``"gltf_range"`` (needs ``range``)) and
+``"smooth_range"`` (UE4/Filament window, needs ``range``), ``"gltf_range"`` (needs ``range``),
+``"clq"`` (``1 / (Kc + Kl r + Kq r^2)`` with ``clq=(Kc, Kl, Kq)``, point and spot lights)) and
 an optional ``range`` (m): beyond it E = 0, so the integrator traces no shadow ray there. Spot-like
 lights take ``spot_falloff=`` one of ``"smoothstep"`` (pbrt-v4, default), ``"gltf"``,
 ``"linear_angle"`` (Mitsuba).
@@ -74,10 +75,17 @@ class _PunctualLight(Light):
         if "sample_li" not in cls.__dict__ and ("sample" in cls.__dict__ or "radiant_intensity" in cls.__dict__):
             cls.sample_li = Light.sample_li
 
-    def _init_falloff(self, owner, falloff, epsilon, light_range):
+    def _init_falloff(self, owner, falloff, epsilon, light_range, clq=None):
         if falloff not in kernels.DISTANCE_FALLOFFS:
             raise LightError(f"{owner}: falloff must be one of {list(kernels.DISTANCE_FALLOFFS)}, got {falloff!r}")
         self.falloff = falloff
+        if falloff == "clq":
+            if clq is None:
+                raise LightError(f"{owner}: falloff 'clq' needs clq=(Kc, Kl, Kq)")
+            clq = self._check_clq(owner, clq)
+        elif clq is not None:
+            raise LightError(f"{owner}: clq is only used by falloff 'clq'")
+        self.clq = clq
         if light_range is not None:
             light_range = _nonneg(owner, "range", light_range)
             if light_range == 0:
@@ -105,6 +113,16 @@ class _PunctualLight(Light):
             raise LightError(f"{owner}: range must be > 0 (or None for no range)")
         if self.epsilon is not None:
             _nonneg(owner, "epsilon", self.epsilon)
+        if self.clq is not None:
+            self._check_clq(owner, self.clq)
+
+    @staticmethod
+    def _check_clq(owner, clq):
+        """``(Kc, Kl, Kq)``: three finite numbers >= 0, not all zero; returned as a tuple of floats."""
+        k = np.asarray(clq, dtype=np.float64)
+        if k.shape != (3,) or not np.all(np.isfinite(k)) or np.any(k < 0) or not np.any(k > 0):
+            raise LightError(f"{owner}: clq must be three finite numbers (Kc, Kl, Kq) >= 0, not all 0, got {clq!r}")
+        return tuple(float(x) for x in k)
 
     @property
     def _physical(self):
@@ -114,7 +132,8 @@ class _PunctualLight(Light):
     def distance_falloff(self, dist):
         """The falloff factor f(r) (m^-2) of this light at distances ``dist`` (N,)."""
         return kernels.distance_falloff(dist, self.falloff, eps=self.epsilon or 0.0,
-                                        light_range=np.inf if self.range is None else self.range)
+                                        light_range=np.inf if self.range is None else self.range,
+                                        clq=self.clq or (0.0, 0.0, 1.0))
 
     def radiant_intensity(self, w):
         """Radiant intensity (W/sr) per RGB channel toward unit world directions ``w`` (N, 3) from the light."""
@@ -141,8 +160,8 @@ class PointLight(_PunctualLight):
     """Isotropic point light.
 
     Give exactly one of ``intensity`` I (W/sr), ``power`` phi (W) = 4 pi I, ``candela`` (cd) or
-    ``power_lm`` (lm); ``color`` (RGB filter) or ``temperature`` (kelvin). ``falloff``, ``epsilon``
-    and ``range`` as in the module docstring.
+    ``power_lm`` (lm); ``color`` (RGB filter) or ``temperature`` (kelvin). ``falloff``, ``epsilon``,
+    ``range`` and ``clq`` as in the module docstring.
     """
 
     @classmethod
@@ -151,14 +170,15 @@ class PointLight(_PunctualLight):
         return cls((0.0, 2.0, 0.0), intensity=10.0, color=(1.0, 0.8, 0.6))
 
     def __init__(self, position, intensity=None, *, power=None, candela=None, power_lm=None, color=None,
-                 temperature=None, falloff="inverse_square", epsilon=None, range=None, name=None):  # noqa: A002
+                 temperature=None, falloff="inverse_square", epsilon=None, range=None, clq=None,  # noqa: A002
+                 name=None):
         owner = f"PointLight({name or ''})"
         self.name = name
         self.position = _vec3(owner, "position", position)
         self.intensity = _intensity(owner, solid_angle=4 * math.pi, intensity=intensity, power=power,
                                     candela=candela, power_lm=power_lm)
         self.color = _resolve_color(owner, color, temperature)
-        self._init_falloff(owner, falloff, epsilon, range)
+        self._init_falloff(owner, falloff, epsilon, range, clq)
         self.validate()
 
     @property
@@ -237,7 +257,8 @@ class SpotLight(_PunctualLight):
 
     def __init__(self, position, direction=None, *, target=None, intensity=None, power=None, candela=None,
                  power_lm=None, inner_angle=20.0, outer_angle=30.0, spot_falloff="smoothstep", color=None,
-                 temperature=None, falloff="inverse_square", epsilon=None, range=None, name=None):  # noqa: A002
+                 temperature=None, falloff="inverse_square", epsilon=None, range=None, clq=None,  # noqa: A002
+                 name=None):
         owner = f"{type(self).__name__}({name or ''})"
         self.name = name
         self.position = _vec3(owner, "position", position)
@@ -246,7 +267,7 @@ class SpotLight(_PunctualLight):
         self.intensity = _intensity(owner, solid_angle=self.cone_solid_angle, intensity=intensity, power=power,
                                     candela=candela, power_lm=power_lm)
         self.color = _resolve_color(owner, color, temperature)
-        self._init_falloff(owner, falloff, epsilon, range)
+        self._init_falloff(owner, falloff, epsilon, range, clq)
         self.validate()
 
     def validate(self):

@@ -7,6 +7,8 @@ Conventions (the kernels in :mod:`pyrt.shaders.textures` document the maths)
 - **Colour**: 8/16-bit PNG/JPEG images are sRGB-encoded and are linearised on load when
   ``srgb`` is true (the default for integer images); EXR and float arrays are linear (default
   ``srgb=False``). Data textures (roughness, metallic, normal maps) must pass ``srgb=False``.
+  ``decode="gamma2.2"`` decodes with the plain power law ``x ** 2.2`` of the course notes instead of
+  the exact sRGB curve (``decode`` is one of :data:`DECODINGS`; it overrides ``srgb``).
   Alpha channels are dropped (RGBA -> RGB, grey+alpha -> grey).
 - **Wrap**: ``"repeat" | "mirror" | "clamp"``, one name or a ``(u, v)`` pair.
 - **Filters**: ``"nearest" | "bilinear" | "bicubic"`` (reconstruction on the full-resolution
@@ -72,8 +74,16 @@ def load_image(path):
     raise TextureError(f"texture file {path!r}: unsupported pixel type {img.dtype}")
 
 
-def prepare_image(img, *, label, srgb, channels, select):
-    """Shape to (H, W, C), drop alpha, select/check channels, decode sRGB, check finiteness.
+#: Texel decodings of :class:`ImageTexture` (``decode=``): exact sRGB curve, ``pow(x, 2.2)``, none.
+DECODINGS = ("srgb", "gamma2.2", "linear")
+
+
+def prepare_image(img, *, label, srgb, channels, select, decode=None):
+    """Shape to (H, W, C), drop alpha, select/check channels, decode, check finiteness.
+
+    ``decode`` (one of :data:`DECODINGS`) overrides ``srgb`` when given: ``"srgb"`` applies
+    :func:`shaders.color.srgb_decode`, ``"gamma2.2"`` :func:`shaders.color.gamma_decode` with
+    ``gamma=2.2``, ``"linear"`` nothing.
 
     Returns
     -------
@@ -104,8 +114,14 @@ def prepare_image(img, *, label, srgb, channels, select):
         r, col, ch = np.argwhere(bad)[0]
         raise TextureError(f"texture {label}: {int(bad.sum())} non-finite texel value(s), first at row {r}, "
                            f"column {col}, channel {ch} ({img[r, col, ch]})")
-    if srgb:
+    if decode is None:
+        decode = "srgb" if srgb else "linear"
+    if decode == "srgb":
         img = _color.srgb_decode(img)
+    elif decode == "gamma2.2":
+        img = _color.gamma_decode(img, 2.2)
+    elif decode != "linear":
+        raise TextureError(f"texture {label}: decode must be one of {DECODINGS}, got {decode!r}")
     return img
 
 
@@ -164,6 +180,10 @@ class ImageTexture(Texture):
     srgb : bool, optional
         Decode the sRGB transfer curve on load. Default: True for 8/16-bit images (colour
         textures), False for EXR and float arrays. Pass False for data textures.
+    decode : {None, "srgb", "gamma2.2", "linear"}
+        Texel decoding; overrides ``srgb`` when given: the exact sRGB curve, the plain power law
+        ``x ** 2.2`` (course notes 003/004, LearnOpenGL), or none. ``None`` (default): ``"srgb"`` if
+        ``srgb`` else ``"linear"``.
     wrap : str or (str, str)
         ``"repeat"``, ``"mirror"`` or ``"clamp"`` (per axis as a ``(u, v)`` pair).
     filter : str
@@ -187,7 +207,7 @@ class ImageTexture(Texture):
 
     def __init__(self, source, *, srgb=None, wrap="repeat", filter="trilinear", scale=(1.0, 1.0),
                  offset=(0.0, 0.0), rotation_deg=0.0, channels=None, select=None, footprint_scale=None,
-                 max_anisotropy=8.0, name=None):
+                 max_anisotropy=8.0, name=None, decode=None):
         if isinstance(source, (str, os.PathLike)):
             self.path = os.fspath(source)
             label = repr(self.path)
@@ -203,6 +223,14 @@ class ImageTexture(Texture):
                 raise TextureError(f"texture {label}: unsupported array dtype {img.dtype}")
         self.name = name
         self.srgb = bool(is_int) if srgb is None else bool(srgb)
+        if decode is not None:
+            if decode not in DECODINGS:
+                raise TextureError(f"texture {label}: decode must be one of {DECODINGS}, got {decode!r}")
+            if srgb is not None and bool(srgb) != (decode == "srgb"):
+                raise TextureError(f"texture {label}: srgb={srgb} contradicts decode={decode!r}; pass one")
+            self.srgb = decode == "srgb"
+        #: The texel decoding applied on load (one of :data:`DECODINGS`).
+        self.decode = decode if decode is not None else ("srgb" if self.srgb else "linear")
         if filter not in FILTERS:
             raise TextureError(f"texture {label}: filter must be one of {FILTERS}, got {filter!r}")
         try:
@@ -221,7 +249,8 @@ class ImageTexture(Texture):
             raise TextureError(f"texture {label}: need footprint_scale > 0 and max_anisotropy >= 1")
         self.footprint_scale = float(footprint_scale)
         self.max_anisotropy = float(max_anisotropy)
-        self._image = prepare_image(img, label=label, srgb=self.srgb, channels=channels, select=select)
+        self._image = prepare_image(img, label=label, srgb=self.srgb, channels=channels, select=select,
+                                    decode=self.decode)
         self.channels = self._image.shape[2]
         self._pyramid = MipPyramid(self._image)
 
