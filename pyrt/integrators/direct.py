@@ -37,12 +37,13 @@ def estimate_light(light, surf, bsdf, visible, rng):
 
 
 
-def light_sampling_estimate(light, surf, bsdf, visible, rng):
+def light_sampling_estimate(light, surf, bsdf, visible, rng, weight=None):
     """Direct light (N, 3) from ``light`` toward ``surf.wo`` at every hit of ``surf``, by light sampling.
 
     ``light.n_samples`` samples per hit (stratified for non-delta lights), each one shadow ray where the
     light can contribute: on the light's side of the surface (``surf.light_side``), ``E > 0`` and a
-    non-zero BSDF.
+    non-zero BSDF. ``weight(idx, wi) -> (k,)``, if given, multiplies each unoccluded sample (the MIS weight
+    of light sampling when another strategy also reaches the light, :mod:`pyrt.integrators.glossy`).
     """
     n = surf.n_hits
     L = np.zeros((n, 3))
@@ -75,6 +76,8 @@ def light_sampling_estimate(light, surf, bsdf, visible, rng):
             idx, f, wi_a = idx[keep], take_rows(f, keep), take_rows(wi_a, keep)
         vis = np.flatnonzero(visible(idx, wi_a, np.take(dist, idx), light.position if light.fixed_position else None))
         idx, f = idx[vis], take_rows(f, vis)
+        if weight is not None:
+            f = f * weight(idx, take_rows(wi_a, vis))[:, None]
         ls.weight(f, idx)
         put_rows(L, idx, take_rows(L, idx) + f)
     return L / ns
