@@ -24,7 +24,7 @@ from pyrt.integrators.glossy import GlossyIntegrator
 from pyrt.integrators.whitted import Integrator
 
 #: ``integrator=`` names: strict Whitted (delta lobes only, the default) and glossy reflection rays
-INTEGRATORS = {"whitted": Integrator, "glossy": GlossyIntegrator}
+INTEGRATORS = ("whitted", "glossy")
 
 
 @dataclass
@@ -120,7 +120,7 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     extra = {}
     if integrator == "glossy":
         extra = dict(glossy_samples=glossy_samples, glossy_depth=glossy_depth, glossy_threshold=glossy_threshold)
-    make = INTEGRATORS[integrator]
+    make = GlossyIntegrator if integrator == "glossy" else Integrator
     cam = scene.camera
     if spp is not None:
         cam = copy(cam)
