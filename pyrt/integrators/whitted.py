@@ -14,6 +14,10 @@ The image is processed in chunks of pixels (bounded memory: a chunk holds at mos
    internal reflection) spawn the next batch with multiplied throughput; rays whose throughput
    falls below ``throughput_cutoff`` (max over RGB) or that reach ``max_depth`` are dropped.
 
+Steps 2, 4 and 5 go through hooks (``_sampled_hits``, ``_direct_light``, ``_spawn``, ``_escape_weight``,
+``_emission_weight``) that are plain Whitted here; :class:`pyrt.integrators.glossy.GlossyIntegrator` overrides
+them to add BSDF-sampled rays at glossy hits and their MIS weights, in the same loop.
+
 This module knows nothing about Embree; it asks :class:`pyrt.geometry.accel.Accel` for hits and occlusion.
 """
 from __future__ import annotations
