@@ -20,7 +20,11 @@ from pyrt.core import checks
 from pyrt.core.errors import RenderError
 from pyrt.core.film import Film
 from pyrt.integrators.prepared import PreparedScene, RenderStats
+from pyrt.integrators.glossy import GlossyIntegrator
 from pyrt.integrators.whitted import Integrator
+
+#: ``integrator=`` names: strict Whitted (delta lobes only, the default) and glossy reflection rays
+INTEGRATORS = ("whitted", "glossy")
 
 
 @dataclass
@@ -68,7 +72,8 @@ class RenderResult:
 
 def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4, offset=None, aovs=False,
                 progress=None, chunk_samples=1 << 15, threads=None, record_rays=False, prepared=None,
-                nonfinite="zero", cancel=None, fill=False, fill_budget=2.0, transparent_shadows=False):
+                nonfinite="zero", cancel=None, fill=False, fill_budget=2.0, transparent_shadows=False,
+                integrator="whitted", glossy_samples=4, glossy_depth=2, glossy_threshold=0.4):
     """Render ``scene`` and return a :class:`RenderResult` with the image, AOVs and statistics.
 
     Parameters are those of :func:`render`, plus:
@@ -93,6 +98,13 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         (``result.pixels_filled``). What the command line does on Ctrl-C.
     fill_budget : float
         Seconds the fill may take (estimate); above it the unfinished pixels stay black.
+    integrator : {"whitted", "glossy"}
+        ``"whitted"`` (default): only delta lobes (mirrors, glass) spawn rays. ``"glossy"``
+        (:mod:`pyrt.integrators.glossy`): glossy lobes also spawn BSDF-sampled rays, MIS-combined with
+        light sampling.
+    glossy_samples, glossy_depth, glossy_threshold : int, int, float
+        The glossy integrator's rays per hit on the first bounce (1 deeper), the bounces that spawn them
+        and the ``glossy_alpha`` above which a lobe counts as diffuse (:class:`GlossyIntegrator`).
 
     A ``KeyboardInterrupt`` while rendering cancels the chunks not yet started, waits for the running
     ones, shuts the thread pool down and propagates (no thread is left running).
@@ -103,6 +115,12 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     depend on the number of threads or the order in which chunks finish.
     """
     t_start = time.perf_counter()
+    if integrator not in INTEGRATORS:
+        raise RenderError(f"render: integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
+    extra = {}
+    if integrator == "glossy":
+        extra = dict(glossy_samples=glossy_samples, glossy_depth=glossy_depth, glossy_threshold=glossy_threshold)
+    make = GlossyIntegrator if integrator == "glossy" else Integrator
     cam = scene.camera
     if spp is not None:
         cam = copy(cam)
@@ -120,8 +138,8 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     def run_chunk(ci):
         lo = starts[ci]
         hi = min(lo + px_per_chunk, n_pix)
-        integ = Integrator(ps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
-                           record_rays=record_rays, transparent_shadows=transparent_shadows)
+        integ = make(ps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
+                     record_rays=record_rays, transparent_shadows=transparent_shadows, **extra)
         rng = np.random.default_rng([seed, ci])
         rays = cam.generate_rays(lo, hi, rng, differentials=ps.needs_differentials)
         L, a = integ.render_samples(rays, want_aovs=aovs, rng=rng)
@@ -169,8 +187,8 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
             def fill_chunk(k):
                 ci = pending[k]
                 lo, hi = starts[ci], min(starts[ci] + px_per_chunk, n_pix)
-                integ = Integrator(fps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
-                                   transparent_shadows=transparent_shadows)
+                integ = make(fps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
+                             transparent_shadows=transparent_shadows, **extra)
                 rng = np.random.default_rng([seed, ci, 1])
                 rays = cam1.generate_rays(lo, hi, rng, differentials=fps.needs_differentials)
                 L, a = integ.render_samples(rays, want_aovs=aovs, rng=rng)
@@ -254,6 +272,9 @@ def render(scene, **kwargs):
     cancel : threading.Event, optional
         Stop early when set (no new chunk starts); the chunks not rendered stay black. Use
         :func:`render_full` to learn whether the image is complete.
+    integrator : {"whitted", "glossy"}
+        Default ``"whitted"``; see :func:`render_full` (also ``glossy_samples``, ``glossy_depth``,
+        ``glossy_threshold``).
 
     Returns
     -------

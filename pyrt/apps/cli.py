@@ -16,6 +16,7 @@ import traceback
 
 import pyrt
 from pyrt.geometry.offsets import STRATEGIES
+from pyrt.render import INTEGRATORS
 from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, check_outputs, finite_float, interrupts,
                               nonnegative_int, positive_float, positive_int)
 
@@ -38,6 +39,8 @@ def _parser():
     r.add_argument("--seed", type=nonnegative_int)
     r.add_argument("--max-depth", type=nonnegative_int, help="maximum specular depth (0: direct light only)")
     r.add_argument("--offset", choices=sorted(STRATEGIES), help="ray-origin offset strategy (default: robust)")
+    r.add_argument("--integrator", choices=list(INTEGRATORS),
+                   help="whitted: only mirrors and glass spawn rays (default); glossy: glossy lobes too")
     r.add_argument("--transparent-shadows", action=argparse.BooleanOptionalAction, default=None,
                    help="shadow rays pass through glass, Fresnel- and absorption-attenuated (overrides the scene; "
                         "default off)")
@@ -84,7 +87,7 @@ def _render(args, cancel):
         scene.camera.width = args.width
     if args.height is not None:
         scene.camera.height = args.height
-    for key in ("seed", "max_depth", "offset", "transparent_shadows"):
+    for key in ("seed", "max_depth", "offset", "transparent_shadows", "integrator"):
         if getattr(args, key) is not None:
             opts[key] = getattr(args, key)
     t0 = time.perf_counter()

@@ -30,13 +30,18 @@ class RayBatch:
         Raster index (row-major) of the pixel each camera ray belongs to.
     tmax : (N,) float64 ndarray, optional
         Parametric end of each ray; None for unbounded rays.
+    bsdf_pdf : (N,) float64 ndarray, optional
+        For rays spawned by sampling a non-delta lobe (:mod:`pyrt.integrators.glossy`): ``n_samples * pdf``
+        of that sample (solid angle), what the emitters and the environment they reach are MIS-weighted
+        against; 0 for delta-lobe rays, None when no ray of the batch was sampled so.
     """
 
     __slots__ = ("origins", "directions", "sample", "throughput", "depth", "differentials", "stack", "pixel",
-                 "tmax")
+                 "tmax", "bsdf_pdf")
 
     def __init__(self, origins, directions, *, sample=None, throughput=None, depth=0, differentials=None,
-                 stack=None, pixel=None, tmax=None):
+                 stack=None, pixel=None, tmax=None,
+                 bsdf_pdf=None):
         n = origins.shape[0]
         self.origins = origins
         self.directions = directions
@@ -47,6 +52,7 @@ class RayBatch:
         self.stack = stack
         self.pixel = pixel
         self.tmax = tmax
+        self.bsdf_pdf = bsdf_pdf
 
     @property
     def size(self):

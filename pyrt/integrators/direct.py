@@ -38,12 +38,13 @@ def estimate_light(light, surf, bsdf, visible, rng):
 
 
 
-def light_sampling_estimate(light, surf, bsdf, visible, rng):
+def light_sampling_estimate(light, surf, bsdf, visible, rng, weight=None):
     """Direct light (N, 3) from ``light`` toward ``surf.wo`` at every hit of ``surf``, by light sampling.
 
     ``light.n_samples`` samples per hit (stratified for non-delta lights), each one shadow ray where the
     light can contribute: on the light's side of the surface (``surf.light_side``), ``E > 0`` and a
-    non-zero BSDF.
+    non-zero BSDF. ``weight(idx, wi) -> (k,)``, if given, multiplies each unoccluded sample (the MIS weight
+    of light sampling when another strategy also reaches the light, :mod:`pyrt.integrators.glossy`).
     """
     n = surf.n_hits
     L = np.zeros((n, 3))
@@ -74,8 +75,13 @@ def light_sampling_estimate(light, surf, bsdf, visible, rng):
             if keep.size == 0:
                 continue
             idx, f, wi_a = idx[keep], take_rows(f, keep), take_rows(wi_a, keep)
-        idx, f = _shadowed(visible(idx, wi_a, np.take(dist, idx), light.position if light.fixed_position else None),
-                           idx, f)
+        vis = visible(idx, wi_a, np.take(dist, idx), light.position if light.fixed_position else None)
+        if weight is not None:    # MIS against the glossy integrator's BSDF rays: the weight of each lit lane
+            lit = np.flatnonzero(vis if vis.ndim == 1 else max_component(vis) > 0)
+            w_lit = weight(idx[lit], take_rows(wi_a, lit))
+        idx, f = _shadowed(vis, idx, f)
+        if weight is not None:
+            f = f * w_lit[:, None]
         ls.weight(f, idx)
         put_rows(L, idx, take_rows(L, idx) + f)
     return L / ns

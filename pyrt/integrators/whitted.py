@@ -14,6 +14,10 @@ The image is processed in chunks of pixels (bounded memory: a chunk holds at mos
    internal reflection) spawn the next batch with multiplied throughput; rays whose throughput
    falls below ``throughput_cutoff`` (max over RGB) or that reach ``max_depth`` are dropped.
 
+Steps 2, 4 and 5 go through hooks (``_sampled_hits``, ``_direct_light``, ``_spawn``, ``_escape_weight``,
+``_emission_weight``) that are plain Whitted here; :class:`pyrt.integrators.glossy.GlossyIntegrator` overrides
+them to add BSDF-sampled rays at glossy hits and their MIS weights, in the same loop.
+
 This module knows nothing about Embree; it asks :class:`pyrt.geometry.accel.Accel` for hits and occlusion.
 """
 from __future__ import annotations
@@ -144,6 +148,7 @@ class Integrator:
         use_diffs = diffs is not None and self.ps.needs_differentials
         media = self.ps.media
         stack = (media.empty(n) if rays.stack is None else rays.stack) if media is not None else None
+        bpdf = rays.bsdf_pdf      # MIS state of BSDF-sampled rays (None: none in the batch)
         for depth in range(self.max_depth + 1):
             if o.shape[0] == 0:
                 break
@@ -162,8 +167,10 @@ class Integrator:
                 miss = np.ones(o.shape[0], dtype=bool)
                 miss[h] = False
                 m = np.flatnonzero(miss)      # row gathers: boolean indexing of (N, 3) arrays is slow and keeps the GIL
-                _scatter_add(L, np.take(sample, m), take_rows(thr, m) * self.background(take_rows(d, m), primary=depth == 0),
-                             unique=depth == 0)
+                Lm = self.background(take_rows(d, m), primary=depth == 0)
+                if bpdf is not None:   # escaped BSDF-sampled rays: MIS against the environment's light sampling
+                    Lm = Lm * self._escape_weight(take_rows(d, m), np.take(bpdf, m))[:, None]
+                _scatter_add(L, np.take(sample, m), take_rows(thr, m) * Lm, unique=depth == 0)
             if h.size == 0:
                 break
             dsub = None
@@ -189,7 +196,11 @@ class Integrator:
                 sel = np.flatnonzero(mids == k)
                 ctx = surf.subset(sel)
                 if self.ps.emits[k]:
-                    Lh[sel] += mat.emission(ctx)
+                    Le = mat.emission(ctx)
+                    if bpdf is not None:   # emitters reached by BSDF-sampled rays: MIS against light sampling
+                        Le = Le * self._emission_weight(k, take_rows(o, h[sel]), take_rows(d, h[sel]),
+                                                        np.take(bpdf, h[sel]))[:, None]
+                    Lh[sel] += Le
                 if want_albedo:
                     aovs["albedo"][s_idx[sel]] = mat.albedo(ctx)
                 if mat.has_diffuse and use_ambient:
@@ -201,26 +212,30 @@ class Integrator:
                 if g.size:  # Gouraud faces: lighting at the vertices, interpolated (pyrt.integrators.gouraud)
                     Lh[g] += gouraud.direct_light(self.ps, lights, self.visibility, surf.subset(g), o[h[g]], rng)
                     diffuse_idx = np.setdiff1d(diffuse_idx, g, assume_unique=True)
+            sampled = self._sampled_hits(surf, diffuse_idx, depth)   # hits that trace their non-delta lobe
             if diffuse_idx.size and lights:
                 dm = mids[diffuse_idx]
                 if dm.size > 1 and np.any(dm[1:] < dm[:-1]):
                     # ordered by material: BSDFBatch then dispatches every light's query by slicing
-                    diffuse_idx = np.concatenate([diffuse_idx[dm == k] for k in np.flatnonzero(np.bincount(dm))])
+                    order = np.concatenate([np.flatnonzero(dm == k) for k in np.flatnonzero(np.bincount(dm))])
+                    diffuse_idx = diffuse_idx[order]
+                    sampled = None if sampled is None else sampled[order]
                 dsurf = surf.subset(diffuse_idx)
                 bsdf = BSDFBatch(dsurf, materials)
                 visible = self.visibility(dsurf)
-                Ld = direct.estimate(lights, dsurf, bsdf, visible, rng)
+                Ld = self._direct_light(dsurf, bsdf, visible, rng, sampled, depth)
                 put_rows(Lh, diffuse_idx, take_rows(Lh, diffuse_idx) + Ld)
             _scatter_add(L, s_idx, thr_h * Lh, unique=depth == 0)   # camera rays: one per sample
             if depth == self.max_depth:
                 break
             # specular continuation
-            new = self._spawn_specular(surf, thr_h, s_idx, dsub, None if media is None else stack[h])
+            new = self._spawn(surf, thr_h, s_idx, dsub, None if media is None else stack[h], diffuse_idx, sampled,
+                              depth, rng)
             if new is None:
                 break
             new.depth = depth + 1
-            o, d, thr, sample, diffs, stack = (new.origins, new.directions, new.throughput, new.sample,
-                                               new.differentials, new.stack)
+            o, d, thr, sample, diffs, stack, bpdf = (new.origins, new.directions, new.throughput, new.sample,
+                                                     new.differentials, new.stack, new.bsdf_pdf)
         return L, aovs
 
     def visibility(self, surf):
@@ -241,6 +256,28 @@ class Integrator:
             origins, tmax = self.offset.shadow(sub, wi, dist, end)   # offsets.Strategy: origin, tmax, terminator
             return ~self._occluded(origins, wi, tmax)
         return visible
+
+    # -- hooks of the recursion (the Whitted versions; pyrt.integrators.glossy overrides them) -----------
+    def _sampled_hits(self, surf, idx, depth):
+        """Which hits ``idx`` (indices into ``surf``) continue along BSDF-sampled rays: a bool mask over ``idx``,
+        or None (Whitted: none; only delta lobes spawn rays)."""
+        return None
+
+    def _direct_light(self, dsurf, bsdf, visible, rng, sampled, depth):
+        """Direct light (N, 3) at the hits of ``dsurf`` (``sampled``: the mask of :meth:`_sampled_hits`)."""
+        return direct.estimate(self.scene.lights, dsurf, bsdf, visible, rng)
+
+    def _spawn(self, surf, thr_h, s_idx, dsub, stack_h, idx, sampled, depth, rng):
+        """The next :class:`RayBatch` (Whitted: the delta lobes, :meth:`_spawn_specular`), or None."""
+        return self._spawn_specular(surf, thr_h, s_idx, dsub, stack_h)
+
+    def _escape_weight(self, d, bsdf_pdf):
+        """MIS weight (N,) of the environment seen by escaped BSDF-sampled rays (Whitted traces none: 1)."""
+        return np.ones(d.shape[0])
+
+    def _emission_weight(self, k, o, d, bsdf_pdf):
+        """MIS weight (N,) of material ``k``'s emission reached by BSDF-sampled rays (Whitted: 1)."""
+        return np.ones(d.shape[0])
 
     def _spawn_specular(self, surf, thr_h, s_idx, dsub, stack_h=None):
         """The next :class:`RayBatch`: every delta lobe of the hits' materials (mirror, glass reflection and

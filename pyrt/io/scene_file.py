@@ -4,7 +4,8 @@ Format (every key optional unless marked; unknown keys are errors naming the tab
 
     [camera]            # position, target, up, fov (degrees, vertical), width, height, spp
     [render]            # max_depth, seed, background (RGB radiance), ambient (RGB radiance),
-                        # throughput_cutoff, offset (strategy name), transparent_shadows (bool)
+                        # throughput_cutoff, offset (strategy name), transparent_shadows (bool),
+                        # integrator ("whitted" | "glossy"), glossy_samples, glossy_depth, glossy_threshold
     [materials.NAME]    # type = "lambert" | "blinn_phong" | "mirror" | "glass" | ... ; the rest are the
                         # material constructor's keyword arguments (validated by it); a parameter
                         # may be a texture table, e.g. albedo = {type = "image", path = "wood.png"}
@@ -48,6 +49,7 @@ from pyrt.core.errors import Error
 from pyrt.lights import LIGHTS, PATH_ARGUMENTS as LIGHT_PATH_ARGUMENTS
 from pyrt.lights import environment as _env
 from pyrt.materials import REGISTRY as MATERIALS
+from pyrt.render import INTEGRATORS
 from pyrt.scene import Scene, transform_matrix
 from pyrt.textures import TextureError, texture_from_dict
 
@@ -61,7 +63,9 @@ class SceneFileNotFoundError(SceneFileError, FileNotFoundError):
 
 
 _CAMERA_KEYS = {"position", "target", "up", "fov", "width", "height", "spp", "jitter"}
-_RENDER_KEYS = {"max_depth", "seed", "background", "ambient", "throughput_cutoff", "offset", "transparent_shadows"}
+_RENDER_OPTIONS = ("max_depth", "seed", "throughput_cutoff", "offset", "transparent_shadows", "integrator",
+                   "glossy_samples", "glossy_depth", "glossy_threshold")
+_RENDER_KEYS = {"background", "ambient", *_RENDER_OPTIONS}
 _MESH_COMMON = {"file", "primitive", "material", "translate", "rotate", "scale", "matrix", "smooth", "name",
                 "crease_angle", "shading"}
 _PRIMITIVE_KEYS = {"sphere": {"radius", "subdivisions"}, "box": {"extents"}, "plane": {"size", "normal"},
@@ -148,7 +152,7 @@ def load_scene(path):
     scene : pyrt.Scene
     render_options : dict
         The ``[render]`` keys that are arguments of :func:`pyrt.render` (max_depth, seed,
-        throughput_cutoff, offset, transparent_shadows).
+        throughput_cutoff, offset, transparent_shadows, integrator, glossy_samples, glossy_depth, glossy_threshold).
 
     Raises
     ------
@@ -198,7 +202,7 @@ def load_dict(spec, *, base_dir=None):
     scene : pyrt.Scene
     render_options : dict
         The ``render`` keys that are arguments of :func:`pyrt.render` (max_depth, seed,
-        throughput_cutoff, offset, transparent_shadows).
+        throughput_cutoff, offset, transparent_shadows, integrator, glossy_samples, glossy_depth, glossy_threshold).
 
     Raises
     ------
@@ -238,8 +242,10 @@ def _load(data, base, path):
     _check_keys("[render]", rnd, _RENDER_KEYS, path)
     scene = _construct(Scene, {"camera": camera, **{k: rnd[k] for k in ("background", "ambient") if k in rnd}},
                        "[render]", path)
-    options = {k: rnd[k] for k in ("max_depth", "seed", "throughput_cutoff", "offset", "transparent_shadows")
-               if k in rnd}
+    options = {k: rnd[k] for k in _RENDER_OPTIONS if k in rnd}
+    if "integrator" in options and options["integrator"] not in INTEGRATORS:
+        raise SceneFileError(f"{path}: [render] integrator must be one of {list(INTEGRATORS)}, "
+                             f"got {options['integrator']!r}")
 
     materials = {}
     mats_t = data.get("materials", {})

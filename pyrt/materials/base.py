@@ -34,7 +34,8 @@ local-frame ``f_cos`` are one formula by construction.
 Declared attributes the integrators read to model no more than the scene needs: ``has_diffuse``
 (receives direct and ambient light), ``has_delta`` (spawns specular rays), ``is_dielectric`` with
 ``ior``, ``tint``, ``priority`` and ``absorption`` (refraction, nested media), ``emits`` (may emit), ``lambertian``
-(the environment preview's SH path), ``normal_map`` and ``uses_textures`` (ray differentials).
+(the environment preview's SH path), ``normal_map`` and ``uses_textures`` (ray differentials); the method
+``glossy_alpha(ctx)`` (None: diffuse) tells the glossy integrator which lobes to trace.
 
 A new model is one kernel in :mod:`pyrt.shaders` and one class registered with
 ``@MATERIALS.register("name")``; the contract tests (tests/test_material_contracts.py) pick it up.
@@ -283,6 +284,12 @@ class Material:
     def pdf(self, wo, wi, ctx):
         """Solid-angle density (N,) of :meth:`sample` for local ``wo``, ``wi``."""
         return sampling.cosine_hemisphere_pdf(wi)
+
+    def glossy_alpha(self, ctx):
+        """How glossy the non-delta lobe is: a microfacet-equivalent roughness ``alpha`` (N,) per hit, or None
+        for a diffuse-like lobe (the default). The glossy integrator (:mod:`pyrt.integrators.glossy`) spawns
+        BSDF-sampled rays where ``alpha <= glossy_threshold``; elsewhere it uses direct light only."""
+        return None
 
     def albedo(self, ctx):
         """Diffuse-like reflectance (N, 3): the ambient term and the albedo AOV."""

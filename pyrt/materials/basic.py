@@ -7,6 +7,7 @@ from pyrt.materials.base import IsotropicMaterial, Material, MaterialError, Delt
     is_texture, register
 from pyrt.shaders import brdfs
 from pyrt.shaders import fresnel
+from pyrt.shaders import microfacet
 from pyrt.shaders import sampling
 from pyrt.shaders.vec import reflect, refract
 
@@ -89,6 +90,11 @@ class BlinnPhong(IsotropicMaterial):
         """:func:`pyrt.shaders.brdfs.blinn_phong_normalized_f_cos_cosines` (a constant exponent stays a float)."""
         return brdfs.blinn_phong_normalized_f_cos_cosines(q.cos_o, q.cos_i, q.cos_io(), q.param(self, self.kd),
                                                           q.param(self, self.ks), q.param(self, self.exponent, 1))
+
+    def glossy_alpha(self, ctx):
+        """``alpha = sqrt(2 / (n + 2))`` (:func:`pyrt.shaders.microfacet.alpha_from_blinn_exponent`)."""
+        a = microfacet.alpha_from_blinn_exponent(self.param(self.exponent, ctx, 1))
+        return np.broadcast_to(np.asarray(a, dtype=np.float64).reshape(-1), (ctx.n_hits,)).copy()
 
     def albedo(self, ctx):
         return np.array(self.param(self.kd, ctx))

@@ -47,12 +47,22 @@ def _alpha_param(owner, roughness, alpha, default_roughness):
     return "roughness", check_scalar("roughness", r, owner, lo=0.0, hi=1.0)
 
 
+def _glossy_alpha(alpha, ctx):
+    """``alpha`` (a float or per-hit texture values) as an (N,) float64 array."""
+    return np.broadcast_to(np.asarray(alpha, dtype=np.float64).reshape(-1), (ctx.n_hits,)).copy()
+
+
 class _MicrofacetSampling:
     """Mixture sampling shared by the microfacet materials: cosine lobe for the diffuse part,
     GGX visible normals (or the NDF for Beckmann / Blinn) for the specular part.
 
     Subclasses provide ``_alpha(ctx)``, ``distribution`` and ``_spec_prob(wo, ctx)`` (N,) in [0, 1].
+    ``glossy_alpha`` is ``_alpha``.
     """
+
+    def glossy_alpha(self, ctx):
+        """The microfacet ``alpha`` (N,) (see :meth:`pyrt.materials.Material.glossy_alpha`)."""
+        return _glossy_alpha(self._alpha(ctx), ctx)
 
     def _spec_pdf(self, wo, wi, alpha):
         h, hl = half_vector(wo, wi)
@@ -113,6 +123,10 @@ class Phong(Material):
     def f_cos(self, wo, wi, ctx):
         return brdfs.phong_normalized_f_cos(wo, wi, self.param(self.kd, ctx), self.param(self.ks, ctx),
                                             self.param(self.exponent, ctx, 1))
+
+    def glossy_alpha(self, ctx):
+        """``alpha`` of the Blinn lobe of exponent ``4 n`` (the half-angle is half the reflection angle)."""
+        return _glossy_alpha(_mf.alpha_from_blinn_exponent(4.0 * self.param(self.exponent, ctx, 1)), ctx)
 
     def albedo(self, ctx):
         return np.array(self.param(self.kd, ctx))
@@ -224,6 +238,10 @@ class Ward(Material):
         return brdfs.ward_f_cos(wo, wi, self.param(self.kd, ctx), self.param(self.ks, ctx),
                                 self.param(self.alpha_x, ctx, 1), self.param(self.alpha_y, ctx, 1),
                                 self._local_tangent(ctx), variant=self.variant)
+
+    def glossy_alpha(self, ctx):
+        """``sqrt(alpha_x alpha_y)`` (the RMS slope is a Beckmann alpha)."""
+        return _glossy_alpha(np.sqrt(self.param(self.alpha_x, ctx, 1) * self.param(self.alpha_y, ctx, 1)), ctx)
 
     def albedo(self, ctx):
         return np.array(self.param(self.kd, ctx))

@@ -127,7 +127,7 @@ class PreviewScene:
         with _warnings.catch_warnings(record=True) as caught:
             _warnings.simplefilter("always")
             res = render_full(self.scene, seed=o.seed, max_depth=o.max_depth, aovs=aovs, progress=False,
-                              prepared=self.prepared, threads=o.threads)
+                              prepared=self.prepared, threads=o.threads, integrator="glossy")
         self.warnings += [str(w.message) for w in caught]
         if self.exposure is None:
             self.exposure, self.white = auto_exposure(res.image, self.model_mask())
