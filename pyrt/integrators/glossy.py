@@ -198,15 +198,20 @@ class GlossyIntegrator(Integrator):
                         stack=stack, bsdf_pdf=np.concatenate([np.zeros(spec.size), gl.bsdf_pdf]))
 
     def _spawn_glossy(self, surf, thr_h, s_idx, dsub, stack_h, gidx, depth, rng):
-        """``n`` BSDF-sampled reflection rays per hit ``gidx`` (stratified), or None when none survives."""
+        """``n`` BSDF-sampled rays per hit ``gidx`` (stratified), or None when none survives: reflections, and
+        transmissions through materials that declare ``transmits`` (rough glass)."""
         nb = self.n_glossy(depth)
         src = np.repeat(gidx, nb)
         sub = surf.subset(src)
         u = stratified_samples(rng, gidx.size, nb).transpose(1, 0, 2).reshape(-1, 2)
         wi, weight, pdf = BSDFBatch(sub, self.scene.materials).sample(np.arange(src.size), u)
         t_new = take_rows(thr_h, src) * weight / nb
-        # below the geometric surface a reflected ray would enter the object (dropped, as for mirrors)
-        alive = (pdf > 0) & (max_component(t_new) > self.throughput_cutoff) & (dot(wi, sub.ng) > 0)
+        # below the geometric surface a reflected ray would enter the object (dropped, as for mirrors); for a
+        # transmitting material (rough glass) a ray below it is a refraction and goes on through the interface
+        below = dot(wi, sub.ng) <= 0
+        transmits = np.array([m.transmits for m in self.scene.materials], dtype=bool)[sub.material_id]
+        refr_all = below & transmits
+        alive = (pdf > 0) & (max_component(t_new) > self.throughput_cutoff) & (~below | refr_all)
         keep = np.flatnonzero(alive)
         if keep.size == 0:
             return None
@@ -218,7 +223,6 @@ class GlossyIntegrator(Integrator):
             diffs = reflect_differentials(c, dsub[1][s], dsub[3][s], w)
         stack = None
         if stack_h is not None:
-            stack = self.ps.media.spawn_stacks(stack_h, surf.material_id, surf.front, src[keep],
-                                               np.zeros(keep.size, dtype=bool))
+            stack = self.ps.media.spawn_stacks(stack_h, surf.material_id, surf.front, src[keep], refr_all[keep])
         return RayBatch(self.offset(c, w), w, sample=np.take(s_idx, src[keep]), throughput=take_rows(t_new, keep),
                         differentials=diffs, stack=stack, bsdf_pdf=nb * pdf[keep])

@@ -62,23 +62,33 @@ class RoughDielectric(Material):
         """GGX width ``roughness^2``."""
         return float(_mf.roughness_to_alpha(self.roughness))
 
+    def _eta(self, ctx):
+        """Relative index eta_t / eta_i per hit (N,): ``ior`` from the front, ``1 / ior`` from inside, as
+        :class:`pyrt.Glass` (the local frame's z is turned toward the viewer, so the kernels see wo_z > 0)."""
+        return np.where(ctx.front, self.ior, 1.0 / self.ior)
+
+    def glossy_alpha(self, ctx):
+        """``alpha`` per hit: the glossy integrator traces its reflection *and* transmission rays."""
+        return np.full(ctx.n_hits, self.alpha)
+
     def f_cos(self, wo, wi, ctx):
         """BSDF times |cos theta_i| (N, 3): reflection above the horizon, transmission below."""
-        f = brdfs.rough_dielectric_f_cos(wo, wi, self.alpha, self.ior)
+        f = brdfs.rough_dielectric_f_cos(wo, wi, self.alpha, self._eta(ctx))
         return f[:, None] * self.param(self.tint, ctx)
 
     def sample(self, wo, u, ctx):
         """Visible-normal sample, reflected or refracted by Fresnel: ``(wi, weight = f_cos / pdf, pdf)``."""
-        wi, valid = brdfs.sample_rough_dielectric(wo, u, self.alpha, self.ior)
+        eta = self._eta(ctx)
+        wi, valid = brdfs.sample_rough_dielectric(wo, u, self.alpha, eta)
         wi = np.where(valid[:, None], wi, 0.0)      # a refraction that came out on the wrong side: no sample
-        pdf = np.where(valid, brdfs.rough_dielectric_pdf(wo, wi, self.alpha, self.ior), 0.0)
+        pdf = np.where(valid, brdfs.rough_dielectric_pdf(wo, wi, self.alpha, eta), 0.0)
         f = self.f_cos(wo, wi, ctx)
         weight = np.where((pdf > 0)[:, None], f / np.where(pdf > 0, pdf, 1.0)[:, None], 0.0)
         return wi, weight, pdf
 
     def pdf(self, wo, wi, ctx):
         """Solid-angle density (N,) of :meth:`sample` over the whole sphere."""
-        return brdfs.rough_dielectric_pdf(wo, wi, self.alpha, self.ior)
+        return brdfs.rough_dielectric_pdf(wo, wi, self.alpha, self._eta(ctx))
 
     def albedo(self, ctx):
         """No diffuse-like reflectance: zero (the ambient term skips it)."""
