@@ -1,4 +1,6 @@
 """Small helpers shared by the render tests: exact camera rays and ray-plane hits."""
+import threading
+
 import numpy as np
 
 import pyrt
@@ -19,3 +21,16 @@ def pixel_centre_hits_on_plane_y0(cam):
     d = cam.directions(xs.ravel() + 0.5, ys.ravel() + 0.5)
     t = -cam.position[1] / d[:, 1]
     return (cam.position + t[:, None] * d).reshape(cam.height, cam.width, 3)
+
+
+class CancelAfter(threading.Event):
+    """An event that reports itself set from its ``k + 1``-th check on (a render checks once per chunk, in order
+    with ``threads=1``; the previewer's batch before each asset and each view)."""
+
+    def __init__(self, k):
+        super().__init__()
+        self.k, self.checks = k, 0
+
+    def is_set(self):
+        self.checks += 1
+        return self.checks > self.k or super().is_set()

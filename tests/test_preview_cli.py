@@ -5,28 +5,17 @@ import shutil
 import signal
 import subprocess
 import sys
-import threading
 import time
 
 import pytest
 
 from pyrt.apps import preview as P
+from render_helpers import CancelAfter
 
 ROOT = os.path.join(os.path.dirname(__file__), "..")
 BLOB = os.path.join(ROOT, "assets", "models", "blob.ply")
 TINY = dict(width=24, height=18, spp=1)
 
-
-class CancelAfter(threading.Event):
-    """Reports itself set from its ``k + 1``-th check on (the batch checks before each asset and each view)."""
-
-    def __init__(self, k):
-        super().__init__()
-        self.k, self.checks = k, 0
-
-    def is_set(self):
-        self.checks += 1
-        return self.checks > self.k or super().is_set()
 
 
 @pytest.mark.parametrize("option, value", [

@@ -10,21 +10,11 @@ import numpy as np
 import pytest
 
 import pyrt
+from render_helpers import CancelAfter
 
 R = importlib.import_module("pyrt.render")   # the module (``pyrt.render`` is the function)
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
-
-class CancelAfter(threading.Event):
-    """An event that reports itself set from its ``k + 1``-th check on (one check per chunk, in order with threads=1)."""
-
-    def __init__(self, k):
-        super().__init__()
-        self.k, self.checks = k, 0
-
-    def is_set(self):
-        self.checks += 1
-        return self.checks > self.k or super().is_set()
 
 
 @pytest.fixture(scope="module")

@@ -63,27 +63,23 @@ def main(argv=None):
     display = lambda img: pyrt.tonemap_to_display(np.asarray(img, np.float32), tonemap_op="reinhard")  # noqa: E731
     scene = glass_shadow_scene()
     imgs = [pyrt.render(scene, seed=0, transparent_shadows=t) for t in (False, True)]
-    fig, axes = plt.subplots(1, 2, figsize=(8, 2.9))
-    for ax, img, title in zip(axes, imgs, ("transparent_shadows=False (Whitted)", "transparent_shadows=True")):
-        ax.imshow(display(img))
-        ax.set_title(title, fontsize=9)
-        ax.axis("off")
-    fig.tight_layout()
-    path = os.path.join(args.out, "transparent_shadow.png")
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    print(f"wrote {path}")
-    fig, axes = plt.subplots(1, 3, figsize=(9, 2.6), gridspec_kw={"width_ratios": [2, 1, 1]})
-    for ax, img, title in zip(axes, probe_images(), ("lat-long", "angular map (light probe)", "mirror ball")):
-        ax.imshow(display(img))
-        ax.set_title(title, fontsize=9)
-        ax.axis("off")
-    fig.tight_layout()
-    path = os.path.join(args.out, "light_probes.png")
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    print(f"wrote {path}")
+    _panels(plt, imgs, ("transparent_shadows=False (Whitted)", "transparent_shadows=True"),
+            os.path.join(args.out, "transparent_shadow.png"), (8, 2.9), [1, 1])
+    _panels(plt, probe_images(), ("lat-long", "angular map (light probe)", "mirror ball"),
+            os.path.join(args.out, "light_probes.png"), (9, 2.6), [2, 1, 1])
 
+
+def _panels(plt, images, titles, path, figsize, ratios):
+    """A row of tone-mapped images with titles, written to ``path``."""
+    fig, axes = plt.subplots(1, len(images), figsize=figsize, gridspec_kw={"width_ratios": ratios})
+    for ax, img, title in zip(axes, images, titles):
+        ax.imshow(pyrt.tonemap_to_display(np.asarray(img, np.float32), tonemap_op="reinhard"))
+        ax.set_title(title, fontsize=9)
+        ax.axis("off")
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    print(f"wrote {path}")
 
 if __name__ == "__main__":
     main()

@@ -100,26 +100,24 @@ class Integrator:
             self.stats.recorded.append(("intersect", o.astype(np.float32), d.astype(np.float32), None))
         return h
 
-    def _occluded(self, o, d, tmax):
+    def _shadow_query(self, kind, query, o, d, tmax):
+        """``query(o, d, tmax)`` counted and timed as shadow rays, recorded as ``kind`` if asked."""
         t0 = time.perf_counter()
-        occ = self.ps.accel.occluded(o, d, tmax)
+        out = query(o, d, tmax)
         self.stats.time_occluded += time.perf_counter() - t0
         self.stats.shadow_rays += o.shape[0]
         if self.record_rays:
-            self.stats.recorded.append(("occluded", o.astype(np.float32), d.astype(np.float32),
+            self.stats.recorded.append((kind, o.astype(np.float32), d.astype(np.float32),
                                         np.minimum(tmax, T_INFINITE).astype(np.float32)))
-        return occ
+        return out
+
+    def _occluded(self, o, d, tmax):
+        """Embree's occlusion query for shadow rays: True where blocked."""
+        return self._shadow_query("occluded", self.ps.accel.occluded, o, d, tmax)
 
     def _shadow_hits(self, o, d, tmax):
         """Closest hits of shadow rays below ``tmax`` (transparent shadows), counted as shadow rays."""
-        t0 = time.perf_counter()
-        h = self.ps.accel.intersect(o, d, tmax)
-        self.stats.time_occluded += time.perf_counter() - t0
-        self.stats.shadow_rays += o.shape[0]
-        if self.record_rays:
-            self.stats.recorded.append(("intersect", o.astype(np.float32), d.astype(np.float32),
-                                        np.minimum(tmax, T_INFINITE).astype(np.float32)))
-        return h
+        return self._shadow_query("intersect", self.ps.accel.intersect, o, d, tmax)
 
     def background(self, d, primary=False):
         """Radiance of missed rays: the environment (or the scene background colour). Camera rays

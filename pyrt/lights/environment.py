@@ -122,6 +122,14 @@ def _image(owner, image):
     return img
 
 
+def filtered_image(owner, image, filter):
+    """``(filter, image)`` of an image-based environment: the filter name checked against :data:`FILTERS`, the
+    image (a path or an array) as a finite non-negative (H, W, 3) array (:func:`_image`)."""
+    if filter not in FILTERS:
+        raise EnvironmentMapError(f"{owner}: filter must be one of {FILTERS}, got {filter!r}")
+    return filter, _image(owner, image)
+
+
 class Environment:
     """Base class of the environments: radiance arriving from infinitely far away.
 
@@ -321,10 +329,7 @@ class LatLongEnvironment(Environment):
         super().__init__(intensity=intensity, rotate=rotate, hide_background=hide_background,
                          background=background, name=name)
         owner = f"LatLongEnvironment({name or ''})"
-        if filter not in FILTERS:
-            raise EnvironmentMapError(f"{owner}: filter must be one of {FILTERS}, got {filter!r}")
-        self.filter = filter
-        self.image = _image(owner, image)
+        self.filter, self.image = filtered_image(owner, image, filter)
         if self.image.shape[0] < 2 or self.image.shape[1] < 2:
             raise EnvironmentMapError(f"{owner}: image must be at least 2x2 texels, got {self.image.shape[:2]}")
         self._dist = None

@@ -20,8 +20,8 @@ from pyrt.shaders import probes as P
 from pyrt.shaders import textures as _tex
 from pyrt.shaders.color import luminance
 
-from pyrt.lights.environment import (ENVIRONMENTS, FILTERS, Environment, EnvironmentMapError, _image,
-                                     _prefilter_stack, procedural_sky)
+from pyrt.lights.environment import (ENVIRONMENTS, Environment, EnvironmentMapError, _prefilter_stack,
+                                     filtered_image, procedural_sky)
 
 #: floor of the importance weights, relative to their mean luminance (keeps the pdf > 0 everywhere)
 TABLE_FLOOR = 1e-3
@@ -37,10 +37,7 @@ class _ProbeEnvironment(Environment):
         super().__init__(intensity=intensity, rotate=rotate, hide_background=hide_background,
                          background=background, name=name)
         owner = f"{type(self).__name__}({name or ''})"
-        if filter not in FILTERS:
-            raise EnvironmentMapError(f"{owner}: filter must be one of {FILTERS}, got {filter!r}")
-        self.filter = filter
-        self.image = _image(owner, image)
+        self.filter, self.image = filtered_image(owner, image, filter)
         h, w = self.image.shape[:2]
         if h != w or h < 2:
             raise EnvironmentMapError(f"{owner}: a light probe must be a square image of at least 2x2 texels, "
