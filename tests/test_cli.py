@@ -67,13 +67,14 @@ def _error_cases(tmp_path):
     empty = tmp_path / "empty.toml"
     empty.write_text("[camera]\nwidth = 8\nheight = 6\n")
     (tmp_path / "folder.png").mkdir()
+    (tmp_path / "a_file").write_text("not a folder")
     out = str(tmp_path / "x.png")
     return {
         "empty scene": (["render", str(empty), "-o", out], "the scene has no meshes"),
         "unreadable EXR": (["render", _write_corrupt_exr_scene(tmp_path), "-o", out], "sky.exr"),
         "missing scene": (["render", str(tmp_path / "none.toml"), "-o", out], "scene file not found"),
-        "no such output folder": (["render", SCENE, "-o", str(tmp_path / "no" / "x.png")],
-                                  "output folder does not exist"),
+        "output folder cannot be made": (["render", SCENE, "-o", str(tmp_path / "a_file" / "no" / "x.png")],
+                                         "cannot create output folder"),
         "output is a folder": (["render", SCENE, "-o", str(tmp_path / "folder.png")], "output is a folder"),
         "unknown extension": (["render", SCENE, "-o", str(tmp_path / "x.jpg")], "output must end in .exr or .png"),
         "same output twice": (["render", SCENE, "-o", out, "-o", str(tmp_path / "." / "x.png")],
@@ -81,7 +82,7 @@ def _error_cases(tmp_path):
     }
 
 
-@pytest.mark.parametrize("case", ["empty scene", "unreadable EXR", "missing scene", "no such output folder",
+@pytest.mark.parametrize("case", ["empty scene", "unreadable EXR", "missing scene", "output folder cannot be made",
                                   "output is a folder", "unknown extension", "same output twice"])
 def test_cli_errors_are_one_line_exit_2_before_rendering(tmp_path, capsys, case, monkeypatch):
     argv, message = _error_cases(tmp_path)[case]
@@ -176,3 +177,11 @@ def test_cli_sigterm_is_an_interrupt(tmp_path):
     errf.close()
     assert p.returncode == 130 and INTERRUPTED.search(err), err
     assert pyrt.read_exr(exr).shape == (480, 640, 3)
+
+
+def test_cli_creates_a_missing_output_folder(tmp_path, capsys):
+    """README's first command writes into out/ on a fresh checkout: a missing output folder is created."""
+    from pyrt.apps.cli import main
+    out = tmp_path / "new" / "sub" / "x.png"
+    assert main(["render", SCENE, "-o", str(out), "--width", "16", "--height", "12", "--spp", "1"]) == 0
+    assert out.is_file()

@@ -32,12 +32,13 @@ def test_preview_cli_rejects_bad_option_values(tmp_path, capsys, option, value):
 
 def test_preview_cli_errors_are_one_line(tmp_path, capsys):
     (tmp_path / "empty").mkdir()
+    (tmp_path / "a_file").write_text("not a folder")
     cases = [
         ([str(tmp_path / "empty"), "--out-dir", str(tmp_path / "o")], "no models found"),
         ([str(tmp_path / "none.glb"), "-o", str(tmp_path / "v.png")], "no such model file"),
-        ([BLOB, "-o", str(tmp_path / "no" / "v.png")], "output folder does not exist"),
+        ([BLOB, "-o", str(tmp_path / "a_file" / "v.png")], "output folder is not a folder"),
         ([BLOB, "-o", str(tmp_path / "v.png"), "-o", str(tmp_path / "v.png")], "the same output file is given twice"),
-        ([BLOB, "--out-dir", str(tmp_path / "a" / "b")], "output folder does not exist"),
+        ([BLOB, "--out-dir", str(tmp_path / "a_file" / "b")], "output folder is not a folder"),
         ([BLOB, "-o", str(tmp_path / "v.png"), "--fov", "0"], "fov must be in"),
     ]
     for argv, message in cases:
@@ -45,7 +46,7 @@ def test_preview_cli_errors_are_one_line(tmp_path, capsys):
         err = capsys.readouterr().err
         assert err.startswith("pyrt-preview: error: ") and message in err, err
         assert len(err.strip().splitlines()) == 1
-    assert sorted(os.listdir(tmp_path)) == ["empty"]       # nothing rendered, nothing written
+    assert sorted(os.listdir(tmp_path)) == ["a_file", "empty"]       # nothing rendered, nothing written
 
 
 def test_preview_batch_cancel_keeps_finished_assets_and_writes_the_summary(tmp_path):

@@ -74,11 +74,16 @@ def positive_float(text):
 # ============================================================================ output paths
 
 def check_output_folder(folder):
-    """Raise :class:`OutputPathError` unless ``folder`` is an existing, writable directory."""
+    """Make sure ``folder`` is a writable directory, creating it (and its parents) when it does not exist, as
+    ``write_exr``/``write_png`` do; raise :class:`OutputPathError` when it cannot be."""
     folder = os.fspath(folder) or "."
     if not os.path.isdir(folder):
-        what = "is not a folder" if os.path.exists(folder) else "does not exist"
-        raise OutputPathError(f"output folder {what}: {folder}")
+        if os.path.exists(folder):
+            raise OutputPathError(f"output folder is not a folder: {folder}")
+        try:
+            os.makedirs(folder, exist_ok=True)
+        except OSError as exc:
+            raise OutputPathError(f"cannot create output folder {folder}: {exc.strerror or exc}") from None
     if not os.access(folder, os.W_OK | os.X_OK):
         raise OutputPathError(f"output folder is not writable: {folder}")
 
@@ -86,7 +91,7 @@ def check_output_folder(folder):
 def check_outputs(paths, extensions=OUTPUT_EXTENSIONS):
     """Check output files before anything is rendered; raise :class:`OutputPathError` naming the first problem.
 
-    Each path must end in one of ``extensions`` (any case), sit in an existing writable folder, not be a
+    Each path must end in one of ``extensions`` (any case), sit in a writable folder (created if missing), not be a
     folder itself, not be an existing read-only file, and no two paths may name the same file.
     """
     seen = {}
