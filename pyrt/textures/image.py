@@ -27,6 +27,7 @@ import numpy as np
 
 from pyrt.core.image_io import ImageFileError, read_image
 from pyrt.shaders import color as _color
+from pyrt.shaders import mip as _mip
 from pyrt.shaders import textures as _tex
 from pyrt.textures.base import TEXTURES, Texture, TextureError, footprints
 
@@ -130,14 +131,15 @@ def prepare_image(img, *, label, srgb, channels, select, decode=None):
 class MipPyramid:
     """Sequence view of a MIP pyramid whose levels are built on first access.
 
-    ``pyramid[l]`` builds level ``l`` from level 0 (:func:`pyrt.shaders.textures.build_mip_level`, an
-    exact box filter) the first time it is indexed and caches it (under a lock: render threads
-    share textures); ``built`` lists the levels > 0 that exist. ``len(pyramid)`` is the full
-    level count.
+    ``pyramid[l]`` builds level ``l`` the first time it is indexed, from the nearest finer level
+    already built by successive 2x2 box reductions (:func:`pyrt.shaders.mip.reduce_levels`, in the
+    dtype of level 0: float32 for textures), and caches it under a lock (render threads share
+    textures). Levels in between that no lookup read are not kept. ``built`` lists the levels > 0
+    that exist; ``len(pyramid)`` is the full level count; ``nbytes`` the memory of the levels held.
 
     Parameters
     ----------
-    base : (H, W, C) float32 ndarray
+    base : (H, W, C) float ndarray
         Level 0.
     """
 
@@ -155,13 +157,19 @@ class MipPyramid:
         if self._levels[level] is None:
             with self._lock:
                 if self._levels[level] is None:
-                    self._levels[level] = _tex.build_mip_level(self._levels[0], level)
+                    src = max(i for i in range(level) if self._levels[i] is not None)
+                    self._levels[level] = _mip.reduce_levels(self._levels[src], level - src)
         return self._levels[level]
 
     @property
     def built(self):
         """Indices (> 0) of the levels built so far, ascending."""
         return [i for i, lev in enumerate(self._levels) if i > 0 and lev is not None]
+
+    @property
+    def nbytes(self):
+        """Bytes held by level 0 and the levels built so far."""
+        return sum(lev.nbytes for lev in self._levels if lev is not None)
 
 
 # ----------------------------------------------------------------------------- image texture
@@ -175,8 +183,11 @@ class ImageTexture(Texture):
 
     Parameters
     ----------
-    source : str, os.PathLike or (H, W[, C]) array
+    source : str, os.PathLike, (H, W[, C]) array or ImageTexture
         File name or image array (row 0 = top). Integer arrays are divided by their dtype max.
+        Another :class:`ImageTexture`: share its decoded texels and lazy MIP pyramid (no copy, no
+        decode; ``srgb``/``decode`` may only repeat its decoding, ``select`` is refused) with this
+        texture's own wrap, filter and UV transform (asset loaders decode each image once).
     srgb : bool, optional
         Decode the sRGB transfer curve on load. Default: True for 8/16-bit images (colour
         textures), False for EXR and float arrays. Pass False for data textures.
@@ -208,7 +219,17 @@ class ImageTexture(Texture):
     def __init__(self, source, *, srgb=None, wrap="repeat", filter="trilinear", scale=(1.0, 1.0),
                  offset=(0.0, 0.0), rotation_deg=0.0, channels=None, select=None, footprint_scale=None,
                  max_anisotropy=8.0, name=None, decode=None):
-        if isinstance(source, (str, os.PathLike)):
+        shared = source if isinstance(source, ImageTexture) else None
+        if shared is not None:  # same texels (decoded level 0 and lazy pyramid), own sampling options
+            self.path = shared.path
+            label = repr(self.path) if self.path else (name or shared.name or "<array>")
+            if select is not None:
+                raise TextureError(f"texture {label}: select= cannot be applied to shared texels")
+            want = decode if decode is not None else (None if srgb is None else ("srgb" if srgb else "linear"))
+            if want is not None and want != shared.decode:
+                raise TextureError(f"texture {label}: shares texels decoded {shared.decode!r}, asked for {want!r}")
+            img, is_int, srgb, decode = shared._image, False, None, shared.decode
+        elif isinstance(source, (str, os.PathLike)):
             self.path = os.fspath(source)
             label = repr(self.path)
             img, is_int = load_image(self.path)
@@ -249,10 +270,15 @@ class ImageTexture(Texture):
             raise TextureError(f"texture {label}: need footprint_scale > 0 and max_anisotropy >= 1")
         self.footprint_scale = float(footprint_scale)
         self.max_anisotropy = float(max_anisotropy)
-        self._image = prepare_image(img, label=label, srgb=self.srgb, channels=channels, select=select,
-                                    decode=self.decode)
+        if shared is not None:
+            if channels is not None and shared.channels != channels:
+                raise TextureError(f"texture {label}: has {shared.channels} channel(s), expected {channels}")
+            self._image, self._pyramid = shared._image, shared._pyramid
+        else:
+            self._image = prepare_image(img, label=label, srgb=self.srgb, channels=channels, select=select,
+                                        decode=self.decode)
+            self._pyramid = MipPyramid(self._image)
         self.channels = self._image.shape[2]
-        self._pyramid = MipPyramid(self._image)
 
     @classmethod
     def from_dict(cls, params, base_dir=None):

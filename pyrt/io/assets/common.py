@@ -47,6 +47,7 @@ class TextureSlot:
     texture: ImageTexture
     texcoord: int = 0
     source: str = ""                # file name or "image 3 (embedded)"
+    image: int | None = None        # glTF image index (the key of the per-load texel cache)
 
 
 @dataclass

@@ -35,15 +35,22 @@ def gltf_uv_transform(ext):
     return (sx, sy), offset, math.degrees(th)
 
 
-def _gltf_texture(g, info, what, *, srgb, kind="image", warnings=None, **extra):
-    """Build a texture from a glTF textureInfo ``info`` ({index, texCoord, extensions})."""
+def _gltf_texture(g, info, what, *, srgb, cache, kind="image", warnings=None, **extra):
+    """Build a texture from a glTF textureInfo ``info`` ({index, texCoord, extensions}).
+
+    ``cache`` (a dict, one per load) maps ``(image index, decoding)`` to the first texture made from
+    those texels: later slots and materials reading the same image with the same decoding share its
+    decoded level 0 and lazy MIP pyramid (:class:`ImageTexture` built from an ImageTexture) and keep
+    their own sampler and transform.
+    """
     ti = info.get("index")
     tex = g.get("textures", ti)
     src = tex.get("source")
     if src is None:
         raise AssetError(f"{g.path}: {what}: texture {ti} has no image source in a supported format "
                          f"(extensions {sorted(tex.get('extensions', {}))})")
-    arr, label = g.image_array(src)
+    key = (int(src), "srgb" if srgb else "linear", None)
+    arr, label = (cache[key], cache[key].name) if key in cache else g.image_array(src)
     sampler = g.get("samplers", tex["sampler"]) if "sampler" in tex else {}
     wrap = (_WRAP.get(sampler.get("wrapS", 10497), "repeat"), _WRAP.get(sampler.get("wrapT", 10497), "repeat"))
     filt = "nearest" if sampler.get("magFilter") == 9728 and sampler.get("minFilter") in (9728, None) else "trilinear"
@@ -61,10 +68,11 @@ def _gltf_texture(g, info, what, *, srgb, kind="image", warnings=None, **extra):
             t = ImageTexture(arr, srgb=srgb, wrap=wrap, filter=filt, name=label, **kw, **extra)
     except TextureError as exc:
         raise AssetError(f"{g.path}: {what}: {exc}") from None
-    return TextureSlot(texture=t, texcoord=texcoord, source=label)
+    cache.setdefault(key, t)
+    return TextureSlot(texture=t, texcoord=texcoord, source=label, image=int(src))
 
 
-def _gltf_material(g, mi, warnings):
+def _gltf_material(g, mi, warnings, cache):
     m = g.get("materials", mi)
     name = m.get("name", f"material{mi}")
     pbr = m.get("pbrMetallicRoughness", {})
@@ -78,31 +86,32 @@ def _gltf_material(g, mi, warnings):
     P.roughness_factor = float(np.clip(pbr.get("roughnessFactor", 1.0), 0.0, 1.0))
     if "baseColorTexture" in pbr:
         P.base_color_texture = _gltf_texture(g, pbr["baseColorTexture"], f"{what} baseColorTexture", srgb=True,
-                                             channels=3)
+                                             channels=3, cache=cache)
     if "metallicRoughnessTexture" in pbr:
-        slot = _gltf_texture(g, pbr["metallicRoughnessTexture"], f"{what} metallicRoughnessTexture", srgb=False)
+        slot = _gltf_texture(g, pbr["metallicRoughnessTexture"], f"{what} metallicRoughnessTexture", srgb=False,
+                            cache=cache)
         P.metallic_roughness_texture = slot
         raw = slot.texture
         if raw.channels < 3:
             raise AssetError(f"{g.path}: {what}: metallicRoughnessTexture {slot.source} has {raw.channels} "
                              "channel(s); need RGB (G = roughness, B = metallic)")
-        P.metallic_texture = _channel(raw, 2, f"{slot.source} B (metallic)")
-        P.roughness_texture = _channel(raw, 1, f"{slot.source} G (roughness)")
+        P.metallic_texture = _channel(slot, 2, f"{slot.source} B (metallic)", cache)
+        P.roughness_texture = _channel(slot, 1, f"{slot.source} G (roughness)", cache)
     if "normalTexture" in m:
         P.normal_scale = float(m["normalTexture"].get("scale", 1.0))
         P.normal_texture = _gltf_texture(g, m["normalTexture"], f"{what} normalTexture", srgb=False,
-                                         kind="normal").texture
+                                         kind="normal", cache=cache).texture
     if "occlusionTexture" in m:
         P.occlusion_strength = float(m["occlusionTexture"].get("strength", 1.0))
-        slot = _gltf_texture(g, m["occlusionTexture"], f"{what} occlusionTexture", srgb=False)
-        P.occlusion_texture = _channel(slot.texture, 0, f"{slot.source} R (occlusion)")
+        slot = _gltf_texture(g, m["occlusionTexture"], f"{what} occlusionTexture", srgb=False, cache=cache)
+        P.occlusion_texture = _channel(slot, 0, f"{slot.source} R (occlusion)", cache)
     ef = np.asarray(m.get("emissiveFactor", [0.0, 0.0, 0.0]), dtype=np.float64)
     if ef.shape != (3,) or np.any(ef < 0):
         raise AssetError(f"{g.path}: {what}: emissiveFactor must be 3 numbers >= 0, got {ef.tolist()}")
     P.emissive_factor = ef
     if "emissiveTexture" in m:
         P.emissive_texture = _gltf_texture(g, m["emissiveTexture"], f"{what} emissiveTexture", srgb=True,
-                                           channels=3)
+                                           channels=3, cache=cache)
     P.emissive_strength = float(m.get("extensions", {}).get("KHR_materials_emissive_strength", {})
                                 .get("emissiveStrength", 1.0))
     P.double_sided = bool(m.get("doubleSided", False))
@@ -123,11 +132,22 @@ def _gltf_material(g, mi, warnings):
     return P
 
 
-def _channel(tex, c, label):
-    """A 1-channel linear texture from channel ``c`` of an ImageTexture (same wrap/filter/transform)."""
-    img = np.asarray(tex.image)
-    return ImageTexture(np.ascontiguousarray(img[:, :, c]), srgb=False, wrap=tex.wrap, filter=tex.filter,
-                        scale=tex.scale, offset=tex.offset, rotation_deg=tex.rotation_deg, name=label)
+def _channel(slot, c, label, cache):
+    """A 1-channel linear texture from channel ``c`` of a slot's ImageTexture (same wrap/filter/transform).
+
+    The channel's texels are extracted once per load and image (``cache`` key ``(image, "linear", c)``)
+    and shared by every material reading that channel.
+    """
+    tex = slot.texture
+    key = (slot.image, "linear", c)
+    src = cache.get(key)
+    if src is None:
+        src = np.ascontiguousarray(np.asarray(tex.image)[:, :, c])
+    t = ImageTexture(src, srgb=False, wrap=tex.wrap, filter=tex.filter, scale=tex.scale, offset=tex.offset,
+                     rotation_deg=tex.rotation_deg, name=label)
+    if slot.image is not None:
+        cache.setdefault(key, t)
+    return t
 
 
 def _node_local(node):
@@ -210,7 +230,8 @@ def _load_gltf(path):
     except AssetError as exc:
         raise AssetError(f"{path}: {exc}") from None
     # materials
-    asset.materials = [_gltf_material(g, i, W) for i in range(len(h.get("materials", [])))]
+    textures = {}  # (image, decoding, channel) -> first texture of those texels: each image decoded once
+    asset.materials = [_gltf_material(g, i, W, textures) for i in range(len(h.get("materials", [])))]
     # meshes: glTF mesh index -> list of AssetMesh indices (one per triangle primitive)
     mesh_prims = {}
 

@@ -35,8 +35,12 @@ _MTL_OPTS = {"-blendu": 1, "-blendv": 1, "-bm": 1, "-boost": 1, "-cc": 1, "-clam
              "-mm": 2, "-texres": 1, "-type": 1, "-o": 3, "-s": 3, "-t": 3}
 
 
-def _mtl_map(tokens, base, what, *, srgb, warnings, normal=False):
-    """Parse ``map_* [options] file`` -> texture (missing file: AssetError)."""
+def _mtl_map(tokens, base, what, *, srgb, warnings, normal=False, cache=None):
+    """Parse ``map_* [options] file`` -> texture (missing file: AssetError).
+
+    ``cache`` (a dict, one per load) maps ``(real path, decoding)`` to the first texture read from that
+    file: later maps of the same file share its decoded texels and lazy MIP pyramid.
+    """
     opts, i = {}, 0
     while i < len(tokens) and tokens[i] in _MTL_OPTS:
         k = tokens[i]
@@ -68,17 +72,25 @@ def _mtl_map(tokens, base, what, *, srgb, warnings, normal=False):
     ignored = set(opts) - {"-s", "-o"}
     if ignored:
         warnings.append(f"{what}: map options {sorted(ignored)} ignored")
+    cache = {} if cache is None else cache
+    key = (os.path.realpath(fpath), "linear" if normal or not srgb else "srgb")
+    src = cache.get(key, fpath)
     try:
-        if normal:
-            return NormalMap(fpath, **kw)
-        return ImageTexture(fpath, srgb=srgb, channels=3, **kw)
+        t = NormalMap(src, **kw) if normal else ImageTexture(src, srgb=srgb, channels=3, **kw)
     except TextureError as exc:
         raise AssetError(f"{what}: {exc}") from None
+    cache.setdefault(key, t)
+    return t
 
 
-def parse_mtl(path, warnings=None):
-    """Parse an MTL file into {name: :class:`MTLParams`}; texture files are loaded (missing -> AssetError)."""
+def parse_mtl(path, warnings=None, textures=None):
+    """Parse an MTL file into {name: :class:`MTLParams`}; texture files are loaded (missing -> AssetError).
+
+    ``textures``: the per-load texel cache of :func:`_mtl_map` (a new one when None); each image file is
+    decoded once per decoding however many maps name it.
+    """
     warnings = warnings if warnings is not None else []
+    textures = {} if textures is None else textures
     base = os.path.dirname(os.path.abspath(path))
     out, cur = {}, None
     with open(path, "r", encoding="utf-8", errors="replace") as fh:
@@ -114,11 +126,14 @@ def parse_mtl(path, warnings=None):
                 elif key == "illum":
                     cur.illum = int(args[0])
                 elif key == "map_Kd":
-                    cur.map_Kd = _mtl_map(args, base, f"{where}: map_Kd", srgb=True, warnings=warnings)
+                    cur.map_Kd = _mtl_map(args, base, f"{where}: map_Kd", srgb=True, warnings=warnings,
+                                          cache=textures)
                 elif key == "map_Ke":
-                    cur.map_Ke = _mtl_map(args, base, f"{where}: map_Ke", srgb=True, warnings=warnings)
+                    cur.map_Ke = _mtl_map(args, base, f"{where}: map_Ke", srgb=True, warnings=warnings,
+                                          cache=textures)
                 elif key in ("norm", "map_Kn"):
-                    cur.norm = _mtl_map(args, base, f"{where}: {key}", srgb=False, warnings=warnings, normal=True)
+                    cur.norm = _mtl_map(args, base, f"{where}: {key}", srgb=False, warnings=warnings, normal=True,
+                                        cache=textures)
                 elif key.startswith("map_") or key in ("bump", "disp", "decal", "refl"):
                     warnings.append(f"{where}: {key} not supported; ignored")
                 elif key in ("Ka", "Pr", "Pm", "Ps", "Pc", "Pcr", "aniso", "anisor", "sharpness"):
@@ -144,13 +159,13 @@ def load_obj(path):
     except UnicodeDecodeError:
         text, utf8 = raw.decode("utf-8", errors="replace"), False
     has_vn = re.search(r"^\s*vn\s", text, flags=re.M) is not None
-    mtls = {}
+    mtls, textures = {}, {}  # textures: one decode per image file and decoding for the whole load
     base = os.path.dirname(os.path.abspath(path))
     for m in re.finditer(r"^\s*mtllib\s+(.+?)\s*$", text, flags=re.M):
         mpath = os.path.join(base, m.group(1).replace("\\", "/"))
         if not os.path.isfile(mpath):
             raise AssetError(f"{path}: material library not found: {mpath}")
-        mtls.update(parse_mtl(mpath, W))
+        mtls.update(parse_mtl(mpath, W, textures))
     used = set(re.findall(r"^\s*usemtl\s+(.+?)\s*$", text, flags=re.M))
     missing = used - set(mtls)
     if missing:
