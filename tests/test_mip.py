@@ -99,3 +99,91 @@ def test_lazy_level_skips_unread_levels(rng):
     assert tex.mip_levels_built == [4]
     tex._pyramid[5]  # from level 4, not from level 0
     assert tex.mip_levels_built == [4, 5]
+
+
+# ----------------------------------------------------------------------------- decode once (asset loaders)
+
+def test_shared_texture_keeps_texels_and_checks_decoding(rng):
+    base = T.ImageTexture(rng.random((8, 8, 3)), srgb=False, name="a")
+    other = T.ImageTexture(base, wrap="clamp", scale=(2.0, 2.0))
+    assert other._image is base._image and other._pyramid is base._pyramid
+    assert other.wrap != base.wrap and other.decode == "linear"
+    other._pyramid[2]
+    assert base.mip_levels_built == [2]
+    nm = T.NormalMap(base, strength=0.5)
+    assert nm._pyramid is base._pyramid
+    with pytest.raises(T.TextureError, match="decoded"):
+        T.ImageTexture(base, srgb=True)
+    with pytest.raises(T.TextureError, match="select"):
+        T.ImageTexture(base, select=0)
+    with pytest.raises(T.TextureError, match="channel"):
+        T.ImageTexture(base, channels=1)
+
+
+def _two_material_glb(tmp_path, rng):
+    """A GLB whose two materials use image 0 as base colour and image 1 as metallicRoughness + occlusion,
+    material 1 through a second sampler (clamp) and texture entry."""
+    import trimesh
+    from PIL import Image
+    from trimesh.visual.material import PBRMaterial
+    from pyrt.io.assets import pack_glb, read_gltf
+    box = trimesh.creation.box()
+    img = lambda: Image.fromarray(rng.integers(0, 256, size=(8, 8, 3), dtype=np.uint8))
+    box.visual = trimesh.visual.TextureVisuals(uv=rng.random((len(box.vertices), 2)), material=PBRMaterial(
+        baseColorTexture=img(), metallicRoughnessTexture=img()))
+    raw = tmp_path / "raw.glb"
+    raw.write_bytes(trimesh.Scene(box).export(file_type="glb"))
+    header, buffers = read_gltf(raw)
+    m0 = header["materials"][0]
+    pbr = m0["pbrMetallicRoughness"]
+    bi = header["textures"][pbr["baseColorTexture"]["index"]]["source"]
+    mi = header["textures"][pbr["metallicRoughnessTexture"]["index"]]["source"]
+    assert bi != mi
+    header["samplers"] = header.get("samplers", []) + [{"wrapS": 33071, "wrapT": 33071}]
+    header["textures"] += [{"source": bi, "sampler": len(header["samplers"]) - 1}, {"source": mi}]
+    nt = len(header["textures"])
+    m0["occlusionTexture"] = {"index": pbr["metallicRoughnessTexture"]["index"]}
+    header["materials"].append({"name": "second", "pbrMetallicRoughness": {
+        "baseColorTexture": {"index": nt - 2}, "metallicRoughnessTexture": {"index": nt - 1}},
+        "occlusionTexture": {"index": nt - 1}, "emissiveTexture": {"index": nt - 1}})
+    out = tmp_path / "two.glb"
+    out.write_bytes(pack_glb(header, buffers[0]))
+    return str(out)
+
+
+def test_gltf_images_decoded_once_and_shared(tmp_path, rng, monkeypatch):
+    from pyrt.io.assets import load_asset
+    from pyrt.textures import image as I
+    calls = []
+    real = I.prepare_image
+    monkeypatch.setattr(I, "prepare_image", lambda *a, **k: calls.append(k.get("decode")) or real(*a, **k))
+    a = load_asset(_two_material_glb(tmp_path, rng))
+    p0, p1 = a.materials
+    b0, b1 = p0.base_color_texture.texture, p1.base_color_texture.texture
+    assert b1._image is b0._image and b1._pyramid is b0._pyramid
+    assert b0.wrap != b1.wrap                       # own sampler, shared texels
+    assert p1.metallic_roughness_texture.texture._image is p0.metallic_roughness_texture.texture._image
+    assert p1.roughness_texture._image is p0.roughness_texture._image
+    assert p1.metallic_texture._image is p0.metallic_texture._image
+    assert p1.occlusion_texture._image is p0.occlusion_texture._image
+    assert p0.roughness_texture._image is not p0.metallic_texture._image
+    # emissive reads the metallicRoughness image as sRGB: a separate decode of the same image
+    e = p1.emissive_texture.texture
+    assert e.decode == "srgb" and e._image is not p1.metallic_roughness_texture.texture._image
+    # decodes: base (sRGB), mr (linear), its G, B and R channels, emissive (sRGB) -- once each
+    assert sorted(map(str, calls)) == sorted(["srgb", "linear", "linear", "linear", "linear", "srgb"])
+
+
+def test_obj_maps_of_one_file_decoded_once(tmp_path):
+    from PIL import Image
+    from pyrt.io.assets import load_asset
+    (tmp_path / "m.obj").write_text("mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\n"
+                                    "vt 0 1\nusemtl a\nf 1/1 2/2 3/3\nusemtl b\nf 2/2 4/1 3/3\n")
+    (tmp_path / "m.mtl").write_text("newmtl a\nKd 1 1 1\nmap_Kd t.png\nnewmtl b\nKd 1 1 1\n"
+                                    "map_Kd -s 2 2 t.png\nmap_Ke ./t.png\n")
+    Image.fromarray(np.full((4, 4, 3), 100, np.uint8)).save(tmp_path / "t.png")
+    a = load_asset(str(tmp_path / "m.obj"))
+    m = {p.name: p for p in a.materials}
+    ka, kb, ke = m["a"].map_Kd, m["b"].map_Kd, m["b"].map_Ke
+    assert kb._image is ka._image and ke._image is ka._image and kb._pyramid is ka._pyramid
+    assert kb.scale == (2.0, 2.0) and ka.scale == (1.0, 1.0)
