@@ -190,7 +190,7 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
 
     pieces_done = np.zeros(n_pix, dtype=np.int64)     # per pixel: its chunks finished (all: ``pieces``)
     done = {"chunks": 0, "samples": 0}
-    per_chunk = []
+    stats = RenderStats()
 
     def collect(ci, res):
         if res is None:
@@ -202,9 +202,8 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         pieces_done[lo:hi] += 1
         done["chunks"] += 1
         done["samples"] += int(part.weight[0]) if part is not None else (hi - lo) * S
-        per_chunk.append(st)
+        _merge_stats(stats, st)
 
-    stats = RenderStats()
     workers = max(1, min(ps.accel.threads if threads is None else int(threads), n_chunks))
     bar = tqdm(total=n_chunks, desc="render", unit="chunk", leave=False,
                disable=(not progress) if progress is not None else None)
@@ -243,7 +242,7 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
                             disable=(not progress) if progress is not None else None)
             try:
                 _run_pool(fill_chunk, len(jobs), workers, threading.Event(), fill_bar,
-                          lambda k, st: per_chunk.append(st))
+                          lambda k, st: _merge_stats(stats, st))
             finally:
                 fill_bar.close()
                 if own:
@@ -251,11 +250,6 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
             pixels_filled = n_unstarted
     if own:
         ps.close()
-    for st in per_chunk:  # merge in chunk order (deterministic)
-        for k in ("primary_rays", "secondary_rays", "shadow_rays", "time_intersect", "time_occluded",
-                  "nonfinite_samples"):
-            setattr(stats, k, getattr(stats, k) + getattr(st, k))
-        stats.recorded.extend(st.recorded)
     if stats.nonfinite_samples:
         warnings.warn(f"render: {stats.nonfinite_samples} samples had non-finite radiance and were "
                       "set to 0 (this is a bug; please report the scene)", RuntimeWarning, stacklevel=2)
@@ -263,6 +257,14 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     return RenderResult(image=film.image(), aovs=film.aovs(), stats=stats, film=film,
                         complete=done["chunks"] == n_chunks, chunks_done=done["chunks"], chunks_total=n_chunks,
                         pixels_done=pixels_done, pixels_filled=pixels_filled, samples_done=done["samples"])
+
+
+def _merge_stats(stats, st):
+    """Add a chunk's statistics to ``stats`` (called in chunk order: deterministic; nothing kept per chunk)."""
+    for k in ("primary_rays", "secondary_rays", "shadow_rays", "time_intersect", "time_occluded",
+              "nonfinite_samples"):
+        setattr(stats, k, getattr(stats, k) + getattr(st, k))
+    stats.recorded.extend(st.recorded)
 
 
 def _fill_jobs(unstarted, split, n_chunks, chunk_pixels, chunk_samples):
