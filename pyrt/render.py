@@ -3,9 +3,19 @@
 :func:`render` returns the image, :func:`render_full` also the AOVs and the ray statistics. Every chunk
 has its own random stream ``default_rng([seed, chunk_index])`` and covers a disjoint range of pixels, so
 the image is bit-identical for a seed whatever the number of threads or the order in which chunks finish.
+
+Chunks are cut by samples, not pixels: a chunk holds at most ``chunk_samples`` camera samples, so memory
+does not grow with ``spp``. Up to ``chunk_samples`` spp a chunk is ``chunk_samples // spp`` whole pixels;
+above it a chunk is one pixel and one of its ``pieces = ceil(spp / chunk_samples)`` pieces (chunk index
+``pixel * pieces + piece``): piece ``p`` draws the samples ``p, p + pieces, p + 2 pieces, ...`` of the
+pixel's stratified set (:func:`pyrt.core.sampler.pixel_strata`: ``spp`` equal-area jittered cells that tile
+the pixel once), so the pieces together are one stratified set and each piece alone is spread over the
+whole pixel. A piece goes into a one-pixel film of its own and the pieces are added to the image's film
+in chunk order, by the calling thread (the same float64 sums whatever the thread count).
 """
 from __future__ import annotations
 
+from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 from copy import copy
 from dataclasses import dataclass
@@ -44,13 +54,18 @@ class RenderResult:
     complete : bool
         False when the render was cancelled (``cancel`` set): only the chunks that finished are in the film;
         the other pixels have weight 0 and are black in ``image`` (and 0 / infinite depth in the AOVs).
+        Above ``chunk_samples`` spp a pixel can be partly rendered: its weight (``film.weight``) is the
+        samples of its pieces done, and its value their mean, an unbiased estimate of the pixel's mean
+        over the union of those pieces' strata (each piece is spread evenly over the pixel), noisier.
     chunks_done, chunks_total : int
-        Chunks of pixels rendered, and in the whole image.
+        Chunks (pixel range x sample range) rendered, and in the whole image.
     pixels_done : int
-        Pixels with all their samples (the pixels of the finished chunks).
+        Pixels with all their samples (all their chunks finished).
     pixels_filled : int
-        Pixels of the unfinished chunks that got one sample each after a cancellation (``fill=True``), so the
+        Pixels with no sample at all after a cancellation that got one sample each (``fill=True``), so the
         image has no black holes; 0 otherwise.
+    samples_done : int
+        Camera samples of the finished chunks (the fill's not counted); ``spp * H * W`` when complete.
     """
 
     image: np.ndarray
@@ -62,6 +77,7 @@ class RenderResult:
     chunks_total: int = 0
     pixels_done: int = 0
     pixels_filled: int = 0
+    samples_done: int = 0
 
     @property
     def fraction_done(self):
@@ -92,10 +108,12 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         tens of milliseconds) and the result is marked partial (``result.complete`` False, see
         :class:`RenderResult`: unfinished pixels are black).
     fill : bool
-        After a cancellation, give every pixel of the unfinished chunks one sample (random stream
-        ``default_rng([seed, chunk_index, 1])``) when that is estimated, from the speed of the chunks done, to
-        take at most ``fill_budget`` seconds: the image is then complete, at 1 spp in those pixels
-        (``result.pixels_filled``). What the command line does on Ctrl-C.
+        After a cancellation, give every pixel with no sample one sample (random stream
+        ``default_rng([seed, chunk_index, 1])``; above ``chunk_samples`` spp ``default_rng([seed, first_pixel,
+        1])`` per run of such pixels) when that is estimated, from the speed of the chunks done, to take at
+        most ``fill_budget`` seconds: the image is then complete, at 1 spp in those pixels
+        (``result.pixels_filled``); partly rendered pixels keep the samples they have. What the command
+        line does on Ctrl-C.
     fill_budget : float
         Seconds the fill may take (estimate); above it the unfinished pixels stay black.
     integrator : {"whitted", "glossy"}
@@ -109,10 +127,12 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     A ``KeyboardInterrupt`` while rendering cancels the chunks not yet started, waits for the running
     ones, shuts the thread pool down and propagates (no thread is left running).
 
-    Chunks of pixels are shaded on a pool of ``threads`` workers (NumPy releases the GIL in its array
-    loops, Embree in its traversal). Every chunk has its own random stream
-    ``default_rng([seed, chunk_index])`` and writes a disjoint range of the film, so the image does not
-    depend on the number of threads or the order in which chunks finish.
+    Chunks of at most ``chunk_samples`` samples (whole pixels, or pieces of one pixel above
+    ``chunk_samples`` spp: see the module docstring) are shaded on a pool of ``threads`` workers (NumPy
+    releases the GIL in its array loops, Embree in its traversal), at most ``2 * threads`` in flight.
+    Every chunk has its own random stream ``default_rng([seed, chunk_index])``; whole-pixel chunks write
+    disjoint ranges of the film, pieces are added in chunk order, so the image does not depend on the
+    number of threads or the order in which chunks finish.
     """
     t_start = time.perf_counter()
     if integrator not in INTEGRATORS:
@@ -131,115 +151,170 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     ps = prepared if prepared is not None else PreparedScene(scene, threads=threads)
     W, H, S = cam.width, cam.height, cam.spp
     n_pix = W * H
-    px_per_chunk = max(1, int(chunk_samples) // S)
     film = Film(W, H, aovs=aovs, nonfinite=nonfinite)
-    starts = list(range(0, n_pix, px_per_chunk))
+    split = S > chunk_samples        # a pixel's samples over several chunks ("pieces") of <= chunk_samples
+    pieces = -(-S // chunk_samples) if split else 1
+    px_per_chunk = 1 if split else max(1, int(chunk_samples) // S)
+    n_chunks = n_pix * pieces if split else -(-n_pix // px_per_chunk)
+
+    def chunk_pixels(ci):
+        lo = ci // pieces if split else ci * px_per_chunk
+        return lo, min(lo + px_per_chunk, n_pix)
 
     def run_chunk(ci):
-        lo = starts[ci]
-        hi = min(lo + px_per_chunk, n_pix)
+        lo, hi = chunk_pixels(ci)
         integ = make(ps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
                      record_rays=record_rays, transparent_shadows=transparent_shadows, **extra)
         rng = np.random.default_rng([seed, ci])
-        rays = cam.generate_rays(lo, hi, rng, differentials=ps.needs_differentials)
+        if not split:
+            rays = cam.generate_rays(lo, hi, rng, differentials=ps.needs_differentials)
+            L, a = integ.render_samples(rays, want_aovs=aovs, rng=rng)
+            integ.stats.nonfinite_samples += film.add_block(lo, hi, L, a)
+            return integ.stats, None
+        # piece p of the pixel: its samples p, p + pieces, p + 2 pieces, ... of the pixel's stratified set
+        samples = np.arange(ci % pieces, S, pieces, dtype=np.int64)
+        rays = cam.generate_rays(lo, hi, rng, differentials=ps.needs_differentials, samples=samples)
         L, a = integ.render_samples(rays, want_aovs=aovs, rng=rng)
-        integ.stats.nonfinite_samples += film.add_block(lo, hi, L, a)
-        return integ.stats
+        part = Film(1, 1, aovs=aovs, nonfinite=nonfinite)
+        integ.stats.nonfinite_samples += part.add_block(0, 1, L, a)
+        return integ.stats, part      # added to the film in chunk order by the caller's thread
 
     abort = threading.Event()    # set on an error or a KeyboardInterrupt (the caller's ``cancel`` is not touched)
+    stopped = threading.Event()  # a chunk saw the cancellation: start no more
 
     def run_or_skip(ci):
         if abort.is_set() or (cancel is not None and cancel.is_set()):
+            stopped.set()
             return None
         return run_chunk(ci)
 
+    pieces_done = np.zeros(n_pix, dtype=np.int64)     # per pixel: its chunks finished (all: ``pieces``)
+    done = {"chunks": 0, "samples": 0}
     stats = RenderStats()
-    workers = max(1, min(ps.accel.threads if threads is None else int(threads), len(starts)))
-    bar = tqdm(total=len(starts), desc="render", unit="chunk", leave=False,
+
+    def collect(ci, res):
+        if res is None:
+            return
+        st, part = res
+        lo, hi = chunk_pixels(ci)
+        if part is not None:
+            film.add_film(part, lo)
+        pieces_done[lo:hi] += 1
+        done["chunks"] += 1
+        done["samples"] += int(part.weight[0]) if part is not None else (hi - lo) * S
+        _merge_stats(stats, st)
+
+    workers = max(1, min(ps.accel.threads if threads is None else int(threads), n_chunks))
+    bar = tqdm(total=n_chunks, desc="render", unit="chunk", leave=False,
                disable=(not progress) if progress is not None else None)
-    results = []
     try:
-        if workers == 1:
-            for ci in range(len(starts)):
-                results.append(run_or_skip(ci))
-                bar.update()
-        else:
-            results = _run_pool(run_or_skip, len(starts), workers, abort, bar)
+        _run_pool(run_or_skip, n_chunks, workers, abort, bar, collect, stopped)
     except BaseException:
         if own:
             ps.close()
         raise
     finally:
         bar.close()
-    done = [ci for ci, st in enumerate(results) if st is not None]
-    results = [results[ci] for ci in done]
-    pixels_done = sum(min(starts[ci] + px_per_chunk, n_pix) - starts[ci] for ci in done)
+    pixels_done = int(np.count_nonzero(pieces_done == pieces))
+    unstarted = pieces_done == 0
+    n_unstarted = int(np.count_nonzero(unstarted))
     pixels_filled = 0
-    pending = [ci for ci in range(len(starts)) if results and ci not in set(done)]
-    if fill and pending and pixels_done:
-        # seconds per pixel-sample so far; the fill gives the pending pixels one sample each
-        rate = (time.perf_counter() - t_start) / (pixels_done * S)
-        if (n_pix - pixels_done) * rate <= fill_budget:
+    if fill and n_unstarted and done["samples"]:
+        # seconds per pixel-sample so far; the fill gives the pixels with no sample one sample each
+        rate = (time.perf_counter() - t_start) / done["samples"]
+        if n_unstarted * rate <= fill_budget:
             cam1 = copy(cam)
             cam1.spp = 1
             fps = ps
+            jobs = _fill_jobs(unstarted, split, n_chunks, chunk_pixels, chunk_samples)
 
             def fill_chunk(k):
-                ci = pending[k]
-                lo, hi = starts[ci], min(starts[ci] + px_per_chunk, n_pix)
+                lo, hi, key = jobs[k]
                 integ = make(fps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
                              transparent_shadows=transparent_shadows, **extra)
-                rng = np.random.default_rng([seed, ci, 1])
+                rng = np.random.default_rng([seed, key, 1])
                 rays = cam1.generate_rays(lo, hi, rng, differentials=fps.needs_differentials)
                 L, a = integ.render_samples(rays, want_aovs=aovs, rng=rng)
                 integ.stats.nonfinite_samples += film.add_block(lo, hi, L, a)
                 return integ.stats
 
-            fill_bar = tqdm(total=len(pending), desc="fill", unit="chunk", leave=False,
+            fill_bar = tqdm(total=len(jobs), desc="fill", unit="chunk", leave=False,
                             disable=(not progress) if progress is not None else None)
             try:
-                results += _run_pool(fill_chunk, len(pending), workers, threading.Event(), fill_bar)
+                _run_pool(fill_chunk, len(jobs), workers, threading.Event(), fill_bar,
+                          lambda k, st: _merge_stats(stats, st))
             finally:
                 fill_bar.close()
                 if own:
                     ps.close()
-            pixels_filled = n_pix - pixels_done
+            pixels_filled = n_unstarted
     if own:
         ps.close()
-    for st in results:  # merge in chunk order (deterministic)
-        for k in ("primary_rays", "secondary_rays", "shadow_rays", "time_intersect", "time_occluded",
-                  "nonfinite_samples"):
-            setattr(stats, k, getattr(stats, k) + getattr(st, k))
-        stats.recorded.extend(st.recorded)
     if stats.nonfinite_samples:
         warnings.warn(f"render: {stats.nonfinite_samples} samples had non-finite radiance and were "
                       "set to 0 (this is a bug; please report the scene)", RuntimeWarning, stacklevel=2)
     stats.time_total = time.perf_counter() - t_start
     return RenderResult(image=film.image(), aovs=film.aovs(), stats=stats, film=film,
-                        complete=len(done) == len(starts), chunks_done=len(done), chunks_total=len(starts),
-                        pixels_done=pixels_done, pixels_filled=pixels_filled)
+                        complete=done["chunks"] == n_chunks, chunks_done=done["chunks"], chunks_total=n_chunks,
+                        pixels_done=pixels_done, pixels_filled=pixels_filled, samples_done=done["samples"])
 
 
-def _run_pool(run, n, workers, abort, bar):
-    """``[run(0), ..., run(n - 1)]`` on ``workers`` threads, in index order.
+def _merge_stats(stats, st):
+    """Add a chunk's statistics to ``stats`` (called in chunk order: deterministic; nothing kept per chunk)."""
+    for k in ("primary_rays", "secondary_rays", "shadow_rays", "time_intersect", "time_occluded",
+              "nonfinite_samples"):
+        setattr(stats, k, getattr(stats, k) + getattr(st, k))
+    stats.recorded.extend(st.recorded)
 
-    On any exception in the caller's thread (a ``KeyboardInterrupt`` above all) or in a chunk: set
-    ``abort``, cancel the chunks not started, wait for the running ones and re-raise; the pool is shut
-    down in every case.
+
+def _fill_jobs(unstarted, split, n_chunks, chunk_pixels, chunk_samples):
+    """The fill pass's ``(lo, hi, stream key)``: the unfinished chunks of pixels (key: the chunk index), or,
+    when pixels were split into pieces, the runs of pixels with no piece done, cut at ``chunk_samples``
+    pixels (key: the run's first pixel)."""
+    if not split:
+        return [(*chunk_pixels(ci), ci) for ci in range(n_chunks) if unstarted[chunk_pixels(ci)[0]]]
+    idx = np.flatnonzero(unstarted)
+    cuts = np.flatnonzero(np.diff(idx) != 1) + 1
+    jobs = []
+    for run in np.split(idx, cuts):
+        for lo in range(int(run[0]), int(run[-1]) + 1, chunk_samples):
+            jobs.append((lo, min(lo + chunk_samples, int(run[-1]) + 1), lo))
+    return jobs
+
+
+def _run_pool(run, n, workers, abort, bar, collect, stopped=None):
+    """``collect(ci, run(ci))`` for ``ci`` in ``0 .. n - 1``, in index order, ``run`` on ``workers`` threads.
+
+    At most ``2 * workers`` chunks are queued or waiting to be collected at a time (memory does not grow
+    with the number of chunks). Once ``stopped`` is set no further chunk is submitted. On any exception in
+    the caller's thread (a ``KeyboardInterrupt`` above all) or in a chunk: set ``abort``, cancel the chunks
+    not started, wait for the running ones and re-raise; the pool is shut down in every case.
     """
+    if workers == 1:
+        for ci in range(n):
+            collect(ci, run(ci))
+            bar.update()
+            if stopped is not None and stopped.is_set():
+                return
+        return
     pool = ThreadPoolExecutor(max_workers=workers)
     try:
-        futs = [pool.submit(run, ci) for ci in range(n)]
-        results = []
-        for f in futs:
-            results.append(f.result())
+        window = deque()
+        nxt = 0
+        while window or nxt < n:
+            while nxt < n and len(window) < 2 * workers and not (stopped is not None and stopped.is_set()):
+                window.append((nxt, pool.submit(run, nxt)))
+                nxt += 1
+            if not window:
+                break
+            ci, f = window.popleft()
+            collect(ci, f.result())
             bar.update()
     except BaseException:
         abort.set()
         pool.shutdown(wait=True, cancel_futures=True)
         raise
     pool.shutdown(wait=True)
-    return results
 
 
 def render(scene, **kwargs):
@@ -266,7 +341,8 @@ def render(scene, **kwargs):
     progress : bool, optional
         Show a progress bar (default: only on a terminal).
     chunk_samples : int
-        Camera samples per chunk (bounds memory; default 32768: measured fastest on the benchmark scene).
+        Camera samples per chunk (bounds memory at any ``spp``: a pixel with more samples is split over
+        several chunks; default 32768: measured fastest on the benchmark scene).
     threads : int, optional
         Worker threads for chunks and for Embree batches (default: all cores).
     cancel : threading.Event, optional

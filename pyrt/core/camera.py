@@ -16,7 +16,7 @@ import numpy as np
 
 from pyrt.core import checks
 from pyrt.core.rays import RayBatch
-from pyrt.core.sampler import stratified_samples
+from pyrt.core.sampler import pixel_strata, stratified_samples
 from pyrt.core.errors import Error
 
 
@@ -116,14 +116,24 @@ class Camera:
         np.multiply(sy, inv, out=coef[:, 2])
         return coef @ np.stack([self.forward, self.right, self.up_ortho])
 
-    def pixel_samples(self, pixel_lo, pixel_hi, rng):
+    def pixel_samples(self, pixel_lo, pixel_hi, rng, samples=None):
         """Raster positions for the samples of pixels ``[pixel_lo, pixel_hi)`` (row-major index).
 
         Returns ``(x, y, pixel)`` of length ``(pixel_hi - pixel_lo) * spp``; samples of a pixel are
         contiguous. Stratified: an ``n x n`` jittered grid when ``spp = n^2``, else Latin hypercube
         (each of the ``spp`` rows and columns of the pixel holds one sample).
+
+        ``samples`` (one pixel only, ``pixel_hi = pixel_lo + 1``): draw just these indices of the pixel's set
+        of ``spp`` samples, from the equal-area jittered grid of :func:`pyrt.core.sampler.pixel_strata`
+        (how a render splits a pixel of more than ``chunk_samples`` samples over several chunks).
         """
         spp = self.spp
+        if samples is not None:
+            if pixel_hi - pixel_lo != 1:
+                raise CameraError("Camera.pixel_samples: samples= needs exactly one pixel")
+            u = pixel_strata(rng, spp, samples)
+            row, col = divmod(int(pixel_lo), self.width)
+            return col + u[:, 0], row + u[:, 1], np.full(u.shape[0], pixel_lo, dtype=np.int64)
         pix = np.repeat(np.arange(pixel_lo, pixel_hi, dtype=np.int64), spp)
         row, col = np.divmod(pix, self.width)
         n = pix.shape[0]
@@ -135,7 +145,7 @@ class Camera:
             ox, oy = u[:, 0], u[:, 1]
         return col + ox, row + oy, pix
 
-    def generate_rays(self, pixel_lo, pixel_hi, rng, *, differentials=True):
+    def generate_rays(self, pixel_lo, pixel_hi, rng, *, differentials=True, samples=None):
         """Primary rays for the pixels ``[pixel_lo, pixel_hi)`` (row-major), ``spp`` per pixel, contiguous.
 
         Parameters
@@ -146,13 +156,16 @@ class Camera:
         differentials : bool
             Also the rays one (scaled) pixel to the right and below, scaled by ``max(1/8, 1/sqrt(spp))``
             as in pbrt-v4 so that supersampled renders filter less.
+        samples : int array, optional
+            One pixel only: the indices of its ``spp`` samples to generate (see :meth:`pixel_samples`).
 
         Returns
         -------
         RayBatch
-            ``(pixel_hi - pixel_lo) * spp`` rays at depth 0 with ``pixel`` set (and ``differentials``).
+            ``(pixel_hi - pixel_lo) * spp`` rays (``len(samples)`` with ``samples``) at depth 0 with
+            ``pixel`` set (and ``differentials``).
         """
-        x, y, pix = self.pixel_samples(pixel_lo, pixel_hi, rng)
+        x, y, pix = self.pixel_samples(pixel_lo, pixel_hi, rng, samples)
         d = self.directions(x, y)
         o = np.broadcast_to(self.position, d.shape).copy()
         if not differentials:

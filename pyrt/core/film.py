@@ -91,6 +91,23 @@ class Film:
             a["albedo"][lo:hi] += aovs["albedo"].reshape(n, S, 3).sum(axis=1)
         return bad
 
+    def add_film(self, other, lo=0):
+        """Add the sums and weights of the film ``other`` to the pixels ``[lo, lo + other.n_pixels)``.
+
+        How a render merges the pieces of a pixel whose samples are split over several chunks: each piece
+        goes into a small film of its own, and the pieces are added in chunk order (deterministic bits
+        whatever the thread that rendered them). Non-finite samples counted in ``other`` are counted here too.
+        """
+        hi = lo + other.n_pixels
+        self.sum[lo:hi] += other.sum
+        self.weight[lo:hi] += other.weight
+        if self.sum_sq is not None and other.sum_sq is not None:
+            self.sum_sq[lo:hi] += other.sum_sq
+        if self._aov is not None and other._aov is not None:
+            for k, v in other._aov.items():
+                self._aov[k][lo:hi] += v
+        self.nonfinite_samples += other.nonfinite_samples
+
     def _mean(self, acc):
         """``acc / weight`` per pixel (0 where a pixel has no sample). Uniform weights (every pixel with the
         same number of samples, the usual case) divide by one scalar, which gives the same bits as the
