@@ -282,10 +282,16 @@ def _fill_jobs(unstarted, split, n_chunks, chunk_pixels, chunk_samples):
     return jobs
 
 
+#: chunks in flight per worker thread: enough that a slow chunk at the head of the in-order collection does not
+#: leave the other workers idle, few enough that memory stays bounded (a chunk's pending result is its
+#: statistics and, above chunk_samples spp, a 1-pixel film)
+WINDOW = 16
+
+
 def _run_pool(run, n, workers, abort, bar, collect, stopped=None):
     """``collect(ci, run(ci))`` for ``ci`` in ``0 .. n - 1``, in index order, ``run`` on ``workers`` threads.
 
-    At most ``2 * workers`` chunks are queued or waiting to be collected at a time (memory does not grow
+    At most ``WINDOW * workers`` chunks are queued or waiting to be collected at a time (memory does not grow
     with the number of chunks). Once ``stopped`` is set no further chunk is submitted. On any exception in
     the caller's thread (a ``KeyboardInterrupt`` above all) or in a chunk: set ``abort``, cancel the chunks
     not started, wait for the running ones and re-raise; the pool is shut down in every case.
@@ -302,7 +308,7 @@ def _run_pool(run, n, workers, abort, bar, collect, stopped=None):
         window = deque()
         nxt = 0
         while window or nxt < n:
-            while nxt < n and len(window) < 2 * workers and not (stopped is not None and stopped.is_set()):
+            while nxt < n and len(window) < WINDOW * workers and not (stopped is not None and stopped.is_set()):
                 window.append((nxt, pool.submit(run, nxt)))
                 nxt += 1
             if not window:
