@@ -184,3 +184,12 @@ def test_load_asset_after_a_plain_import():
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip() == "Asset"
+
+
+def test_shading_normal_fallback_is_a_render_key():
+    spec = {"camera": {"width": 8, "height": 6}, "materials": {"m": {"type": "lambert"}},
+            "meshes": [{"primitive": "sphere", "material": "m"}], "render": {"shading_normal_fallback": False}}
+    scene, _ = pyrt.load_dict(spec)
+    assert scene.shading_normal_fallback is False
+    spec["render"]["shading_normal_fallback"] = True
+    assert pyrt.load_dict(spec)[0].shading_normal_fallback is True

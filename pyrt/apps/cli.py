@@ -110,8 +110,14 @@ def _render(args, cancel):
         rest = (f"the other pixels got 1 sample each (noisier)" if res.pixels_filled
                 else "the rest is black")
         spp = scene.camera.spp if args.spp is None else args.spp
-        print(f"pyrt: interrupted: {res.chunks_done}/{res.chunks_total} chunks "
-              f"({100 * res.fraction_done:.0f} % of the pixels) rendered at {spp} spp; {rest}", file=sys.stderr)
+        if res.samples_done > res.pixels_done * spp:   # above 32768 spp a pixel's samples span several chunks
+            share = res.samples_done / (scene.camera.width * scene.camera.height * spp)
+            print(f"pyrt: interrupted: {res.chunks_done}/{res.chunks_total} chunks ({100 * share:.0f} % of the "
+                  f"samples) rendered; a pixel keeps the samples of its finished chunks"
+                  + ("; pixels without any got 1 sample each" if res.pixels_filled else ""), file=sys.stderr)
+        else:
+            print(f"pyrt: interrupted: {res.chunks_done}/{res.chunks_total} chunks "
+                  f"({100 * res.fraction_done:.0f} % of the pixels) rendered at {spp} spp; {rest}", file=sys.stderr)
         return EXIT_INTERRUPTED
     if cancel.is_set():
         print("pyrt: interrupted after the render had finished; the outputs are complete", file=sys.stderr)

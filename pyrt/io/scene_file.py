@@ -4,6 +4,7 @@ Format (every key optional unless marked; unknown keys are errors naming the tab
 
     [camera]            # position, target, up, fov (degrees, vertical), width, height, spp
     [render]            # max_depth, seed, background (RGB radiance), ambient (RGB radiance),
+                        # shading_normal_fallback (bool, default true: see the README's conventions),
                         # throughput_cutoff, offset (strategy name), transparent_shadows (bool),
                         # integrator ("whitted" | "glossy"), glossy_samples, glossy_depth, glossy_threshold
     [materials.NAME]    # type = "lambert" | "blinn_phong" | "mirror" | "glass" | ... ; the rest are the
@@ -65,7 +66,7 @@ class SceneFileNotFoundError(SceneFileError, FileNotFoundError):
 _CAMERA_KEYS = {"position", "target", "up", "fov", "width", "height", "spp", "jitter"}
 _RENDER_OPTIONS = ("max_depth", "seed", "throughput_cutoff", "offset", "transparent_shadows", "integrator",
                    "glossy_samples", "glossy_depth", "glossy_threshold")
-_RENDER_KEYS = {"background", "ambient", *_RENDER_OPTIONS}
+_RENDER_KEYS = {"background", "ambient", "shading_normal_fallback", *_RENDER_OPTIONS}
 _MESH_COMMON = {"file", "primitive", "material", "translate", "rotate", "scale", "matrix", "smooth", "name",
                 "crease_angle", "shading"}
 _PRIMITIVE_KEYS = {"sphere": {"radius", "subdivisions"}, "box": {"extents"}, "plane": {"size", "normal"},
@@ -240,7 +241,8 @@ def _load(data, base, path):
     camera = _construct(Camera, cam_t, "[camera]", path)
     rnd = data.get("render", {})
     _check_keys("[render]", rnd, _RENDER_KEYS, path)
-    scene = _construct(Scene, {"camera": camera, **{k: rnd[k] for k in ("background", "ambient") if k in rnd}},
+    scene = _construct(Scene, {"camera": camera, **{k: rnd[k] for k in ("background", "ambient",
+                                                                       "shading_normal_fallback") if k in rnd}},
                        "[render]", path)
     options = {k: rnd[k] for k in _RENDER_OPTIONS if k in rnd}
     if "integrator" in options and options["integrator"] not in INTEGRATORS:
