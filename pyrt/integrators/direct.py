@@ -181,8 +181,8 @@ def _environment_preview(light, surf, bsdf):
     n = surf.n_hits
     L_out = np.zeros((n, 3))
     mids = surf.material_id
-    lambert = np.array([bsdf.materials[k].lambertian for k in mids], dtype=bool) if n else \
-        np.zeros(0, dtype=bool)
+    # one flag per material, gathered per hit (not a Python loop over the hits)
+    lambert = np.array([m.lambertian for m in bsdf.materials], dtype=bool)[mids]
     li = np.flatnonzero(lambert)
     if li.size:
         for k in np.unique(mids[li]):

@@ -209,7 +209,7 @@ class GlossyIntegrator(Integrator):
         # below the geometric surface a reflected ray would enter the object (dropped, as for mirrors); for a
         # transmitting material (rough glass) a ray below it is a refraction and goes on through the interface
         below = dot(wi, sub.ng) <= 0
-        transmits = np.array([m.transmits for m in self.scene.materials], dtype=bool)[sub.material_id]
+        transmits = self.ps.transmits[sub.material_id]
         refr_all = below & transmits
         alive = (pdf > 0) & (max_component(t_new) > self.throughput_cutoff) & (~below | refr_all)
         keep = np.flatnonzero(alive)

@@ -59,6 +59,7 @@ class PreparedScene:
         mats = scene.materials
         self.has_delta = np.array([m.has_delta for m in mats], dtype=bool)
         self.has_diffuse = np.array([m.has_diffuse for m in mats], dtype=bool)
+        self.transmits = np.array([m.transmits for m in mats], dtype=bool)
         #: dielectric materials (transparent shadows pass through them, pyrt.integrators.shadows)
         self.dielectric = np.array([m.is_dielectric for m in mats], dtype=bool)
         # nested dielectrics (pyrt.integrators.media): per-ray interface stacks only when the scene needs them

@@ -18,32 +18,11 @@ import numpy as np
 
 from pyrt.materials.base import DeltaLobe, IsotropicMaterial, Material, MaterialError, check_color, check_scalar, \
     is_texture, register
-from pyrt.materials.library import MetallicRoughness
+from pyrt.materials.library import MetallicRoughness, conductor_eta_k
 from pyrt.shaders import brdfs
 from pyrt.shaders import fresnel
 from pyrt.shaders import metals as _metals
 from pyrt.shaders.vec import reflect
-
-
-def conductor_eta_k(owner, metal, eta, k):
-    """Validate ``metal`` (a name of :data:`pyrt.shaders.metals.METALS`) xor ``eta`` and ``k``; return (eta, k) RGB.
-
-    Both are float64 (3,) constants: ``eta > 0``, ``k >= 0`` (relative to the surrounding medium).
-    """
-    if metal is not None:
-        if eta is not None or k is not None:
-            raise MaterialError(f"{owner}: give metal or eta/k, not both")
-        try:
-            return _metals.metal_eta_k(metal)
-        except KeyError as e:
-            raise MaterialError(f"{owner}: {e.args[0]}") from None
-    if eta is None or k is None:
-        raise MaterialError(f"{owner}: a conductor needs metal=NAME or both eta and k")
-    eta = check_color("eta", eta, owner, lo=0.0)
-    k = check_color("k", k, owner, lo=0.0)
-    if is_texture(eta) or is_texture(k) or np.any(eta <= 0):
-        raise MaterialError(f"{owner}: eta must be constant RGB > 0 and k constant RGB >= 0")
-    return eta, k
 
 
 @register("conductor")

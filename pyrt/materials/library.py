@@ -52,6 +52,27 @@ def _glossy_alpha(alpha, ctx):
     return np.broadcast_to(np.asarray(alpha, dtype=np.float64).reshape(-1), (ctx.n_hits,)).copy()
 
 
+def conductor_eta_k(owner, metal, eta, k):
+    """Validate ``metal`` (a name of :data:`pyrt.shaders.metals.METALS`) xor ``eta`` and ``k``; return (eta, k) RGB.
+
+    Both are float64 (3,) constants: ``eta > 0``, ``k >= 0`` (relative to the surrounding medium).
+    """
+    if metal is not None:
+        if eta is not None or k is not None:
+            raise MaterialError(f"{owner}: give metal or eta/k, not both")
+        try:
+            return _metals.metal_eta_k(metal)
+        except KeyError as e:
+            raise MaterialError(f"{owner}: {e.args[0]}") from None
+    if eta is None or k is None:
+        raise MaterialError(f"{owner}: a conductor needs metal=NAME or both eta and k")
+    eta = check_color("eta", eta, owner, lo=0.0)
+    k = check_color("k", k, owner, lo=0.0)
+    if is_texture(eta) or is_texture(k) or np.any(eta <= 0):
+        raise MaterialError(f"{owner}: eta must be constant RGB > 0 and k constant RGB >= 0")
+    return eta, k
+
+
 class _MicrofacetSampling:
     """Mixture sampling shared by the microfacet materials: cosine lobe for the diffuse part,
     GGX visible normals (or the NDF for Beckmann / Blinn) for the specular part.
@@ -298,20 +319,7 @@ class CookTorrance(_MicrofacetSampling, Material):
         elif fresnel == "dielectric":
             self.ior = check_scalar("ior", ior, owner, lo=0.0, lo_open=True)
         elif fresnel == "conductor":
-            if metal is not None:
-                if eta is not None or k is not None:
-                    raise MaterialError(f"{owner}: give metal or eta/k, not both")
-                try:
-                    self.eta, self.k = _metals.metal_eta_k(metal)
-                except KeyError as e:
-                    raise MaterialError(f"{owner}: {e.args[0]}") from None
-            else:
-                if eta is None or k is None:
-                    raise MaterialError(f"{owner}: a conductor needs metal=NAME or both eta and k")
-                self.eta = check_color("eta", eta, owner, lo=0.0)
-                self.k = check_color("k", k, owner, lo=0.0)
-                if is_texture(self.eta) or is_texture(self.k) or np.any(self.eta <= 0):
-                    raise MaterialError(f"{owner}: eta must be constant RGB > 0 and k constant RGB >= 0")
+            self.eta, self.k = conductor_eta_k(owner, metal, eta, k)
         self.metal = metal
 
     def _alpha(self, ctx):
