@@ -15,10 +15,7 @@ in chunk order, by the calling thread (the same float64 sums whatever the thread
 """
 from __future__ import annotations
 
-from collections import deque
-from concurrent.futures import ThreadPoolExecutor
 from copy import copy
-from dataclasses import dataclass
 import threading
 import time
 import warnings
@@ -32,58 +29,11 @@ from pyrt.core.film import Film
 from pyrt.integrators.prepared import PreparedScene, RenderStats
 from pyrt.integrators.glossy import GlossyIntegrator
 from pyrt.integrators.whitted import Integrator
+from pyrt.render.pool import merge_stats, run_pool
+from pyrt.render.result import RenderResult
 
 #: ``integrator=`` names: strict Whitted (delta lobes only, the default) and glossy reflection rays
 INTEGRATORS = ("whitted", "glossy")
-
-
-@dataclass
-class RenderResult:
-    """Output of :func:`render_full`.
-
-    Attributes
-    ----------
-    image : (H, W, 3) float32 ndarray
-        Linear scene radiance.
-    aovs : dict or None
-        ``depth`` (H, W), ``normal`` and ``albedo`` (H, W, 3), float32, when asked for.
-    stats : RenderStats
-        Rays by kind, times, non-finite samples.
-    film : Film
-        The film the image was read from (per-pixel sample sums and weights).
-    complete : bool
-        False when the render was cancelled (``cancel`` set): only the chunks that finished are in the film;
-        the other pixels have weight 0 and are black in ``image`` (and 0 / infinite depth in the AOVs).
-        Above ``chunk_samples`` spp a pixel can be partly rendered: its weight (``film.weight``) is the
-        samples of its pieces done, and its value their mean, an unbiased estimate of the pixel's mean
-        over the union of those pieces' strata (each piece is spread evenly over the pixel), noisier.
-    chunks_done, chunks_total : int
-        Chunks (pixel range x sample range) rendered, and in the whole image.
-    pixels_done : int
-        Pixels with all their samples (all their chunks finished).
-    pixels_filled : int
-        Pixels with no sample at all after a cancellation that got one sample each (``fill=True``), so the
-        image has no black holes; 0 otherwise.
-    samples_done : int
-        Camera samples of the finished chunks (the fill's not counted); ``spp * H * W`` when complete.
-    """
-
-    image: np.ndarray
-    aovs: dict | None
-    stats: RenderStats
-    film: Film | None = None
-    complete: bool = True
-    chunks_done: int = 0
-    chunks_total: int = 0
-    pixels_done: int = 0
-    pixels_filled: int = 0
-    samples_done: int = 0
-
-    @property
-    def fraction_done(self):
-        """Share of the image's pixels rendered, in [0, 1] (1 for a complete render)."""
-        n = self.image.shape[0] * self.image.shape[1]
-        return self.pixels_done / n if n else 1.0
 
 
 def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4, offset=None, aovs=False,
@@ -202,13 +152,13 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         pieces_done[lo:hi] += 1
         done["chunks"] += 1
         done["samples"] += int(part.weight[0]) if part is not None else (hi - lo) * S
-        _merge_stats(stats, st)
+        merge_stats(stats, st)
 
     workers = max(1, min(ps.accel.threads if threads is None else int(threads), n_chunks))
     bar = tqdm(total=n_chunks, desc="render", unit="chunk", leave=False,
                disable=(not progress) if progress is not None else None)
     try:
-        _run_pool(run_or_skip, n_chunks, workers, abort, bar, collect, stopped)
+        run_pool(run_or_skip, n_chunks, workers, abort, bar, collect, stopped)
     except BaseException:
         if own:
             ps.close()
@@ -241,8 +191,8 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
             fill_bar = tqdm(total=len(jobs), desc="fill", unit="chunk", leave=False,
                             disable=(not progress) if progress is not None else None)
             try:
-                _run_pool(fill_chunk, len(jobs), workers, threading.Event(), fill_bar,
-                          lambda k, st: _merge_stats(stats, st))
+                run_pool(fill_chunk, len(jobs), workers, threading.Event(), fill_bar,
+                          lambda k, st: merge_stats(stats, st))
             finally:
                 fill_bar.close()
                 if own:
@@ -259,14 +209,6 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
                         pixels_done=pixels_done, pixels_filled=pixels_filled, samples_done=done["samples"])
 
 
-def _merge_stats(stats, st):
-    """Add a chunk's statistics to ``stats`` (called in chunk order: deterministic; nothing kept per chunk)."""
-    for k in ("primary_rays", "secondary_rays", "shadow_rays", "time_intersect", "time_occluded",
-              "nonfinite_samples"):
-        setattr(stats, k, getattr(stats, k) + getattr(st, k))
-    stats.recorded.extend(st.recorded)
-
-
 def _fill_jobs(unstarted, split, n_chunks, chunk_pixels, chunk_samples):
     """The fill pass's ``(lo, hi, stream key)``: the unfinished chunks of pixels (key: the chunk index), or,
     when pixels were split into pieces, the runs of pixels with no piece done, cut at ``chunk_samples``
@@ -280,47 +222,6 @@ def _fill_jobs(unstarted, split, n_chunks, chunk_pixels, chunk_samples):
         for lo in range(int(run[0]), int(run[-1]) + 1, chunk_samples):
             jobs.append((lo, min(lo + chunk_samples, int(run[-1]) + 1), lo))
     return jobs
-
-
-#: chunks in flight per worker thread: enough that a slow chunk at the head of the in-order collection does not
-#: leave the other workers idle, few enough that memory stays bounded (a chunk's pending result is its
-#: statistics and, above chunk_samples spp, a 1-pixel film)
-WINDOW = 16
-
-
-def _run_pool(run, n, workers, abort, bar, collect, stopped=None):
-    """``collect(ci, run(ci))`` for ``ci`` in ``0 .. n - 1``, in index order, ``run`` on ``workers`` threads.
-
-    At most ``WINDOW * workers`` chunks are queued or waiting to be collected at a time (memory does not grow
-    with the number of chunks). Once ``stopped`` is set no further chunk is submitted. On any exception in
-    the caller's thread (a ``KeyboardInterrupt`` above all) or in a chunk: set ``abort``, cancel the chunks
-    not started, wait for the running ones and re-raise; the pool is shut down in every case.
-    """
-    if workers == 1:
-        for ci in range(n):
-            collect(ci, run(ci))
-            bar.update()
-            if stopped is not None and stopped.is_set():
-                return
-        return
-    pool = ThreadPoolExecutor(max_workers=workers)
-    try:
-        window = deque()
-        nxt = 0
-        while window or nxt < n:
-            while nxt < n and len(window) < WINDOW * workers and not (stopped is not None and stopped.is_set()):
-                window.append((nxt, pool.submit(run, nxt)))
-                nxt += 1
-            if not window:
-                break
-            ci, f = window.popleft()
-            collect(ci, f.result())
-            bar.update()
-    except BaseException:
-        abort.set()
-        pool.shutdown(wait=True, cancel_futures=True)
-        raise
-    pool.shutdown(wait=True)
 
 
 def render(scene, **kwargs):
