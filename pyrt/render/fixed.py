@@ -29,17 +29,17 @@ from pyrt.core.film import Film
 from pyrt.integrators.prepared import PreparedScene, RenderStats
 from pyrt.integrators.glossy import GlossyIntegrator
 from pyrt.integrators.whitted import Integrator
-from pyrt.render.pool import merge_stats, run_pool
+from pyrt.render.adaptive import render_adaptive
+from pyrt.render.pool import INTEGRATORS, merge_stats, run_pool
 from pyrt.render.result import RenderResult
 
-#: ``integrator=`` names: strict Whitted (delta lobes only, the default) and glossy reflection rays
-INTEGRATORS = ("whitted", "glossy")
 
 
 def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4, offset=None, aovs=False,
                 progress=None, chunk_samples=1 << 15, threads=None, record_rays=False, prepared=None,
                 nonfinite="zero", cancel=None, fill=False, fill_budget=2.0, transparent_shadows=False,
-                integrator="whitted", glossy_samples=4, glossy_depth=2, glossy_threshold=0.4):
+                integrator="whitted", glossy_samples=4, glossy_depth=2, glossy_threshold=0.4,
+                target_error=None, time_budget=None, max_spp=None, min_spp=8, on_pass=None):
     """Render ``scene`` and return a :class:`RenderResult` with the image, AOVs and statistics.
 
     Parameters are those of :func:`render`, plus:
@@ -84,6 +84,18 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     disjoint ranges of the film, pieces are added in chunk order, so the image does not depend on the
     number of threads or the order in which chunks finish.
     """
+    if target_error is not None or time_budget is not None or max_spp is not None:
+        if spp is not None:
+            raise RenderError("render: spp (fixed samples per pixel) and target_error / time_budget / max_spp "
+                              "(adaptive) exclude each other; min_spp sets the adaptive base pass")
+        return render_adaptive(scene, target_error=target_error, time_budget=time_budget, max_spp=max_spp,
+                               min_spp=min_spp, seed=seed, aovs=aovs, progress=progress,
+                               chunk_samples=chunk_samples, threads=threads, prepared=prepared,
+                               nonfinite=nonfinite, cancel=cancel, fill=fill, fill_budget=fill_budget,
+                               on_pass=on_pass, integrator=integrator, max_depth=max_depth,
+                               throughput_cutoff=throughput_cutoff, offset=offset, record_rays=record_rays,
+                               transparent_shadows=transparent_shadows, glossy_samples=glossy_samples,
+                               glossy_depth=glossy_depth, glossy_threshold=glossy_threshold)
     t_start = time.perf_counter()
     if integrator not in INTEGRATORS:
         raise RenderError(f"render: integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
@@ -258,6 +270,13 @@ def render(scene, **kwargs):
     integrator : {"whitted", "glossy"}
         Default ``"whitted"``; see :func:`render_full` (also ``glossy_samples``, ``glossy_depth``,
         ``glossy_threshold``).
+    target_error, time_budget, max_spp : float, float, int, optional
+        Adaptive, progressive rendering (:mod:`pyrt.render.adaptive`) instead of a fixed ``spp``: passes
+        until the estimated relMSE (:mod:`pyrt.core.metrics`) is at most ``target_error``, ``time_budget``
+        seconds have passed, or every pixel that still needs samples has ``max_spp`` (default 65536),
+        whichever comes first; at least one of ``target_error`` and ``time_budget``. ``min_spp`` (default
+        8, even): the base pass; ``on_pass``: called with a :class:`pyrt.render.adaptive.PassInfo` after
+        every pass. Exclusive with ``spp``.
 
     Returns
     -------

@@ -9,6 +9,13 @@ from __future__ import annotations
 from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 
+from pyrt.core.errors import RenderError
+from pyrt.integrators.glossy import GlossyIntegrator
+from pyrt.integrators.whitted import Integrator
+
+#: ``integrator=`` names: strict Whitted (delta lobes only, the default) and glossy reflection rays
+INTEGRATORS = ("whitted", "glossy")
+
 
 def merge_stats(stats, st):
     """Add a chunk's statistics to ``stats`` (called in chunk order: deterministic; nothing kept per chunk)."""
@@ -57,3 +64,20 @@ def run_pool(run, n, workers, abort, bar, collect, stopped=None):
         pool.shutdown(wait=True, cancel_futures=True)
         raise
     pool.shutdown(wait=True)
+
+
+def integrator_factory(ps, integrator, *, max_depth, throughput_cutoff, offset, record_rays=False,
+                       transparent_shadows=False, glossy_samples=4, glossy_depth=2, glossy_threshold=0.4):
+    """A function of no argument returning a fresh integrator for one chunk (``"whitted"`` or ``"glossy"``)
+    over the prepared scene ``ps``; :class:`RenderError` for another name."""
+    if integrator not in INTEGRATORS:
+        raise RenderError(f"render: integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
+    extra = {}
+    if integrator == "glossy":
+        extra = dict(glossy_samples=glossy_samples, glossy_depth=glossy_depth, glossy_threshold=glossy_threshold)
+    cls = GlossyIntegrator if integrator == "glossy" else Integrator
+
+    def make():
+        return cls(ps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
+                   record_rays=record_rays, transparent_shadows=transparent_shadows, **extra)
+    return make

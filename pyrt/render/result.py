@@ -38,6 +38,12 @@ class RenderResult:
         image has no black holes; 0 otherwise.
     samples_done : int
         Camera samples of the finished chunks (the fill's not counted); ``spp * H * W`` when complete.
+    passes : int
+        Passes rendered (1 at a fixed spp; adaptive renders: the base pass and the adaptive ones).
+    estimated_error : float or None
+        Adaptive renders: the estimated relMSE of the image (:mod:`pyrt.render.adaptive`); None otherwise.
+    stop_reason : str or None
+        Adaptive renders: ``"target_error"``, ``"time_budget"``, ``"max_spp"`` or ``"cancelled"``.
     """
 
     image: np.ndarray
@@ -50,6 +56,16 @@ class RenderResult:
     pixels_done: int = 0
     pixels_filled: int = 0
     samples_done: int = 0
+    passes: int = 1
+    estimated_error: float | None = None
+    stop_reason: str | None = None
+
+    @property
+    def spp_map(self):
+        """Samples each pixel got, (H, W) float64 (adaptive renders vary it; None without a film)."""
+        if self.film is None:
+            return None
+        return self.film.weight.reshape(self.image.shape[0], self.image.shape[1])
 
     @property
     def fraction_done(self):
