@@ -40,6 +40,11 @@ def _parser():
                    help="adaptive: stop after about SECONDS of wall time")
     r.add_argument("--max-spp", type=positive_int, metavar="N", help="adaptive: at most N samples in any pixel")
     r.add_argument("--min-spp", type=positive_int, metavar="N", help="adaptive: samples of the base pass (even)")
+    r.add_argument("--dask", nargs="?", const=True, default=None, metavar="SCHEDULER",
+                   help="render the chunks on Dask: a scheduler address, or without one a local cluster of "
+                        "--dask-workers processes (needs the preview extra)")
+    r.add_argument("--dask-workers", type=positive_int, default=2, metavar="N",
+                   help="worker processes of the local cluster of --dask (default 2)")
     r.add_argument("--write-every", type=positive_float, metavar="SECONDS",
                    help="adaptive: rewrite the outputs with the current image after a pass, at most every SECONDS")
     r.add_argument("--width", type=positive_int, help="image width in pixels (overrides the scene)")
@@ -121,6 +126,8 @@ def _render(args, cancel):
 
     if adaptive:
         opts["on_pass"] = on_pass
+    if args.dask is not None:
+        opts["dask"], opts["dask_workers"] = args.dask, args.dask_workers
     t0 = time.perf_counter()
     res = pyrt.render_full(scene, spp=args.spp, aovs=args.aovs, progress=True, cancel=cancel, fill=True, **opts)
     dt = time.perf_counter() - t0

@@ -46,10 +46,11 @@ from tqdm.auto import tqdm
 
 from pyrt.core import checks
 from pyrt.core.errors import RenderError
-from pyrt.core.film import Film, pixel_sums
+from pyrt.core.film import Film
 from pyrt.core.metrics import relmse_per_pixel
-from pyrt.core.sampler import hash32, sobol_owen_2d
 from pyrt.integrators.prepared import PreparedScene, RenderStats
+from pyrt.render.chunks import shade_adaptive_chunk
+from pyrt.render.distributed import DaskRunner, adaptive_group
 from pyrt.render.pool import integrator_factory, merge_stats, run_pool
 from pyrt.render.result import RenderResult
 
@@ -184,7 +185,7 @@ def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None,
                     progress=None, chunk_samples=1 << 15, threads=None, prepared=None, nonfinite="zero",
                     cancel=None, fill=False, fill_budget=2.0, on_pass=None, integrator="whitted", max_depth=8,
                     throughput_cutoff=1e-4, offset=None, record_rays=False, transparent_shadows=False,
-                    glossy_samples=4, glossy_depth=2, glossy_threshold=0.4):
+                    glossy_samples=4, glossy_depth=2, glossy_threshold=0.4, dask=None, dask_workers=2):
     """Render ``scene`` in adaptive passes until the estimated relMSE is at most ``target_error``, the
     ``time_budget`` (seconds, counted from the call) is spent, or no pixel may take more samples
     (``max_spp``): a :class:`RenderResult` with ``passes``, ``estimated_error``, ``stop_reason`` and the film
@@ -193,7 +194,9 @@ def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None,
     ``min_spp`` (even, >= 2): the base pass's samples per pixel. ``on_pass(PassInfo)`` is called after each
     pass (the command line's ``--write-every`` writes the current image from it). ``cancel`` / ``fill`` as
     in :func:`pyrt.render_full` (a cancelled base pass leaves pixels without samples; ``fill`` gives them 2).
-    The other parameters are those of :func:`pyrt.render_full`.
+    ``dask``: run every pass's chunks on Dask workers (:mod:`pyrt.render.distributed`; the sample map of the
+    next pass is decided here, from the merged film). The other parameters are those of
+    :func:`pyrt.render_full`.
     """
     t_start = time.perf_counter()
     target_error = _positive("target_error", target_error)
@@ -209,31 +212,36 @@ def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None,
         raise RenderError(f"render: max_spp ({max_spp}) is below min_spp ({min_spp})")
     chunk_samples = checks.integer("render", "chunk_samples", chunk_samples, RenderError)
     threads = None if threads is None else checks.integer("render", "threads", threads, RenderError)
-    own = prepared is None
-    ps = prepared if prepared is not None else PreparedScene(scene, threads=threads)
+    integ = dict(integrator=integrator, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
+                 record_rays=record_rays, transparent_shadows=transparent_shadows, glossy_samples=glossy_samples,
+                 glossy_depth=glossy_depth, glossy_threshold=glossy_threshold)
+    runner = None if dask is None else DaskRunner(dask, scene, dask_workers)
+    own = prepared is None and runner is None
+    ps = prepared if prepared is not None or runner is not None else PreparedScene(scene, threads=threads)
     try:
-        make = integrator_factory(ps, integrator, max_depth=max_depth, throughput_cutoff=throughput_cutoff,
-                                  offset=offset, record_rays=record_rays, transparent_shadows=transparent_shadows,
-                                  glossy_samples=glossy_samples, glossy_depth=glossy_depth,
-                                  glossy_threshold=glossy_threshold)
+        make = None if ps is None else integrator_factory(ps, **integ)
+        spec = dict(threads=1, seed=seed, aovs=aovs, nonfinite=nonfinite, integrator=integ)
         return _passes(scene.camera, ps, make, t_start, target_error, time_budget, max_spp, min_spp, seed, aovs,
                        progress, max(2, chunk_samples - chunk_samples % 2), threads, nonfinite, cancel, fill,
-                       fill_budget, on_pass)
+                       fill_budget, on_pass, runner, spec)
     finally:
         if own:
             ps.close()
+        if runner is not None:
+            runner.close()
 
 
 def _passes(cam, ps, make, t_start, target_error, time_budget, max_spp, min_spp, seed, aovs, progress,
-            chunk_samples, threads, nonfinite, cancel, fill, fill_budget, on_pass):
-    """The pass loop of :func:`render_adaptive` (``ps`` prepared, parameters checked)."""
+            chunk_samples, threads, nonfinite, cancel, fill, fill_budget, on_pass, runner=None, spec=None):
+    """The pass loop of :func:`render_adaptive` (``ps`` prepared, parameters checked; with a Dask ``runner``
+    the chunks run on its workers, ``spec`` their settings)."""
     W, H = cam.width, cam.height
     n_pix = W * H
     film = Film(W, H, aovs=aovs, nonfinite=nonfinite)
     half = Film(W, H, nonfinite=nonfinite)           # half B; half A is film - half
     deadline = t_start + time_budget if time_budget is not None else math.inf
     stats = RenderStats()
-    workers_max = ps.accel.threads if threads is None else int(threads)
+    workers_max = 1 if ps is None else (ps.accel.threads if threads is None else int(threads))
     bar = tqdm(desc="pass 0", unit="sample", unit_scale=True, leave=False,
                disable=(not progress) if progress is not None else None)
     totals = {"chunks": 0, "chunks_total": 0, "render_s": 0.0}
@@ -253,20 +261,8 @@ def _passes(cam, ps, make, t_start, target_error, time_budget, max_spp, min_spp,
                 return None
             key = int(order[k])
             P, C = chunks[key]
-            rng = np.random.default_rng([seed, 0xADA, index, key])
-            h = C // 2
-            off = np.repeat(np.cumsum(C) - C, C)
-            j = np.arange(off.shape[0]) - off
-            hh = np.repeat(h, C)
-            is_b = j >= hh
-            pix = np.repeat(P, C)
-            u = sobol_owen_2d(base[pix] + j - is_b * hh, hash32(seed, pix, is_b))
-            rays = cam.rays_at(pix, u, differentials=ps.needs_differentials, spp=spp_after[pix])
-            integ = make()
-            L, a = integ.render_samples(rays, want_aovs=aovs, rng=rng)
-            both = pixel_sums(L, C, a, nonfinite=nonfinite)
-            integ.stats.nonfinite_samples += both.nonfinite
-            return integ.stats, P, both, pixel_sums(L[is_b], h)
+            return shade_adaptive_chunk(ps, cam, make, seed, index, key, P, C, base[P], spp_after[P], aovs,
+                                        nonfinite)
 
         def collect(k, res):
             if res is None:
@@ -279,8 +275,14 @@ def _passes(cam, ps, make, t_start, target_error, time_budget, max_spp, min_spp,
             bar.update(int(both.weight.sum()))
 
         t0 = time.perf_counter()
-        workers = max(1, min(workers_max, len(chunks)))
-        run_pool(run_chunk, len(chunks), workers, threading.Event(), _NoBar(), collect, stopped)
+        if runner is not None:
+            def halted():
+                return (honour_cancel and cancel is not None and cancel.is_set()) or \
+                    (timed and time.perf_counter() >= deadline)
+            _run_dask_pass(runner, cam, spec, index, chunks, order, base, spp_after, collect, halted)
+        else:
+            workers = max(1, min(workers_max, len(chunks)))
+            run_pool(run_chunk, len(chunks), workers, threading.Event(), _NoBar(), collect, stopped)
         totals["render_s"] += time.perf_counter() - t0
         totals["chunks_total"] += len(chunks)
 
@@ -345,6 +347,25 @@ def _passes(cam, ps, make, t_start, target_error, time_budget, max_spp, min_spp,
                         chunks_total=totals["chunks_total"], pixels_done=int(np.count_nonzero(film.weight)),
                         pixels_filled=pixels_filled, samples_done=samples, passes=index + 1,
                         estimated_error=est, stop_reason=stop)
+
+
+def _run_dask_pass(runner, cam, spec, index, chunks, order, base, spp_after, collect, halted):
+    """One pass's chunks as Dask tasks (runs of consecutive chunk indices ``k``, chunk ``order[k]``), collected
+    in order; once ``halted()``, the tasks not finished are cancelled (finished ones are still used)."""
+    tasks = []
+    for g in runner.groups(len(chunks)):
+        items = []
+        for k in g:
+            key = int(order[k])
+            P, C = chunks[key]
+            items.append((key, P, C, base[P], spp_after[P]))
+        tasks.append((g, runner.submit(adaptive_group, cam, runner.token, spec, index, items)))
+    for g, fut in tasks:
+        if halted() and not fut.done():
+            fut.cancel()
+            continue
+        for k, res in zip(g, fut.result()):
+            collect(k, res)
 
 
 class _NoBar:

@@ -30,6 +30,8 @@ from pyrt.integrators.prepared import PreparedScene, RenderStats
 from pyrt.integrators.glossy import GlossyIntegrator
 from pyrt.integrators.whitted import Integrator
 from pyrt.render.adaptive import render_adaptive
+from pyrt.render.chunks import ChunkLayout, shade_fixed_chunk
+from pyrt.render.distributed import DaskRunner, fixed_group
 from pyrt.render.pool import INTEGRATORS, merge_stats, run_pool
 from pyrt.render.result import RenderResult
 
@@ -39,7 +41,8 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
                 progress=None, chunk_samples=1 << 15, threads=None, record_rays=False, prepared=None,
                 nonfinite="zero", cancel=None, fill=False, fill_budget=2.0, transparent_shadows=False,
                 integrator="whitted", glossy_samples=4, glossy_depth=2, glossy_threshold=0.4,
-                target_error=None, time_budget=None, max_spp=None, min_spp=8, on_pass=None):
+                target_error=None, time_budget=None, max_spp=None, min_spp=8, on_pass=None, dask=None,
+                dask_workers=2):
     """Render ``scene`` and return a :class:`RenderResult` with the image, AOVs and statistics.
 
     Parameters are those of :func:`render`, plus:
@@ -95,7 +98,8 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
                                on_pass=on_pass, integrator=integrator, max_depth=max_depth,
                                throughput_cutoff=throughput_cutoff, offset=offset, record_rays=record_rays,
                                transparent_shadows=transparent_shadows, glossy_samples=glossy_samples,
-                               glossy_depth=glossy_depth, glossy_threshold=glossy_threshold)
+                               glossy_depth=glossy_depth, glossy_threshold=glossy_threshold, dask=dask,
+                               dask_workers=dask_workers)
     t_start = time.perf_counter()
     if integrator not in INTEGRATORS:
         raise RenderError(f"render: integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
@@ -109,37 +113,21 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         cam.spp = checks.integer("render", "spp", spp, RenderError)
     chunk_samples = checks.integer("render", "chunk_samples", chunk_samples, RenderError)
     threads = None if threads is None else checks.integer("render", "threads", threads, RenderError)
-    own = prepared is None
-    ps = prepared if prepared is not None else PreparedScene(scene, threads=threads)
+    runner = None if dask is None else DaskRunner(dask, scene, dask_workers)
+    own = prepared is None and runner is None
+    ps = prepared if prepared is not None or runner is not None else PreparedScene(scene, threads=threads)
     W, H, S = cam.width, cam.height, cam.spp
     n_pix = W * H
     film = Film(W, H, aovs=aovs, nonfinite=nonfinite)
-    split = S > chunk_samples        # a pixel's samples over several chunks ("pieces") of <= chunk_samples
-    pieces = -(-S // chunk_samples) if split else 1
-    px_per_chunk = 1 if split else max(1, int(chunk_samples) // S)
-    n_chunks = n_pix * pieces if split else -(-n_pix // px_per_chunk)
+    layout = ChunkLayout(S, n_pix, chunk_samples)
+    split, pieces, n_chunks, chunk_pixels = layout.split, layout.pieces, layout.n_chunks, layout.pixels
 
-    def chunk_pixels(ci):
-        lo = ci // pieces if split else ci * px_per_chunk
-        return lo, min(lo + px_per_chunk, n_pix)
+    def make_integrator():
+        return make(ps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
+                    record_rays=record_rays, transparent_shadows=transparent_shadows, **extra)
 
     def run_chunk(ci):
-        lo, hi = chunk_pixels(ci)
-        integ = make(ps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
-                     record_rays=record_rays, transparent_shadows=transparent_shadows, **extra)
-        rng = np.random.default_rng([seed, ci])
-        if not split:
-            rays = cam.generate_rays(lo, hi, rng, differentials=ps.needs_differentials)
-            L, a = integ.render_samples(rays, want_aovs=aovs, rng=rng)
-            integ.stats.nonfinite_samples += film.add_block(lo, hi, L, a)
-            return integ.stats, None
-        # piece p of the pixel: its samples p, p + pieces, p + 2 pieces, ... of the pixel's stratified set
-        samples = np.arange(ci % pieces, S, pieces, dtype=np.int64)
-        rays = cam.generate_rays(lo, hi, rng, differentials=ps.needs_differentials, samples=samples)
-        L, a = integ.render_samples(rays, want_aovs=aovs, rng=rng)
-        part = Film(1, 1, aovs=aovs, nonfinite=nonfinite)
-        integ.stats.nonfinite_samples += part.add_block(0, 1, L, a)
-        return integ.stats, part      # added to the film in chunk order by the caller's thread
+        return shade_fixed_chunk(ps, cam, make_integrator, seed, ci, layout, film, 0, aovs, nonfinite)
 
     abort = threading.Event()    # set on an error or a KeyboardInterrupt (the caller's ``cancel`` is not touched)
     stopped = threading.Event()  # a chunk saw the cancellation: start no more
@@ -166,22 +154,31 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         done["samples"] += int(part.weight[0]) if part is not None else (hi - lo) * S
         merge_stats(stats, st)
 
-    workers = max(1, min(ps.accel.threads if threads is None else int(threads), n_chunks))
     bar = tqdm(total=n_chunks, desc="render", unit="chunk", leave=False,
                disable=(not progress) if progress is not None else None)
     try:
-        run_pool(run_or_skip, n_chunks, workers, abort, bar, collect, stopped)
+        if runner is not None:
+            spec = dict(threads=1, layout=layout, seed=seed, aovs=aovs, nonfinite=nonfinite, integrator=dict(
+                integrator=integrator, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
+                record_rays=record_rays, transparent_shadows=transparent_shadows, glossy_samples=glossy_samples,
+                glossy_depth=glossy_depth, glossy_threshold=glossy_threshold))
+            _run_dask(runner, cam, spec, n_chunks, cancel, bar, film, collect)
+        else:
+            workers = max(1, min(ps.accel.threads if threads is None else int(threads), n_chunks))
+            run_pool(run_or_skip, n_chunks, workers, abort, bar, collect, stopped)
     except BaseException:
         if own:
             ps.close()
         raise
     finally:
         bar.close()
+        if runner is not None:
+            runner.close()
     pixels_done = int(np.count_nonzero(pieces_done == pieces))
     unstarted = pieces_done == 0
     n_unstarted = int(np.count_nonzero(unstarted))
     pixels_filled = 0
-    if fill and n_unstarted and done["samples"]:
+    if fill and ps is not None and n_unstarted and done["samples"]:
         # seconds per pixel-sample so far; the fill gives the pixels with no sample one sample each
         rate = (time.perf_counter() - t_start) / done["samples"]
         if n_unstarted * rate <= fill_budget:
@@ -219,6 +216,22 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     return RenderResult(image=film.image(), aovs=film.aovs(), stats=stats, film=film,
                         complete=done["chunks"] == n_chunks, chunks_done=done["chunks"], chunks_total=n_chunks,
                         pixels_done=pixels_done, pixels_filled=pixels_filled, samples_done=done["samples"])
+
+
+def _run_dask(runner, cam, spec, n_chunks, cancel, bar, film, collect):
+    """The chunks as Dask tasks (runs of consecutive chunks), merged in chunk order; on ``cancel`` the tasks
+    not collected yet are cancelled (their chunks stay unrendered)."""
+    tasks = [(g, runner.submit(fixed_group, cam, runner.token, spec, g)) for g in runner.groups(n_chunks)]
+    for k, (g, fut) in enumerate(tasks):
+        if cancel is not None and cancel.is_set():
+            for _, f in tasks[k:]:
+                f.cancel()
+            return
+        lo, part, results = fut.result()
+        film.add_film(part, lo)           # whole-pixel chunks (zeros where the run holds pieces)
+        for ci, res in zip(g, results):
+            collect(ci, res)
+        bar.update(len(g))
 
 
 def _fill_jobs(unstarted, split, n_chunks, chunk_pixels, chunk_samples):
@@ -277,6 +290,10 @@ def render(scene, **kwargs):
         whichever comes first; at least one of ``target_error`` and ``time_budget``. ``min_spp`` (default
         8, even): the base pass; ``on_pass``: called with a :class:`pyrt.render.adaptive.PassInfo` after
         every pass. Exclusive with ``spp``.
+    dask : distributed.Client, str or True, optional
+        Render the chunks (fixed spp) or each pass's chunks (adaptive) as tasks on Dask workers
+        (:mod:`pyrt.render.distributed`): a client, a scheduler address, or True for a local cluster of
+        ``dask_workers`` processes. The image equals the local render with the same seed.
 
     Returns
     -------
