@@ -9,7 +9,7 @@ top or in a sub-folder such as ``glTF/``), ``screenshot.*`` (the reference image
 ``README.md``. Every model is previewed by :func:`pyrt.apps.preview.preview_asset` at the previewer's defaults
 (:class:`pyrt.apps.preview.PreviewOptions`: 640x480, 4 spp, studio rig, glossy integrator) in its own Python
 process, so that its peak resident memory is measured alone (``os.wait4``'s ``ru_maxrss``, which includes the
-interpreter and the imports: ~150-200 MB of it is there before any model is loaded), under a time limit
+interpreter and the imports: a model that fails while loading peaks at ~120 MB), under a time limit
 (``--timeout``, default 600 s; a model over it is killed and reported failed).
 
 Writes into ``-o OUT`` (default ``out/compliance``): ``renders/NAME.png`` (pyrt's image), ``results.json`` (all
