@@ -130,6 +130,10 @@ def test_table_status_from_run_and_notes():
                           sheet="s.png")
     assert "![" in md and "(s.png)" in md and "| Duck | see the model README | SCEA |" in md
     assert "1/2 models rendered." in md and "**Duck**: a; b" in md
+    ok.loadavg, bad.loadavg = 4.0, 12.5
+    assert G._machine([ok, bad], "abc1234") == (f"Renderer: commit abc1234. Machine: {os.cpu_count()} cores, shared; "
+                                                "1-minute load average 4.0–12.5 while the models ran (times are noisy "
+                                                "under such load).")
 
 
 def test_sheet_layout_and_composition_on_tiny_images():

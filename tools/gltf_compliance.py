@@ -460,9 +460,21 @@ def write_sheet(path, results, *, tile, cols, limit=None):
 
 # ============================================================================ command line
 
-def _machine(results):
+def _revision():
+    """``abc1234`` (``+ local changes``) of the checkout the tool runs from, or "" outside a git checkout."""
+    try:
+        rev = subprocess.run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                             timeout=10).stdout.strip()
+        dirty = subprocess.run(["git", "-C", ROOT, "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True, timeout=10).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return ""
+    return rev + (" + local changes" if rev and dirty else "")
+
+
+def _machine(results, revision=""):
     loads = [r.loadavg for r in results if r.loadavg is not None]
-    s = f"Machine: {os.cpu_count()} cores"
+    s = (f"Renderer: commit {revision}. " if revision else "") + f"Machine: {os.cpu_count()} cores"
     if loads:
         s += (f", shared; 1-minute load average {min(loads):.1f}–{max(loads):.1f} while the models ran "
               "(times are noisy under such load)")
@@ -486,7 +498,7 @@ def main(argv=None):
         with open(results_path) as fh:
             saved = json.load(fh)
         results = [Result(**r) for r in saved["results"]]
-        creds, command = saved["credits"], saved.get("command", "")
+        creds, command, revision = saved["credits"], saved.get("command", ""), saved.get("revision", "")
     else:
         if not args.folder or not os.path.isdir(args.folder):
             print(f"gltf_compliance: error: no such folder: {args.folder}", file=sys.stderr)
@@ -500,6 +512,7 @@ def main(argv=None):
             return 2
         os.makedirs(args.out, exist_ok=True)
         command = "python tools/gltf_compliance.py " + " ".join(argv if argv is not None else sys.argv[1:])
+        revision = _revision()
         results, creds = [], []
         for k, m in enumerate(models):
             r = run_model(m, args.out, args.timeout)
@@ -509,17 +522,19 @@ def main(argv=None):
                   f"render {_cell(r.render)} total {_cell(r.total)} s, {_cell(r.rss_mb, '{:.0f}')} MB, "
                   f"load avg {r.loadavg:.1f}" + (f" — {r.error}" if r.error else ""), flush=True)
         with open(results_path, "w") as fh:
-            json.dump({"command": command, "results": [asdict(r) for r in results], "credits": creds}, fh, indent=1)
+            json.dump({"command": command, "revision": revision, "results": [asdict(r) for r in results],
+                       "credits": creds}, fh, indent=1)
     notes = load_notes(args.notes)
     write_sheet(os.path.join(args.out, "sheet.png"), results, tile=(240, 320), cols=args.cols)
-    md = build_markdown(results, notes, creds, sheet="sheet.png", command=command, machine=_machine(results))
+    md = build_markdown(results, notes, creds, sheet="sheet.png", command=command,
+                        machine=_machine(results, revision))
     with open(os.path.join(args.out, "compliance.md"), "w") as fh:
         fh.write(md)
     if args.docs:
         size = write_sheet(os.path.join(args.docs, "compliance_sheet.png"), results, tile=(120, 160), cols=args.cols,
                            limit=DOCS_SHEET_LIMIT)
         md = build_markdown(results, notes, creds, sheet="compliance_sheet.png", command=command,
-                            machine=_machine(results))
+                            machine=_machine(results, revision))
         with open(os.path.join(args.docs, "compliance.md"), "w") as fh:
             fh.write(md)
         print(f"wrote {os.path.join(args.docs, 'compliance.md')} and compliance_sheet.png ({size / 1e6:.2f} MB)")
