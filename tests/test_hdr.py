@@ -16,6 +16,7 @@ from pyrt.apps import cli
 from pyrt.apps import preview as P
 from pyrt.core.image_io import ImageFileError, read_hdr, read_image
 from pyrt.lights import LatLongEnvironment
+from pyrt.textures import load_image
 
 BLOB = os.path.join(os.path.dirname(__file__), "..", "assets", "models", "blob.ply")
 
@@ -112,6 +113,9 @@ def test_read_image_and_environments_read_hdr(tmp_path, rng):
     scene, _ = pyrt.load_dict({"camera": {"width": 4, "height": 4},
                                "environment": {"type": "latlong", "file": "sky.hdr"}}, base_dir=str(tmp_path))
     np.testing.assert_array_equal(scene.environment.image, want)
+    img, is_integer = load_image(p)                       # an image texture from .hdr: linear float, as EXR
+    assert not is_integer
+    np.testing.assert_array_equal(img, want)
 
 
 @pytest.mark.parametrize("make, match", [
