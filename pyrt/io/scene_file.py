@@ -24,7 +24,7 @@ Format (every key optional unless marked; unknown keys are errors naming the tab
                         # area lights: type = "rect" (center, normal, size, tangent) | "disk" (center, normal,
                         # radius) | "sphere" (center, radius); radiance or power, color, n_samples;
                         # visible = true adds the emitting mesh (seen by camera rays)
-    [environment]       # type = "constant" (color) | "latlong" (file: EXR, relative to the scene file) |
+    [environment]       # type = "constant" (color) | "latlong" (file: EXR or .hdr, relative to the scene file) |
                         # "cube" (file: cross image, or faces = [6 files]) | "sky" (procedural: sun_direction,
                         # sun_angle, sun_radiance, zenith, horizon, ground, width, height);
                         # intensity, rotate ([angle_deg, [x, y, z]] or a list), filter, hide_background,

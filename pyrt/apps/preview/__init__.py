@@ -28,7 +28,7 @@ The pieces, each a function that can be used and tested alone
   misses see) is set to exactly ``L_g``: the ground disappears into the backdrop and only the
   shadows it catches remain. The asset's own point/spot lights (``lights="asset"/"both"``) light
   the ground unevenly; the backdrop then matches the ground under the model's centre. With an
-  environment map (``environment=``, an OpenEXR lat-long map, used as a light with
+  environment map (``environment=``, an OpenEXR or Radiance .hdr lat-long map, used as a light with
   ``environment_lighting``/``environment_samples``) camera rays see the backdrop plus the map's
   unshadowed SH irradiance on the ground (``rho / pi * E_sh(+y)``); without a ground they see the map.
 - **Exposure** (:func:`auto_exposure`): Reinhard et al. 2002's photographic key over the pixels that

@@ -43,7 +43,7 @@ def _parser():
     ap.add_argument("--camera", default="auto", choices=["auto", "asset"])
     ap.add_argument("--lights", default="studio", choices=["studio", "asset", "both"])
     ap.add_argument("--no-ground", action="store_true", help="no shadow-catcher ground plane")
-    ap.add_argument("--env", help="lat-long environment map (OpenEXR)")
+    ap.add_argument("--env", help="lat-long environment map (OpenEXR or Radiance .hdr)")
     ap.add_argument("--env-lighting", default="mis", help="environment light strategy (mis, map, bsdf, preview, ...)")
     ap.add_argument("--env-samples", type=positive_int, default=8, help="environment light samples per hit")
     ap.add_argument("--exposure", type=finite_float, help="exposure in stops (default: automatic)")

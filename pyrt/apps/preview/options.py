@@ -38,7 +38,7 @@ class PreviewOptions:
     ambient: float = 0.1                 # constant ambient radiance as a fraction of key / pi
     ground: bool = True
     ground_albedo: float = 0.5
-    environment: str | None = None       # OpenEXR lat-long map
+    environment: str | None = None       # lat-long map: OpenEXR or Radiance .hdr
     environment_intensity: float = 1.0
     environment_lighting: str = "mis"    # EnvironmentLight strategy ("mis", "preview" = no shadows, no noise, ...)
     environment_samples: int = 8         # environment light samples per hit
