@@ -16,6 +16,7 @@ import time
 import traceback
 
 from pyrt.core.errors import Error
+from pyrt.core.image_io import TONEMAPS
 from pyrt.io.assets import FORMATS
 from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, check_output_folder, check_outputs, finite_float,
                               interrupts, nonnegative_int, positive_float, positive_int)
@@ -47,7 +48,9 @@ def _parser():
     ap.add_argument("--env-lighting", default="mis", help="environment light strategy (mis, map, bsdf, preview, ...)")
     ap.add_argument("--env-samples", type=positive_int, default=8, help="environment light samples per hit")
     ap.add_argument("--exposure", type=finite_float, help="exposure in stops (default: automatic)")
-    ap.add_argument("--tonemap", default="reinhard", choices=["linear", "film", "reinhard"])
+    ap.add_argument("--tonemap", default="reinhard", choices=TONEMAPS,
+                    help="tone mapper: reinhard (default; automatic white point), pbr_neutral (Khronos PBR Neutral, "
+                         "the glTF Sample Viewer's), aces (Filament's), film, linear, reinhard_rgb")
     ap.add_argument("--turntable", type=nonnegative_int, default=0, metavar="N", help="render N views around the model")
     ap.add_argument("--format", default=None, help="batch output formats, e.g. png,exr (default png)")
     ap.add_argument("--aovs", action="store_true", help="also write depth/normal/albedo")

@@ -4,6 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from pyrt.core.errors import Error
+from pyrt.core.image_io import TONEMAPS
 
 
 class PreviewError(Error, ValueError):
@@ -43,7 +44,7 @@ class PreviewOptions:
     environment_lighting: str = "mis"    # EnvironmentLight strategy ("mis", "preview" = no shadows, no noise, ...)
     environment_samples: int = 8         # environment light samples per hit
     exposure: float | None = None        # stops; None = automatic
-    tonemap: str = "reinhard"
+    tonemap: str = "reinhard"            # any of pyrt.core.image_io.TONEMAPS (pbr_neutral, aces, ...)
     turntable: int = 0                   # number of views (0 = a single view)
     formats: tuple = ("png",)            # any of "png", "exr"
     aovs: bool = False
@@ -80,6 +81,8 @@ class PreviewOptions:
         for name in ("key", "fill_ratio", "rim_ratio", "ambient"):
             if not getattr(self, name) >= 0:
                 raise PreviewError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if self.tonemap not in TONEMAPS:
+            raise PreviewError(f"tonemap must be one of {', '.join(TONEMAPS)}, got {self.tonemap!r}")
         if self.time_budget is not None and not self.time_budget > 0:
             raise PreviewError(f"time_budget must be > 0 seconds, got {self.time_budget}")
         return self
