@@ -44,6 +44,9 @@ def _parser():
     ap.add_argument("--camera", default="auto", choices=["auto", "asset"])
     ap.add_argument("--lights", default="studio", choices=["studio", "asset", "both"])
     ap.add_argument("--no-ground", action="store_true", help="no shadow-catcher ground plane")
+    ap.add_argument("--studio-env", default="on", choices=["on", "off"],
+                    help="the procedural studio environment (soft boxes, reflected by metals; replaces the constant "
+                         "ambient with the same mean radiance; ignored with --env)")
     ap.add_argument("--env", help="lat-long environment map (OpenEXR)")
     ap.add_argument("--env-lighting", default="mis", help="environment light strategy (mis, map, bsdf, preview, ...)")
     ap.add_argument("--env-samples", type=positive_int, default=8, help="environment light samples per hit")
@@ -86,7 +89,7 @@ def _run(args, cancel):
     formats = tuple(args.format.split(",")) if args.format else ("png",)
     opts = PreviewOptions(width=args.width, height=args.height, spp=args.spp, fov=args.fov, azimuth=args.azimuth,
                           elevation=args.elevation, up=args.up, camera=args.camera, lights=args.lights,
-                          ground=not args.no_ground, environment=args.env, environment_lighting=args.env_lighting,
+                          ground=not args.no_ground, studio_env=args.studio_env == "on", environment=args.env, environment_lighting=args.env_lighting,
                           environment_samples=args.env_samples, exposure=args.exposure,
                           tonemap=args.tonemap, turntable=args.turntable, formats=formats, aovs=args.aovs,
                           seed=args.seed, time_budget=args.budget, threads=args.threads).validate()

@@ -36,7 +36,8 @@ class PreviewOptions:
     key: float = 3.0                     # key-light irradiance (W/m^2)
     fill_ratio: float = 0.35
     rim_ratio: float = 0.7
-    ambient: float = 0.1                 # constant ambient radiance as a fraction of key / pi
+    ambient: float = 0.1                 # ambient radiance as a fraction of key / pi (the studio env's mean)
+    studio_env: bool = True              # the procedural studio environment replaces the constant ambient
     ground: bool = True
     ground_albedo: float = 0.5
     environment: str | None = None       # OpenEXR lat-long map
