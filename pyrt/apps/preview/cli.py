@@ -41,6 +41,8 @@ def _parser():
     ap.add_argument("--azimuth", type=finite_float, default=35.0)
     ap.add_argument("--elevation", type=finite_float, default=20.0)
     ap.add_argument("--up", default="auto", choices=["auto", *AXES])
+    ap.add_argument("--framing", default="fit", choices=["fit", "sphere"],
+                    help="fit: the model's projected hull fills the frame (default); sphere: its bounding sphere")
     ap.add_argument("--camera", default="auto", choices=["auto", "asset"])
     ap.add_argument("--lights", default="studio", choices=["studio", "asset", "both"])
     ap.add_argument("--no-ground", action="store_true", help="no shadow-catcher ground plane")
@@ -88,7 +90,7 @@ def main(argv=None):
 def _run(args, cancel):
     formats = tuple(args.format.split(",")) if args.format else ("png",)
     opts = PreviewOptions(width=args.width, height=args.height, spp=args.spp, fov=args.fov, azimuth=args.azimuth,
-                          elevation=args.elevation, up=args.up, camera=args.camera, lights=args.lights,
+                          elevation=args.elevation, up=args.up, framing=args.framing, camera=args.camera, lights=args.lights,
                           ground=not args.no_ground, studio_env=args.studio_env == "on", environment=args.env, environment_lighting=args.env_lighting,
                           environment_samples=args.env_samples, exposure=args.exposure,
                           tonemap=args.tonemap, turntable=args.turntable, formats=formats, aovs=args.aovs,

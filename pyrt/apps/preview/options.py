@@ -29,7 +29,8 @@ class PreviewOptions:
     fov: float = 35.0                    # vertical field of view
     azimuth: float = 35.0                # camera azimuth around the up axis (0 = from +z)
     elevation: float = 20.0              # camera elevation above the ground plane
-    margin: float = 1.05                 # bounding-sphere radius multiplier for framing
+    margin: float = 1.1                  # framing margin: the model spans 1 / margin of the frame
+    framing: str = "fit"                 # "fit" (projected hull fills the frame) or "sphere" (bounding sphere)
     up: str = "auto"                     # "auto" or one of "+x", "-x", "+y", "-y", "+z", "-z"
     camera: str = "auto"                 # "auto" (framed) or "asset" (the file's first camera)
     lights: str = "studio"               # "studio", "asset" or "both"
@@ -68,6 +69,8 @@ class PreviewOptions:
             raise PreviewError(f"margin must be > 0, got {self.margin}")
         if self.up != "auto" and self.up not in AXES:
             raise PreviewError(f"up must be 'auto' or one of {sorted(AXES)}, got {self.up!r}")
+        if self.framing not in ("fit", "sphere"):
+            raise PreviewError(f"framing must be 'fit' or 'sphere', got {self.framing!r}")
         if self.camera not in ("auto", "asset"):
             raise PreviewError(f"camera must be 'auto' or 'asset', got {self.camera!r}")
         if self.lights not in ("studio", "asset", "both"):

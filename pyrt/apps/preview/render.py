@@ -24,8 +24,8 @@ from pyrt.scene import Scene
 from pyrt.io.assets import Asset, load_asset
 from pyrt.apps.preview.options import BudgetExceeded, PreviewError, PreviewInterrupted, PreviewOptions
 from pyrt.apps.preview.studio import STUDIO_PREVIEW_SAMPLES, StudioEnvironment, camera_rotation
-from pyrt.apps.preview.rig import (auto_exposure, bounding_sphere, detect_up_axis, frame_camera, ground_radiance,
-                                   studio_rig, up_transform)
+from pyrt.apps.preview.rig import (auto_exposure, bounding_sphere, detect_up_axis, frame_camera, frame_points,
+                                   ground_radiance, hull_points, studio_rig, up_transform)
 
 
 # ============================================================================ the preview scene
@@ -47,6 +47,7 @@ class PreviewScene:
         self.center, self.radius = bounding_sphere(v)
         if not self.radius > 0:
             raise PreviewError(f"{asset.path}: the model has zero size")
+        self.hull = hull_points(v)              # what the framing fits (the model's projection lies inside)
         self.ground_y = float(v[:, 1].min())
         self.scene = Scene(Camera())
         with _warnings.catch_warnings(record=True) as caught:
@@ -98,8 +99,11 @@ class PreviewScene:
             R = self.up_matrix[:3, :3]
             cam = dataclasses.replace(ac, position=R @ ac.position, forward=R @ ac.forward, up=R @ ac.up)
             return cam.to_pyrt(o.width, o.height, spp=o.spp)
-        return frame_camera(self.center, self.radius, fov=o.fov, azimuth=azimuth, elevation=o.elevation,
-                            width=o.width, height=o.height, margin=o.margin, spp=o.spp)
+        if o.framing == "sphere":
+            return frame_camera(self.center, self.radius, fov=o.fov, azimuth=azimuth, elevation=o.elevation,
+                                width=o.width, height=o.height, margin=o.margin, spp=o.spp)
+        return frame_points(self.hull, fov=o.fov, azimuth=azimuth, elevation=o.elevation, width=o.width,
+                            height=o.height, margin=o.margin, spp=o.spp)
 
     def _set_view(self, azimuth):
         o = self.options
