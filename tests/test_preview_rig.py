@@ -45,12 +45,15 @@ def test_quadruped_stands_on_its_legs(up):
 
 
 def test_guess_accepts_large_point_sets():
-    """Above MAX_POINTS the guess works on a deterministic subsample (same answer twice, no error)."""
+    """Above HULL_POINTS / MAX_POINTS the guess works on deterministic subsamples (same answer twice); the hull of
+    a subsample keeps the exact bounding box (the axis-extreme points are added)."""
     rng = np.random.default_rng(1)
     m = scan_shapes.oriented(scan_shapes.figure(), "+z", 0.0)
     pts = trimesh.sample.sample_surface(m, rig.MAX_POINTS + 50_000, seed=3)[0]
     a = rig.guess_up_axis(pts)
     assert a[0] == "+z" and rig.guess_up_axis(pts)[:2] == a[:2]
+    h = rig.hull_points(pts)
+    np.testing.assert_array_equal([h.min(axis=0), h.max(axis=0)], [pts.min(axis=0), pts.max(axis=0)])
     assert rig.hull_points(rng.normal(size=(10, 3))).shape[1] == 3
     flat = np.column_stack([rng.random(50), np.zeros(50), rng.random(50)])   # coplanar: no 3D hull
     assert rig.hull_points(flat).shape == (50, 3)
@@ -124,3 +127,23 @@ def test_preview_scene_uses_fit_framing():
             ps.close()
     with pytest.raises(P.PreviewError, match="framing"):
         P.PreviewOptions(framing="tight").validate()
+
+
+def test_turntable_views_keep_one_distance():
+    """A turntable fits every view to the union of the hull turned to all views: the camera stays at one
+    distance from the turntable axis and the tile's framing does not breathe from view to view."""
+    tile = scan_shapes.tile()
+    from pyrt.io.assets.asset import Asset, AssetInstance, AssetMesh
+    a = Asset(path="tile.ply", format="ply", meshes=[AssetMesh("t", tile.vertices.copy(), tile.faces.copy())],
+              instances=[AssetInstance(0, np.eye(4))])
+    ps = P.PreviewScene(a, P.PreviewOptions(width=64, height=48, spp=1, turntable=6))
+    try:
+        v = np.concatenate([ps.scene.meshes[i].vertices for i in ps.model_meshes])
+        cams = [ps.camera(35.0 + 60.0 * k) for k in range(6)]
+        r = [np.hypot(*(c.position - ps.center)[[0, 2]]) for c in cams]
+        np.testing.assert_allclose(r, r[0], rtol=1e-6)
+        for c in cams:
+            fx, fy, x, y = _fill(c, v)
+            assert x.min() >= 0 and x.max() <= 64 and y.min() >= 0 and y.max() <= 48
+    finally:
+        ps.close()

@@ -48,6 +48,9 @@ class PreviewScene:
         if not self.radius > 0:
             raise PreviewError(f"{asset.path}: the model has zero size")
         self.hull = hull_points(v)              # what the framing fits (the model's projection lies inside)
+        if o.turntable > 1:                     # every view fits all views' hulls: a turntable does not breathe
+            self.hull = hull_points(np.concatenate([(self.hull - self.center) @ camera_rotation(360.0 * k / o.turntable).T
+                                                    + self.center for k in range(o.turntable)]))
         self.ground_y = float(v[:, 1].min())
         self.scene = Scene(Camera())
         with _warnings.catch_warnings(record=True) as caught:
