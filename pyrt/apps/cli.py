@@ -15,6 +15,7 @@ import time
 import traceback
 
 import pyrt
+from pyrt.core.image_io import TONEMAPS
 from pyrt.geometry.offsets import STRATEGIES
 from pyrt.render import INTEGRATORS
 from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, check_outputs, finite_float, interrupts,
@@ -57,8 +58,9 @@ def _parser():
     r.add_argument("--transparent-shadows", action=argparse.BooleanOptionalAction, default=None,
                    help="shadow rays pass through glass, Fresnel- and absorption-attenuated (overrides the scene; "
                         "default off)")
-    r.add_argument("--tonemap", default="reinhard", choices=["linear", "film", "reinhard", "reinhard_rgb"],
-                   help="reinhard: on luminance; reinhard_rgb: per channel L/(1+L)")
+    r.add_argument("--tonemap", default="reinhard", choices=TONEMAPS,
+                   help="reinhard: on luminance; reinhard_rgb: per channel L/(1+L); pbr_neutral: Khronos PBR "
+                        "Neutral; aces: Filament's ACES")
     r.add_argument("--encoding", default="srgb", choices=["srgb", "gamma"],
                    help="PNG transfer curve: exact sRGB or plain x^(1/gamma)")
     r.add_argument("--gamma", type=positive_float, default=2.2, help="exponent of --encoding gamma")

@@ -481,10 +481,16 @@ def _read_png16(path):
     return img.reshape(height, width, planes)
 
 
-def tonemap_to_display(image, *, tonemap_op="reinhard", exposure=0.0, L_white=None):
-    """Linear radiance -> display-linear [0, 1] with the named operator (linear, film, reinhard, reinhard_rgb).
+#: Names of the tone-mapping operators (:data:`pyrt.shaders.tonemap.OPERATORS`), for command-line choices.
+TONEMAPS = tuple(tonemap.OPERATORS)
 
-    ``reinhard`` maps luminance (hue kept), ``reinhard_rgb`` maps each channel ``L / (1 + L)``.
+
+def tonemap_to_display(image, *, tonemap_op="reinhard", exposure=0.0, L_white=None):
+    """Linear radiance -> display-linear [0, 1] with the named operator (one of :data:`TONEMAPS`).
+
+    ``reinhard`` maps luminance (hue kept), ``reinhard_rgb`` maps each channel ``L / (1 + L)``,
+    ``pbr_neutral`` is Khronos PBR Neutral (the glTF Sample Viewer's default), ``aces`` Filament's ACES
+    (see :mod:`pyrt.shaders.tonemap`).
     """
     img = _check_image(image)
     try:
@@ -544,8 +550,9 @@ def write_png(path, image, *, tonemap="reinhard", exposure=0.0, L_white=None, bi
         Output file (its folder is created).
     image : (H, W, 3) float ndarray
         Linear radiance.
-    tonemap : {"linear", "film", "reinhard", "reinhard_rgb"}
-        ``reinhard`` on luminance, ``reinhard_rgb`` per channel ``L / (1 + L)``.
+    tonemap : {"linear", "film", "reinhard", "reinhard_rgb", "pbr_neutral", "aces"}
+        ``reinhard`` on luminance, ``reinhard_rgb`` per channel ``L / (1 + L)``, ``pbr_neutral`` Khronos
+        PBR Neutral, ``aces`` Filament's ACES (:mod:`pyrt.shaders.tonemap`).
     exposure : float
         Stops applied before the operator.
     L_white : float, optional
