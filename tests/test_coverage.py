@@ -311,3 +311,24 @@ def test_gltf_blend_factor_alpha_cull_and_vertex_alpha(tmp_path):
     q_in, _, q_safe = _cross_quad(o, d)
     img = _flat(pyrt.render(scene, seed=0))
     assert not np.allclose(img[q_in & q_safe], wall[q_in & q_safe], rtol=1e-3)
+
+
+def test_normal_map_on_a_back_face_is_the_front_normal_reversed():
+    """A double-sided surface seen from behind shows the same micro-surface from its other side: the perturbed
+    normal of a back face (ns turned toward the viewer, front False) is minus the front face's."""
+    from pyrt.geometry.surface import SurfaceBatch
+
+    n_ts = np.array([0.3, -0.2, 0.9])
+    n_ts /= np.linalg.norm(n_ts)
+    nm = pyrt.NormalMap(np.broadcast_to((n_ts + 1) / 2, (2, 2, 3)).copy())
+
+    def shading_normal(ns, front):
+        k = 3
+        ctx = SurfaceBatch(p=np.zeros((k, 3)), uv=np.full((k, 2), 0.5), duvdx=np.zeros((k, 2)),
+                           duvdy=np.zeros((k, 2)), ns=np.tile(ns, (k, 1)), dpdu=np.tile([2.0, 0, 0], (k, 1)),
+                           dpdv=np.tile([0, 3.0, 0], (k, 1)), front=np.full(k, front))
+        return pyrt.textures.perturb_normal(ctx, nm)
+
+    n_front = shading_normal([0, 0, 1.0], True)
+    np.testing.assert_allclose(n_front, np.tile(n_ts, (3, 1)), atol=1e-6)   # float32 texels
+    np.testing.assert_allclose(shading_normal([0, 0, -1.0], False), -n_front, atol=1e-12)
