@@ -143,22 +143,29 @@ class CoverageTable:
             if rec.size == 0:
                 break
             mat = geo.face_material[geo.face_offset[cur["mesh_id"][rec]] + cur["prim_id"][rec]]
-            look = self.active[mat]
-            rec, mat = rec[look], mat[look]
+            active = self.active[mat]
+            rec, mat = rec[active], mat[active]
             if rec.size == 0:
                 break
             if layer == MAX_LAYERS:         # still finding see-through surfaces: dropped
                 cur["hit"][rec] = False
                 weight[rec] = 0.0
                 break
+            # back faces from the winding normal alone (no surface batch for hits that are simply kept)
+            face = geo.face_offset[cur["mesh_id"][rec]] + cur["prim_id"][rec]
+            back = dot(take_rows(geo.face_normals, face), take_rows(d, parent[rec])) > 0
+            skip = self.cull[mat] & back
+            mode = self.mode[mat]
+            look = (mode > 0) & ~skip
+            work = look | skip
+            if not np.any(work):
+                break
+            rec, mat, skip, mode, look = rec[work], mat[work], skip[work], mode[work], np.flatnonzero(look[work])
             p = parent[rec]
             dsub = None if diffs is None else tuple(take_rows(x, p) for x in diffs)
             surf = surface_from_hits(geo, Hits(**{f: cur[f][rec] for f in _FIELDS}), take_rows(o, p),
                                      take_rows(d, p), dsub)
-            skip = self.cull[mat] & ~surf.front
-            mode = self.mode[mat]
             a = np.ones(rec.size)
-            look = np.flatnonzero((mode > 0) & ~skip)
             if look.size:
                 a[look] = self._opacity(surf, mat, look)
             skip |= ((mode == _MASK) & (a < self.cutoff[mat])) | ((mode == _BLEND) & (a <= 0.0))

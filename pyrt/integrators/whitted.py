@@ -171,11 +171,14 @@ class Integrator:
                     parent, w, hits = cover.resolve(self.ps.geo, hits, o, d, diffs if use_diffs else None,
                                                     self._retrace, self.offset, thr_max=max_component(thr),
                                                     cutoff=self.throughput_cutoff)
-                    o, d, sample = take_rows(o, parent), take_rows(d, parent), np.take(sample, parent)
-                    thr = take_rows(thr, parent) * w[:, None]
-                    diffs = None if diffs is None else tuple(take_rows(x, parent) for x in diffs)
-                    stack = None if stack is None else stack[parent]
-                    bpdf = None if bpdf is None else np.take(bpdf, parent)
+                    if parent.size > n_rays:   # blend records: the rays they continue, weighted
+                        o, d, sample = take_rows(o, parent), take_rows(d, parent), np.take(sample, parent)
+                        thr = take_rows(thr, parent)
+                        diffs = None if diffs is None else tuple(take_rows(x, parent) for x in diffs)
+                        stack = None if stack is None else stack[parent]
+                        bpdf = None if bpdf is None else np.take(bpdf, parent)
+                    if np.any(w != 1.0):
+                        thr = thr * w[:, None]
                 if media is not None:  # nested dielectrics: continue through false hits; Beer-Lambert absorption
                     hits, seg_t, stack = media.skip_false_hits(
                         self.ps.geo, hits, o, d, stack, self._retrace_covered,
