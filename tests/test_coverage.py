@@ -18,7 +18,7 @@ import pytest
 import trimesh
 
 import pyrt
-from pyrt.integrators.coverage import CoverageTable
+from pyrt.integrators.coverage import MAX_LAYERS, CoverageTable
 from pyrt.integrators.prepared import PreparedScene
 
 H = 0.5                                   # quad half-size
@@ -100,10 +100,11 @@ def _flat(img):
     return img.reshape(-1, 3).astype(np.float64)
 
 
-def test_mask_camera_and_shadow_rays_are_exact():
+@pytest.mark.parametrize("integrator", ["whitted", "glossy"])
+def test_mask_camera_and_shadow_rays_are_exact(integrator):
     mat = pyrt.Lambert(albedo=RHO_Q).set_coverage(opacity=_opacity_texture(), alpha_mode="mask")
     scene = _scene(mat)
-    img = _flat(pyrt.render(scene, seed=0))
+    img = _flat(pyrt.render(scene, seed=0, integrator=integrator))
     o, d = _rays(scene.camera)
     q_in, q_op, q_safe = _cross_quad(o, d)
     wall, w_safe = _expected_masked_wall(o, d, lambda i, op: np.where(op, 0.0, 1.0))
@@ -137,11 +138,12 @@ def test_mask_secondary_rays_see_the_cutouts():
     assert (reflected & b_op).sum() > 70 and (reflected & ~b_op).sum() > 70
 
 
-def test_blend_is_alpha_front_plus_one_minus_alpha_back():
+@pytest.mark.parametrize("integrator", ["whitted", "glossy"])
+def test_blend_is_alpha_front_plus_one_minus_alpha_back(integrator):
     a = 0.3
     mat = pyrt.Lambert(albedo=RHO_Q).set_coverage(opacity=a, alpha_mode="blend")
     scene = _scene(mat)
-    img = _flat(pyrt.render(scene, seed=0))
+    img = _flat(pyrt.render(scene, seed=0, integrator=integrator))
     o, d = _rays(scene.camera)
     q_in, _, q_safe = _cross_quad(o, d)
     wall, w_safe = _expected_masked_wall(o, d, lambda inside, op: np.where(inside, 1.0 - a, 1.0))
@@ -332,3 +334,40 @@ def test_normal_map_on_a_back_face_is_the_front_normal_reversed():
     n_front = shading_normal([0, 0, 1.0], True)
     np.testing.assert_allclose(n_front, np.tile(n_ts, (3, 1)), atol=1e-6)   # float32 texels
     np.testing.assert_allclose(shading_normal([0, 0, -1.0], False), -n_front, atol=1e-12)
+
+
+@pytest.mark.parametrize("layers", [MAX_LAYERS, MAX_LAYERS + 1])
+def test_layer_bound_is_what_the_docs_say(layers):
+    """Up to MAX_LAYERS cut-out surfaces are skipped (camera and shadow rays); a ray meeting one more is dropped."""
+    cam = pyrt.Camera(position=(0, 0, 3), target=(0, 0, 0), fov=10, width=4, height=4, spp=1, jitter=False)
+    scene = pyrt.Scene(cam, background=BG)
+    gone = pyrt.Lambert(albedo=RHO_Q).set_coverage(opacity=0.0, alpha_mode="mask")
+    for i in range(layers):
+        scene.add_mesh(_quad(z=-0.01 * i), gone, smooth=False)
+    scene.add_mesh(_quad(z=-1.0, size=20.0), pyrt.Lambert(albedo=RHO_W), smooth=False)
+    scene.add_light(pyrt.DirectionalLight((0, 0, -1), irradiance=E))
+    img = _flat(pyrt.render(scene, seed=0))
+    if layers == MAX_LAYERS:
+        np.testing.assert_allclose(img, _lambert(RHO_W, np.ones(16)), rtol=1e-5)
+    else:
+        assert np.all(img == 0.0)
+
+
+def test_aovs_see_the_nearest_kept_surface():
+    """Depth and albedo AOVs: the blend surface itself (not its continuation); through a cut-out, the wall."""
+    blend = pyrt.Lambert(albedo=RHO_Q).set_coverage(opacity=0.3, alpha_mode="blend")
+    res = pyrt.render_full(_scene(blend), seed=0, aovs=True)
+    cam = _camera()
+    o, d = _rays(cam)
+    q_in, q_op, q_safe = _cross_quad(o, d)
+    depth, albedo = res.aovs["depth"].reshape(-1), res.aovs["albedo"].reshape(-1, 3)
+    t_quad, t_wall = -o[:, 2] / d[:, 2], (-1.0 - o[:, 2]) / d[:, 2]
+    sel = q_in & q_safe
+    np.testing.assert_allclose(depth[sel], t_quad[sel], rtol=1e-5)
+    np.testing.assert_allclose(albedo[sel], RHO_Q, rtol=1e-6)
+    mask = pyrt.Lambert(albedo=RHO_Q).set_coverage(opacity=_opacity_texture(), alpha_mode="mask")
+    res = pyrt.render_full(_scene(mask), seed=0, aovs=True)
+    depth = res.aovs["depth"].reshape(-1)
+    holes = q_in & q_safe & ~q_op
+    np.testing.assert_allclose(depth[holes], t_wall[holes], rtol=1e-5)
+    assert holes.sum() > 700 and depth.size == cam.width * cam.height
