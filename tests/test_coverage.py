@@ -371,3 +371,20 @@ def test_aovs_see_the_nearest_kept_surface():
     holes = q_in & q_safe & ~q_op
     np.testing.assert_allclose(depth[holes], t_wall[holes], rtol=1e-5)
     assert holes.sum() > 700 and depth.size == cam.width * cam.height
+
+
+def test_mask_with_nested_media_on():
+    """With interface stacks (an absorbing glass in the scene) the camera rays still skip the cut-outs exactly."""
+    mat = pyrt.Lambert(albedo=RHO_Q).set_coverage(opacity=_opacity_texture(), alpha_mode="mask")
+    scene = _scene(mat)
+    scene.add_sphere((1.5, 1.5, 0), 0.2, pyrt.Glass(ior=1.5, absorption=0.5))   # off screen's quad region
+    with PreparedScene(scene) as ps:
+        assert ps.media is not None
+    img = _flat(pyrt.render(scene, seed=0))
+    o, d = _rays(scene.camera)
+    q_in, q_op, q_safe = _cross_quad(o, d)
+    wall, w_safe = _expected_masked_wall(o, d, lambda i, op: np.where(op, 0.0, 1.0))
+    expected = np.where(q_op[:, None], _lambert([RHO_Q] * 3, np.full(o.shape[0], L_TO[2])), wall)
+    safe = q_safe & (q_op | w_safe) & q_in
+    np.testing.assert_allclose(img[safe], expected[safe], rtol=1e-5, atol=1e-7)
+    assert safe.sum() > 1500
