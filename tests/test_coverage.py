@@ -336,21 +336,29 @@ def test_normal_map_on_a_back_face_is_the_front_normal_reversed():
     np.testing.assert_allclose(shading_normal([0, 0, -1.0], False), -n_front, atol=1e-12)
 
 
+@pytest.mark.parametrize("kind", ["mask", "cull"])
 @pytest.mark.parametrize("layers", [MAX_LAYERS, MAX_LAYERS + 1])
-def test_layer_bound_is_what_the_docs_say(layers):
-    """Up to MAX_LAYERS cut-out surfaces are skipped (camera and shadow rays); a ray meeting one more is dropped."""
+def test_layer_bound_is_what_the_docs_say(layers, kind):
+    """Up to MAX_LAYERS cut-out (camera and shadow rays) or culled surfaces are skipped; a ray meeting one more
+    is dropped. (Culled faces still cast shadows: that scene is lit by the ambient term.)"""
     cam = pyrt.Camera(position=(0, 0, 3), target=(0, 0, 0), fov=10, width=4, height=4, spp=1, jitter=False)
-    scene = pyrt.Scene(cam, background=BG)
-    gone = pyrt.Lambert(albedo=RHO_Q).set_coverage(opacity=0.0, alpha_mode="mask")
+    scene = pyrt.Scene(cam, background=BG, ambient=0.0 if kind == "mask" else 0.2)
+    if kind == "mask":
+        gone = pyrt.Lambert(albedo=RHO_Q).set_coverage(opacity=0.0, alpha_mode="mask")
+    else:
+        gone = pyrt.Lambert(albedo=RHO_Q).set_coverage(double_sided=False)
     for i in range(layers):
-        scene.add_mesh(_quad(z=-0.01 * i), gone, smooth=False)
+        scene.add_mesh(_quad(z=-0.01 * i, flip=kind == "cull"), gone, smooth=False)
     scene.add_mesh(_quad(z=-1.0, size=20.0), pyrt.Lambert(albedo=RHO_W), smooth=False)
-    scene.add_light(pyrt.DirectionalLight((0, 0, -1), irradiance=E))
+    if kind == "mask":
+        scene.add_light(pyrt.DirectionalLight((0, 0, -1), irradiance=E))
     img = _flat(pyrt.render(scene, seed=0))
-    if layers == MAX_LAYERS:
+    if layers > MAX_LAYERS:
+        assert np.all(img == 0.0)
+    elif kind == "mask":
         np.testing.assert_allclose(img, _lambert(RHO_W, np.ones(16)), rtol=1e-5)
     else:
-        assert np.all(img == 0.0)
+        np.testing.assert_allclose(img, np.tile(RHO_W * 0.2, (16, 1)), rtol=1e-6)
 
 
 def test_aovs_see_the_nearest_kept_surface():

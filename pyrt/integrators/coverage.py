@@ -36,7 +36,9 @@ counts as opaque (no split).
 
 Cost model: :meth:`CoverageTable.for_scene` is None when every material is opaque and double-sided; the
 integrator then keeps its single closest-hit query per bounce and its occlusion queries (bit-identical
-images), and shadow rays pay only when a material is ``"mask"`` or ``"blend"``.
+images), and shadow rays pay only when a material is ``"mask"`` or ``"blend"``. With culling alone (glTF's
+default ``doubleSided`` false) the integrator keeps its hits-only query and :meth:`CoverageTable.cull_hits`
+tests the winding normal of each hit and re-traces only the back-face hits.
 """
 from __future__ import annotations
 
@@ -100,6 +102,56 @@ class CoverageTable:
         if self.mode[k] == _MASK:
             return (a < self.cutoff[k]).astype(np.float64)
         return 1.0 - a
+
+    def cull_hits(self, geo, idx, hits, o, d, intersect_hits, respawn):
+        """Culling only (no mask or blend material): the closest hits of the rays ``o, d`` with back faces of
+        single-sided materials skipped, in the hits-only form of :meth:`pyrt.geometry.accel.Accel.intersect_hits`.
+
+        Parameters
+        ----------
+        idx : (K,) int ndarray
+            The rays that hit; ``hits`` their :class:`Hits`.
+        intersect_hits : callable
+            ``intersect_hits(o, d) -> (idx, hits)`` (the integrator's, for its statistics).
+        respawn : callable
+            As for :meth:`resolve`.
+
+        Returns
+        -------
+        idx, hits, dropped
+            The rays that still hit something and their hits (``t`` from the original origins), and the rays
+            dropped after :data:`MAX_LAYERS` culled faces (the caller zeroes their throughput).
+        """
+        idx = np.asarray(idx)
+        cur = {f: np.array(getattr(hits, f), copy=True) for f in _FIELDS}
+        keep = np.ones(idx.size, dtype=bool)
+        lanes = np.arange(idx.size)
+        dropped = idx[:0]
+        for layer in range(MAX_LAYERS + 1):
+            face = geo.face_offset[cur["mesh_id"][lanes]] + cur["prim_id"][lanes]
+            ray = idx[lanes]
+            back = dot(take_rows(geo.face_normals, face), take_rows(d, ray)) > 0
+            lanes = lanes[back & self.cull[geo.face_material[face]]]
+            if lanes.size == 0:
+                break
+            if layer == MAX_LAYERS:
+                keep[lanes] = False
+                dropped = idx[lanes]
+                break
+            ray = idx[lanes]
+            sub = Hits(**{f: cur[f][lanes] for f in _FIELDS})
+            dl = take_rows(d, ray)
+            origins = respawn(surface_from_hits(geo, sub, take_rows(o, ray), dl), dl)
+            k, nh = intersect_hits(origins, dl)
+            keep[lanes] = False
+            lanes = lanes[k]
+            keep[lanes] = True
+            t_base = dot(take_rows(origins, k) - take_rows(o, idx[lanes]), take_rows(dl, k))
+            for f in _FIELDS:
+                cur[f][lanes] = getattr(nh, f)
+            cur["t"][lanes] = t_base + nh.t
+        sel = np.flatnonzero(keep)
+        return idx[sel], Hits(**{f: cur[f][sel] for f in _FIELDS}), dropped
 
     def resolve(self, geo, hits, o, d, diffs, intersect, respawn, *, thr_max=None, cutoff=0.0, split=True):
         """The surfaces rays ``o + t d`` see, with cut-outs and culled faces skipped and blend surfaces split.

@@ -124,6 +124,10 @@ class Integrator:
         """Closest hits (all rays) of rays continued past a skipped or blended surface, counted as secondary."""
         return self._intersect(o, d, "secondary")
 
+    def _retrace_hits(self, o, d):
+        """:meth:`_retrace` in the hits-only form ``(idx, hits)`` of :meth:`Accel.intersect_hits`."""
+        return self._intersect(o, d, "secondary", hits_only=True)
+
     def _retrace_covered(self, o, d):
         """:meth:`_retrace` with cut-outs and culled faces skipped (no blend split; nested media's continuations)."""
         hits = self._retrace(o, d)
@@ -165,7 +169,13 @@ class Integrator:
                 break
             kind = "primary" if depth == 0 else "secondary"
             n_rays = o.shape[0]   # rays of this bounce; blend surfaces append records after them (coverage)
-            if media is not None or cover is not None:
+            if media is None and cover is not None and not cover.shadows:   # culling only: hits-only queries
+                h, hsub = self._intersect(o, d, kind, hits_only=True)
+                h, hsub, dropped = cover.cull_hits(self.ps.geo, h, hsub, o, d, self._retrace_hits, self.offset)
+                if dropped.size:      # more than coverage.MAX_LAYERS culled faces on the way: radiance 0
+                    thr = thr.copy()
+                    thr[dropped] = 0.0
+            elif media is not None or cover is not None:
                 hits = self._intersect(o, d, kind)
                 if cover is not None:  # alpha cut-outs skipped, blend surfaces split, back faces culled
                     parent, w, hits = cover.resolve(self.ps.geo, hits, o, d, diffs if use_diffs else None,
