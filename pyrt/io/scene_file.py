@@ -13,6 +13,9 @@ Format (every key optional unless marked; unknown keys are errors naming the tab
                         # may be a texture table, e.g. albedo = {type = "image", path = "wood.png"}
                         # (types in pyrt.textures.TEXTURES, paths relative to the scene file);
                         # normal_map = "normals.png" or {type = "normal_map", path = ..., strength = ...}
+                        # coverage, any type: alpha_mode = "opaque" | "mask" | "blend", opacity (number or
+                        # 1-channel texture, e.g. {type = "image", path = "leaf.png", select = 3, srgb = false}),
+                        # alpha_cutoff (mask, default 0.5), double_sided (false: back faces culled)
     [[meshes]]          # file = "path" (relative to the scene file) OR primitive = "sphere" | "box" |
                         # "plane" | "cylinder"; material = NAME (required); transform: translate, rotate
                         # ([angle_deg, [x, y, z]] or a list of them), scale, or matrix (4x4);
@@ -73,6 +76,8 @@ _MESH_COMMON = {"file", "primitive", "material", "translate", "rotate", "scale",
                 "crease_angle", "shading"}
 _PRIMITIVE_KEYS = {"sphere": {"radius", "subdivisions"}, "box": {"extents"}, "plane": {"size", "normal"},
                    "cylinder": {"radius", "height", "sections"}}
+#: material keys every type accepts: coverage (Material.set_coverage)
+_COVERAGE_KEYS = ("opacity", "alpha_mode", "alpha_cutoff", "double_sided")
 _TOP_KEYS = {"camera", "render", "materials", "meshes", "lights", "environment"}
 _ENV_COMMON = {"type", "intensity", "rotate", "hide_background", "background", "lighting", "samples", "heuristic",
                "preview_samples", "name"}
@@ -261,7 +266,13 @@ def _load(data, base, path):
         kwargs.setdefault("name", name)
         normal_map = kwargs.pop("normal_map", None)
         kwargs = {k: _texture(v, f"{where}.{k}", base, path) if isinstance(v, dict) else v for k, v in kwargs.items()}
+        cover = {k: kwargs.pop(k) for k in _COVERAGE_KEYS if k in kwargs}
         materials[name] = _construct(MATERIALS[kind], kwargs, where, path)
+        if cover:   # any material: Material.set_coverage (pyrt.integrators.coverage)
+            try:
+                materials[name].set_coverage(**cover)
+            except Error as exc:
+                raise SceneFileError(f"{path}: {where}: {exc}") from None
         if normal_map is not None:
             spec_nm = {"type": "normal_map", "path": normal_map} if isinstance(normal_map, str) else normal_map
             materials[name].normal_map = _texture(spec_nm, f"{where}.normal_map", base, path)

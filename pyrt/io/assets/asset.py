@@ -14,6 +14,7 @@ from pyrt.core.camera import Camera
 from pyrt.geometry.normals import crease_normals
 from pyrt.lights import DirectionalLight, PointLight, SpotLight
 from pyrt.io.assets.common import DEFAULT_CREASE_ANGLE, AssetError, DefaultParams, PBRParams
+from pyrt.io.assets.alpha import apply_coverage, uses_alpha
 from pyrt.io.assets.materials import VertexColorTexture, to_pyrt_material
 
 
@@ -34,6 +35,7 @@ class AssetMesh:
     uv: np.ndarray | None = None        # (V, 2) float64
     colors: np.ndarray | None = None    # (V, 3) float64 linear
     material: int = -1
+    alpha: np.ndarray | None = None     # (V,) coverage alpha (glTF COLOR_0's A), read by MASK / BLEND materials
 
 
 @dataclass
@@ -134,12 +136,14 @@ class Asset:
         for k, inst in enumerate(self.instances):
             if inst.mesh not in prepared:
                 prepared[inst.mesh] = _prepare_mesh(self.meshes[inst.mesh], crease_angle)
-            tm, normals, colors = prepared[inst.mesh]
+            tm, normals, colors, alpha = prepared[inst.mesh]
             am = self.meshes[inst.mesh]
-            key = am.material if colors is None else ("vc", inst.mesh)
+            if alpha is not None and not uses_alpha(self._params(am)):
+                alpha = None
+            key = am.material if colors is None and alpha is None else ("vc", inst.mesh)
             if key not in mats:
-                mats[key] = self._material(am, colors)
-            material, vc_tex = mats[key]
+                mats[key] = self._material(am, colors, alpha)
+            material, vc_tex, va_tex = mats[key]
             m = pre @ inst.world_from_object
             if abs(np.linalg.det(m[:3, :3])) < 1e-300:
                 self.warnings.append(f"instance {inst.node or k} of mesh {am.name!r} has a singular transform "
@@ -149,6 +153,8 @@ class Asset:
                                  name=f"{name_prefix}{inst.node or am.name}#{k}")
             if vc_tex is not None:
                 vc_tex.bind(mid, scene.meshes[mid].faces, colors)
+            if va_tex is not None:
+                va_tex.bind(mid, scene.meshes[mid].faces, alpha[:, None])
             added.append(mid)
         if lights:
             for L in self.lights:
@@ -158,12 +164,18 @@ class Asset:
                 scene.add_light(light)
         return added
 
-    def _material(self, am, colors):
-        """(pyrt material, vertex-colour texture or None) for a mesh."""
-        params = self.materials[am.material] if am.material >= 0 else (
+    def _params(self, am):
+        """The loaded material parameters of a mesh (the format's default for ``material = -1``)."""
+        return self.materials[am.material] if am.material >= 0 else (
             PBRParams(name="gltf-default") if self.format == "gltf" else DefaultParams())
+
+    def _material(self, am, colors, alpha=None):
+        """(pyrt material, vertex-colour texture or None, vertex-alpha texture or None) for a mesh; the
+        coverage (alpha mode, doubleSided) is set by :func:`pyrt.io.assets.alpha.apply_coverage`."""
+        params = self._params(am)
         vc = VertexColorTexture() if colors is not None else None
-        return to_pyrt_material(params, vertex_colors=vc), vc
+        va = VertexColorTexture(channels=1) if alpha is not None else None
+        return apply_coverage(to_pyrt_material(params, vertex_colors=vc), params, va), vc, va
 
 
 # ============================================================================ lights
@@ -203,14 +215,16 @@ def _transform_light(light, m):
 # ============================================================================ meshes for the scene
 
 def _prepare_mesh(am, crease_angle):
-    """(trimesh in object space with UVs, object-space normals, linear colours or None) for add_mesh."""
-    v, f, uv, col, nrm = am.vertices, am.faces, am.uv, am.colors, am.normals
+    """(trimesh in object space with UVs, object-space normals, linear colours or None, vertex alpha or None) for
+    add_mesh."""
+    v, f, uv, col, nrm, alpha = am.vertices, am.faces, am.uv, am.colors, am.normals, am.alpha
     if nrm is None:
         src, f, nrm = crease_normals(v, f, crease_angle)
         v = v[src]
         uv = None if uv is None else uv[src]
         col = None if col is None else col[src]
+        alpha = None if alpha is None else alpha[src]
     tm = trimesh.Trimesh(vertices=v, faces=f, process=False)
     if uv is not None:
         tm.visual = trimesh.visual.TextureVisuals(uv=uv)
-    return tm, nrm, col
+    return tm, nrm, col, alpha
