@@ -165,11 +165,17 @@ class SurfaceBatch:
         return self.p.shape[0]
 
     def subset(self, idx):
-        """The batch restricted to ``idx`` (an index array or a boolean mask), as a lazy view."""
+        """The batch restricted to ``idx`` (an index array or a boolean mask), as a lazy view.
+
+        The view remembers this batch and ``idx`` (:func:`parent_value`): values computed per hit on this
+        batch (the materials' texture lookups) are gathered for the view instead of computed again.
+        """
         idx = np.asarray(idx)
         if idx.dtype == bool:
             idx = np.flatnonzero(idx)
-        return _SurfaceSubset(self, idx)
+        sub = _SurfaceSubset(self, idx)
+        sub.__dict__["_parent"] = (self, idx)
+        return sub
 
     def set_shading_normal(self, ns):
         """Replace the shading normals (unit, (N, 3)) and rebuild the local frame."""
@@ -233,6 +239,29 @@ class _SurfaceSubset(SurfaceBatch):
     @property
     def n_hits(self):
         return self._idx.shape[0]
+
+
+def parent_value(ctx, cache, key):
+    """``value[idx]`` from the nearest batch the view ``ctx`` was cut from (:meth:`SurfaceBatch.subset`, through
+    any number of views) whose per-batch dict attribute ``cache`` (e.g. ``"_param_cache"``) holds ``key``; None
+    when none does, or when ``ctx`` is not a :class:`SurfaceBatch`. The rows are the same hits, so the gathered
+    value is the one the view would compute with a per-hit kernel (each row depends only on its own hit)."""
+    if not isinstance(ctx, SurfaceBatch):
+        return None
+    chain = []
+    node = ctx
+    while True:
+        parent = node.__dict__.get("_parent")
+        if parent is None:
+            return None
+        node, idx = parent
+        chain.append(idx)
+        val = node.__dict__.get(cache, {}).get(key)
+        if val is not None:
+            rows = chain[0]
+            for i in chain[1:]:     # compose the views' indices: rows of ``node`` for the rows of ``ctx``
+                rows = i[rows]
+            return take_rows(val, rows)
 
 
 def _solve_bary_derivative(e1, e2, dp):
