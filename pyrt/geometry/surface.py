@@ -165,14 +165,23 @@ class SurfaceBatch:
         return self.p.shape[0]
 
     def subset(self, idx):
-        """The batch restricted to ``idx`` (an index array or a boolean mask), as a lazy view.
+        """The batch restricted to ``idx`` (an index array, a boolean mask or a ``slice(lo, hi)``), as a lazy view.
 
+        A slice (contiguous rows, e.g. the hits of one material once they are ordered by material) makes
+        every field of the view a NumPy view of the batch's (no copy); an index array gathers each field on
+        first read. Fields of a view are read-only by convention (nothing writes into a batch's fields).
         The view remembers this batch and ``idx`` (:func:`parent_value`): values computed per hit on this
         batch (the materials' texture lookups) are gathered for the view instead of computed again.
         """
-        idx = np.asarray(idx)
-        if idx.dtype == bool:
-            idx = np.flatnonzero(idx)
+        if isinstance(idx, slice):
+            lo, hi, step = idx.indices(self.n_hits)
+            if step != 1:
+                raise ValueError(f"SurfaceBatch.subset: a slice must have step 1, got {idx}")
+            idx = slice(lo, max(lo, hi))
+        else:
+            idx = np.asarray(idx)
+            if idx.dtype == bool:
+                idx = np.flatnonzero(idx)
         sub = _SurfaceSubset(self, idx)
         sub.__dict__["_parent"] = (self, idx)
         return sub
@@ -227,12 +236,27 @@ class SurfaceBatch:
         return out
 
 
+def compose_rows(outer, inner):
+    """Rows of a batch for the rows ``inner`` of its view with rows ``outer`` (each an index array or a
+    ``slice(lo, hi)``): ``outer[inner]``, kept a slice when both are."""
+    if isinstance(outer, slice):
+        if isinstance(inner, slice):
+            return slice(outer.start + inner.start, outer.start + inner.stop)
+        return inner + outer.start
+    return outer[inner]
+
+
+def take_view_rows(a, rows):
+    """``a[rows]``: a view for a ``slice``, a row gather (:func:`pyrt.shaders.vec.take_rows`) for an index array."""
+    return a[rows] if isinstance(rows, slice) else take_rows(a, rows)
+
+
 class _SurfaceSubset(SurfaceBatch):
-    """Lazy view of a :class:`SurfaceBatch` restricted to index array ``idx``."""
+    """Lazy view of a :class:`SurfaceBatch` restricted to rows ``idx`` (an index array or a ``slice(lo, hi)``)."""
 
     def __init__(self, base, idx):  # noqa: D107 - deliberately does not call SurfaceBatch.__init__
         if isinstance(base, _SurfaceSubset):
-            idx = base._idx[idx]
+            idx = compose_rows(base._idx, idx)
             base = base._base
         self.__dict__["_base"] = base
         self.__dict__["_idx"] = idx
@@ -241,14 +265,15 @@ class _SurfaceSubset(SurfaceBatch):
         # only called when the attribute is not cached in the instance dict yet
         if name in SurfaceBatch.FIELDS:
             val = getattr(self._base, name)
-            val = None if val is None else take_rows(val, self._idx)
+            val = None if val is None else take_view_rows(val, self._idx)
             self.__dict__[name] = val
             return val
         raise AttributeError(name)
 
     @property
     def n_hits(self):
-        return self._idx.shape[0]
+        idx = self._idx
+        return idx.stop - idx.start if isinstance(idx, slice) else idx.shape[0]
 
 
 def parent_value(ctx, cache, key):
@@ -270,8 +295,8 @@ def parent_value(ctx, cache, key):
         if val is not None:
             rows = chain[0]
             for i in chain[1:]:     # compose the views' indices: rows of ``node`` for the rows of ``ctx``
-                rows = i[rows]
-            return take_rows(val, rows)
+                rows = compose_rows(i, rows)
+            return take_view_rows(val, rows)
 
 
 def _solve_bary_derivative(e1, e2, dp):

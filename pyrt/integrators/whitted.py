@@ -161,6 +161,8 @@ class Integrator:
                 hsub = _subset_hits(hits, h)
             else:
                 h, hsub = self._intersect(o, d, kind, hits_only=True)
+                if depth == 0 and self.ps.face_gouraud is None:
+                    h, hsub = self._by_material(h, hsub)
             if h.size < o.shape[0]:
                 miss = np.ones(o.shape[0], dtype=bool)
                 miss[h] = False
@@ -218,7 +220,9 @@ class Integrator:
                     order = np.concatenate([np.flatnonzero(dm == k) for k in np.flatnonzero(np.bincount(dm))])
                     diffuse_idx = diffuse_idx[order]
                     sampled = None if sampled is None else sampled[order]
-                dsurf = surf.subset(diffuse_idx)
+                lo, hi = int(diffuse_idx[0]), int(diffuse_idx[-1]) + 1
+                # one run of rows (hits ordered by material, the diffuse materials side by side): views, no gathers
+                dsurf = surf.subset(slice(lo, hi) if hi - lo == diffuse_idx.size else diffuse_idx)
                 bsdf = BSDFBatch(dsurf, materials)
                 visible = self.visibility(dsurf)
                 Ld = self._direct_light(dsurf, bsdf, visible, rng, sampled, depth)
@@ -254,6 +258,23 @@ class Integrator:
             origins, tmax = self.offset.shadow(sub, wi, dist, end)   # offsets.Strategy: origin, tmax, terminator
             return ~self._occluded(origins, wi, tmax)
         return visible
+
+    def _by_material(self, h, hits):
+        """The camera rays' hits ``h`` and their :class:`Hits` reordered by material id (stable: in ray order
+        within a material), so that the surface batch's material groups are runs of rows and the direct-light
+        and BSDF queries read views of its fields instead of gathering them.
+
+        The estimators see the hits in the order they saw before (they ordered the hits with a non-delta
+        lobe by material themselves, stably, and spawn delta rays per material in ray order), and camera
+        rays have one hit per sample (results are put, not summed): images stay bit-identical. Only camera
+        rays are reordered: at later depths several rays of one sample are summed in array order.
+        """
+        geo = self.ps.geo
+        mat = geo.face_material[geo.face_offset[hits.mesh_id] + hits.prim_id]
+        if mat.size < 2 or not np.any(mat[1:] < mat[:-1]):
+            return h, hits
+        order = np.concatenate([np.flatnonzero(mat == k) for k in np.flatnonzero(np.bincount(mat))])
+        return h[order], _subset_hits(hits, order)
 
     # -- hooks of the recursion (the Whitted versions; pyrt.integrators.glossy overrides them) -----------
     def _sampled_hits(self, surf, idx, depth):
