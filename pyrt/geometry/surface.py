@@ -263,6 +263,12 @@ class _SurfaceSubset(SurfaceBatch):
 
     def __getattr__(self, name):
         # only called when the attribute is not cached in the instance dict yet
+        if name in ("frame_s", "frame_t") and "frame_s" not in self._base.__dict__ and self.ns is not None:
+            # the base has not built its frame: build the view's own (a per-row formula, the same rows a
+            # gather would give) rather than the frame of every hit of the bounce (delta lobes of a few
+            # mirror hits among many diffuse ones)
+            self.__dict__["frame_s"], self.__dict__["frame_t"] = coordinate_frame(self.ns)
+            return self.__dict__[name]
         if name in SurfaceBatch.FIELDS:
             val = getattr(self._base, name)
             val = None if val is None else take_view_rows(val, self._idx)
