@@ -215,14 +215,17 @@ class Integrator:
             sampled = self._sampled_hits(surf, diffuse_idx, depth)   # hits that trace their non-delta lobe
             if diffuse_idx.size and lights:
                 dm = mids[diffuse_idx]
+                rows = diffuse_idx
                 if dm.size > 1 and np.any(dm[1:] < dm[:-1]):
                     # ordered by material: BSDFBatch then dispatches every light's query by slicing
                     order = np.concatenate([np.flatnonzero(dm == k) for k in np.flatnonzero(np.bincount(dm))])
-                    diffuse_idx = diffuse_idx[order]
+                    diffuse_idx = rows = diffuse_idx[order]
                     sampled = None if sampled is None else sampled[order]
-                lo, hi = int(diffuse_idx[0]), int(diffuse_idx[-1]) + 1
-                # one run of rows (hits ordered by material, the diffuse materials side by side): views, no gathers
-                dsurf = surf.subset(slice(lo, hi) if hi - lo == diffuse_idx.size else diffuse_idx)
+                elif diffuse_idx[-1] - diffuse_idx[0] + 1 == diffuse_idx.size:
+                    # increasing (flatnonzero) and as many as the span: one run of rows (camera hits ordered by
+                    # material, the diffuse materials side by side): views of the batch's fields, no gathers
+                    rows = slice(int(diffuse_idx[0]), int(diffuse_idx[-1]) + 1)
+                dsurf = surf.subset(rows)
                 bsdf = BSDFBatch(dsurf, materials)
                 visible = self.visibility(dsurf)
                 Ld = self._direct_light(dsurf, bsdf, visible, rng, sampled, depth)
