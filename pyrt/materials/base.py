@@ -58,6 +58,7 @@ import numpy as np
 from pyrt.core import checks
 from pyrt.core.errors import Error
 from pyrt.core.registry import Registry
+from pyrt.geometry.surface import parent_value
 from pyrt.shaders import sampling
 from pyrt.shaders.vec import dot
 from pyrt.textures import is_texture
@@ -311,7 +312,9 @@ class Material:
         """Resolve a constant or a texture to an ``(N, channels)`` array (``(N,)`` if channels == 1).
 
         Texture lookups are cached on ``ctx`` (keyed by the texture object), so a material evaluated
-        for several lights on the same hits reads its textures once.
+        for several lights on the same hits reads its textures once; a view cut from a batch that has the
+        lookup (:func:`pyrt.geometry.surface.parent_value`, e.g. the hits a BSDF sample is drawn at, cut from
+        the material's group that evaluated ``f_cos``) gathers it instead of reading the texture again.
         """
         n = ctx.n_hits
         if is_texture(value):
@@ -319,6 +322,10 @@ class Material:
             key = (id(value), channels)
             if key in cache:
                 return cache[key]
+            out = parent_value(ctx, "_param_cache", key)
+            if out is not None:
+                cache[key] = out
+                return out
             out = np.asarray(value.evaluate(ctx), dtype=np.float64)
             if channels == 1:
                 out = out.reshape(n, -1)[:, 0]
