@@ -16,6 +16,7 @@ from pyrt.textures import ImageTexture, NormalMap, TextureError
 from pyrt.io.assets.common import AssetError, PBRParams, TextureSlot, malformed_is_asset_error
 from pyrt.io.assets.asset import Asset, AssetCamera, AssetInstance, AssetLight, AssetMesh
 from pyrt.io.assets.gltf_file import SUPPORTED_EXTENSIONS, GltfFile, pack_glb, read_gltf
+from pyrt.io.assets.gltf_khr import METADATA_EXTENSIONS, read_material_extensions
 
 __all__ = ["load_gltf", "gltf_node_transforms", "gltf_uv_transform", "pack_glb", "read_gltf"]
 _WRAP = {10497: "repeat", 33071: "clamp", 33648: "mirror"}
@@ -119,7 +120,12 @@ def _gltf_material(g, mi, warnings, cache):
     P.alpha_cutoff = float(m.get("alphaCutoff", 0.5))
     if P.alpha_mode != "OPAQUE":
         warnings.append(f"{what}: alphaMode {P.alpha_mode} is rendered opaque")
-    sets = {s.texcoord for s in (P.base_color_texture, P.metallic_roughness_texture, P.emissive_texture) if s}
+    read_material_extensions(
+        m, P, what, warnings,
+        lambda info, label, srgb: _gltf_texture(g, info, label, srgb=srgb, cache=cache),
+        lambda slot, c, label: _channel(slot, c, label, cache))
+    sets = {s.texcoord for s in (P.base_color_texture, P.metallic_roughness_texture, P.emissive_texture,
+                                 *P.ext_slots) if s}
     for k in ("normalTexture", "occlusionTexture"):
         if k in m:
             sets.add(int(m[k].get("texCoord", 0)))
@@ -225,6 +231,9 @@ def _load_gltf(path):
     h = g.header
     asset = Asset(path=path, format="gltf", up_axis="+y")
     W = asset.warnings
+    for ext in sorted(set(h.get("extensionsUsed", [])) - SUPPORTED_EXTENSIONS):
+        W.append(f"extension {ext} is used by the file but not supported: ignored"
+                 + (" (metadata only, no effect on the image)" if ext in METADATA_EXTENSIONS else ""))
     try:
         world = gltf_node_transforms(h)
     except AssetError as exc:
@@ -329,7 +338,7 @@ def _load_gltf(path):
 
 def _has_textures(P):
     return any(x is not None for x in (P.base_color_texture, P.metallic_roughness_texture, P.normal_texture,
-                                       P.occlusion_texture, P.emissive_texture))
+                                       P.occlusion_texture, P.emissive_texture)) or bool(P.ext_slots)
 
 
 def _unit(v):
