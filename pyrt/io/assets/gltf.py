@@ -64,6 +64,8 @@ def _gltf_texture(g, info, what, *, srgb, cache, kind="image", warnings=None, **
         texcoord = int(tt.get("texCoord", texcoord))
     try:
         if kind == "normal":
+            if filt == "nearest":       # the sampler's nearest filter (else NormalMap's bilinear default)
+                kw["filter"] = "nearest"
             t = NormalMap(arr, strength=float(info.get("scale", 1.0)), wrap=wrap, name=label, **kw, **extra)
         else:
             t = ImageTexture(arr, srgb=srgb, wrap=wrap, filter=filt, name=label, **kw, **extra)
@@ -123,7 +125,7 @@ def _gltf_material(g, mi, warnings, cache):
     read_material_extensions(
         m, P, what, warnings,
         lambda info, label, srgb: _gltf_texture(g, info, label, srgb=srgb, cache=cache),
-        lambda slot, c, label: _channel(slot, c, label, cache))
+        lambda slot, c, label: _channel(slot, c, label, cache), lambda i: g.image_array(i)[0])
     sets = {s.texcoord for s in (P.base_color_texture, P.metallic_roughness_texture, P.emissive_texture,
                                  *P.ext_slots) if s}
     for k in ("normalTexture", "occlusionTexture"):

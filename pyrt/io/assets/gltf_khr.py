@@ -24,6 +24,7 @@ import math
 import numpy as np
 
 from pyrt.io.assets.common import AssetError
+from pyrt.textures import ImageTexture
 
 #: material extensions this module reads
 MATERIAL_EXTENSIONS = {"KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
@@ -68,11 +69,12 @@ def _color3(d, key, what):
     return v
 
 
-def read_material_extensions(m, P, what, warnings, texture, channel):
+def read_material_extensions(m, P, what, warnings, texture, channel, image_array):
     """Fill the extension fields of ``P`` (:class:`PBRParams`) from material ``m``'s ``extensions``.
 
     ``texture(info, label, srgb)`` builds a :class:`TextureSlot` from a textureInfo (the loader's, with
-    ``KHR_texture_transform`` and texCoord); ``channel(slot, c, label)`` a 1-channel texture of channel ``c``.
+    ``KHR_texture_transform`` and texCoord); ``channel(slot, c, label)`` a 1-channel texture of channel ``c``;
+    ``image_array(i)`` the decoded texels of image ``i`` with their alpha (which textures drop).
     """
     ext = m.get("extensions", {})
     if not isinstance(ext, dict):
@@ -83,9 +85,15 @@ def read_material_extensions(m, P, what, warnings, texture, channel):
             return None
         slot = texture(d[key], f"{what} {key}", False)
         P.ext_slots.append(slot)
-        if slot.texture.channels <= c:
-            if c == 3:      # no alpha channel: glTF reads A = 1
+        if c == 3:          # alpha: from the decoded image (textures keep RGB); none: glTF reads A = 1
+            arr = image_array(slot.image)
+            if arr.ndim < 3 or arr.shape[2] not in (2, 4):
                 return None
+            t = slot.texture
+            return ImageTexture(np.ascontiguousarray(arr[:, :, -1]), srgb=False, wrap=t.wrap, filter=t.filter,
+                                scale=t.scale, offset=t.offset, rotation_deg=t.rotation_deg,
+                                name=f"{slot.source} A ({key})")
+        if slot.texture.channels <= c:
             raise AssetError(f"{what}: {key} {slot.source} has {slot.texture.channels} channel(s); "
                              f"the extension reads {cname}")
         return channel(slot, c, f"{slot.source} {cname} ({key})")
