@@ -173,6 +173,12 @@ class _Ctx:
         self.wo = self.ns
         self.duvdx = self.duvdy = self.dpdx = self.dpdy = None
 
+    def to_local(self, w):
+        return np.asarray(w, dtype=np.float64)
+
+    def to_world(self, w):
+        return np.asarray(w, dtype=np.float64)
+
 
 def _dir(theta_deg, phi_deg=0.0):
     t, p = math.radians(theta_deg), math.radians(phi_deg)
@@ -252,6 +258,33 @@ def test_clearcoat_half_vector_variant_is_reciprocal_but_gains_energy_at_grazing
     assert _albedo(Clearcoat(Lambert(albedo=1.0), clearcoat=1.0, roughness=0.3), 85.0).max() <= 1.0 + 2e-3
 
 
+def test_clearcoat_normal_map_tilts_the_coat_lobe_only():
+    """A coat normal map of constant tangent-space normal n_c: the coat term is the closed form in n_c's frame
+    (F at wo.n_c, D and G about n_c), the base term is unchanged (still about the shading normal)."""
+    tilt = math.atan(0.3)
+    n_c = np.array([math.sin(tilt), 0.0, math.cos(tilt)])
+    img = np.broadcast_to((n_c + 1) / 2, (2, 2, 3)).astype(np.float32)
+    nm = pyrt.NormalMap(np.ascontiguousarray(img))
+    base = Lambert(albedo=(0.5, 0.3, 0.1))
+    c, r = 1.0, 0.3
+    coat = Clearcoat(base, clearcoat=c, roughness=r, normal_map=nm)
+    rng = np.random.default_rng(9)
+    wi = rng.normal(size=(400, 3))
+    wi[:, 2] = np.abs(wi[:, 2]) + 0.2
+    wi /= np.linalg.norm(wi, axis=1, keepdims=True)
+    wo = np.tile(_dir(30.0, 10.0), (400, 1))
+    ctx = _Ctx(400)
+    ctx.wo = wo
+    R = np.array([[math.cos(tilt), 0, math.sin(tilt)], [0, 1, 0], [-math.sin(tilt), 0, math.cos(tilt)]])  # z -> n_c
+    wo_c, wi_c = wo @ R, wi @ R                         # coordinates in a frame whose z is n_c
+    assert np.allclose(R @ [0, 0, 1], n_c)
+    F = 0.04 + 0.96 * (1 - wo_c[0, 2]) ** 5
+    ok = wi_c[:, 2] > 0
+    coat_term = np.where(ok, c * F * _ggx_spec_cos(wo_c, np.where(ok[:, None], wi_c, [0, 0, 1.0]), r * r), 0.0)
+    expected = np.array([0.5, 0.3, 0.1]) / np.pi * wi[:, 2:3] * (1 - c * F) + coat_term[:, None]
+    np.testing.assert_allclose(coat.f_cos(wo, wi, ctx), expected, rtol=1e-6, atol=1e-12)
+
+
 # ---------------------------------------------------------------------------------------------- renders
 
 def _camera(z=5.0, fov=4.0, n=8):
@@ -282,8 +315,9 @@ def _emitter_behind(tmp_path, front_prims, front_mats, E=(1.0, 2.0, 4.0), name="
 @pytest.mark.parametrize("ior", [1.5, 1.8])
 def test_slab_transmittance_is_fresnel_squared_times_beer_lambert(tmp_path, ior, sigma_d):
     """A glass slab (KHR_materials_volume, thickness d) in front of an emitter at normal incidence transmits
-    ``(1 - R)^2 exp(-sigma_a d)`` per channel, ``R = ((n - 1)/(n + 1))^2``, ``sigma_a = -ln(color) / distance``
-    (rays within 2 degrees of the normal: R and the path length change by < 2e-4)."""
+    ``(1 - R)^2 tau / (1 - R^2 tau^2)`` per channel, ``tau = exp(-sigma_a d)``, ``R = ((n - 1)/(n + 1))^2``,
+    ``sigma_a = -ln(color) / distance`` (the series of internal reflections; max_depth 8 keeps three round trips,
+    the rest is < 1e-10; rays within 2 degrees of the normal: R and the path length change by < 2e-4)."""
     d = 0.5
     color = np.array([1.0, 0.6, 0.3]) ** (sigma_d / 0.7 if sigma_d else 0.0)
     dist = 1.3
@@ -296,7 +330,8 @@ def test_slab_transmittance_is_fresnel_squared_times_beer_lambert(tmp_path, ior,
     scene = _emitter_behind(tmp_path, [slab], front)
     img = pyrt.render(scene)
     R = _f0(ior)
-    expected = np.array([1.0, 2.0, 4.0]) * (1 - R) ** 2 * np.exp(-(-np.log(color) / dist) * d)
+    tau = np.exp(-(-np.log(color) / dist) * d)
+    expected = np.array([1.0, 2.0, 4.0]) * (1 - R) ** 2 * tau / (1 - R * R * tau * tau)
     np.testing.assert_allclose(img[3:5, 3:5].reshape(-1, 3), np.broadcast_to(expected, (4, 3)), rtol=2e-4)
 
 
@@ -326,6 +361,22 @@ def test_rough_transmission_integrates_like_its_smooth_limit_in_a_furnace():
         down = _albedo(Below(), 0.0) * (1.0 if thin else 1.5 ** 2)
         total = up + down
         assert np.all(total <= 1.0 + 2e-3) and np.all(total >= 0.9), (thin, total)
+
+
+@pytest.mark.parametrize("thin", [True, False])
+@pytest.mark.parametrize("theta_o", [0.0, 45.0, 80.0])
+def test_smooth_transmission_delta_lobes_sum_to_the_transmissive_share(thin, theta_o):
+    """Smooth (roughness 0) transmission 0.7 over a white base: reflected + transmitted (x eta^2) delta weights
+    equal w = 0.7 exactly, from outside and from inside (total internal reflection included); the opaque share
+    0.3 is the GGX lobes'."""
+    m = GltfPBR(base_color=1.0, roughness=0.0, transmission=0.7, thin=thin, ior=1.5)
+    wo = np.tile(_dir(theta_o, 15.0), (4, 1))
+    ctx = _Ctx(4)
+    ctx.front[2:] = False
+    total = np.zeros((4, 3))
+    for lobe in m.delta_lobes(wo, ctx):
+        total += lobe.weight * ((lobe.eta ** 2)[:, None] if lobe.kind == "refract" else 1.0)
+    np.testing.assert_allclose(total, 0.7, rtol=1e-12)
 
 
 # ---------------------------------------------------------------------------------------------- texture transform

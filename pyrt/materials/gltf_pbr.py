@@ -21,7 +21,8 @@ from pyrt.materials.library import MetallicRoughness, _check_choice
 from pyrt.shaders import brdfs
 from pyrt.shaders import fresnel
 from pyrt.shaders import microfacet as _mf
-from pyrt.shaders.vec import half_vector, reflect, refract
+from pyrt.shaders.vec import coordinate_frame, half_vector, reflect, refract, to_local, to_world
+from pyrt.textures import perturb_normal
 
 #: roughness at or below which a transmission lobe is perfectly specular (delta lobes, traced to ``max_depth`` by
 #: every integrator); above it the lobe is a GGX BTDF sampled by the glossy integrator
@@ -68,12 +69,14 @@ class GltfPBR(MetallicRoughness):
       (``absorption = -ln(attenuationColor) / attenuationDistance``; nested media and absorption:
       :mod:`pyrt.integrators.media`).
 
-    Up to :data:`SMOOTH_ROUGHNESS` the transmission is a delta lobe, traced to ``max_depth`` by every integrator;
-    above it a BTDF that the glossy integrator samples (where ``alpha <= glossy_threshold``; rougher
-    transmission only receives direct light through its own surface). The reflection stays the GGX lobe of
-    the base model (a smooth one is sampled by the glossy integrator's rays; the Whitted integrator shows
-    only light highlights on it). Not modelled: total internal reflection (the smooth refraction lobe gives
-    way to the GGX reflection's Schlick F there), and ``specular`` on the transmitted weight of a volume.
+    Up to :data:`SMOOTH_ROUGHNESS` the transmissive share is a smooth interface given as delta lobes, traced to
+    ``max_depth`` by every integrator: reflection ``w R`` (total internal reflection included) and transmission
+    (``R`` exact Fresnel for a volume, as :class:`pyrt.Glass`; for a thin wall ``specular F`` with the
+    reflection's Schlick F, untinted), the opaque share ``1 - w`` keeps the GGX lobes. Above it the
+    transmission is a BTDF that the glossy integrator samples (where ``alpha <= glossy_threshold``; rougher
+    transmission only receives direct light through its own surface) and the reflection the base model's GGX
+    lobe. Not modelled: ``specular`` on the transmitted weight of a volume, total internal reflection of a
+    rough volume beyond its BTDF's.
 
     Parameters (keyword-only)
     -------------------------
@@ -142,10 +145,14 @@ class GltfPBR(MetallicRoughness):
 
     # -- the BSDF ----------------------------------------------------------------------------
     def _reflection(self, wo, wi, ctx):
-        tr = self.param(self.transmission, ctx, 1) if self.transmits else 0.0
+        tr, share = 0.0, 1.0
+        if self.transmits:
+            tr = self.param(self.transmission, ctx, 1)
+            share = np.where(self.param(self.roughness, ctx, 1) <= SMOOTH_ROUGHNESS, 1.0 - tr, 1.0)
         return brdfs.gltf_pbr_f_cos(wo, wi, self.param(self.base_color, ctx), self.param(self.metallic, ctx, 1),
                                     self.param(self.roughness, ctx, 1), f0_dielectric=self._f0_dielectric(ctx),
-                                    specular=self.param(self.specular, ctx, 1), transmission=tr, geometry=self.geometry)
+                                    specular=self.param(self.specular, ctx, 1), transmission=tr,
+                                    specular_share=share, geometry=self.geometry)
 
     def _btdf(self, wo, wi, ctx):
         """The transmission lobe without its weight (N,): thin (mirrored GGX times ``1 - specular max F``) or
@@ -201,24 +208,31 @@ class GltfPBR(MetallicRoughness):
         return _finish_sample(self, wo, np.where(take[:, None], wt, wi), valid, ctx)
 
     def delta_lobes(self, wo, ctx, *, eta=None):
-        """The smooth transmission: straight through a thin wall, or refracted into / out of the volume
-        (``eta`` from the ray's interface stack when the integrator gives it)."""
+        """The smooth transmissive share ``w``: its mirror reflection, and the light straight through a thin wall
+        or refracted into / out of the volume (``eta`` from the ray's interface stack when the integrator gives
+        it; total internal reflection: R = 1)."""
         _, w = self._transmission_weights(ctx)
         if not np.any(w > 0):
             return []
         tint = self.param(self.base_color, ctx)
         cos_o = wo[:, 2]
-        if self.thin:
-            F = fresnel.fr_schlick(cos_o, np.broadcast_to(self._f0_dielectric(ctx), (wo.shape[0], 3)))
-            t = w * (1.0 - self.param(self.specular, ctx, 1) * F.max(axis=1))
-            return [DeltaLobe(-wo, tint * t[:, None], "refract", np.ones(wo.shape[0]))]
-        if eta is None:
-            eta = self._eta(ctx)
         nz = np.zeros_like(wo)
         nz[:, 2] = 1.0
+        wr = reflect(wo, nz)
+        if self.thin:
+            s = self.param(self.specular, ctx, 1)
+            F = s[:, None] * fresnel.fr_schlick(cos_o, np.broadcast_to(self._f0_dielectric(ctx), (wo.shape[0], 3)))
+            t = w * (1.0 - F.max(axis=1))
+            return [DeltaLobe(wr, w[:, None] * F, "reflect"),
+                    DeltaLobe(-wo, tint * t[:, None], "refract", np.ones(wo.shape[0]))]
+        if eta is None:
+            eta = self._eta(ctx)
         wt, tir = refract(wo, nz, eta)
         R = np.where(tir, 1.0, fresnel.fr_dielectric(cos_o, eta))
-        return [DeltaLobe(wt, tint * (w * (1.0 - R) / (eta * eta))[:, None], "refract", eta)]
+        lobes = [DeltaLobe(wr, np.repeat((w * R)[:, None], 3, axis=1), "reflect")]
+        if np.any((w > 0) & ~tir):
+            lobes.append(DeltaLobe(wt, tint * (w * (1.0 - R) / (eta * eta))[:, None], "refract", eta))
+        return lobes
 
     def albedo(self, ctx):
         """The base colour times the opaque share ``1 - (1 - metallic) transmission``."""
@@ -244,8 +258,11 @@ class Clearcoat(Material):
     tests/test_gltf_materials.py); kept as the documented alternative.
 
     The base's delta lobes are weighted ``1 - c F_c(n.v)``; its emission is not (emission sits on top of the
-    coat, glTF). The coat shares the shading normal of the base (a base normal map also tilts the coat; a
-    separate ``clearcoatNormalTexture`` is not applied).
+    coat, glTF). The coat's normal ``n`` is the shading normal, or that normal perturbed by the coat's own
+    ``normal_map`` (glTF ``clearcoatNormalTexture``): then D, G, F and the cosines of the coat lobe are taken in
+    the coat's frame (the glTF sample viewer's ``NcdotL``, ``NcdotV``). The shading normal the coat map
+    perturbs is the base's (normal-mapped, if the base has a map): a coat map that is the base's own map is
+    therefore not given again (the loader passes None).
 
     Parameters
     ----------
@@ -255,12 +272,15 @@ class Clearcoat(Material):
     roughness : float or scalar texture in [0, 1] (keyword-only, default 0)
     ior : float > 0 (keyword-only, default 1.5)
     fresnel : "view" (default) or "half" (keyword-only)
+    normal_map : NormalMap, optional (keyword-only)
+        The coat's own tangent-space normal map.
     """
 
     ranges = {"clearcoat": ("scalar", 0.0, 1.0, False), "roughness": ("scalar", 0.0, 1.0, False),
               "coat_ior": ("scalar", 0.0, None, True)}
 
-    def __init__(self, base=None, *, clearcoat=1.0, roughness=0.0, ior=CLEARCOAT_IOR, fresnel="view", name=None):
+    def __init__(self, base=None, *, clearcoat=1.0, roughness=0.0, ior=CLEARCOAT_IOR, fresnel="view", normal_map=None,
+                 name=None):
         self.name = name
         owner = self.label
         base = MetallicRoughness() if base is None else base
@@ -271,6 +291,8 @@ class Clearcoat(Material):
         self.roughness = check_scalar("roughness", roughness, owner, lo=0.0, hi=1.0)
         self.coat_ior = check_scalar("ior", ior, owner, lo=0.0, lo_open=True)
         self.fresnel = _check_choice(owner, "fresnel", fresnel, ("view", "half"))
+        #: the coat's own normal map (None: the coat uses the shading normal)
+        self.coat_normal_map = normal_map
         self.reciprocal = self.fresnel == "half" and base.reciprocal
         # what the integrators read is the base's (declared on Material, copied here)
         for attr in ("has_delta", "is_dielectric", "ior", "priority", "absorption", "tint", "emits", "normal_map",
@@ -293,8 +315,25 @@ class Clearcoat(Material):
 
     @property
     def uses_textures(self):
-        """The coat's or the base's parameters are textures."""
-        return self.base.uses_textures or is_texture(self.clearcoat) or is_texture(self.roughness)
+        """The coat's or the base's parameters (or the coat's normal map) are textures."""
+        return (self.base.uses_textures or is_texture(self.clearcoat) or is_texture(self.roughness)
+                or self.coat_normal_map is not None)
+
+    def _coat_frame(self, ctx):
+        """``(s, t, n)`` (N, 3) each: the coat's frame in the local shading frame, or None (the coat uses it)."""
+        if self.coat_normal_map is None:
+            return None
+        cache = ctx.__dict__.setdefault("_param_cache", {})
+        key = (id(self.coat_normal_map), "coat_frame")
+        if key not in cache:
+            n = ctx.to_local(perturb_normal(ctx, self.coat_normal_map))
+            n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+            cache[key] = (*coordinate_frame(n), n)
+        return cache[key]
+
+    def _to_coat(self, w, ctx):
+        frame = self._coat_frame(ctx)
+        return w if frame is None else to_local(w, *frame)
 
     def _alpha(self, ctx):
         return _mf.roughness_to_alpha(self.param(self.roughness, ctx, 1))
@@ -303,8 +342,11 @@ class Clearcoat(Material):
         return float(fresnel.f0_from_ior(self.coat_ior))
 
     def coat_weight(self, wo, ctx, wi=None):
-        """``c F_c`` (N,): at ``n.v`` (``fresnel="view"``, or ``wi`` None) or at ``v.h`` of ``(wo, wi)``."""
+        """``c F_c`` (N,): at ``n.v`` (``fresnel="view"``, or ``wi`` None) or at ``v.h`` of ``(wo, wi)``; ``n`` the
+        coat's normal (local shading-frame directions are turned into the coat's frame here)."""
+        wo = self._to_coat(wo, ctx)
         if self.fresnel == "half" and wi is not None:
+            wi = self._to_coat(wi, ctx)
             h, _ = half_vector(wo, wi)
             cos = np.abs(np.einsum("ij,ij->i", wo, h))
         else:
@@ -312,8 +354,10 @@ class Clearcoat(Material):
         return self.param(self.clearcoat, ctx, 1) * fresnel.fr_schlick(cos, self._f0())
 
     def _coat_spec(self, wo, wi, ctx):
+        below_shading = (wo[:, 2] <= 0) | (wi[:, 2] <= 0)
+        wo, wi = self._to_coat(wo, ctx), self._to_coat(wi, ctx)
         spec, _ = brdfs.microfacet_spec_cos(wo, wi, self._alpha(ctx), distribution="ggx", geometry="smith_correlated")
-        return spec
+        return spec if self.coat_normal_map is None else np.where(below_shading, 0.0, spec)
 
     def f_cos(self, wo, wi, ctx):
         """``base (1 - c F_c) + c F_c D G / (4 cos_o)`` (times cos_i)."""
@@ -329,18 +373,24 @@ class Clearcoat(Material):
         """``p_coat`` GGX visible-normal reflection density plus ``1 - p_coat`` the base's."""
         p = self._coat_prob(wo, ctx)
         alpha = self._alpha(ctx)
-        h, _ = half_vector(wo, wi)
-        ok = (wo[:, 2] > 0) & (wi[:, 2] > 0)
-        pc = np.where(ok, _mf.reflect_pdf(_mf.ggx_vndf_pdf(wo, h, alpha), wo, h), 0.0)
+        wo_c, wi_c = self._to_coat(wo, ctx), self._to_coat(wi, ctx)
+        h, _ = half_vector(wo_c, wi_c)
+        ok = (wo_c[:, 2] > 0) & (wi_c[:, 2] > 0) & (wo[:, 2] > 0)
+        pc = np.where(ok, _mf.reflect_pdf(_mf.ggx_vndf_pdf(wo_c, h, alpha), wo_c, h), 0.0)
         return p * pc + (1.0 - p) * self.base.pdf(wo, wi, ctx)
 
     def sample(self, wo, u, ctx):
         """The coat's GGX visible normals with probability ``p_coat``, else the base's own sampling."""
         take, uu = _split_u(u, self._coat_prob(wo, ctx))
         wb, _, _ = self.base.sample(wo, uu, ctx)
-        wc = reflect(wo, _mf.sample_ggx_vndf(wo, uu, self._alpha(ctx)))
+        wo_c = self._to_coat(wo, ctx)
+        wc = reflect(wo_c, _mf.sample_ggx_vndf(wo_c, uu, self._alpha(ctx)))
+        valid_c = wc[:, 2] > 0
+        frame = self._coat_frame(ctx)
+        if frame is not None:
+            wc = to_world(wc, *frame)
         wi = np.where(take[:, None], wc, wb)
-        valid = np.where(take, wc[:, 2] > 0, np.any(wb != 0, axis=1)) & (wo[:, 2] > 0)
+        valid = np.where(take, valid_c & (wo_c[:, 2] > 0), np.any(wb != 0, axis=1)) & (wo[:, 2] > 0)
         return _finish_sample(self, wo, wi, valid, ctx)
 
     def delta_lobes(self, wo, ctx, *, eta=None):

@@ -124,7 +124,7 @@ def _gltf_material(g, mi, warnings, cache):
         warnings.append(f"{what}: alphaMode {P.alpha_mode} is rendered opaque")
     read_material_extensions(
         m, P, what, warnings,
-        lambda info, label, srgb: _gltf_texture(g, info, label, srgb=srgb, cache=cache),
+        lambda info, label, srgb, kind="image": _gltf_texture(g, info, label, srgb=srgb, cache=cache, kind=kind),
         lambda slot, c, label: _channel(slot, c, label, cache), lambda i: g.image_array(i)[0])
     sets = {s.texcoord for s in (P.base_color_texture, P.metallic_roughness_texture, P.emissive_texture,
                                  *P.ext_slots) if s}

@@ -164,7 +164,7 @@ def gltf_extension_material(params, base, *, base_color, metallic, roughness, em
     if P.coated:
         mat = Clearcoat(mat, clearcoat=_factor_tex(P.clearcoat_factor, P.clearcoat_texture),
                         roughness=_factor_tex(P.clearcoat_roughness_factor, P.clearcoat_roughness_texture),
-                        name=P.name)
+                        normal_map=P.clearcoat_normal_texture, name=P.name)
     return mat
 
 
