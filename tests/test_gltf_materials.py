@@ -112,7 +112,7 @@ def test_each_extension_becomes_the_right_material_parameters(tmp_path):
     assert isinstance(thick, GltfPBR) and thick.transmits and thick.is_dielectric and not thick.thin
     assert (thick.transmission, thick.ior, thick.ior_value) == (0.75, 1.4, 1.4)
     np.testing.assert_allclose(thick.absorption, -np.log([0.5, 0.25, 1.0]) / 2.0)
-    np.testing.assert_allclose(thick.tint, [0.9, 0.8, 0.7], rtol=1e-6)
+    np.testing.assert_allclose(thick.tint, 0.75 * np.array([0.9, 0.8, 0.7]), rtol=1e-6)   # transparent shadows
     assert thin.thin and thin.transmits and np.all(np.asarray(thin.absorption) == 0)
     assert not spec.transmits and spec.ior is None and spec.specular == 0.3
     np.testing.assert_allclose(spec._f0_dielectric(None), np.minimum(_f0(2.0) * np.array([2.0, 1.0, 0.5]), 1.0))
@@ -185,14 +185,15 @@ def _dir(theta_deg, phi_deg=0.0):
     return np.array([math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), math.cos(t)])
 
 
-def _albedo(mat, theta_o, n_t=400, n_p=256):
-    """Directional albedo (3,) by midpoint quadrature in (cos theta, phi) (error < 1e-3 for these lobes)."""
+def _albedo(mat, theta_o, n_t=400, n_p=256, phi_o=0.0):
+    """Directional albedo (3,) toward (theta_o, phi_o) by midpoint quadrature in (cos theta, phi) (error < 1e-3
+    for these lobes)."""
     c = (np.arange(n_t) + 0.5) / n_t
     ph = (np.arange(n_p) + 0.5) / n_p * 2 * np.pi
     C, P = np.meshgrid(c, ph, indexing="ij")
     s = np.sqrt(1 - C * C)
     wi = np.stack([s * np.cos(P), s * np.sin(P), C], -1).reshape(-1, 3)
-    wo = np.tile(_dir(theta_o), (wi.shape[0], 1))
+    wo = np.tile(_dir(theta_o, phi_o), (wi.shape[0], 1))
     return mat.f_cos(wo, wi, _Ctx(wi.shape[0])).sum(0) * (2 * np.pi / (n_t * n_p))
 
 
@@ -377,6 +378,45 @@ def test_smooth_transmission_delta_lobes_sum_to_the_transmissive_share(thin, the
     for lobe in m.delta_lobes(wo, ctx):
         total += lobe.weight * ((lobe.eta ** 2)[:, None] if lobe.kind == "refract" else 1.0)
     np.testing.assert_allclose(total, 0.7, rtol=1e-12)
+
+
+def _sampling_cases():
+    tilt = np.broadcast_to((np.array([0.25, -0.1, 1.0]) / np.linalg.norm([0.25, -0.1, 1.0]) + 1) / 2, (2, 2, 3))
+    nm = pyrt.NormalMap(np.ascontiguousarray(tilt, dtype=np.float32))
+    return {"thin_rough": GltfPBR(base_color=(0.9, 0.7, 0.5), roughness=0.5, transmission=0.6, thin=True),
+            "volume_rough": GltfPBR(base_color=(0.9, 0.7, 0.5), roughness=0.5, transmission=0.6, thin=False, ior=1.4),
+            "coat_normal_map": Clearcoat(GltfPBR(base_color=(0.2, 0.5, 0.8), roughness=0.6), clearcoat=0.9,
+                                         roughness=0.4, normal_map=nm)}
+
+
+@pytest.mark.parametrize("case", ["thin_rough", "volume_rough", "coat_normal_map"])
+@pytest.mark.parametrize("theta_o", [25.0, 70.0])
+def test_sampling_of_transmission_and_coat_frames_matches_pdf_and_f(case, theta_o):
+    """sample(): pdf equals pdf(), weight = f_cos / pdf, E[weight] (transmission x eta^2 for a volume) equals the
+    albedo by quadrature over the sphere within 5 standard errors; chi-square of the upper hemisphere (the
+    contract tests' harness) p > 1e-4."""
+    from test_material_contracts import Ctx, _chi_square_p
+
+    mat = _sampling_cases()[case]
+    n = 60_000
+    wo = np.tile(_dir(theta_o, 30.0), (n, 1))
+    wi, weight, pdf = mat.sample(wo, np.random.default_rng(3).random((n, 2)), Ctx(n))
+    ok = pdf > 0
+    k = int(ok.sum())
+    np.testing.assert_allclose(pdf[ok], mat.pdf(wo[ok], wi[ok], Ctx(k)), rtol=1e-9)
+    np.testing.assert_allclose(weight[ok] * pdf[ok][:, None], mat.f_cos(wo[ok], wi[ok], Ctx(k)), rtol=1e-9,
+                               atol=1e-300)
+    assert np.all(np.isfinite(weight)) and np.all(weight[~ok] == 0)
+    eta2 = mat.ior ** 2 if (mat.transmits and not mat.thin) else 1.0
+    w = np.where((wi[:, 2] < 0)[:, None], weight * eta2, weight)
+
+    class Below:
+        def f_cos(self, a, b, ctx):
+            return mat.f_cos(a, b * [1, 1, -1], ctx)
+    rho = _albedo(mat, theta_o, phi_o=30.0) + (_albedo(Below(), theta_o, phi_o=30.0) * eta2 if mat.transmits else 0.0)
+    mean, se = w.mean(0), w.std(0) / math.sqrt(n)
+    assert np.all(np.abs(mean - rho) <= 5 * se + 3e-3), (mean, rho, se)
+    assert _chi_square_p(mat, theta_o) > 1e-4
 
 
 # ---------------------------------------------------------------------------------------------- texture transform

@@ -22,7 +22,7 @@ from pyrt.shaders import brdfs
 from pyrt.shaders import fresnel
 from pyrt.shaders import microfacet as _mf
 from pyrt.shaders.vec import coordinate_frame, half_vector, reflect, refract, to_local, to_world
-from pyrt.textures import perturb_normal
+from pyrt.textures import Texture, perturb_normal
 
 #: roughness at or below which a transmission lobe is perfectly specular (delta lobes, traced to ``max_depth`` by
 #: every integrator); above it the lobe is a GGX BTDF sampled by the glossy integrator
@@ -38,6 +38,23 @@ def _split_u(u, p):
     choose = u[:, 0] < p
     u0 = np.where(choose, u[:, 0] / np.where(p > 0, p, 1.0), (u[:, 0] - p) / np.where(p < 1, 1.0 - p, 1.0))
     return choose, np.stack([np.clip(u0, 0.0, 1.0 - 1e-12), u[:, 1]], axis=1)
+
+
+class _TransmittedTint(Texture):
+    """``base_color x transmission x (1 - metallic)`` of a :class:`GltfPBR`, per hit: the colour transparent
+    shadows (:mod:`pyrt.integrators.shadows`) multiply by per interface, where a parameter is a texture or the
+    surface transmits only in part."""
+
+    channels = 3
+
+    def __init__(self, material):
+        self._material = material       # private: the texture's repr does not print the material (a cycle)
+
+    def evaluate(self, ctx):
+        """The tint (N, 3)."""
+        m = self._material
+        w = (1.0 - m.param(m.metallic, ctx, 1)) * m.param(m.transmission, ctx, 1)
+        return np.asarray(m.param(m.base_color, ctx)) * w[:, None]
 
 
 def _finish_sample(mat, wo, wi, valid, ctx):
@@ -110,7 +127,13 @@ class GltfPBR(MetallicRoughness):
         if is_texture(self.transmission) or self.transmission > 0:
             self.is_dielectric = self.transmits = self.has_delta = True
             self.ior = self.ior_value
-            self.tint = self.base_color
+            consts = not any(is_texture(v) for v in (self.base_color, self.metallic, self.transmission))
+            if consts:
+                self.tint = self.base_color * (1.0 - self.metallic) * self.transmission
+            elif self.metallic == 0.0 and self.transmission == 1.0:
+                self.tint = self.base_color
+            else:
+                self.tint = _TransmittedTint(self)
             if not self.thin:
                 self.absorption = sigma
         elif np.any(sigma > 0):

@@ -128,7 +128,8 @@ class PreviewScene:
             _warnings.simplefilter("always")
             depth = max(o.max_depth, o.dielectric_depth) if self.prepared.dielectric.any() else o.max_depth
             res = render_full(self.scene, seed=o.seed, max_depth=depth, aovs=aovs, progress=False,
-                              prepared=self.prepared, threads=o.threads, integrator="glossy")
+                              prepared=self.prepared, threads=o.threads, integrator="glossy",
+                              transparent_shadows=True)
         self.warnings += [str(w.message) for w in caught]
         if self.exposure is None:
             self.exposure, self.white = auto_exposure(res.image, self.model_mask())
