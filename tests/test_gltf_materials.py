@@ -472,3 +472,30 @@ def test_texture_transform_texcoord_override_is_honoured(tmp_path):
     info = {"index": 0, "texCoord": 0, "extensions": {"KHR_texture_transform": {"texCoord": 1}}}
     path = write_gltf(tmp_path / "t.gltf", [_quad()], [{"emissiveTexture": info}], images=[img])
     assert load_asset(path).materials[0].emissive_texture.texcoord == 1
+
+
+# ---------------------------------------------------------------------------------------------- previewer
+
+def test_previewer_lets_light_through_glass_and_casts_a_shadow_under_an_opaque_twin(tmp_path):
+    """pyrt-preview's rig on a glass ball (thin-walled transmission 1) and on the same ball opaque (same framing):
+    where the opaque ball's shadow darkens the ground below 0.7 of the backdrop, the glass ball's ground keeps
+    on average more than 0.75 of it (two interfaces at 1 - R each, R of the ray's angle, along straight lines)."""
+    from pyrt.apps import preview as P
+    from pyrt.shaders import color as C
+
+    ball = trimesh.creation.icosphere(subdivisions=3, radius=0.5)
+    glass = {"pbrMetallicRoughness": {"roughnessFactor": 0.0, "metallicFactor": 0.0},
+             "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0}}}
+    opaque = {"pbrMetallicRoughness": {"roughnessFactor": 0.5, "metallicFactor": 0.0}}
+    ratio = {}
+    for name, mat in (("glass", glass), ("opaque", opaque)):
+        path = write_gltf(tmp_path / f"{name}.gltf", [{"pos": ball.vertices, "faces": ball.faces, "material": 0}], [mat])
+        ps = P.PreviewScene(load_asset(path), P.PreviewOptions(width=48, height=36, spp=1))
+        try:
+            img = ps.render_view(35.0).image
+            ratio[name] = np.where(ps.model_mask(), np.nan, C.luminance(img) / C.luminance(ps.scene.background))
+        finally:
+            ps.close()
+    shadow = ratio["opaque"] < 0.7
+    assert shadow.sum() > 10
+    assert np.nanmean(ratio["glass"][shadow]) > 0.75, np.nanmean(ratio["glass"][shadow])
