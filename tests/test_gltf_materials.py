@@ -124,6 +124,18 @@ def test_each_extension_becomes_the_right_material_parameters(tmp_path):
     assert not a.warnings
 
 
+def test_specular_colour_scales_f0_only_and_the_specular_factor_both():
+    """KHR_materials_specular: a black specularColor leaves F90 = 1 (grazing reflection stays), a zero specularFactor
+    removes the specular layer at every angle; F0 = min(f0(ior) x colour, 1) gives a mirror for a large colour."""
+    black_base = dict(base_color=0.0, roughness=0.3)
+    no_color = GltfPBR(specular_color=0.0, **black_base)
+    no_spec = GltfPBR(specular=0.0, **black_base)
+    mirror = GltfPBR(specular_color=30.0, **black_base)
+    assert _albedo(no_color, 0.0).max() < 1e-4 and _albedo(no_color, 80.0).min() > 0.2   # (1 - v.h)^5 of tilted h only
+    assert _albedo(no_spec, 0.0).max() == 0.0 and _albedo(no_spec, 80.0).max() == 0.0
+    assert _albedo(mirror, 0.0).min() > 0.95                 # F0 = min(0.04 x 30, 1) = 1
+
+
 def test_unknown_extensions_warn_and_unsupported_required_ones_say_why(tmp_path):
     mats = [{"name": "m", "extensions": {"KHR_materials_sheen": {"sheenColorFactor": [1, 1, 1]}}}]
     path = write_gltf(tmp_path / "u.gltf", [_quad()], mats, extensions_used=["KHR_materials_sheen", "KHR_xmp"])
