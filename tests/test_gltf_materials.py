@@ -183,6 +183,7 @@ class _Ctx:
         self.uv = np.full((n, 2), 0.5)
         self.p = np.zeros((n, 3))
         self.wo = self.ns
+        self.ns_unmapped = None
         self.duvdx = self.duvdy = self.dpdx = self.dpdy = None
 
     def to_local(self, w):
@@ -295,6 +296,32 @@ def test_clearcoat_normal_map_tilts_the_coat_lobe_only():
     ok = wi_c[:, 2] > 0
     coat_term = np.where(ok, c * F * _ggx_spec_cos(wo_c, np.where(ok[:, None], wi_c, [0, 0, 1.0]), r * r), 0.0)
     expected = np.array([0.5, 0.3, 0.1]) / np.pi * wi[:, 2:3] * (1 - c * F) + coat_term[:, None]
+    np.testing.assert_allclose(coat.f_cos(wo, wi, ctx), expected, rtol=1e-6, atol=1e-12)
+
+
+def test_clearcoat_ignores_the_base_normal_map():
+    """A base with a normal map perturbed the shading normal (local z); the coat's lobe stays about the normal
+    before that map (``ns_unmapped``), as the spec's separate clearcoatNormal says: the coat term is the closed
+    form about the unmapped normal, the base's about z."""
+    tilt = math.atan(0.4)
+    n0 = np.array([0.0, math.sin(tilt), math.cos(tilt)])       # unmapped normal in the mapped shading frame
+    base = Lambert(albedo=(0.5, 0.3, 0.1))
+    base.normal_map = pyrt.NormalMap(np.full((2, 2, 3), 0.5, np.float32))   # any map: the base declares one
+    coat = Clearcoat(base, clearcoat=1.0, roughness=0.3)
+    rng = np.random.default_rng(10)
+    wi = rng.normal(size=(300, 3))
+    wi[:, 2] = np.abs(wi[:, 2]) + 0.2
+    wi /= np.linalg.norm(wi, axis=1, keepdims=True)
+    wo = np.tile(_dir(35.0, 60.0), (300, 1))
+    ctx = _Ctx(300)
+    ctx.ns_unmapped = np.tile(n0, (300, 1))
+    R = np.array([[1, 0, 0], [0, math.cos(tilt), math.sin(tilt)], [0, -math.sin(tilt), math.cos(tilt)]])  # z -> n0
+    assert np.allclose(R @ [0, 0, 1], n0)
+    wo_c, wi_c = wo @ R, wi @ R
+    F = 0.04 + 0.96 * (1 - wo_c[0, 2]) ** 5
+    ok = wi_c[:, 2] > 0
+    coat_term = np.where(ok, F * _ggx_spec_cos(wo_c, np.where(ok[:, None], wi_c, [0, 0, 1.0]), 0.09), 0.0)
+    expected = np.array([0.5, 0.3, 0.1]) / np.pi * wi[:, 2:3] * (1 - F) + coat_term[:, None]
     np.testing.assert_allclose(coat.f_cos(wo, wi, ctx), expected, rtol=1e-6, atol=1e-12)
 
 

@@ -281,11 +281,10 @@ class Clearcoat(Material):
     tests/test_gltf_materials.py); kept as the documented alternative.
 
     The base's delta lobes are weighted ``1 - c F_c(n.v)``; its emission is not (emission sits on top of the
-    coat, glTF). The coat's normal ``n`` is the shading normal, or that normal perturbed by the coat's own
-    ``normal_map`` (glTF ``clearcoatNormalTexture``): then D, G, F and the cosines of the coat lobe are taken in
-    the coat's frame (the glTF sample viewer's ``NcdotL``, ``NcdotV``). The shading normal the coat map
-    perturbs is the base's (normal-mapped, if the base has a map): a coat map that is the base's own map is
-    therefore not given again (the loader passes None).
+    coat, glTF). The coat's normal ``n`` is the surface's normal before the base's normal map
+    (``ctx.ns_unmapped``: a base map does not tilt the coat), perturbed by the coat's own ``normal_map`` (glTF
+    ``clearcoatNormalTexture``) if it has one; D, G, F and the cosines of the coat lobe are taken in that frame
+    (the glTF sample viewer's ``NcdotL``, ``NcdotV``).
 
     Parameters
     ----------
@@ -343,13 +342,18 @@ class Clearcoat(Material):
                 or self.coat_normal_map is not None)
 
     def _coat_frame(self, ctx):
-        """``(s, t, n)`` (N, 3) each: the coat's frame in the local shading frame, or None (the coat uses it)."""
-        if self.coat_normal_map is None:
+        """``(s, t, n)`` (N, 3) each: the coat's frame in the local shading frame, or None (the coat uses it:
+        neither the coat nor the base has a normal map)."""
+        if self.coat_normal_map is None and self.base.normal_map is None:
             return None
         cache = ctx.__dict__.setdefault("_param_cache", {})
-        key = (id(self.coat_normal_map), "coat_frame")
+        key = (id(self), "coat_frame")
         if key not in cache:
-            n = ctx.to_local(perturb_normal(ctx, self.coat_normal_map))
+            n0 = ctx.ns
+            if self.base.normal_map is not None and ctx.ns_unmapped is not None:
+                n0 = ctx.ns_unmapped                 # the base's map perturbed ns; the coat starts before it
+            n = n0 if self.coat_normal_map is None else perturb_normal(ctx, self.coat_normal_map, ns=n0)
+            n = ctx.to_local(n)
             n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
             cache[key] = (*coordinate_frame(n), n)
         return cache[key]

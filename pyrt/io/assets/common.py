@@ -89,7 +89,7 @@ class PBRParams:
     clearcoat_texture: ImageTexture | None = None           # R
     clearcoat_roughness_factor: float = 0.0
     clearcoat_roughness_texture: ImageTexture | None = None  # G
-    clearcoat_normal_texture: NormalMap | None = None       # None also when it is the base's normal map
+    clearcoat_normal_texture: NormalMap | None = None
     ext_slots: list = field(default_factory=list)           # the extensions' TextureSlots (UV sets)
 
     @property

@@ -13,8 +13,8 @@ What each extension becomes (the materials: :mod:`pyrt.materials.gltf_pbr`; the 
 - ``KHR_materials_specular`` (specularFactor x specularTexture A, specularColorFactor x specularColorTexture
   RGB, sRGB): the dielectric F0 scale and tint; ``KHR_materials_ior`` without transmission: F0 from ior;
 - ``KHR_materials_clearcoat`` (clearcoatFactor x clearcoatTexture R, clearcoatRoughnessFactor x
-  clearcoatRoughnessTexture G, clearcoatNormalTexture): :class:`pyrt.materials.Clearcoat` over the material;
-  a coat normal map that is the base's own is not applied twice;
+  clearcoatRoughnessTexture G, clearcoatNormalTexture perturbing the normal before the base's normal map):
+  :class:`pyrt.materials.Clearcoat` over the material;
 - ``KHR_materials_unlit``: :class:`pyrt.materials.Unlit` of the base colour (x texture x vertex colour).
 """
 from __future__ import annotations
@@ -142,18 +142,9 @@ def read_material_extensions(m, P, what, warnings, texture, channel, image_array
         P.clearcoat_texture = scalar_tex(cc, "clearcoatTexture", 0, "R")
         P.clearcoat_roughness_factor = min(_number(cc, "clearcoatRoughnessFactor", 0.0, w, warnings, lo=0.0), 1.0)
         P.clearcoat_roughness_texture = scalar_tex(cc, "clearcoatRoughnessTexture", 1, "G")
-        ni = cc.get("clearcoatNormalTexture")
-        if ni is not None:
-            base_ni = m.get("normalTexture")
-            if base_ni is not None and base_ni.get("index") == ni.get("index") and \
-                    base_ni.get("extensions") == ni.get("extensions"):
-                pass            # the base's own map: the coat perturbs the already mapped normal (none again)
-            else:
-                slot = texture(ni, f"{w} clearcoatNormalTexture", False, "normal")
-                P.ext_slots.append(slot)
-                P.clearcoat_normal_texture = slot.texture
-                if base_ni is not None:
-                    warnings.append(f"{w}: clearcoatNormalTexture perturbs the base's normal-mapped normal "
-                                    "(pyrt's coat frame starts from the shading normal)")
+        if "clearcoatNormalTexture" in cc:
+            slot = texture(cc["clearcoatNormalTexture"], f"{w} clearcoatNormalTexture", False, "normal")
+            P.ext_slots.append(slot)
+            P.clearcoat_normal_texture = slot.texture
     if P.unlit and len(set(ext) & (MATERIAL_EXTENSIONS - {"KHR_materials_unlit"})):
         warnings.append(f"{what}: KHR_materials_unlit with other material extensions: unlit wins")
