@@ -375,6 +375,31 @@ def test_slab_transmittance_is_fresnel_squared_times_beer_lambert(tmp_path, ior,
     np.testing.assert_allclose(img[3:5, 3:5].reshape(-1, 3), np.broadcast_to(expected, (4, 3)), rtol=2e-4)
 
 
+def test_a_thin_wall_in_front_of_a_slab_does_not_change_its_medium(tmp_path):
+    """A thin wall (no volume) encloses no medium (Material.thin_walled): in front of an absorbing slab the pixel is
+    the closed form of the two in series, ``T_w T_s / (1 - R_w R_s)``, with the slab entered from vacuum (a thin
+    wall taken for a volume of index 1.5 would make the slab's Fresnel ((1.8 - 1.5)/(1.8 + 1.5))^2 on entry)."""
+    d, ior = 0.5, 1.8
+    box = trimesh.creation.box(extents=(3.0, 3.0, d))
+    slab = {"pos": box.vertices, "faces": box.faces, "material": 1}
+    vol = {"thicknessFactor": d, "attenuationDistance": 1.0, "attenuationColor": [0.8, 0.6, 0.4]}
+    front = [{"pbrMetallicRoughness": {"roughnessFactor": 0.0, "metallicFactor": 0.0},
+              "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
+                             "KHR_materials_ior": {"ior": ior}, "KHR_materials_volume": vol}},
+             {"pbrMetallicRoughness": {"roughnessFactor": 0.0, "metallicFactor": 0.0},
+              "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0}}}]
+    scene = _emitter_behind(tmp_path, [slab, _quad(z=1.0, size=2.0, material=2)], front)
+    assert scene.materials[2].thin_walled and not scene.materials[1].thin_walled
+    img = pyrt.render(scene)
+    R = _f0(ior)
+    tau = np.exp(np.log([0.8, 0.6, 0.4]) * d)
+    slab_t = (1 - R) ** 2 * tau / (1 - R * R * tau * tau)
+    slab_r = R + (1 - R) ** 2 * R * tau * tau / (1 - R * R * tau * tau)
+    wall_t, wall_r = 1 - 0.04, 0.04                                  # thin wall: T (1 - F0) and F0, both sides
+    expected = np.array([1.0, 2.0, 4.0]) * wall_t * slab_t / (1 - wall_r * slab_r)   # two elements in series
+    np.testing.assert_allclose(img[3:5, 3:5].reshape(-1, 3), np.broadcast_to(expected, (4, 3)), rtol=2e-4)
+
+
 def test_thin_transmission_goes_straight_through_weighted_one_minus_f(tmp_path):
     """A thin wall (no volume) at normal incidence passes ``T base (1 - F0)`` straight on (no refraction: the emitter
     behind is seen unmoved), plus what the opaque share ``1 - T`` would show (nothing here: no lights)."""

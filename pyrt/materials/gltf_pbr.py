@@ -126,6 +126,7 @@ class GltfPBR(MetallicRoughness):
             raise MaterialError(f"{owner}: absorption must be a constant RGB")
         if is_texture(self.transmission) or self.transmission > 0:
             self.is_dielectric = self.transmits = self.has_delta = True
+            self.thin_walled = self.thin
             self.ior = self.ior_value
             consts = not any(is_texture(v) for v in (self.base_color, self.metallic, self.transmission))
             if consts:
@@ -318,7 +319,7 @@ class Clearcoat(Material):
         self.reciprocal = self.fresnel == "half" and base.reciprocal
         # what the integrators read is the base's (declared on Material, copied here)
         for attr in ("has_delta", "is_dielectric", "ior", "priority", "absorption", "tint", "emits", "normal_map",
-                     "transmits"):
+                     "transmits", "thin_walled"):
             setattr(self, attr, getattr(base, attr))
         self.validate()
 
