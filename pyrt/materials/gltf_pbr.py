@@ -86,10 +86,11 @@ class GltfPBR(MetallicRoughness):
       (``absorption = -ln(attenuationColor) / attenuationDistance``; nested media and absorption:
       :mod:`pyrt.integrators.media`).
 
-    Up to :data:`SMOOTH_ROUGHNESS` the transmissive share is a smooth interface given as delta lobes, traced to
-    ``max_depth`` by every integrator: reflection ``w R`` (total internal reflection included) and transmission
-    (``R`` exact Fresnel for a volume, as :class:`pyrt.Glass`; for a thin wall ``specular F`` with the
-    reflection's Schlick F, untinted), the opaque share ``1 - w`` keeps the GGX lobes. Above it the
+    Up to :data:`SMOOTH_ROUGHNESS` the transmissive share ``w`` is a smooth interface given as delta lobes, traced
+    to ``max_depth`` by every integrator: an untinted mirror reflection ``w R`` and the tinted transmission
+    ``w (1 - R)`` (``R`` the exact Fresnel of a volume, with total internal reflection, as :class:`pyrt.Glass`;
+    ``R = specular F`` with the reflection's Schlick F for a thin wall); the opaque share ``1 - w`` keeps the
+    GGX lobes. Above it the
     transmission is a BTDF that the glossy integrator samples (where ``alpha <= glossy_threshold``; rougher
     transmission only receives direct light through its own surface) and the reflection the base model's GGX
     lobe. Not modelled: ``specular`` on the transmitted weight of a volume, total internal reflection of a
