@@ -31,7 +31,7 @@ def _png_uri(arr):
 
 
 def write_gltf(path, prims, materials, *, images=(), extensions_used=None, extensions_required=None):
-    """A .gltf with one mesh + node per primitive ``{"pos", "faces", "uv" (optional), "material"}``, its buffer a
+    """A .gltf with one mesh + node per primitive ``{"pos", "faces", "uv", "color" (optional), "material"}``, its buffer a
     data URI, ``images`` (uint8 arrays) as PNG data URIs, one texture per image (nearest, repeat)."""
     blob = bytearray()
     views, accessors, meshes, nodes = [], [], [], []
@@ -52,6 +52,8 @@ def write_gltf(path, prims, materials, *, images=(), extensions_used=None, exten
         attrs = {"POSITION": add(np.asarray(p["pos"], np.float32), 5126, "VEC3")}
         if p.get("uv") is not None:
             attrs["TEXCOORD_0"] = add(np.asarray(p["uv"], np.float32), 5126, "VEC2")
+        if p.get("color") is not None:
+            attrs["COLOR_0"] = add(np.asarray(p["color"], np.float32), 5126, "VEC3")
         idx = add(np.asarray(p["faces"], np.uint32).ravel(), 5125, "SCALAR")
         meshes.append({"primitives": [{"attributes": attrs, "indices": idx, "material": p["material"]}]})
         nodes.append({"mesh": i})
@@ -340,6 +342,23 @@ def test_unlit_renders_exactly_its_colour_under_lights(tmp_path):
     for integrator in ("whitted", "glossy"):
         img = pyrt.render_full(scene, integrator=integrator).image
         np.testing.assert_allclose(img, np.broadcast_to([0.2, 0.4, 0.6], img.shape), rtol=1e-6)
+
+
+def test_unlit_colour_is_base_factor_times_texture_times_vertex_colour(tmp_path):
+    """KHR_materials_unlit: the pixel is baseColorFactor x baseColorTexture (sRGB-decoded) x COLOR_0 (linear)."""
+    tex = np.full((2, 2, 3), (200, 100, 50), np.uint8)
+    q = _quad()
+    q["color"] = [[0.5, 1.0, 0.25]] * 4
+    mats = [{"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.6, 1.0, 1.0], "baseColorTexture": {"index": 0}},
+             "extensions": {"KHR_materials_unlit": {}}}]
+    path = write_gltf(tmp_path / "v.gltf", [q], mats, images=[tex])
+    scene = pyrt.Scene(_camera())
+    load_asset(path).add_to_scene(scene)
+    scene.add_light(pyrt.DirectionalLight((0.0, 0.0, -1.0), 3.0))
+    img = pyrt.render(scene)
+    want = (np.array([0.8, 0.6, 1.0]) * pyrt.shaders.color.srgb_decode(np.array([200, 100, 50]) / 255.0)
+            * np.array([0.5, 1.0, 0.25]))
+    np.testing.assert_allclose(img, np.broadcast_to(want, img.shape), rtol=1e-5)
 
 
 def _emitter_behind(tmp_path, front_prims, front_mats, E=(1.0, 2.0, 4.0), name="s.gltf"):
