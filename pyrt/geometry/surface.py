@@ -129,7 +129,10 @@ class SurfaceBatch:
 
     FIELDS = ("p", "p_object", "ng", "ns", "front", "wo", "uv", "dpdu", "dpdv", "duvdx", "duvdy", "dpdx", "dpdy",
               "dndx", "dndy", "mesh_id", "prim_id", "face", "material_id", "bary", "t", "p_error",
-              "frame_s", "frame_t", "tri_v", "tri_n", "smooth", "tri_extent", "tri_absmax", "n_vertex", "p_lift")
+              "frame_s", "frame_t", "tri_v", "tri_n", "smooth", "tri_extent", "tri_absmax", "n_vertex", "p_lift",
+              "ns_unmapped")
+    #: ``ns_unmapped``: the shading normals before :func:`pyrt.textures.apply_normal_maps` perturbed them (None
+    #: when no normal map was applied; a clear coat's own frame starts from it)
 
     def __init__(self, lazy=None, **kwargs):
         """``lazy`` maps field names to a function computing a dict of fields on first access."""

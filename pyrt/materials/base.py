@@ -33,7 +33,7 @@ local-frame ``f_cos`` are one formula by construction.
 
 Declared attributes the integrators read to model no more than the scene needs: ``has_diffuse``
 (receives direct and ambient light), ``has_delta`` (spawns specular rays), ``is_dielectric`` with
-``ior``, ``tint``, ``priority`` and ``absorption`` (refraction, nested media), ``emits`` (may emit), ``lambertian``
+``ior``, ``tint``, ``priority``, ``absorption`` and ``thin_walled`` (refraction, nested media), ``emits`` (may emit), ``lambertian``
 (the environment preview's SH path), ``normal_map`` and ``uses_textures`` (ray differentials); the method
 ``glossy_alpha(ctx)`` (None: diffuse) tells the glossy integrator which lobes to trace.
 
@@ -201,6 +201,9 @@ class Material:
     #: has a transmission lobe: ``f_cos``/``sample`` give directions below the local horizon (wi_z < 0);
     #: the strict Whitted integrator lights only the viewer's side (rough glass needs the glossy integrator)
     transmits = False
+    #: a dielectric without a volume (a thin wall: light crosses it and is outside again, glTF transmission
+    #: without ``KHR_materials_volume``): it encloses no medium, so the nested-media stacks ignore it
+    thin_walled = False
     #: f(wo, wi) = f(wi, wo) (Helmholtz reciprocity; the contract tests check it where declared)
     reciprocal = True
     #: ``{attribute: ("color" | "scalar", lo, hi, lo_open)}``: the ranges :meth:`validate` re-checks before every
