@@ -366,9 +366,9 @@ def env_path(env):
 def register_whitted(mi, dr):
     """Register ``whitted_bench``, pyrt's Whitted estimator as a ``mi.SamplingIntegrator`` (current variant).
 
-    Per path vertex: where the BSDF has a smooth (non-delta) lobe, one emitter sample with a shadow ray
-    (Mitsuba's ``sample_emitter_direction``: with several lights it picks one, pdf 1/n, where pyrt samples
-    every light: same expectation, more noise) and the path ends; at a delta BSDF (mirror, glass) the path
+    Per path vertex: where the BSDF has a smooth (non-delta) lobe, one sample and one shadow ray per emitter
+    (every light at every hit, as pyrt; Mitsuba's ``sample_emitter_direction`` would pick one light with
+    pdf 1/n: same expectation, up to n times the variance) and the path ends; at a delta BSDF (mirror, glass) the path
     continues along a BSDF sample (Mitsuba's dielectric *chooses* reflection or refraction with probability
     R, pyrt splits both deterministically: same expectation). Misses add ``background`` at any depth;
     ``max_depth`` counts specular bounces as pyrt's (camera ray + ``max_depth`` bounces). The loop is a
@@ -388,20 +388,28 @@ def register_whitted(mi, dr):
             """One camera sample: (radiance, valid, aovs)."""
             ctx = mi.BSDFContext()
             ray = mi.Ray3f(ray)
+            emitters = scene.emitters()
+            scalar = not dr.is_jit_v(mi.Float)
+            neg = (lambda m: not m) if scalar else (lambda m: ~m)    # ~True is -2 on scalar_rgb's Python bools
             L = mi.Color3f(0.0)
             thr = mi.Color3f(1.0)
             active = mi.Bool(active)
             for depth in range(self.max_depth + 1):
                 si = scene.ray_intersect(ray, active)
-                miss = active & ~si.is_valid()
+                miss = active & neg(si.is_valid())
                 L += dr.select(miss, thr * self.background, mi.Color3f(0.0))
                 active &= si.is_valid()
+                if scalar and not active:     # scalar_rgb: one lane, no BSDF to ask on a miss
+                    break
                 bsdf = si.bsdf(ray)
                 smooth = active & mi.has_flag(bsdf.flags(), mi.BSDFFlags.Smooth)
-                ds, em_w = scene.sample_emitter_direction(si, sampler.next_2d(smooth), True, smooth)
-                f = bsdf.eval(ctx, si, si.to_local(ds.d), smooth)
-                L += dr.select(smooth & (ds.pdf > 0), thr * f * em_w, mi.Color3f(0.0))
-                active &= ~smooth
+                for em in emitters:      # every light at every hit, one shadow ray each (as pyrt)
+                    ds, em_w = em.sample_direction(si, sampler.next_2d(smooth), smooth)
+                    lit = smooth & (ds.pdf > 0)
+                    lit &= neg(scene.ray_test(si.spawn_ray_to(ds.p), lit))
+                    f = bsdf.eval(ctx, si, si.to_local(ds.d), lit)
+                    L += dr.select(lit, thr * f * em_w, mi.Color3f(0.0))
+                active &= neg(smooth)
                 if depth == self.max_depth:
                     break
                 bs, w = bsdf.sample(ctx, si, sampler.next_1d(active), sampler.next_2d(active), active)

@@ -226,6 +226,12 @@ def bench_scene(name, mode, mi, dr, usable, args, log):
             continue
         runners[v] = MitsubaRunner(mi, dr, v, scene, workdir, kind, args.mitsuba_sampler)
     res["load_s"] = {k: r.load_s for k, r in runners.items()}
+    # first runs, before anything else renders (llvm: kernel compilation, or a load from drjit's disk cache)
+    series = [k for k in ("pyrt", "llvm_ad_rgb", "scalar_rgb") if k in runners]
+    for k in series:      # llvm: every spp (a kernel per wavefront size); pyrt and scalar: the smallest spp
+        for spp in (cfg[k] if k == "llvm_ad_rgb" else cfg[k][:1]):
+            _img, s = runners[k].render(spp, seed=7)
+            res["first_run"][f"{k}@{spp}"] = s
     # reference: Mitsuba llvm if it runs, else scalar, else pyrt
     ref_by = next(k for k in ("llvm_ad_rgb", "scalar_rgb", "pyrt") if k in runners)
     ref_spp = {"llvm_ad_rgb": cfg["ref_spp"], "scalar_rgb": cfg["ref_spp"] // 8, "pyrt": cfg["pyrt_ref_spp"]}[ref_by]
@@ -233,12 +239,7 @@ def bench_scene(name, mode, mi, dr, usable, args, log):
     res["reference"] = {"by": ref_by, "spp": ref_spp, "seconds": ref_s}
     log(f"  {name}: reference {ref_by} {ref_spp} spp in {ref_s:.1f} s")
     np.save(os.path.join(workdir, "reference.npy"), ref.astype(np.float32))
-    # first runs (llvm: kernel compilation for this spp), then interleaved timed runs
-    series = [k for k in ("pyrt", "llvm_ad_rgb", "scalar_rgb") if k in runners]
-    for k in series:      # llvm compiles a kernel per spp; pyrt and scalar: only the smallest spp's first run
-        for spp in (cfg[k] if k == "llvm_ad_rgb" else cfg[k][:1]):
-            _img, s = runners[k].render(spp, seed=7)
-            res["first_run"][f"{k}@{spp}"] = s
+    # interleaved timed runs
     for rep in range(cfg["repeats"] if args.repeats is None else args.repeats):
         levels = sorted({spp for k in series for spp in cfg[k]})
         for spp in levels:
@@ -359,6 +360,8 @@ def write_table(data, path):
              f"{data.get('mitsuba_version', 'n/a')}, sampler `{data['mitsuba_sampler']}`. Times are medians "
              "of the render call inside the process (scene load, BVH build and JIT compilation excluded).", ""]
     missing = [f"- {v} not run: {why}" for v, why in data["variants"].items() if why is not None]
+    common = set.intersection(*(set(sc["notes"]) for sc in data["scenes"])) if data["scenes"] else set()
+    missing += [f"- {n}" for n in sorted(common)]
     lines += missing + ([""] if missing else [])
     lines += ["relMSE values have the reference's own estimated noise subtracted (an error measured against a "
               "noisy reference is the image's error plus the reference's); the JSON keeps the raw values.", "",
@@ -406,17 +409,21 @@ def write_table(data, path):
         lines.append("| " + " | ".join(row) + " |")
     lines += ["", "## Do the renderers agree? (pyrt's converged render against the Mitsuba reference)", "",
               "| scene | reference | pyrt spp | relMSE pyrt vs reference | from the two images' noise alone | "
-              "first run llvm @64 s (JIT) | warm llvm @64 s | notes |", "|---|---|---:|---:|---:|---:|---:|---|"]
+              "llvm first run @4 / @64 spp s (JIT compile) | llvm warm @4 / @64 s | scene load s: pyrt (BVH) / llvm / scalar | notes |",
+              "|---|---|---:|---:|---:|---:|---:|---|---|"]
     for sc in data["scenes"]:
         ag, ref = sc.get("agreement"), sc["reference"]
         curves = curves_of(sc)
-        fr = sc["first_run"].get("llvm_ad_rgb@64")
-        warm = curves.get("llvm_ad_rgb", {}).get(64)
+        fr = [sc["first_run"].get(f"llvm_ad_rgb@{n}") for n in (4, 64)]
+        warm = [curves.get("llvm_ad_rgb", {}).get(n) for n in (4, 64)]
         lines.append(f"| {sc['name']} | {ref['by']} {ref['spp']} spp | {ag['pyrt_spp'] if ag else '—'} | "
                      f"{ag['relmse']:.2e} | {ag['noise_expected']:.2e} | " if ag else
                      f"| {sc['name']} | {ref['by']} {ref['spp']} spp | — | — | — | ")
-        lines[-1] += (f"{fr:.2f} | " if fr else "— | ") + (f"{warm[0]:.2f} | " if warm else "— | ")
-        lines[-1] += "; ".join(sc["notes"]) + " |"
+        lines[-1] += " / ".join(f"{x:.2f}" if x else "—" for x in fr) + " | "
+        lines[-1] += " / ".join(f"{x[0]:.2f}" if x else "—" for x in warm) + " | "
+        lines[-1] += " / ".join(f"{sc['load_s'][k]:.2f}" if k in sc["load_s"] else "—"
+                                for k in ("pyrt", "llvm_ad_rgb", "scalar_rgb")) + " | "
+        lines[-1] += "; ".join(n for n in sc["notes"] if n not in common) + " |"
     lines += ["", "Scenes: " + "; ".join(f"**{sc['name']}** ({sc['description']}; Mitsuba integrator "
                                          f"`{'whitted_bench' if sc['mitsuba_integrator'] == 'whitted' else 'direct'}`)"
                                          for sc in data["scenes"]) + ".",
