@@ -228,3 +228,38 @@ def test_whitted_bench_integrator_matches_pyrt_on_mirror_and_glass(mi, tmp_path)
     z = q.mean(axis=0) / (q.std(axis=0, ddof=1) / math.sqrt(q.shape[0]))
     assert np.all(np.abs(z) < 4), z
     assert abs(a.mean() / b.mean() - 1) < 0.03
+
+
+# ----------------------------------------------------------------------------- the tool's bookkeeping
+
+def test_time_to_error_interpolates_log_log_and_marks_extrapolation():
+    import bench_mitsuba as bm
+    curve = {4: (1.0, 1e-2), 16: (4.0, 2.5e-3), 64: (16.0, 6.25e-4)}       # relMSE ~ 1/time
+    t, extra = bm.time_to_error(curve, 1.25e-3)
+    assert t == pytest.approx(8.0) and not extra
+    t, extra = bm.time_to_error(curve, 1e-4)                                  # below the range: 1/time
+    assert t == pytest.approx(100.0) and extra
+    t, extra = bm.time_to_error(curve, 1e-1)
+    assert t == pytest.approx(0.1) and extra
+
+
+def test_reference_noise_is_subtracted_from_the_curves():
+    import bench_mitsuba as bm
+    runs = [{"series": "llvm_ad_rgb", "spp": n, "seconds": 0.1 * n, "relmse": 1e-2 / n} for n in (4, 16, 64)]
+    noise = bm.reference_noise(runs, {"by": "llvm_ad_rgb", "spp": 1024})
+    assert noise == pytest.approx(1e-2 / 1024)
+    c = bm.summarize(runs, noise)["llvm_ad_rgb"]
+    assert c[64][1] == pytest.approx(1e-2 / 64 - 1e-2 / 1024) and c[16][0] == pytest.approx(1.6)
+
+
+def test_adaptive_series_is_skipped_with_a_note_when_render_has_no_target_error():
+    import bench_mitsuba as bm
+
+    class NoAdaptive:
+        def adaptive(self, target_error, seed):
+            raise TypeError("render_full() got an unexpected keyword argument 'target_error'")
+
+    res = {"runs": [{"series": "llvm_ad_rgb", "spp": n, "seconds": 1.0, "relmse": 1e-3} for n in (16, 64)],
+           "notes": []}
+    assert bm.run_adaptive(NoAdaptive(), res, np.zeros((2, 2, 3)), lambda msg: None) == []
+    assert any("target_error" in n for n in res["notes"])
