@@ -28,7 +28,8 @@ Format (every key optional unless marked; unknown keys are errors naming the tab
                         # sun_angle, sun_radiance, zenith, horizon, ground, width, height);
                         # intensity, rotate ([angle_deg, [x, y, z]] or a list), filter, hide_background,
                         # background; lighting = "mis" | "map" | "bsdf" | "cosine" | "uniform" | "preview" |
-                        # false (background only), samples, heuristic ("power" | "balance"), preview_samples
+                        # false (background only), samples, heuristic ("power" | "balance"), preview_samples;
+                        # mis only: bsdf_samples (default = samples), compensate (MIS-compensated map samples)
 
 The same structure as a Python dict (Mitsuba's ``mi.load_dict`` idea) goes to :func:`load_dict`;
 :func:`load_scene` parses a file and calls it.
@@ -49,6 +50,7 @@ from pyrt.core.camera import Camera
 from pyrt.core.errors import Error
 from pyrt.lights import LIGHTS, PATH_ARGUMENTS as LIGHT_PATH_ARGUMENTS
 from pyrt.lights import environment as _env
+from pyrt.lights.environment_light import set_environment
 from pyrt.materials import REGISTRY as MATERIALS
 from pyrt.render import INTEGRATORS
 from pyrt.scene import Scene, transform_matrix
@@ -73,7 +75,7 @@ _PRIMITIVE_KEYS = {"sphere": {"radius", "subdivisions"}, "box": {"extents"}, "pl
                    "cylinder": {"radius", "height", "sections"}}
 _TOP_KEYS = {"camera", "render", "materials", "meshes", "lights", "environment"}
 _ENV_COMMON = {"type", "intensity", "rotate", "hide_background", "background", "lighting", "samples", "heuristic",
-               "preview_samples", "name"}
+               "preview_samples", "name", "bsdf_samples", "compensate"}
 _ENV_KEYS = {"constant": {"color"}, "latlong": {"file", "filter"}, "cube": {"file", "faces", "filter"},
              "sky": {"sun_direction", "sun_angle", "sun_radiance", "zenith", "horizon", "ground", "width", "height",
                      "filter"}}
@@ -369,8 +371,9 @@ def _load_environment(spec, scene, base, path):
                          where, path)
     lighting = spec.get("lighting", "mis")
     try:
-        _env.set_environment(scene, env, lighting=lighting, n_samples=spec.get("samples", 1),
-                             heuristic=spec.get("heuristic", "power"),
-                             preview_samples=spec.get("preview_samples", 16))
+        split = {k: spec[k] for k in ("bsdf_samples", "compensate") if k in spec}   # else set_environment's defaults
+        set_environment(scene, env, lighting=lighting, n_samples=spec.get("samples", 1),
+                        heuristic=spec.get("heuristic", "power"),
+                        preview_samples=spec.get("preview_samples", 16), **split)
     except ValueError as e:
         raise SceneFileError(f"{path}: {where}: {e}") from None
