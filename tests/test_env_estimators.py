@@ -148,12 +148,16 @@ def test_compensated_needs_the_bsdf_samples(glossy_reference, monkeypatch):
     assert not ok.any() and np.all(m < -20 * se), (m, se)
 
 
-def test_equal_counts_keep_the_image_of_a_seed():
-    """bsdf_samples = n_samples (the default) renders exactly what n_samples alone rendered."""
+def test_equal_counts_take_the_one_sum_path():
+    """bsdf_samples = n_samples renders exactly what bsdf_samples=None (the default) renders, with or without
+    compensation; the defaults are 4 + 4 samples, compensated."""
     env = LatLongEnvironment(_sky(), filter="bilinear")
-    a = _pixels(_glossy_plane(env, n_samples=2), 7)
-    b = _pixels(_glossy_plane(env, n_samples=2, bsdf_samples=2, compensate=False), 7)
-    np.testing.assert_array_equal(a, b)
+    for comp in (False, True):
+        a = _pixels(_glossy_plane(env, n_samples=2, compensate=comp), 7)
+        b = _pixels(_glossy_plane(env, n_samples=2, bsdf_samples=2, compensate=comp), 7)
+        np.testing.assert_array_equal(a, b)
+    lt = EnvironmentLight(env)
+    assert (lt.n_samples, lt.bsdf_samples, lt.compensate, lt.heuristic) == (4, 4, True, "power")
 
 
 # ----------------------------------------------------------------------------- parameters

@@ -28,8 +28,9 @@ Format (every key optional unless marked; unknown keys are errors naming the tab
                         # sun_angle, sun_radiance, zenith, horizon, ground, width, height);
                         # intensity, rotate ([angle_deg, [x, y, z]] or a list), filter, hide_background,
                         # background; lighting = "mis" | "map" | "bsdf" | "cosine" | "uniform" | "preview" |
-                        # false (background only), samples, heuristic ("power" | "balance"), preview_samples;
-                        # mis only: bsdf_samples (default = samples), compensate (MIS-compensated map samples)
+                        # false (background only), samples (default 4), heuristic ("power" | "balance"),
+                        # preview_samples; mis only: bsdf_samples (default = samples), compensate (default
+                        # true: MIS-compensated map samples)
 
 The same structure as a Python dict (Mitsuba's ``mi.load_dict`` idea) goes to :func:`load_dict`;
 :func:`load_scene` parses a file and calls it.
@@ -371,9 +372,9 @@ def _load_environment(spec, scene, base, path):
                          where, path)
     lighting = spec.get("lighting", "mis")
     try:
-        split = {k: spec[k] for k in ("bsdf_samples", "compensate") if k in spec}   # else set_environment's defaults
-        set_environment(scene, env, lighting=lighting, n_samples=spec.get("samples", 1),
-                        heuristic=spec.get("heuristic", "power"),
+        given = {"samples": "n_samples", "bsdf_samples": "bsdf_samples", "compensate": "compensate"}
+        split = {kw: spec[k] for k, kw in given.items() if k in spec}   # else set_environment's defaults
+        set_environment(scene, env, lighting=lighting, heuristic=spec.get("heuristic", "power"),
                         preview_samples=spec.get("preview_samples", 16), **split)
     except ValueError as e:
         raise SceneFileError(f"{path}: {where}: {e}") from None
