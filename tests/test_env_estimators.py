@@ -183,3 +183,69 @@ def test_scene_file_keys(tmp_path):
     p.write_text(p.read_text().replace("compensate = true", 'compensate = "maybe"'))
     with pytest.raises(pyrt.Error, match="compensate"):
         pyrt.load_scene(str(p))
+
+
+# ----------------------------------------------------------------------------- area lights: light + BSDF samples
+
+
+def _area_lights():
+    return {"rect": pyrt.RectLight(center=(0.3, 1.0, 0.1), normal=(0, -1, 0), size=(1.5, 1.0), power=30.0),
+            "disk": pyrt.DiskLight((0.3, 1.0, 0.1), (0.2, -1, 0), radius=0.6, power=30.0),
+            "sphere": pyrt.SphereLight((0.3, 1.2, 0.1), 0.5, power=60.0)}
+
+
+@pytest.mark.parametrize("kind", ["rect", "disk", "sphere"])
+def test_ray_distance_agrees_with_pdf_li(kind, rng):
+    """A direction reaches the light (finite ray_distance) exactly where its light-sampling pdf is positive, and
+    the light's own samples lie at the distance ray_distance gives."""
+    light = _area_lights()[kind]
+    n = 20000
+    p = np.column_stack([rng.uniform(-2, 2, n), rng.uniform(-1, 0.2, n), rng.uniform(-2, 2, n)])
+    wi = rng.normal(size=(n, 3))
+    wi /= np.linalg.norm(wi, axis=1, keepdims=True)
+    dist = light.ray_distance(p, wi)
+    pdf = light.pdf_li(p, wi)
+    assert np.isfinite(dist).sum() > 200
+    np.testing.assert_array_equal(np.isfinite(dist), pdf > 0)
+    ls = light.sample_li(p, rng.random((n, 2)))
+    np.testing.assert_allclose(light.ray_distance(p, ls.wi), ls.dist, rtol=1e-9)
+
+
+@pytest.fixture(scope="module")
+def area_references():
+    """Per-pixel references: light sampling only, 256 samples per hit, for each light and material."""
+    out = {}
+    for kind in ("rect", "disk", "sphere"):
+        for mat in ("lambert", "glossy"):
+            out[kind, mat] = _pixels(_area_plane(kind, mat, n_samples=256, bsdf_samples=0), 98)
+    return out
+
+
+def _area_plane(kind, mat, **kw):
+    m = pyrt.Lambert(albedo=0.6) if mat == "lambert" else pyrt.materials.CookTorrance(kd=0.1, ks=0.9, roughness=0.3)
+    sc = _plane_scene(m)
+    light = _area_lights()[kind]
+    light.n_samples, light.bsdf_samples = kw["n_samples"], kw["bsdf_samples"]
+    light.add_to(sc, visible=False)
+    return sc
+
+
+@pytest.mark.parametrize("nl,nb", [(1, 1), (4, 1), (1, 4)])
+@pytest.mark.parametrize("mat", ["lambert", "glossy"])
+@pytest.mark.parametrize("kind", ["rect", "disk", "sphere"])
+def test_area_light_mis_matches_light_sampling(area_references, kind, mat, nl, nb):
+    """Light + BSDF samples (MIS with the counts) have the expectation of light sampling alone."""
+    vals = _pixels(_area_plane(kind, mat, n_samples=nl, bsdf_samples=nb), 5)
+    ok, m, se = _check_against(vals, area_references[kind, mat])
+    assert ok.all(), (m, se)
+    assert np.all(np.abs(m) < 0.05 * area_references[kind, mat].mean(0))
+
+
+def test_area_light_bsdf_samples_checked():
+    with pytest.raises(pyrt.LightError, match="bsdf_samples"):
+        pyrt.RectLight(center=(0, 1, 0), size=1.0, power=1.0, bsdf_samples=-1)
+    lt = pyrt.RectLight(center=(0, 1, 0), size=1.0, power=1.0)
+    assert lt.bsdf_samples == 0
+    lt.bsdf_samples = 1.5
+    with pytest.raises(pyrt.LightError, match="bsdf_samples"):
+        lt.validate()

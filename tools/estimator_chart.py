@@ -21,7 +21,8 @@ at ``--ref-spp``: two independent halves, whose relMSE / 4 is the reference's ow
 repeats, minus the reference's own error (``relmse_raw`` in the CSV keeps it).
 
 - ``area``: the same objects under a visible 1.2 x 0.8 rectangle light (:func:`area_scene`); estimators
-  ``A<n>`` = ``n_samples = n`` shadow rays per hit (``A16`` is the default), spp scaled by ``16 / n``.
+  ``A<n>`` = ``n_samples = n`` shadow rays per hit (``A16`` is the default), ``A<n>B<m>`` with ``bsdf_samples
+  = m`` BSDF samples MIS-combined with them; spp scaled by ``16 / (n + m)``.
 
 For an unbiased estimator relMSE x time is constant in the sample count; the table reports it per estimator
 relative to ``L1B1`` (the *equal-time error ratio*: < 1 is better) and the speed-up at equal error
@@ -67,8 +68,9 @@ ESTIMATORS = [
     ("L2B1+c", 2, 1, True, "power"),
     ("L1B3+c", 1, 3, True, "power"),
 ]
-#: area-light estimators: (label, n_samples) of the rectangle light; A16 is the default
-AREA_ESTIMATORS = [("A1", 1), ("A4", 4), ("A16", 16), ("A64", 64)]
+#: area-light estimators: (label, n_samples, bsdf_samples) of the rectangle light; A16 is the default
+AREA_ESTIMATORS = [("A1", 1, 0), ("A4", 4, 0), ("A16", 16, 0), ("A64", 64, 0), ("A4B4", 4, 4), ("A8B8", 8, 8),
+                   ("A12B4", 12, 4), ("A16B16", 16, 16)]
 #: the estimator each scene's ratios are taken against (the default before this tool)
 BASELINE = {"sky": "L1B1", "studio": "L1B1", "area": "A16"}
 
@@ -109,9 +111,9 @@ def make_scene(width, height):
 def configure(scene, est):
     """Set the estimator ``est`` (a row of :data:`ESTIMATORS` or :data:`AREA_ESTIMATORS`) on ``scene``;
     returns the shadow rays it traces per hit."""
-    if len(est) == 2:
-        scene.lights[0].n_samples = est[1]
-        return est[1]
+    if len(est) == 3:
+        scene.lights[0].n_samples, scene.lights[0].bsdf_samples = est[1], est[2]
+        return est[1] + est[2]
     _, nl, nb, comp, heur = est
     set_environment(scene, scene.environment, lighting="mis", n_samples=nl, bsdf_samples=nb, compensate=comp,
                     heuristic=heur)
@@ -143,7 +145,7 @@ def uptime():
 def run_scene(name, env, args):
     """Reference, then every estimator at every spp, interleaved over the repeats; rows for the CSV."""
     if env is None:
-        sc, ests, ref_est, scale = area_scene(args.width, args.height), AREA_ESTIMATORS, ("ref", 16), 16
+        sc, ests, ref_est, scale = area_scene(args.width, args.height), AREA_ESTIMATORS, ("ref", 16, 0), 16
     else:
         sc, ests, ref_est, scale = make_scene(args.width, args.height), ESTIMATORS, ("ref", 4, 4, True, "power"), 2
     if args.estimators:
@@ -226,7 +228,7 @@ def plot(rows, path, title):
         for label in labels:
             pts = sorted((r for r in rows if r["scene"] == scene and r["estimator"] == label),
                          key=lambda r: r["spp_level"])
-            lw = 2.4 if label in (BASELINE[scene], "L2B2+c") else 1.0
+            lw = 2.4 if label in (BASELINE[scene], "L4B4+c") else 1.0
             ax.loglog([p["time_s"] for p in pts], [p["relmse"] for p in pts], "-" if "+c" in label else "--",
                       marker="o", ms=3, lw=lw, label=label)
         ax.set_title(scene)

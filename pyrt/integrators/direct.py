@@ -35,7 +35,48 @@ def estimate_light(light, surf, bsdf, visible, rng):
     """Direct light (N, 3) from one light: the environment estimator or light sampling."""
     if light.environment is not None:
         return environment_estimate(light, surf, bsdf, visible, rng)
+    if light.bsdf_samples and not light.delta:
+        return area_mis_estimate(light, surf, bsdf, visible, rng)
     return light_sampling_estimate(light, surf, bsdf, visible, rng)
+
+
+def area_mis_estimate(light, surf, bsdf, visible, rng):
+    """Direct light (N, 3) from a non-delta light with ``bsdf_samples > 0`` (area lights): ``n_l = n_samples``
+    light samples (:func:`light_sampling_estimate`) and ``n_b = bsdf_samples`` BSDF samples (stratified), the
+    latter reaching the light where :meth:`Light.ray_distance` is finite, each traced to ``1 - 1e-4`` of that
+    distance like a light sample; weights ``w_l``, ``w_b`` of the power heuristic with the counts (they sum to
+    1), each technique divided by its count. The light's radiance ``light.L`` is constant over its surface.
+    """
+    n_l, n_b = light.n_samples, light.bsdf_samples
+
+    def w_light(idx, wi):
+        """MIS weight of the light samples that reach the light."""
+        return sampling.power_heuristic(light.pdf_li(take_rows(surf.p, idx), wi), bsdf.pdf(idx, wi), 2.0, n_l, n_b)
+    L = light_sampling_estimate(light, surf, bsdf, visible, rng, weight=w_light)
+    n = surf.n_hits
+    acc = np.zeros((n, 3))
+    all_idx = np.arange(n)
+    us = stratified_samples(rng, n, n_b)
+    for s in range(n_b):
+        wi, weight, pdf_b = bsdf.sample(all_idx, us[s])
+        idx = np.flatnonzero(surf.light_side(wi) & (pdf_b > 0) & (max_component(weight) > 0))
+        if idx.size == 0:
+            continue
+        p, w = take_rows(surf.p, idx), take_rows(wi, idx)
+        dist = light.ray_distance(p, w)
+        hit = np.flatnonzero(np.isfinite(dist))
+        if hit.size == 0:
+            continue
+        idx, p, w, dist = idx[hit], take_rows(p, hit), take_rows(w, hit), dist[hit]
+        w_b = sampling.power_heuristic(pdf_b[idx], light.pdf_li(p, w), 2.0, n_b, n_l)
+        val = take_rows(weight, idx) * np.asarray(light.L, dtype=np.float64)[None, :] * w_b[:, None]
+        keep = np.flatnonzero(max_component(val) > 0)
+        if keep.size == 0:
+            continue
+        idx, w, dist, val = idx[keep], take_rows(w, keep), dist[keep], take_rows(val, keep)
+        vis = visible(idx, w, dist)
+        put_rows(acc, idx, take_rows(acc, idx) + _shadowed_values(vis, val))
+    return L + acc / n_b
 
 
 
