@@ -21,7 +21,7 @@ Format (every key optional unless marked; unknown keys are errors naming the tab
     [[lights]]          # type = "point" | "spot" | "directional" | "projector" | "goniometric" | "ies" + that
                         # light's keyword arguments (image / profile paths relative to the scene file)
                         # area lights: type = "rect" (center, normal, size, tangent) | "disk" (center, normal,
-                        # radius) | "sphere" (center, radius); radiance or power, color, n_samples;
+                        # radius) | "sphere" (center, radius); radiance or power, color, n_samples, bsdf_samples;
                         # visible = true adds the emitting mesh (seen by camera rays)
     [environment]       # type = "constant" (color) | "latlong" (file: EXR, relative to the scene file) |
                         # "cube" (file: cross image, or faces = [6 files]) | "sky" (procedural: sun_direction,
