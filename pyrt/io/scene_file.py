@@ -6,7 +6,8 @@ Format (every key optional unless marked; unknown keys are errors naming the tab
     [render]            # max_depth, seed, background (RGB radiance), ambient (RGB radiance),
                         # shading_normal_fallback (bool, default true: see the README's conventions),
                         # throughput_cutoff, offset (strategy name), transparent_shadows (bool),
-                        # integrator ("whitted" | "glossy"), glossy_samples, glossy_depth, glossy_threshold
+                        # integrator ("whitted" | "glossy"), glossy_samples, glossy_depth, glossy_threshold,
+                        # target_error, time_budget (s), max_spp, min_spp (adaptive rendering: pyrt.render)
     [materials.NAME]    # type = "lambert" | "blinn_phong" | "mirror" | "glass" | ... ; the rest are the
                         # material constructor's keyword arguments (validated by it); a parameter
                         # may be a texture table, e.g. albedo = {type = "image", path = "wood.png"}
@@ -23,7 +24,7 @@ Format (every key optional unless marked; unknown keys are errors naming the tab
                         # area lights: type = "rect" (center, normal, size, tangent) | "disk" (center, normal,
                         # radius) | "sphere" (center, radius); radiance or power, color, n_samples, bsdf_samples;
                         # visible = true adds the emitting mesh (seen by camera rays)
-    [environment]       # type = "constant" (color) | "latlong" (file: EXR, relative to the scene file) |
+    [environment]       # type = "constant" (color) | "latlong" (file: EXR or .hdr, relative to the scene file) |
                         # "cube" (file: cross image, or faces = [6 files]) | "sky" (procedural: sun_direction,
                         # sun_angle, sun_radiance, zenith, horizon, ground, width, height);
                         # intensity, rotate ([angle_deg, [x, y, z]] or a list), filter, hide_background,
@@ -68,7 +69,8 @@ class SceneFileNotFoundError(SceneFileError, FileNotFoundError):
 
 _CAMERA_KEYS = {"position", "target", "up", "fov", "width", "height", "spp", "jitter"}
 _RENDER_OPTIONS = ("max_depth", "seed", "throughput_cutoff", "offset", "transparent_shadows", "integrator",
-                   "glossy_samples", "glossy_depth", "glossy_threshold")
+                   "glossy_samples", "glossy_depth", "glossy_threshold",
+                   "target_error", "time_budget", "max_spp", "min_spp")
 _RENDER_KEYS = {"background", "ambient", "shading_normal_fallback", *_RENDER_OPTIONS}
 _MESH_COMMON = {"file", "primitive", "material", "translate", "rotate", "scale", "matrix", "smooth", "name",
                 "crease_angle", "shading"}
