@@ -148,11 +148,11 @@ def run_scene(name, env, args):
         sc, ests, ref_est, scale = area_scene(args.width, args.height), AREA_ESTIMATORS, ("ref", 16, 0), 16
     else:
         sc, ests, ref_est, scale = make_scene(args.width, args.height), ESTIMATORS, ("ref", 4, 4, True, "power"), 2
-    if args.estimators:
-        ests = [e for e in ests if e[0] in args.estimators or e[0] == BASELINE[name]]
         sc.environment = env
         set_environment(sc, env)
         _ = env.distribution, env.compensated_distribution     # tables built before any timing
+    if args.estimators:
+        ests = [e for e in ests if e[0] in args.estimators or e[0] == BASELINE[name]]
     prepared = pyrt.PreparedScene(sc)
     try:
         ref_spp = max(2, args.ref_spp // 2 * 2)
