@@ -40,8 +40,8 @@ from pyrt.lights.base import Light, LightSample
 from pyrt.lights.environment import HEURISTICS, STRATEGIES, Environment, EnvironmentMapError
 
 #: samples per hit of each technique by default (``n_samples``; ``bsdf_samples`` follows it), with
-#: ``compensate=True``: measured by ``tools/estimator_chart.py`` (docs/environment.md), 2.3x (sun sky) and
-#: 1.7x (studio map) less relMSE x time than one light + one BSDF sample without compensation
+#: ``compensate=True``: measured by ``tools/estimator_chart.py`` (docs/environment.md), 1.5-2.4x (sun sky) and
+#: 1.6-1.7x (studio map) less relMSE x time than one light + one BSDF sample without compensation
 DEFAULT_SAMPLES = 4
 
 
