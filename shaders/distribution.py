@@ -104,3 +104,21 @@ def distribution2d_pdf(dist, uv):
     col = np.clip(np.floor(uv[:, 0] * w).astype(np.int64), 0, w - 1)
     row = np.clip(np.floor(uv[:, 1] * h).astype(np.int64), 0, h - 1)
     return _cell_pdf(dist, row, col)
+
+
+def compensated_weights(func, measure):
+    """MIS-compensated cell weights ``max(0, func - m * measure)`` (H, W) float64 (Karlik et al. 2019).
+
+    ``func`` (H, W) are the weights of an importance table proportional to ``luminance * measure``, where
+    ``measure`` (broadcastable to (H, W)) is each cell's solid-angle weight (``sin theta`` of a lat-long row,
+    the Jacobian of a cube texel). ``m = sum(func) / sum(measure)`` is then the luminance averaged over the
+    sphere, and the result is the table of ``max(0, luminance - m) * measure``: sampling it leaves the part of
+    the map below its mean to BSDF sampling. Valid only in a multiple-importance-sampling combination with
+    a strategy that covers every direction where the result is 0 (pbrt-v4's ``allowIncompletePDF``).
+    All zero for a constant map.
+    """
+    f = np.asarray(func, dtype=np.float64)
+    a = np.broadcast_to(np.asarray(measure, dtype=np.float64), f.shape)
+    total = a.sum()
+    m = f.sum() / total if total > 0 else 0.0
+    return np.maximum(f - m * a, 0.0)

@@ -18,7 +18,7 @@ from pyrt.apps import cli
 from pyrt.core.errors import RenderError
 from pyrt.integrators.glossy import GlossyIntegrator, mis_weights
 from pyrt.integrators.prepared import PreparedScene
-from pyrt.lights.environment import ConstantEnvironment, set_environment
+from pyrt.lights import ConstantEnvironment, set_environment
 
 
 class Ctx:

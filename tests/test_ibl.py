@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 
 import pyrt
-from pyrt.lights.environment import (STRATEGIES, ConstantEnvironment, CubeMapEnvironment, EnvironmentLight,
-                              EnvironmentMapError, LatLongEnvironment, procedural_sky, set_environment)
+from pyrt.lights.environment import (STRATEGIES, ConstantEnvironment, CubeMapEnvironment, EnvironmentMapError,
+                                     LatLongEnvironment, procedural_sky)
+from pyrt.lights.environment_light import EnvironmentLight, set_environment
 from pyrt.shaders import envmap as K
 
 UNBIASED = [s for s in STRATEGIES if s != "preview"]

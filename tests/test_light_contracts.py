@@ -138,19 +138,44 @@ def test_environment_pdf_integrates_to_one_and_radiance_is_finite(name):
 
 
 @pytest.mark.parametrize("name", ENVS)
-def test_environment_samples_follow_pdf_chi_square(name):
+def test_environment_compensated_pdf_integrates_to_one_where_positive(name):
+    """The MIS-compensated density (Environment.pdf_compensated) integrates to 1 over the sphere, or is 0
+    everywhere (a constant map: L - mean L = 0); it is 0 somewhere (the part of the map below its mean is left
+    to BSDF sampling) and positive where the full density is largest (the sun of the examples)."""
+    env = ENVIRONMENTS[name].example()
+    d, dw = _latlong_grid()
+    pc = env.pdf_compensated(d)
+    assert np.all(pc >= 0) and np.all(np.isfinite(pc))
+    if name == "constant":
+        assert np.all(pc == 0)
+        return
+    np.testing.assert_allclose(np.sum(pc * dw), 1.0, rtol=2e-3)
+    assert np.mean(pc == 0) > 0.5
+    p = env.pdf(d)
+    assert np.all(pc[p >= 0.5 * p.max()] > 0)
+
+
+@pytest.mark.parametrize("compensated", [False, True])
+@pytest.mark.parametrize("name", ENVS)
+def test_environment_samples_follow_pdf_chi_square(name, compensated):
     """200k samples histogrammed over 16 x 32 lat-long cells against the pdf integrated per cell (16 x 16
     midpoints: the cube map's texels and the sun cut through cells, 4 x 4 is not enough); cells with
-    expectation < 5 pooled. Rejected at p < 1e-4."""
+    expectation < 5 pooled. Rejected at p < 1e-4. The same for the MIS-compensated table (``sample_compensated``
+    against ``pdf_compensated``; none for the constant map, whose compensated samples all have pdf 0)."""
     env = ENVIRONMENTS[name].example()
     n, nv, nu, k = 200_000, 16, 32, 16
-    d, pdf_s = env.sample(np.random.default_rng(5).random((n, 2)))
-    np.testing.assert_allclose(pdf_s, env.pdf(d), rtol=1e-9)
+    sample, pdf_fn = (env.sample_compensated, env.pdf_compensated) if compensated else (env.sample, env.pdf)
+    d, pdf_s = sample(np.random.default_rng(5).random((n, 2)))
+    if compensated and name == "constant":
+        assert np.all(pdf_s == 0) and np.all(pdf_fn(d) == 0)
+        return
+    assert np.all(pdf_s > 0)
+    np.testing.assert_allclose(pdf_s, pdf_fn(d), rtol=1e-9)
     v = np.arccos(np.clip(d[:, 1], -1, 1)) / np.pi
     u = (np.arctan2(d[:, 0], -d[:, 2]) / (2 * np.pi)) % 1.0
     obs, _, _ = np.histogram2d(v, u, bins=[np.linspace(0, 1, nv + 1), np.linspace(0, 1, nu + 1)])
     g, dw = _latlong_grid(nv * k, nu * k)
-    exp = (env.pdf(g) * dw).reshape(nv, k, nu, k).sum(axis=(1, 3)) * n
+    exp = (pdf_fn(g) * dw).reshape(nv, k, nu, k).sum(axis=(1, 3)) * n
     obs, exp = obs.ravel(), exp.ravel()
     small = exp < 5
     o = np.concatenate([obs[~small], [obs[small].sum()]])

@@ -19,7 +19,7 @@ import time
 import numpy as np
 
 import pyrt
-from pyrt.lights.environment import ConstantEnvironment, set_environment
+from pyrt.lights import ConstantEnvironment, set_environment
 from pyrt.shaders.color import srgb_encode
 from _charts import pyplot  # noqa: E402  (tools/_charts.py)
 

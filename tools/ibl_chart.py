@@ -28,7 +28,8 @@ import time
 import numpy as np
 
 import pyrt
-from pyrt.lights.environment import STRATEGIES, LatLongEnvironment, set_environment
+from pyrt.lights import set_environment
+from pyrt.lights.environment import STRATEGIES, LatLongEnvironment
 from _charts import pyplot  # noqa: E402  (tools/_charts.py)
 
 HERE = os.path.dirname(os.path.abspath(__file__))

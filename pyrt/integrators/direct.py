@@ -7,7 +7,8 @@ For every light at every hit that can receive light, :func:`estimate` returns th
   light, one shadow ray per sample where light, BSDF and side allow), as pbrt-v4's ``SampleLd``;
 - environment lights (``light.environment`` set) by the strategy the light names
   (:func:`environment_estimate`): uniform, cosine, map (light sampling), bsdf (the materials'
-  ``sample``), mis (one of each, power or balance heuristic) or the unshadowed ``preview``.
+  ``sample``), mis (``n_samples`` light and ``bsdf_samples`` BSDF samples, power or balance heuristic with
+  the counts, optionally from the MIS-compensated table) or the unshadowed ``preview``.
 
 ``bsdf`` is a :class:`pyrt.materials.dispatch.BSDFBatch` over the hits (``f_cos``, ``sample``, ``pdf`` in
 world space); ``visible(idx, wi, dist, end=None)`` traces shadow rays from hits ``idx`` and returns a
@@ -46,7 +47,48 @@ def estimate_light(light, surf, bsdf, visible, rng):
     """Direct light (N, 3) from one light: the environment estimator or light sampling."""
     if light.environment is not None:
         return environment_estimate(light, surf, bsdf, visible, rng)
+    if light.bsdf_samples and not light.delta:
+        return area_mis_estimate(light, surf, bsdf, visible, rng)
     return light_sampling_estimate(light, surf, bsdf, visible, rng)
+
+
+def area_mis_estimate(light, surf, bsdf, visible, rng):
+    """Direct light (N, 3) from a non-delta light with ``bsdf_samples > 0`` (area lights): ``n_l = n_samples``
+    light samples (:func:`light_sampling_estimate`) and ``n_b = bsdf_samples`` BSDF samples (stratified), the
+    latter reaching the light where :meth:`Light.ray_distance` is finite, each traced to ``1 - 1e-4`` of that
+    distance like a light sample; weights ``w_l``, ``w_b`` of the power heuristic with the counts (they sum to
+    1), each technique divided by its count. The light's radiance ``light.L`` is constant over its surface.
+    """
+    n_l, n_b = light.n_samples, light.bsdf_samples
+
+    def w_light(idx, wi):
+        """MIS weight of the light samples that reach the light."""
+        return sampling.power_heuristic(light.pdf_li(take_rows(surf.p, idx), wi), bsdf.pdf(idx, wi), 2.0, n_l, n_b)
+    L = light_sampling_estimate(light, surf, bsdf, visible, rng, weight=w_light)
+    n = surf.n_hits
+    acc = np.zeros((n, 3))
+    all_idx = np.arange(n)
+    us = stratified_samples(rng, n, n_b)
+    for s in range(n_b):
+        wi, weight, pdf_b = bsdf.sample(all_idx, us[s])
+        idx = np.flatnonzero(surf.light_side(wi) & (pdf_b > 0) & (max_component(weight) > 0))
+        if idx.size == 0:
+            continue
+        p, w = take_rows(surf.p, idx), take_rows(wi, idx)
+        dist = light.ray_distance(p, w)
+        hit = np.flatnonzero(np.isfinite(dist))
+        if hit.size == 0:
+            continue
+        idx, p, w, dist = idx[hit], take_rows(p, hit), take_rows(w, hit), dist[hit]
+        w_b = sampling.power_heuristic(pdf_b[idx], light.pdf_li(p, w), 2.0, n_b, n_l)
+        val = take_rows(weight, idx) * np.asarray(light.L, dtype=np.float64)[None, :] * w_b[:, None]
+        keep = np.flatnonzero(max_component(val) > 0)
+        if keep.size == 0:
+            continue
+        idx, w, dist, val = idx[keep], take_rows(w, keep), dist[keep], take_rows(val, keep)
+        vis = visible(idx, w, dist)
+        put_rows(acc, idx, take_rows(acc, idx) + _shadowed_values(vis, val))
+    return L + acc / n_b
 
 
 
@@ -120,55 +162,77 @@ def _shadowed_values(vis, val):
     return val * vis
 
 
-def _mis(heuristic, p_f, p_g):
-    """MIS weight of a sample with density ``p_f`` against the other strategy's ``p_g`` (Veach 1997)."""
-    if heuristic == "power":
-        return sampling.power_heuristic(p_f, p_g)
-    return sampling.balance_heuristic(p_f, p_g)
-
 def environment_estimate(light, surf, bsdf, visible, rng):
     """Image-based lighting (N, 3) at the hits of ``surf`` with the strategy of ``light``
-    (a :class:`pyrt.EnvironmentLight`: ``strategy``, ``n_samples``, ``heuristic``, ``preview_samples``; see
-    :mod:`pyrt.lights.environment`). Unbiased for every strategy but ``preview``."""
+    (a :class:`pyrt.EnvironmentLight`: ``strategy``, ``n_samples``, ``bsdf_samples``, ``heuristic``,
+    ``compensate``, ``preview_samples``; see :mod:`pyrt.lights.environment_light`). Unbiased for every strategy
+    but ``preview``.
+
+    ``mis``: ``n_l = n_samples`` light samples (:meth:`EnvironmentLight.mis_sample`: the full or the
+    compensated table) and ``n_b = bsdf_samples`` BSDF samples per hit, weighted by
+    :meth:`EnvironmentLight.mis_weights` (``w_l + w_b = 1``), each divided by its own count. Random numbers
+    per round ``s``: the light sample's ``u`` then the BSDF sample's (while ``s`` is below each count), the
+    second coordinate stratified over the rounds of that technique.
+    """
     n = surf.n_hits
     if light.strategy == "preview":
         return _environment_preview(light, surf, bsdf)
     env = light.environment
-    L_out = np.zeros((n, 3))
     ns = light.n_samples
+    strategy = light.strategy
+    mis = strategy == "mis"
+    nb = light.bsdf_samples if mis else ns
+    L_light = np.zeros((n, 3))
+    # equal counts: one sum divided once (the image of a seed is the same as before the counts could differ)
+    L_bsdf = L_light if nb == ns else np.zeros((n, 3))
     all_idx = np.arange(n)
-    for s in range(ns):
-        u = rng.random((n, 2))
-        u[:, 1] = (s + u[:, 1]) / ns     # stratify latitude (the table's marginal) / the 2nd warp dim
-        if light.strategy in ("uniform", "cosine", "map", "mis"):
-            if light.strategy == "uniform":
+    for s in range(max(ns, nb) if mis else ns):
+        u = None
+        if s < ns and strategy != "bsdf":
+            u = rng.random((n, 2))
+            u[:, 1] = (s + u[:, 1]) / ns     # stratify latitude (the table's marginal) / the 2nd warp dim
+            if strategy == "uniform":
                 wi = sampling.square_to_uniform_sphere(u)
                 pdf = sampling.uniform_sphere_pdf(wi)
-            elif light.strategy == "cosine":
+            elif strategy == "cosine":
                 wl = sampling.square_to_cosine_hemisphere(u)
                 wi = surf.to_world(wl)
                 pdf = sampling.cosine_hemisphere_pdf(wl)
-            else:
+            elif strategy == "map":
                 wi, pdf = env.sample(u)
-            _add_environment_sample(light, L_out, surf, bsdf, visible, wi, pdf, mis=light.strategy == "mis")
-        if light.strategy in ("bsdf", "mis"):
-            u2 = rng.random((n, 2)) if light.strategy == "mis" else u
-            if light.strategy == "mis":
-                u2[:, 1] = (s + u2[:, 1]) / ns
-            wi, weight, pdf_b = bsdf.sample(all_idx, u2)
-            ok = surf.light_side(wi) & (pdf_b > 0) & (max_component(weight) > 0)
-            idx = np.flatnonzero(ok)
-            if idx.size == 0:
-                continue
-            val = weight[idx] * env.radiance(wi[idx])
-            if light.strategy == "mis":
-                val *= _mis(light.heuristic, pdf_b[idx], env.pdf(wi[idx]))[:, None]
-            keep = max_component(val) > 0
-            idx, val = idx[keep], val[keep]
-            if idx.size:
-                vis = visible(idx, wi[idx], np.full(idx.size, np.inf))
-                L_out[idx] += _shadowed_values(vis, val)
-    return L_out / ns
+            else:
+                wi, pdf = light.mis_sample(u)
+            _add_environment_sample(light, L_light, surf, bsdf, visible, wi, pdf, mis=mis)
+        if strategy == "bsdf" or (mis and s < nb):
+            if mis:
+                u = rng.random((n, 2))
+                u[:, 1] = (s + u[:, 1]) / nb
+            elif u is None:
+                u = rng.random((n, 2))
+                u[:, 1] = (s + u[:, 1]) / ns
+            _add_bsdf_sample(light, L_bsdf, bsdf, surf, visible, all_idx, u, mis)
+    if L_bsdf is L_light:
+        return L_light / ns
+    return L_light / ns + L_bsdf / nb
+
+
+def _add_bsdf_sample(light, L_out, bsdf, surf, visible, all_idx, u, mis):
+    """Add one BSDF-sampled direction per hit (random numbers ``u`` (N, 2)), MIS-weighted if ``mis``."""
+    env = light.environment
+    wi, weight, pdf_b = bsdf.sample(all_idx, u)
+    ok = surf.light_side(wi) & (pdf_b > 0) & (max_component(weight) > 0)
+    idx = np.flatnonzero(ok)
+    if idx.size == 0:
+        return
+    val = weight[idx] * env.radiance(wi[idx])
+    if mis:
+        val *= light.mis_weights(light.mis_pdf(wi[idx]), pdf_b[idx])[1][:, None]
+    keep = max_component(val) > 0
+    idx, val = idx[keep], val[keep]
+    if idx.size:
+        vis = visible(idx, wi[idx], np.full(idx.size, np.inf))
+        L_out[idx] += _shadowed_values(vis, val)
+
 
 def _add_environment_sample(light, L_out, surf, bsdf, visible, wi, pdf, mis):
     """Add one environment-sampled direction per hit (``pdf`` its density), MIS-weighted if ``mis``."""
@@ -184,12 +248,13 @@ def _add_environment_sample(light, L_out, surf, bsdf, visible, wi, pdf, mis):
     f = bsdf.f_cos(idx, wi[idx])
     val = f * Le / pdf[idx, None]
     if mis:
-        val *= _mis(light.heuristic, pdf[idx], bsdf.pdf(idx, wi[idx]))[:, None]
+        val *= light.mis_weights(pdf[idx], bsdf.pdf(idx, wi[idx]))[0][:, None]
     keep = max_component(val) > 0
     idx, val = idx[keep], val[keep]
     if idx.size:
         vis = visible(idx, wi[idx], np.full(idx.size, np.inf))
         L_out[idx] += _shadowed_values(vis, val)
+
 
 def _environment_preview(light, surf, bsdf):
     """Unshadowed, noise-free approximation (``strategy="preview"``, see :mod:`pyrt.lights.environment`)."""

@@ -25,14 +25,16 @@ Format (every key optional unless marked; unknown keys are errors naming the tab
     [[lights]]          # type = "point" | "spot" | "directional" | "projector" | "goniometric" | "ies" + that
                         # light's keyword arguments (image / profile paths relative to the scene file)
                         # area lights: type = "rect" (center, normal, size, tangent) | "disk" (center, normal,
-                        # radius) | "sphere" (center, radius); radiance or power, color, n_samples;
+                        # radius) | "sphere" (center, radius); radiance or power, color, n_samples, bsdf_samples;
                         # visible = true adds the emitting mesh (seen by camera rays)
     [environment]       # type = "constant" (color) | "latlong" (file: EXR or .hdr, relative to the scene file) |
                         # "cube" (file: cross image, or faces = [6 files]) | "sky" (procedural: sun_direction,
                         # sun_angle, sun_radiance, zenith, horizon, ground, width, height);
                         # intensity, rotate ([angle_deg, [x, y, z]] or a list), filter, hide_background,
                         # background; lighting = "mis" | "map" | "bsdf" | "cosine" | "uniform" | "preview" |
-                        # false (background only), samples, heuristic ("power" | "balance"), preview_samples
+                        # false (background only), samples (default 4), heuristic ("power" | "balance"),
+                        # preview_samples; mis only: bsdf_samples (default = samples), compensate (default
+                        # true: MIS-compensated map samples)
 
 The same structure as a Python dict (Mitsuba's ``mi.load_dict`` idea) goes to :func:`load_dict`;
 :func:`load_scene` parses a file and calls it.
@@ -53,6 +55,7 @@ from pyrt.core.camera import Camera
 from pyrt.core.errors import Error
 from pyrt.lights import LIGHTS, PATH_ARGUMENTS as LIGHT_PATH_ARGUMENTS
 from pyrt.lights import environment as _env
+from pyrt.lights.environment_light import set_environment
 from pyrt.materials import REGISTRY as MATERIALS
 from pyrt.render import INTEGRATORS
 from pyrt.scene import Scene, transform_matrix
@@ -80,7 +83,7 @@ _PRIMITIVE_KEYS = {"sphere": {"radius", "subdivisions"}, "box": {"extents"}, "pl
 _COVERAGE_KEYS = ("opacity", "alpha_mode", "alpha_cutoff", "double_sided")
 _TOP_KEYS = {"camera", "render", "materials", "meshes", "lights", "environment"}
 _ENV_COMMON = {"type", "intensity", "rotate", "hide_background", "background", "lighting", "samples", "heuristic",
-               "preview_samples", "name"}
+               "preview_samples", "name", "bsdf_samples", "compensate"}
 _ENV_KEYS = {"constant": {"color"}, "latlong": {"file", "filter"}, "cube": {"file", "faces", "filter"},
              "sky": {"sun_direction", "sun_angle", "sun_radiance", "zenith", "horizon", "ground", "width", "height",
                      "filter"}}
@@ -382,8 +385,9 @@ def _load_environment(spec, scene, base, path):
                          where, path)
     lighting = spec.get("lighting", "mis")
     try:
-        _env.set_environment(scene, env, lighting=lighting, n_samples=spec.get("samples", 1),
-                             heuristic=spec.get("heuristic", "power"),
-                             preview_samples=spec.get("preview_samples", 16))
+        given = {"samples": "n_samples", "bsdf_samples": "bsdf_samples", "compensate": "compensate"}
+        split = {kw: spec[k] for k, kw in given.items() if k in spec}   # else set_environment's defaults
+        set_environment(scene, env, lighting=lighting, heuristic=spec.get("heuristic", "power"),
+                        preview_samples=spec.get("preview_samples", 16), **split)
     except ValueError as e:
         raise SceneFileError(f"{path}: {where}: {e}") from None

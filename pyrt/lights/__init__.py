@@ -4,8 +4,8 @@
 - :mod:`pyrt.lights.punctual`: point, spot, directional;
 - :mod:`pyrt.lights.textured`: projector (gobo), goniometric, IES;
 - :mod:`pyrt.lights.area`: rectangle, disk, sphere (and the :class:`AreaEmitter` material of their meshes);
-- :mod:`pyrt.lights.environment`: constant, lat-long and cube-map environments (:data:`ENVIRONMENTS`) and
-  :class:`EnvironmentLight`;
+- :mod:`pyrt.lights.environment`: constant, lat-long and cube-map environments (:data:`ENVIRONMENTS`);
+- :mod:`pyrt.lights.environment_light`: :class:`EnvironmentLight` (estimator parameters) and :func:`set_environment`;
 - :mod:`pyrt.lights.probes`: angular-map and mirror-ball light probes (registered in :data:`ENVIRONMENTS`).
 """
 from pyrt.lights.base import LIGHTS, LUMINOUS_EFFICACY, PATH_ARGUMENTS, Light, LightError, LightSample
@@ -13,8 +13,8 @@ from pyrt.lights.punctual import DirectionalLight, PointLight, SpotLight
 from pyrt.lights.textured import GoniometricLight, IESLight, ProjectorLight
 from pyrt.lights.area import AreaEmitter, AreaLight, DiskLight, RectLight, SphereLight
 from pyrt.lights.environment import (ENVIRONMENTS, ConstantEnvironment, CubeMapEnvironment, Environment,
-                                     EnvironmentLight, EnvironmentMapError, LatLongEnvironment, procedural_sky,
-                                     set_environment)
+                                     EnvironmentMapError, LatLongEnvironment, procedural_sky)
+from pyrt.lights.environment_light import EnvironmentLight, set_environment
 from pyrt.lights.probes import AngularMapEnvironment, MirrorBallEnvironment
 
 #: the light registry under its older name

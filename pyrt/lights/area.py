@@ -63,18 +63,26 @@ class AreaEmitter(Material):
 
 
 class AreaLight(Light):
-    """Base class of the area lights (see the module docstring)."""
+    """Base class of the area lights (see the module docstring).
+
+    ``bsdf_samples`` (default 0): BSDF samples per hit combined with the ``n_samples`` light samples by the
+    power heuristic with the counts (:func:`pyrt.integrators.direct.area_mis_estimate`); each one that
+    reaches the light (:meth:`ray_distance`) traces a shadow ray.
+    """
 
     delta = False
     has_mesh = True
 
-    def _init_common(self, owner, radiance, power, color, n_samples, name):
+    def _init_common(self, owner, radiance, power, color, n_samples, name, bsdf_samples=0):
         self.name = name
         if (radiance is None) == (power is None):
             raise LightError(f"{owner}: give exactly one of radiance (W m^-2 sr^-1) or power (W)")
         if not isinstance(n_samples, numbers.Integral) or isinstance(n_samples, bool) or n_samples < 1:
             raise LightError(f"{owner}: n_samples must be a positive integer, got {n_samples!r}")
+        if not isinstance(bsdf_samples, numbers.Integral) or isinstance(bsdf_samples, bool) or bsdf_samples < 0:
+            raise LightError(f"{owner}: bsdf_samples must be an integer >= 0, got {bsdf_samples!r}")
         self.n_samples = int(n_samples)
+        self.bsdf_samples = int(bsdf_samples)
         self.color = _color(owner, color)
         if power is not None:
             radiance = _nonneg(owner, "power", power) / self._power_per_radiance()
@@ -141,6 +149,16 @@ def _planar_pdf(p, wi, center, n, inside):
     return np.where(hit, np.divide(t * t, cos_l, out=np.zeros_like(t), where=hit), 0.0)
 
 
+def _planar_distance(p, wi, center, n, inside):
+    """Distance (N,) along ``wi`` from ``p`` to the front of a one-sided planar emitter, ``inf`` where the ray
+    misses it (the same hit test as :func:`_planar_pdf`)."""
+    cos_l = -(wi @ n)
+    t = np.divide((center - p) @ n, -cos_l, out=np.full(cos_l.shape, -1.0), where=cos_l > 0)
+    hit = (cos_l > 0) & (t > 0)
+    hit &= inside(p + np.where(hit, t, 0.0)[:, None] * wi - center)
+    return np.where(hit, t, np.inf)
+
+
 def _planar_sample(p, x, n, L, area):
     """Shared by rectangle and disk: light point ``x`` (N, 3) sampled with pdf 1/area on a plane of normal n."""
     d = x - p
@@ -178,7 +196,7 @@ class RectLight(AreaLight):
         return cls((0.0, 2.0, 0.0), size=(1.0, 0.5), power=20.0)
 
     def __init__(self, center, normal=(0.0, -1.0, 0.0), size=1.0, *, tangent=None, radiance=None, power=None,
-                 color=(1.0, 1.0, 1.0), n_samples=16, name=None):
+                 color=(1.0, 1.0, 1.0), n_samples=16, bsdf_samples=0, name=None):
         owner = f"RectLight({name or ''})"
         self.center = _vec3(owner, "center", center)
         self.normal = _vec3(owner, "normal", normal, unit=True)
@@ -194,7 +212,7 @@ class RectLight(AreaLight):
             t = t / np.linalg.norm(t)
         self.tangent = t
         self.bitangent = np.cross(self.normal, t)     # (t, b, n) right-handed
-        self._init_common(owner, radiance, power, color, n_samples, name)
+        self._init_common(owner, radiance, power, color, n_samples, name, bsdf_samples)
 
     def _validate_size(self):
         """Width and height > 0."""
@@ -219,6 +237,12 @@ class RectLight(AreaLight):
         inside = lambda x: (np.abs(x @ self.tangent) <= hx) & (np.abs(x @ self.bitangent) <= hy)  # noqa: E731
         return _planar_pdf(p, wi, self.center, self.normal, inside) / self.area
 
+    def ray_distance(self, p, wi):
+        """Distance (N,) from ``p`` along ``wi`` to the rectangle's front, ``inf`` where the ray misses it."""
+        hx, hy = 0.5 * self.size
+        inside = lambda x: (np.abs(x @ self.tangent) <= hx) & (np.abs(x @ self.bitangent) <= hy)  # noqa: E731
+        return _planar_distance(p, wi, self.center, self.normal, inside)
+
     def mesh(self):
         hx, hy = 0.5 * self.size
         t, b = self.tangent, self.bitangent
@@ -240,14 +264,14 @@ class DiskLight(AreaLight):
         return cls((0.0, 2.0, 0.0), radius=0.4, power=20.0)
 
     def __init__(self, center, normal=(0.0, -1.0, 0.0), radius=0.5, *, radiance=None, power=None,
-                 color=(1.0, 1.0, 1.0), n_samples=16, name=None):
+                 color=(1.0, 1.0, 1.0), n_samples=16, bsdf_samples=0, name=None):
         owner = f"DiskLight({name or ''})"
         self.center = _vec3(owner, "center", center)
         self.normal = _vec3(owner, "normal", normal, unit=True)
         self.radius = _radius(owner, radius)
         t, b = coordinate_frame(self.normal[None])
         self.tangent, self.bitangent = t[0], b[0]
-        self._init_common(owner, radiance, power, color, n_samples, name)
+        self._init_common(owner, radiance, power, color, n_samples, name, bsdf_samples)
 
     @property
     def area(self):
@@ -266,6 +290,11 @@ class DiskLight(AreaLight):
         """Solid-angle density of :meth:`sample` (uniform by area): ``r^2 / (A cos theta_l)`` on the disk."""
         inside = lambda x: np.einsum("ij,ij->i", x, x) <= self.radius ** 2  # noqa: E731
         return _planar_pdf(p, wi, self.center, self.normal, inside) / self.area
+
+    def ray_distance(self, p, wi):
+        """Distance (N,) from ``p`` along ``wi`` to the disk's front, ``inf`` where the ray misses it."""
+        inside = lambda x: np.einsum("ij,ij->i", x, x) <= self.radius ** 2  # noqa: E731
+        return _planar_distance(p, wi, self.center, self.normal, inside)
 
     def mesh(self):
         a = 2.0 * np.pi * np.arange(self.segments) / self.segments
@@ -290,11 +319,11 @@ class SphereLight(AreaLight):
         return cls((0.0, 2.0, 0.0), radius=0.3, power=20.0)
 
     def __init__(self, center, radius=0.5, *, radiance=None, power=None, color=(1.0, 1.0, 1.0), n_samples=16,
-                 name=None):
+                 bsdf_samples=0, name=None):
         owner = f"SphereLight({name or ''})"
         self.center = _vec3(owner, "center", center)
         self.radius = _radius(owner, radius)
-        self._init_common(owner, radiance, power, color, n_samples, name)
+        self._init_common(owner, radiance, power, color, n_samples, name, bsdf_samples)
 
     @property
     def area(self):
@@ -336,6 +365,16 @@ class SphereLight(AreaLight):
         one_minus_cos = np.where(outside, sin2 / (1.0 + np.sqrt(1.0 - sin2)), 0.0)
         in_cone = outside & (np.einsum("ij,ij->i", wi, dc) * inv >= 1.0 - one_minus_cos)
         return np.where(in_cone, 1.0 / (2.0 * np.pi * np.where(in_cone, one_minus_cos, 1.0)), 0.0)
+
+    def ray_distance(self, p, wi):
+        """Distance (N,) from ``p`` along ``wi`` to the exact sphere (nearest hit in front), ``inf`` where the
+        ray misses it or ``p`` is inside (where :meth:`pdf_li` is 0)."""
+        dc = self.center - p
+        b = np.einsum("ij,ij->i", wi, dc)
+        c = np.einsum("ij,ij->i", dc, dc) - self.radius ** 2
+        disc = b * b - c
+        t = b - np.sqrt(np.maximum(disc, 0.0))
+        return np.where((disc >= 0) & (c > 0) & (t > 0), t, np.inf)
 
     def mesh(self):
         m = trimesh.creation.icosphere(subdivisions=self.subdivisions, radius=self.radius)

@@ -140,6 +140,8 @@ class Light:
     direction = None
     #: shadow rays per hit (stratified when > 1)
     n_samples = 1
+    #: BSDF samples per hit MIS-combined with the light samples (area lights with :meth:`ray_distance`; 0: none)
+    bsdf_samples = 0
     #: True for lights at a single point / direction (no randomness: ``u`` is ignored)
     delta = True
     #: True for lights that can add a visible emitter mesh to a scene (:meth:`add_to`)
@@ -175,6 +177,9 @@ class Light:
         n = self.n_samples
         if not isinstance(n, numbers.Integral) or isinstance(n, bool) or n < 1:
             raise LightError(f"{self.label}: n_samples must be a positive integer, got {n!r}")
+        nb = self.bsdf_samples
+        if not isinstance(nb, numbers.Integral) or isinstance(nb, bool) or nb < 0:
+            raise LightError(f"{self.label}: bsdf_samples must be an integer >= 0, got {nb!r}")
 
     def sample(self, p, u):
         """``(wi, dist, E)`` arrays at shading points ``p`` (N, 3) for random numbers ``u`` (N, 2)."""
@@ -194,6 +199,11 @@ class Light:
         if self.delta:
             return np.zeros(wi.shape[0])
         raise NotImplementedError(f"{type(self).__name__} defines no pdf_li")
+
+    def ray_distance(self, p, wi):
+        """Distance (N,) from ``p`` along ``wi`` to the light's emitting surface, ``inf`` where the ray misses it
+        (the lights that BSDF sampling can reach define it; for the others every ray misses)."""
+        return np.full(np.asarray(wi).shape[0], np.inf)
 
     def radiant_power(self):
         """Total emitted power (W) per RGB channel, (3,) float64."""

@@ -7,12 +7,12 @@ An *environment* is radiance arriving from infinitely far away, ``L(d)`` for wor
    (camera rays, and mirror / glass rays of the Whitted recursion, which gives reflection and
    refraction mapping for free). With ``hide_background=True`` camera rays (depth 0) see the plain
    colour ``background`` instead, while reflections and lighting still use the map.
-2. **As a light** (:class:`EnvironmentLight`): at every non-specular hit the integral
+2. **As a light** (:class:`pyrt.lights.environment_light.EnvironmentLight`): at every non-specular hit the integral
    ``L_o = int f(wo, wi) L(wi) V(wi) cos theta_i dwi`` is estimated by Monte Carlo with shadow rays
    through Embree, using one of the strategies in :data:`STRATEGIES`, or approximated without
    shadows (``strategy="preview"``).
 
-:func:`set_environment` does both. Mapping formulas (lat-long, cube faces), the importance-sampling
+:func:`pyrt.lights.environment_light.set_environment` does both. Mapping formulas (lat-long, cube faces), the importance-sampling
 table and the SH/prefilter kernels are in :mod:`shaders.envmap`.
 
 Strategies (``EnvironmentLight(strategy=...)``), ``n_samples`` per hit, stratified in ``u``
@@ -23,8 +23,10 @@ Strategies (``EnvironmentLight(strategy=...)``), ``n_samples`` per hit, stratifi
               ``luminance * sin theta``, pdf ``p(u, v) / (2 pi^2 sin theta)``; cube: per-texel table
               weighted by luminance times the texel's solid-angle Jacobian; constant: uniform sphere).
 ``bsdf``      the material's own ``sample()`` (GGX visible normals etc. for glossy models).
-``mis``       one ``map`` and one ``bsdf`` sample per ``n_samples``, combined with the power
-              (``heuristic="power"``, beta = 2) or balance heuristic (Veach 1997).
+``mis``       ``n_samples`` ``map`` samples and ``bsdf_samples`` BSDF samples, combined with the power
+              (``heuristic="power"``, beta = 2) or balance heuristic with the sample counts (Veach
+              1997); ``compensate=True`` draws the map samples from the MIS-compensated table
+              (:meth:`Environment.sample_compensated`, see :mod:`pyrt.lights.environment_light`).
 ``preview``   *approximation, no shadows, no noise*: Lambertian materials get
               ``albedo / pi * E_SH(n)`` from a 9-coefficient SH projection of the environment
               (Ramamoorthi & Hanrahan 2001); any other material gets a filtered-importance-sampling
@@ -46,15 +48,15 @@ import numpy as np
 from pyrt.shaders import envmap as K
 from pyrt.shaders import sampling
 from pyrt.shaders import textures as _tex
-from pyrt.shaders.vec import max_component
+from pyrt.shaders.distribution import compensated_weights
 
 from pyrt.core import checks
 from pyrt.core.image_io import read_exr, read_hdr
 from pyrt.core.registry import Registry
 from pyrt.core.transforms import SceneError, transform_matrix
-from pyrt.lights.base import Light, LightError, LightSample
+from pyrt.lights.base import LightError
 
-#: estimator names accepted by :class:`EnvironmentLight`
+#: estimator names accepted by :class:`pyrt.lights.environment_light.EnvironmentLight`
 STRATEGIES = ("uniform", "cosine", "map", "bsdf", "mis", "preview")
 HEURISTICS = ("power", "balance")
 FILTERS = ("nearest", "bilinear")
@@ -127,6 +129,24 @@ def filtered_image(owner, image, filter):
     return filter, _image(owner, image)
 
 
+def latlong_row_measure(height):
+    """Solid-angle weight ``sin theta`` of each row of a lat-long table, (H, 1) float64."""
+    return np.sin(np.pi * (np.arange(height) + 0.5) / height)[:, None]
+
+
+def incomplete_sample(sample, dist, u):
+    """``sample(dist, u)`` of a table, or arbitrary unit directions of density 0 when ``dist`` is None (a
+    compensated table without a positive weight)."""
+    if dist is not None:
+        return sample(dist, u)
+    return sampling.square_to_uniform_sphere(np.asarray(u, dtype=np.float64)), np.zeros(u.shape[0])
+
+
+def incomplete_pdf(pdf, dist, d):
+    """``pdf(dist, d)`` of a table, or 0 on every lane when ``dist`` is None (see :func:`incomplete_sample`)."""
+    return pdf(dist, d) if dist is not None else np.zeros(d.shape[0])
+
+
 class Environment:
     """Base class of the environments: radiance arriving from infinitely far away.
 
@@ -180,6 +200,7 @@ class Environment:
         self.background = _rgb(owner, "background", background)
         self._sh = None
         self._prefiltered = None
+        self._cdist = None       # (compensated table or None,), built on first use
 
     def validate(self):
         """Check the parameters as they are now (:class:`pyrt.PreparedScene` calls it before every render).
@@ -216,6 +237,22 @@ class Environment:
         """Solid-angle density of :meth:`sample` for world directions ``d``."""
         return self._pdf_local(self.to_local(d))
 
+    def sample_compensated(self, u):
+        """Directions and densities ``(d (N, 3), pdf (N,))`` of the MIS-compensated table (Karlik et al. 2019).
+
+        The table of ``max(0, luminance - mean luminance)`` (:func:`shaders.distribution.compensated_weights`)
+        where the environment has one, else :meth:`sample`. The density is *incomplete*: 0 wherever the map is
+        below its mean (``pdf = 0`` on every lane of a constant map), so it is only an unbiased light-sampling
+        half of MIS with BSDF sampling, weighted with :meth:`pdf_compensated` (pbrt-v4's
+        ``allowIncompletePDF``); pure light sampling uses :meth:`sample`.
+        """
+        d, pdf = self._sample_compensated_local(np.asarray(u, dtype=np.float64))
+        return self.to_world(d), pdf
+
+    def pdf_compensated(self, d):
+        """Solid-angle density (N,) of :meth:`sample_compensated` at world directions ``d``."""
+        return self._pdf_compensated_local(self.to_local(d))
+
     def sh9(self):
         """Nine SH coefficients (9, 3) of the radiance in the environment frame (intensity included)."""
         if self._sh is None:
@@ -247,6 +284,18 @@ class Environment:
 
     def _pdf_local(self, d):
         return sampling.uniform_sphere_pdf(d)
+
+    def _sample_compensated_local(self, u):      # no table to compensate: the full density
+        return self._sample_local(u)
+
+    def _pdf_compensated_local(self, d):
+        return self._pdf_local(d)
+
+    def _compensated_table(self, dist, measure):
+        """``Distribution2D`` of :func:`shaders.distribution.compensated_weights` of the table ``dist``, or
+        None when every weight is 0 (a constant map: the light-sampling half of MIS has nothing to add)."""
+        w = compensated_weights(dist.func, measure)
+        return K.distribution2d_build(w) if w.max() > 0 else None
 
     def _sh9_local(self):
         raise NotImplementedError
@@ -281,6 +330,13 @@ class ConstantEnvironment(Environment):
 
     def prefiltered(self, d, alpha):
         return np.broadcast_to(self.intensity * self.color, (np.asarray(d).shape[0], 3)).copy()
+
+    def _sample_compensated_local(self, u):     # L - mean L = 0 everywhere: no light samples under MIS
+        d, _ = self._sample_local(u)
+        return d, np.zeros(d.shape[0])
+
+    def _pdf_compensated_local(self, d):
+        return np.zeros(d.shape[0])
 
 
 def _prefilter_stack(image):
@@ -346,6 +402,20 @@ class LatLongEnvironment(Environment):
 
     def _pdf_local(self, d):
         return K.latlong_pdf(self.distribution, d)
+
+    @property
+    def compensated_distribution(self):
+        """The MIS-compensated table (:meth:`Environment.sample_compensated`; None for a constant map)."""
+        if self._cdist is None:
+            h = self.image.shape[0]
+            self._cdist = (self._compensated_table(self.distribution, latlong_row_measure(h)),)
+        return self._cdist[0]
+
+    def _sample_compensated_local(self, u):
+        return incomplete_sample(K.latlong_sample, self.compensated_distribution, u)
+
+    def _pdf_compensated_local(self, d):
+        return incomplete_pdf(K.latlong_pdf, self.compensated_distribution, d)
 
     def _sh9_local(self):
         return K.sh9_project_latlong(self.image)
@@ -416,6 +486,20 @@ class CubeMapEnvironment(Environment):
     def _pdf_local(self, d):
         return K.cube_pdf(self.distribution, d)
 
+    @property
+    def compensated_distribution(self):
+        """The MIS-compensated table (:meth:`Environment.sample_compensated`; None for a constant map)."""
+        if self._cdist is None:
+            jac = np.tile(K.cube_texel_jacobian(self.faces.shape[1]), (6, 1))
+            self._cdist = (self._compensated_table(self.distribution, jac),)
+        return self._cdist[0]
+
+    def _sample_compensated_local(self, u):
+        return incomplete_sample(K.cube_sample, self.compensated_distribution, u)
+
+    def _pdf_compensated_local(self, d):
+        return incomplete_pdf(K.cube_pdf, self.compensated_distribution, d)
+
     def _sh9_local(self):
         s = self.faces.shape[1]
         d = K.cube_texel_directions(s).reshape(-1, 3)
@@ -476,84 +560,6 @@ def procedural_sky(width=256, height=128, *, sun_direction=(0.4, 0.5, -0.3), sun
         cover[idx] = inside.reshape(idx.size, -1).mean(axis=1)
     sky = sky + cover.reshape(height, width, 1) * np.asarray(sun_radiance, dtype=np.float64)
     return sky.astype(np.float32)
-
-
-# ----------------------------------------------------------------------------- the light
-
-
-class EnvironmentLight(Light):
-    """Image-based lighting from an :class:`Environment` at non-specular hits.
-
-    Parameters
-    ----------
-    environment : Environment
-    strategy : str
-        One of :data:`STRATEGIES` (see the module docstring). Default ``"mis"``.
-    n_samples : int
-        Samples per hit (``mis`` traces two shadow rays per sample: one map, one BSDF).
-    heuristic : {"power", "balance"}
-        MIS weighting (power heuristic with beta = 2, or the balance heuristic).
-    preview_samples : int
-        Fixed BSDF samples per hit of the ``preview`` approximation for non-Lambertian materials.
-    """
-
-    delta = False
-
-    def __init__(self, environment, *, strategy="mis", n_samples=1, heuristic="power", preview_samples=16,
-                 name=None):
-        owner = f"EnvironmentLight({name or ''})"
-        if not isinstance(environment, Environment):
-            raise EnvironmentMapError(f"{owner}: environment must be a pyrt Environment, got "
-                                      f"{type(environment).__name__}")
-        if strategy not in STRATEGIES:
-            raise EnvironmentMapError(f"{owner}: strategy must be one of {STRATEGIES}, got {strategy!r}")
-        if heuristic not in HEURISTICS:
-            raise EnvironmentMapError(f"{owner}: heuristic must be one of {HEURISTICS}, got {heuristic!r}")
-        for nm, v in (("n_samples", n_samples), ("preview_samples", preview_samples)):
-            if not isinstance(v, numbers.Integral) or isinstance(v, bool) or v < 1:
-                raise EnvironmentMapError(f"{owner}: {nm} must be a positive integer, got {v!r}")
-        self.environment = environment
-        self.strategy = strategy
-        self.n_samples = int(n_samples)
-        self.heuristic = heuristic
-        self.preview_samples = int(preview_samples)
-        self.name = name
-
-    def sample(self, p, u):
-        """Environment importance sample as a plain light sample (``E = L / pdf``, ``dist = inf``)."""
-        wi, pdf = self.environment.sample(u)
-        L = self.environment.radiance(wi)
-        E = np.where((pdf > 0)[:, None], L / np.where(pdf > 0, pdf, 1.0)[:, None], 0.0)
-        return wi, np.full(wi.shape[0], np.inf), E
-
-    def sample_li(self, p, u):
-        """Environment importance samples as a :class:`LightSample` (``E = L / pdf``, ``dist = inf``)."""
-        wi, dist, E = self.sample(p, u)
-        return LightSample(wi, dist, E)
-
-    def pdf_li(self, p, wi):
-        """Solid-angle density (N,) of :meth:`sample_li` (the environment's importance sampling)."""
-        return self.environment.pdf(wi)
-
-    def radiance(self, d):
-        """Radiance (N, 3) arriving from world directions ``d`` (N, 3)."""
-        return self.environment.radiance(d)
-
-
-def set_environment(scene, environment, *, lighting="mis", n_samples=1, heuristic="power", preview_samples=16):
-    """Use ``environment`` in ``scene``: seen where rays miss, and (unless ``lighting`` is None/False) as a
-    light with the named strategy. Replaces a previous :class:`EnvironmentLight`. Returns the light or None.
-    """
-    if environment is not None and not isinstance(environment, Environment):
-        raise EnvironmentMapError(f"set_environment: expected a pyrt Environment, got {type(environment).__name__}")
-    scene.environment = environment
-    scene.lights[:] = [lt for lt in scene.lights if not isinstance(lt, EnvironmentLight)]
-    if environment is None or lighting in (None, False):
-        return None
-    light = EnvironmentLight(environment, strategy=lighting, n_samples=n_samples, heuristic=heuristic,
-                             preview_samples=preview_samples)
-    scene.add_light(light)
-    return light
 
 
 #: scene-file ``[environment] type`` -> class (the old name of :data:`ENVIRONMENTS`)

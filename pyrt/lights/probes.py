@@ -21,7 +21,8 @@ from pyrt.shaders import textures as _tex
 from pyrt.shaders.color import luminance
 
 from pyrt.lights.environment import (ENVIRONMENTS, Environment, EnvironmentMapError, _prefilter_stack,
-                                     filtered_image, procedural_sky)
+                                     filtered_image, incomplete_pdf, incomplete_sample, latlong_row_measure,
+                                     procedural_sky)
 
 #: floor of the importance weights, relative to their mean luminance (keeps the pdf > 0 everywhere)
 TABLE_FLOOR = 1e-3
@@ -97,6 +98,20 @@ class _ProbeEnvironment(Environment):
 
     def _pdf_local(self, d):
         return K.latlong_pdf(self.distribution, d)
+
+    @property
+    def compensated_distribution(self):
+        """The MIS-compensated table over the resampled grid (:meth:`Environment.sample_compensated`)."""
+        if self._cdist is None:
+            h = self.distribution.func.shape[0]
+            self._cdist = (self._compensated_table(self.distribution, latlong_row_measure(h)),)
+        return self._cdist[0]
+
+    def _sample_compensated_local(self, u):
+        return incomplete_sample(K.latlong_sample, self.compensated_distribution, u)
+
+    def _pdf_compensated_local(self, d):
+        return incomplete_pdf(K.latlong_pdf, self.compensated_distribution, d)
 
     def _sh9_local(self):
         return K.sh9_project_latlong(self.latlong())
