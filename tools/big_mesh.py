@@ -11,7 +11,8 @@ vertex positions and triangle faces), so ``pyrt-preview`` computes the crease-an
 
 Then ``pyrt-preview MESH -o OUT.png`` runs at its defaults (640x480, 4 spp) in a child process under
 ``/usr/bin/time -v`` (peak RSS = "Maximum resident set size"); the tool prints the child's summary line (the phases
-it reports), the wall time and the peak RSS, with the machine's load average before and after (``os.getloadavg``:
+it reports), the wall time, the CPU time (user + system: less sensitive than wall time to other processes on a
+shared machine) and the peak RSS, with the machine's load average before and after (``os.getloadavg``:
 the machine is shared, so absolute times are noisy). Run one at a time: a 5 M-triangle run of an old checkout peaks
 at ~12 GB.
 """
@@ -79,7 +80,8 @@ def write_ply(path, vertices, faces):
 def run_preview(python, mesh, out_png, extra=()):
     """Run ``pyrt-preview`` (as ``python -m pyrt.apps.preview``) under ``/usr/bin/time -v``.
 
-    Returns ``(wall seconds, peak RSS bytes, the child's stdout, its stderr without the time report)``.
+    Returns ``(wall seconds, peak RSS bytes, CPU seconds (user + system), the child's stdout, its stderr without the
+    time report)``.
     """
     cmd = ["/usr/bin/time", "-v", python, "-m", "pyrt.apps.preview", mesh, "-o", out_png, *extra]
     t0 = time.perf_counter()
@@ -87,10 +89,11 @@ def run_preview(python, mesh, out_png, extra=()):
     wall = time.perf_counter() - t0
     m = re.search(r"Maximum resident set size \(kbytes\): (\d+)", proc.stderr)
     rss = int(m.group(1)) * 1024 if m else -1
+    cpu = sum(float(x) for x in re.findall(r"(?:User|System) time \(seconds\): ([\d.]+)", proc.stderr))
     err = proc.stderr.split("\tCommand being timed")[0]
     if proc.returncode != 0:
         raise SystemExit(f"big_mesh: pyrt-preview failed (exit {proc.returncode}):\n{err}")
-    return wall, rss, proc.stdout, err
+    return wall, rss, cpu, proc.stdout, err
 
 
 def main(argv=None):
@@ -113,13 +116,13 @@ def main(argv=None):
     out = args.out or os.path.join(tempfile.gettempdir(), "pyrt_big_mesh_preview.png")
     for k in range(args.runs):
         load0 = os.getloadavg()
-        wall, rss, stdout, err = run_preview(args.python, mesh, out)
+        wall, rss, cpu, stdout, err = run_preview(args.python, mesh, out)
         load1 = os.getloadavg()
         summary = [ln for ln in stdout.splitlines() if "triangles" in ln]
         print(f"run {k + 1}: {args.python}")
         for ln in summary:
             print(f"  summary: {ln}")
-        print(f"  wall {wall:.1f} s, peak RSS {rss / 2**30:.2f} GiB, load average {load0[0]:.1f} -> {load1[0]:.1f}"
+        print(f"  wall {wall:.1f} s, CPU {cpu:.1f} s, peak RSS {rss / 2**30:.2f} GiB, load average {load0[0]:.1f} -> {load1[0]:.1f}"
               f" ({os.cpu_count()} cores)")
         for ln in err.strip().splitlines()[:5]:
             print(f"  stderr: {ln}")

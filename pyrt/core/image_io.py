@@ -391,9 +391,11 @@ def read_image(path):
         with warnings.catch_warnings():  # imageio's plugin probing warns on undecodable files; the size is checked
             warnings.simplefilter("ignore", DeprecationWarning)
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-            if kind != "PNG":
-                with Image.open(path) as im:
+            with Image.open(path) as im:
+                if kind != "PNG":
                     _check_pixel_count(path, kind, *im.size)
+                if im.mode in _CONVERTED_MODES:
+                    return _converted(im)
             return np.asarray(skio.imread(path))
     except ImageFileError:
         raise
@@ -401,6 +403,24 @@ def read_image(path):
         msg = str(exc).split("\n")[0]  # imageio appends "pip install imageio[pyav]" hints on further lines
         raise ImageFileError(f"{path}: not a readable {kind} file (corrupt or truncated image data; the file has "
                              f"{size} bytes): {type(exc).__name__}: {msg}") from None
+
+
+#: Pillow image modes that ``skio.imread`` returns wrongly (grey+alpha PNGs come back with scrambled axes, CMYK as
+#: four ink channels that would be taken for RGBA) or that carry a colour table: converted here (see
+#: :func:`_converted`)
+_CONVERTED_MODES = ("LA", "La", "P", "PA", "CMYK", "YCbCr", "LAB", "HSV")
+
+
+def _converted(im):
+    """``(H, W, C)`` uint8 of a Pillow image in one of :data:`_CONVERTED_MODES`: grey+alpha as (grey, alpha); palette
+    images as RGB, or RGBA when the palette has transparency (a ``tRNS`` chunk); CMYK, YCbCr, LAB and HSV as RGB
+    (Pillow's conversions; CMYK -> RGB is the uncalibrated ``255 - ink``)."""
+    if im.mode in ("LA", "La"):
+        return np.asarray(im.convert("LA"))
+    if im.mode in ("P", "PA"):
+        alpha = im.mode == "PA" or "transparency" in im.info
+        return np.asarray(im.convert("RGBA" if alpha else "RGB"))
+    return np.asarray(im.convert("RGB"))
 
 
 def _read_png16(path):

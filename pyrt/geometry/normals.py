@@ -82,7 +82,7 @@ def _crease_by_position(vertices, faces, crease_angle):
     fn, ang = _face_normals_and_angles(v, f)
     corner_vertex = f.ravel()                                  # (3F,), corner 3 i + k is corner k of face i
     pos_of_vertex, n_pos = _position_ids(v)
-    cpos = pos_of_vertex[corner_vertex]                        # (3F,) position group of each corner
+    cpos = np.take(pos_of_vertex, corner_vertex)               # (3F,) position group of each corner
     # pass 1: one angle-weighted sum per position; the same terms, in corner order, as pass 2's pairs
     acc_pos = np.empty((n_pos, 3))
     for c in range(3):   # weights (F, 3): each corner's angle x its face normal's component c
@@ -95,7 +95,7 @@ def _crease_by_position(vertices, faces, crease_angle):
     cos_half = math.cos(half) if half > 0 else 2.0           # 2: no position qualifies
     far = np.empty((nf, 3), dtype=bool)
     for k in range(3):
-        far[:, k] = np.einsum("ij,ij->i", fn, unit_pos[cpos[k::3]]) < cos_half
+        far[:, k] = np.einsum("ij,ij->i", fn, np.take(unit_pos, cpos[k::3], axis=0)) < cos_half
     rough_pos = np.bincount(cpos, weights=far.ravel(), minlength=n_pos) > 0
     del far
     rough = np.flatnonzero(rough_pos[cpos])                   # corners of the other positions, ascending
@@ -114,14 +114,15 @@ def _crease_by_position(vertices, faces, crease_angle):
     # output order: by source vertex, then (several normals of one vertex) by the normal's bits as np.unique sorts
     src = np.concatenate([sv, urv])
     rank = np.concatenate([np.zeros(sv.size, dtype=np.int64), np.arange(urv.size) - np.searchsorted(urv, urv)])
-    order = np.lexsort((rank, src))
+    order = np.lexsort((rank, src)) if urv.size else np.arange(src.size)   # sv alone is ascending already
     new_index = np.empty(order.size, dtype=np.int64)
     new_index[order] = np.arange(order.size)
     out_of_vertex = np.zeros(v.shape[0], dtype=np.int64)
     out_of_vertex[sv] = new_index[:sv.size]
-    out_faces = out_of_vertex[corner_vertex]
+    out_faces = np.take(out_of_vertex, corner_vertex)
     out_faces[rough] = new_index[sv.size + inv]
-    normals = np.concatenate([unit_pos[pos_of_vertex[sv]], acc_rough[first_idx]])[order]
+    normals = np.take(np.concatenate([np.take(unit_pos, pos_of_vertex[sv], axis=0), acc_rough[first_idx]]), order,
+                      axis=0)
     return src[order].astype(np.int64), out_faces.reshape(nf, 3), normals
 
 
@@ -132,7 +133,7 @@ def _face_normals_and_angles(v, f):
     values are bitwise those of the direct formulas (``a - b == -(b - a)`` exactly in IEEE arithmetic).
     """
     nf = f.shape[0]
-    p = [v[f[:, k]] for k in range(3)]
+    p = [np.take(v, f[:, k], axis=0) for k in range(3)]
     e = [p[(k + 1) % 3] - p[k] for k in range(3)]             # edge k: corner k -> corner k+1
     del p
     fn = np.cross(e[0], -e[2])
@@ -148,12 +149,23 @@ def _face_normals_and_angles(v, f):
 
 
 def _position_ids(v):
-    """Weld by exact position: ``(group id of each vertex (V,), number of groups)``; -0.0 and 0.0 are one position."""
+    """Weld by exact position: ``(group id of each vertex (V,), number of groups)``; -0.0 and 0.0 are one position.
+
+    Sorted by one 64-bit hash of the three coordinates' bits (one argsort instead of a three-key lexsort); if two
+    different positions share a hash (never seen, but possible), by the three keys instead.
+    """
     bits = (v + 0.0).view(np.int64)                            # + 0.0 turns -0.0 into 0.0; no NaN here (validated)
-    order = np.lexsort((bits[:, 2], bits[:, 1], bits[:, 0]))
-    sb = bits[order]
+    with np.errstate(over="ignore"):
+        h = bits[:, 0] * np.int64(-7046029254386353131) + bits[:, 1] * np.int64(-4658895280553007687) + bits[:, 2]
+    order = np.argsort(h, kind="stable")
+    sb = np.take(bits, order, axis=0)
     new = np.ones(order.size, dtype=bool)
     new[1:] = np.any(sb[1:] != sb[:-1], axis=1)
+    sh = h[order]
+    if np.any(new[1:] & (sh[1:] == sh[:-1])):                 # a hash collision: group by the coordinates
+        order = np.lexsort((bits[:, 2], bits[:, 1], bits[:, 0]))
+        sb = np.take(bits, order, axis=0)
+        new[1:] = np.any(sb[1:] != sb[:-1], axis=1)
     gid = np.empty(order.size, dtype=np.int64)
     gid[order] = np.cumsum(new) - 1
     return gid, int(new.sum())

@@ -104,10 +104,14 @@ def _mesh_problem(v, f, extent, v_object):
     steps = np.where(sizes > 0, sizes / ulps, 0.0 if solid else np.inf)
     k = int(np.argmin(steps))
     size, ulp = float(sizes[k]), float(ulps[k])
-    e = np.concatenate([v32[f[:, 1]] - v32[f[:, 0]], v32[f[:, 2]] - v32[f[:, 1]], v32[f[:, 0]] - v32[f[:, 2]]])
-    edge = float(np.sqrt(np.max(np.einsum("ij,ij->i", e, e))))
+    # three gathers for the three edges and the normal (v0 - v2 = -(v2 - v0) exactly): no (3F, 3) copies
+    p0, p1, p2 = (np.take(v32, f[:, k], axis=0) for k in range(3))
+    e01, e12, e20 = p1 - p0, p2 - p1, p0 - p2
+    del p0, p1, p2
+    edge = float(np.sqrt(max(float(np.max(np.einsum("ij,ij->i", e, e))) for e in (e01, e12, e20))))
     product = extent * edge * edge
-    n = cross(v32[f[:, 1]] - v32[f[:, 0]], v32[f[:, 2]] - v32[f[:, 0]])
+    n = cross(e01, -e20)
+    del e01, e12, e20
     if not np.any(np.einsum("ij,ij->i", n, n) > 0):
         return (f"size {size:.3g} is below the float32 step {ulp:.3g} at its coordinates (|x| up to {mag:.3g}): "
                 "every triangle collapses and the mesh is lost"), True

@@ -6,6 +6,7 @@ from __future__ import annotations
 import copy
 from dataclasses import dataclass, field
 import math
+import time
 
 import numpy as np
 import trimesh
@@ -14,7 +15,8 @@ from pyrt.core.camera import Camera
 from pyrt.geometry.normals import crease_normals
 from pyrt.lights import DirectionalLight, PointLight, SpotLight
 from pyrt.io.assets.common import DEFAULT_CREASE_ANGLE, AssetError, DefaultParams, PBRParams
-from pyrt.io.assets.materials import VertexColorTexture, to_pyrt_material
+from pyrt.geometry.surface import degenerate_faces
+from pyrt.io.assets.materials import FaceColorTexture, VertexColorTexture, to_pyrt_material
 
 
 # ============================================================================ data model
@@ -34,6 +36,7 @@ class AssetMesh:
     uv: np.ndarray | None = None        # (V, 2) float64
     colors: np.ndarray | None = None    # (V, 3) float64 linear
     material: int = -1
+    face_colors: np.ndarray | None = None   # (F, 3) float64 linear, one per face (PLY); used when colors is None
 
 
 @dataclass
@@ -100,6 +103,14 @@ class Asset:
     warnings: list[str] = field(default_factory=list)
     up_axis: str | None = None
     load_time: float = 0.0
+    #: what was replaced so that the model loads anyway (a missing or unreadable texture -> its factor alone, a
+    #: missing MTL -> the default material, ...), one message each; every one is also in :attr:`warnings`
+    substitutions: list[str] = field(default_factory=list)
+
+    def substitute(self, message):
+        """Record a substitution: ``message`` goes to :attr:`substitutions` and :attr:`warnings`."""
+        self.substitutions.append(message)
+        self.warnings.append(message)
 
     @property
     def n_triangles(self):
@@ -121,24 +132,31 @@ class Asset:
         return v.min(axis=0), v.max(axis=0)
 
     def add_to_scene(self, scene, *, transform=None, crease_angle=DEFAULT_CREASE_ANGLE, lights=True,
-                     name_prefix=""):
+                     name_prefix="", timings=None):
         """Add the meshes (with materials) and, if ``lights``, the lights to ``scene``.
 
         ``transform`` (4, 4) is applied on top of every instance's world transform (e.g. an up-axis
-        change). Returns the list of scene mesh indices added.
+        change). ``timings`` (a dict, optional) gets the seconds spent added to its ``"normals"`` (welding
+        and crease-angle normals of meshes without normals) and ``"scene"`` (everything else: materials,
+        :meth:`pyrt.Scene.add_mesh` checks and transforms). Returns the list of scene mesh indices added.
         """
+        t_start = time.perf_counter()
+        t_normals = 0.0
         pre = np.eye(4) if transform is None else np.asarray(transform, dtype=np.float64)
         prepared = {}
         mats = {}
         added = []
         for k, inst in enumerate(self.instances):
             if inst.mesh not in prepared:
+                t0 = time.perf_counter()
                 prepared[inst.mesh] = _prepare_mesh(self.meshes[inst.mesh], crease_angle)
+                t_normals += time.perf_counter() - t0
             tm, normals, colors = prepared[inst.mesh]
             am = self.meshes[inst.mesh]
             key = am.material if colors is None else ("vc", inst.mesh)
+            per_face = colors is not None and am.colors is None     # face colours, one row per kept face
             if key not in mats:
-                mats[key] = self._material(am, colors)
+                mats[key] = self._material(am, colors, per_face=per_face)
             material, vc_tex = mats[key]
             m = pre @ inst.world_from_object
             if abs(np.linalg.det(m[:3, :3])) < 1e-300:
@@ -156,13 +174,16 @@ class Asset:
                 if transform is not None:
                     light = _transform_light(light, pre)
                 scene.add_light(light)
+        if timings is not None:
+            timings["normals"] = timings.get("normals", 0.0) + t_normals
+            timings["scene"] = timings.get("scene", 0.0) + (time.perf_counter() - t_start - t_normals)
         return added
 
-    def _material(self, am, colors):
-        """(pyrt material, vertex-colour texture or None) for a mesh."""
+    def _material(self, am, colors, *, per_face=False):
+        """(pyrt material, vertex- or face-colour texture or None) for a mesh."""
         params = self.materials[am.material] if am.material >= 0 else (
             PBRParams(name="gltf-default") if self.format == "gltf" else DefaultParams())
-        vc = VertexColorTexture() if colors is not None else None
+        vc = None if colors is None else (FaceColorTexture() if per_face else VertexColorTexture())
         return to_pyrt_material(params, vertex_colors=vc), vc
 
 
@@ -203,13 +224,19 @@ def _transform_light(light, m):
 # ============================================================================ meshes for the scene
 
 def _prepare_mesh(am, crease_angle):
-    """(trimesh in object space with UVs, object-space normals, linear colours or None) for add_mesh."""
+    """(trimesh in object space with UVs, object-space normals, linear colours or None) for add_mesh.
+
+    The colours are per vertex, or, for a mesh with face colours only, per face of the faces
+    :meth:`pyrt.Scene.add_mesh` keeps (its degenerate triangles, which it skips, are left out here too).
+    """
     v, f, uv, col, nrm = am.vertices, am.faces, am.uv, am.colors, am.normals
     if nrm is None:
         src, f, nrm = crease_normals(v, f, crease_angle)
         v = v[src]
         uv = None if uv is None else uv[src]
         col = None if col is None else col[src]
+    if col is None and am.face_colors is not None:     # faces keep their order; add_mesh's test on the same arrays
+        col = am.face_colors[~degenerate_faces(v, f)]
     tm = trimesh.Trimesh(vertices=v, faces=f, process=False)
     if uv is not None:
         tm.visual = trimesh.visual.TextureVisuals(uv=uv)

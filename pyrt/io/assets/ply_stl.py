@@ -1,5 +1,12 @@
 """PLY and STL -> :class:`Asset` through trimesh: one mesh, the default "clay" material; PLY normals
-are used when the file has them, PLY vertex colours (8-bit sRGB) are linearised."""
+are used when the file has them, PLY vertex colours and face colours (8-bit sRGB) are linearised (face colours
+shade each triangle with its own colour, :class:`~pyrt.io.assets.materials.FaceColorTexture`).
+
+PLY triangle strips: a ``tristrips`` element (a list property of vertex indices per strip, ``-1`` restarting the
+strip, as the Stanford scanning repository writes them), which trimesh does not read, is read here
+(:func:`read_ply_tristrips`) into triangles when the file has no ``face`` element: triangle ``k`` of a run is
+``(s_k, s_k+1, s_k+2)`` for even ``k`` and ``(s_k+1, s_k, s_k+2)`` for odd ``k`` (the winding kept, as in OpenGL and
+glTF strips); triangles with a repeated index (strip stitching) are dropped."""
 from __future__ import annotations
 
 import os
@@ -8,7 +15,7 @@ import re
 import numpy as np
 import trimesh
 
-from pyrt.io.assets.common import AssetError, trimesh_load, vertex_colors
+from pyrt.io.assets.common import AssetError, face_colors, trimesh_load, vertex_colors
 from pyrt.io.assets.asset import Asset, AssetInstance, AssetMesh
 
 
@@ -34,12 +41,22 @@ def load_ply_stl(path, fmt):
     if isinstance(tm, trimesh.Scene):
         meshes = [g for g in tm.dump() if isinstance(g, trimesh.Trimesh)] if hasattr(tm, "dump") else []
         tm = trimesh.util.concatenate(meshes) if meshes else None
+    if fmt == "ply" and not (isinstance(tm, trimesh.Trimesh) and len(tm.faces)):
+        strips = read_ply_tristrips(path)
+        if strips is not None and isinstance(tm, trimesh.points.PointCloud):
+            faces = tristrip_faces(strips)
+            if faces.size and faces.max() >= len(tm.vertices):
+                raise AssetError(f"{path}: tristrips refer to vertex {int(faces.max())} but the file has "
+                                 f"{len(tm.vertices)} vertices")
+            asset.warnings.append(f"{path}: triangle strips read ({len(strips)} strip(s), {faces.shape[0]} triangles)")
+            tm = trimesh.Trimesh(vertices=tm.vertices, faces=faces, vertex_colors=_point_colors(tm), process=False)
     if not isinstance(tm, trimesh.Trimesh) or len(tm.faces) == 0:
         raise AssetError(f"{path}: no triangles found in the {fmt.upper()} file")
     normals = None
     if fmt == "ply" and _ply_has_normals(path):
         normals = np.asarray(tm.vertex_normals, dtype=np.float64)
     colors = vertex_colors(tm)
+    fcolors = face_colors(tm) if colors is None else None
     uv = getattr(tm.visual, "uv", None)
     uv = np.asarray(uv, dtype=np.float64) if uv is not None and len(uv) == len(tm.vertices) else None
     v = np.asarray(tm.vertices, dtype=np.float64)
@@ -50,7 +67,7 @@ def load_ply_stl(path, fmt):
         raise AssetError(f"{path}: face {int(np.flatnonzero((f < 0).any(1) | (f >= len(v)).any(1))[0])} refers to a "
                          f"vertex that does not exist (indices must be in [0, {len(v)}))")
     asset.meshes.append(AssetMesh(name=os.path.basename(path), vertices=v, faces=np.asarray(tm.faces, dtype=np.int64),
-                                  normals=normals, uv=uv, colors=colors, material=-1))
+                                  normals=normals, uv=uv, colors=colors, face_colors=fcolors, material=-1))
     asset.instances.append(AssetInstance(mesh=0, world_from_object=np.eye(4), node=os.path.basename(path)))
     return asset
 
@@ -76,3 +93,143 @@ def _ply_has_normals(path):
         head = fh.read(4096)
     end = head.find(b"end_header")
     return re.search(rb"property\s+\w+\s+nx\b", head[: end if end > 0 else None]) is not None
+
+
+# ============================================================================ PLY triangle strips
+
+_PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
+              "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
+              "float": "f4", "float32": "f4", "double": "f8", "float64": "f8"}
+
+
+def read_ply_tristrips(path):
+    """The ``tristrips`` element of a PLY file: a list of int64 index arrays (one per strip, ``-1`` = restart), or
+    None when the file has no such element.
+
+    Reads the header, skips the elements before ``tristrips`` (ASCII: one line per element; binary: fixed-size
+    rows by their size, rows with lists one by one) and reads the strips' first list property.
+
+    Raises
+    ------
+    AssetError
+        A malformed header, an unknown property type, or data that ends before the strips do (naming the file).
+    """
+    with open(path, "rb") as fh:
+        data = fh.read()
+    end = data.find(b"end_header")
+    if not data.startswith(b"ply") or end < 0:
+        raise AssetError(f"{path}: not a PLY file (no 'ply' ... 'end_header' header)")
+    body = data.index(b"\n", end) + 1
+    fmt, elements = None, []
+    for line in data[:end].decode("ascii", errors="replace").splitlines():
+        tok = line.split()
+        if not tok:
+            continue
+        if tok[0] == "format":
+            fmt = tok[1]
+        elif tok[0] == "element":
+            elements.append((tok[1], int(tok[2]), []))
+        elif tok[0] == "property" and elements:
+            elements[-1][2].append(tok[1:])
+    names = [e[0] for e in elements]
+    if "tristrips" not in names:
+        return None
+    for _, _, props in elements:
+        for p in props:
+            for t in (p[1:3] if p[0] == "list" else p[:1]):
+                if t not in _PLY_TYPES:
+                    raise AssetError(f"{path}: PLY property type {t!r} is not supported")
+    k = names.index("tristrips")
+    if fmt == "ascii":
+        lines = data[body:].decode("ascii", errors="replace").splitlines()
+        skip = sum(e[1] for e in elements[:k])
+        rows = lines[skip: skip + elements[k][1]]
+        if len(rows) < elements[k][1]:
+            raise AssetError(f"{path}: the file ends before its {elements[k][1]} tristrips")
+        return [_ascii_strip(path, r, elements[k][2]) for r in rows]
+    order = {"binary_little_endian": "<", "binary_big_endian": ">"}.get(fmt)
+    if order is None:
+        raise AssetError(f"{path}: unknown PLY format {fmt!r}")
+    off = body
+    for _, count, props in elements[:k]:
+        off = _skip_rows(path, data, off, count, props, order)
+    strips = []
+    _, count, props = elements[k]
+    for _ in range(count):
+        strip = None
+        for p in props:
+            if p[0] == "list":
+                cdt, idt = np.dtype(order + _PLY_TYPES[p[1]]), np.dtype(order + _PLY_TYPES[p[2]])
+                n, off = _read(path, data, off, cdt, 1)
+                vals, off = _read(path, data, off, idt, int(n[0]))
+                if strip is None:
+                    strip = vals.astype(np.int64)
+            else:
+                off = _read(path, data, off, np.dtype(order + _PLY_TYPES[p[0]]), 1)[1]
+        strips.append(strip if strip is not None else np.zeros(0, dtype=np.int64))
+    return strips
+
+
+def _read(path, data, off, dt, n):
+    """``n`` values of ``dt`` at byte ``off`` and the offset after them (AssetError past the end)."""
+    if off + n * dt.itemsize > len(data):
+        raise AssetError(f"{path}: the PLY data ends at byte {len(data)} inside the tristrips (truncated)")
+    return np.frombuffer(data, dtype=dt, count=n, offset=off), off + n * dt.itemsize
+
+
+def _skip_rows(path, data, off, count, props, order):
+    """Byte offset after ``count`` binary rows of ``props`` starting at ``off``."""
+    if all(p[0] != "list" for p in props):
+        return off + count * sum(np.dtype(_PLY_TYPES[p[0]]).itemsize for p in props)
+    for _ in range(count):
+        for p in props:
+            if p[0] == "list":
+                cdt = np.dtype(order + _PLY_TYPES[p[1]])
+                n, off = _read(path, data, off, cdt, 1)
+                off += int(n[0]) * np.dtype(_PLY_TYPES[p[2]]).itemsize
+            else:
+                off += np.dtype(_PLY_TYPES[p[0]]).itemsize
+    return off
+
+
+def _ascii_strip(path, row, props):
+    tok = row.split()
+    try:
+        i = 0
+        strip = None
+        for p in props:
+            if p[0] == "list":
+                n = int(tok[i])
+                vals = np.asarray([int(float(t)) for t in tok[i + 1: i + 1 + n]], dtype=np.int64)
+                if vals.size != n:
+                    raise ValueError(f"{n} indices announced, {vals.size} found")
+                strip = vals if strip is None else strip
+                i += 1 + n
+            else:
+                i += 1
+        return strip if strip is not None else np.zeros(0, dtype=np.int64)
+    except (ValueError, IndexError) as exc:
+        raise AssetError(f"{path}: malformed tristrips row {row[:60]!r}: {exc}") from None
+
+
+def tristrip_faces(strips):
+    """Triangles (F, 3) int64 of triangle strips (each an index array; ``-1`` restarts a strip; see the module
+    docstring for the winding); triangles with a repeated index are dropped."""
+    parts = [np.asarray(s, dtype=np.int64) for s in strips]
+    seq = np.concatenate([np.r_[p, -1] for p in parts]) if parts else np.zeros(0, dtype=np.int64)
+    if seq.size < 3:
+        return np.zeros((0, 3), dtype=np.int64)
+    k = np.arange(seq.size - 2)
+    a, b, c = seq[k], seq[k + 1], seq[k + 2]
+    marks = np.where(seq < 0, np.arange(seq.size), -1)
+    start = np.maximum.accumulate(marks) + 1               # first index of the run each position belongs to
+    odd = (k - start[k]) % 2 == 1
+    a, b = np.where(odd, b, a), np.where(odd, a, b)
+    keep = (a >= 0) & (b >= 0) & (c >= 0) & (a != b) & (b != c) & (a != c)
+    return np.stack([a[keep], b[keep], c[keep]], axis=1)
+
+
+def _point_colors(pc):
+    """Vertex colours of a point cloud (trimesh reads a PLY without faces as one), or None."""
+    c = getattr(pc, "colors", None)
+    return None if c is None or len(c) != len(pc.vertices) else np.asarray(c)
