@@ -37,19 +37,15 @@ def load_ply_stl(path, fmt):
     asset = Asset(path=path, format=fmt)
     if fmt == "stl":
         _check_binary_stl_size(path)
-    tm = trimesh_load(path, fmt.upper())
+    strips = read_ply_tristrips(path) if fmt == "ply" else None
+    if strips is not None:
+        tm = _strip_mesh(path, *strips)
+        asset.warnings.append(f"{path}: triangle strips read ({len(strips[1])} strip(s), {len(tm.faces)} triangles)")
+    else:
+        tm = trimesh_load(path, fmt.upper())
     if isinstance(tm, trimesh.Scene):
         meshes = [g for g in tm.dump() if isinstance(g, trimesh.Trimesh)] if hasattr(tm, "dump") else []
         tm = trimesh.util.concatenate(meshes) if meshes else None
-    if fmt == "ply" and not (isinstance(tm, trimesh.Trimesh) and len(tm.faces)):
-        strips = read_ply_tristrips(path)
-        if strips is not None and isinstance(tm, trimesh.points.PointCloud):
-            faces = tristrip_faces(strips)
-            if faces.size and faces.max() >= len(tm.vertices):
-                raise AssetError(f"{path}: tristrips refer to vertex {int(faces.max())} but the file has "
-                                 f"{len(tm.vertices)} vertices")
-            asset.warnings.append(f"{path}: triangle strips read ({len(strips)} strip(s), {faces.shape[0]} triangles)")
-            tm = trimesh.Trimesh(vertices=tm.vertices, faces=faces, vertex_colors=_point_colors(tm), process=False)
     if not isinstance(tm, trimesh.Trimesh) or len(tm.faces) == 0:
         raise AssetError(f"{path}: no triangles found in the {fmt.upper()} file")
     normals = None
@@ -103,77 +99,95 @@ _PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short":
 
 
 def read_ply_tristrips(path):
-    """The ``tristrips`` element of a PLY file: a list of int64 index arrays (one per strip, ``-1`` = restart), or
-    None when the file has no such element.
+    """A PLY file with a ``tristrips`` element and no ``face`` element: ``(vertex, strips)`` with ``vertex`` a dict
+    of the vertex element's scalar properties (name -> (V,) array: ``x y z``, and ``nx ny nz``, ``red green blue``
+    when present) and ``strips`` a list of int64 index arrays (one per strip, ``-1`` = restart); None for any other
+    PLY file (trimesh reads those). trimesh reads neither such binary files ("unexpected length") nor the strips.
 
-    Reads the header, skips the elements before ``tristrips`` (ASCII: one line per element; binary: fixed-size
-    rows by their size, rows with lists one by one) and reads the strips' first list property.
+    ASCII: one line per element row; binary (either byte order): fixed-size rows by their size, rows with lists one
+    by one; each strip is the first list property of its row.
 
     Raises
     ------
     AssetError
-        A malformed header, an unknown property type, or data that ends before the strips do (naming the file).
+        A malformed header, an unknown property type, a vertex element with a list, or data that ends before the
+        strips do (naming the file).
     """
     with open(path, "rb") as fh:
         data = fh.read()
     end = data.find(b"end_header")
     if not data.startswith(b"ply") or end < 0:
-        raise AssetError(f"{path}: not a PLY file (no 'ply' ... 'end_header' header)")
-    body = data.index(b"\n", end) + 1
+        return None
+    body = data.index(b"\n", end) + 1 if b"\n" in data[end:] else len(data)
     fmt, elements = None, []
     for line in data[:end].decode("ascii", errors="replace").splitlines():
         tok = line.split()
         if not tok:
             continue
-        if tok[0] == "format":
+        if tok[0] == "format" and len(tok) > 1:
             fmt = tok[1]
-        elif tok[0] == "element":
+        elif tok[0] == "element" and len(tok) > 2:
             elements.append((tok[1], int(tok[2]), []))
         elif tok[0] == "property" and elements:
             elements[-1][2].append(tok[1:])
     names = [e[0] for e in elements]
-    if "tristrips" not in names:
+    if "tristrips" not in names or "face" in names or "vertex" not in names:
         return None
-    for _, _, props in elements:
+    for name, _, props in elements:
         for p in props:
             for t in (p[1:3] if p[0] == "list" else p[:1]):
                 if t not in _PLY_TYPES:
                     raise AssetError(f"{path}: PLY property type {t!r} is not supported")
-    k = names.index("tristrips")
+            if name == "vertex" and p[0] == "list":
+                raise AssetError(f"{path}: a PLY vertex element with a list property is not supported")
+    vertex, strips = None, None
     if fmt == "ascii":
         lines = data[body:].decode("ascii", errors="replace").splitlines()
-        skip = sum(e[1] for e in elements[:k])
-        rows = lines[skip: skip + elements[k][1]]
-        if len(rows) < elements[k][1]:
-            raise AssetError(f"{path}: the file ends before its {elements[k][1]} tristrips")
-        return [_ascii_strip(path, r, elements[k][2]) for r in rows]
+        row = 0
+        for name, count, props in elements:
+            rows = lines[row: row + count]
+            if len(rows) < count:
+                raise AssetError(f"{path}: the file ends before its {count} {name} rows (truncated)")
+            if name == "vertex":
+                try:
+                    vals = np.asarray(" ".join(rows).split(), dtype=np.float64).reshape(count, len(props))
+                except ValueError as exc:
+                    raise AssetError(f"{path}: malformed vertex rows: {exc}") from None
+                vertex = {p[1]: vals[:, i] for i, p in enumerate(props)}
+            elif name == "tristrips":
+                strips = [_ascii_strip(path, r, props) for r in rows]
+            row += count
+        return vertex, strips
     order = {"binary_little_endian": "<", "binary_big_endian": ">"}.get(fmt)
     if order is None:
         raise AssetError(f"{path}: unknown PLY format {fmt!r}")
     off = body
-    for _, count, props in elements[:k]:
-        off = _skip_rows(path, data, off, count, props, order)
-    strips = []
-    _, count, props = elements[k]
-    for _ in range(count):
-        strip = None
-        for p in props:
-            if p[0] == "list":
-                cdt, idt = np.dtype(order + _PLY_TYPES[p[1]]), np.dtype(order + _PLY_TYPES[p[2]])
-                n, off = _read(path, data, off, cdt, 1)
-                vals, off = _read(path, data, off, idt, int(n[0]))
-                if strip is None:
-                    strip = vals.astype(np.int64)
-            else:
-                off = _read(path, data, off, np.dtype(order + _PLY_TYPES[p[0]]), 1)[1]
-        strips.append(strip if strip is not None else np.zeros(0, dtype=np.int64))
-    return strips
+    for name, count, props in elements:
+        if name == "vertex":
+            dt = np.dtype([(p[1], order + _PLY_TYPES[p[0]]) for p in props])
+            rec, off = _read(path, data, off, dt, count, name)
+            vertex = {p[1]: rec[p[1]] for p in props}
+        elif name == "tristrips":
+            strips = []
+            for _ in range(count):
+                strip = None
+                for p in props:
+                    if p[0] == "list":
+                        n, off = _read(path, data, off, np.dtype(order + _PLY_TYPES[p[1]]), 1, name)
+                        vals, off = _read(path, data, off, np.dtype(order + _PLY_TYPES[p[2]]), int(n[0]), name)
+                        strip = vals.astype(np.int64) if strip is None else strip
+                    else:
+                        off = _read(path, data, off, np.dtype(order + _PLY_TYPES[p[0]]), 1, name)[1]
+                strips.append(strip if strip is not None else np.zeros(0, dtype=np.int64))
+        else:
+            off = _skip_rows(path, data, off, count, props, order)
+    return vertex, strips
 
 
-def _read(path, data, off, dt, n):
+def _read(path, data, off, dt, n, element="tristrips"):
     """``n`` values of ``dt`` at byte ``off`` and the offset after them (AssetError past the end)."""
     if off + n * dt.itemsize > len(data):
-        raise AssetError(f"{path}: the PLY data ends at byte {len(data)} inside the tristrips (truncated)")
+        raise AssetError(f"{path}: the PLY data ends at byte {len(data)} inside the {element} (truncated)")
     return np.frombuffer(data, dtype=dt, count=n, offset=off), off + n * dt.itemsize
 
 
@@ -185,7 +199,7 @@ def _skip_rows(path, data, off, count, props, order):
         for p in props:
             if p[0] == "list":
                 cdt = np.dtype(order + _PLY_TYPES[p[1]])
-                n, off = _read(path, data, off, cdt, 1)
+                n, off = _read(path, data, off, cdt, 1, "element before the tristrips")
                 off += int(n[0]) * np.dtype(_PLY_TYPES[p[2]]).itemsize
             else:
                 off += np.dtype(_PLY_TYPES[p[0]]).itemsize
@@ -229,7 +243,18 @@ def tristrip_faces(strips):
     return np.stack([a[keep], b[keep], c[keep]], axis=1)
 
 
-def _point_colors(pc):
-    """Vertex colours of a point cloud (trimesh reads a PLY without faces as one), or None."""
-    c = getattr(pc, "colors", None)
-    return None if c is None or len(c) != len(pc.vertices) else np.asarray(c)
+def _strip_mesh(path, vertex, strips):
+    """A trimesh of :func:`read_ply_tristrips`'s output (x y z, the normals and 8-bit colours when present)."""
+    if not all(k in vertex for k in "xyz"):
+        raise AssetError(f"{path}: the PLY vertex element has no x, y, z properties")
+    v = np.stack([np.asarray(vertex[k], dtype=np.float64) for k in "xyz"], axis=1)
+    faces = tristrip_faces(strips)
+    if faces.size and (faces.max() >= len(v) or faces.min() < 0):
+        raise AssetError(f"{path}: tristrips refer to vertex {int(faces.max())} but the file has {len(v)} vertices")
+    colors = None
+    if all(k in vertex for k in ("red", "green", "blue")):
+        colors = np.stack([vertex[k] for k in ("red", "green", "blue")], axis=1)
+        colors = np.clip(colors, 0, 255).astype(np.uint8) if colors.dtype != np.uint8 else colors
+    nrm = np.stack([vertex[k] for k in ("nx", "ny", "nz")], axis=1) if all(
+        k in vertex for k in ("nx", "ny", "nz")) else None
+    return trimesh.Trimesh(vertices=v, faces=faces, vertex_normals=nrm, vertex_colors=colors, process=False)
