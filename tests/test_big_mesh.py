@@ -107,3 +107,27 @@ def test_crease_normals_memory_bound():
     finally:
         tracemalloc.stop()
     assert peak < 250 * f.shape[0], peak / f.shape[0]
+
+
+def test_mesh_preparation_memory_bound(tmp_path):
+    """Loading-to-BVH preparation of an 82k-triangle PLY without normals (add_to_scene: welding, crease normals,
+    add_mesh; PreparedScene: geometry table, float32 range check, copies into Embree): tracemalloc peak (NumPy and
+    Python allocations; Embree's own BVH memory is not traced) below 600 bytes per triangle. Measured: 414 here,
+    2380 with the all-pairs normals and (F, 3, 3) copies of before."""
+    import pyrt
+    from pyrt.io.assets import load_asset
+
+    v, f = big_mesh.make_mesh(6)
+    big_mesh.write_ply(tmp_path / "m.ply", v, f)
+    asset = load_asset(str(tmp_path / "m.ply"))
+    scene = pyrt.Scene(pyrt.Camera())
+    tracemalloc.start()
+    try:
+        tracemalloc.reset_peak()
+        asset.add_to_scene(scene)
+        with pyrt.PreparedScene(scene) as prepared:
+            peak = tracemalloc.get_traced_memory()[1]
+            assert set(prepared.timings) == {"geometry", "bvh"}
+    finally:
+        tracemalloc.stop()
+    assert peak < 600 * f.shape[0], peak / f.shape[0]

@@ -82,7 +82,11 @@ def _crease_by_position(vertices, faces, crease_angle):
     fn, ang = _face_normals_and_angles(v, f)
     corner_vertex = f.ravel()                                  # (3F,), corner 3 i + k is corner k of face i
     pos_of_vertex, n_pos = _position_ids(v)
-    cpos = np.take(pos_of_vertex, corner_vertex)               # (3F,) position group of each corner
+    if n_pos == v.shape[0]:          # every vertex at its own position (indexed meshes): label positions by vertex
+        pos_of_vertex = np.arange(n_pos)
+        cpos = corner_vertex
+    else:
+        cpos = np.take(pos_of_vertex, corner_vertex)           # (3F,) position group of each corner
     # pass 1: one angle-weighted sum per position; the same terms, in corner order, as pass 2's pairs
     acc_pos = np.empty((n_pos, 3))
     for c in range(3):   # weights (F, 3): each corner's angle x its face normal's component c
@@ -114,16 +118,18 @@ def _crease_by_position(vertices, faces, crease_angle):
     # output order: by source vertex, then (several normals of one vertex) by the normal's bits as np.unique sorts
     src = np.concatenate([sv, urv])
     rank = np.concatenate([np.zeros(sv.size, dtype=np.int64), np.arange(urv.size) - np.searchsorted(urv, urv)])
-    order = np.lexsort((rank, src)) if urv.size else np.arange(src.size)   # sv alone is ascending already
+    normals = np.concatenate([np.take(unit_pos, pos_of_vertex[sv], axis=0), acc_rough[first_idx]])
+    out_of_vertex = np.zeros(v.shape[0], dtype=np.int64)
+    if not urv.size:                 # no vertex split: sv (ascending) is the output order
+        out_of_vertex[sv] = np.arange(sv.size)
+        return sv.astype(np.int64), np.take(out_of_vertex, corner_vertex).reshape(nf, 3), normals
+    order = np.lexsort((rank, src))
     new_index = np.empty(order.size, dtype=np.int64)
     new_index[order] = np.arange(order.size)
-    out_of_vertex = np.zeros(v.shape[0], dtype=np.int64)
     out_of_vertex[sv] = new_index[:sv.size]
     out_faces = np.take(out_of_vertex, corner_vertex)
     out_faces[rough] = new_index[sv.size + inv]
-    normals = np.take(np.concatenate([np.take(unit_pos, pos_of_vertex[sv], axis=0), acc_rough[first_idx]]), order,
-                      axis=0)
-    return src[order].astype(np.int64), out_faces.reshape(nf, 3), normals
+    return src[order].astype(np.int64), out_faces.reshape(nf, 3), np.take(normals, order, axis=0)
 
 
 def _face_normals_and_angles(v, f):
