@@ -100,7 +100,9 @@ class Scene:
         mesh : trimesh.Trimesh or (vertices, faces)
         material : Material
         transform : (4, 4) array, optional
-            ``world_from_object``; normals use its inverse transpose.
+            ``world_from_object``; normals use its inverse transpose. A mirroring transform (negative
+            determinant) reverses the faces' winding, so that the winding normal still points to the side the
+            object's normals face (glTF's rule; front/back faces: culling, entering/leaving dielectrics).
         smooth : {"auto", True, False}
             Shading normals. True: trimesh's area-weighted vertex normals; "auto": split vertices at
             edges sharper than ``crease_angle`` degrees (a box stays flat, a sphere is smooth);
@@ -162,6 +164,8 @@ class Scene:
             normals = normals @ nm.T
             ln = np.linalg.norm(normals, axis=1, keepdims=True)
             normals = np.divide(normals, ln, out=np.zeros_like(normals), where=ln > 0)
+        if np.linalg.det(m[:3, :3]) < 0:
+            faces = faces[:, [0, 2, 1]]    # a mirror turns counter-clockwise into clockwise: keep the front side
         mat_id = self.add_material(material)
         self.meshes.append(MeshData(vertices=v_world, faces=faces, normals=normals, uv=uv, vertices_object=v_obj,
                                     material_id=mat_id, smooth=normals is not None, name=name))

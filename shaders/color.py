@@ -230,3 +230,27 @@ def kelvin_to_srgb(temperature):
     rgb = np.maximum(xyz_to_srgb(blackbody_xyz(temperature)), 0.0)
     Y = luminance(rgb)
     return rgb / np.where(Y > 0, Y, 1.0)[..., None]
+
+
+# ----------------------------------------------------------------------------- RGB spaces from primaries
+
+#: Chromaticities (x, y) of the red, green and blue primaries and of the white point of the RGB spaces
+#: the tone mappers work in: Rec. 709 / sRGB (ITU-R BT.709, D65), ACES AP0 and AP1 (SMPTE ST 2065-1 and
+#: the ACEScg specification S-2014-004, white point "ACES" ~D60).
+PRIMARIES = {
+    "rec709": ((0.64, 0.33), (0.30, 0.60), (0.15, 0.06), (0.3127, 0.3290)),
+    "ap0": ((0.7347, 0.2653), (0.0, 1.0), (0.0001, -0.0770), (0.32168, 0.33767)),
+    "ap1": ((0.713, 0.293), (0.165, 0.830), (0.128, 0.044), (0.32168, 0.33767)),
+}
+
+
+def xyz_from_rgb_matrix(space):
+    """The 3x3 linear-RGB -> CIE XYZ matrix of ``space`` (a key of :data:`PRIMARIES`), float64.
+
+    The standard construction (SMPTE RP 177): the primaries' XYZ columns ``(x/y, 1, (1-x-y)/y)``
+    scaled so that RGB (1, 1, 1) maps to the white point with Y = 1. No chromatic adaptation.
+    """
+    (xr, yr), (xg, yg), (xb, yb), (xw, yw) = PRIMARIES[space]
+    P = np.array([[x / y, 1.0, (1.0 - x - y) / y] for x, y in ((xr, yr), (xg, yg), (xb, yb))]).T
+    W = np.array([xw / yw, 1.0, (1.0 - xw - yw) / yw])
+    return P * np.linalg.solve(P, W)

@@ -54,7 +54,7 @@ PUBLIC_API_USERS = ["pyrt.apps"]
 #: The engine layers, where (h) applies (paths relative to the repository root; a folder means every module
 #: in it).
 ENGINE = ["pyrt/core", "pyrt/geometry", "pyrt/textures", "pyrt/materials", "pyrt/lights", "pyrt/scene.py",
-          "pyrt/integrators", "pyrt/render.py"]
+          "pyrt/integrators", "pyrt/render"]
 
 MAX_LINES = 600
 

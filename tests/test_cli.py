@@ -137,7 +137,9 @@ def test_cli_sigint_writes_the_finished_chunks_and_exits_130(tmp_path):
     filled = m.group(4) != "the rest is black"
     assert 0 < done < total and 0 < pct < 100
     assert "Traceback" not in err and f"wrote {exr}" in out and f"wrote {png}" in out
-    assert stopped < 5.0                      # chunks of ~50 ms, a fill pass of at most ~2 s, two small writes
+    # not a speed test: the render left would take minutes; stopping well before says the interrupt was honoured
+    # (chunks of ~50 ms, a fill pass of at most ~2 s, two small writes; generous for a loaded machine)
+    assert stopped < 30.0
     img = pyrt.read_exr(exr)
     assert img.shape == (480, 640, 3)
     rows = img.reshape(480, -1).any(axis=1)

@@ -327,9 +327,9 @@ def test_parameter_errors_name_the_parameter(tmp_path):
         LatLongEnvironment(-np.ones((4, 8, 3)))
     with pytest.raises(EnvironmentMapError, match="intensity"):
         ConstantEnvironment(1.0, intensity=-1)
-    p = tmp_path / "sky.hdr"
-    p.write_bytes(b"#?RADIANCE\n")
-    with pytest.raises(EnvironmentMapError, match="convert it to OpenEXR"):
+    p = tmp_path / "sky.tga"
+    p.write_bytes(b"\0" * 18)
+    with pytest.raises(EnvironmentMapError, match="unsupported environment image type"):
         LatLongEnvironment(str(p))
     with pytest.raises(EnvironmentMapError, match="4:3"):
         CubeMapEnvironment(np.ones((10, 10, 3)))

@@ -233,7 +233,7 @@ def test_dask_missing_is_a_preview_error_naming_the_extra(monkeypatch, tmp_path,
         P.preview_batch([BLOB], str(tmp_path / "out"), o, dask=True, progress=False)
     assert not (tmp_path / "out").exists()                     # raised before anything is written
     rc = P.main([BLOB, "--out-dir", str(tmp_path / "cli"), "--dask", "--width", "24", "--height", "18", "--quiet"])
-    assert rc == 2 and "pip install 'pyrt[preview]'" in capsys.readouterr().err
+    assert rc == 2 and "pip install 'pyrt-embree[preview]'" in capsys.readouterr().err
 
 
 def _batch_files(out):

@@ -15,6 +15,7 @@ import time
 import traceback
 
 import pyrt
+from pyrt.core.image_io import TONEMAPS
 from pyrt.geometry.offsets import STRATEGIES
 from pyrt.render import INTEGRATORS
 from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, check_outputs, finite_float, interrupts,
@@ -34,6 +35,19 @@ def _parser():
     r.add_argument("-o", "--output", action="append", required=True,
                    help="output file (.exr linear, .png tone-mapped); may be repeated")
     r.add_argument("--spp", type=positive_int, help="samples per pixel (overrides the scene)")
+    r.add_argument("--target-error", type=positive_float, metavar="E",
+                   help="adaptive: stop when the estimated relMSE is at most E (e.g. 1e-3)")
+    r.add_argument("--time", type=positive_float, metavar="SECONDS", dest="time_budget",
+                   help="adaptive: stop after about SECONDS of wall time")
+    r.add_argument("--max-spp", type=positive_int, metavar="N", help="adaptive: at most N samples in any pixel")
+    r.add_argument("--min-spp", type=positive_int, metavar="N", help="adaptive: samples of the base pass (even)")
+    r.add_argument("--dask", nargs="?", const=True, default=None, metavar="SCHEDULER",
+                   help="render the chunks on Dask: a scheduler address, or without one a local cluster of "
+                        "--dask-workers processes (needs the preview extra)")
+    r.add_argument("--dask-workers", type=positive_int, default=2, metavar="N",
+                   help="worker processes of the local cluster of --dask (default 2)")
+    r.add_argument("--write-every", type=positive_float, metavar="SECONDS",
+                   help="adaptive: rewrite the outputs with the current image after a pass, at most every SECONDS")
     r.add_argument("--width", type=positive_int, help="image width in pixels (overrides the scene)")
     r.add_argument("--height", type=positive_int, help="image height in pixels (overrides the scene)")
     r.add_argument("--seed", type=nonnegative_int)
@@ -44,8 +58,9 @@ def _parser():
     r.add_argument("--transparent-shadows", action=argparse.BooleanOptionalAction, default=None,
                    help="shadow rays pass through glass, Fresnel- and absorption-attenuated (overrides the scene; "
                         "default off)")
-    r.add_argument("--tonemap", default="reinhard", choices=["linear", "film", "reinhard", "reinhard_rgb"],
-                   help="reinhard: on luminance; reinhard_rgb: per channel L/(1+L)")
+    r.add_argument("--tonemap", default="reinhard", choices=TONEMAPS,
+                   help="reinhard: on luminance; reinhard_rgb: per channel L/(1+L); pbr_neutral: Khronos PBR "
+                        "Neutral; aces: Filament's ACES")
     r.add_argument("--encoding", default="srgb", choices=["srgb", "gamma"],
                    help="PNG transfer curve: exact sRGB or plain x^(1/gamma)")
     r.add_argument("--gamma", type=positive_float, default=2.2, help="exponent of --encoding gamma")
@@ -64,6 +79,15 @@ def main(argv=None):
     args = ap.parse_args(argv)
     if args.white is not None and args.tonemap != "reinhard":
         ap.error(f"--white applies to --tonemap reinhard only, not {args.tonemap}")
+    adaptive = args.target_error is not None or args.time_budget is not None
+    if args.spp is not None and (adaptive or args.max_spp is not None or args.min_spp is not None):
+        ap.error("--spp (fixed samples per pixel) excludes --target-error/--time/--max-spp/--min-spp (adaptive)")
+    if (args.max_spp is not None or args.min_spp is not None or args.write_every is not None) and not adaptive:
+        ap.error("--max-spp, --min-spp and --write-every need --target-error or --time (adaptive rendering)")
+    if args.min_spp is not None and args.min_spp % 2:
+        ap.error(f"--min-spp must be even (two half-buffers estimate the error), got {args.min_spp}")
+    if args.min_spp is not None and args.max_spp is not None and args.max_spp < args.min_spp:
+        ap.error(f"--max-spp {args.max_spp} is below --min-spp {args.min_spp}")
     cancel = threading.Event()
     try:
         with interrupts(cancel, "pyrt"):
@@ -87,25 +111,44 @@ def _render(args, cancel):
         scene.camera.width = args.width
     if args.height is not None:
         scene.camera.height = args.height
-    for key in ("seed", "max_depth", "offset", "transparent_shadows", "integrator"):
+    for key in ("seed", "max_depth", "offset", "transparent_shadows", "integrator", "target_error", "time_budget",
+                "max_spp", "min_spp"):
         if getattr(args, key) is not None:
             opts[key] = getattr(args, key)
+    if args.spp is not None:      # the command line's --spp wins over a scene file's adaptive keys
+        for key in ("target_error", "time_budget", "max_spp", "min_spp"):
+            opts.pop(key, None)
+    adaptive = any(k in opts for k in ("target_error", "time_budget", "max_spp"))
+    last = {"t": time.perf_counter()}
+
+    def on_pass(info):
+        if args.write_every is not None and time.perf_counter() - last["t"] >= args.write_every:
+            _write_outputs(args, info.film.image(), info.film.aovs(), quiet=True)
+            last["t"] = time.perf_counter()
+
+    if adaptive:
+        opts["on_pass"] = on_pass
+    if args.dask is not None:
+        opts["dask"], opts["dask_workers"] = args.dask, args.dask_workers
     t0 = time.perf_counter()
     res = pyrt.render_full(scene, spp=args.spp, aovs=args.aovs, progress=True, cancel=cancel, fill=True, **opts)
     dt = time.perf_counter() - t0
     if res.chunks_done == 0:
         print("pyrt: interrupted before any pixel was rendered; nothing written", file=sys.stderr)
         return EXIT_INTERRUPTED
-    for out in args.output:
-        if out.lower().endswith(".exr"):
-            pyrt.write_exr(out, res.image, aovs=res.aovs, half=args.half)
-        else:
-            pyrt.write_png(out, res.image, tonemap=args.tonemap, exposure=args.exposure, L_white=args.white,
-                           encoding=args.encoding, gamma=args.gamma)
-        print(f"wrote {out}")
+    _write_outputs(args, res.image, res.aovs)
     s = res.stats
     print(f"{scene.camera.width}x{scene.camera.height}, {dt:.2f} s, {s.rays} rays "
           f"({s.primary_rays} primary, {s.secondary_rays} secondary, {s.shadow_rays} shadow)")
+    if adaptive:
+        w = res.film.weight
+        print(f"adaptive: {res.passes} passes, {w.mean():.1f} spp on average ({w.min():.0f}..{w.max():.0f}), "
+              f"estimated relMSE {res.estimated_error:.3g}, stopped by {res.stop_reason}")
+        if not res.complete:
+            print(f"pyrt: interrupted after {res.passes} passes: the outputs hold the image so far "
+                  f"({w.mean():.1f} spp on average, estimated relMSE {res.estimated_error:.3g})"
+                  + ("; pixels without any sample got 2" if res.pixels_filled else ""), file=sys.stderr)
+            return EXIT_INTERRUPTED
     if not res.complete:
         rest = (f"the other pixels got 1 sample each (noisier)" if res.pixels_filled
                 else "the rest is black")
@@ -123,6 +166,18 @@ def _render(args, cancel):
         print("pyrt: interrupted after the render had finished; the outputs are complete", file=sys.stderr)
         return EXIT_INTERRUPTED
     return 0
+
+
+def _write_outputs(args, image, aovs, quiet=False):
+    """Write ``image`` to every ``-o`` output (each atomically: a failed write keeps the previous file)."""
+    for out in args.output:
+        if out.lower().endswith(".exr"):
+            pyrt.write_exr(out, image, aovs=aovs, half=args.half)
+        else:
+            pyrt.write_png(out, image, tonemap=args.tonemap, exposure=args.exposure, L_white=args.white,
+                           encoding=args.encoding, gamma=args.gamma)
+        if not quiet:
+            print(f"wrote {out}")
 
 
 if __name__ == "__main__":

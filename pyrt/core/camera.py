@@ -175,6 +175,26 @@ class Camera:
         dy = self.directions(x, y + scale)
         return RayBatch(o, d, pixel=pix, differentials=(o, dx, o, dy))
 
+    def rays_at(self, pixels, u, *, differentials=True, spp=None):
+        """Primary rays through the points ``u`` ((N, 2) in [0, 1)^2) of the pixels ``pixels`` ((N,) row-major
+        indices): the camera rays of an adaptive pass, whose pixels and sample positions the caller chose.
+
+        ``spp`` ((N,) or a number; default the camera's) scales the differentials as in
+        :meth:`generate_rays` (``max(1/8, 1/sqrt(spp))``): pass the samples the pixel will have.
+        """
+        pix = np.asarray(pixels, dtype=np.int64)
+        row, col = np.divmod(pix, self.width)
+        x, y = col + u[:, 0], row + u[:, 1]
+        d = self.directions(x, y)
+        o = np.broadcast_to(self.position, d.shape).copy()
+        if not differentials:
+            return RayBatch(o, d, pixel=pix)
+        n = self.spp if spp is None else np.asarray(spp, dtype=np.float64)
+        scale = np.maximum(0.125, 1.0 / np.sqrt(n))
+        dx = self.directions(x + scale, y)
+        dy = self.directions(x, y + scale)
+        return RayBatch(o, d, pixel=pix, differentials=(o, dx, o, dy))
+
     def __repr__(self):
         return (f"Camera(position={self.position.tolist()}, target={self.target.tolist()}, up={self.up.tolist()}, "
                 f"fov={self.fov}, width={self.width}, height={self.height}, spp={self.spp})")

@@ -108,6 +108,19 @@ class Film:
                 self._aov[k][lo:hi] += v
         self.nonfinite_samples += other.nonfinite_samples
 
+    def add_pixel_sums(self, pixels, sums):
+        """Add a :class:`PixelSums` (the reduced samples of some pixels, from :func:`pixel_sums`) to the
+        pixels ``pixels`` (unique row-major indices, the order of ``sums``): how an adaptive pass, whose
+        chunks hold scattered pixels, adds a chunk to the film."""
+        self.sum[pixels] += sums.sum
+        self.weight[pixels] += sums.weight
+        if self.sum_sq is not None and sums.sum_sq is not None:
+            self.sum_sq[pixels] += sums.sum_sq
+        if self._aov is not None and sums.aov is not None:
+            for k, v in sums.aov.items():
+                self._aov[k][pixels] += v
+        self.nonfinite_samples += sums.nonfinite
+
     def _mean(self, acc):
         """``acc / weight`` per pixel (0 where a pixel has no sample). Uniform weights (every pixel with the
         same number of samples, the usual case) divide by one scalar, which gives the same bits as the
@@ -175,3 +188,39 @@ class Film:
         return {"depth": depth.reshape(H, W).astype(np.float32),
                 "normal": self._mean(a["normal"]).reshape(H, W, 3).astype(np.float32),
                 "albedo": self._mean(a["albedo"]).reshape(H, W, 3).astype(np.float32)}
+
+
+class PixelSums:
+    """The samples of some pixels reduced to per-pixel sums (what a chunk hands the film): ``weight`` (k,),
+    ``sum`` (k, 3), optionally ``sum_sq`` (k, 3) and ``aov`` (the AOV sums, keyed as in :class:`Film`),
+    ``nonfinite`` (samples zeroed)."""
+
+    __slots__ = ("weight", "sum", "sum_sq", "aov", "nonfinite")
+
+    def __init__(self, weight, sum, sum_sq=None, aov=None, nonfinite=0):
+        self.weight, self.sum, self.sum_sq, self.aov, self.nonfinite = weight, sum, sum_sq, aov, nonfinite
+
+
+def pixel_sums(L, counts, aovs=None, *, nonfinite="zero", second_moment=False):
+    """Reduce samples to per-pixel sums: ``L`` (sum(counts), 3), the ``counts[i]`` (> 0) samples of pixel
+    ``i`` contiguous, weight 1 each. Non-finite samples are zeroed and counted (``nonfinite="zero"``; in
+    place in ``L``) or raise :class:`FilmError`. ``aovs`` as in :meth:`Film.add_block`. Returns
+    :class:`PixelSums`."""
+    counts = np.asarray(counts, dtype=np.int64)
+    bad = 0
+    if not np.isfinite(L).all():
+        if nonfinite == "raise":
+            raise FilmError("Film: non-finite radiance in an adaptive pass")
+        rows = ~np.all(np.isfinite(L), axis=1)
+        bad = int(rows.sum())
+        L[rows] = 0.0
+    starts = np.zeros(counts.shape[0], dtype=np.int64)
+    np.cumsum(counts[:-1], out=starts[1:])
+    red = lambda a: np.add.reduceat(a, starts, axis=0)   # noqa: E731  (sums over each pixel's run)
+    aov = None
+    if aovs is not None:
+        dep = aovs["depth"]
+        hitm = np.isfinite(dep)
+        aov = {"depth": red(np.where(hitm, dep, 0.0)), "depth_weight": red(hitm.astype(np.float64)),
+               "normal": red(aovs["normal"]), "albedo": red(aovs["albedo"])}
+    return PixelSums(counts.astype(np.float64), red(L), red(L * L) if second_moment else None, aov, bad)

@@ -18,6 +18,7 @@ from pyrt.shaders import color
 from pyrt.shaders import tonemap
 
 from pyrt.core.errors import Error
+from pyrt.core.image_modes import CONVERTED_MODES as _CONVERTED_MODES, converted as _converted
 
 
 def atomic_write(path, write):
@@ -334,6 +335,70 @@ def read_exr(path, *, layout="rgb"):
     raise ImageFileError(f"{path}: no R, G, B (or Y) channels; found {sorted(chans)}")
 
 
+_HDR_MAGIC = (b"#?RADIANCE", b"#?RGBE")
+HDR_EXTRA = "pip install 'pyrt-embree[hdr]' (OpenCV: opencv-python-headless)"
+
+
+def _hdr_header(path, data):
+    """Check a Radiance header (magic, ``FORMAT=32-bit_rle_rgbe``, ``-Y H +X W``) before OpenCV sees the file."""
+    end = data.find(b"\n\n", 0, 1 << 16)
+    line_end = data.find(b"\n", end + 2, end + 2 + 256) if end >= 0 else -1
+    if line_end < 0:
+        raise ImageFileError(f"{path}: not a readable Radiance .hdr file (no end of header or no resolution line)")
+    head = bytes(data[:end]).decode("latin-1").splitlines()
+    fmt = next((h[7:].strip() for h in head if h.startswith("FORMAT=")), None)
+    if fmt != "32-bit_rle_rgbe":
+        raise ImageFileError(f"{path}: Radiance .hdr FORMAT is {fmt!r}; only '32-bit_rle_rgbe' is read (XYZE, or a "
+                             "file without a FORMAT line, is refused by OpenCV's reader): convert it to OpenEXR")
+    res = bytes(data[end + 2:line_end]).decode("latin-1").split()
+    if len(res) != 4 or res[0] != "-Y" or res[2] != "+X" or not (res[1].isdigit() and res[3].isdigit()):
+        raise ImageFileError(f"{path}: Radiance .hdr resolution line {' '.join(res)!r}: only the standard "
+                             "orientation '-Y H +X W' (rows top to bottom) is read")
+    _check_pixel_count(path, "Radiance .hdr", int(res[3]), int(res[1]), 3)
+
+
+def read_hdr(path):
+    """Read a Radiance RGBE (``.hdr``) image as linear RGB float32, with OpenCV (the optional ``[hdr]`` extra).
+
+    OpenCV (``cv2.imread(path, IMREAD_ANYDEPTH | IMREAD_COLOR)``, Greg Ward's reference decoder) turns a pixel
+    (m_r, m_g, m_b, e) into ``m / 256 * 2^(e - 128)`` per channel (no half-step offset; e = 0 is black) and returns
+    BGR, which is flipped to RGB here. Flat and run-length-encoded scanlines are read; header lines such as
+    ``EXPOSURE=`` are ignored (values as stored, as OpenCV and stb_image read them).
+
+    Raises
+    ------
+    ImageNotFoundError
+        No such file.
+    ImageFileError
+        OpenCV is not installed (the message names the file and the extra), not a Radiance file, an XYZE or
+        other-orientation file, one larger than :data:`MAX_IMAGE_PIXELS`, or data OpenCV cannot decode.
+    """
+    path = os.fspath(path)
+    data = _file_bytes(path, "Radiance .hdr")
+    try:
+        if not any(data[:len(m)] == m for m in _HDR_MAGIC):
+            raise ImageFileError(f"{path}: not a Radiance .hdr file (the first bytes are {bytes(data[:10])!r}, "
+                                 "expected '#?RADIANCE' or '#?RGBE')")
+        _hdr_header(path, data)
+    finally:
+        if isinstance(data, mmap.mmap):
+            data.close()
+    try:
+        import cv2
+    except ImportError:
+        raise ImageFileError(f"{path}: reading Radiance .hdr files needs OpenCV: {HDR_EXTRA}") from None
+    level = cv2.utils.logging.getLogLevel()
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)   # the failure is reported below, once
+    try:
+        img = cv2.imread(path, cv2.IMREAD_ANYDEPTH | cv2.IMREAD_COLOR)
+    finally:
+        cv2.utils.logging.setLogLevel(level)
+    if img is None or img.ndim != 3 or img.shape[2] != 3:
+        raise ImageFileError(f"{path}: not a readable Radiance .hdr file (OpenCV could not decode the pixel data: "
+                             "truncated or corrupt scanlines?)")
+    return np.ascontiguousarray(img[..., ::-1], dtype=np.float32)
+
+
 def read_image(path):
     """Read an image file in its stored encoding (no colour decoding, no scaling).
 
@@ -344,14 +409,14 @@ def read_image(path):
     Parameters
     ----------
     path : str or os.PathLike
-        EXR (:func:`read_exr` with ``layout="stored"``); PNG, JPEG, TIFF, BMP, GIF through ``skimage.io``, except
-        16-bit colour PNGs, which Pillow (behind ``skimage.io``) truncates to 8 bits: those are read exactly
-        with pypng (pure Python, ~1 s per megapixel).
+        EXR (:func:`read_exr` with ``layout="stored"``), Radiance ``.hdr`` (:func:`read_hdr`, needs OpenCV); PNG,
+        JPEG, TIFF, BMP, GIF through ``skimage.io``, except 16-bit colour PNGs, which Pillow (behind ``skimage.io``)
+        truncates to 8 bits: those are read exactly with pypng (pure Python, ~1 s per megapixel).
 
     Returns
     -------
     (H, W) or (H, W, C) ndarray
-        float32 for EXR; the decoder's dtype otherwise (uint8, uint16, bool or float).
+        float32 for EXR and .hdr; the decoder's dtype otherwise (uint8, uint16, bool or float).
 
     Raises
     ------
@@ -368,6 +433,8 @@ def read_image(path):
         size = len(data)
         if data[:4] == _EXR_MAGIC:
             kind = "EXR"
+        elif any(data[:len(m)] == m for m in _HDR_MAGIC):
+            kind = "HDR"
         elif data[:8] == _PNG_MAGIC:
             kind = "PNG"
             png16 = _png_header(path, data)[2:] in ((16, 2), (16, 4), (16, 6))
@@ -376,12 +443,14 @@ def read_image(path):
             if kind is None:
                 raise ImageFileError(f"{path}: not a readable image (the file is empty)" if not size else
                                      f"{path}: not a readable image: the first bytes {bytes(data[:8])!r} are not "
-                                     "those of a PNG, JPEG, TIFF, BMP, GIF or OpenEXR file")
+                                     "those of a PNG, JPEG, TIFF, BMP, GIF, OpenEXR or Radiance .hdr file")
     finally:
         if isinstance(data, mmap.mmap):
             data.close()
     if kind == "EXR":
         return read_exr(path, layout="stored")
+    if kind == "HDR":
+        return read_hdr(path)
     try:
         if kind == "PNG" and png16:
             return _read_png16(path)
@@ -405,24 +474,6 @@ def read_image(path):
                              f"{size} bytes): {type(exc).__name__}: {msg}") from None
 
 
-#: Pillow image modes that ``skio.imread`` returns wrongly (grey+alpha PNGs come back with scrambled axes, CMYK as
-#: four ink channels that would be taken for RGBA) or that carry a colour table: converted here (see
-#: :func:`_converted`)
-_CONVERTED_MODES = ("LA", "La", "P", "PA", "CMYK", "YCbCr", "LAB", "HSV")
-
-
-def _converted(im):
-    """``(H, W, C)`` uint8 of a Pillow image in one of :data:`_CONVERTED_MODES`: grey+alpha as (grey, alpha); palette
-    images as RGB, or RGBA when the palette has transparency (a ``tRNS`` chunk); CMYK, YCbCr, LAB and HSV as RGB
-    (Pillow's conversions; CMYK -> RGB is the uncalibrated ``255 - ink``)."""
-    if im.mode in ("LA", "La"):
-        return np.asarray(im.convert("LA"))
-    if im.mode in ("P", "PA"):
-        alpha = im.mode == "PA" or "transparency" in im.info
-        return np.asarray(im.convert("RGBA" if alpha else "RGB"))
-    return np.asarray(im.convert("RGB"))
-
-
 def _read_png16(path):
     """A 16-bit colour PNG as (H, W, C) uint16, exactly, with pypng."""
     import png
@@ -433,10 +484,16 @@ def _read_png16(path):
     return img.reshape(height, width, planes)
 
 
-def tonemap_to_display(image, *, tonemap_op="reinhard", exposure=0.0, L_white=None):
-    """Linear radiance -> display-linear [0, 1] with the named operator (linear, film, reinhard, reinhard_rgb).
+#: Names of the tone-mapping operators (:data:`pyrt.shaders.tonemap.OPERATORS`), for command-line choices.
+TONEMAPS = tuple(tonemap.OPERATORS)
 
-    ``reinhard`` maps luminance (hue kept), ``reinhard_rgb`` maps each channel ``L / (1 + L)``.
+
+def tonemap_to_display(image, *, tonemap_op="reinhard", exposure=0.0, L_white=None):
+    """Linear radiance -> display-linear [0, 1] with the named operator (one of :data:`TONEMAPS`).
+
+    ``reinhard`` maps luminance (hue kept), ``reinhard_rgb`` maps each channel ``L / (1 + L)``,
+    ``pbr_neutral`` is Khronos PBR Neutral (the glTF Sample Viewer's default), ``aces`` Filament's ACES
+    (see :mod:`pyrt.shaders.tonemap`).
     """
     img = _check_image(image)
     try:
@@ -496,8 +553,9 @@ def write_png(path, image, *, tonemap="reinhard", exposure=0.0, L_white=None, bi
         Output file (its folder is created).
     image : (H, W, 3) float ndarray
         Linear radiance.
-    tonemap : {"linear", "film", "reinhard", "reinhard_rgb"}
-        ``reinhard`` on luminance, ``reinhard_rgb`` per channel ``L / (1 + L)``.
+    tonemap : {"linear", "film", "reinhard", "reinhard_rgb", "pbr_neutral", "aces"}
+        ``reinhard`` on luminance, ``reinhard_rgb`` per channel ``L / (1 + L)``, ``pbr_neutral`` Khronos
+        PBR Neutral, ``aces`` Filament's ACES (:mod:`pyrt.shaders.tonemap`).
     exposure : float
         Stops applied before the operator.
     L_white : float, optional

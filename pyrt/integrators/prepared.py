@@ -9,6 +9,7 @@ import numpy as np
 from pyrt.geometry import precision
 from pyrt.geometry.accel import Accel
 from pyrt.integrators import gouraud
+from pyrt.integrators.coverage import CoverageTable
 from pyrt.integrators.media import NestedMedia
 
 
@@ -43,7 +44,8 @@ class PreparedScene:
     Besides ``geo`` (:class:`pyrt.geometry.GeometryTable`) and ``accel`` (:class:`pyrt.geometry.Accel`) it
     holds what the integrators look at before they render, to model no more than the scene needs:
     per-material flags (``has_delta``, ``has_diffuse``, ``dielectric``, ``emits``), the nested-media tables (``media``,
-    None without several dielectrics), the Gouraud face mask, ``needs_differentials`` and ``has_normal_maps``.
+    None without several dielectrics), the coverage table (``coverage``, None without alpha or culling), the
+    Gouraud face mask, ``needs_differentials`` and ``has_normal_maps``.
     Close it (or use it as a context manager) to free the Embree scene.
     """
 
@@ -77,6 +79,9 @@ class PreparedScene:
         self.needs_differentials = any(m.uses_textures for m in mats)
         #: materials whose emission() can be non-zero (the rest skip the emission pass)
         self.emits = np.array([m.emits for m in mats], dtype=bool)
+        #: alpha masks, blending and back-face culling (pyrt.integrators.coverage), None when every material is
+        #: opaque and double-sided
+        self.coverage = CoverageTable.for_scene(mats)
         # materials with a tangent-space normal map (Material.normal_map, see pyrt.textures)
         self.has_normal_maps = any(m.normal_map is not None for m in mats)
 

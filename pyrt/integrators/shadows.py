@@ -18,7 +18,8 @@ multiplied, at each interface it crosses, by
   segment's length (the refracted path inside a slab of thickness h at angle theta_t would be
   h / cos theta_t, the straight one is h / cos theta: the approximation).
 
-Opaque materials block (transmittance 0). Not modelled: the bending of the light (caustics: a lens's
+Opaque materials block (transmittance 0). The same loop carries shadow rays through alpha-masked and blended
+surfaces (``coverage=``, :mod:`pyrt.integrators.coverage`, whatever the switch: coverage is part of the surface). Not modelled: the bending of the light (caustics: a lens's
 shadow is not focused), nested media priorities (each dielectric counts as bounded by vacuum), and a ray
 that crosses more than :data:`MAX_INTERFACES` dielectric surfaces is blocked (0).
 
@@ -48,7 +49,8 @@ def _subset(hits, idx):
                 u=hits.u[idx], v=hits.v[idx], ng=take_rows(hits.ng, idx))
 
 
-def transmittance(ps, offset, origins, wi, tmax, intersect, max_interfaces=MAX_INTERFACES):
+def transmittance(ps, offset, origins, wi, tmax, intersect, max_interfaces=MAX_INTERFACES, *, coverage=None,
+                  dielectrics=True):
     """Transmittance (N, 3) of shadow rays ``origins + t wi``, ``0 < t < tmax``, through dielectrics.
 
     Parameters
@@ -65,6 +67,11 @@ def transmittance(ps, offset, origins, wi, tmax, intersect, max_interfaces=MAX_I
         Distances to the light from ``origins`` (``inf`` for directional and environment lights).
     intersect : callable
         ``intersect(o, d, tmax) -> Hits`` (closest hits; the integrator's, for its statistics).
+    coverage : pyrt.integrators.coverage.CoverageTable, optional
+        Mask and blend materials let the ray through, multiplied by
+        :meth:`CoverageTable.shadow_factor` (1 at cut-out texels, 0 elsewhere; ``1 - a`` for blend).
+    dielectrics : bool
+        False: dielectrics block like opaque surfaces (only the coverage materials are crossed).
 
     Returns
     -------
@@ -89,21 +96,26 @@ def transmittance(ps, offset, origins, wi, tmax, intersect, max_interfaces=MAX_I
         sel = todo[hi]
         surf = surface_from_hits(ps.geo, _subset(hits, hi), o[sel], wi[sel])
         mids = surf.material_id
-        diel = ps.dielectric[mids]
-        T[sel[~diel]] = 0.0
-        cross = np.flatnonzero(diel)
+        diel = ps.dielectric[mids] if dielectrics else np.zeros(mids.size, dtype=bool)
+        passes = diel if coverage is None else diel | coverage.see_through[mids]
+        T[sel[~passes]] = 0.0
+        cross = np.flatnonzero(passes)
         for k in np.unique(mids[cross]):
             lanes = cross[mids[cross] == k]
             ctx = surf.subset(lanes)
             mat = materials[k]
             rows = sel[lanes]
-            R = fresnel.fr_dielectric(np.abs(dot(wi[rows], ctx.ns)), mat.param(mat.ior, ctx, 1))
-            factor = mat.param(mat.tint, ctx) * (1.0 - R)[:, None]
-            inside = ~ctx.front                   # the segment just travelled was inside the dielectric
-            if np.any(inside) and np.any(np.asarray(mat.absorption) > 0):
-                sig = np.broadcast_to(np.asarray(mat.absorption, dtype=np.float64), (lanes.size, 3))
-                factor = np.where(inside[:, None], factor * beer_lambert(sig, hits.t[hi[lanes]] + lead[rows]), factor)
-            T[rows] *= factor
+            if not diel[lanes[0]]:                # a mask / blend surface (pyrt.integrators.coverage)
+                T[rows] *= coverage.shadow_factor(k, ctx)[:, None]
+            else:
+                R = fresnel.fr_dielectric(np.abs(dot(wi[rows], ctx.ns)), mat.param(mat.ior, ctx, 1))
+                factor = mat.param(mat.tint, ctx) * (1.0 - R)[:, None]
+                inside = ~ctx.front                   # the segment just travelled was inside the dielectric
+                if np.any(inside) and np.any(np.asarray(mat.absorption) > 0):
+                    sig = np.broadcast_to(np.asarray(mat.absorption, dtype=np.float64), (lanes.size, 3))
+                    factor = np.where(inside[:, None], factor * beer_lambert(sig, hits.t[hi[lanes]] + lead[rows]),
+                                      factor)
+                T[rows] *= factor
             new_o = offset(ctx, wi[rows])
             # the offset moves the origin off the surface along ng, not along the ray: the ray line from new_o
             # meets the surface plane (ng . off) / (ng . wi) behind it (|cos| clamped: grazing crossings)

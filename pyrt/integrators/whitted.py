@@ -32,6 +32,7 @@ from pyrt.core.rays import RayBatch
 from pyrt.geometry import offsets
 from pyrt.geometry.accel import T_INFINITE, Hits
 from pyrt.geometry.surface import refract_differentials, reflect_differentials, surface_from_hits
+from pyrt.integrators import coverage
 from pyrt.integrators import direct
 from pyrt.integrators import gouraud
 from pyrt.integrators import shadows
@@ -119,6 +120,21 @@ class Integrator:
         """Closest hits of shadow rays below ``tmax`` (transparent shadows), counted as shadow rays."""
         return self._shadow_query("intersect", self.ps.accel.intersect, o, d, tmax)
 
+    def _retrace(self, o, d):
+        """Closest hits (all rays) of rays continued past a skipped or blended surface, counted as secondary."""
+        return self._intersect(o, d, "secondary")
+
+    def _retrace_hits(self, o, d):
+        """:meth:`_retrace` in the hits-only form ``(idx, hits)`` of :meth:`Accel.intersect_hits`."""
+        return self._intersect(o, d, "secondary", hits_only=True)
+
+    def _retrace_covered(self, o, d):
+        """:meth:`_retrace` with cut-outs and culled faces skipped (no blend split; nested media's continuations)."""
+        hits = self._retrace(o, d)
+        if self.ps.coverage is None:
+            return hits
+        return self.ps.coverage.resolve(self.ps.geo, hits, o, d, None, self._retrace, self.offset, split=False)[2]
+
     def background(self, d, primary=False):
         """Radiance of missed rays: the environment (or the scene background colour). Camera rays
         (``primary``) see ``environment.background`` instead when ``environment.hide_background`` is set."""
@@ -145,22 +161,44 @@ class Integrator:
         ambient = self.scene.ambient
         use_diffs = diffs is not None and self.ps.needs_differentials
         media = self.ps.media
+        cover = self.ps.coverage
         stack = (media.empty(n) if rays.stack is None else rays.stack) if media is not None else None
         bpdf = rays.bsdf_pdf      # MIS state of BSDF-sampled rays (None: none in the batch)
         for depth in range(self.max_depth + 1):
             if o.shape[0] == 0:
                 break
             kind = "primary" if depth == 0 else "secondary"
-            if media is not None:  # nested dielectrics: continue through false hits; Beer-Lambert absorption
+            n_rays = o.shape[0]   # rays of this bounce; blend surfaces append records after them (coverage)
+            if media is None and cover is not None and not cover.shadows:   # culling only: hits-only queries
+                h, hsub = self._intersect(o, d, kind, hits_only=True)
+                h, hsub, dropped = cover.cull_hits(self.ps.geo, h, hsub, o, d, self._retrace_hits, self.offset)
+                if dropped.size:      # more than coverage.MAX_LAYERS culled faces on the way: radiance 0
+                    thr = thr.copy()
+                    thr[dropped] = 0.0
+            elif media is not None or cover is not None:
                 hits = self._intersect(o, d, kind)
-                hits, seg_t, stack = media.skip_false_hits(
-                    self.ps.geo, hits, o, d, stack, lambda o2, d2: self._intersect(o2, d2, "secondary"),
-                    lambda hs, o2, d2: self.offset(surface_from_hits(self.ps.geo, hs, o2, d2), d2))
-                thr = thr * media.attenuation(stack, seg_t)
+                if cover is not None:  # alpha cut-outs skipped, blend surfaces split, back faces culled
+                    parent, w, hits = cover.resolve(self.ps.geo, hits, o, d, diffs if use_diffs else None,
+                                                    self._retrace, self.offset, thr_max=max_component(thr),
+                                                    cutoff=self.throughput_cutoff)
+                    if parent.size > n_rays:   # blend records: the rays they continue, weighted
+                        o, d, sample = take_rows(o, parent), take_rows(d, parent), np.take(sample, parent)
+                        thr = take_rows(thr, parent)
+                        diffs = None if diffs is None else tuple(take_rows(x, parent) for x in diffs)
+                        stack = None if stack is None else stack[parent]
+                        bpdf = None if bpdf is None else np.take(bpdf, parent)
+                    if np.any(w != 1.0):
+                        thr = thr * w[:, None]
+                if media is not None:  # nested dielectrics: continue through false hits; Beer-Lambert absorption
+                    hits, seg_t, stack = media.skip_false_hits(
+                        self.ps.geo, hits, o, d, stack, self._retrace_covered,
+                        lambda hs, o2, d2: self.offset(surface_from_hits(self.ps.geo, hs, o2, d2), d2))
+                    thr = thr * media.attenuation(stack, seg_t)
                 h = np.flatnonzero(hits.hit)
                 hsub = _subset_hits(hits, h)
             else:
                 h, hsub = self._intersect(o, d, kind, hits_only=True)
+            one_per_sample = depth == 0 and o.shape[0] == n_rays   # camera rays, no blend split: unique samples
             if h.size < o.shape[0]:
                 miss = np.ones(o.shape[0], dtype=bool)
                 miss[h] = False
@@ -168,7 +206,7 @@ class Integrator:
                 Lm = self.background(take_rows(d, m), primary=depth == 0)
                 if bpdf is not None:   # escaped BSDF-sampled rays: MIS against the environment's light sampling
                     Lm = Lm * self._escape_weight(take_rows(d, m), np.take(bpdf, m))[:, None]
-                _scatter_add(L, np.take(sample, m), take_rows(thr, m) * Lm, unique=depth == 0)
+                _scatter_add(L, np.take(sample, m), take_rows(thr, m) * Lm, unique=one_per_sample)
             if h.size == 0:
                 break
             dsub = None
@@ -178,9 +216,11 @@ class Integrator:
             if self.ps.has_normal_maps:
                 apply_normal_maps(surf, materials)
             s_idx, thr_h = sample[h], take_rows(thr, h)
-            if aovs is not None and depth == 0:
-                aovs["depth"][s_idx] = hsub.t
-                aovs["normal"][s_idx] = surf.ns
+            aov_rows = None
+            if aovs is not None and depth == 0:   # the nearest surface a camera ray keeps (not blend records)
+                aov_rows = np.flatnonzero(h < n_rays)
+                aovs["depth"][s_idx[aov_rows]] = hsub.t[aov_rows]
+                aovs["normal"][s_idx[aov_rows]] = surf.ns[aov_rows]
             mids = surf.material_id
             present = np.flatnonzero(np.bincount(mids, minlength=len(materials)))
             Lh = np.zeros((h.size, 3))
@@ -200,7 +240,8 @@ class Integrator:
                                                         np.take(bpdf, h[sel]))[:, None]
                     Lh[sel] += Le
                 if want_albedo:
-                    aovs["albedo"][s_idx[sel]] = mat.albedo(ctx)
+                    first = h[sel] < n_rays
+                    aovs["albedo"][s_idx[sel[first]]] = mat.albedo(ctx)[first]
                 if mat.has_diffuse and use_ambient:
                     Lh[sel] += mat.albedo(ctx) * ambient
             # direct light at hits whose material has a non-delta lobe
@@ -223,7 +264,7 @@ class Integrator:
                 visible = self.visibility(dsurf)
                 Ld = self._direct_light(dsurf, bsdf, visible, rng, sampled, depth)
                 put_rows(Lh, diffuse_idx, take_rows(Lh, diffuse_idx) + Ld)
-            _scatter_add(L, s_idx, thr_h * Lh, unique=depth == 0)   # camera rays: one per sample
+            _scatter_add(L, s_idx, thr_h * Lh, unique=one_per_sample)   # camera rays: one per sample
             if depth == self.max_depth:
                 break
             # specular continuation
@@ -240,7 +281,23 @@ class Integrator:
         """``visible(idx, wi, dist, end=None)`` for the hits of ``surf``: shadow rays through Embree's occlusion
         query from the offset origins (:mod:`pyrt.geometry.offsets`) to the light, a bool array True where
         unblocked; with :attr:`transparent_shadows` (and a dielectric in the scene) a transmittance (k, 3)
-        through the dielectrics on the way (:func:`pyrt.integrators.shadows.transmittance`) instead."""
+        through the dielectrics on the way (:func:`pyrt.integrators.shadows.transmittance`) instead; in a scene with
+        alpha-masked or blended materials (:mod:`pyrt.integrators.coverage`) always a transmittance: the rays the
+        occlusion query finds blocked are re-traced through those surfaces (and through dielectrics with
+        :attr:`transparent_shadows`)."""
+        cover = self.ps.coverage
+        if cover is not None and cover.shadows:
+            def covered(idx, wi, dist, end=None):
+                """Transmittance (k, 3) of the shadow rays from hits ``idx`` through see-through surfaces."""
+                origins, tmax = self.offset.shadow(surf.subset(idx), wi, dist, end)
+                T = np.ones((idx.size, 3))
+                b = np.flatnonzero(self._occluded(origins, wi, tmax))   # the cheap any-hit query first
+                if b.size:
+                    T[b] = shadows.transmittance(self.ps, self.offset, take_rows(origins, b), take_rows(wi, b),
+                                                 np.take(tmax, b), self._shadow_hits, coverage.MAX_LAYERS,
+                                                 coverage=cover, dielectrics=self.transparent_shadows)
+                return T
+            return covered
         if self.transparent_shadows:
             def transmitted(idx, wi, dist, end=None):
                 """Transmittance (k, 3) of the shadow rays from hits ``idx`` along ``wi`` to the light."""

@@ -6,12 +6,16 @@ Format (every key optional unless marked; unknown keys are errors naming the tab
     [render]            # max_depth, seed, background (RGB radiance), ambient (RGB radiance),
                         # shading_normal_fallback (bool, default true: see the README's conventions),
                         # throughput_cutoff, offset (strategy name), transparent_shadows (bool),
-                        # integrator ("whitted" | "glossy"), glossy_samples, glossy_depth, glossy_threshold
+                        # integrator ("whitted" | "glossy"), glossy_samples, glossy_depth, glossy_threshold,
+                        # target_error, time_budget (s), max_spp, min_spp (adaptive rendering: pyrt.render)
     [materials.NAME]    # type = "lambert" | "blinn_phong" | "mirror" | "glass" | ... ; the rest are the
                         # material constructor's keyword arguments (validated by it); a parameter
                         # may be a texture table, e.g. albedo = {type = "image", path = "wood.png"}
                         # (types in pyrt.textures.TEXTURES, paths relative to the scene file);
                         # normal_map = "normals.png" or {type = "normal_map", path = ..., strength = ...}
+                        # coverage, any type: alpha_mode = "opaque" | "mask" | "blend", opacity (number or
+                        # 1-channel texture, e.g. {type = "image", path = "leaf.png", select = 3, srgb = false}),
+                        # alpha_cutoff (mask, default 0.5), double_sided (false: back faces culled)
     [[meshes]]          # file = "path" (relative to the scene file) OR primitive = "sphere" | "box" |
                         # "plane" | "cylinder"; material = NAME (required); transform: translate, rotate
                         # ([angle_deg, [x, y, z]] or a list of them), scale, or matrix (4x4);
@@ -23,7 +27,7 @@ Format (every key optional unless marked; unknown keys are errors naming the tab
                         # area lights: type = "rect" (center, normal, size, tangent) | "disk" (center, normal,
                         # radius) | "sphere" (center, radius); radiance or power, color, n_samples;
                         # visible = true adds the emitting mesh (seen by camera rays)
-    [environment]       # type = "constant" (color) | "latlong" (file: EXR, relative to the scene file) |
+    [environment]       # type = "constant" (color) | "latlong" (file: EXR or .hdr, relative to the scene file) |
                         # "cube" (file: cross image, or faces = [6 files]) | "sky" (procedural: sun_direction,
                         # sun_angle, sun_radiance, zenith, horizon, ground, width, height);
                         # intensity, rotate ([angle_deg, [x, y, z]] or a list), filter, hide_background,
@@ -65,12 +69,15 @@ class SceneFileNotFoundError(SceneFileError, FileNotFoundError):
 
 _CAMERA_KEYS = {"position", "target", "up", "fov", "width", "height", "spp", "jitter"}
 _RENDER_OPTIONS = ("max_depth", "seed", "throughput_cutoff", "offset", "transparent_shadows", "integrator",
-                   "glossy_samples", "glossy_depth", "glossy_threshold")
+                   "glossy_samples", "glossy_depth", "glossy_threshold",
+                   "target_error", "time_budget", "max_spp", "min_spp")
 _RENDER_KEYS = {"background", "ambient", "shading_normal_fallback", *_RENDER_OPTIONS}
 _MESH_COMMON = {"file", "primitive", "material", "translate", "rotate", "scale", "matrix", "smooth", "name",
                 "crease_angle", "shading"}
 _PRIMITIVE_KEYS = {"sphere": {"radius", "subdivisions"}, "box": {"extents"}, "plane": {"size", "normal"},
                    "cylinder": {"radius", "height", "sections"}}
+#: material keys every type accepts: coverage (Material.set_coverage)
+_COVERAGE_KEYS = ("opacity", "alpha_mode", "alpha_cutoff", "double_sided")
 _TOP_KEYS = {"camera", "render", "materials", "meshes", "lights", "environment"}
 _ENV_COMMON = {"type", "intensity", "rotate", "hide_background", "background", "lighting", "samples", "heuristic",
                "preview_samples", "name"}
@@ -259,7 +266,13 @@ def _load(data, base, path):
         kwargs.setdefault("name", name)
         normal_map = kwargs.pop("normal_map", None)
         kwargs = {k: _texture(v, f"{where}.{k}", base, path) if isinstance(v, dict) else v for k, v in kwargs.items()}
+        cover = {k: kwargs.pop(k) for k in _COVERAGE_KEYS if k in kwargs}
         materials[name] = _construct(MATERIALS[kind], kwargs, where, path)
+        if cover:   # any material: Material.set_coverage (pyrt.integrators.coverage)
+            try:
+                materials[name].set_coverage(**cover)
+            except Error as exc:
+                raise SceneFileError(f"{path}: {where}: {exc}") from None
         if normal_map is not None:
             spec_nm = {"type": "normal_map", "path": normal_map} if isinstance(normal_map, str) else normal_map
             materials[name].normal_map = _texture(spec_nm, f"{where}.normal_map", base, path)

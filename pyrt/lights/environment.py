@@ -49,7 +49,7 @@ from pyrt.shaders import textures as _tex
 from pyrt.shaders.vec import max_component
 
 from pyrt.core import checks
-from pyrt.core.image_io import read_exr
+from pyrt.core.image_io import read_exr, read_hdr
 from pyrt.core.registry import Registry
 from pyrt.core.transforms import SceneError, transform_matrix
 from pyrt.lights.base import Light, LightError, LightSample
@@ -91,19 +91,16 @@ def _rotation_matrix(owner, rotate):
 
 
 def load_environment_image(path):
-    """Read an HDR environment image (H, W, 3) float32. EXR only (via :func:`pyrt.read_exr`).
-
-    Radiance ``.hdr`` files need a reader that is not installed here (imageio has no RGBE backend
-    without FreeImage/OpenCV); convert them to EXR first.
-    """
+    """Read an HDR environment image (H, W, 3) float32: OpenEXR (:func:`pyrt.read_exr`) or Radiance ``.hdr`` /
+    ``.pic`` / ``.rgbe`` (:func:`pyrt.core.image_io.read_hdr`, OpenCV from the ``[hdr]`` extra), by extension."""
     path = os.fspath(path)
     ext = os.path.splitext(path)[1].lower()
     if ext == ".exr":
         return read_exr(path)
     if ext in (".hdr", ".pic", ".rgbe"):
-        raise EnvironmentMapError(f"{path}: Radiance .hdr is not supported (no maintained RGBE reader is "
-                                  "installed); convert it to OpenEXR, e.g. with oiiotool or Blender")
-    raise EnvironmentMapError(f"{path}: unsupported environment image type {ext!r}; use an OpenEXR (.exr) file")
+        return read_hdr(path)
+    raise EnvironmentMapError(f"{path}: unsupported environment image type {ext!r}; use an OpenEXR (.exr) or "
+                              "Radiance (.hdr) file")
 
 
 def _image(owner, image):
@@ -310,7 +307,7 @@ class LatLongEnvironment(Environment):
 
     Parameters
     ----------
-    image : (H, W, 3) array or path to an OpenEXR file
+    image : (H, W, 3) array or path to an OpenEXR or Radiance .hdr file
         Linear radiance, row 0 = straight up (+y), ``u = atan2(x, -z) / 2 pi`` (Mitsuba 3's mapping;
         see :mod:`shaders.envmap`).
     filter : {"bilinear", "nearest"}

@@ -111,7 +111,7 @@ class AngularMapEnvironment(_ProbeEnvironment):
 
     Parameters
     ----------
-    image : (S, S, 3) array or path to an OpenEXR file
+    image : (S, S, 3) array or path to an OpenEXR or Radiance .hdr file
         Linear radiance; the disc inscribed in the square holds every direction: the centre is -z,
         the rim +z, +x right, +y up (:mod:`shaders.probes`; ``r = acos(-z) / (pi sqrt(x^2 + y^2))``).
     filter : {"bilinear", "nearest"}
@@ -127,7 +127,7 @@ class MirrorBallEnvironment(_ProbeEnvironment):
 
     Parameters
     ----------
-    image : (S, S, 3) array or path to an OpenEXR file
+    image : (S, S, 3) array or path to an OpenEXR or Radiance .hdr file
         Linear radiance; the disc inscribed in the square is the ball: its centre reflects -z (back
         toward the camera), its rim +z, +x right, +y up (:mod:`shaders.probes`; OpenGL's sphere map
         with z negated). Directions near +z are squeezed into the rim and are poorly resolved.

@@ -37,6 +37,14 @@ Declared attributes the integrators read to model no more than the scene needs: 
 (the environment preview's SH path), ``normal_map`` and ``uses_textures`` (ray differentials); the method
 ``glossy_alpha(ctx)`` (None: diffuse) tells the glossy integrator which lobes to trace.
 
+Coverage (glTF ``alphaMode``, ``alphaCutoff``, ``doubleSided``; any material, any scene): ``alpha_mode``
+(``"opaque"``, ``"mask"``: cut-outs where ``opacity < alpha_cutoff``, ``"blend"``: ``opacity`` x this surface
++ ``(1 - opacity)`` x what lies behind), ``opacity`` (the coverage alpha, a number or a 1-channel texture, read
+by :meth:`coverage`; not ``alpha``, which names microfacet roughness in pyrt),
+``alpha_cutoff`` and ``double_sided`` (False: back faces are invisible to camera and secondary rays); set them
+with :meth:`Material.set_coverage`. :mod:`pyrt.integrators.coverage` honours them; scenes without such a
+material pay nothing.
+
 A new model is one kernel in :mod:`pyrt.shaders` and one class registered with
 ``@MATERIALS.register("name")``; the contract tests (tests/test_material_contracts.py) pick it up.
 """
@@ -136,6 +144,10 @@ def check_color(name, value, owner, *, lo=0.0, hi=None):
     return arr
 
 
+#: the values of :attr:`Material.alpha_mode`
+ALPHA_MODES = ("opaque", "mask", "blend")
+
+
 def check_scalar(name, value, owner, *, lo=None, hi=None, lo_open=False):
     """Validate a real scalar (or a texture) with an optional range."""
     if is_texture(value):
@@ -193,6 +205,20 @@ class Material:
     #: ``{attribute: ("color" | "scalar", lo, hi, lo_open)}``: the ranges :meth:`validate` re-checks before every
     #: render (the constructor's checks, declared once for the classes that list them; None values skipped)
     ranges = {}
+    #: coverage mode (one of :data:`ALPHA_MODES`): ``"opaque"`` (alpha ignored), ``"mask"`` (hits where
+    #: :meth:`coverage` < :attr:`alpha_cutoff` do not exist: cut-outs, for every ray) or ``"blend"``
+    #: (straight-through transparency: opacity x this surface + (1 - opacity) x what lies behind, shadows x
+    #: (1 - opacity))
+    alpha_mode = "opaque"
+    #: coverage alpha in [0, 1]: a number or a 1-channel texture (glTF: baseColorFactor.a x texture a x vertex a);
+    #: named ``opacity`` because ``alpha`` is microfacet roughness in pyrt
+    opacity = 1.0
+    #: ``"mask"`` threshold: a hit is kept where opacity >= alpha_cutoff (glTF default 0.5)
+    alpha_cutoff = 0.5
+    #: both sides are surfaces (shaded with the normal turned toward the viewer); False: back faces (the side
+    #: opposite the winding normal) are culled for camera and secondary rays (they still cast shadows);
+    #: ignored by dielectrics and transmitting materials, whose back faces are the way out of their volume
+    double_sided = True
 
     @classmethod
     def example(cls):
@@ -215,6 +241,7 @@ class Material:
         an RGB triple), then calls ``super().validate()``.
         """
         checks.finite_attributes(self.label, self, MaterialError)
+        self._validate_coverage()
         for attr, (kind, lo, hi, lo_open) in self.ranges.items():
             value = getattr(self, attr)
             if value is None:
@@ -223,6 +250,50 @@ class Material:
                 check_color(attr, value, self.label, lo=lo, hi=hi)
             else:
                 check_scalar(attr, value, self.label, lo=lo, hi=hi, lo_open=lo_open)
+
+    def _validate_coverage(self):
+        """Check :attr:`alpha_mode`, :attr:`opacity`, :attr:`alpha_cutoff` and :attr:`double_sided`."""
+        if self.alpha_mode not in ALPHA_MODES:
+            raise MaterialError(f"{self.label}: alpha_mode must be one of {ALPHA_MODES}, got {self.alpha_mode!r}")
+        if is_texture(self.opacity):
+            if self.opacity.channels != 1:
+                raise MaterialError(f"{self.label}: an opacity texture must have 1 channel, got "
+                                    f"{self.opacity.channels}")
+        else:
+            check_scalar("opacity", self.opacity, self.label, lo=0.0, hi=1.0)
+        check_scalar("alpha_cutoff", self.alpha_cutoff, self.label, lo=0.0, hi=1.0)
+        if not isinstance(self.double_sided, (bool, np.bool_)):
+            raise MaterialError(f"{self.label}: double_sided must be True or False, got {self.double_sided!r}")
+
+    def set_coverage(self, *, opacity=None, alpha_mode=None, alpha_cutoff=None, double_sided=None):
+        """Set the coverage attributes given (the others keep their values); returns ``self``.
+
+        Parameters
+        ----------
+        opacity : float or Texture, optional
+            Coverage alpha in [0, 1] (a 1-channel texture, e.g. ``ImageTexture(rgba, select=3, srgb=False)``).
+        alpha_mode : {"opaque", "mask", "blend"}, optional
+        alpha_cutoff : float, optional
+            In [0, 1]; ``"mask"`` keeps hits where opacity >= alpha_cutoff.
+        double_sided : bool, optional
+            False culls back faces for camera and secondary rays.
+
+        Raises
+        ------
+        MaterialError
+            Naming the material and the value out of range.
+        """
+        for attr, value in (("opacity", opacity), ("alpha_mode", alpha_mode), ("alpha_cutoff", alpha_cutoff),
+                            ("double_sided", double_sided)):
+            if value is not None:
+                numeric = isinstance(value, numbers.Real) and not isinstance(value, bool)
+                setattr(self, attr, float(value) if attr != "alpha_mode" and numeric else value)
+        self._validate_coverage()
+        return self
+
+    def coverage(self, ctx):
+        """Coverage alpha (N,) in [0, 1] at the hits of ``ctx`` (:attr:`opacity` resolved, clipped)."""
+        return np.clip(self.param(self.opacity, ctx, 1), 0.0, 1.0)
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)

@@ -40,7 +40,7 @@ def load_image(path):
     Parameters
     ----------
     path : str or os.PathLike
-        PNG/JPEG/TIFF (8 or 16 bit) or EXR, read by :func:`pyrt.core.image_io.read_image`.
+        PNG/JPEG/TIFF (8 or 16 bit), EXR or Radiance .hdr, read by :func:`pyrt.core.image_io.read_image`.
 
     Returns
     -------

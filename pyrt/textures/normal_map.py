@@ -62,8 +62,9 @@ def perturb_normal(ctx, normal_map):
     Parameters
     ----------
     ctx : SurfaceBatch
-        Uses ``ns`` (unit shading normal, turned toward the viewer), ``dpdu``, ``dpdv``, ``wo`` (or None)
-        and what the texture reads (``uv``, footprints).
+        Uses ``ns`` (unit shading normal, turned toward the viewer), ``dpdu``, ``dpdv``, ``wo`` (or None),
+        ``front`` (or None: all front faces; on back faces the perturbation is mirrored with the surface) and what
+        the texture reads (``uv``, footprints).
     normal_map : Texture
         A :class:`NormalMap` (its ``strength`` and ``flip_green`` apply) or any 3-channel texture
         whose values are ``(n + 1) / 2`` of a tangent-space normal (strength 1, OpenGL green).
@@ -85,6 +86,11 @@ def perturb_normal(ctx, normal_map):
     else:
         strength, flip_green = NormalMap.strength, NormalMap.flip_green
     n_ts = _tex.decode_normal_map(rgb, strength, flip_green)
+    if ctx.front is not None and not np.all(ctx.front):
+        # a back face (double-sided surface seen from behind, ns turned toward the viewer): the same micro-surface
+        # seen from its other side, so the whole perturbed normal is mirrored, -(x t + y b + z n_front), as the
+        # glTF Sample Viewer flips t, b and n on back faces (not only n)
+        n_ts = np.where(np.asarray(ctx.front)[:, None], n_ts, n_ts * np.array([-1.0, -1.0, 1.0]))
     t, b = _tex.tangent_frame(ns, np.asarray(ctx.dpdu, dtype=np.float64), np.asarray(ctx.dpdv, dtype=np.float64))
     n = _tex.apply_tangent_normal(n_ts, ns, t, b)
     wo = ctx.wo

@@ -7,28 +7,33 @@ of models, locally or on a Dask cluster, and :func:`main` is the ``pyrt-preview`
 
 The pieces, each a function that can be used and tested alone
 ------------------------------------------------------------
-- **Up axis** (:func:`detect_up_axis`): glTF is +y by specification. For OBJ/PLY/STL the candidate
-  ups +y and +z are scored by the area of downward-facing triangles within 1% of the model's extent
-  from its lowest point along that axis (the base a model stands on); the larger base wins; with no
-  base on either, STL (a CAD / 3D-printing format) is taken as +z and the others as +y. Override
-  with ``up="+z"`` etc.
-- **Framing** (:func:`frame_camera`): the bounding sphere (centre of the bounding box, radius to the
-  farthest vertex) is seen at ``azimuth``/``elevation`` (degrees; azimuth 0 looks from +z toward -z,
-  positive azimuth moves the camera toward +x) from the distance ``d = margin R / sin(a)``, where
-  ``a`` is the smaller of the vertical and horizontal half fields of view: the sphere's silhouette
-  cone (half-angle ``asin(R / d)``) then fits inside the image on both axes.
+- **Up axis** (:func:`detect_up_axis`): glTF is +y by specification; a PLY header or OBJ comment that names
+  the up axis is obeyed (:func:`metadata_up_axis`). Otherwise :func:`guess_up_axis` stands the model on its
+  convex hull for +y and +z: the support polygon (hull vertices within 2% of the size of the lowest) scored
+  by its area, penalised when the surface centroid would tip over its edge or when the candidate's normal
+  plane is a mirror symmetry and the other's is not; a 1.5x lead wins, else STL (a CAD / 3D-printing
+  format) is taken as +z and the others as +y. Override with ``up="+z"`` etc.
+- **Framing** (:func:`frame_points`, ``framing="fit"``): seen at ``azimuth``/``elevation`` (degrees; azimuth
+  0 looks from +z toward -z, positive azimuth moves the camera toward +x), the camera is moved sideways
+  until the projection of the model's convex hull is centred, and along the view axis until it spans
+  ``1 / margin`` of the frame in its limiting dimension (nothing is clipped: the model projects inside its
+  hull). ``framing="sphere"`` (:func:`frame_camera`): the bounding sphere (centre of the bounding box,
+  radius to the farthest vertex) from the distance ``d = margin R / sin(a)``, where ``a`` is the smaller of
+  the vertical and horizontal half fields of view.
 - **Studio rig** (:func:`studio_rig`): key, fill and rim *directional* lights placed relative to the
   camera (key high on the camera's left, fill low on its right, rim behind), irradiance in W/m^2.
   Directional lights make the rig independent of the model's size and position (what "scaled to
   the model" needs: the same picture at any scale) and give a ground that is lit uniformly, which
-  is what the shadow catcher needs.
+  is what the shadow catcher needs. The ambient light is a procedural studio environment
+  (:mod:`~pyrt.apps.preview.studio`, ``studio_env=True``) that metals and glossy surfaces reflect, with the
+  constant ambient's mean radiance; ``studio_env=False`` gives the constant ambient term ``L_a``.
 - **Shadow-catcher ground**: a Lambertian plane of albedo ``rho`` just below the model (100 radii
   wide). Its unshadowed radiance is the constant ``L_g = rho / pi * sum_i E_i max(0, sin el_i) +
   rho * L_a`` (:func:`ground_radiance`, the integrator's own formula), and the background (what
   misses see) is set to exactly ``L_g``: the ground disappears into the backdrop and only the
   shadows it catches remain. The asset's own point/spot lights (``lights="asset"/"both"``) light
   the ground unevenly; the backdrop then matches the ground under the model's centre. With an
-  environment map (``environment=``, an OpenEXR lat-long map, used as a light with
+  environment map (``environment=``, an OpenEXR or Radiance .hdr lat-long map, used as a light with
   ``environment_lighting``/``environment_samples``) camera rays see the backdrop plus the map's
   unshadowed SH irradiance on the ground (``rho / pi * E_sh(+y)``); without a ground they see the map.
 - **Exposure** (:func:`auto_exposure`): Reinhard et al. 2002's photographic key over the pixels that
@@ -57,11 +62,12 @@ with status ``timeout`` when the next view would exceed it (a single long view i
 
 Modules: :mod:`~pyrt.apps.preview.options` (options, errors), :mod:`~pyrt.apps.preview.rig` (up axis,
 framing, studio rig, ground, exposure), :mod:`~pyrt.apps.preview.render` (the preview scene, files),
-:mod:`~pyrt.apps.preview.batch` (batches, Dask), :mod:`~pyrt.apps.preview.cli` (``pyrt-preview``).
+:mod:`~pyrt.apps.preview.studio` (the studio environment), :mod:`~pyrt.apps.preview.batch` (batches, Dask), :mod:`~pyrt.apps.preview.cli` (``pyrt-preview``).
 """
 from pyrt.apps.preview.options import AXES, BudgetExceeded, PreviewError, PreviewInterrupted, PreviewOptions
-from pyrt.apps.preview.rig import (RIG, auto_exposure, bounding_sphere, detect_up_axis, frame_camera, ground_radiance,
-                                   studio_rig, up_transform)
+from pyrt.apps.preview.rig import (RIG, auto_exposure, bounding_sphere, detect_up_axis, frame_camera, frame_points,
+                                   ground_radiance, guess_up_axis, hull_points, metadata_up_axis, studio_rig,
+                                   up_transform)
 from pyrt.apps.preview.render import PreviewResult, PreviewScene, contact_sheet, render_preview, write_files
 from pyrt.apps.preview.batch import (AssetReport, collect_inputs, format_summary, output_name, preview_asset,
                                      preview_batch, summary_rows, write_summary)
@@ -69,7 +75,8 @@ from pyrt.apps.preview.cli import main
 
 __all__ = [
     "AXES", "BudgetExceeded", "PreviewError", "PreviewInterrupted", "PreviewOptions", "RIG", "auto_exposure", "bounding_sphere",
-    "detect_up_axis", "frame_camera", "ground_radiance", "studio_rig", "up_transform", "PreviewResult", "PreviewScene",
+    "detect_up_axis", "frame_camera", "frame_points", "ground_radiance", "guess_up_axis", "hull_points",
+    "metadata_up_axis", "studio_rig", "up_transform", "PreviewResult", "PreviewScene",
     "contact_sheet", "render_preview", "write_files", "AssetReport", "collect_inputs", "format_summary",
     "output_name", "preview_asset", "preview_batch", "summary_rows", "write_summary", "main",
 ]

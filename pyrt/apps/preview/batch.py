@@ -171,7 +171,7 @@ def _distributed():
         import distributed
     except ImportError as exc:
         raise PreviewError(f"running a batch on Dask needs the packages dask and distributed ({exc}): "
-                           "pip install 'pyrt[preview]' (the 'preview' extra)") from None
+                           "pip install 'pyrt-embree[preview]' (the 'preview' extra)") from None
     return distributed
 
 

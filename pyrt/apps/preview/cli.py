@@ -16,6 +16,7 @@ import time
 import traceback
 
 from pyrt.core.errors import Error
+from pyrt.core.image_io import TONEMAPS
 from pyrt.io.assets import FORMATS
 from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, check_output_folder, check_outputs, finite_float,
                               interrupts, nonnegative_int, positive_float, positive_int)
@@ -40,14 +41,21 @@ def _parser():
     ap.add_argument("--azimuth", type=finite_float, default=35.0)
     ap.add_argument("--elevation", type=finite_float, default=20.0)
     ap.add_argument("--up", default="auto", choices=["auto", *AXES])
+    ap.add_argument("--framing", default="fit", choices=["fit", "sphere"],
+                    help="fit: the model's projected hull fills the frame (default); sphere: its bounding sphere")
     ap.add_argument("--camera", default="auto", choices=["auto", "asset"])
     ap.add_argument("--lights", default="studio", choices=["studio", "asset", "both"])
     ap.add_argument("--no-ground", action="store_true", help="no shadow-catcher ground plane")
-    ap.add_argument("--env", help="lat-long environment map (OpenEXR)")
+    ap.add_argument("--studio-env", default="on", choices=["on", "off"],
+                    help="the procedural studio environment (soft boxes, reflected by metals; replaces the constant "
+                         "ambient with the same mean radiance; ignored with --env)")
+    ap.add_argument("--env", help="lat-long environment map (OpenEXR or Radiance .hdr)")
     ap.add_argument("--env-lighting", default="mis", help="environment light strategy (mis, map, bsdf, preview, ...)")
     ap.add_argument("--env-samples", type=positive_int, default=8, help="environment light samples per hit")
     ap.add_argument("--exposure", type=finite_float, help="exposure in stops (default: automatic)")
-    ap.add_argument("--tonemap", default="reinhard", choices=["linear", "film", "reinhard"])
+    ap.add_argument("--tonemap", default="reinhard", choices=TONEMAPS,
+                    help="tone mapper: reinhard (default; automatic white point), pbr_neutral (Khronos PBR Neutral, "
+                         "the glTF Sample Viewer's), aces (Filament's), film, linear, reinhard_rgb")
     ap.add_argument("--turntable", type=nonnegative_int, default=0, metavar="N", help="render N views around the model")
     ap.add_argument("--format", default=None, help="batch output formats, e.g. png,exr (default png)")
     ap.add_argument("--aovs", action="store_true", help="also write depth/normal/albedo")
@@ -82,8 +90,8 @@ def main(argv=None):
 def _run(args, cancel):
     formats = tuple(args.format.split(",")) if args.format else ("png",)
     opts = PreviewOptions(width=args.width, height=args.height, spp=args.spp, fov=args.fov, azimuth=args.azimuth,
-                          elevation=args.elevation, up=args.up, camera=args.camera, lights=args.lights,
-                          ground=not args.no_ground, environment=args.env, environment_lighting=args.env_lighting,
+                          elevation=args.elevation, up=args.up, framing=args.framing, camera=args.camera, lights=args.lights,
+                          ground=not args.no_ground, studio_env=args.studio_env == "on", environment=args.env, environment_lighting=args.env_lighting,
                           environment_samples=args.env_samples, exposure=args.exposure,
                           tonemap=args.tonemap, turntable=args.turntable, formats=formats, aovs=args.aovs,
                           seed=args.seed, time_budget=args.budget, threads=args.threads).validate()

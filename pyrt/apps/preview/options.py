@@ -4,6 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from pyrt.core.errors import Error
+from pyrt.core.image_io import TONEMAPS
 
 
 class PreviewError(Error, ValueError):
@@ -28,22 +29,24 @@ class PreviewOptions:
     fov: float = 35.0                    # vertical field of view
     azimuth: float = 35.0                # camera azimuth around the up axis (0 = from +z)
     elevation: float = 20.0              # camera elevation above the ground plane
-    margin: float = 1.05                 # bounding-sphere radius multiplier for framing
+    margin: float = 1.1                  # framing margin: the model spans 1 / margin of the frame
+    framing: str = "fit"                 # "fit" (projected hull fills the frame) or "sphere" (bounding sphere)
     up: str = "auto"                     # "auto" or one of "+x", "-x", "+y", "-y", "+z", "-z"
     camera: str = "auto"                 # "auto" (framed) or "asset" (the file's first camera)
     lights: str = "studio"               # "studio", "asset" or "both"
     key: float = 3.0                     # key-light irradiance (W/m^2)
     fill_ratio: float = 0.35
     rim_ratio: float = 0.7
-    ambient: float = 0.1                 # constant ambient radiance as a fraction of key / pi
+    ambient: float = 0.1                 # ambient radiance as a fraction of key / pi (the studio env's mean)
+    studio_env: bool = True              # the procedural studio environment replaces the constant ambient
     ground: bool = True
     ground_albedo: float = 0.5
-    environment: str | None = None       # OpenEXR lat-long map
+    environment: str | None = None       # lat-long map: OpenEXR or Radiance .hdr
     environment_intensity: float = 1.0
     environment_lighting: str = "mis"    # EnvironmentLight strategy ("mis", "preview" = no shadows, no noise, ...)
     environment_samples: int = 8         # environment light samples per hit
     exposure: float | None = None        # stops; None = automatic
-    tonemap: str = "reinhard"
+    tonemap: str = "reinhard"            # any of pyrt.core.image_io.TONEMAPS (pbr_neutral, aces, ...)
     turntable: int = 0                   # number of views (0 = a single view)
     formats: tuple = ("png",)            # any of "png", "exr"
     aovs: bool = False
@@ -66,6 +69,8 @@ class PreviewOptions:
             raise PreviewError(f"margin must be > 0, got {self.margin}")
         if self.up != "auto" and self.up not in AXES:
             raise PreviewError(f"up must be 'auto' or one of {sorted(AXES)}, got {self.up!r}")
+        if self.framing not in ("fit", "sphere"):
+            raise PreviewError(f"framing must be 'fit' or 'sphere', got {self.framing!r}")
         if self.camera not in ("auto", "asset"):
             raise PreviewError(f"camera must be 'auto' or 'asset', got {self.camera!r}")
         if self.lights not in ("studio", "asset", "both"):
@@ -80,6 +85,8 @@ class PreviewOptions:
         for name in ("key", "fill_ratio", "rim_ratio", "ambient"):
             if not getattr(self, name) >= 0:
                 raise PreviewError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if self.tonemap not in TONEMAPS:
+            raise PreviewError(f"tonemap must be one of {', '.join(TONEMAPS)}, got {self.tonemap!r}")
         if self.time_budget is not None and not self.time_budget > 0:
             raise PreviewError(f"time_budget must be > 0 seconds, got {self.time_budget}")
         return self

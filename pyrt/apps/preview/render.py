@@ -23,8 +23,9 @@ from pyrt.materials import Lambert
 from pyrt.scene import Scene
 from pyrt.io.assets import Asset, load_asset
 from pyrt.apps.preview.options import BudgetExceeded, PreviewError, PreviewInterrupted, PreviewOptions
-from pyrt.apps.preview.rig import (auto_exposure, bounding_sphere, detect_up_axis, frame_camera, ground_radiance,
-                                   studio_rig, up_transform)
+from pyrt.apps.preview.studio import STUDIO_PREVIEW_SAMPLES, StudioEnvironment, camera_rotation
+from pyrt.apps.preview.rig import (auto_exposure, bounding_sphere, detect_up_axis, frame_camera, frame_points,
+                                   ground_radiance, hull_points, studio_rig, up_transform)
 
 
 # ============================================================================ the preview scene
@@ -49,6 +50,10 @@ class PreviewScene:
         self.center, self.radius = bounding_sphere(v)
         if not self.radius > 0:
             raise PreviewError(f"{asset.path}: the model has zero size")
+        self.hull = hull_points(v)              # what the framing fits (the model's projection lies inside)
+        if o.turntable > 1:                     # every view fits all views' hulls: a turntable does not breathe
+            self.hull = hull_points(np.concatenate([(self.hull - self.center) @ camera_rotation(360.0 * k / o.turntable).T
+                                                    + self.center for k in range(o.turntable)]))
         self.ground_y = float(v[:, 1].min())
         del v
         self.timings["frame"] = time.perf_counter() - t0
@@ -66,6 +71,7 @@ class PreviewScene:
             foot = (self.center[0], self.ground_y - 1e-4 * self.radius, self.center[2])
             self.ground_mesh = self.scene.add_plane(foot, 100.0 * self.radius, g, name="ground")
         self.environment = None
+        self.studio_environment = False
         if o.environment:
             self.environment = LatLongEnvironment(o.environment, intensity=o.environment_intensity)
             set_environment(self.scene, self.environment, lighting=o.environment_lighting,
@@ -77,6 +83,13 @@ class PreviewScene:
         else:
             self._use_rig = o.lights in ("studio", "both")
         self.ambient_radiance = o.ambient * o.key / math.pi if self._use_rig else 0.0
+        if self._use_rig and o.studio_env and self.environment is None and self.ambient_radiance > 0:
+            # the studio environment replaces the constant ambient term with the same mean radiance (studio.py)
+            self.environment = StudioEnvironment(intensity=self.ambient_radiance)
+            set_environment(self.scene, self.environment, lighting="preview", preview_samples=STUDIO_PREVIEW_SAMPLES)
+            self.asset_lights = list(self.scene.lights)
+            self.studio_environment = True
+            self.ambient_radiance = 0.0
         self.scene.ambient = np.full(3, self.ambient_radiance)
         self.prepared = PreparedScene(self.scene, threads=o.threads)
         self.timings.update(self.prepared.timings)
@@ -96,14 +109,19 @@ class PreviewScene:
             R = self.up_matrix[:3, :3]
             cam = dataclasses.replace(ac, position=R @ ac.position, forward=R @ ac.forward, up=R @ ac.up)
             return cam.to_pyrt(o.width, o.height, spp=o.spp)
-        return frame_camera(self.center, self.radius, fov=o.fov, azimuth=azimuth, elevation=o.elevation,
-                            width=o.width, height=o.height, margin=o.margin, spp=o.spp)
+        if o.framing == "sphere":
+            return frame_camera(self.center, self.radius, fov=o.fov, azimuth=azimuth, elevation=o.elevation,
+                                width=o.width, height=o.height, margin=o.margin, spp=o.spp)
+        return frame_points(self.hull, fov=o.fov, azimuth=azimuth, elevation=o.elevation, width=o.width,
+                            height=o.height, margin=o.margin, spp=o.spp)
 
     def _set_view(self, azimuth):
         o = self.options
         self.scene.camera = self.camera(azimuth)
         rig = studio_rig(azimuth, o) if self._use_rig else []
         bg = np.zeros(3)
+        if self.studio_environment:     # turns with the camera, as the rig does; camera rays see the backdrop
+            self.environment.rotation = camera_rotation(azimuth)
         if o.ground:
             foot = (self.center[0], self.ground_y, self.center[2])
             bg = ground_radiance(list(self.asset_lights) + rig, o.ground_albedo, self.ambient_radiance, at=foot)
@@ -111,8 +129,9 @@ class PreviewScene:
                 up = np.array([[0.0, 1.0, 0.0]])
                 bg = bg + o.ground_albedo / math.pi * np.maximum(self.environment.irradiance_sh(up)[0], 0.0)
         if self.environment is not None:
-            # with a ground, camera rays see the matched backdrop; without one, the map itself
-            self.environment.hide_background = bool(o.ground)
+            # with a ground, camera rays see the matched backdrop; without one, the map itself (the studio: the
+            # backdrop, always)
+            self.environment.hide_background = bool(o.ground) or self.studio_environment
             self.environment.background = bg
         self.scene.background = bg
         self.scene.lights[:] = list(self.asset_lights) + rig

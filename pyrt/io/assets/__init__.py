@@ -28,6 +28,10 @@ Conventions
   doubleSided false, alphaMode OPAQUE; a primitive without a material gets the spec's default
   material (all of the above). Emissive values (times ``KHR_materials_emissive_strength``) are
   used as radiance in W m^-2 sr^-1.
+- **Coverage** (:mod:`~pyrt.io.assets.alpha`): ``alphaMode`` MASK / BLEND with ``alphaCutoff`` and
+  ``doubleSided`` become the material's coverage (:meth:`pyrt.materials.Material.set_coverage`, rendered by
+  :mod:`pyrt.integrators.coverage`); the alpha is baseColorFactor.a x baseColorTexture.a (linear) x
+  ``COLOR_0``.a; OPAQUE ignores every alpha.
 - **Lights** (``KHR_lights_punctual``): point/spot ``intensity`` is luminous intensity in candela,
   directional ``intensity`` is illuminance in lux. They become radiant intensity
   ``I = cd / K * color`` (W/sr) and irradiance ``E = lux / K * color`` (W/m^2) with
@@ -47,7 +51,8 @@ Conventions
 
 Modules: :mod:`~pyrt.io.assets.common` (errors, file types, material parameters),
 :mod:`~pyrt.io.assets.asset` (:class:`Asset` and adding it to a scene),
-:mod:`~pyrt.io.assets.materials` (parameters -> pyrt materials), :mod:`~pyrt.io.assets.gltf` (and its container
+:mod:`~pyrt.io.assets.materials` (parameters -> pyrt materials), :mod:`~pyrt.io.assets.alpha` (glTF coverage),
+:mod:`~pyrt.io.assets.gltf` (and its container
 :mod:`~pyrt.io.assets.gltf_file`, which documents the files a glTF may name),
 :mod:`~pyrt.io.assets.obj` (with the OBJ + MTL mapping), :mod:`~pyrt.io.assets.ply_stl`.
 """

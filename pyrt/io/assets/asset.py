@@ -16,6 +16,7 @@ from pyrt.geometry.normals import crease_normals
 from pyrt.lights import DirectionalLight, PointLight, SpotLight
 from pyrt.io.assets.common import DEFAULT_CREASE_ANGLE, AssetError, DefaultParams, PBRParams
 from pyrt.geometry.surface import degenerate_faces
+from pyrt.io.assets.alpha import apply_coverage, uses_alpha
 from pyrt.io.assets.materials import FaceColorTexture, VertexColorTexture, to_pyrt_material
 
 
@@ -36,6 +37,7 @@ class AssetMesh:
     uv: np.ndarray | None = None        # (V, 2) float64
     colors: np.ndarray | None = None    # (V, 3) float64 linear
     material: int = -1
+    alpha: np.ndarray | None = None     # (V,) coverage alpha (glTF COLOR_0's A), read by MASK / BLEND materials
     face_colors: np.ndarray | None = None   # (F, 3) float64 linear, one per face (PLY); used when colors is None
 
 
@@ -151,13 +153,15 @@ class Asset:
                 t0 = time.perf_counter()
                 prepared[inst.mesh] = _prepare_mesh(self.meshes[inst.mesh], crease_angle)
                 t_normals += time.perf_counter() - t0
-            tm, normals, colors = prepared[inst.mesh]
+            tm, normals, colors, alpha = prepared[inst.mesh]
             am = self.meshes[inst.mesh]
-            key = am.material if colors is None else ("vc", inst.mesh)
+            if alpha is not None and not uses_alpha(self._params(am)):
+                alpha = None
+            key = am.material if colors is None and alpha is None else ("vc", inst.mesh)
             per_face = colors is not None and am.colors is None     # face colours, one row per kept face
             if key not in mats:
-                mats[key] = self._material(am, colors, per_face=per_face)
-            material, vc_tex = mats[key]
+                mats[key] = self._material(am, colors, alpha, per_face=per_face)
+            material, vc_tex, va_tex = mats[key]
             m = pre @ inst.world_from_object
             if abs(np.linalg.det(m[:3, :3])) < 1e-300:
                 self.warnings.append(f"instance {inst.node or k} of mesh {am.name!r} has a singular transform "
@@ -167,6 +171,8 @@ class Asset:
                                  name=f"{name_prefix}{inst.node or am.name}#{k}")
             if vc_tex is not None:
                 vc_tex.bind(mid, scene.meshes[mid].faces, colors)
+            if va_tex is not None:
+                va_tex.bind(mid, scene.meshes[mid].faces, alpha[:, None])
             added.append(mid)
         if lights:
             for L in self.lights:
@@ -179,12 +185,18 @@ class Asset:
             timings["scene"] = timings.get("scene", 0.0) + (time.perf_counter() - t_start - t_normals)
         return added
 
-    def _material(self, am, colors, *, per_face=False):
-        """(pyrt material, vertex- or face-colour texture or None) for a mesh."""
-        params = self.materials[am.material] if am.material >= 0 else (
+    def _params(self, am):
+        """The loaded material parameters of a mesh (the format's default for ``material = -1``)."""
+        return self.materials[am.material] if am.material >= 0 else (
             PBRParams(name="gltf-default") if self.format == "gltf" else DefaultParams())
+
+    def _material(self, am, colors, alpha=None, *, per_face=False):
+        """(pyrt material, vertex- or face-colour texture or None, vertex-alpha texture or None) for a mesh; the
+        coverage (alpha mode, doubleSided) is set by :func:`pyrt.io.assets.alpha.apply_coverage`."""
+        params = self._params(am)
         vc = None if colors is None else (FaceColorTexture() if per_face else VertexColorTexture())
-        return to_pyrt_material(params, vertex_colors=vc), vc
+        va = VertexColorTexture(channels=1) if alpha is not None else None
+        return apply_coverage(to_pyrt_material(params, vertex_colors=vc), params, va), vc, va
 
 
 # ============================================================================ lights
@@ -224,20 +236,22 @@ def _transform_light(light, m):
 # ============================================================================ meshes for the scene
 
 def _prepare_mesh(am, crease_angle):
-    """(trimesh in object space with UVs, object-space normals, linear colours or None) for add_mesh.
+    """(trimesh in object space with UVs, object-space normals, linear colours or None, vertex alpha or None) for
+    add_mesh.
 
     The colours are per vertex, or, for a mesh with face colours only, per face of the faces
     :meth:`pyrt.Scene.add_mesh` keeps (its degenerate triangles, which it skips, are left out here too).
     """
-    v, f, uv, col, nrm = am.vertices, am.faces, am.uv, am.colors, am.normals
+    v, f, uv, col, nrm, alpha = am.vertices, am.faces, am.uv, am.colors, am.normals, am.alpha
     if nrm is None:
         src, f, nrm = crease_normals(v, f, crease_angle)
         v = v[src]
         uv = None if uv is None else uv[src]
         col = None if col is None else col[src]
+        alpha = None if alpha is None else alpha[src]
     if col is None and am.face_colors is not None:     # faces keep their order; add_mesh's test on the same arrays
         col = am.face_colors[~degenerate_faces(v, f)]
     tm = trimesh.Trimesh(vertices=v, faces=f, process=False)
     if uv is not None:
         tm.visual = trimesh.visual.TextureVisuals(uv=uv)
-    return tm, nrm, col
+    return tm, nrm, col, alpha

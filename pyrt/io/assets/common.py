@@ -73,6 +73,7 @@ class PBRParams:
     double_sided: bool = False
     alpha_mode: str = "OPAQUE"
     alpha_cutoff: float = 0.5
+    alpha_texture: ImageTexture | None = None              # base colour's alpha channel (MASK / BLEND)
     texcoord: int = 0
 
 

@@ -14,6 +14,7 @@ import trimesh
 
 from pyrt.textures import ImageTexture, NormalMap, TextureError
 from pyrt.io.assets.common import AssetError, PBRParams, TextureSlot, malformed_is_asset_error
+from pyrt.io.assets.alpha import ALPHA_MODES, alpha_texture
 from pyrt.io.assets.asset import Asset, AssetCamera, AssetInstance, AssetLight, AssetMesh
 from pyrt.io.assets.gltf_file import SUPPORTED_EXTENSIONS, GltfFile, pack_glb, read_gltf
 
@@ -124,8 +125,12 @@ def _gltf_material(g, mi, warnings, cache):
     P.double_sided = bool(m.get("doubleSided", False))
     P.alpha_mode = m.get("alphaMode", "OPAQUE")
     P.alpha_cutoff = float(m.get("alphaCutoff", 0.5))
-    if P.alpha_mode != "OPAQUE":
-        warnings.append(f"{what}: alphaMode {P.alpha_mode} is rendered opaque")
+    if P.alpha_mode not in ALPHA_MODES:
+        warnings.append(f"{what}: unknown alphaMode {P.alpha_mode!r} rendered opaque")
+        P.alpha_mode = "OPAQUE"
+    if P.alpha_mode != "OPAQUE" and P.base_color_texture is not None:   # coverage: pyrt.io.assets.alpha
+        slot = P.base_color_texture
+        P.alpha_texture = alpha_texture(*g.image_array(slot.image), slot, cache)
     sets = {s.texcoord for s in (P.base_color_texture, P.metallic_roughness_texture, P.emissive_texture) if s}
     for k, tex in (("normalTexture", P.normal_texture), ("occlusionTexture", P.occlusion_texture)):
         if k in m and tex is not None:
@@ -292,14 +297,18 @@ def _load_gltf(path):
             elif mat >= 0 and _has_textures(asset.materials[mat]):
                 W.append(f"{where}: material {asset.materials[mat].name!r} has textures but the primitive has "
                          f"no TEXCOORD_{tc}")
-            colors = None
+            colors = alpha = None
             if "COLOR_0" in attrs:
-                colors = np.clip(g.accessor(attrs["COLOR_0"])[:, :3], 0.0, None)
+                col4 = g.accessor(attrs["COLOR_0"])
+                colors = np.clip(col4[:, :3], 0.0, None)
+                if col4.shape[1] == 4:     # coverage alpha (used by MASK / BLEND materials only)
+                    alpha = np.clip(col4[:, 3], 0.0, 1.0)
             for arr, nm in ((normals, "NORMAL"), (uv, "TEXCOORD"), (colors, "COLOR_0")):
                 if arr is not None and arr.shape[0] != nv:
                     raise AssetError(f"{path}: {where}: {nm} has {arr.shape[0]} entries for {nv} vertices")
             asset.meshes.append(AssetMesh(name=f"{m.get('name', f'mesh{mi}')}.{pi}", vertices=pos, faces=faces,
-                                          normals=normals, uv=uv, colors=colors, material=mat))
+                                          normals=normals, uv=uv, colors=colors, material=mat,
+                                          alpha=alpha))
             ids.append(len(asset.meshes) - 1)
         mesh_prims[mi] = ids
         return ids

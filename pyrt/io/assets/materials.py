@@ -42,19 +42,21 @@ class VertexColorTexture(Texture):
 
     The colours are bound to scene meshes after :meth:`pyrt.Scene.add_mesh` (``bind(mesh_id,
     faces, colors)``, with the mesh's final faces so that ``ctx.prim_id`` indexes them). Hits on
-    meshes that were not bound get white (1, 1, 1).
+    meshes that were not bound get white (1, 1, 1). ``channels=1``: one value per vertex (bound as
+    (V, 1), e.g. COLOR_0's alpha).
     """
 
     channels = 3
 
-    def __init__(self):
+    def __init__(self, channels=3):
+        self.channels = int(channels)
         self._bound = {}
 
     def bind(self, mesh_id, faces, colors):
         self._bound[int(mesh_id)] = (np.asarray(faces, dtype=np.int64), np.asarray(colors, dtype=np.float64))
 
     def evaluate(self, ctx):
-        out = np.ones((ctx.n_hits, 3))
+        out = np.ones((ctx.n_hits, self.channels))
         for mid in np.unique(ctx.mesh_id):
             if int(mid) not in self._bound:
                 continue

@@ -15,10 +15,7 @@ in chunk order, by the calling thread (the same float64 sums whatever the thread
 """
 from __future__ import annotations
 
-from collections import deque
-from concurrent.futures import ThreadPoolExecutor
 from copy import copy
-from dataclasses import dataclass
 import threading
 import time
 import warnings
@@ -32,64 +29,20 @@ from pyrt.core.film import Film
 from pyrt.integrators.prepared import PreparedScene, RenderStats
 from pyrt.integrators.glossy import GlossyIntegrator
 from pyrt.integrators.whitted import Integrator
+from pyrt.render.adaptive import render_adaptive
+from pyrt.render.chunks import ChunkLayout, shade_fixed_chunk
+from pyrt.render.distributed import DaskRunner, fixed_group
+from pyrt.render.pool import INTEGRATORS, merge_stats, run_pool
+from pyrt.render.result import RenderResult
 
-#: ``integrator=`` names: strict Whitted (delta lobes only, the default) and glossy reflection rays
-INTEGRATORS = ("whitted", "glossy")
-
-
-@dataclass
-class RenderResult:
-    """Output of :func:`render_full`.
-
-    Attributes
-    ----------
-    image : (H, W, 3) float32 ndarray
-        Linear scene radiance.
-    aovs : dict or None
-        ``depth`` (H, W), ``normal`` and ``albedo`` (H, W, 3), float32, when asked for.
-    stats : RenderStats
-        Rays by kind, times, non-finite samples.
-    film : Film
-        The film the image was read from (per-pixel sample sums and weights).
-    complete : bool
-        False when the render was cancelled (``cancel`` set): only the chunks that finished are in the film;
-        the other pixels have weight 0 and are black in ``image`` (and 0 / infinite depth in the AOVs).
-        Above ``chunk_samples`` spp a pixel can be partly rendered: its weight (``film.weight``) is the
-        samples of its pieces done, and its value their mean, an unbiased estimate of the pixel's mean
-        over the union of those pieces' strata (each piece is spread evenly over the pixel), noisier.
-    chunks_done, chunks_total : int
-        Chunks (pixel range x sample range) rendered, and in the whole image.
-    pixels_done : int
-        Pixels with all their samples (all their chunks finished).
-    pixels_filled : int
-        Pixels with no sample at all after a cancellation that got one sample each (``fill=True``), so the
-        image has no black holes; 0 otherwise.
-    samples_done : int
-        Camera samples of the finished chunks (the fill's not counted); ``spp * H * W`` when complete.
-    """
-
-    image: np.ndarray
-    aovs: dict | None
-    stats: RenderStats
-    film: Film | None = None
-    complete: bool = True
-    chunks_done: int = 0
-    chunks_total: int = 0
-    pixels_done: int = 0
-    pixels_filled: int = 0
-    samples_done: int = 0
-
-    @property
-    def fraction_done(self):
-        """Share of the image's pixels rendered, in [0, 1] (1 for a complete render)."""
-        n = self.image.shape[0] * self.image.shape[1]
-        return self.pixels_done / n if n else 1.0
 
 
 def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4, offset=None, aovs=False,
                 progress=None, chunk_samples=1 << 15, threads=None, record_rays=False, prepared=None,
                 nonfinite="zero", cancel=None, fill=False, fill_budget=2.0, transparent_shadows=False,
-                integrator="whitted", glossy_samples=4, glossy_depth=2, glossy_threshold=0.4):
+                integrator="whitted", glossy_samples=4, glossy_depth=2, glossy_threshold=0.4,
+                target_error=None, time_budget=None, max_spp=None, min_spp=8, on_pass=None, dask=None,
+                dask_workers=2):
     """Render ``scene`` and return a :class:`RenderResult` with the image, AOVs and statistics.
 
     Parameters are those of :func:`render`, plus:
@@ -134,6 +87,19 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     disjoint ranges of the film, pieces are added in chunk order, so the image does not depend on the
     number of threads or the order in which chunks finish.
     """
+    if target_error is not None or time_budget is not None or max_spp is not None:
+        if spp is not None:
+            raise RenderError("render: spp (fixed samples per pixel) and target_error / time_budget / max_spp "
+                              "(adaptive) exclude each other; min_spp sets the adaptive base pass")
+        return render_adaptive(scene, target_error=target_error, time_budget=time_budget, max_spp=max_spp,
+                               min_spp=min_spp, seed=seed, aovs=aovs, progress=progress,
+                               chunk_samples=chunk_samples, threads=threads, prepared=prepared,
+                               nonfinite=nonfinite, cancel=cancel, fill=fill, fill_budget=fill_budget,
+                               on_pass=on_pass, integrator=integrator, max_depth=max_depth,
+                               throughput_cutoff=throughput_cutoff, offset=offset, record_rays=record_rays,
+                               transparent_shadows=transparent_shadows, glossy_samples=glossy_samples,
+                               glossy_depth=glossy_depth, glossy_threshold=glossy_threshold, dask=dask,
+                               dask_workers=dask_workers)
     t_start = time.perf_counter()
     if integrator not in INTEGRATORS:
         raise RenderError(f"render: integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
@@ -147,37 +113,21 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         cam.spp = checks.integer("render", "spp", spp, RenderError)
     chunk_samples = checks.integer("render", "chunk_samples", chunk_samples, RenderError)
     threads = None if threads is None else checks.integer("render", "threads", threads, RenderError)
-    own = prepared is None
-    ps = prepared if prepared is not None else PreparedScene(scene, threads=threads)
+    runner = None if dask is None else DaskRunner(dask, scene, dask_workers)
+    own = prepared is None and runner is None
+    ps = prepared if prepared is not None or runner is not None else PreparedScene(scene, threads=threads)
     W, H, S = cam.width, cam.height, cam.spp
     n_pix = W * H
     film = Film(W, H, aovs=aovs, nonfinite=nonfinite)
-    split = S > chunk_samples        # a pixel's samples over several chunks ("pieces") of <= chunk_samples
-    pieces = -(-S // chunk_samples) if split else 1
-    px_per_chunk = 1 if split else max(1, int(chunk_samples) // S)
-    n_chunks = n_pix * pieces if split else -(-n_pix // px_per_chunk)
+    layout = ChunkLayout(S, n_pix, chunk_samples)
+    split, pieces, n_chunks, chunk_pixels = layout.split, layout.pieces, layout.n_chunks, layout.pixels
 
-    def chunk_pixels(ci):
-        lo = ci // pieces if split else ci * px_per_chunk
-        return lo, min(lo + px_per_chunk, n_pix)
+    def make_integrator():
+        return make(ps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
+                    record_rays=record_rays, transparent_shadows=transparent_shadows, **extra)
 
     def run_chunk(ci):
-        lo, hi = chunk_pixels(ci)
-        integ = make(ps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
-                     record_rays=record_rays, transparent_shadows=transparent_shadows, **extra)
-        rng = np.random.default_rng([seed, ci])
-        if not split:
-            rays = cam.generate_rays(lo, hi, rng, differentials=ps.needs_differentials)
-            L, a = integ.render_samples(rays, want_aovs=aovs, rng=rng)
-            integ.stats.nonfinite_samples += film.add_block(lo, hi, L, a)
-            return integ.stats, None
-        # piece p of the pixel: its samples p, p + pieces, p + 2 pieces, ... of the pixel's stratified set
-        samples = np.arange(ci % pieces, S, pieces, dtype=np.int64)
-        rays = cam.generate_rays(lo, hi, rng, differentials=ps.needs_differentials, samples=samples)
-        L, a = integ.render_samples(rays, want_aovs=aovs, rng=rng)
-        part = Film(1, 1, aovs=aovs, nonfinite=nonfinite)
-        integ.stats.nonfinite_samples += part.add_block(0, 1, L, a)
-        return integ.stats, part      # added to the film in chunk order by the caller's thread
+        return shade_fixed_chunk(ps, cam, make_integrator, seed, ci, layout, film, 0, aovs, nonfinite)
 
     abort = threading.Event()    # set on an error or a KeyboardInterrupt (the caller's ``cancel`` is not touched)
     stopped = threading.Event()  # a chunk saw the cancellation: start no more
@@ -202,24 +152,33 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         pieces_done[lo:hi] += 1
         done["chunks"] += 1
         done["samples"] += int(part.weight[0]) if part is not None else (hi - lo) * S
-        _merge_stats(stats, st)
+        merge_stats(stats, st)
 
-    workers = max(1, min(ps.accel.threads if threads is None else int(threads), n_chunks))
     bar = tqdm(total=n_chunks, desc="render", unit="chunk", leave=False,
                disable=(not progress) if progress is not None else None)
     try:
-        _run_pool(run_or_skip, n_chunks, workers, abort, bar, collect, stopped)
+        if runner is not None:
+            spec = dict(threads=1, layout=layout, seed=seed, aovs=aovs, nonfinite=nonfinite, integrator=dict(
+                integrator=integrator, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
+                record_rays=record_rays, transparent_shadows=transparent_shadows, glossy_samples=glossy_samples,
+                glossy_depth=glossy_depth, glossy_threshold=glossy_threshold))
+            _run_dask(runner, cam, spec, n_chunks, cancel, bar, film, collect)
+        else:
+            workers = max(1, min(ps.accel.threads if threads is None else int(threads), n_chunks))
+            run_pool(run_or_skip, n_chunks, workers, abort, bar, collect, stopped)
     except BaseException:
         if own:
             ps.close()
         raise
     finally:
         bar.close()
+        if runner is not None:
+            runner.close()
     pixels_done = int(np.count_nonzero(pieces_done == pieces))
     unstarted = pieces_done == 0
     n_unstarted = int(np.count_nonzero(unstarted))
     pixels_filled = 0
-    if fill and n_unstarted and done["samples"]:
+    if fill and ps is not None and n_unstarted and done["samples"]:
         # seconds per pixel-sample so far; the fill gives the pixels with no sample one sample each
         rate = (time.perf_counter() - t_start) / done["samples"]
         if n_unstarted * rate <= fill_budget:
@@ -241,8 +200,8 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
             fill_bar = tqdm(total=len(jobs), desc="fill", unit="chunk", leave=False,
                             disable=(not progress) if progress is not None else None)
             try:
-                _run_pool(fill_chunk, len(jobs), workers, threading.Event(), fill_bar,
-                          lambda k, st: _merge_stats(stats, st))
+                run_pool(fill_chunk, len(jobs), workers, threading.Event(), fill_bar,
+                          lambda k, st: merge_stats(stats, st))
             finally:
                 fill_bar.close()
                 if own:
@@ -259,12 +218,20 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
                         pixels_done=pixels_done, pixels_filled=pixels_filled, samples_done=done["samples"])
 
 
-def _merge_stats(stats, st):
-    """Add a chunk's statistics to ``stats`` (called in chunk order: deterministic; nothing kept per chunk)."""
-    for k in ("primary_rays", "secondary_rays", "shadow_rays", "time_intersect", "time_occluded",
-              "nonfinite_samples"):
-        setattr(stats, k, getattr(stats, k) + getattr(st, k))
-    stats.recorded.extend(st.recorded)
+def _run_dask(runner, cam, spec, n_chunks, cancel, bar, film, collect):
+    """The chunks as Dask tasks (runs of consecutive chunks), merged in chunk order; on ``cancel`` the tasks
+    not collected yet are cancelled (their chunks stay unrendered)."""
+    tasks = [(g, runner.submit(fixed_group, cam, runner.token, spec, g)) for g in runner.groups(n_chunks)]
+    for k, (g, fut) in enumerate(tasks):
+        if cancel is not None and cancel.is_set():
+            for _, f in tasks[k:]:
+                f.cancel()
+            return
+        lo, part, results = fut.result()
+        film.add_film(part, lo)           # whole-pixel chunks (zeros where the run holds pieces)
+        for ci, res in zip(g, results):
+            collect(ci, res)
+        bar.update(len(g))
 
 
 def _fill_jobs(unstarted, split, n_chunks, chunk_pixels, chunk_samples):
@@ -280,47 +247,6 @@ def _fill_jobs(unstarted, split, n_chunks, chunk_pixels, chunk_samples):
         for lo in range(int(run[0]), int(run[-1]) + 1, chunk_samples):
             jobs.append((lo, min(lo + chunk_samples, int(run[-1]) + 1), lo))
     return jobs
-
-
-#: chunks in flight per worker thread: enough that a slow chunk at the head of the in-order collection does not
-#: leave the other workers idle, few enough that memory stays bounded (a chunk's pending result is its
-#: statistics and, above chunk_samples spp, a 1-pixel film)
-WINDOW = 16
-
-
-def _run_pool(run, n, workers, abort, bar, collect, stopped=None):
-    """``collect(ci, run(ci))`` for ``ci`` in ``0 .. n - 1``, in index order, ``run`` on ``workers`` threads.
-
-    At most ``WINDOW * workers`` chunks are queued or waiting to be collected at a time (memory does not grow
-    with the number of chunks). Once ``stopped`` is set no further chunk is submitted. On any exception in
-    the caller's thread (a ``KeyboardInterrupt`` above all) or in a chunk: set ``abort``, cancel the chunks
-    not started, wait for the running ones and re-raise; the pool is shut down in every case.
-    """
-    if workers == 1:
-        for ci in range(n):
-            collect(ci, run(ci))
-            bar.update()
-            if stopped is not None and stopped.is_set():
-                return
-        return
-    pool = ThreadPoolExecutor(max_workers=workers)
-    try:
-        window = deque()
-        nxt = 0
-        while window or nxt < n:
-            while nxt < n and len(window) < WINDOW * workers and not (stopped is not None and stopped.is_set()):
-                window.append((nxt, pool.submit(run, nxt)))
-                nxt += 1
-            if not window:
-                break
-            ci, f = window.popleft()
-            collect(ci, f.result())
-            bar.update()
-    except BaseException:
-        abort.set()
-        pool.shutdown(wait=True, cancel_futures=True)
-        raise
-    pool.shutdown(wait=True)
 
 
 def render(scene, **kwargs):
@@ -357,6 +283,17 @@ def render(scene, **kwargs):
     integrator : {"whitted", "glossy"}
         Default ``"whitted"``; see :func:`render_full` (also ``glossy_samples``, ``glossy_depth``,
         ``glossy_threshold``).
+    target_error, time_budget, max_spp : float, float, int, optional
+        Adaptive, progressive rendering (:mod:`pyrt.render.adaptive`) instead of a fixed ``spp``: passes
+        until the estimated relMSE (:mod:`pyrt.core.metrics`) is at most ``target_error``, ``time_budget``
+        seconds have passed, or every pixel that still needs samples has ``max_spp`` (default 65536),
+        whichever comes first; at least one of ``target_error`` and ``time_budget``. ``min_spp`` (default
+        8, even): the base pass; ``on_pass``: called with a :class:`pyrt.render.adaptive.PassInfo` after
+        every pass. Exclusive with ``spp``.
+    dask : distributed.Client, str or True, optional
+        Render the chunks (fixed spp) or each pass's chunks (adaptive) as tasks on Dask workers
+        (:mod:`pyrt.render.distributed`): a client, a scheduler address, or True for a local cluster of
+        ``dask_workers`` processes. The image equals the local render with the same seed.
 
     Returns
     -------

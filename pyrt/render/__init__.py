@@ -1,0 +1,12 @@
+"""Rendering: prepare a scene, shade camera samples in chunks on a thread pool, accumulate a Film.
+
+- :mod:`~pyrt.render.fixed`: :func:`render` / :func:`render_full` at a fixed number of samples per pixel
+  (and the dispatch to adaptive rendering when a target error, a time budget or a sample cap is given);
+- :mod:`~pyrt.render.adaptive`: progressive passes that spend samples where the estimated error is high;
+- :mod:`~pyrt.render.pool`: the chunk pool (index-order collection: thread-count independent images);
+- :mod:`~pyrt.render.result`: :class:`RenderResult`.
+"""
+from pyrt.render.fixed import INTEGRATORS, render, render_full
+from pyrt.render.result import RenderResult
+
+__all__ = ["INTEGRATORS", "RenderResult", "render", "render_full"]

@@ -1,0 +1,375 @@
+"""Adaptive, progressive rendering: passes of camera samples, spent where the estimated error is high.
+
+How it works (:func:`render_adaptive`; ``pyrt.render(scene, target_error=..., time_budget=..., max_spp=...)``):
+
+1. **Two interleaved half-buffers.** Every pass gives a pixel an even number ``c`` of new samples, ``c / 2``
+   to half A and ``c / 2`` to half B. Each half of each pixel draws its positions from its own
+   Owen-scrambled Sobol' sequence (:func:`pyrt.core.sampler.sobol_owen_2d`), continued where the last pass
+   stopped, so a half's samples stay one stratified set however the passes split them. The film holds A + B; a second film holds B alone. The two half means are independent
+   unbiased estimates with equal sample counts, so ``(mean_A - mean_B)^2 / 4`` estimates the variance of
+   the pixel's mean *including* what stratification buys (a sample variance would ignore it and overstate
+   the error of a stratified pixel several-fold).
+2. **The error estimate** is the relMSE of :mod:`pyrt.core.metrics` with that variance:
+   ``mean over pixels of mean over channels of var / (mean^2 + 1e-2)``. It is what ``target_error`` is
+   compared with.
+3. **Allocation.** For a total of ``M`` samples, the relMSE ``(1/n) sum_p a_p / n_p`` (``a_p`` the
+   per-sample relative variance of pixel ``p``) is smallest with ``n_p`` proportional to ``sqrt(a_p)``. After
+   the base pass (``min_spp`` everywhere) each pass computes ``a_p`` from the half-buffers, smooths it over
+   5 x 5 pixels (one pixel's estimate has 3 degrees of freedom: too noisy alone; Dammertz et al. 2010 and
+   pbrt's adaptive samplers likewise decide over blocks), and gives every pixel what brings it towards its
+   share of the new total (90 % of it by ``sqrt(a_p)``, 10 % uniform: ``DEFENSIVE``, so no pixel is starved
+   by an estimate that is 0 by chance), at most 3 x the samples it has (a pixel's estimate may be low by chance) and
+   never past ``max_spp``. A pass at most doubles the samples; with a target it asks for the samples the
+   estimate predicts are needed (``M = (sum_p sqrt(a_p))^2 / (n target)``) and 10 % more.
+4. **Stopping**: the estimate at or below ``target_error``, the time budget spent (the pass in progress
+   stops starting chunks; its chunks run in a seeded random order so a cut pass is not a band of the image),
+   or no pixel can take more samples (``max_spp``), whichever comes first. The base pass always completes.
+
+Deterministic for a seed (chunk streams ``default_rng([seed, 0xADA, pass, chunk])``, chunks added in index
+order) whatever the thread count, unless the time budget cuts a pass (then it depends on the machine's speed).
+
+Bias. Deciding where to sample from the samples themselves, and stopping on an estimate, makes the image a
+slightly biased estimator (a pixel whose first samples happen to agree gets fewer more): measured in
+``tests/test_adaptive.py`` (the mean of many adaptive renders against a converged reference) and in the
+README, it is far below the noise of one render.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+import math
+import threading
+import time
+import warnings
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from pyrt.core import checks
+from pyrt.core.errors import RenderError
+from pyrt.core.film import Film
+from pyrt.core.metrics import relmse_per_pixel
+from pyrt.integrators.prepared import PreparedScene, RenderStats
+from pyrt.render.chunks import shade_adaptive_chunk
+from pyrt.render.distributed import DaskRunner, adaptive_group
+from pyrt.render.pool import integrator_factory, merge_stats, run_pool
+from pyrt.render.result import RenderResult
+
+#: samples per pixel cap when ``max_spp`` is not given
+DEFAULT_MAX_SPP = 1 << 16
+#: why an adaptive render stopped
+STOP_REASONS = ("target_error", "time_budget", "max_spp", "cancelled")
+#: a pass gives a pixel at most this many times the samples it has
+GROWTH = 3
+#: half-width in pixels of the box the per-pixel error is smoothed over
+SMOOTH_RADIUS = 2
+#: share of every pass spread uniformly over the pixels: a pixel whose two halves agree by chance (error
+#: estimate 0: frequent where the integrand takes few values) still gets samples, so every pixel converges
+DEFENSIVE = 0.1
+
+
+@dataclass
+class PassInfo:
+    """What ``on_pass`` receives after every pass of an adaptive render.
+
+    Attributes
+    ----------
+    index : int
+        The pass (0: the base pass).
+    samples : int
+        Camera samples in the film so far.
+    mean_spp : float
+        ``samples`` per pixel.
+    estimated_error : float
+        Estimated relMSE of the image now (:mod:`pyrt.render.adaptive`).
+    elapsed : float
+        Seconds since the render started.
+    film : Film
+        The film (``film.image()`` is the current image; do not modify it).
+    """
+
+    index: int
+    samples: int
+    mean_spp: float
+    estimated_error: float
+    elapsed: float
+    film: Film
+
+
+def _positive(name, v):
+    """``v`` as a positive finite float, or None; RenderError otherwise."""
+    if v is None:
+        return None
+    x = checks.finite_number("render", name, v, RenderError)
+    if not x > 0:
+        raise RenderError(f"render: {name} must be > 0, got {v!r}")
+    return float(x)
+
+
+def box_smooth(a, radius):
+    """Mean of ``a`` (H, W) over the (2 radius + 1)^2 box around each pixel (the box clipped at the border)."""
+    H, W = a.shape
+    c = np.zeros((H + 1, W + 1))
+    np.cumsum(np.cumsum(a, axis=0), axis=1, out=c[1:, 1:])
+    r0 = np.clip(np.arange(H) - radius, 0, H)
+    r1 = np.clip(np.arange(H) + radius + 1, 0, H)
+    c0 = np.clip(np.arange(W) - radius, 0, W)
+    c1 = np.clip(np.arange(W) + radius + 1, 0, W)
+    s = c[r1][:, c1] - c[r0][:, c1] - c[r1][:, c0] + c[r0][:, c0]
+    return s / ((r1 - r0)[:, None] * (c1 - c0)[None, :])
+
+
+def pixel_errors(film, half):
+    """Per-pixel estimated relMSE of the film's mean (H*W,) from the half-buffers (``half`` holds half B);
+    NaN where a pixel has no sample."""
+    wb = half.weight
+    w = film.weight
+    wa = w - wb
+    ok = (wa > 0) & (wb > 0)
+    out = np.full(w.shape[0], np.nan)
+    if not ok.any():
+        return out
+    sb = half.sum[ok]
+    sa = film.sum[ok] - sb
+    ma = sa / wa[ok, None]
+    mb = sb / wb[ok, None]
+    m = film.sum[ok] / w[ok, None]
+    var = (ma - mb) ** 2 / 4.0
+    out[ok] = relmse_per_pixel(var, m)
+    return out
+
+
+def allocate(film, err, total_new, max_spp, cap, rng, shape):
+    """New samples per pixel (even ints, (H*W,)) for a pass of about ``total_new`` samples: towards
+    ``n_p`` proportional to ``sqrt(a_p)`` (``a_p = err_p n_p`` smoothed), at most ``GROWTH x`` a pixel's
+    samples, ``cap`` per pass and ``max_spp`` in all; randomised rounding to even counts from ``rng``."""
+    w = film.weight
+    a = np.where(np.isfinite(err), err, 0.0) * w
+    a = box_smooth(a.reshape(shape), SMOOTH_RADIUS).ravel()
+    mean_a = a.mean()
+    if not mean_a > 0:                        # no error anywhere: spread uniformly
+        a = np.ones_like(a)
+    else:
+        a = np.maximum(a, 1e-3 * mean_a)
+    s = np.sqrt(a)
+    room = np.minimum(np.minimum(max_spp - w, GROWTH * w), cap)
+    room = np.maximum(room, 0.0)
+    desired = (w.sum() + total_new) * ((1.0 - DEFENSIVE) * s / s.sum() + DEFENSIVE / s.shape[0])
+    new = np.clip(desired - w, 0.0, room)
+    for _ in range(3):                        # rescale the uncapped pixels towards the pass total
+        tot = new.sum()
+        if tot <= 0 or abs(tot - total_new) < 0.01 * total_new:
+            break
+        free = new < room
+        if not free.any():
+            break
+        new[free] *= max(0.0, total_new - new[~free].sum()) / max(new[free].sum(), 1e-300)
+        new = np.minimum(new, room)
+    even = 2 * np.floor(new / 2 + rng.random(new.shape[0]))
+    limit = 2 * np.floor(room / 2)
+    return np.minimum(even, limit).astype(np.int64)
+
+
+def _chunks(counts, chunk_samples):
+    """The pass's chunks: lists of (pixels, counts), whole pixels, starting every ``chunk_samples`` samples."""
+    sel = np.flatnonzero(counts)
+    if sel.size == 0:
+        return []
+    c = counts[sel]
+    start = np.cumsum(c) - c
+    cid = start // chunk_samples
+    cuts = np.flatnonzero(np.diff(cid)) + 1
+    return list(zip(np.split(sel, cuts), np.split(c, cuts)))
+
+
+def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None, min_spp=8, seed=0, aovs=False,
+                    progress=None, chunk_samples=1 << 15, threads=None, prepared=None, nonfinite="zero",
+                    cancel=None, fill=False, fill_budget=2.0, on_pass=None, integrator="whitted", max_depth=8,
+                    throughput_cutoff=1e-4, offset=None, record_rays=False, transparent_shadows=False,
+                    glossy_samples=4, glossy_depth=2, glossy_threshold=0.4, dask=None, dask_workers=2):
+    """Render ``scene`` in adaptive passes until the estimated relMSE is at most ``target_error``, the
+    ``time_budget`` (seconds, counted from the call) is spent, or no pixel may take more samples
+    (``max_spp``): a :class:`RenderResult` with ``passes``, ``estimated_error``, ``stop_reason`` and the film
+    (``film.weight``: the samples each pixel got). See the module docstring for the method.
+
+    ``min_spp`` (even, >= 2): the base pass's samples per pixel. ``on_pass(PassInfo)`` is called after each
+    pass (the command line's ``--write-every`` writes the current image from it). ``cancel`` / ``fill`` as
+    in :func:`pyrt.render_full` (a cancelled base pass leaves pixels without samples; ``fill`` gives them 2).
+    ``dask``: run every pass's chunks on Dask workers (:mod:`pyrt.render.distributed`; the sample map of the
+    next pass is decided here, from the merged film). The other parameters are those of
+    :func:`pyrt.render_full`.
+    """
+    t_start = time.perf_counter()
+    target_error = _positive("target_error", target_error)
+    time_budget = _positive("time_budget", time_budget)
+    if target_error is None and time_budget is None:
+        raise RenderError("render: adaptive rendering needs target_error or time_budget (max_spp alone would "
+                          "render every pixel to max_spp: use spp= for that)")
+    min_spp = checks.integer("render", "min_spp", min_spp, RenderError)
+    if min_spp < 2 or min_spp % 2:
+        raise RenderError(f"render: min_spp must be an even integer >= 2 (two half-buffers), got {min_spp!r}")
+    max_spp = DEFAULT_MAX_SPP if max_spp is None else checks.integer("render", "max_spp", max_spp, RenderError)
+    if max_spp < min_spp:
+        raise RenderError(f"render: max_spp ({max_spp}) is below min_spp ({min_spp})")
+    chunk_samples = checks.integer("render", "chunk_samples", chunk_samples, RenderError)
+    threads = None if threads is None else checks.integer("render", "threads", threads, RenderError)
+    integ = dict(integrator=integrator, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
+                 record_rays=record_rays, transparent_shadows=transparent_shadows, glossy_samples=glossy_samples,
+                 glossy_depth=glossy_depth, glossy_threshold=glossy_threshold)
+    runner = None if dask is None else DaskRunner(dask, scene, dask_workers)
+    own = prepared is None and runner is None
+    ps = prepared if prepared is not None or runner is not None else PreparedScene(scene, threads=threads)
+    try:
+        make = None if ps is None else integrator_factory(ps, **integ)
+        spec = dict(threads=1, seed=seed, aovs=aovs, nonfinite=nonfinite, integrator=integ)
+        return _passes(scene.camera, ps, make, t_start, target_error, time_budget, max_spp, min_spp, seed, aovs,
+                       progress, max(2, chunk_samples - chunk_samples % 2), threads, nonfinite, cancel, fill,
+                       fill_budget, on_pass, runner, spec)
+    finally:
+        if own:
+            ps.close()
+        if runner is not None:
+            runner.close()
+
+
+def _passes(cam, ps, make, t_start, target_error, time_budget, max_spp, min_spp, seed, aovs, progress,
+            chunk_samples, threads, nonfinite, cancel, fill, fill_budget, on_pass, runner=None, spec=None):
+    """The pass loop of :func:`render_adaptive` (``ps`` prepared, parameters checked; with a Dask ``runner``
+    the chunks run on its workers, ``spec`` their settings)."""
+    W, H = cam.width, cam.height
+    n_pix = W * H
+    film = Film(W, H, aovs=aovs, nonfinite=nonfinite)
+    half = Film(W, H, nonfinite=nonfinite)           # half B; half A is film - half
+    deadline = t_start + time_budget if time_budget is not None else math.inf
+    stats = RenderStats()
+    workers_max = 1 if ps is None else (ps.accel.threads if threads is None else int(threads))
+    bar = tqdm(desc="pass 0", unit="sample", unit_scale=True, leave=False,
+               disable=(not progress) if progress is not None else None)
+    totals = {"chunks": 0, "chunks_total": 0, "render_s": 0.0}
+    stopped = threading.Event()
+
+    def run_pass(counts, index, timed=True, honour_cancel=True):
+        chunks = _chunks(counts, chunk_samples)
+        order = np.random.default_rng([seed, 0xADA, index, 1 << 20]).permutation(len(chunks))
+        spp_after = film.weight + counts
+        base = half.weight.astype(np.int64)             # samples per half so far (A and B have as many)
+        stopped.clear()
+
+        def run_chunk(k):
+            if (honour_cancel and cancel is not None and cancel.is_set()) or \
+                    (timed and time.perf_counter() >= deadline):
+                stopped.set()
+                return None
+            key = int(order[k])
+            P, C = chunks[key]
+            return shade_adaptive_chunk(ps, cam, make, seed, index, key, P, C, base[P], spp_after[P], aovs,
+                                        nonfinite)
+
+        def collect(k, res):
+            if res is None:
+                return
+            st, P, both, b = res
+            film.add_pixel_sums(P, both)
+            half.add_pixel_sums(P, b)
+            merge_stats(stats, st)
+            totals["chunks"] += 1
+            bar.update(int(both.weight.sum()))
+
+        t0 = time.perf_counter()
+        if runner is not None:
+            def halted():
+                return (honour_cancel and cancel is not None and cancel.is_set()) or \
+                    (timed and time.perf_counter() >= deadline)
+            _run_dask_pass(runner, cam, spec, index, chunks, order, base, spp_after, collect, halted)
+        else:
+            workers = max(1, min(workers_max, len(chunks)))
+            run_pool(run_chunk, len(chunks), workers, threading.Event(), _NoBar(), collect, stopped)
+        totals["render_s"] += time.perf_counter() - t0
+        totals["chunks_total"] += len(chunks)
+
+    counts = np.full(n_pix, min_spp, dtype=np.int64)
+    index, stop, est = 0, None, math.inf
+    pixels_filled = 0
+    try:
+        run_pass(counts, 0, timed=False)
+        while True:
+            err = pixel_errors(film, half)
+            est = float(np.nanmean(err)) if np.isfinite(err).any() else math.inf
+            samples = int(film.weight.sum())
+            bar.set_postfix_str(f"spp {samples / n_pix:.1f}, relMSE~{est:.3g}")
+            if on_pass is not None:
+                on_pass(PassInfo(index, samples, samples / n_pix, est, time.perf_counter() - t_start, film))
+            if cancel is not None and cancel.is_set():
+                stop = "cancelled"
+                break
+            if target_error is not None and est <= target_error:
+                stop = "target_error"
+                break
+            now = time.perf_counter()
+            if now >= deadline:
+                stop = "time_budget"
+                break
+            total_new = float(samples)                      # at most double
+            if target_error is not None and np.isfinite(est):
+                a = np.where(np.isfinite(err), err, 0.0) * film.weight
+                need = np.sqrt(np.maximum(box_smooth(a.reshape(H, W), SMOOTH_RADIUS), 0)).sum() ** 2 / (
+                    n_pix * target_error)
+                total_new = min(total_new, max(1.1 * need - samples, 0.05 * samples))
+            if math.isfinite(deadline):
+                rate = totals["render_s"] / max(samples, 1)
+                total_new = min(total_new, (deadline - now) / max(rate, 1e-12))
+            if total_new < 2:
+                stop = "time_budget"
+                break
+            rng = np.random.default_rng([seed, 0xADA, index + 1, 1 << 21])
+            counts = allocate(film, err, total_new, max_spp, chunk_samples, rng, (H, W))
+            if not counts.any():
+                stop = "max_spp"
+                break
+            index += 1
+            bar.set_description(f"pass {index}")
+            run_pass(counts, index)
+        empty = film.weight == 0
+        if fill and empty.any() and film.weight.sum() > 0:
+            rate = totals["render_s"] / film.weight.sum()
+            if 2 * empty.sum() * rate <= fill_budget:
+                run_pass(np.where(empty, 2, 0).astype(np.int64), index + 1, timed=False, honour_cancel=False)
+                pixels_filled = int(empty.sum())
+                est = float(np.nanmean(pixel_errors(film, half)))
+    finally:
+        bar.close()
+    if stats.nonfinite_samples:
+        warnings.warn(f"render: {stats.nonfinite_samples} samples had non-finite radiance and were "
+                      "set to 0 (this is a bug; please report the scene)", RuntimeWarning, stacklevel=3)
+    stats.time_total = time.perf_counter() - t_start
+    samples = int(film.weight.sum())
+    return RenderResult(image=film.image(), aovs=film.aovs(), stats=stats, film=film,
+                        complete=stop != "cancelled", chunks_done=totals["chunks"],
+                        chunks_total=totals["chunks_total"], pixels_done=int(np.count_nonzero(film.weight)),
+                        pixels_filled=pixels_filled, samples_done=samples, passes=index + 1,
+                        estimated_error=est, stop_reason=stop)
+
+
+def _run_dask_pass(runner, cam, spec, index, chunks, order, base, spp_after, collect, halted):
+    """One pass's chunks as Dask tasks (runs of consecutive chunk indices ``k``, chunk ``order[k]``), collected
+    in order; once ``halted()``, the tasks not finished are cancelled (finished ones are still used)."""
+    tasks = []
+    for g in runner.groups(len(chunks)):
+        items = []
+        for k in g:
+            key = int(order[k])
+            P, C = chunks[key]
+            items.append((key, P, C, base[P], spp_after[P]))
+        tasks.append((g, runner.submit(adaptive_group, cam, runner.token, spec, index, items)))
+    for g, fut in tasks:
+        if halted() and not fut.done():
+            fut.cancel()
+            continue
+        for k, res in zip(g, fut.result()):
+            collect(k, res)
+
+
+class _NoBar:
+    """The pool's per-chunk bar hook (the adaptive bar counts samples in ``collect`` instead)."""
+
+    def update(self, n=1):
+        """Nothing: progress is reported per sample by the pass's ``collect``."""

@@ -1,0 +1,225 @@
+"""Adaptive, progressive rendering (pyrt.render.adaptive): the sample sequences, the allocation, the stopping
+rules, determinism, bounded memory, and the calibration of the error estimate against a converged reference."""
+import subprocess
+import sys
+import threading
+import tracemalloc
+
+import numpy as np
+import pytest
+
+import pyrt
+from pyrt.core.metrics import relmse
+from pyrt.core.sampler import isqrt_array, sobol_owen_2d, strata_points
+from pyrt.apps.cli import main
+from pyrt.render import adaptive as A
+
+
+def _scene(w=24, h=16, env=False):
+    cam = pyrt.Camera(position=(0, 1, 4), target=(0, 0.5, 0), fov=40, width=w, height=h)
+    scene = pyrt.Scene(cam, background=(0.02, 0.02, 0.03))
+    scene.add_plane((0, 0, 0), 4.0, pyrt.Lambert(albedo=pyrt.CheckerTexture(0.2, 0.8, scale=8, filtered=False)))
+    scene.add_sphere((-0.6, 0.5, 0), 0.5, pyrt.Glass(ior=1.5))
+    scene.add_sphere((0.6, 0.5, 0), 0.5, pyrt.CookTorrance(metal="gold", roughness=0.3))
+    scene.add_light(pyrt.PointLight((2, 3, 2), intensity=20.0))
+    if env:
+        pyrt.set_environment(scene, pyrt.LatLongEnvironment(pyrt.procedural_sky(width=64, height=32)))
+    return scene
+
+
+@pytest.fixture(scope="module")
+def reference():
+    """The small scene at 1024 stratified spp (its own relMSE ~1e-6, three orders below the targets)."""
+    return pyrt.render(_scene(), spp=1024, seed=12345)
+
+
+# --- sample sequences ---------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("m", range(0, 9))
+def test_sobol_owen_blocks_fill_every_elementary_interval(m):
+    n = 1 << m
+    for seed in (1, 77, 2 ** 31 + 5):
+        for block in (0, 5):
+            u = sobol_owen_2d(np.arange(block * n, (block + 1) * n), np.full(n, seed))
+            for a in range(m + 1):
+                cells = np.floor(u[:, 0] * 2 ** a).astype(int) * 2 ** (m - a) + np.floor(u[:, 1] * 2 ** (m - a))
+                assert len(np.unique(cells)) == n
+
+
+def test_sobol_owen_points_are_uniform_chi_square():
+    """Point 3 of 40000 independently scrambled sequences, binned 10 x 10: chi-square with 99 dof."""
+    n = 40000
+    u = sobol_owen_2d(np.full(n, 3), np.arange(n))
+    counts = np.histogram2d(u[:, 0], u[:, 1], bins=10, range=[[0, 1], [0, 1]])[0]
+    chi2 = ((counts - n / 100) ** 2 / (n / 100)).sum()
+    assert chi2 < 160        # P(chi2_99 > 160) ~ 1e-4
+    assert 0 <= u.min() and u.max() < 1
+
+
+def test_strata_points_one_sample_per_cell_for_any_size():
+    rng = np.random.default_rng(0)
+    for n in (1, 2, 3, 5, 8, 10, 17):
+        s = np.arange(n)
+        u = strata_points(rng, np.full(n, n), s)
+        k = int(isqrt_array(np.array([n]))[0])
+        row = ((s + 1) * k - 1) // n
+        first = row * n // k
+        n_row = (row + 1) * n // k - first
+        assert np.all(np.floor(u[:, 1] * n) >= first) and np.all(u[:, 1] * n < first + n_row)
+        assert np.all(np.floor(u[:, 0] * n_row).astype(int) == s - first)
+
+
+def test_isqrt_array_exact():
+    n = np.array([0, 1, 2, 3, 4, 15, 16, 17, 2 ** 52 - 1, 2 ** 52, (2 ** 26 + 1) ** 2 - 1])
+    k = isqrt_array(n)
+    assert np.all(k * k <= n) and np.all((k + 1) * (k + 1) > n)
+
+
+# --- allocation and chunks ----------------------------------------------------------------------------------
+
+def test_allocation_respects_caps_and_is_even():
+    film = pyrt.core.film.Film(8, 4)
+    film.weight[:] = 8
+    film.weight[0] = 60
+    err = np.linspace(0.0, 1.0, 32)
+    counts = A.allocate(film, err, 400.0, 64, 16, np.random.default_rng(0), (4, 8))
+    assert np.all(counts % 2 == 0)
+    assert np.all(counts <= 16)                                   # per-pass cap
+    assert counts[0] <= 4                                         # max_spp 64 - 60
+    assert np.all(counts <= A.GROWTH * film.weight)
+    assert counts.sum() > 0
+
+
+def test_box_smooth_matches_brute_force():
+    a = np.random.default_rng(1).random((7, 9))
+    s = A.box_smooth(a, 2)
+    for i, j in [(0, 0), (3, 4), (6, 8), (2, 7)]:
+        assert s[i, j] == pytest.approx(a[max(0, i - 2):i + 3, max(0, j - 2):j + 3].mean())
+
+
+def test_chunks_hold_whole_pixels_and_bounded_samples():
+    counts = np.zeros(1000, dtype=np.int64)
+    counts[::3] = np.random.default_rng(2).integers(1, 50, counts[::3].shape[0]) * 2
+    chunks = A._chunks(counts, 256)
+    pix = np.concatenate([p for p, _ in chunks])
+    assert np.array_equal(pix, np.flatnonzero(counts))
+    assert max(c.sum() for _, c in chunks) < 2 * 256
+
+
+# --- rendering ----------------------------------------------------------------------------------------------
+
+def test_target_error_estimate_is_calibrated(reference):
+    """The estimated relMSE is within a factor 2 of the true relMSE against the converged reference."""
+    scene = _scene()
+    for target in (1e-3, 2e-4):
+        for seed in (0, 1):
+            r = pyrt.render_full(scene, target_error=target, seed=seed)
+            assert r.stop_reason == "target_error" and r.estimated_error <= target
+            true = relmse(r.image, reference)
+            assert 0.5 <= true / r.estimated_error <= 2.0, (target, seed, true, r.estimated_error)
+
+
+def test_adaptive_beats_uniform_at_equal_samples(reference):
+    """At the same total sample count, the adaptive image has a lower true relMSE than the fixed-spp one
+    (mean over 3 seeds)."""
+    scene = _scene()
+    ad, fx = [], []
+    for seed in range(3):
+        r = pyrt.render_full(scene, target_error=1.5e-4, seed=seed)
+        spp = int(round(r.film.weight.mean()))
+        ad.append(relmse(r.image, reference))
+        fx.append(relmse(pyrt.render(scene, spp=spp, seed=seed), reference))
+    assert np.mean(ad) < np.mean(fx)
+
+
+def test_bias_is_below_the_noise(reference):
+    """Deciding from the samples biases the estimator: the mean of 8 adaptive renders must still approach the
+    reference as an unbiased mean would (its relMSE ~ mean estimated relMSE / 8), within a factor 2.5."""
+    scene = _scene()
+    imgs, ests = [], []
+    for seed in range(8):
+        r = pyrt.render_full(scene, target_error=1e-3, seed=100 + seed)
+        imgs.append(r.image.astype(np.float64))
+        ests.append(r.estimated_error)
+    err_mean = relmse(np.mean(imgs, axis=0), reference)
+    assert err_mean <= 2.5 * np.mean(ests) / 8
+
+
+def test_deterministic_and_thread_count_independent():
+    scene = _scene(16, 12)
+    a = pyrt.render_full(scene, target_error=5e-4, seed=3, threads=1)
+    b = pyrt.render_full(scene, target_error=5e-4, seed=3, threads=2)
+    c = pyrt.render_full(scene, target_error=5e-4, seed=3, threads=2, chunk_samples=64)
+    assert np.array_equal(a.image, b.image) and np.array_equal(a.film.weight, b.film.weight)
+    assert a.passes == b.passes
+    # other chunking: the same pixels and sample positions, other integrator streams -> same sample counts
+    # only if the estimates agree; the image must at least be close
+    assert relmse(c.image, a.image) < 1e-2
+
+
+def test_max_spp_and_stop_reasons():
+    scene = _scene(12, 8)
+    r = pyrt.render_full(scene, target_error=1e-9, max_spp=24, seed=0)
+    assert r.stop_reason == "max_spp" and r.film.weight.max() <= 24 and r.film.weight.min() >= 8
+    assert r.complete
+    r = pyrt.render_full(scene, time_budget=1e-3, seed=0)
+    assert r.stop_reason == "time_budget" and r.passes == 1 and np.all(r.film.weight == 8)  # base pass completes
+    assert r.spp_map.shape == (8, 12)
+
+
+def test_on_pass_and_cancel():
+    scene = _scene(12, 8)
+    seen = []
+    cancel = threading.Event()
+
+    def on_pass(info):
+        seen.append((info.index, info.samples, info.estimated_error))
+        if info.index == 1:
+            cancel.set()
+    r = pyrt.render_full(scene, target_error=1e-9, seed=0, on_pass=on_pass, cancel=cancel)
+    assert [s[0] for s in seen] == [0, 1]
+    assert seen[0][1] == 8 * 96 and seen[1][1] > seen[0][1]
+    assert r.stop_reason == "cancelled" and not r.complete and r.passes == 2
+
+
+def test_argument_errors():
+    scene = _scene(4, 4)
+    with pytest.raises(pyrt.RenderError, match="target_error or time_budget"):
+        pyrt.render(scene, max_spp=16)
+    with pytest.raises(pyrt.RenderError, match="exclude"):
+        pyrt.render(scene, spp=4, target_error=1e-3)
+    with pytest.raises(pyrt.RenderError, match="min_spp"):
+        pyrt.render(scene, target_error=1e-3, min_spp=3)
+    with pytest.raises(pyrt.RenderError, match="target_error"):
+        pyrt.render(scene, target_error=float("nan"))
+    with pytest.raises(pyrt.RenderError, match="max_spp"):
+        pyrt.render(scene, target_error=1e-3, max_spp=4)
+
+
+def test_memory_bounded_at_huge_sample_counts():
+    """A 2 x 2 image driven to 6000 spp per pixel (chunks of 512): traced memory stays that of a few chunks."""
+    scene = _scene(2, 2)
+    tracemalloc.start()
+    r = pyrt.render_full(scene, target_error=1e-12, max_spp=6000, chunk_samples=512, seed=0, threads=1)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert r.film.weight.sum() > 4 * 3000
+    assert peak < 40e6, peak
+
+
+def test_cli_adaptive(tmp_path):
+    toml = tmp_path / "s.toml"
+    toml.write_text('[camera]\nposition = [0, 1, 4]\ntarget = [0, 0.5, 0]\nwidth = 16\nheight = 12\n'
+                    '[materials.m]\ntype = "lambert"\nalbedo = [0.5, 0.5, 0.5]\n'
+                    '[[meshes]]\nprimitive = "sphere"\nradius = 0.5\ntranslate = [0, 0.5, 0]\nmaterial = "m"\n'
+                    '[[lights]]\ntype = "point"\nposition = [2, 3, 2]\nintensity = 20.0\n')
+    out = tmp_path / "o.exr"
+    p = subprocess.run([sys.executable, "-m", "pyrt", "render", str(toml), "-o", str(out), "--target-error", "1e-3",
+                        "--max-spp", "64", "--write-every", "0.0001"], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    assert "stopped by" in p.stdout and out.exists()
+    for bad in (["--spp", "4", "--target-error", "1e-3"], ["--max-spp", "8"], ["--time", "1", "--min-spp", "3"],
+                ["--target-error", "-1"]):
+        with pytest.raises(SystemExit) as e:
+            main(["render", str(toml), "-o", str(out), *bad])
+        assert e.value.code == 2, bad

@@ -1,0 +1,149 @@
+"""The previewer's up-axis guess (hull support, symmetry, file metadata) and its framing (the projected hull
+fills the frame), issue 14 item 6. The scan-like shapes come from tools/scan_shapes.py."""
+import math
+import os
+import sys
+
+import numpy as np
+import pytest
+import trimesh
+
+from pyrt.apps import preview as P
+from pyrt.apps.preview import rig
+from pyrt.io.assets import load_asset
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "tools"))
+import scan_shapes  # noqa: E402
+sys.path.pop(0)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from test_preview import _project  # noqa: E402
+sys.path.pop(0)
+
+
+# ----------------------------------------------------------------------------- up axis
+
+def test_up_axis_hit_rate_on_scan_like_shapes(tmp_path):
+    """24 cases (6 shapes x y-up / z-up x 2 yaws, scan noise 0.3 % of the size), each written to a comment-less
+    PLY and loaded as a user's file is: all 24 right (measured; the base-area score before issue 14 got 18,
+    tools/up_axis_hit_rate.py). Thresholds were chosen on these shapes, so the test guards the rule, not
+    its generality; 22/24 is required to leave room for tessellation changes."""
+    hits = []
+    for k, (name, up, mesh) in enumerate(scan_shapes.cases()):
+        p = tmp_path / f"c{k}.ply"
+        mesh.export(p)
+        hits.append(P.detect_up_axis(load_asset(str(p)))[0] == up)
+    assert sum(hits) >= 22, [c[0] for c, h in zip(scan_shapes.cases(), hits) if not h]
+
+
+@pytest.mark.parametrize("up", ["+y", "+z"])
+def test_quadruped_stands_on_its_legs(up):
+    """The issue's failures: a z-up horse on its rump, a y-up cow turned over. Without faces (a point set) too."""
+    m = scan_shapes.oriented(scan_shapes.quadruped(), up, 0.0, noise=0.003)
+    assert rig.guess_up_axis(m.vertices, m.faces)[0] == up
+    assert rig.guess_up_axis(m.vertices)[0] == up
+
+
+def test_guess_accepts_large_point_sets():
+    """Above HULL_POINTS / MAX_POINTS the guess works on deterministic subsamples (same answer twice); the hull of
+    a subsample keeps the exact bounding box (the axis-extreme points are added)."""
+    rng = np.random.default_rng(1)
+    m = scan_shapes.oriented(scan_shapes.figure(), "+z", 0.0)
+    pts = trimesh.sample.sample_surface(m, rig.MAX_POINTS + 50_000, seed=3)[0]
+    a = rig.guess_up_axis(pts)
+    assert a[0] == "+z" and rig.guess_up_axis(pts)[:2] == a[:2]
+    h = rig.hull_points(pts)
+    np.testing.assert_array_equal([h.min(axis=0), h.max(axis=0)], [pts.min(axis=0), pts.max(axis=0)])
+    assert rig.hull_points(rng.normal(size=(10, 3))).shape[1] == 3
+    flat = np.column_stack([rng.random(50), np.zeros(50), rng.random(50)])   # coplanar: no 3D hull
+    assert rig.hull_points(flat).shape == (50, 3)
+
+
+def test_ambiguous_shape_keeps_the_format_default():
+    cube = trimesh.creation.box()
+    assert rig.guess_up_axis(cube.vertices, cube.faces, default="+z")[:2] == ("+z", "no clear base")
+    assert rig.guess_up_axis(cube.vertices, cube.faces)[0] == "+y"
+
+
+@pytest.mark.parametrize("fmt, text, want", [
+    ("ply", "comment up_axis Z", "+z"), ("ply", "comment made by a scanner, Z-up", "+z"),
+    ("ply", "comment up: -y", "-y"), ("obj", "# UpAxis = Y", "+y"), ("obj", "# exported z up", "+z"),
+    ("ply", "comment setup x", None), ("obj", "# nothing here", None)])
+def test_metadata_up_axis_from_comments(tmp_path, fmt, text, want):
+    m = scan_shapes.oriented(scan_shapes.quadruped(), "+y")
+    p = tmp_path / f"m.{fmt}"
+    data = m.export(file_type=fmt, encoding="ascii") if fmt == "ply" else m.export(file_type="obj")
+    if isinstance(data, bytes):
+        data = data.decode("latin-1")
+    if fmt == "ply":
+        data = data.replace("ply\nformat ascii 1.0\n", f"ply\nformat ascii 1.0\n{text}\n", 1)
+    else:
+        data = f"{text}\n" + data
+    p.write_text(data, encoding="latin-1")
+    assert rig.metadata_up_axis(str(p), fmt) == want
+    if want is not None:
+        axis, reason = P.detect_up_axis(load_asset(str(p)))
+        assert axis == want and "comment" in reason
+
+
+# ----------------------------------------------------------------------------- framing
+
+def _fill(cam, v):
+    x, y, z = _project(cam, v)
+    assert z.min() > 0
+    return (x.max() - x.min()) / cam.width, (y.max() - y.min()) / cam.height, x, y
+
+
+@pytest.mark.parametrize("shape", ["tile", "pole", "quadruped"])
+@pytest.mark.parametrize("az, el, w, h", [(35, 20, 640, 480), (0, 0, 640, 480), (90, 60, 480, 640), (-120, 10, 320, 180)])
+def test_fit_framing_fills_the_frame_and_clips_nothing(shape, az, el, w, h):
+    """The projected bounding box of every vertex spans >= 80 % of the frame in its limiting dimension
+    (1 / margin = 91 % by construction, to 1e-4) and no vertex is outside the image; the bounding-sphere
+    framing leaves a flat tile at ~65 %."""
+    v = scan_shapes.SHAPES[shape]().vertices
+    cam = rig.frame_points(rig.hull_points(v), azimuth=az, elevation=el, width=w, height=h, margin=1.1)
+    fx, fy, x, y = _fill(cam, v)
+    assert max(fx, fy) >= 0.8
+    assert math.isclose(max(fx, fy), 1 / 1.1, rel_tol=1e-4)    # the fixed-point steps: < 0.1 px
+    assert x.min() >= 0 and y.min() >= 0 and x.max() <= w and y.max() <= h
+    if shape == "tile":
+        c, r = rig.bounding_sphere(v)
+        sph = rig.frame_camera(c, r, azimuth=az, elevation=el, width=w, height=h, margin=1.1)
+        assert max(_fill(sph, v)[:2]) < 0.75
+
+
+def test_preview_scene_uses_fit_framing():
+    tile = scan_shapes.tile()
+    from pyrt.io.assets.asset import Asset, AssetInstance, AssetMesh
+    a = Asset(path="tile.ply", format="ply", meshes=[AssetMesh("t", tile.vertices.copy(), tile.faces.copy())],
+              instances=[AssetInstance(0, np.eye(4))])
+    for framing, lo, hi in (("fit", 0.9, 0.92), ("sphere", 0.3, 0.75)):
+        ps = P.PreviewScene(a, P.PreviewOptions(width=64, height=48, spp=1, framing=framing))
+        try:
+            cam = ps.camera(35.0)
+            v = np.concatenate([ps.scene.meshes[i].vertices for i in ps.model_meshes])
+            assert lo <= max(_fill(cam, v)[:2]) <= hi, framing
+        finally:
+            ps.close()
+    with pytest.raises(P.PreviewError, match="framing"):
+        P.PreviewOptions(framing="tight").validate()
+
+
+def test_turntable_views_keep_one_distance():
+    """A turntable fits every view to the union of the hull turned to all views: the camera stays at one
+    distance from the turntable axis and the tile's framing does not breathe from view to view."""
+    tile = scan_shapes.tile()
+    from pyrt.io.assets.asset import Asset, AssetInstance, AssetMesh
+    a = Asset(path="tile.ply", format="ply", meshes=[AssetMesh("t", tile.vertices.copy(), tile.faces.copy())],
+              instances=[AssetInstance(0, np.eye(4))])
+    ps = P.PreviewScene(a, P.PreviewOptions(width=64, height=48, spp=1, turntable=6))
+    try:
+        v = np.concatenate([ps.scene.meshes[i].vertices for i in ps.model_meshes])
+        cams = [ps.camera(35.0 + 60.0 * k) for k in range(6)]
+        r = [np.hypot(*(c.position - ps.center)[[0, 2]]) for c in cams]
+        np.testing.assert_allclose(r, r[0], rtol=1e-6)
+        for c in cams:
+            fx, fy, x, y = _fill(c, v)
+            assert x.min() >= 0 and x.max() <= 64 and y.min() >= 0 and y.max() <= 48
+    finally:
+        ps.close()

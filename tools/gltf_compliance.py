@@ -1,0 +1,549 @@
+"""glTF compliance: render every model of a folder with ``pyrt-preview``'s defaults, beside its reference screenshot.
+
+    python tools/gltf_compliance.py ../shared/khronos-gltf -o out/compliance --docs docs
+    python tools/gltf_compliance.py ../shared/khronos-gltf -o out/compliance --only Duck,Fox
+    python tools/gltf_compliance.py -o out/compliance --rebuild --docs docs     # table + sheets from results.json
+
+``DIR`` holds one folder per model (the Khronos glTF-Sample-Assets layout): the ``.glb`` / ``.gltf`` file (at the
+top or in a sub-folder such as ``glTF/``), ``screenshot.*`` (the reference image), ``LICENSE.md`` and
+``README.md``. Every model is previewed by :func:`pyrt.apps.preview.preview_asset` at the previewer's defaults
+(:class:`pyrt.apps.preview.PreviewOptions`: 640x480, 4 spp, studio rig, glossy integrator) in its own Python
+process, so that its peak resident memory is measured alone (``os.wait4``'s ``ru_maxrss``, which includes the
+interpreter and the imports: a model that fails while loading peaks at ~120 MB), under a time limit
+(``--timeout``, default 600 s; a model over it is killed and reported failed).
+
+Writes into ``-o OUT`` (default ``out/compliance``): ``renders/NAME.png`` (pyrt's image), ``results.json`` (all
+measurements), ``sheet.png`` (per model the screenshot beside pyrt's image, 320x240 tiles, names under them) and
+``compliance.md`` (the table and the credits). With ``--docs DOCS`` also ``DOCS/compliance.md`` and a downscaled
+``DOCS/compliance_sheet.png`` (160x120 tiles, kept under 1.5 MB). ``--rebuild`` skips rendering and rebuilds the
+table and sheets from ``OUT/results.json`` and ``OUT/renders`` (after editing the notes file).
+
+The table: model, extensions used, triangles, load / prepare / render seconds and the total inside
+``preview_asset`` (the batch summary's ``load_time`` and ``render_time``; ``prepare_time`` or a ``timings`` /
+``phases`` dict when the preview reports one, blank otherwise), peak RSS, warnings, status and "what differs and
+why". The status is ``failed`` (with the error) when the preview failed or timed out; otherwise it comes from
+``tools/gltf_compliance_notes.toml`` (``--notes``), one table per model, filled in by a person who looked at the
+sheet: ``status = "ok"`` or ``"differs"`` and ``why``; a model without notes is ``not reviewed``. Credits: the
+licence of the model's files from LICENSE.md (its SPDX identifiers), the author from the glTF file's
+``asset.copyright`` or, without one, from README.md's legal or licence section.
+"""
+from __future__ import annotations
+
+import argparse
+from dataclasses import asdict, dataclass, field
+import json
+import os
+import re
+import struct
+import subprocess
+import sys
+import time
+import tomllib
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+sys.path.insert(0, ROOT)
+
+NOTES = os.path.join(HERE, "gltf_compliance_notes.toml")
+MODEL_EXT = (".glb", ".gltf")
+SHOT_EXT = (".png", ".jpg", ".jpeg", ".gif", ".webp")
+DOCS_SHEET_LIMIT = 1.5e6     # bytes
+
+
+# ============================================================================ the folder
+
+@dataclass
+class Model:
+    """One model of the folder: its name (the folder's) and the files that go with it (None where absent)."""
+
+    name: str
+    path: str
+    screenshot: str | None = None
+    license: str | None = None
+    readme: str | None = None
+
+
+def _first(paths):
+    return sorted(paths, key=lambda p: (p.count(os.sep), p))[0] if paths else None
+
+
+def find_models(root):
+    """Models under ``root``: one per sub-folder holding a ``.glb``/``.gltf`` (a top-level ``.glb`` first, else the
+    shallowest file), plus model files lying in ``root`` itself (no screenshot or licence then), sorted by name."""
+    models = []
+    for entry in sorted(os.listdir(root)):
+        p = os.path.join(root, entry)
+        if os.path.isfile(p) and p.lower().endswith(MODEL_EXT):
+            models.append(Model(os.path.splitext(entry)[0], p))
+            continue
+        if not os.path.isdir(p):
+            continue
+        found = [os.path.join(d, f) for d, _, fs in os.walk(p) for f in fs if f.lower().endswith(MODEL_EXT)]
+        if not found:
+            continue
+        glb = [f for f in found if f.lower().endswith(".glb")]
+        path = _first(glb) if glb and _first(glb).count(os.sep) == _first(found).count(os.sep) else _first(found)
+        shots = [os.path.join(d, f) for d, _, fs in os.walk(p) for f in fs
+                 if f.lower().startswith("screenshot") and f.lower().endswith(SHOT_EXT)]
+        lic, readme = os.path.join(p, "LICENSE.md"), os.path.join(p, "README.md")
+        models.append(Model(entry, path, _first(shots), lic if os.path.isfile(lic) else None,
+                            readme if os.path.isfile(readme) else None))
+    return models
+
+
+def gltf_json(path):
+    """The JSON part of a ``.gltf`` or ``.glb`` file as a dict ({} if it cannot be read)."""
+    try:
+        with open(path, "rb") as fh:
+            data = fh.read()
+        if data[:4] == b"glTF":
+            n, kind = struct.unpack_from("<I4s", data, 12)
+            return json.loads(data[20:20 + n]) if kind == b"JSON" else {}
+        return json.loads(data)
+    except (OSError, ValueError, struct.error):
+        return {}
+
+
+# ============================================================================ credits
+
+_SPDX = re.compile(r'\[([^\]]*)\]\([^)]*\)\s*\[SPDX license identifier:\s*"([^"]+)"\]')
+_IMAGE = re.compile(r"!\[[^\[\]]*\]\([^)]*\)")
+_LINK = re.compile(r"\[([^\[\]]*)\]\([^)]*\)")
+
+
+def parse_license(text):
+    """The Khronos ``LICENSE.md`` (``modelmetadata`` format) as a dict.
+
+    ``title``: the model's title (``# LICENSE file for the model: Duck``); ``licenses``: the SPDX identifiers of
+    the first bullet group (the model's own files), ``license_names`` their names; ``meta_licenses``: those of
+    the other groups (the metadata files). Unknown layouts give empty lists: the caller prints what it has.
+    """
+    title = ""
+    groups = []
+    for line in text.splitlines():
+        m = re.match(r"#\s*LICENSE file for the model:\s*(.+)", line.strip())
+        if m:
+            title = m.group(1).strip()
+        elif line.startswith("* "):
+            groups.append([])
+        elif groups:
+            groups[-1] += _SPDX.findall(line)
+    if not groups:   # no bullet groups: every identifier counts as the model's
+        groups = [_SPDX.findall(text)]
+    first = groups[0] if groups else []
+    return {"title": title, "licenses": [i for _, i in first], "license_names": [n for n, _ in first],
+            "meta_licenses": sorted({i for g in groups[1:] for _, i in g})}
+
+
+def _section(text, *names):
+    """The text of the first ``## NAME`` section (any of ``names``), up to the next heading."""
+    for name in names:
+        m = re.search(rf"^##\s*{name}\s*$(.*?)(?=^#|\Z)", text, flags=re.M | re.S | re.I)
+        if m:
+            return m.group(1).strip()
+    return ""
+
+
+def _plain(s):
+    """Markdown to one line of text: images dropped, links as their text, ``&copy;`` as ©."""
+    s = _LINK.sub(lambda m: m.group(1), _IMAGE.sub("", s)).replace("&copy;", "©")
+    return re.sub(r"\s+", " ", s).strip(" \\")
+
+
+def parse_author(readme_text, copyright_field=None):
+    """Who to credit for a model: the glTF ``asset.copyright`` if given, else from its README.md: the ``## Legal``
+    section (``&copy; 2017, Cesium.`` and `` - Cesium for Everything`` lines), a ``Copyright ...`` line, the first
+    paragraph of ``## License Information`` or a "by NAME" in ``## Creation Details``. "" when none is found."""
+    if copyright_field and copyright_field.strip():
+        return _plain(copyright_field)
+    legal = _section(readme_text, "Legal")
+    if legal:
+        holder = re.search(r"&copy;\s*([^\[\n]+?)\.?\s*(\[|$)", legal, flags=re.M)
+        who = [m.strip() for m in re.findall(r"^\s*-\s+(.+)$", legal, flags=re.M)]
+        parts = ([f"© {holder.group(1).strip()}"] if holder else []) + who
+        if parts:
+            return _plain("; ".join(parts))
+    m = re.search(r"^\s*(Copyright .+)$", readme_text, flags=re.M)
+    if m:
+        return _plain(m.group(1))
+    info = _section(readme_text, "License Information", "License")
+    if info:
+        paras = [p for p in re.split(r"\n\s*\n", info) if _plain(p)]
+        if paras:
+            return _plain(" ".join(paras))
+    made = _section(readme_text, "Creation Details")
+    m = re.search(r"\bby\s+\[([^\]]+)\]", made)
+    return f"by {m.group(1)}" if m else ""
+
+
+def credits(model):
+    """``{"model", "title", "author", "licenses"}`` for a :class:`Model` (from its LICENSE.md, README.md, glTF)."""
+    lic = parse_license(_read(model.license)) if model.license else {"title": "", "licenses": []}
+    info = gltf_json(model.path).get("asset", {})
+    return {"model": model.name, "title": lic["title"] or model.name,
+            "author": parse_author(_read(model.readme) if model.readme else "", info.get("copyright")),
+            "licenses": lic["licenses"]}
+
+
+def _read(path):
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        return fh.read()
+
+
+# ============================================================================ one model, in a child process
+
+def _child(model_path, out_dir, name, report_path):
+    """Preview one model at the defaults (runs in the child process); writes the report as JSON."""
+    from pyrt.apps.preview import PreviewOptions, preview_asset
+
+    t0 = time.perf_counter()
+    rep = preview_asset(model_path, out_dir, PreviewOptions(), name=name)
+    d = {k: v for k, v in asdict(rep).items() if k != "files"}
+    d["total_time"] = time.perf_counter() - t0
+    with open(report_path, "w") as fh:
+        json.dump(d, fh, default=str)
+
+
+@dataclass
+class Result:
+    """What the tool measured for one model (``results.json`` holds a list of these)."""
+
+    name: str
+    path: str
+    status: str = "failed"          # "ok" | "failed" | "timeout"
+    error: str = ""
+    triangles: int | None = None
+    load: float | None = None
+    prepare: float | None = None
+    render: float | None = None
+    total: float | None = None
+    rss_mb: float | None = None
+    warnings: list = field(default_factory=list)
+    extensions: list = field(default_factory=list)
+    loadavg: float | None = None    # 1-minute load average when the model started
+    render_png: str | None = None
+    screenshot: str | None = None
+
+
+def _number(rep, *keys):
+    """The first of ``keys`` found in the report or in a ``timings``/``phases``/``times`` dict of it; None if none."""
+    for where in (rep, *(rep.get(k) for k in ("timings", "phases", "times"))):
+        if isinstance(where, dict):
+            for k in keys:
+                v = where.get(k)
+                if isinstance(v, (int, float)) and not isinstance(v, bool):
+                    return float(v)
+    return None
+
+
+def result_from_report(res, rep):
+    """Fill a :class:`Result` from the child's report dict, reading every field defensively (absent -> None)."""
+    res.status = {"ok": "ok", "timeout": "timeout"}.get(rep.get("status"), "failed")
+    res.error = str(rep.get("error") or "")
+    tri = rep.get("triangles")
+    res.triangles = int(tri) if isinstance(tri, (int, float)) and tri else None
+    if res.status == "ok":   # a failed preview's phase times are its report's defaults (0), not measurements
+        res.load = _number(rep, "load_time", "load")
+        res.prepare = _number(rep, "prepare_time", "prepare", "preparation_time", "preparation")
+        res.render = _number(rep, "render_time", "render")
+    res.total = _number(rep, "total_time")
+    res.warnings = [str(w) for w in rep.get("warnings") or []]
+    return res
+
+
+def run_model(model, out_dir, timeout):
+    """Preview ``model`` in a child process; its peak RSS from ``os.wait4``. Returns a :class:`Result`."""
+    renders = os.path.join(out_dir, "renders")
+    os.makedirs(renders, exist_ok=True)
+    report = os.path.join(out_dir, f".{model.name}.json")
+    errlog = os.path.join(out_dir, f".{model.name}.stderr")
+    if os.path.exists(report):
+        os.remove(report)
+    res = Result(model.name, model.path, screenshot=model.screenshot and os.path.abspath(model.screenshot),
+                 extensions=list(gltf_json(model.path).get("extensionsUsed", [])), loadavg=os.getloadavg()[0])
+    cmd = [sys.executable, os.path.abspath(__file__), "--child", model.path, renders, model.name, report]
+    with open(errlog, "wb") as err:
+        proc = subprocess.Popen(cmd, stdout=err, stderr=err)
+        t0 = time.monotonic()
+        while True:
+            pid, status, ru = os.wait4(proc.pid, os.WNOHANG)
+            if pid:
+                break
+            if time.monotonic() - t0 > timeout:
+                proc.kill()
+                pid, status, ru = os.wait4(proc.pid, 0)
+                res.status, res.error = "timeout", f"killed after {timeout:g} s (--timeout)"
+                break
+            time.sleep(0.05)
+    proc.returncode = os.waitstatus_to_exitcode(status)   # reaped here: Popen must not wait for it again
+    res.rss_mb = ru.ru_maxrss / 1024.0                     # Linux: kilobytes
+    if res.status != "timeout":
+        if os.path.exists(report):
+            with open(report) as fh:
+                result_from_report(res, json.load(fh))
+        else:
+            tail = _read(errlog).strip().splitlines()[-1:] if os.path.exists(errlog) else []
+            res.error = f"process exited with code {proc.returncode}" + (f": {tail[0]}" if tail else "")
+    png = os.path.abspath(os.path.join(renders, f"{model.name}.png"))
+    res.render_png = png if res.status == "ok" and os.path.exists(png) else None
+    for p in (report, errlog):
+        if os.path.exists(p):
+            os.remove(p)
+    return res
+
+
+# ============================================================================ the table
+
+def load_notes(path):
+    """The notes file (TOML, one table per model: ``status`` "ok" | "differs", ``why``) as a dict; {} if absent."""
+    if not path or not os.path.exists(path):
+        return {}
+    with open(path, "rb") as fh:
+        data = tomllib.load(fh)
+    return {k: v for k, v in data.items() if isinstance(v, dict)}
+
+
+def model_status(res, note):
+    """(status, why) of one model: failed runs from the measurement, the rest from the reviewer's note."""
+    if res.status != "ok":
+        return ("failed (timeout)" if res.status == "timeout" else "failed"), res.error
+    if not note:
+        return "not reviewed", ""
+    status = str(note.get("status", "differs" if note.get("why") else "ok"))
+    return status, str(note.get("why", ""))
+
+
+def _cell(x, fmt="{:.2f}"):
+    return "" if x is None else fmt.format(x)
+
+
+def _md(s):
+    return str(s).replace("|", "\\|").replace("\n", " ")
+
+
+def build_table(results, notes):
+    """The markdown table, one row per :class:`Result` (missing measurements are blank cells)."""
+    rows = ["| model | extensions | triangles | load s | prepare s | render s | total s | peak RSS MB | warnings "
+            "| status | what differs and why |",
+            "|---|---|---:|---:|---:|---:|---:|---:|---:|---|---|"]
+    for r in results:
+        status, why = model_status(r, notes.get(r.name))
+        ext = ", ".join(e.removeprefix("KHR_") for e in r.extensions)
+        rows.append("| " + " | ".join([
+            _md(r.name), _md(ext), _cell(r.triangles, "{:d}"), _cell(r.load), _cell(r.prepare), _cell(r.render),
+            _cell(r.total), _cell(r.rss_mb, "{:.0f}"), str(len(r.warnings)), _md(status), _md(why)]) + " |")
+    return "\n".join(rows)
+
+
+def build_credits(creds):
+    """The credits section (model, author, licence of its files) as markdown."""
+    rows = ["| model | author / copyright | licence (SPDX) |", "|---|---|---|"]
+    for c in creds:
+        rows.append(f"| {_md(c['title'])} | {_md(c['author'] or 'see the model README')} | "
+                    f"{_md(', '.join(c['licenses']) or '—')} |")
+    return "\n".join(rows)
+
+
+def build_markdown(results, notes, creds, *, sheet=None, command="", machine=""):
+    """The whole ``compliance.md``: how it was made, the sheet, the table, the warnings and the credits."""
+    ok = sum(r.status == "ok" for r in results)
+    parts = ["# glTF compliance: pyrt-preview against the Khronos screenshots", "",
+             f"Generated by `{command}`" if command else "Generated by `tools/gltf_compliance.py`.", "",
+             "Each model is rendered by `pyrt-preview` at its defaults (640×480, 4 spp, studio rig, auto-exposure) "
+             "in its own process. Times are seconds inside the preview (the batch summary's load / prepare / render; "
+             "total = the whole `preview_asset` call, PNG encoding included); peak RSS is the process's maximum "
+             "resident set, Python and the imports included. The status and the \"what differs\" notes come from "
+             "`tools/gltf_compliance_notes.toml`, written by a person looking at the sheet; edit it and run the tool "
+             "with `--rebuild` to update this page.", ""]
+    if machine:
+        parts += [machine, ""]
+    if sheet:
+        parts += [f"![pyrt (right of each pair) beside the Khronos screenshot (left)]({sheet})", ""]
+    parts += [build_table(results, notes), "", f"{ok}/{len(results)} models rendered.", ""]
+    warned = [r for r in results if r.warnings]
+    if warned:
+        parts += ["## Warnings", ""]
+        for r in warned:
+            parts += [f"- **{_md(r.name)}**: " + "; ".join(_md(w) for w in r.warnings)]
+        parts += [""]
+    parts += ["## Credits", "",
+              "The models and screenshots are from the Khronos Group's glTF-Sample-Assets "
+              "(github.com/KhronosGroup/glTF-Sample-Assets), unchanged; authors and licences as each model's "
+              "LICENSE.md and README.md state them:", "", build_credits(creds), ""]
+    return "\n".join(parts)
+
+
+# ============================================================================ the contact sheet
+
+def sheet_layout(n, *, cols, tile, pad=16, gap=4, label=18):
+    """Geometry of a sheet of ``n`` pairs (screenshot, render) in ``cols`` columns of pairs.
+
+    Returns ``(height, width, origins)``: ``origins[k]`` is the (y, x) of pair k's left tile; its right tile starts
+    at ``x + tile_w + gap``; the name is written in the ``label`` pixels under the pair.
+    """
+    th, tw = tile
+    pw, ph = 2 * tw + gap, th + label
+    cols = max(1, min(cols, n))
+    rows = -(-n // cols)
+    origins = [(pad + (k // cols) * (ph + pad), pad + (k % cols) * (pw + pad)) for k in range(n)]
+    return rows * (ph + pad) + pad, cols * (pw + pad) + pad, origins
+
+
+def fit_tile(img, tile, fill=255):
+    """``img`` (H, W, 3|4) uint8, or None) scaled to fit a (th, tw) tile keeping its aspect, centred on ``fill``."""
+    from PIL import Image
+
+    th, tw = tile
+    out = np.full((th, tw, 3), fill, dtype=np.uint8)
+    if img is None:
+        out[:] = 200
+        return out
+    im = Image.fromarray(np.ascontiguousarray(img[..., :3]))
+    s = min(tw / im.width, th / im.height)
+    w, h = max(1, round(im.width * s)), max(1, round(im.height * s))
+    small = np.asarray(im.resize((w, h), Image.LANCZOS))
+    y, x = (th - h) // 2, (tw - w) // 2
+    out[y:y + h, x:x + w] = small
+    return out
+
+
+def compose_sheet(pairs, *, cols=4, tile=(240, 320), pad=16, gap=4, label=18):
+    """The contact sheet: ``pairs`` is a list of (name, screenshot, render) with uint8 images or None (drawn grey).
+
+    Returns (H, W, 3) uint8, white background, each pair's name (and "no screenshot" / "failed") under it.
+    """
+    from PIL import Image, ImageDraw, ImageFont
+
+    h, w, origins = sheet_layout(len(pairs), cols=cols, tile=tile, pad=pad, gap=gap, label=label)
+    sheet = np.full((h, w, 3), 255, dtype=np.uint8)
+    th, tw = tile
+    for (name, shot, mine), (y, x) in zip(pairs, origins):
+        sheet[y:y + th, x:x + tw] = fit_tile(shot, tile)
+        x2 = x + tw + gap
+        sheet[y:y + th, x2:x2 + tw] = fit_tile(mine, tile)
+    im = Image.fromarray(sheet)
+    draw = ImageDraw.Draw(im)
+    try:
+        font = ImageFont.load_default(size=max(6, label - 4))
+    except TypeError:     # Pillow < 10.1: the fixed bitmap font
+        font = ImageFont.load_default()
+    for (name, shot, mine), (y, x) in zip(pairs, origins):
+        text = name + ("" if shot is not None else "  (no screenshot)") + ("" if mine is not None else "  (failed)")
+        draw.text((x + 2, y + th + 2), text, fill=(0, 0, 0), font=font)
+    return np.asarray(im)
+
+
+def _load_rgb(path):
+    if not path or not os.path.exists(path):
+        return None
+    from PIL import Image
+
+    with Image.open(path) as im:
+        return np.asarray(im.convert("RGB"))
+
+
+def write_sheet(path, results, *, tile, cols, limit=None):
+    """Compose the sheet for ``results`` and write it as PNG (256-colour quantised if over ``limit`` bytes)."""
+    from PIL import Image
+
+    pairs = [(r.name, _load_rgb(r.screenshot), _load_rgb(r.render_png)) for r in results]
+    label = max(14, tile[0] // 8)
+    im = Image.fromarray(compose_sheet(pairs, cols=cols, tile=tile, label=label))
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    im.save(path, optimize=True)
+    if limit and os.path.getsize(path) > limit:
+        im.quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(path, optimize=True)
+    return os.path.getsize(path)
+
+
+# ============================================================================ command line
+
+def _revision():
+    """``abc1234`` (``+ local changes``) of the checkout the tool runs from, or "" outside a git checkout."""
+    try:
+        rev = subprocess.run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                             timeout=10).stdout.strip()
+        dirty = subprocess.run(["git", "-C", ROOT, "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True, timeout=10).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return ""
+    return rev + (" + local changes" if rev and dirty else "")
+
+
+def _machine(results, revision=""):
+    loads = [r.loadavg for r in results if r.loadavg is not None]
+    s = (f"Renderer: commit {revision}. " if revision else "") + f"Machine: {os.cpu_count()} cores"
+    if loads:
+        s += (f", shared; 1-minute load average {min(loads):.1f}–{max(loads):.1f} while the models ran "
+              "(times are noisy under such load)")
+    return s + "."
+
+
+def main(argv=None):
+    """``tools/gltf_compliance.py DIR -o OUT [--docs DOCS]``; see the module docstring."""
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("folder", nargs="?", help="folder of model folders (e.g. ../shared/khronos-gltf)")
+    ap.add_argument("-o", "--out", default="out/compliance", help="output folder (renders, results.json, sheet)")
+    ap.add_argument("--docs", help="also write DOCS/compliance.md and a downscaled DOCS/compliance_sheet.png")
+    ap.add_argument("--notes", default=NOTES, help="the reviewer's notes (TOML, one table per model)")
+    ap.add_argument("--only", help="comma-separated model names")
+    ap.add_argument("--timeout", type=float, default=600.0, help="seconds per model before it is killed")
+    ap.add_argument("--rebuild", action="store_true", help="no rendering: rebuild from OUT/results.json")
+    ap.add_argument("--cols", type=int, default=4, help="pairs per row of the sheet")
+    args = ap.parse_args(argv)
+    results_path = os.path.join(args.out, "results.json")
+    if args.rebuild:
+        with open(results_path) as fh:
+            saved = json.load(fh)
+        results = [Result(**r) for r in saved["results"]]
+        creds, command, revision = saved["credits"], saved.get("command", ""), saved.get("revision", "")
+    else:
+        if not args.folder or not os.path.isdir(args.folder):
+            print(f"gltf_compliance: error: no such folder: {args.folder}", file=sys.stderr)
+            return 2
+        models = find_models(args.folder)
+        if args.only:
+            keep = set(args.only.split(","))
+            models = [m for m in models if m.name in keep]
+        if not models:
+            print(f"gltf_compliance: error: no .glb/.gltf models in {args.folder}", file=sys.stderr)
+            return 2
+        os.makedirs(args.out, exist_ok=True)
+        command = "python tools/gltf_compliance.py " + " ".join(argv if argv is not None else sys.argv[1:])
+        revision = _revision()
+        results, creds = [], []
+        for k, m in enumerate(models):
+            r = run_model(m, args.out, args.timeout)
+            results.append(r)
+            creds.append(credits(m))
+            print(f"[{k + 1}/{len(models)}] {m.name}: {r.status} load {_cell(r.load)} prepare {_cell(r.prepare)} "
+                  f"render {_cell(r.render)} total {_cell(r.total)} s, {_cell(r.rss_mb, '{:.0f}')} MB, "
+                  f"load avg {r.loadavg:.1f}" + (f" — {r.error}" if r.error else ""), flush=True)
+        with open(results_path, "w") as fh:
+            json.dump({"command": command, "revision": revision, "results": [asdict(r) for r in results],
+                       "credits": creds}, fh, indent=1)
+    notes = load_notes(args.notes)
+    write_sheet(os.path.join(args.out, "sheet.png"), results, tile=(240, 320), cols=args.cols)
+    md = build_markdown(results, notes, creds, sheet="sheet.png", command=command,
+                        machine=_machine(results, revision))
+    with open(os.path.join(args.out, "compliance.md"), "w") as fh:
+        fh.write(md)
+    if args.docs:
+        size = write_sheet(os.path.join(args.docs, "compliance_sheet.png"), results, tile=(120, 160), cols=args.cols,
+                           limit=DOCS_SHEET_LIMIT)
+        md = build_markdown(results, notes, creds, sheet="compliance_sheet.png", command=command,
+                            machine=_machine(results, revision))
+        with open(os.path.join(args.docs, "compliance.md"), "w") as fh:
+            fh.write(md)
+        print(f"wrote {os.path.join(args.docs, 'compliance.md')} and compliance_sheet.png ({size / 1e6:.2f} MB)")
+    print(build_table(results, notes))
+    return 0
+
+
+if __name__ == "__main__":
+    if len(sys.argv) == 6 and sys.argv[1] == "--child":
+        _child(*sys.argv[2:])
+    else:
+        sys.exit(main())
