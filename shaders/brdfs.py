@@ -332,6 +332,71 @@ def gltf_metallic_roughness_f_cos(wo, wi, base_color, metallic, roughness, *,
     return out.astype(dt, copy=False)
 
 
+def gltf_pbr_f_cos(wo, wi, base_color, metallic, roughness, *, f0_dielectric, specular=1.0, transmission=0.0,
+                   specular_share=1.0, geometry="smith_separable"):
+    """glTF metallic-roughness reflection with the ``KHR_materials_specular`` / ``_ior`` / ``_transmission``
+    parameters, times cos (the reflection half of the extended glTF BSDF; transmission lobes are separate).
+
+    ::
+
+        F_d = f0_dielectric + (1 - f0_dielectric)(1 - |v.h|)^5      (RGB; f0 = min(f0(ior) * specularColor, 1))
+        F_m = base + (1 - base)(1 - |v.h|)^5
+        dielectric = (1 - specular max(F_d)) (1 - transmission) base / pi
+                     + specular_share specular F_d D G / (4 |n.l| |n.v|)
+        f = (1 - metallic) dielectric + metallic F_m D G / (4 |n.l| |n.v|)
+
+    The ``fresnel_mix`` of ``KHR_materials_specular`` (its "Implementation" section) and the ``mix`` of the
+    glTF 2.0 Appendix B metal / dielectric; ``transmission`` takes its share of the diffuse lobe
+    (``KHR_materials_transmission``: ``mix(diffuse, btdf, transmission)`` under the same specular layer);
+    ``specular_share`` (1 by default) scales the dielectric's specular lobe, for a caller that gives part of it as a
+    delta lobe (a smooth transmitting surface: ``1 - transmission`` there).
+    Reciprocal (F at ``v.h``). With ``f0_dielectric = 0.04``, ``specular = 1``, ``transmission = 0`` this
+    differs from :func:`gltf_metallic_roughness_f_cos` only by the diffuse weight of partly metallic texels
+    (``(1 - m)(1 - F_d)`` here, ``(1 - F_mixed)(1 - m)`` there); at metallic 0 or 1 they agree.
+
+    Parameters
+    ----------
+    wo, wi : (N, 3) float ndarray
+    base_color, f0_dielectric : (3,) or (N, 3)
+    metallic, roughness, specular, transmission, specular_share : float or (N,)
+    """
+    n = wo.shape[0]
+    dt = wi.dtype
+    base = _col(base_color, n, dt)
+    m = _lane(metallic, n, dt)[:, None]
+    s = _lane(specular, n, dt)[:, None]
+    tr = _lane(transmission, n, dt)[:, None]
+    share = _lane(specular_share, n, dt)[:, None]
+    alpha = _mf.roughness_to_alpha(_lane(roughness, n, dt))
+    spec, cos_oh = microfacet_spec_cos(wo, wi, alpha, distribution="ggx", geometry=geometry)
+    f_d = _fresnel.fr_schlick(cos_oh, _col(f0_dielectric, n, dt))
+    f_m = _fresnel.fr_schlick(cos_oh, base)
+    cos_i = _same_hemisphere_cos(wo, wi)
+    diffuse = (1.0 - s * f_d.max(axis=1, keepdims=True)) * (1.0 - tr) * base * (cos_i / np.pi)[:, None]
+    out = (1.0 - m) * (diffuse + share * s * f_d * spec[:, None]) + m * f_m * spec[:, None]
+    return out.astype(dt, copy=False)
+
+
+def thin_transmission_spec_cos(wo, wi, alpha):
+    """Fresnel-free transmission lobe of a thin dielectric sheet times |cos theta_i|: the GGX reflection lobe
+    mirrored through the surface plane, ``D G / (4 |cos_o|)`` at ``(wi_x, wi_y, -wi_z)``.
+
+    A thin wall refracts in and out again, so the light leaves parallel to the way it came (``wi = -wo``
+    for a smooth sheet); roughness spreads it as it spreads the reflection (the thin-walled BTDF of
+    glTF's ``KHR_materials_transmission`` without ``KHR_materials_volume``). Symmetric in ``wo``, ``wi``;
+    0 unless ``wi`` is below the horizon. The caller multiplies by ``1 - F``.
+
+    Returns
+    -------
+    spec : (N,) ndarray
+        ``D G / (4 |cos_o|)`` of the mirrored direction.
+    cos_oh : (N,) ndarray
+        ``wo . h`` of the mirrored pair (the Fresnel angle).
+    """
+    flipped = wi * np.array([1.0, 1.0, -1.0], dtype=wi.dtype)
+    return microfacet_spec_cos(wo, flipped, alpha, distribution="ggx", geometry="smith_correlated")
+
+
 # ---------------------------------------------------------------------------------------------
 # Oren-Nayar (issue 16, item 7)
 # ---------------------------------------------------------------------------------------------

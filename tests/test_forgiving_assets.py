@@ -269,3 +269,15 @@ def _tristrip_index_out_of_range(tmp_path):
 def test_broken_files_still_fail_naming_file_and_part(tmp_path, make, part):
     with pytest.raises(AssetError, match=part):
         load_asset(make(tmp_path))
+
+
+def test_missing_extension_texture_is_a_substitution_too(tmp_path):
+    path = _textured_gltf(tmp_path, None)
+    header = json.loads(open(path).read())
+    header["materials"][0]["extensions"] = {"KHR_materials_clearcoat": {
+        "clearcoatFactor": 0.5, "clearcoatTexture": {"index": 0}, "clearcoatNormalTexture": {"index": 0}}}
+    open(path, "w").write(json.dumps(header))
+    a = load_asset(path)
+    P = a.materials[0]
+    assert P.clearcoat_texture is None and P.clearcoat_normal_texture is None and P.clearcoat_factor == 0.5
+    assert len(a.substitutions) == 3 and all("tex.png" in s for s in a.substitutions)

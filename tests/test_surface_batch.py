@@ -48,3 +48,39 @@ def test_lazy_frame_is_orthonormal_and_follows_a_new_shading_normal():
     flipped = -surf.ns
     surf.set_shading_normal(flipped)
     np.testing.assert_allclose(np.einsum("ij,ij->i", surf.frame_s, flipped), 0, atol=1e-12)
+
+
+class _CountingTexture(pyrt.Texture):
+    """A per-hit texture (a function of the hit point) that counts its evaluations and the lanes it read."""
+
+    channels = 3
+
+    def __init__(self):
+        self.calls = 0
+        self.lanes = 0
+
+    def evaluate(self, ctx):
+        self.calls += 1
+        self.lanes += ctx.n_hits
+        return np.abs(np.sin(7.0 * ctx.p))
+
+
+def test_a_view_gathers_texture_lookups_its_parent_made():
+    """Material.param on a view cut from a batch that already read the texture gathers that lookup (the BSDF
+    sample and pdf of an estimator reuse what f_cos read), and the values are those of a direct lookup."""
+    surf = _batch()
+    tex = _CountingTexture()
+    mat = pyrt.Lambert(albedo=tex)
+    group = surf.subset(np.arange(1, surf.n_hits, 2))
+    full = mat.param(tex, group)
+    assert tex.calls == 1
+    view = group.subset(np.arange(3, group.n_hits, 5)).subset(np.array([4, 0, 2]))
+    got = mat.param(tex, view)
+    assert tex.calls == 1, "the view read the texture again"
+    direct = np.abs(np.sin(7.0 * view.p))
+    assert np.array_equal(got, direct)
+    assert np.array_equal(got, full[np.arange(3, group.n_hits, 5)[[4, 0, 2]]])
+    # a batch that is not an ancestor has nothing to give: evaluated (once) on its own lanes
+    other = surf.subset(np.arange(0, surf.n_hits, 3))
+    mat.param(tex, other)
+    assert tex.calls == 2

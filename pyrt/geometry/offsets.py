@@ -315,6 +315,8 @@ def _batch_cached(surf, key, fn):
     val = cache[key]
     if idx is None or base is surf:
         return val
+    if isinstance(idx, slice):           # a contiguous view (SurfaceBatch.subset): NumPy views, no gather
+        return tuple(v[idx] for v in val) if isinstance(val, tuple) else val[idx]
     return tuple(take_rows(v, idx) for v in val) if isinstance(val, tuple) else take_rows(val, idx)
 
 

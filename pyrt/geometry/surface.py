@@ -140,7 +140,10 @@ class SurfaceBatch:
 
     FIELDS = ("p", "p_object", "ng", "ns", "front", "wo", "uv", "dpdu", "dpdv", "duvdx", "duvdy", "dpdx", "dpdy",
               "dndx", "dndy", "mesh_id", "prim_id", "face", "material_id", "bary", "t", "p_error",
-              "frame_s", "frame_t", "tri_v", "tri_n", "smooth", "tri_extent", "tri_absmax", "n_vertex", "p_lift")
+              "frame_s", "frame_t", "tri_v", "tri_n", "smooth", "tri_extent", "tri_absmax", "n_vertex", "p_lift",
+              "ns_unmapped")
+    #: ``ns_unmapped``: the shading normals before :func:`pyrt.textures.apply_normal_maps` perturbed them (None
+    #: when no normal map was applied; a clear coat's own frame starts from it)
 
     def __init__(self, lazy=None, **kwargs):
         """``lazy`` maps field names to a function computing a dict of fields on first access."""
@@ -176,11 +179,26 @@ class SurfaceBatch:
         return self.p.shape[0]
 
     def subset(self, idx):
-        """The batch restricted to ``idx`` (an index array or a boolean mask), as a lazy view."""
-        idx = np.asarray(idx)
-        if idx.dtype == bool:
-            idx = np.flatnonzero(idx)
-        return _SurfaceSubset(self, idx)
+        """The batch restricted to ``idx`` (an index array, a boolean mask or a ``slice(lo, hi)``), as a lazy view.
+
+        A slice (contiguous rows, e.g. the hits of one material once they are ordered by material) makes
+        every field of the view a NumPy view of the batch's (no copy); an index array gathers each field on
+        first read. Fields of a view are read-only by convention (nothing writes into a batch's fields).
+        The view remembers this batch and ``idx`` (:func:`parent_value`): values computed per hit on this
+        batch (the materials' texture lookups) are gathered for the view instead of computed again.
+        """
+        if isinstance(idx, slice):
+            lo, hi, step = idx.indices(self.n_hits)
+            if step != 1:
+                raise ValueError(f"SurfaceBatch.subset: a slice must have step 1, got {idx}")
+            idx = slice(lo, max(lo, hi))
+        else:
+            idx = np.asarray(idx)
+            if idx.dtype == bool:
+                idx = np.flatnonzero(idx)
+        sub = _SurfaceSubset(self, idx)
+        sub.__dict__["_parent"] = (self, idx)
+        return sub
 
     def set_shading_normal(self, ns):
         """Replace the shading normals (unit, (N, 3)) and rebuild the local frame."""
@@ -219,44 +237,120 @@ class SurfaceBatch:
         return to_local(w, self.frame_s, self.frame_t, self.ns)
 
     def to_world(self, w):
-        return w[:, 0:1] * self.frame_s + w[:, 1:2] * self.frame_t + w[:, 2:3] * self.ns
+        """Local directions ``w`` (N, 3) (z = shading normal) in world space, column by column (the same sums
+        as ``w[:, 0:1] * s + w[:, 1:2] * t + w[:, 2:3] * n``)."""
+        s, t, n = self.frame_s, self.frame_t, self.ns
+        out = np.empty(w.shape, dtype=np.result_type(w, s, t, n))
+        tmp = np.empty(w.shape[0], dtype=out.dtype)
+        for c in range(3):
+            col = out[:, c]
+            np.multiply(w[:, 0], s[:, c], out=col)
+            col += np.multiply(w[:, 1], t[:, c], out=tmp)
+            col += np.multiply(w[:, 2], n[:, c], out=tmp)
+        return out
+
+
+def compose_rows(outer, inner):
+    """Rows of a batch for the rows ``inner`` of its view with rows ``outer`` (each an index array or a
+    ``slice(lo, hi)``): ``outer[inner]``, kept a slice when both are."""
+    if isinstance(outer, slice):
+        if isinstance(inner, slice):
+            return slice(outer.start + inner.start, outer.start + inner.stop)
+        return inner + outer.start
+    return outer[inner]
+
+
+def take_view_rows(a, rows):
+    """``a[rows]``: a view for a ``slice``, a row gather (:func:`pyrt.shaders.vec.take_rows`) for an index array."""
+    return a[rows] if isinstance(rows, slice) else take_rows(a, rows)
 
 
 class _SurfaceSubset(SurfaceBatch):
-    """Lazy view of a :class:`SurfaceBatch` restricted to index array ``idx``."""
+    """Lazy view of a :class:`SurfaceBatch` restricted to rows ``idx`` (an index array or a ``slice(lo, hi)``)."""
 
     def __init__(self, base, idx):  # noqa: D107 - deliberately does not call SurfaceBatch.__init__
         if isinstance(base, _SurfaceSubset):
-            idx = base._idx[idx]
+            idx = compose_rows(base._idx, idx)
             base = base._base
         self.__dict__["_base"] = base
         self.__dict__["_idx"] = idx
 
     def __getattr__(self, name):
         # only called when the attribute is not cached in the instance dict yet
+        if name in ("frame_s", "frame_t") and "frame_s" not in self._base.__dict__ and self.ns is not None:
+            # the base has not built its frame: build the view's own (a per-row formula, the same rows a
+            # gather would give) rather than the frame of every hit of the bounce (delta lobes of a few
+            # mirror hits among many diffuse ones)
+            self.__dict__["frame_s"], self.__dict__["frame_t"] = coordinate_frame(self.ns)
+            return self.__dict__[name]
         if name in SurfaceBatch.FIELDS:
             val = getattr(self._base, name)
-            val = None if val is None else take_rows(val, self._idx)
+            val = None if val is None else take_view_rows(val, self._idx)
             self.__dict__[name] = val
             return val
         raise AttributeError(name)
 
     @property
     def n_hits(self):
-        return self._idx.shape[0]
+        idx = self._idx
+        return idx.stop - idx.start if isinstance(idx, slice) else idx.shape[0]
+
+
+def parent_value(ctx, cache, key):
+    """``value[idx]`` from the nearest batch the view ``ctx`` was cut from (:meth:`SurfaceBatch.subset`, through
+    any number of views) whose per-batch dict attribute ``cache`` (e.g. ``"_param_cache"``) holds ``key``; None
+    when none does, or when ``ctx`` is not a :class:`SurfaceBatch`. The rows are the same hits, so the gathered
+    value is the one the view would compute with a per-hit kernel (each row depends only on its own hit)."""
+    if not isinstance(ctx, SurfaceBatch):
+        return None
+    chain = []
+    node = ctx
+    while True:
+        parent = node.__dict__.get("_parent")
+        if parent is None:
+            return None
+        node, idx = parent
+        chain.append(idx)
+        val = node.__dict__.get(cache, {}).get(key)
+        if val is not None:
+            rows = chain[0]
+            for i in chain[1:]:     # compose the views' indices: rows of ``node`` for the rows of ``ctx``
+                rows = compose_rows(i, rows)
+            return take_view_rows(val, rows)
 
 
 def _solve_bary_derivative(e1, e2, dp):
     """Least-squares (a, b) with a e1 + b e2 ~= dp, rows of (N, 3); zero where singular."""
+    return _bary_solver(e1, e2)(dp)
+
+
+def _bary_solver(e1, e2):
+    """``solve(dp) -> (a, b)`` of :func:`_solve_bary_derivative` with the 2x2 normal matrix of ``e1, e2`` built
+    once (the x and y differentials share it)."""
     a11 = dot(e1, e1)
     a12 = dot(e1, e2)
     a22 = dot(e2, e2)
-    r1 = dot(e1, dp)
-    r2 = dot(e2, dp)
     det = a11 * a22 - a12 * a12
     ok = np.abs(det) > 1e-300
     inv = np.divide(1.0, det, out=np.zeros_like(det), where=ok)
-    return (a22 * r1 - a12 * r2) * inv, (a11 * r2 - a12 * r1) * inv
+
+    def solve(dp):
+        r1 = dot(e1, dp)
+        r2 = dot(e2, dp)
+        return (a22 * r1 - a12 * r2) * inv, (a11 * r2 - a12 * r1) * inv
+    return solve
+
+
+def _combine(s1, a, s2, b):
+    """``s1[:, None] * a + s2[:, None] * b`` for (N,) weights and (N, C) rows, column by column (the same
+    arithmetic per element; broadcasting over the short axis is several times slower, :mod:`pyrt.shaders.vec`)."""
+    out = np.empty(a.shape)
+    tmp = np.empty(a.shape[0])
+    for c in range(a.shape[1]):
+        col = out[:, c]
+        np.multiply(s1, a[:, c], out=col)
+        col += np.multiply(s2, b[:, c], out=tmp)
+    return out
 
 
 def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=None):
@@ -323,11 +417,18 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
 
     # Fields most kernels never read are computed on first access (model no more than needed).
     def uv_group():
-        e1, e2 = v1 - v0, v2 - v0
         uvs = geo.uv
         uv0, uv1, uv2 = take_rows(uvs, tri[:, 0]), take_rows(uvs, tri[:, 1]), take_rows(uvs, tri[:, 2])
-        uv = b0[:, None] * uv0 + b1[:, None] * uv1 + b2[:, None] * uv2
-        du1, du2 = uv1 - uv0, uv2 - uv0
+        uv = _combine(b0, uv0, b1, uv1)            # b0 uv0 + b1 uv1 + b2 uv2, column by column
+        uv += scale_rows(uv2, b2)
+        return {"uv": uv}
+
+    def tangent_group():
+        # dpdu / dpdv (tangent frames, anisotropic BRDFs, normal maps): most textures read only uv, not these
+        e1, e2 = v1 - v0, v2 - v0
+        uvs = geo.uv
+        uv0 = take_rows(uvs, tri[:, 0])
+        du1, du2 = take_rows(uvs, tri[:, 1]) - uv0, take_rows(uvs, tri[:, 2]) - uv0
         det = du1[:, 0] * du2[:, 1] - du1[:, 1] * du2[:, 0]
         ok = np.abs(det) > 1e-20
         inv = np.divide(1.0, det, out=np.zeros_like(det), where=ok)
@@ -336,7 +437,7 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
         if not np.all(ok):
             s_, t_ = coordinate_frame(ng[~ok])
             dpdu[~ok], dpdv[~ok] = s_, t_
-        return {"uv": uv, "dpdu": dpdu, "dpdv": dpdv}
+        return {"dpdu": dpdu, "dpdv": dpdv}
 
     def object_group():
         vo = geo.vertices_object
@@ -352,27 +453,41 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
         d_plane = dot(ng, p)
 
         def offset_point(o, d):
+            # q - p for the offset ray's point q = o + t d on the tangent plane, column by column
             denom = dot(ng, d)
             ok_ = np.abs(denom) > 1e-12
             tt = np.divide(d_plane - dot(ng, o), denom, out=np.zeros_like(denom), where=ok_)
-            q = o + tt[:, None] * d
-            return np.where(ok_[:, None], q - p, 0.0)
+            out = np.empty((n, 3))
+            for c in range(3):
+                col = out[:, c]
+                np.multiply(tt, d[:, c], out=col)
+                np.add(o[:, c], col, out=col)
+                col -= p[:, c]
+            if not ok_.all():
+                out[~ok_] = 0.0
+            return out
 
         dpdx = offset_point(rx_o, rx_d)
         dpdy = offset_point(ry_o, ry_d)
-        bx1, bx2 = _solve_bary_derivative(e1, e2, dpdx)
-        by1, by2 = _solve_bary_derivative(e1, e2, dpdy)
+        solve = _bary_solver(e1, e2)
+        bx1, bx2 = solve(dpdx)
+        by1, by2 = solve(dpdy)
         uvs = geo.uv
-        du1 = take_rows(uvs, tri[:, 1]) - take_rows(uvs, tri[:, 0])
-        du2 = take_rows(uvs, tri[:, 2]) - take_rows(uvs, tri[:, 0])
+        uv0 = take_rows(uvs, tri[:, 0])
+        du1 = take_rows(uvs, tri[:, 1]) - uv0
+        du2 = take_rows(uvs, tri[:, 2]) - uv0
         out = {"dpdx": dpdx, "dpdy": dpdy, "dndx": zeros3, "dndy": zeros3,
-               "duvdx": bx1[:, None] * du1 + bx2[:, None] * du2, "duvdy": by1[:, None] * du1 + by2[:, None] * du2}
+               "duvdx": _combine(bx1, du1, bx2, du2), "duvdy": _combine(by1, du1, by2, du2)}
         if np.any(smooth):
-            dn1 = (take_rows(nrm, tri[:, 1]) - take_rows(nrm, tri[:, 0])) * sign[:, None]
-            dn2 = (take_rows(nrm, tri[:, 2]) - take_rows(nrm, tri[:, 0])) * sign[:, None]
-            sm = smooth[:, None]
-            out["dndx"] = np.where(sm, bx1[:, None] * dn1 + bx2[:, None] * dn2, 0.0)
-            out["dndy"] = np.where(sm, by1[:, None] * dn1 + by2[:, None] * dn2, 0.0)
+            n0 = take_rows(nrm, tri[:, 0])
+            dn1 = scale_rows(take_rows(nrm, tri[:, 1]) - n0, sign)
+            dn2 = scale_rows(take_rows(nrm, tri[:, 2]) - n0, sign)
+            flat = None if smooth.all() else np.flatnonzero(~smooth)
+            for name, (w1, w2) in (("dndx", (bx1, bx2)), ("dndy", (by1, by2))):
+                dn = _combine(w1, dn1, w2, dn2)
+                if flat is not None:
+                    dn[flat] = 0.0
+                out[name] = dn
         return out
 
     def triangle_group():
@@ -398,7 +513,8 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
         put_rows(out, s, lifted)
         return {"p_lift": out}
 
-    lazy = {k: uv_group for k in ("uv", "dpdu", "dpdv")}
+    lazy = {"uv": uv_group}
+    lazy.update({k: tangent_group for k in ("dpdu", "dpdv")})
     lazy["p_lift"] = lift_group
     lazy.update({k: triangle_group for k in ("tri_v", "tri_n")})
 

@@ -26,8 +26,20 @@ from pyrt.shaders.vec import max_component, put_rows, take_rows
 
 
 def estimate(lights, surf, bsdf, visible, rng):
-    """Direct light (N, 3) from every light in ``lights`` at the hits of ``surf`` (summed in order)."""
-    return sum(estimate_light(light, surf, bsdf, visible, rng) for light in lights)
+    """Direct light (N, 3) from every light in ``lights`` at the hits of ``surf`` (summed in order).
+
+    One accumulator for all lights: a light sampled once per hit (every delta light) adds its lit lanes into
+    it in place (:func:`light_sampling_estimate` with ``out``), with no (N, 3) array of its own to zero,
+    divide by one sample and add; per hit the sum runs in light order as before (adding the zeros of unlit
+    lanes changed nothing), so images are bit-identical.
+    """
+    L = np.zeros((surf.n_hits, 3))
+    for light in lights:
+        if light.environment is None and light.n_samples == 1:
+            light_sampling_estimate(light, surf, bsdf, visible, rng, out=L)
+        else:
+            L += estimate_light(light, surf, bsdf, visible, rng)
+    return L
 
 
 def estimate_light(light, surf, bsdf, visible, rng):
@@ -38,17 +50,21 @@ def estimate_light(light, surf, bsdf, visible, rng):
 
 
 
-def light_sampling_estimate(light, surf, bsdf, visible, rng, weight=None):
+def light_sampling_estimate(light, surf, bsdf, visible, rng, weight=None, out=None):
     """Direct light (N, 3) from ``light`` toward ``surf.wo`` at every hit of ``surf``, by light sampling.
 
     ``light.n_samples`` samples per hit (stratified for non-delta lights), each one shadow ray where the
     light can contribute: on the light's side of the surface (``surf.light_side``), ``E > 0`` and a
     non-zero BSDF. ``weight(idx, wi) -> (k,)``, if given, multiplies each unoccluded sample (the MIS weight
     of light sampling when another strategy also reaches the light, :mod:`pyrt.integrators.glossy`).
+    ``out`` (N, 3), for a light with one sample per hit: the contributions are added into it in place and
+    it is returned (:func:`estimate`'s accumulator).
     """
     n = surf.n_hits
-    L = np.zeros((n, 3))
     ns = light.n_samples
+    if out is not None and ns != 1:
+        raise ValueError(f"light_sampling_estimate: out= needs one sample per hit, {light.label} has {ns}")
+    L = np.zeros((n, 3)) if out is None else out
     # delta lights ignore u; others get stratified samples (jittered grid or Latin hypercube)
     us = np.zeros((ns, n, 2)) if light.delta else stratified_samples(rng, n, ns)
     for s in range(ns):
@@ -84,7 +100,7 @@ def light_sampling_estimate(light, surf, bsdf, visible, rng, weight=None):
             f = f * w_lit[:, None]
         ls.weight(f, idx)
         put_rows(L, idx, take_rows(L, idx) + f)
-    return L / ns
+    return L if out is not None else L / ns
 
 
 def _shadowed(vis, idx, f):

@@ -30,8 +30,8 @@ then does the integrator carry a stack per ray (an ``(N, K)`` int32 array of mat
 empty, ``K`` grows when a ray is inside more volumes) and resolve false hits. A scene with one
 non-absorbing glass renders exactly as without this module.
 
-A material *participates* when ``is_dielectric`` is set, its ``ior`` is a number (not a texture) and
-its ``delta_lobes`` accepts the keyword ``eta`` (the relative index ``eta_t / eta_i`` decided here),
+A material *participates* when ``is_dielectric`` is set and ``thin_walled`` is not, its ``ior`` is a number
+(not a texture) and its ``delta_lobes`` accepts the keyword ``eta`` (the relative index ``eta_t / eta_i`` decided here),
 like :class:`pyrt.materials.Glass`.
 """
 from __future__ import annotations
@@ -67,8 +67,10 @@ def beer_lambert(sigma_a, dist):
 
 
 def _participates(m):
-    """A dielectric with a constant index takes part in the interface stacks (Material.is_dielectric, .ior)."""
-    return bool(m.is_dielectric) and isinstance(m.ior, (int, float)) and not isinstance(m.ior, bool)
+    """A dielectric with a constant index that bounds a volume takes part in the interface stacks
+    (Material.is_dielectric, .ior; not Material.thin_walled)."""
+    return (bool(m.is_dielectric) and not m.thin_walled and isinstance(m.ior, (int, float))
+            and not isinstance(m.ior, bool))
 
 
 class NestedMedia:

@@ -6,6 +6,7 @@ import time
 
 import numpy as np
 
+from pyrt.core.memory import tune_allocator
 from pyrt.geometry import precision
 from pyrt.geometry.accel import Accel
 from pyrt.integrators import gouraud
@@ -46,7 +47,9 @@ class PreparedScene:
     per-material flags (``has_delta``, ``has_diffuse``, ``dielectric``, ``emits``), the nested-media tables (``media``,
     None without several dielectrics), the coverage table (``coverage``, None without alpha or culling), the
     Gouraud face mask, ``needs_differentials`` and ``has_normal_maps``.
-    Close it (or use it as a context manager) to free the Embree scene.
+    Close it (or use it as a context manager) to free the Embree scene. Preparing a scene also tunes the C
+    allocator for rendering (:func:`pyrt.core.memory.tune_allocator`: freed chunk memory is reused, not
+    returned to the OS and faulted in again; ``PYRT_MALLOC=default`` switches that off).
     """
 
     #: Seconds spent preparing: ``"geometry"`` (flat geometry table, float32 range check, the copies into
@@ -56,6 +59,7 @@ class PreparedScene:
     def __init__(self, scene, *, threads=None):
         t0 = time.perf_counter()
         scene.validate()      # parameters changed since construction are errors here, not wrong images
+        tune_allocator()      # every render goes through here: chunk temporaries reuse heap memory
         self.scene = scene
         self.geo = scene.geometry_table()
         # meshes float32 ray tracing distorts or loses: warned about; nothing left to render: an error

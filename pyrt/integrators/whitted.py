@@ -198,6 +198,8 @@ class Integrator:
                 hsub = _subset_hits(hits, h)
             else:
                 h, hsub = self._intersect(o, d, kind, hits_only=True)
+                if depth == 0 and self.ps.face_gouraud is None:
+                    h, hsub = self._by_material(h, hsub)
             one_per_sample = depth == 0 and o.shape[0] == n_rays   # camera rays, no blend split: unique samples
             if h.size < o.shape[0]:
                 miss = np.ones(o.shape[0], dtype=bool)
@@ -254,12 +256,17 @@ class Integrator:
             sampled = self._sampled_hits(surf, diffuse_idx, depth)   # hits that trace their non-delta lobe
             if diffuse_idx.size and lights:
                 dm = mids[diffuse_idx]
+                rows = diffuse_idx
                 if dm.size > 1 and np.any(dm[1:] < dm[:-1]):
                     # ordered by material: BSDFBatch then dispatches every light's query by slicing
                     order = np.concatenate([np.flatnonzero(dm == k) for k in np.flatnonzero(np.bincount(dm))])
-                    diffuse_idx = diffuse_idx[order]
+                    diffuse_idx = rows = diffuse_idx[order]
                     sampled = None if sampled is None else sampled[order]
-                dsurf = surf.subset(diffuse_idx)
+                elif diffuse_idx[-1] - diffuse_idx[0] + 1 == diffuse_idx.size:
+                    # increasing (flatnonzero) and as many as the span: one run of rows (camera hits ordered by
+                    # material, the diffuse materials side by side): views of the batch's fields, no gathers
+                    rows = slice(int(diffuse_idx[0]), int(diffuse_idx[-1]) + 1)
+                dsurf = surf.subset(rows)
                 bsdf = BSDFBatch(dsurf, materials)
                 visible = self.visibility(dsurf)
                 Ld = self._direct_light(dsurf, bsdf, visible, rng, sampled, depth)
@@ -312,6 +319,23 @@ class Integrator:
             return ~self._occluded(origins, wi, tmax)
         return visible
 
+    def _by_material(self, h, hits):
+        """The camera rays' hits ``h`` and their :class:`Hits` reordered by material id (stable: in ray order
+        within a material), so that the surface batch's material groups are runs of rows and the direct-light
+        and BSDF queries read views of its fields instead of gathering them.
+
+        The estimators see the hits in the order they saw before (they ordered the hits with a non-delta
+        lobe by material themselves, stably, and spawn delta rays per material in ray order), and camera
+        rays have one hit per sample (results are put, not summed): images stay bit-identical. Only camera
+        rays are reordered: at later depths several rays of one sample are summed in array order.
+        """
+        geo = self.ps.geo
+        mat = geo.face_material[geo.face_offset[hits.mesh_id] + hits.prim_id]
+        if mat.size < 2 or not np.any(mat[1:] < mat[:-1]):
+            return h, hits
+        order = np.concatenate([np.flatnonzero(mat == k) for k in np.flatnonzero(np.bincount(mat))])
+        return h[order], _subset_hits(hits, order)
+
     # -- hooks of the recursion (the Whitted versions; pyrt.integrators.glossy overrides them) -----------
     def _sampled_hits(self, surf, idx, depth):
         """Which hits ``idx`` (indices into ``surf``) continue along BSDF-sampled rays: a bool mask over ``idx``,
@@ -350,8 +374,9 @@ class Integrator:
             wo_l = ctx.to_local(ctx.wo)
             kw = {"eta": eta_h[sel]} if media is not None and media.participates[k] else {}
             mat = self.scene.materials[k]
+            thr_k = take_rows(thr_h, sel)      # row gathers, not fancy indexing of (N, 3) rows (3-4x slower)
             for lobe in mat.delta_lobes(wo_l, ctx, **kw):
-                t_new = thr_h[sel] * lobe.weight
+                t_new = thr_k * lobe.weight
                 w_all = ctx.to_world(lobe.wi)
                 alive = max_component(t_new) > self.throughput_cutoff
                 if not mat.is_dielectric:
@@ -369,7 +394,7 @@ class Integrator:
                 new_d = None
                 if dsub is not None:
                     gsel = sel[keep]
-                    rx_d, ry_d = dsub[1][gsel], dsub[3][gsel]
+                    rx_d, ry_d = take_rows(dsub[1], gsel), take_rows(dsub[3], gsel)
                     if lobe.kind == "refract":
                         new_d = refract_differentials(c, rx_d, ry_d, w, lobe.eta[keep])
                     else:
@@ -393,8 +418,15 @@ class Integrator:
 
 
 def normalize_rows(w):
-    n = np.linalg.norm(w, axis=1, keepdims=True)
-    return np.divide(w, n, out=np.zeros_like(w), where=n > 0)
+    """``w / |w|`` per row (zero rows stay zero), column by column: the same values as dividing by
+    ``np.linalg.norm(w, axis=1, keepdims=True)`` (its sum of squares runs in the same order) at a third
+    of the cost of broadcasting over the 3-wide axis."""
+    n = np.sqrt(dot(w, w))
+    ok = n > 0
+    out = np.zeros_like(w)
+    for c in range(w.shape[1]):
+        np.divide(w[:, c], n, out=out[:, c], where=ok)
+    return out
 
 
 def _subset_hits(hits, idx):

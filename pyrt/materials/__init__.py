@@ -7,6 +7,8 @@
   Cook-Torrance, glTF metallic-roughness);
 - :mod:`pyrt.materials.extra`: smooth conductor, Oren-Nayar, LearnOpenGL's PBR model (issue 16);
 - :mod:`pyrt.materials.rough_dielectric`: frosted glass (GGX reflection and transmission, Walter 2007);
+- :mod:`pyrt.materials.gltf_pbr`: glTF's material extensions (specular / ior / transmission / volume, clear coat,
+  unlit);
 - :mod:`pyrt.materials.dispatch`: :class:`BSDFBatch`, the per-material-type dispatch of a batch of hits.
 """
 from pyrt.materials.base import (MATERIALS, CosineQuery, DeltaLobe, IsotropicMaterial, LocalCosineQuery, Material,
@@ -15,6 +17,7 @@ from pyrt.materials.basic import BlinnPhong, Glass, Lambert, Mirror
 from pyrt.materials.library import BlinnPhongClassic, CookTorrance, MetallicRoughness, Phong, PhongClassic, Ward
 from pyrt.materials.extra import Conductor, LearnOpenGLPBR, OrenNayar
 from pyrt.materials.rough_dielectric import RoughDielectric
+from pyrt.materials.gltf_pbr import Clearcoat, GltfPBR, Unlit
 
 #: the material registry under its older name
 REGISTRY = MATERIALS
@@ -22,4 +25,4 @@ REGISTRY = MATERIALS
 __all__ = ["MATERIALS", "REGISTRY", "CosineQuery", "DeltaLobe", "IsotropicMaterial", "LocalCosineQuery", "Material",
            "MaterialError", "check_color", "check_scalar", "is_texture", "register", "BlinnPhong", "Glass", "Lambert",
            "Mirror", "BlinnPhongClassic", "CookTorrance", "MetallicRoughness", "Phong", "PhongClassic", "Ward",
-           "Conductor", "LearnOpenGLPBR", "OrenNayar", "RoughDielectric"]
+           "Conductor", "LearnOpenGLPBR", "OrenNayar", "RoughDielectric", "Clearcoat", "GltfPBR", "Unlit"]

@@ -33,7 +33,7 @@ local-frame ``f_cos`` are one formula by construction.
 
 Declared attributes the integrators read to model no more than the scene needs: ``has_diffuse``
 (receives direct and ambient light), ``has_delta`` (spawns specular rays), ``is_dielectric`` with
-``ior``, ``tint``, ``priority`` and ``absorption`` (refraction, nested media), ``emits`` (may emit), ``lambertian``
+``ior``, ``tint``, ``priority``, ``absorption`` and ``thin_walled`` (refraction, nested media), ``emits`` (may emit), ``lambertian``
 (the environment preview's SH path), ``normal_map`` and ``uses_textures`` (ray differentials); the method
 ``glossy_alpha(ctx)`` (None: diffuse) tells the glossy integrator which lobes to trace.
 
@@ -58,6 +58,7 @@ import numpy as np
 from pyrt.core import checks
 from pyrt.core.errors import Error
 from pyrt.core.registry import Registry
+from pyrt.geometry.surface import parent_value
 from pyrt.shaders import sampling
 from pyrt.shaders.vec import dot
 from pyrt.textures import is_texture
@@ -200,6 +201,9 @@ class Material:
     #: has a transmission lobe: ``f_cos``/``sample`` give directions below the local horizon (wi_z < 0);
     #: the strict Whitted integrator lights only the viewer's side (rough glass needs the glossy integrator)
     transmits = False
+    #: a dielectric without a volume (a thin wall: light crosses it and is outside again, glTF transmission
+    #: without ``KHR_materials_volume``): it encloses no medium, so the nested-media stacks ignore it
+    thin_walled = False
     #: f(wo, wi) = f(wi, wo) (Helmholtz reciprocity; the contract tests check it where declared)
     reciprocal = True
     #: ``{attribute: ("color" | "scalar", lo, hi, lo_open)}``: the ranges :meth:`validate` re-checks before every
@@ -311,7 +315,9 @@ class Material:
         """Resolve a constant or a texture to an ``(N, channels)`` array (``(N,)`` if channels == 1).
 
         Texture lookups are cached on ``ctx`` (keyed by the texture object), so a material evaluated
-        for several lights on the same hits reads its textures once.
+        for several lights on the same hits reads its textures once; a view cut from a batch that has the
+        lookup (:func:`pyrt.geometry.surface.parent_value`, e.g. the hits a BSDF sample is drawn at, cut from
+        the material's group that evaluated ``f_cos``) gathers it instead of reading the texture again.
         """
         n = ctx.n_hits
         if is_texture(value):
@@ -319,6 +325,10 @@ class Material:
             key = (id(value), channels)
             if key in cache:
                 return cache[key]
+            out = parent_value(ctx, "_param_cache", key)
+            if out is not None:
+                cache[key] = out
+                return out
             out = np.asarray(value.evaluate(ctx), dtype=np.float64)
             if channels == 1:
                 out = out.reshape(n, -1)[:, 0]

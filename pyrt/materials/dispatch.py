@@ -62,12 +62,14 @@ class BSDFBatch:
         self.pos = None if self.contiguous else np.zeros(mat_id.size, dtype=np.int64)  # position inside the group
         starts = np.concatenate([[0], np.cumsum(counts[present])]) if self.contiguous else None
         for j, k in enumerate(present):
-            if self.contiguous:
+            if self.contiguous:     # the group's fields are views of the batch's (no gathers)
                 idx_k = np.arange(starts[j], starts[j + 1])
+                ctx_k = surf.subset(slice(int(starts[j]), int(starts[j + 1])))
             else:
                 idx_k = np.flatnonzero(mat_id == k)
                 self.pos[idx_k] = np.arange(idx_k.size)
-            self.groups[int(k)] = _Group(idx_k, surf.subset(idx_k))
+                ctx_k = surf.subset(idx_k)
+            self.groups[int(k)] = _Group(idx_k, ctx_k)
             self.cosine_path[int(k)] = isinstance(materials[k], IsotropicMaterial)
         self.bounds = starts
 

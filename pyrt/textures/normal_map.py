@@ -56,7 +56,7 @@ def flat_normal_map(height=4, width=4):
     return img
 
 
-def perturb_normal(ctx, normal_map):
+def perturb_normal(ctx, normal_map, *, ns=None):
     """Shading normals perturbed by a tangent-space normal map.
 
     Parameters
@@ -68,6 +68,9 @@ def perturb_normal(ctx, normal_map):
     normal_map : Texture
         A :class:`NormalMap` (its ``strength`` and ``flip_green`` apply) or any 3-channel texture
         whose values are ``(n + 1) / 2`` of a tangent-space normal (strength 1, OpenGL green).
+    ns : (N, 3) float ndarray, optional
+        The unit normals to perturb instead of ``ctx.ns`` (keyword-only; a clear coat's map perturbs the
+        normals before the base's map, ``ctx.ns_unmapped``).
 
     Returns
     -------
@@ -77,7 +80,7 @@ def perturb_normal(ctx, normal_map):
         (0.5, 0.5, 1) or degenerate, and where the perturbed normal would face away from
         ``ctx.wo`` (when ``ctx.wo`` is not None).
     """
-    ns = np.asarray(ctx.ns, dtype=np.float64)
+    ns = np.asarray(ctx.ns if ns is None else ns, dtype=np.float64)
     rgb = np.asarray(normal_map.evaluate(ctx), dtype=np.float64).reshape(ctx.n_hits, -1)
     if rgb.shape[1] != 3:
         raise TextureError(f"normal map {normal_map!r} must have 3 channels, got {rgb.shape[1]}")
@@ -132,5 +135,6 @@ def apply_normal_maps(surf, materials):
             ns = np.array(surf.ns, dtype=np.float64, copy=True)
         ns[sel] = perturb_normal(surf.subset(sel), nm)
     if ns is not None:
+        surf.ns_unmapped = surf.ns
         surf.set_shading_normal(ns)
     return surf

@@ -52,6 +52,9 @@ class PreviewOptions:
     aovs: bool = False
     seed: int = 0
     max_depth: int = 4
+    #: the bounce limit where the model has a dielectric (glass, glTF transmission): a ray through a thick glass
+    #: wall crosses four interfaces before it reaches what is behind (only delta rays go that deep)
+    dielectric_depth: int = 10
     crease_angle: float = 30.0
     time_budget: float | None = None     # seconds per asset
     threads: int | None = None           # Embree/shading threads per render (None = all cores)

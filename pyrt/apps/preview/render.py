@@ -152,8 +152,10 @@ class PreviewScene:
         self._set_view(azimuth)
         with _warnings.catch_warnings(record=True) as caught:
             _warnings.simplefilter("always")
-            res = render_full(self.scene, seed=o.seed, max_depth=o.max_depth, aovs=aovs, progress=False,
-                              prepared=self.prepared, threads=o.threads, integrator="glossy")
+            depth = max(o.max_depth, o.dielectric_depth) if self.prepared.dielectric.any() else o.max_depth
+            res = render_full(self.scene, seed=o.seed, max_depth=depth, aovs=aovs, progress=False,
+                              prepared=self.prepared, threads=o.threads, integrator="glossy",
+                              transparent_shadows=True)
         self.warnings += [str(w.message) for w in caught]
         if self.exposure is None:
             self.exposure, self.white = auto_exposure(res.image, self.model_mask())

@@ -53,7 +53,8 @@ Modules: :mod:`~pyrt.io.assets.common` (errors, file types, material parameters)
 :mod:`~pyrt.io.assets.asset` (:class:`Asset` and adding it to a scene),
 :mod:`~pyrt.io.assets.materials` (parameters -> pyrt materials), :mod:`~pyrt.io.assets.alpha` (glTF coverage),
 :mod:`~pyrt.io.assets.gltf` (and its container
-:mod:`~pyrt.io.assets.gltf_file`, which documents the files a glTF may name),
+:mod:`~pyrt.io.assets.gltf_file`, which documents the files a glTF may name; :mod:`~pyrt.io.assets.gltf_khr`, the
+``KHR_materials_*`` extensions and what each becomes),
 :mod:`~pyrt.io.assets.obj` (with the OBJ + MTL mapping), :mod:`~pyrt.io.assets.ply_stl`.
 """
 from __future__ import annotations
@@ -64,7 +65,7 @@ import time
 from pyrt.geometry.normals import crease_normals
 from pyrt.io.assets.common import (DEFAULT_CREASE_ANGLE, FORMATS, AssetError, DefaultParams, MTLParams, PBRParams,
                                    TextureSlot, colour_texels, malformed_is_asset_error)
-from pyrt.io.assets.materials import (GltfMaterial, ObjMaterial, ProductTexture, ScaledTexture, SurfaceExtras,
+from pyrt.io.assets.materials import (GltfMaterial, GltfPBRMaterial, ObjMaterial, ProductTexture, ScaledTexture, SurfaceExtras,
                                       VertexColorTexture, FaceColorTexture, make_metallic_roughness,
                                       to_pyrt_material)
 from pyrt.io.assets.asset import Asset, AssetCamera, AssetInstance, AssetLight, AssetMesh, light_from_photometric
@@ -74,7 +75,8 @@ from pyrt.io.assets.ply_stl import load_ply_stl, read_ply_tristrips, tristrip_fa
 
 __all__ = [
     "load_asset", "Asset", "AssetMesh", "AssetInstance", "AssetCamera", "AssetLight", "AssetError", "FORMATS",
-    "DEFAULT_CREASE_ANGLE", "TextureSlot", "PBRParams", "MTLParams", "DefaultParams", "GltfMaterial", "ObjMaterial",
+    "DEFAULT_CREASE_ANGLE", "TextureSlot", "PBRParams", "MTLParams", "DefaultParams", "GltfMaterial", "GltfPBRMaterial",
+    "ObjMaterial",
     "SurfaceExtras", "ScaledTexture", "ProductTexture", "VertexColorTexture", "make_metallic_roughness",
     "to_pyrt_material", "light_from_photometric", "crease_normals", "load_gltf", "read_gltf", "pack_glb",
     "gltf_node_transforms", "gltf_uv_transform", "load_obj", "parse_mtl", "load_ply_stl", "FaceColorTexture",

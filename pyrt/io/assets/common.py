@@ -75,6 +75,37 @@ class PBRParams:
     alpha_cutoff: float = 0.5
     alpha_texture: ImageTexture | None = None              # base colour's alpha channel (MASK / BLEND)
     texcoord: int = 0
+    # KHR_materials_* (pyrt.io.assets.gltf_khr); None / defaults: the extension is absent
+    unlit: bool = False
+    ior: float = 1.5
+    transmission_factor: float = 0.0
+    transmission_texture: ImageTexture | None = None        # R
+    thickness_factor: float = 0.0                           # > 0: the mesh bounds a volume
+    attenuation_color: np.ndarray = field(default_factory=lambda: np.ones(3))
+    attenuation_distance: float = float("inf")
+    specular_factor: float = 1.0
+    specular_texture: ImageTexture | None = None            # A
+    specular_color_factor: np.ndarray = field(default_factory=lambda: np.ones(3))
+    specular_color_texture: TextureSlot | None = None       # RGB, sRGB
+    clearcoat_factor: float = 0.0
+    clearcoat_texture: ImageTexture | None = None           # R
+    clearcoat_roughness_factor: float = 0.0
+    clearcoat_roughness_texture: ImageTexture | None = None  # G
+    clearcoat_normal_texture: NormalMap | None = None
+    ext_slots: list = field(default_factory=list)           # the extensions' TextureSlots (UV sets)
+
+    @property
+    def uses_pbr_extensions(self):
+        """The material needs :class:`pyrt.materials.GltfPBR` (specular, ior or transmission differ from the
+        core model's)."""
+        return (self.transmission_factor > 0 or self.transmission_texture is not None or self.ior != 1.5
+                or self.specular_factor != 1.0 or self.specular_texture is not None
+                or np.any(self.specular_color_factor != 1.0) or self.specular_color_texture is not None)
+
+    @property
+    def coated(self):
+        """``KHR_materials_clearcoat`` with a non-zero coat."""
+        return self.clearcoat_factor > 0
 
 
 @dataclass

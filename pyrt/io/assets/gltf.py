@@ -17,6 +17,7 @@ from pyrt.io.assets.common import AssetError, PBRParams, TextureSlot, malformed_
 from pyrt.io.assets.alpha import ALPHA_MODES, alpha_texture
 from pyrt.io.assets.asset import Asset, AssetCamera, AssetInstance, AssetLight, AssetMesh
 from pyrt.io.assets.gltf_file import SUPPORTED_EXTENSIONS, GltfFile, pack_glb, read_gltf
+from pyrt.io.assets.gltf_khr import METADATA_EXTENSIONS, read_material_extensions
 
 __all__ = ["load_gltf", "gltf_node_transforms", "gltf_uv_transform", "pack_glb", "read_gltf"]
 _WRAP = {10497: "repeat", 33071: "clamp", 33648: "mirror"}
@@ -69,6 +70,8 @@ def _gltf_texture(g, info, what, *, srgb, cache, kind="image", warnings=None, **
         texcoord = int(tt.get("texCoord", texcoord))
     try:
         if kind == "normal":
+            if filt == "nearest":       # the sampler's nearest filter (else NormalMap's bilinear default)
+                kw["filter"] = "nearest"
             t = NormalMap(arr, strength=float(info.get("scale", 1.0)), wrap=wrap, name=label, **kw, **extra)
         else:
             t = ImageTexture(arr, srgb=srgb, wrap=wrap, filter=filt, name=label, **kw, **extra)
@@ -131,7 +134,12 @@ def _gltf_material(g, mi, warnings, cache):
     if P.alpha_mode != "OPAQUE" and P.base_color_texture is not None:   # coverage: pyrt.io.assets.alpha
         slot = P.base_color_texture
         P.alpha_texture = alpha_texture(*g.image_array(slot.image), slot, cache)
-    sets = {s.texcoord for s in (P.base_color_texture, P.metallic_roughness_texture, P.emissive_texture) if s}
+    read_material_extensions(
+        m, P, what, warnings,
+        lambda info, label, srgb, kind="image": _gltf_texture(g, info, label, srgb=srgb, cache=cache, kind=kind),
+        lambda slot, c, label: _channel(slot, c, label, cache), lambda i: g.image_array(i)[0])
+    sets = {s.texcoord for s in (P.base_color_texture, P.metallic_roughness_texture, P.emissive_texture,
+                                 *P.ext_slots) if s}
     for k, tex in (("normalTexture", P.normal_texture), ("occlusionTexture", P.occlusion_texture)):
         if k in m and tex is not None:
             sets.add(int(m[k].get("texCoord", 0)))
@@ -237,6 +245,9 @@ def _load_gltf(path):
     h = g.header
     asset = Asset(path=path, format="gltf", up_axis="+y")
     W = asset.warnings
+    for ext in sorted(set(h.get("extensionsUsed", [])) - SUPPORTED_EXTENSIONS):
+        W.append(f"extension {ext} is used by the file but not supported: ignored"
+                 + (" (metadata only, no effect on the image)" if ext in METADATA_EXTENSIONS else ""))
     try:
         world = gltf_node_transforms(h)
     except AssetError as exc:
@@ -347,7 +358,7 @@ def _load_gltf(path):
 
 def _has_textures(P):
     return any(x is not None for x in (P.base_color_texture, P.metallic_roughness_texture, P.normal_texture,
-                                       P.occlusion_texture, P.emissive_texture))
+                                       P.occlusion_texture, P.emissive_texture)) or bool(P.ext_slots)
 
 
 def _unit(v):

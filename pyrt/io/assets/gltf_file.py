@@ -30,6 +30,7 @@ import numpy as np
 
 from pyrt.textures import TextureError, load_image
 from pyrt.io.assets.common import AssetError, colour_texels, malformed_is_asset_error
+from pyrt.io.assets.gltf_khr import MATERIAL_EXTENSIONS, required_extension_error
 
 _COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
 _NCOMP = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
@@ -44,7 +45,7 @@ MAX_ZERO_ACCESSOR_COUNT = 1 << 24
 do not bound, so a hostile ``count`` would otherwise allocate unbounded memory."""
 
 SUPPORTED_EXTENSIONS = {"KHR_lights_punctual", "KHR_texture_transform", "KHR_materials_emissive_strength",
-                        "KHR_mesh_quantization"}
+                        "KHR_mesh_quantization"} | MATERIAL_EXTENSIONS
 
 
 def _int(value, what, path, *, lo=0):
@@ -94,7 +95,7 @@ class GltfFile:
             raise AssetError(f"{path}: glTF version {ver!r} is not supported (need 2.x)")
         required = set(self.header.get("extensionsRequired", [])) - SUPPORTED_EXTENSIONS
         if required:
-            raise AssetError(f"{path}: requires unsupported glTF extension(s) {sorted(required)}")
+            raise required_extension_error(path, required)
         self.buffers = []
         for i, b in enumerate(self.header.get("buffers", [])):
             if not isinstance(b, dict):

@@ -3,9 +3,11 @@
 textures that combine factors, textures and vertex colours."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from pyrt.materials import BlinnPhong, Glass, MetallicRoughness
+from pyrt.materials import BlinnPhong, Clearcoat, Glass, GltfPBR, MetallicRoughness, Unlit
 from pyrt.textures import Texture
 from pyrt.io.assets.common import AssetError, DefaultParams, MTLParams, PBRParams
 
@@ -139,6 +141,52 @@ class GltfMaterial(SurfaceExtras, MetallicRoughness):
         self.double_sided = bool(double_sided)
 
 
+class GltfPBRMaterial(SurfaceExtras, GltfPBR):
+    """A glTF material with ``KHR_materials_specular`` / ``_ior`` / ``_transmission`` / ``_volume``:
+    :class:`pyrt.materials.GltfPBR` plus emission, occlusion, normal map."""
+
+    type_name = None
+
+    def __init__(self, *, emission=None, occlusion=None, occlusion_strength=1.0, normal_map=None, double_sided=True,
+                 **kwargs):
+        GltfPBR.__init__(self, **kwargs)
+        self._init_extras(emission=emission, occlusion=occlusion, occlusion_strength=occlusion_strength,
+                          normal_map=normal_map)
+        self.double_sided = bool(double_sided)
+
+
+def _factor_tex(factor, tex):
+    """``factor`` alone, or ``factor x texture``."""
+    return factor if tex is None else ScaledTexture(tex, factor)
+
+
+def gltf_extension_material(params, base, *, base_color, metallic, roughness, emission):
+    """The material of a glTF material with ``KHR_materials_*`` extensions (:mod:`pyrt.io.assets.gltf_khr`), or
+    ``base`` (the core material, already built) when it has none that changes it."""
+    P = params
+    if P.unlit:
+        return Unlit(base_color, name=P.name)
+    mat = base
+    if P.uses_pbr_extensions:
+        thick = P.thickness_factor > 0
+        sigma = 0.0
+        if thick and math.isfinite(P.attenuation_distance):
+            sigma = -np.log(np.maximum(P.attenuation_color, 1e-6)) / P.attenuation_distance
+        sc_tex = _slot_tex(P.specular_color_texture)
+        mat = GltfPBRMaterial(base_color=base_color, metallic=metallic, roughness=roughness,
+                              specular=_factor_tex(P.specular_factor, P.specular_texture),
+                              specular_color=_factor_tex(P.specular_color_factor, sc_tex), ior=P.ior,
+                              transmission=_factor_tex(P.transmission_factor, P.transmission_texture), thin=not thick,
+                              absorption=sigma, emission=emission, occlusion=P.occlusion_texture,
+                              occlusion_strength=P.occlusion_strength, normal_map=P.normal_texture,
+                              double_sided=P.double_sided, name=P.name)
+    if P.coated:
+        mat = Clearcoat(mat, clearcoat=_factor_tex(P.clearcoat_factor, P.clearcoat_texture),
+                        roughness=_factor_tex(P.clearcoat_roughness_factor, P.clearcoat_roughness_texture),
+                        normal_map=P.clearcoat_normal_texture, name=P.name)
+    return mat
+
+
 def make_metallic_roughness(**kwargs):
     """Adapter: build the glTF metallic-roughness material (:class:`GltfMaterial`).
 
@@ -174,11 +222,13 @@ def to_pyrt_material(params, *, vertex_colors=None):
         e = params.emissive_factor * params.emissive_strength
         etex = _slot_tex(params.emissive_texture)
         emission = (e if np.any(e > 0) else None) if etex is None else ScaledTexture(etex, e)
-        return make_metallic_roughness(base_color=base_color, metallic=metallic, roughness=roughness,
+        core = make_metallic_roughness(base_color=base_color, metallic=metallic, roughness=roughness,
                                        emission=emission, occlusion=params.occlusion_texture,
                                        occlusion_strength=params.occlusion_strength,
                                        normal_map=params.normal_texture, double_sided=params.double_sided,
                                        name=params.name)
+        return gltf_extension_material(params, core, base_color=base_color, metallic=metallic, roughness=roughness,
+                                       emission=emission)
     if isinstance(params, DefaultParams):
         base = np.asarray(params.base_color, dtype=np.float64)
         base_color = base if vertex_colors is None else ProductTexture(vertex_colors, base)

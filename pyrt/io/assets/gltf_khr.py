@@ -1,0 +1,154 @@
+"""glTF material extensions (``KHR_materials_*``) read into :class:`PBRParams`, and the extension lists a loader
+checks: what pyrt renders, what it ignores with a warning, and why a required one it cannot honour is refused.
+
+What each extension becomes (the materials: :mod:`pyrt.materials.gltf_pbr`; the mapping:
+:func:`pyrt.io.assets.materials.to_pyrt_material`):
+
+- ``KHR_materials_transmission`` (transmissionFactor x transmissionTexture R): the weight of a transmission lobe
+  tinted by the base colour; ``KHR_materials_ior`` (ior, default 1.5) its index and the dielectric F0;
+- ``KHR_materials_volume``: with ``thicknessFactor > 0`` the mesh bounds a volume (refraction, nested media) whose
+  medium absorbs ``sigma_a = -ln(attenuationColor) / attenuationDistance`` per scene unit (world units, as the
+  extension defines them); without it, or with thickness 0, a thin wall (light goes straight through).
+  ``thicknessTexture`` is a rasteriser's stand-in for the distance a ray tracer measures: not read;
+- ``KHR_materials_specular`` (specularFactor x specularTexture A, specularColorFactor x specularColorTexture
+  RGB, sRGB): the dielectric F0 scale and tint; ``KHR_materials_ior`` without transmission: F0 from ior;
+- ``KHR_materials_clearcoat`` (clearcoatFactor x clearcoatTexture R, clearcoatRoughnessFactor x
+  clearcoatRoughnessTexture G, clearcoatNormalTexture perturbing the normal before the base's normal map):
+  :class:`pyrt.materials.Clearcoat` over the material;
+- ``KHR_materials_unlit``: :class:`pyrt.materials.Unlit` of the base colour (x texture x vertex colour).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pyrt.io.assets.common import AssetError
+from pyrt.textures import ImageTexture
+
+#: material extensions this module reads
+MATERIAL_EXTENSIONS = {"KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
+                       "KHR_materials_clearcoat", "KHR_materials_specular", "KHR_materials_unlit"}
+#: extensions that carry metadata only (no effect on the image): ignored without a warning about the picture
+METADATA_EXTENSIONS = {"KHR_xmp", "KHR_xmp_json_ld"}
+#: why pyrt cannot render a file that *requires* these (the message of the refusal)
+REQUIRED_REASONS = {
+    "KHR_draco_mesh_compression": "Draco-compressed geometry, which pyrt cannot decode",
+    "EXT_meshopt_compression": "meshopt-compressed buffers, which pyrt cannot decode",
+    "KHR_meshopt_compression": "meshopt-compressed buffers, which pyrt cannot decode",
+    "KHR_texture_basisu": "KTX2 / Basis Universal textures, which pyrt cannot decode",
+    "EXT_texture_webp": "WebP textures, which pyrt cannot decode",
+    "EXT_texture_avif": "AVIF textures, which pyrt cannot decode",
+    "KHR_materials_pbrSpecularGlossiness": "the archived specular-glossiness material model, not implemented",
+    "EXT_mesh_gpu_instancing": "GPU instancing attributes, not implemented",
+}
+
+
+def required_extension_error(path, names):
+    """The :class:`AssetError` for a file that requires extensions pyrt does not support, with the reason for each."""
+    parts = [f"{n} ({REQUIRED_REASONS.get(n, 'not implemented')})" for n in sorted(names)]
+    return AssetError(f"{path}: requires unsupported glTF extension(s): {'; '.join(parts)}; the file declares "
+                      "that it cannot be displayed correctly without them (extensionsRequired)")
+
+
+def _number(d, key, default, what, warnings, *, lo=None):
+    v = d.get(key, default)
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) and v != math.inf:
+        raise AssetError(f"{what}: {key} must be a number, got {v!r}")
+    v = float(v)
+    if lo is not None and v < lo:
+        warnings.append(f"{what}: {key} {v} < {lo}: clamped to {lo}")
+        v = lo
+    return v
+
+
+def _color3(d, key, what):
+    v = np.asarray(d.get(key, [1.0, 1.0, 1.0]), dtype=np.float64)
+    if v.shape != (3,) or not np.all(np.isfinite(v)) or np.any(v < 0):
+        raise AssetError(f"{what}: {key} must be 3 numbers >= 0, got {v.tolist()}")
+    return v
+
+
+def read_material_extensions(m, P, what, warnings, texture, channel, image_array):
+    """Fill the extension fields of ``P`` (:class:`PBRParams`) from material ``m``'s ``extensions``.
+
+    ``texture(info, label, srgb, kind="image")`` builds a :class:`TextureSlot` from a textureInfo (the loader's,
+    with ``KHR_texture_transform`` and texCoord; ``kind="normal"``: a :class:`pyrt.NormalMap`); ``channel(slot, c, label)`` a 1-channel texture of channel ``c``;
+    ``image_array(i)`` the decoded texels of image ``i`` with their alpha (which textures drop).
+    """
+    ext = m.get("extensions", {})
+    if not isinstance(ext, dict):
+        raise AssetError(f"{what}: extensions must be an object")
+
+    def scalar_tex(d, key, c, cname):
+        if key not in d:
+            return None
+        slot = texture(d[key], f"{what} {key}", False)
+        if slot is None:    # a missing image file: the factor alone (a substitution the loader records)
+            return None
+        P.ext_slots.append(slot)
+        if c == 3:          # alpha: from the decoded image (textures keep RGB); none: glTF reads A = 1
+            arr = image_array(slot.image)
+            if arr.ndim < 3 or arr.shape[2] not in (2, 4):
+                return None
+            t = slot.texture
+            return ImageTexture(np.ascontiguousarray(arr[:, :, -1]), srgb=False, wrap=t.wrap, filter=t.filter,
+                                scale=t.scale, offset=t.offset, rotation_deg=t.rotation_deg,
+                                name=f"{slot.source} A ({key})")
+        if slot.texture.channels <= c:
+            raise AssetError(f"{what}: {key} {slot.source} has {slot.texture.channels} channel(s); "
+                             f"the extension reads {cname}")
+        return channel(slot, c, f"{slot.source} {cname} ({key})")
+
+    if "KHR_materials_unlit" in ext:
+        P.unlit = True
+    ior_ext = ext.get("KHR_materials_ior")
+    if ior_ext is not None:
+        ior = _number(ior_ext, "ior", 1.5, f"{what} KHR_materials_ior", warnings)
+        if ior < 1.0:
+            warnings.append(f"{what}: KHR_materials_ior ior {ior} < 1 is not supported: 1.5 used")
+            ior = 1.5
+        P.ior = ior
+    tr = ext.get("KHR_materials_transmission")
+    if tr is not None:
+        w = f"{what} KHR_materials_transmission"
+        P.transmission_factor = min(_number(tr, "transmissionFactor", 0.0, w, warnings, lo=0.0), 1.0)
+        P.transmission_texture = scalar_tex(tr, "transmissionTexture", 0, "R")
+    vol = ext.get("KHR_materials_volume")
+    if vol is not None:
+        w = f"{what} KHR_materials_volume"
+        P.thickness_factor = _number(vol, "thicknessFactor", 0.0, w, warnings, lo=0.0)
+        dist = _number(vol, "attenuationDistance", math.inf, w, warnings)
+        if not dist > 0:
+            raise AssetError(f"{w}: attenuationDistance must be > 0, got {dist}")
+        color = np.clip(_color3(vol, "attenuationColor", w), 0.0, 1.0)
+        P.attenuation_color, P.attenuation_distance = color, dist
+        if "thicknessTexture" in vol:
+            warnings.append(f"{w}: thicknessTexture not read (a ray tracer measures the thickness)")
+        if tr is None:
+            warnings.append(f"{w}: volume without KHR_materials_transmission has no effect")
+    sp = ext.get("KHR_materials_specular")
+    if sp is not None:
+        w = f"{what} KHR_materials_specular"
+        P.specular_factor = min(_number(sp, "specularFactor", 1.0, w, warnings, lo=0.0), 1.0)
+        P.specular_texture = scalar_tex(sp, "specularTexture", 3, "A")
+        P.specular_color_factor = _color3(sp, "specularColorFactor", w)
+        if "specularColorTexture" in sp:
+            slot = texture(sp["specularColorTexture"], f"{w} specularColorTexture", True)
+            if slot is not None:
+                P.ext_slots.append(slot)
+                P.specular_color_texture = slot
+    cc = ext.get("KHR_materials_clearcoat")
+    if cc is not None:
+        w = f"{what} KHR_materials_clearcoat"
+        P.clearcoat_factor = min(_number(cc, "clearcoatFactor", 0.0, w, warnings, lo=0.0), 1.0)
+        P.clearcoat_texture = scalar_tex(cc, "clearcoatTexture", 0, "R")
+        P.clearcoat_roughness_factor = min(_number(cc, "clearcoatRoughnessFactor", 0.0, w, warnings, lo=0.0), 1.0)
+        P.clearcoat_roughness_texture = scalar_tex(cc, "clearcoatRoughnessTexture", 1, "G")
+        if "clearcoatNormalTexture" in cc:
+            slot = texture(cc["clearcoatNormalTexture"], f"{w} clearcoatNormalTexture", False, "normal")
+            if slot is not None:
+                P.ext_slots.append(slot)
+                P.clearcoat_normal_texture = slot.texture
+    if P.unlit and len(set(ext) & (MATERIAL_EXTENSIONS - {"KHR_materials_unlit"})):
+        warnings.append(f"{what}: KHR_materials_unlit with other material extensions: unlit wins")

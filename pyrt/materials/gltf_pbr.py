@@ -1,0 +1,479 @@
+"""glTF's material extensions as pyrt materials: the extended metallic-roughness BSDF (``KHR_materials_specular``,
+``_ior``, ``_transmission``, ``_volume``), the clear coat layer (``KHR_materials_clearcoat``) and unlit surfaces
+(``KHR_materials_unlit``). Scene-file ``type`` names in brackets; the glTF loader
+(:mod:`pyrt.io.assets.gltf`) builds them from the files' parameters.
+
+- :class:`GltfPBR` [gltf_pbr]: :class:`pyrt.materials.MetallicRoughness` with the dielectric F0 from ``ior`` times
+  ``specular_color``, the specular weight ``specular`` (kernel :func:`pyrt.shaders.brdfs.gltf_pbr_f_cos`) and a
+  transmission lobe of weight ``(1 - metallic) transmission``: a thin wall (straight through,
+  :func:`pyrt.shaders.brdfs.thin_transmission_spec_cos` when rough) or the surface of a volume (refraction by
+  ``ior``, :class:`pyrt.Glass` when smooth, :class:`pyrt.RoughDielectric`'s GGX BTDF when rough) with
+  Beer-Lambert ``absorption`` inside.
+- :class:`Clearcoat` [clearcoat]: ``base (1 - c F_c) + c F_c D G / (4 |n.l| |n.v|)`` over any base material.
+- :class:`Unlit` [unlit]: emits its colour, reflects nothing.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from pyrt.materials.base import DeltaLobe, Material, MaterialError, check_color, check_scalar, is_texture, register
+from pyrt.materials.library import MetallicRoughness, _check_choice
+from pyrt.shaders import brdfs
+from pyrt.shaders import fresnel
+from pyrt.shaders import microfacet as _mf
+from pyrt.shaders.vec import coordinate_frame, half_vector, reflect, refract, to_local, to_world
+from pyrt.textures import Texture, perturb_normal
+
+#: roughness at or below which a transmission lobe is perfectly specular (delta lobes, traced to ``max_depth`` by
+#: every integrator); above it the lobe is a GGX BTDF sampled by the glossy integrator
+SMOOTH_ROUGHNESS = 0.03
+#: normal-incidence reflectance of glTF's clear coat (ior 1.5)
+CLEARCOAT_IOR = 1.5
+_FLIP_Z = np.array([1.0, 1.0, -1.0])
+
+
+def _split_u(u, p):
+    """``(choose, uu)``: lanes with ``u0 < p`` choose the first strategy; ``uu`` is ``u`` with ``u0`` rescaled to
+    [0, 1) inside each branch (as :class:`pyrt.materials.library.CookTorrance` does)."""
+    choose = u[:, 0] < p
+    u0 = np.where(choose, u[:, 0] / np.where(p > 0, p, 1.0), (u[:, 0] - p) / np.where(p < 1, 1.0 - p, 1.0))
+    return choose, np.stack([np.clip(u0, 0.0, 1.0 - 1e-12), u[:, 1]], axis=1)
+
+
+class _TransmittedTint(Texture):
+    """``base_color x transmission x (1 - metallic)`` of a :class:`GltfPBR`, per hit: the colour transparent
+    shadows (:mod:`pyrt.integrators.shadows`) multiply by per interface, where a parameter is a texture or the
+    surface transmits only in part."""
+
+    channels = 3
+
+    def __init__(self, material):
+        self._material = material       # private: the texture's repr does not print the material (a cycle)
+
+    def evaluate(self, ctx):
+        """The tint (N, 3)."""
+        m = self._material
+        w = (1.0 - m.param(m.metallic, ctx, 1)) * m.param(m.transmission, ctx, 1)
+        return np.asarray(m.param(m.base_color, ctx)) * w[:, None]
+
+
+def _finish_sample(mat, wo, wi, valid, ctx):
+    """``(wi, f_cos / pdf, pdf)`` for sampled directions, zero where ``valid`` is False or the pdf is 0."""
+    wi = np.where(valid[:, None], wi, 0.0)
+    pdf = np.where(valid, mat.pdf(wo, wi, ctx), 0.0)
+    f = mat.f_cos(wo, wi, ctx)
+    ok = pdf > 0
+    weight = np.where(ok[:, None], f / np.where(ok, pdf, 1.0)[:, None], 0.0)
+    return wi, weight, np.where(ok, pdf, 0.0)
+
+
+@register("gltf_pbr")
+class GltfPBR(MetallicRoughness):
+    """glTF metallic-roughness with ``KHR_materials_specular``, ``_ior``, ``_transmission`` and ``_volume`` [gltf_pbr].
+
+    Reflection (:func:`pyrt.shaders.brdfs.gltf_pbr_f_cos`): the dielectric F0 is
+    ``min(((ior - 1) / (ior + 1))^2 specular_color, 1)`` and ``specular`` weighs the specular layer (the
+    diffuse keeps ``1 - specular max(F)``), as ``KHR_materials_specular`` defines them; metals use the base
+    colour. The transmission lobe has weight ``(1 - metallic) transmission`` and is tinted by the base colour
+    (glTF: ``mix(diffuse, specular_btdf * baseColor, transmission)`` under the same specular layer):
+
+    - ``thin=True`` (no ``KHR_materials_volume``, or thicknessFactor 0): a thin wall; light goes straight
+      through, weighted ``1 - specular max(F)`` (the same F as the reflection, so the two sum to one), spread by
+      the roughness as the reflection is (the GGX lobe mirrored through the surface plane);
+    - ``thin=False``: the boundary of a volume of index ``ior`` (Snell, exact Fresnel ``1 - R`` and the
+      ``1 / eta^2`` radiance compression as :class:`pyrt.Glass`; GGX BTDF of :class:`pyrt.RoughDielectric`
+      when rough) whose medium absorbs ``exp(-absorption d)`` along a path of length ``d``
+      (``absorption = -ln(attenuationColor) / attenuationDistance``; nested media and absorption:
+      :mod:`pyrt.integrators.media`).
+
+    Up to :data:`SMOOTH_ROUGHNESS` the transmissive share ``w`` is a smooth interface given as delta lobes, traced
+    to ``max_depth`` by every integrator: an untinted mirror reflection ``w R`` and the tinted transmission
+    ``w (1 - R)`` (``R`` the exact Fresnel of a volume, with total internal reflection, as :class:`pyrt.Glass`;
+    ``R = specular F`` with the reflection's Schlick F for a thin wall); the opaque share ``1 - w`` keeps the
+    GGX lobes. Above it the
+    transmission is a BTDF that the glossy integrator samples (where ``alpha <= glossy_threshold``; rougher
+    transmission only receives direct light through its own surface) and the reflection the base model's GGX
+    lobe. Not modelled: ``specular`` on the transmitted weight of a volume, total internal reflection of a
+    rough volume beyond its BTDF's.
+
+    Parameters (keyword-only)
+    -------------------------
+    base_color, metallic, roughness, geometry : as :class:`pyrt.materials.MetallicRoughness`
+    specular : float or scalar texture in [0, 1] (default 1)
+    specular_color : RGB or texture >= 0 (default 1)
+    ior : float >= 1 (default 1.5): the dielectric F0 and, with transmission, the refraction index
+    transmission : float or scalar texture in [0, 1] (default 0: opaque)
+    thin : bool (default True), absorption : constant RGB >= 0 per scene unit (volumes only)
+    """
+
+    ranges = {**MetallicRoughness.ranges, "specular": ("scalar", 0.0, 1.0, False),
+              "specular_color": ("color", 0.0, None, False), "ior_value": ("scalar", 1.0, None, False),
+              "transmission": ("scalar", 0.0, 1.0, False)}
+
+    def __init__(self, *, base_color=0.8, metallic=0.0, roughness=0.5, specular=1.0, specular_color=1.0, ior=1.5,
+                 transmission=0.0, thin=True, absorption=0.0, geometry="smith_separable", name=None):
+        super().__init__(base_color=base_color, metallic=metallic, roughness=roughness, geometry=geometry, name=name)
+        owner = self.label
+        self.specular = check_scalar("specular", specular, owner, lo=0.0, hi=1.0)
+        self.specular_color = check_color("specular_color", specular_color, owner, lo=0.0)
+        #: the index of refraction of the dielectric part (``ior`` proper is set only when the material transmits)
+        self.ior_value = check_scalar("ior", ior, owner, lo=1.0)
+        if is_texture(self.ior_value):
+            raise MaterialError(f"{owner}: ior must be a constant")
+        self.transmission = check_scalar("transmission", transmission, owner, lo=0.0, hi=1.0)
+        self.thin = bool(thin)
+        sigma = check_color("absorption", absorption, owner, lo=0.0)
+        if is_texture(sigma):
+            raise MaterialError(f"{owner}: absorption must be a constant RGB")
+        if is_texture(self.transmission) or self.transmission > 0:
+            self.is_dielectric = self.transmits = self.has_delta = True
+            self.thin_walled = self.thin
+            self.ior = self.ior_value
+            consts = not any(is_texture(v) for v in (self.base_color, self.metallic, self.transmission))
+            if consts:
+                self.tint = self.base_color * (1.0 - self.metallic) * self.transmission
+            elif self.metallic == 0.0 and self.transmission == 1.0:
+                self.tint = self.base_color
+            else:
+                self.tint = _TransmittedTint(self)
+            if not self.thin:
+                self.absorption = sigma
+        elif np.any(sigma > 0):
+            raise MaterialError(f"{owner}: absorption needs transmission > 0 (an opaque surface encloses no medium)")
+        if self.thin and np.any(sigma > 0):
+            raise MaterialError(f"{owner}: a thin wall (thin=True) encloses no medium to absorb in; use thin=False")
+
+    @classmethod
+    def example(cls):
+        """An opaque instance with the specular extension (transmission has its own tests)."""
+        return cls(base_color=(0.8, 0.5, 0.3), roughness=0.4, specular=0.7, specular_color=(1.0, 0.8, 0.6), ior=1.7)
+
+    # -- per-hit parameters ------------------------------------------------------------------
+    def _f0_dielectric(self, ctx):
+        """``min(f0(ior) * specular_color, 1)``: (3,) or (N, 3)."""
+        sc = self.param(self.specular_color, ctx) if is_texture(self.specular_color) else self.specular_color
+        return np.minimum(fresnel.f0_from_ior(self.ior_value) * np.asarray(sc, dtype=np.float64), 1.0)
+
+    def _transmission_weights(self, ctx):
+        """``(w_rough, w_smooth)`` (N,): ``(1 - metallic) transmission`` on hits above / at most
+        :data:`SMOOTH_ROUGHNESS`."""
+        if not self.transmits:
+            z = np.zeros(ctx.n_hits)
+            return z, z
+        w = (1.0 - self.param(self.metallic, ctx, 1)) * self.param(self.transmission, ctx, 1)
+        smooth = self.param(self.roughness, ctx, 1) <= SMOOTH_ROUGHNESS
+        return np.where(smooth, 0.0, w), np.where(smooth, w, 0.0)
+
+    def _eta(self, ctx):
+        """``eta_t / eta_i`` of the single interface: ``ior`` from the front, ``1 / ior`` from inside."""
+        return np.where(ctx.front, self.ior_value, 1.0 / self.ior_value)
+
+    # -- the BSDF ----------------------------------------------------------------------------
+    def _reflection(self, wo, wi, ctx):
+        tr, share = 0.0, 1.0
+        if self.transmits:
+            tr = self.param(self.transmission, ctx, 1)
+            share = np.where(self.param(self.roughness, ctx, 1) <= SMOOTH_ROUGHNESS, 1.0 - tr, 1.0)
+        return brdfs.gltf_pbr_f_cos(wo, wi, self.param(self.base_color, ctx), self.param(self.metallic, ctx, 1),
+                                    self.param(self.roughness, ctx, 1), f0_dielectric=self._f0_dielectric(ctx),
+                                    specular=self.param(self.specular, ctx, 1), transmission=tr,
+                                    specular_share=share, geometry=self.geometry)
+
+    def _btdf(self, wo, wi, ctx):
+        """The transmission lobe without its weight (N,): thin (mirrored GGX times ``1 - specular max F``) or
+        the volume's GGX BTDF (Walter 2007, below the horizon only)."""
+        alpha = self._alpha(ctx)
+        if self.thin:
+            spec, cos_oh = brdfs.thin_transmission_spec_cos(wo, wi, alpha)
+            F = fresnel.fr_schlick(cos_oh, np.broadcast_to(self._f0_dielectric(ctx), (wo.shape[0], 3)))
+            return spec * (1.0 - self.param(self.specular, ctx, 1) * F.max(axis=1))
+        ft = brdfs.rough_dielectric_f_cos(wo, wi, alpha, self._eta(ctx))
+        return np.where(wi[:, 2] < 0, ft, 0.0)
+
+    def f_cos(self, wo, wi, ctx):
+        """Reflection above the horizon; the rough transmission lobe below it (tinted by the base colour)."""
+        out = self._reflection(wo, wi, ctx)
+        w_rough, _ = self._transmission_weights(ctx)
+        if np.any(w_rough > 0):
+            out = out + (w_rough * self._btdf(wo, wi, ctx))[:, None] * self.param(self.base_color, ctx)
+        return out
+
+    def _btdf_pdf(self, wo, wi, ctx):
+        alpha = self._alpha(ctx)
+        if self.thin:
+            flipped = wi * _FLIP_Z
+            h, _ = half_vector(wo, flipped)
+            pdf = _mf.reflect_pdf(_mf.ggx_vndf_pdf(wo, h, alpha), wo, h)
+            return np.where((wi[:, 2] < 0) & (wo[:, 2] > 0), pdf, 0.0)
+        return brdfs.rough_dielectric_pdf(wo, wi, alpha, self._eta(ctx))
+
+    def pdf(self, wo, wi, ctx):
+        """Mixture of the reflection strategies (weight ``1 - w``) and the transmission lobe's (``w``)."""
+        w_rough, _ = self._transmission_weights(ctx)
+        p = super().pdf(wo, wi, ctx)
+        if not np.any(w_rough > 0):
+            return p
+        p = np.where(wi[:, 2] > 0, p, 0.0)
+        return (1.0 - w_rough) * p + w_rough * self._btdf_pdf(wo, wi, ctx)
+
+    def sample(self, wo, u, ctx):
+        """The reflection strategies, or with probability ``w`` the transmission lobe (visible GGX normals)."""
+        w_rough, _ = self._transmission_weights(ctx)
+        if not np.any(w_rough > 0):
+            return super().sample(wo, u, ctx)
+        take, uu = _split_u(u, w_rough)
+        wi, _, _ = super().sample(wo, uu, ctx)
+        alpha = self._alpha(ctx)
+        if self.thin:
+            wt = reflect(wo, _mf.sample_ggx_vndf(wo, uu, alpha)) * _FLIP_Z
+            ok = wt[:, 2] < 0
+        else:
+            wt, ok = brdfs.sample_rough_dielectric(wo, uu, alpha, self._eta(ctx))
+        valid = np.where(take, ok, wi[:, 2] > 0) & (wo[:, 2] > 0)
+        return _finish_sample(self, wo, np.where(take[:, None], wt, wi), valid, ctx)
+
+    def delta_lobes(self, wo, ctx, *, eta=None):
+        """The smooth transmissive share ``w``: its mirror reflection, and the light straight through a thin wall
+        or refracted into / out of the volume (``eta`` from the ray's interface stack when the integrator gives
+        it; total internal reflection: R = 1)."""
+        _, w = self._transmission_weights(ctx)
+        if not np.any(w > 0):
+            return []
+        tint = self.param(self.base_color, ctx)
+        cos_o = wo[:, 2]
+        nz = np.zeros_like(wo)
+        nz[:, 2] = 1.0
+        wr = reflect(wo, nz)
+        if self.thin:
+            s = self.param(self.specular, ctx, 1)
+            F = s[:, None] * fresnel.fr_schlick(cos_o, np.broadcast_to(self._f0_dielectric(ctx), (wo.shape[0], 3)))
+            t = w * (1.0 - F.max(axis=1))
+            return [DeltaLobe(wr, w[:, None] * F, "reflect"),
+                    DeltaLobe(-wo, tint * t[:, None], "refract", np.ones(wo.shape[0]))]
+        if eta is None:
+            eta = self._eta(ctx)
+        wt, tir = refract(wo, nz, eta)
+        R = np.where(tir, 1.0, fresnel.fr_dielectric(cos_o, eta))
+        lobes = [DeltaLobe(wr, np.repeat((w * R)[:, None], 3, axis=1), "reflect")]
+        if np.any((w > 0) & ~tir):
+            lobes.append(DeltaLobe(wt, tint * (w * (1.0 - R) / (eta * eta))[:, None], "refract", eta))
+        return lobes
+
+    def albedo(self, ctx):
+        """The base colour times the opaque share ``1 - (1 - metallic) transmission``."""
+        a = np.array(self.param(self.base_color, ctx))
+        if not self.transmits:
+            return a
+        w = (1.0 - self.param(self.metallic, ctx, 1)) * self.param(self.transmission, ctx, 1)
+        return a * (1.0 - w)[:, None]
+
+
+@register("clearcoat")
+class Clearcoat(Material):
+    """A clear dielectric coat over a base material [clearcoat] (``KHR_materials_clearcoat``).
+
+    ``f = base (1 - c F_c) + c F_c D_ggx G / (4 |n.l| |n.v|)``, ``F_c = F0 + (1 - F0)(1 - cos)^5`` with
+    ``F0 = ((ior - 1)/(ior + 1))^2`` (0.04 at ior 1.5), ``c = clearcoat``, ``alpha = roughness^2`` (GGX,
+    height-correlated Smith). The extension's ``fresnel_coat`` takes ``cos = |n.v|`` (``fresnel="view"``, the
+    default): energy conserving whenever the base is (the coat lobe's Fresnel-free albedo is <= 1), not
+    reciprocal (the weight depends on the viewer only). ``fresnel="half"`` takes ``cos = |v.h|`` of each
+    direction pair instead: reciprocal, but then the base loses ``c F`` at the half vector of *its* directions
+    while the coat gains it at the mirror direction, so a bright base at grazing view reflects more than it
+    receives (white Lambert base, coat roughness 0.3: albedo 1.27 at 85 degrees, 0.90 with "view"; measured in
+    tests/test_gltf_materials.py); kept as the documented alternative.
+
+    The base's delta lobes are weighted ``1 - c F_c(n.v)``; its emission is not (emission sits on top of the
+    coat, glTF). The coat's normal ``n`` is the surface's normal before the base's normal map
+    (``ctx.ns_unmapped``: a base map does not tilt the coat), perturbed by the coat's own ``normal_map`` (glTF
+    ``clearcoatNormalTexture``) if it has one; D, G, F and the cosines of the coat lobe are taken in that frame
+    (the glTF sample viewer's ``NcdotL``, ``NcdotV``).
+
+    Parameters
+    ----------
+    base : Material, optional
+        The coated material (default :class:`pyrt.materials.MetallicRoughness` ()).
+    clearcoat : float or scalar texture in [0, 1] (keyword-only, default 1)
+    roughness : float or scalar texture in [0, 1] (keyword-only, default 0)
+    ior : float > 0 (keyword-only, default 1.5)
+    fresnel : "view" (default) or "half" (keyword-only)
+    normal_map : NormalMap, optional (keyword-only)
+        The coat's own tangent-space normal map.
+    """
+
+    ranges = {"clearcoat": ("scalar", 0.0, 1.0, False), "roughness": ("scalar", 0.0, 1.0, False),
+              "coat_ior": ("scalar", 0.0, None, True)}
+
+    def __init__(self, base=None, *, clearcoat=1.0, roughness=0.0, ior=CLEARCOAT_IOR, fresnel="view", normal_map=None,
+                 name=None):
+        self.name = name
+        owner = self.label
+        base = MetallicRoughness() if base is None else base
+        if not isinstance(base, Material):
+            raise MaterialError(f"{owner}: base must be a pyrt Material, got {type(base).__name__}")
+        self.base = base
+        self.clearcoat = check_scalar("clearcoat", clearcoat, owner, lo=0.0, hi=1.0)
+        self.roughness = check_scalar("roughness", roughness, owner, lo=0.0, hi=1.0)
+        self.coat_ior = check_scalar("ior", ior, owner, lo=0.0, lo_open=True)
+        self.fresnel = _check_choice(owner, "fresnel", fresnel, ("view", "half"))
+        #: the coat's own normal map (None: the coat uses the shading normal)
+        self.coat_normal_map = normal_map
+        self.reciprocal = self.fresnel == "half" and base.reciprocal
+        # what the integrators read is the base's (declared on Material, copied here)
+        for attr in ("has_delta", "is_dielectric", "ior", "priority", "absorption", "tint", "emits", "normal_map",
+                     "transmits", "thin_walled"):
+            setattr(self, attr, getattr(base, attr))
+        self.validate()
+
+    #: the default ``fresnel="view"`` is not reciprocal (see the class docstring)
+    reciprocal = False
+
+    @classmethod
+    def example(cls):
+        """A coat over a red plastic (roughness 0.35: the contract tests' chi-square cells resolve the lobe)."""
+        return cls(MetallicRoughness(base_color=(0.7, 0.1, 0.1), roughness=0.5), clearcoat=0.8, roughness=0.35)
+
+    def validate(self):
+        """The coat's ranges, then the base's."""
+        super().validate()
+        self.base.validate()
+
+    @property
+    def uses_textures(self):
+        """The coat's or the base's parameters (or the coat's normal map) are textures."""
+        return (self.base.uses_textures or is_texture(self.clearcoat) or is_texture(self.roughness)
+                or self.coat_normal_map is not None)
+
+    def _coat_frame(self, ctx):
+        """``(s, t, n)`` (N, 3) each: the coat's frame in the local shading frame, or None (the coat uses it:
+        neither the coat nor the base has a normal map)."""
+        if self.coat_normal_map is None and self.base.normal_map is None:
+            return None
+        cache = ctx.__dict__.setdefault("_param_cache", {})
+        key = (id(self), "coat_frame")
+        if key not in cache:
+            n0 = ctx.ns
+            if self.base.normal_map is not None and ctx.ns_unmapped is not None:
+                n0 = ctx.ns_unmapped                 # the base's map perturbed ns; the coat starts before it
+            n = n0 if self.coat_normal_map is None else perturb_normal(ctx, self.coat_normal_map, ns=n0)
+            n = ctx.to_local(n)
+            n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+            cache[key] = (*coordinate_frame(n), n)
+        return cache[key]
+
+    def _to_coat(self, w, ctx):
+        frame = self._coat_frame(ctx)
+        return w if frame is None else to_local(w, *frame)
+
+    def _alpha(self, ctx):
+        return _mf.roughness_to_alpha(self.param(self.roughness, ctx, 1))
+
+    def _f0(self):
+        return float(fresnel.f0_from_ior(self.coat_ior))
+
+    def coat_weight(self, wo, ctx, wi=None):
+        """``c F_c`` (N,): at ``n.v`` (``fresnel="view"``, or ``wi`` None) or at ``v.h`` of ``(wo, wi)``; ``n`` the
+        coat's normal (local shading-frame directions are turned into the coat's frame here)."""
+        wo = self._to_coat(wo, ctx)
+        if self.fresnel == "half" and wi is not None:
+            wi = self._to_coat(wi, ctx)
+            h, _ = half_vector(wo, wi)
+            cos = np.abs(np.einsum("ij,ij->i", wo, h))
+        else:
+            cos = np.abs(wo[:, 2])
+        return self.param(self.clearcoat, ctx, 1) * fresnel.fr_schlick(cos, self._f0())
+
+    def _coat_spec(self, wo, wi, ctx):
+        below_shading = (wo[:, 2] <= 0) | (wi[:, 2] <= 0)
+        wo, wi = self._to_coat(wo, ctx), self._to_coat(wi, ctx)
+        spec, _ = brdfs.microfacet_spec_cos(wo, wi, self._alpha(ctx), distribution="ggx", geometry="smith_correlated")
+        return spec if self.coat_normal_map is None else np.where(below_shading, 0.0, spec)
+
+    def f_cos(self, wo, wi, ctx):
+        """``base (1 - c F_c) + c F_c D G / (4 cos_o)`` (times cos_i)."""
+        cw = self.coat_weight(wo, ctx, wi)
+        return self.base.f_cos(wo, wi, ctx) * (1.0 - cw)[:, None] + (cw * self._coat_spec(wo, wi, ctx))[:, None]
+
+    def _coat_prob(self, wo, ctx):
+        """Probability of sampling the coat lobe: ``c F_c(n.v)``, at least ``c / 4`` (the coat's peak is narrow)."""
+        c = self.param(self.clearcoat, ctx, 1)
+        return np.clip(np.maximum(self.coat_weight(wo, ctx), 0.25 * c), 0.0, 0.9)
+
+    def pdf(self, wo, wi, ctx):
+        """``p_coat`` GGX visible-normal reflection density plus ``1 - p_coat`` the base's."""
+        p = self._coat_prob(wo, ctx)
+        alpha = self._alpha(ctx)
+        wo_c, wi_c = self._to_coat(wo, ctx), self._to_coat(wi, ctx)
+        h, _ = half_vector(wo_c, wi_c)
+        ok = (wo_c[:, 2] > 0) & (wi_c[:, 2] > 0) & (wo[:, 2] > 0)
+        pc = np.where(ok, _mf.reflect_pdf(_mf.ggx_vndf_pdf(wo_c, h, alpha), wo_c, h), 0.0)
+        return p * pc + (1.0 - p) * self.base.pdf(wo, wi, ctx)
+
+    def sample(self, wo, u, ctx):
+        """The coat's GGX visible normals with probability ``p_coat``, else the base's own sampling."""
+        take, uu = _split_u(u, self._coat_prob(wo, ctx))
+        wb, _, _ = self.base.sample(wo, uu, ctx)
+        wo_c = self._to_coat(wo, ctx)
+        wc = reflect(wo_c, _mf.sample_ggx_vndf(wo_c, uu, self._alpha(ctx)))
+        valid_c = wc[:, 2] > 0
+        frame = self._coat_frame(ctx)
+        if frame is not None:
+            wc = to_world(wc, *frame)
+        wi = np.where(take[:, None], wc, wb)
+        valid = np.where(take, valid_c & (wo_c[:, 2] > 0), np.any(wb != 0, axis=1)) & (wo[:, 2] > 0)
+        return _finish_sample(self, wo, wi, valid, ctx)
+
+    def delta_lobes(self, wo, ctx, *, eta=None):
+        """The base's delta lobes weighted ``1 - c F_c(n.v)``."""
+        kw = {} if eta is None else {"eta": eta}
+        lobes = self.base.delta_lobes(wo, ctx, **kw)
+        if not lobes:
+            return lobes
+        keep = (1.0 - self.coat_weight(wo, ctx))[:, None]
+        return [DeltaLobe(lb.wi, lb.weight * keep, lb.kind, lb.eta) for lb in lobes]
+
+    def glossy_alpha(self, ctx):
+        """The coat's alpha where it coats (``c > 0``), else the base's."""
+        a = self.base.glossy_alpha(ctx)
+        base_a = np.full(ctx.n_hits, np.inf) if a is None else np.asarray(a, dtype=np.float64)
+        coat = np.broadcast_to(self._alpha(ctx), (ctx.n_hits,))
+        c = np.broadcast_to(self.param(self.clearcoat, ctx, 1), (ctx.n_hits,))
+        return np.where(c > 0, np.minimum(coat, base_a), base_a)
+
+    def albedo(self, ctx):
+        """The base's albedo (the ambient term and the albedo AOV)."""
+        return self.base.albedo(ctx)
+
+    def emission(self, ctx):
+        """The base's emission (on top of the coat: not attenuated)."""
+        return self.base.emission(ctx)
+
+
+@register("unlit")
+class Unlit(Material):
+    """A surface that shows its colour and nothing else [unlit] (``KHR_materials_unlit``).
+
+    Emitted radiance ``color`` (W m^-2 sr^-1; the glTF base colour x texture x vertex colour), no reflection,
+    no shadow-ray work: lights, shadows and the environment do not change it, so its pixels are exactly
+    ``color`` (times the throughput of the rays that reach it). It is no light: other surfaces are not lit by it
+    (pyrt samples only declared lights), though glossy rays do see it.
+
+    Parameters
+    ----------
+    color : RGB or texture >= 0 (default 1)
+    """
+
+    has_diffuse = False
+    emits = True
+    ranges = {"color": ("color", 0.0, None, False)}
+
+    def __init__(self, color=1.0, *, name=None):
+        self.name = name
+        self.color = check_color("color", color, self.label, lo=0.0)
+
+    def albedo(self, ctx):
+        """The colour (the albedo AOV)."""
+        return np.array(self.param(self.color, ctx))
+
+    def emission(self, ctx):
+        """The colour, as emitted radiance."""
+        return np.array(self.param(self.color, ctx))
