@@ -2,6 +2,7 @@
 import json
 import math
 import os
+import re
 
 import numpy as np
 import pytest
@@ -420,14 +421,21 @@ def test_missing_gltf_texture_file(tmp_path):
         (tmp_path / name).write_bytes(data)
     header["images"] = [{"uri": "textures/gone.png"}]
     (tmp_path / "model.gltf").write_text(json.dumps(header))
-    with pytest.raises(AssetError, match=r"model\.gltf: image 0 \(textures/gone\.png\): file not found"):
-        load_asset(str(tmp_path / "model.gltf"))
+    a = load_asset(str(tmp_path / "model.gltf"))      # a substitution (the factor alone), not an error
+    assert a.materials[0].base_color_texture is None
+    assert len(a.substitutions) == 1 and a.substitutions[0] in a.warnings
+    assert re.search(r"model\.gltf: material 0 .*baseColorTexture: image 0 file not found: .*textures/gone\.png; "
+                     "rendered with the factor alone", a.substitutions[0])
 
 
 def test_missing_map_kd_texture(tmp_path):
     path = _write_obj(tmp_path, texture=False)
+    a = load_asset(path)
+    assert {m.name: m.map_Kd for m in a.materials}["tex"] is None
+    assert [s for s in a.substitutions if re.search(r"m\.mtl:6: map_Kd: texture file not found: .*t\.png; rendered "
+                                                     "with the factor alone", s)]
     with pytest.raises(AssetError, match=r"m\.mtl:6: map_Kd: texture file not found: .*t\.png"):
-        load_asset(path)
+        A.parse_mtl(str(tmp_path / "m.mtl"))           # parse_mtl alone (no substitutions list) stays strict
 
 
 def test_unsupported_required_extension(tmp_path):

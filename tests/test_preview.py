@@ -189,9 +189,11 @@ def test_batch_reports_failures_and_goes_on(tmp_path):
     assert by["blob.ply"].status == "ok" and by["blob.ply"].triangles == 1280
     assert (out / "blob_ply.png").exists()
     assert by["broken.glb"].status == "failed" and "not a GLB file" in by["broken.glb"].error
-    assert by["m.obj"].status == "failed" and "map_Kd: texture file not found" in by["m.obj"].error
+    # a missing texture is a substitution (Kd alone), listed under the table, not a failure
+    assert by["m.obj"].status == "ok" and "map_Kd: texture file not found" in by["m.obj"].substitutions[0]
     table = (out / "summary.txt").read_text()
-    assert "1/3 assets ok" in table and "broken.glb" in table
+    assert "2/3 assets ok" in table and "broken.glb" in table
+    assert "substitutions (what was replaced" in table and "map_Kd: texture file not found" in table
     rows = (out / "summary.csv").read_text().splitlines()
     assert len(rows) == 4 and rows[0].startswith("asset,status,triangles,load_s,render_s")
 
@@ -249,7 +251,7 @@ def test_dask_batch_matches_local(tmp_path):
                            progress=False)
     assert [(r.path, r.status, r.triangles) for r in local] == [(r.path, r.status, r.triangles) for r in dist]
     fl, fd = _batch_files(tmp_path / "local"), _batch_files(tmp_path / "dask")
-    assert set(fl) == set(fd) and len(fl) == 4                # blob, bracket: .png + .exr
+    assert set(fl) == set(fd) and len(fl) == 6                # blob, bracket, m.obj (its map_Kd replaced): .png + .exr
     for k in fl:
         assert fl[k] == fd[k], k                               # byte-identical files
     # an existing scheduler, given by its address
@@ -283,7 +285,7 @@ def test_cli_single_and_batch(tmp_path, capsys):
     rc = P.main([str(d), "--out-dir", str(tmp_path / "b"), "--width", "24", "--height", "18", "--spp", "1",
                  "--quiet"])
     assert rc == 1                                             # a failing asset -> non-zero exit
-    assert "1/3 assets ok" in capsys.readouterr().out
+    assert "2/3 assets ok" in capsys.readouterr().out              # m.obj renders with its map_Kd replaced
     assert P.main([BLOB, "-o", str(tmp_path / "x.jpg"), "--quiet"]) == 2
 
 

@@ -18,6 +18,7 @@ from pyrt.shaders import color
 from pyrt.shaders import tonemap
 
 from pyrt.core.errors import Error
+from pyrt.core.image_modes import CONVERTED_MODES as _CONVERTED_MODES, converted as _converted
 
 
 def atomic_write(path, write):
@@ -459,9 +460,11 @@ def read_image(path):
         with warnings.catch_warnings():  # imageio's plugin probing warns on undecodable files; the size is checked
             warnings.simplefilter("ignore", DeprecationWarning)
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-            if kind != "PNG":
-                with Image.open(path) as im:
+            with Image.open(path) as im:
+                if kind != "PNG":
                     _check_pixel_count(path, kind, *im.size)
+                if im.mode in _CONVERTED_MODES:
+                    return _converted(im)
             return np.asarray(skio.imread(path))
     except ImageFileError:
         raise

@@ -137,10 +137,17 @@ class Accel:
         return len(self._meshes) - 1
 
     def commit(self):
-        """Freeze the geometry (done implicitly by the first query)."""
+        """Freeze the geometry and build Embree's BVH now (done implicitly by the first query).
+
+        The binding builds the BVH at its first ``run``; one occlusion ray is traced here so that the build
+        happens (and can be timed: :attr:`pyrt.PreparedScene.timings` ``"bvh"``) before any render.
+        """
         if not self._meshes:
             raise RuntimeError("Accel: the scene has no geometry")
-        self._committed = True
+        if not self._committed:
+            self._committed = True
+            self._scene.run(np.zeros((1, 3), dtype=np.float32), np.array([[0.0, 0.0, 1.0]], dtype=np.float32),
+                            dists=np.full(1, T_INFINITE, dtype=np.float32), query="OCCLUDED")
 
     # -- threading ---------------------------------------------------------------------------
     def _map(self, fn, n):

@@ -104,20 +104,45 @@ def _mesh_problem(v, f, extent, v_object):
     steps = np.where(sizes > 0, sizes / ulps, 0.0 if solid else np.inf)
     k = int(np.argmin(steps))
     size, ulp = float(sizes[k]), float(ulps[k])
-    e = np.concatenate([v32[f[:, 1]] - v32[f[:, 0]], v32[f[:, 2]] - v32[f[:, 1]], v32[f[:, 0]] - v32[f[:, 2]]])
-    edge = float(np.sqrt(np.max(np.einsum("ij,ij->i", e, e))))
-    product = extent * edge * edge
-    n = cross(v32[f[:, 1]] - v32[f[:, 0]], v32[f[:, 2]] - v32[f[:, 0]])
-    if not np.any(np.einsum("ij,ij->i", n, n) > 0):
+    # Per-triangle work only where it can change the answer (multi-million-triangle meshes): every edge lies in
+    # the bounding box, so its diagonal bounds the longest edge, and when even that bound keeps L l^2 a factor
+    # OVERFLOW_MARGIN below the overflow the exact edge is not needed; and one triangle of non-zero float32 area
+    # (looked for among the first faces before all of them) shows the mesh is not lost.
+    diag = float(np.linalg.norm(sizes))
+    if extent * diag * diag * OVERFLOW_MARGIN < OVERFLOW_PRODUCT:
+        edge = product = None
+    else:
+        edge = float(np.sqrt(max(float(np.max(np.einsum("ij,ij->i", e, e))) for e in _edges(v32, f))))
+        product = extent * edge * edge
+    if not any(_any_area(v32, g) for g in (f[:_WITNESS_FACES], f[_WITNESS_FACES:])):
         return (f"size {size:.3g} is below the float32 step {ulp:.3g} at its coordinates (|x| up to {mag:.3g}): "
                 "every triangle collapses and the mesh is lost"), True
-    if product >= OVERFLOW_PRODUCT:
+    if product is not None and product >= OVERFLOW_PRODUCT:
         return (f"scene extent {extent:.3g} x longest edge {edge:.3g} squared = {product:.3g} overflows Embree's "
                 "float32 intersection test (>= 2e38): the mesh is lost"), True
     if steps[k] < RESOLVED_STEPS:
         return (f"its size {size:.3g} along {'xyz'[k]} spans only {steps[k]:.3g} float32 steps of {ulp:.3g} at its "
                 f"coordinates (|x| up to {mag:.3g}; {RESOLVED_STEPS} needed): its shape is distorted or flattened"), False
-    if product * OVERFLOW_MARGIN >= OVERFLOW_PRODUCT:
+    if product is not None and product * OVERFLOW_MARGIN >= OVERFLOW_PRODUCT:
         return (f"scene extent {extent:.3g} x longest edge {edge:.3g} squared = {product:.3g} is within "
                 f"{OVERFLOW_MARGIN:g}x of the float32 overflow of Embree's intersection test (2e38)"), False
     return None, False
+
+
+#: faces searched first for a triangle of non-zero float32 area (:func:`_mesh_problem`)
+_WITNESS_FACES = 4096
+
+
+def _edges(v, f):
+    """The three edge vectors (F, 3) of every face (three gathers, no (3F, 3) copy)."""
+    p0, p1, p2 = (np.take(v, f[:, j], axis=0) for j in range(3))
+    return p1 - p0, p2 - p1, p0 - p2
+
+
+def _any_area(v, f):
+    """True if some face of ``f`` has a non-zero cross product of its edges (in the float64 values of ``v``)."""
+    if f.shape[0] == 0:
+        return False
+    e01, _, e20 = _edges(v, f)
+    n = cross(e01, -e20)
+    return bool(np.any(np.einsum("ij,ij->i", n, n) > 0))

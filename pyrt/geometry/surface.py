@@ -68,9 +68,7 @@ def validate_mesh(vertices, faces, name):
     f = f.astype(np.int64)
     if f.min() < 0 or f.max() >= v.shape[0]:
         raise GeometryError(f"mesh {name!r}: face indices out of range [0, {v.shape[0]})")
-    area2 = np.linalg.norm(cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1)
-    scale = np.max(np.abs(v)) if v.size else 1.0
-    degenerate = area2 <= (np.finfo(np.float32).eps * max(scale, 1e-30)) ** 2
+    degenerate = degenerate_faces(v, f)
     if np.all(degenerate):
         raise GeometryError(f"mesh {name!r}: all {f.shape[0]} triangles are degenerate (zero area)")
     if np.any(degenerate):
@@ -78,6 +76,17 @@ def validate_mesh(vertices, faces, name):
                       stacklevel=3)
         f = f[~degenerate]
     return v, f
+
+
+def degenerate_faces(vertices, faces):
+    """(F,) bool: the triangles :func:`validate_mesh` skips, those whose doubled area ``|e1 x e2|`` is at most
+    ``(eps32 max|v|)^2`` (zero once float32 rounding is near; repeated indices included)."""
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    p0 = take_rows(v, f[:, 0])
+    area2 = np.linalg.norm(cross(take_rows(v, f[:, 1]) - p0, take_rows(v, f[:, 2]) - p0), axis=1)
+    scale = np.max(np.abs(v)) if v.size else 1.0
+    return area2 <= (np.finfo(np.float32).eps * max(scale, 1e-30)) ** 2
 
 
 class GeometryTable:
@@ -113,10 +122,12 @@ class GeometryTable:
         # per-face bounds for ray offsets (pyrt.geometry.offsets.local_bound): the largest extent of the triangle's
         # bounding box (>= max_i ||v_i - p||_inf for any p on it) and the component-wise max |v_i|
         # (>= sum_i b_i |v_i| for any p on it)
-        tri = self.vertices[self.faces]                               # (F, 3, 3)
-        self.face_normals = normalize(cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]))
-        self.face_extent = max_component(tri.max(axis=1) - tri.min(axis=1))
-        self.face_absmax = np.abs(tri).max(axis=1)
+        # (three (F, 3) gathers and elementwise extrema: the same values as reductions over a (F, 3, 3) copy, at a
+        # fraction of the time and memory on multi-million-triangle meshes)
+        p0, p1, p2 = (take_rows(self.vertices, self.faces[:, k]) for k in range(3))
+        self.face_normals = normalize(cross(p1 - p0, p2 - p0))
+        self.face_extent = max_component(np.maximum(np.maximum(p0, p1), p2) - np.minimum(np.minimum(p0, p1), p2))
+        self.face_absmax = np.maximum(np.maximum(np.abs(p0), np.abs(p1)), np.abs(p2))
 
 
 class SurfaceBatch:

@@ -13,7 +13,7 @@ import traceback
 from pyrt.core.image_io import write_bytes
 from pyrt.io.assets import FORMATS, AssetError
 from pyrt.apps.preview.options import BudgetExceeded, PreviewError, PreviewInterrupted, PreviewOptions
-from pyrt.apps.preview.render import render_preview, write_files
+from pyrt.apps.preview.render import PHASES, format_phases, render_preview, write_files
 
 
 # ============================================================================ batches
@@ -33,6 +33,15 @@ class AssetReport:
     outputs: list = field(default_factory=list)
     exposure: float | None = None
     files: dict | None = None           # encoded outputs (Dask mode, before the client writes them)
+    #: seconds per phase (:data:`pyrt.apps.preview.render.PHASES`: load, frame, normals, ..., render, encode, write)
+    phases: dict = field(default_factory=dict)
+    #: what the loader replaced to render the model anyway (a missing texture, MTL, ...): also in ``warnings``
+    substitutions: list = field(default_factory=list)
+
+    @property
+    def prepare_time(self):
+        """Seconds between loading and rendering: up axis and bounds, normals, scene, geometry tables, BVH."""
+        return float(sum(self.phases.get(k, 0.0) for k in ("frame", "normals", "scene", "geometry", "bvh")))
 
 
 def output_name(path, taken=None):
@@ -77,11 +86,14 @@ def preview_asset(path, out_dir=None, options=None, *, name=None, return_files=F
         return rep
     rep.triangles, rep.load_time, rep.render_time = res.triangles, res.load_time, res.render_time
     rep.warnings, rep.exposure = list(dict.fromkeys(res.warnings)), res.exposure
+    rep.phases, rep.substitutions = dict(res.phases), list(res.substitutions)
     if return_files:
         rep.files = res.files
         rep.outputs = sorted(res.files)
     else:
+        t_write = time.perf_counter()
         rep.outputs = write_files(res.files, out_dir or ".")
+        rep.phases["write"] = time.perf_counter() - t_write
     return rep
 
 
@@ -193,7 +205,9 @@ def _batch_dask(dist, paths, names, out_dir, o, dask, n_workers, processes, prog
                 rep = AssetReport(path=paths[k], name=names[k], status="failed",
                                   error=f"task failed: {type(exc).__name__}: {exc}")
             if rep.files is not None:
+                t_write = time.perf_counter()
                 rep.outputs = write_files(rep.files, out_dir)
+                rep.phases["write"] = time.perf_counter() - t_write
                 rep.files = None
             rep.path = paths[k]
             reports[k] = rep
@@ -211,12 +225,14 @@ def _batch_dask(dist, paths, names, out_dir, o, dask, n_workers, processes, prog
 
 
 def summary_rows(reports):
-    """The summary table as rows of strings (header first)."""
-    rows = [["asset", "status", "triangles", "load s", "render s", "warnings", "message"]]
+    """The summary table as rows of strings (header first); "prepare s" is :attr:`AssetReport.prepare_time`,
+    "subst." the number of substitutions (listed under the table by :func:`format_summary`)."""
+    rows = [["asset", "status", "triangles", "load s", "prepare s", "render s", "warnings", "subst.", "message"]]
     for r in reports:
         msg = r.error or (r.warnings[0] if r.warnings else "")
         rows.append([os.path.basename(r.path), r.status, str(r.triangles), f"{r.load_time:.2f}",
-                     f"{r.render_time:.2f}", str(len(r.warnings)), msg])
+                     f"{r.prepare_time:.2f}", f"{r.render_time:.2f}", str(len(r.warnings)),
+                     str(len(r.substitutions)), msg])
     return rows
 
 
@@ -224,10 +240,19 @@ def format_summary(reports, *, width=60):
     """A fixed-width text table of :func:`summary_rows` (messages cut to ``width`` characters)."""
     rows = [r[:-1] + [r[-1] if len(r[-1]) <= width else r[-1][:width - 3] + "..."] for r in summary_rows(reports)]
     w = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
-    lines = ["  ".join(c.ljust(w[i]) if i in (0, 1, 6) else c.rjust(w[i]) for i, c in enumerate(r)) for r in rows]
+    last = len(rows[0]) - 1
+    lines = ["  ".join(c.ljust(w[i]) if i in (0, 1, last) else c.rjust(w[i]) for i, c in enumerate(r)) for r in rows]
     lines.insert(1, "  ".join("-" * x for x in w))
     ok = sum(r.status == "ok" for r in reports)
     lines.append(f"{ok}/{len(reports)} assets ok")
+    timed = [r for r in reports if r.phases]
+    if timed:
+        lines += ["", "phases (s):"] + [f"  {os.path.basename(r.path)}: {format_phases(r.phases)}" for r in timed]
+    subst = [r for r in reports if r.substitutions]
+    if subst:
+        lines += ["", "substitutions (what was replaced to render the model anyway):"]
+        for r in subst:
+            lines += [f"  {os.path.basename(r.path)}:"] + [f"    - {m}" for m in r.substitutions]
     return "\n".join(lines)
 
 
@@ -235,9 +260,11 @@ def write_summary(reports, out_dir):
     """Write ``out_dir/summary.csv`` (one row per asset) and ``summary.txt`` (:func:`format_summary`), atomically."""
     buf = io.StringIO(newline="")
     wr = csv.writer(buf)
-    wr.writerow(["asset", "status", "triangles", "load_s", "render_s", "n_warnings", "error", "warnings"])
+    wr.writerow(["asset", "status", "triangles", "load_s", "render_s", "n_warnings", "error", "warnings",
+                 "prepare_s", *(f"{k}_s" for k in PHASES), "substitutions"])
     for r in reports:
         wr.writerow([r.path, r.status, r.triangles, f"{r.load_time:.4f}", f"{r.render_time:.4f}",
-                     len(r.warnings), r.error, " | ".join(r.warnings)])
+                     len(r.warnings), r.error, " | ".join(r.warnings), f"{r.prepare_time:.4f}",
+                     *(f"{r.phases[k]:.4f}" if k in r.phases else "" for k in PHASES), " | ".join(r.substitutions)])
     write_bytes(os.path.join(out_dir, "summary.csv"), buf.getvalue())
     write_bytes(os.path.join(out_dir, "summary.txt"), format_summary(reports) + "\n")

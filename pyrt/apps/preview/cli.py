@@ -21,7 +21,7 @@ from pyrt.io.assets import FORMATS
 from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, check_output_folder, check_outputs, finite_float,
                               interrupts, nonnegative_int, positive_float, positive_int)
 from pyrt.apps.preview.options import AXES, PreviewError, PreviewInterrupted, PreviewOptions
-from pyrt.apps.preview.render import render_preview, write_files
+from pyrt.apps.preview.render import format_phases, render_preview, write_files
 from pyrt.apps.preview.batch import collect_inputs, format_summary, preview_batch
 
 
@@ -130,6 +130,7 @@ def _main_single(path, outputs, opts, quiet, cancel):
     except PreviewInterrupted as exc:
         print(f"pyrt-preview: {exc}; nothing written", file=sys.stderr)
         return EXIT_INTERRUPTED
+    t_write = time.perf_counter()
     for out in outputs:
         stem, ext = os.path.splitext(out)
         base = os.path.basename(stem)
@@ -138,11 +139,12 @@ def _main_single(path, outputs, opts, quiet, cancel):
         for p in write_files(sel, os.path.dirname(stem) or "."):
             if not quiet:
                 print(f"wrote {p}")
+    res.phases["write"] = time.perf_counter() - t_write
     for w in dict.fromkeys(res.warnings):
         print(f"warning: {w}", file=sys.stderr)
     if not quiet:
-        print(f"{res.triangles} triangles, up {res.up_axis} ({res.up_reason}), load {res.load_time:.2f} s, "
-              f"render {res.render_time:.2f} s, exposure {res.exposure:+.2f} stops")
+        print(f"{res.triangles} triangles, up {res.up_axis} ({res.up_reason}), {format_phases(res.phases)} "
+              f"(total {sum(res.phases.values()):.2f} s), exposure {res.exposure:+.2f} stops")
     if cancel.is_set():
         print("pyrt-preview: interrupted after the view had finished; the outputs are complete", file=sys.stderr)
         return EXIT_INTERRUPTED

@@ -2,8 +2,14 @@
 
 ``asset = load_asset(path)`` reads a file into an :class:`Asset` (object-space meshes, instances with
 their world transforms, materials, cameras, lights, warnings); ``asset.add_to_scene(scene)`` adds it
-to a scene. Every failure raises :class:`AssetError` with a message naming the file and the part
-that is wrong (a missing texture, an accessor past the end of its buffer, ...).
+to a scene. A broken file raises :class:`AssetError` with a message naming the file and the part
+that is wrong (an accessor past the end of its buffer, invalid JSON, an index out of range, a corrupt image, ...).
+
+Forgiving where the model itself is fine (each a *substitution*, :attr:`Asset.substitutions`, also a warning, listed
+per model in ``pyrt-preview``'s batch summary): a missing texture file -> the slot's factor alone (glTF, MTL maps);
+a missing MTL -> the default material. Grey, grey + alpha, palette (with or without transparency), 16-bit and
+CMYK images are converted (to RGB / RGBA, :func:`colour_texels`; CMYK by Pillow's ``255 - ink``); PLY face colours
+are read (:class:`FaceColorTexture`) and PLY ``tristrips`` are read into triangles (:func:`read_ply_tristrips`).
 
 Conventions
 -----------
@@ -58,13 +64,14 @@ import time
 
 from pyrt.geometry.normals import crease_normals
 from pyrt.io.assets.common import (DEFAULT_CREASE_ANGLE, FORMATS, AssetError, DefaultParams, MTLParams, PBRParams,
-                                   TextureSlot, malformed_is_asset_error)
+                                   TextureSlot, colour_texels, malformed_is_asset_error)
 from pyrt.io.assets.materials import (GltfMaterial, GltfPBRMaterial, ObjMaterial, ProductTexture, ScaledTexture, SurfaceExtras,
-                                      VertexColorTexture, make_metallic_roughness, to_pyrt_material)
+                                      VertexColorTexture, FaceColorTexture, make_metallic_roughness,
+                                      to_pyrt_material)
 from pyrt.io.assets.asset import Asset, AssetCamera, AssetInstance, AssetLight, AssetMesh, light_from_photometric
 from pyrt.io.assets.gltf import gltf_node_transforms, gltf_uv_transform, load_gltf, pack_glb, read_gltf
 from pyrt.io.assets.obj import load_obj, parse_mtl
-from pyrt.io.assets.ply_stl import load_ply_stl
+from pyrt.io.assets.ply_stl import load_ply_stl, read_ply_tristrips, tristrip_faces
 
 __all__ = [
     "load_asset", "Asset", "AssetMesh", "AssetInstance", "AssetCamera", "AssetLight", "AssetError", "FORMATS",
@@ -72,7 +79,8 @@ __all__ = [
     "ObjMaterial",
     "SurfaceExtras", "ScaledTexture", "ProductTexture", "VertexColorTexture", "make_metallic_roughness",
     "to_pyrt_material", "light_from_photometric", "crease_normals", "load_gltf", "read_gltf", "pack_glb",
-    "gltf_node_transforms", "gltf_uv_transform", "load_obj", "parse_mtl", "load_ply_stl",
+    "gltf_node_transforms", "gltf_uv_transform", "load_obj", "parse_mtl", "load_ply_stl", "FaceColorTexture",
+    "read_ply_tristrips", "tristrip_faces", "colour_texels",
 ]
 
 

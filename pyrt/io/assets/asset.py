@@ -6,6 +6,7 @@ from __future__ import annotations
 import copy
 from dataclasses import dataclass, field
 import math
+import time
 
 import numpy as np
 import trimesh
@@ -14,8 +15,9 @@ from pyrt.core.camera import Camera
 from pyrt.geometry.normals import crease_normals
 from pyrt.lights import DirectionalLight, PointLight, SpotLight
 from pyrt.io.assets.common import DEFAULT_CREASE_ANGLE, AssetError, DefaultParams, PBRParams
+from pyrt.geometry.surface import degenerate_faces
 from pyrt.io.assets.alpha import apply_coverage, uses_alpha
-from pyrt.io.assets.materials import VertexColorTexture, to_pyrt_material
+from pyrt.io.assets.materials import FaceColorTexture, VertexColorTexture, to_pyrt_material
 
 
 # ============================================================================ data model
@@ -36,6 +38,7 @@ class AssetMesh:
     colors: np.ndarray | None = None    # (V, 3) float64 linear
     material: int = -1
     alpha: np.ndarray | None = None     # (V,) coverage alpha (glTF COLOR_0's A), read by MASK / BLEND materials
+    face_colors: np.ndarray | None = None   # (F, 3) float64 linear, one per face (PLY); used when colors is None
 
 
 @dataclass
@@ -102,6 +105,14 @@ class Asset:
     warnings: list[str] = field(default_factory=list)
     up_axis: str | None = None
     load_time: float = 0.0
+    #: what was replaced so that the model loads anyway (a missing or unreadable texture -> its factor alone, a
+    #: missing MTL -> the default material, ...), one message each; every one is also in :attr:`warnings`
+    substitutions: list[str] = field(default_factory=list)
+
+    def substitute(self, message):
+        """Record a substitution: ``message`` goes to :attr:`substitutions` and :attr:`warnings`."""
+        self.substitutions.append(message)
+        self.warnings.append(message)
 
     @property
     def n_triangles(self):
@@ -123,26 +134,33 @@ class Asset:
         return v.min(axis=0), v.max(axis=0)
 
     def add_to_scene(self, scene, *, transform=None, crease_angle=DEFAULT_CREASE_ANGLE, lights=True,
-                     name_prefix=""):
+                     name_prefix="", timings=None):
         """Add the meshes (with materials) and, if ``lights``, the lights to ``scene``.
 
         ``transform`` (4, 4) is applied on top of every instance's world transform (e.g. an up-axis
-        change). Returns the list of scene mesh indices added.
+        change). ``timings`` (a dict, optional) gets the seconds spent added to its ``"normals"`` (welding
+        and crease-angle normals of meshes without normals) and ``"scene"`` (everything else: materials,
+        :meth:`pyrt.Scene.add_mesh` checks and transforms). Returns the list of scene mesh indices added.
         """
+        t_start = time.perf_counter()
+        t_normals = 0.0
         pre = np.eye(4) if transform is None else np.asarray(transform, dtype=np.float64)
         prepared = {}
         mats = {}
         added = []
         for k, inst in enumerate(self.instances):
             if inst.mesh not in prepared:
+                t0 = time.perf_counter()
                 prepared[inst.mesh] = _prepare_mesh(self.meshes[inst.mesh], crease_angle)
+                t_normals += time.perf_counter() - t0
             tm, normals, colors, alpha = prepared[inst.mesh]
             am = self.meshes[inst.mesh]
             if alpha is not None and not uses_alpha(self._params(am)):
                 alpha = None
             key = am.material if colors is None and alpha is None else ("vc", inst.mesh)
+            per_face = colors is not None and am.colors is None     # face colours, one row per kept face
             if key not in mats:
-                mats[key] = self._material(am, colors, alpha)
+                mats[key] = self._material(am, colors, alpha, per_face=per_face)
             material, vc_tex, va_tex = mats[key]
             m = pre @ inst.world_from_object
             if abs(np.linalg.det(m[:3, :3])) < 1e-300:
@@ -162,6 +180,9 @@ class Asset:
                 if transform is not None:
                     light = _transform_light(light, pre)
                 scene.add_light(light)
+        if timings is not None:
+            timings["normals"] = timings.get("normals", 0.0) + t_normals
+            timings["scene"] = timings.get("scene", 0.0) + (time.perf_counter() - t_start - t_normals)
         return added
 
     def _params(self, am):
@@ -169,11 +190,11 @@ class Asset:
         return self.materials[am.material] if am.material >= 0 else (
             PBRParams(name="gltf-default") if self.format == "gltf" else DefaultParams())
 
-    def _material(self, am, colors, alpha=None):
-        """(pyrt material, vertex-colour texture or None, vertex-alpha texture or None) for a mesh; the
+    def _material(self, am, colors, alpha=None, *, per_face=False):
+        """(pyrt material, vertex- or face-colour texture or None, vertex-alpha texture or None) for a mesh; the
         coverage (alpha mode, doubleSided) is set by :func:`pyrt.io.assets.alpha.apply_coverage`."""
         params = self._params(am)
-        vc = VertexColorTexture() if colors is not None else None
+        vc = None if colors is None else (FaceColorTexture() if per_face else VertexColorTexture())
         va = VertexColorTexture(channels=1) if alpha is not None else None
         return apply_coverage(to_pyrt_material(params, vertex_colors=vc), params, va), vc, va
 
@@ -216,7 +237,11 @@ def _transform_light(light, m):
 
 def _prepare_mesh(am, crease_angle):
     """(trimesh in object space with UVs, object-space normals, linear colours or None, vertex alpha or None) for
-    add_mesh."""
+    add_mesh.
+
+    The colours are per vertex, or, for a mesh with face colours only, per face of the faces
+    :meth:`pyrt.Scene.add_mesh` keeps (its degenerate triangles, which it skips, are left out here too).
+    """
     v, f, uv, col, nrm, alpha = am.vertices, am.faces, am.uv, am.colors, am.normals, am.alpha
     if nrm is None:
         src, f, nrm = crease_normals(v, f, crease_angle)
@@ -224,6 +249,8 @@ def _prepare_mesh(am, crease_angle):
         uv = None if uv is None else uv[src]
         col = None if col is None else col[src]
         alpha = None if alpha is None else alpha[src]
+    if col is None and am.face_colors is not None:     # faces keep their order; add_mesh's test on the same arrays
+        col = am.face_colors[~degenerate_faces(v, f)]
     tm = trimesh.Trimesh(vertices=v, faces=f, process=False)
     if uv is not None:
         tm.visual = trimesh.visual.TextureVisuals(uv=uv)

@@ -15,7 +15,8 @@ from pyrt.core.errors import Error
 from pyrt.geometry.normals import DEFAULT_CREASE_ANGLE
 from pyrt.textures import ImageTexture, NormalMap
 
-__all__ = ["AssetError", "FORMATS", "DEFAULT_CREASE_ANGLE", "TextureSlot", "PBRParams", "MTLParams", "DefaultParams"]
+__all__ = ["AssetError", "FORMATS", "DEFAULT_CREASE_ANGLE", "TextureSlot", "PBRParams", "MTLParams", "DefaultParams",
+           "colour_texels"]
 
 
 class AssetError(Error, ValueError):
@@ -135,6 +136,20 @@ class DefaultParams:
     roughness: float = 0.5
 
 
+def colour_texels(img):
+    """Texels as colour: a grey ``(H, W)`` / ``(H, W, 1)`` image becomes RGB ``(g, g, g)`` and grey + alpha becomes
+    ``(g, g, g, a)`` (what a PNG decoder gives for a grey image read as colour); 3 and 4 channels are returned as
+    they are. The loaders apply it to every image a material slot reads, so a grey or grey+alpha base colour,
+    emissive or metallic-roughness PNG renders instead of being refused for its channel count."""
+    img = np.asarray(img)
+    if img.ndim == 2:
+        img = img[:, :, None]
+    if img.ndim == 3 and img.shape[2] in (1, 2):
+        rgb = np.repeat(img[:, :, :1], 3, axis=2)
+        return rgb if img.shape[2] == 1 else np.concatenate([rgb, img[:, :, 1:2]], axis=2)
+    return img
+
+
 # ============================================================================ trimesh-read formats
 
 def trimesh_load(path, fmt, *, label=None, **kw):
@@ -153,6 +168,18 @@ def vertex_colors(mesh):
         return None
     c = np.asarray(vis.vertex_colors)
     if c.shape[0] != len(mesh.vertices):
+        return None
+    rgb = c[:, :3].astype(np.float64) / 255.0 if c.dtype == np.uint8 else np.clip(c[:, :3], 0, 1)
+    return _color.srgb_decode(rgb)
+
+
+def face_colors(mesh):
+    """Linear RGB face colours ``(F, 3)`` (8-bit sRGB in the file, e.g. PLY ``face`` ``red green blue``) or None."""
+    vis = mesh.visual
+    if getattr(vis, "kind", None) != "face":
+        return None
+    c = np.asarray(vis.face_colors)
+    if c.shape[0] != len(mesh.faces):
         return None
     rgb = c[:, :3].astype(np.float64) / 255.0 if c.dtype == np.uint8 else np.clip(c[:, :3], 0, 1)
     return _color.srgb_decode(rgb)

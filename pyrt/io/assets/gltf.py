@@ -38,7 +38,8 @@ def gltf_uv_transform(ext):
 
 
 def _gltf_texture(g, info, what, *, srgb, cache, kind="image", warnings=None, **extra):
-    """Build a texture from a glTF textureInfo ``info`` ({index, texCoord, extensions}).
+    """Build a texture from a glTF textureInfo ``info`` ({index, texCoord, extensions}), or None when its image is a
+    file that does not exist (recorded in ``g.substitutions``: the slot is rendered with its factor alone).
 
     ``cache`` (a dict, one per load) maps ``(image index, decoding)`` to the first texture made from
     those texels: later slots and materials reading the same image with the same decoding share its
@@ -52,6 +53,10 @@ def _gltf_texture(g, info, what, *, srgb, cache, kind="image", warnings=None, **
         raise AssetError(f"{g.path}: {what}: texture {ti} has no image source in a supported format "
                          f"(extensions {sorted(tex.get('extensions', {}))})")
     key = (int(src), "srgb" if srgb else "linear", None)
+    if key not in cache and g.missing_image(src) is not None:    # a substitution, not an error: the factor alone
+        g.substitutions.append(f"{g.path}: {what}: image {src} file not found: {g.missing_image(src)}; rendered "
+                               "with the factor alone")
+        return None
     arr, label = (cache[key], cache[key].name) if key in cache else g.image_array(src)
     sampler = g.get("samplers", tex["sampler"]) if "sampler" in tex else {}
     wrap = (_WRAP.get(sampler.get("wrapS", 10497), "repeat"), _WRAP.get(sampler.get("wrapT", 10497), "repeat"))
@@ -95,6 +100,8 @@ def _gltf_material(g, mi, warnings, cache):
         slot = _gltf_texture(g, pbr["metallicRoughnessTexture"], f"{what} metallicRoughnessTexture", srgb=False,
                             cache=cache)
         P.metallic_roughness_texture = slot
+    if P.metallic_roughness_texture is not None:
+        slot = P.metallic_roughness_texture
         raw = slot.texture
         if raw.channels < 3:
             raise AssetError(f"{g.path}: {what}: metallicRoughnessTexture {slot.source} has {raw.channels} "
@@ -103,12 +110,12 @@ def _gltf_material(g, mi, warnings, cache):
         P.roughness_texture = _channel(slot, 1, f"{slot.source} G (roughness)", cache)
     if "normalTexture" in m:
         P.normal_scale = float(m["normalTexture"].get("scale", 1.0))
-        P.normal_texture = _gltf_texture(g, m["normalTexture"], f"{what} normalTexture", srgb=False,
-                                         kind="normal", cache=cache).texture
+        slot = _gltf_texture(g, m["normalTexture"], f"{what} normalTexture", srgb=False, kind="normal", cache=cache)
+        P.normal_texture = None if slot is None else slot.texture
     if "occlusionTexture" in m:
         P.occlusion_strength = float(m["occlusionTexture"].get("strength", 1.0))
         slot = _gltf_texture(g, m["occlusionTexture"], f"{what} occlusionTexture", srgb=False, cache=cache)
-        P.occlusion_texture = _channel(slot, 0, f"{slot.source} R (occlusion)", cache)
+        P.occlusion_texture = None if slot is None else _channel(slot, 0, f"{slot.source} R (occlusion)", cache)
     ef = np.asarray(m.get("emissiveFactor", [0.0, 0.0, 0.0]), dtype=np.float64)
     if ef.shape != (3,) or np.any(ef < 0):
         raise AssetError(f"{g.path}: {what}: emissiveFactor must be 3 numbers >= 0, got {ef.tolist()}")
@@ -133,8 +140,8 @@ def _gltf_material(g, mi, warnings, cache):
         lambda slot, c, label: _channel(slot, c, label, cache), lambda i: g.image_array(i)[0])
     sets = {s.texcoord for s in (P.base_color_texture, P.metallic_roughness_texture, P.emissive_texture,
                                  *P.ext_slots) if s}
-    for k in ("normalTexture", "occlusionTexture"):
-        if k in m:
+    for k, tex in (("normalTexture", P.normal_texture), ("occlusionTexture", P.occlusion_texture)):
+        if k in m and tex is not None:
             sets.add(int(m[k].get("texCoord", 0)))
     if len(sets) > 1:
         warnings.append(f"{what}: textures use several UV sets {sorted(sets)}; all read TEXCOORD_{min(sets)}")
@@ -248,6 +255,8 @@ def _load_gltf(path):
     # materials
     textures = {}  # (image, decoding, channel) -> first texture of those texels: each image decoded once
     asset.materials = [_gltf_material(g, i, W, textures) for i in range(len(h.get("materials", [])))]
+    for msg in g.substitutions:            # missing texture files: each slot rendered with its factor alone
+        asset.substitute(msg)
     # meshes: glTF mesh index -> list of AssetMesh indices (one per triangle primitive)
     mesh_prims = {}
 

@@ -29,7 +29,7 @@ import urllib.parse
 import numpy as np
 
 from pyrt.textures import TextureError, load_image
-from pyrt.io.assets.common import AssetError, malformed_is_asset_error
+from pyrt.io.assets.common import AssetError, colour_texels, malformed_is_asset_error
 from pyrt.io.assets.gltf_khr import MATERIAL_EXTENSIONS, required_extension_error
 
 _COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
@@ -114,6 +114,8 @@ class GltfFile:
             self.buffers.append(blob)
         self._acc_cache = {}
         self._img_cache = {}
+        #: what the loader replaced to load the file anyway (missing texture files), for :attr:`Asset.substitutions`
+        self.substitutions = []
 
     def _glb_chunks(self, data):
         """(JSON chunk, binary chunk or None) of GLB bytes; every length checked against the file."""
@@ -275,9 +277,25 @@ class GltfFile:
         y = x.astype(np.float64) / info.max
         return np.maximum(y, -1.0) if info.min < 0 else y
 
+    def missing_image(self, ii):
+        """The path of image ``ii``'s file when it is a relative URI to a file that does not exist, else None.
+
+        (A missing texture file is replaced by its factor: :func:`pyrt.io.assets.gltf.load_gltf`; every other
+        problem of an image -- a refused URI, a corrupt or truncated file, a bad bufferView -- stays an error.)
+        """
+        uri = self.get("images", ii).get("uri")
+        if not isinstance(uri, str) or not uri or uri.startswith("data:") or _SCHEME.match(uri):
+            return None
+        rel = urllib.parse.unquote(uri)
+        if os.path.isabs(rel) or rel.startswith(("/", "\\")):
+            return None
+        fpath = os.path.join(self.base, rel)
+        return None if os.path.isfile(fpath) else fpath
+
     def image_array(self, ii):
         """Image ``ii`` decoded by :func:`pyrt.textures.load_image`: ``((H, W, C) float32 in its stored
-        encoding, label)``, cached. Embedded images go through a temporary file of their type."""
+        encoding, label)``, cached; grey and grey + alpha images as RGB(A) (:func:`colour_texels`). Embedded
+        images go through a temporary file of their type."""
         if ii in self._img_cache:
             return self._img_cache[ii]
         im = self.get("images", ii)
@@ -294,6 +312,7 @@ class GltfFile:
             else:
                 raise AssetError(f"{self.path}: image {ii} has neither uri nor bufferView")
             arr = _decode_image_bytes(blob, f"{self.path}: {label}")
+        arr = colour_texels(arr)            # grey / grey + alpha -> RGB(A): every slot reads colour channels
         self._img_cache[ii] = (arr, label)
         return arr, label
 

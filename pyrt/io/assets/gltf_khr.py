@@ -84,6 +84,8 @@ def read_material_extensions(m, P, what, warnings, texture, channel, image_array
         if key not in d:
             return None
         slot = texture(d[key], f"{what} {key}", False)
+        if slot is None:    # a missing image file: the factor alone (a substitution the loader records)
+            return None
         P.ext_slots.append(slot)
         if c == 3:          # alpha: from the decoded image (textures keep RGB); none: glTF reads A = 1
             arr = image_array(slot.image)
@@ -133,8 +135,9 @@ def read_material_extensions(m, P, what, warnings, texture, channel, image_array
         P.specular_color_factor = _color3(sp, "specularColorFactor", w)
         if "specularColorTexture" in sp:
             slot = texture(sp["specularColorTexture"], f"{w} specularColorTexture", True)
-            P.ext_slots.append(slot)
-            P.specular_color_texture = slot
+            if slot is not None:
+                P.ext_slots.append(slot)
+                P.specular_color_texture = slot
     cc = ext.get("KHR_materials_clearcoat")
     if cc is not None:
         w = f"{what} KHR_materials_clearcoat"
@@ -144,7 +147,8 @@ def read_material_extensions(m, P, what, warnings, texture, channel, image_array
         P.clearcoat_roughness_texture = scalar_tex(cc, "clearcoatRoughnessTexture", 1, "G")
         if "clearcoatNormalTexture" in cc:
             slot = texture(cc["clearcoatNormalTexture"], f"{w} clearcoatNormalTexture", False, "normal")
-            P.ext_slots.append(slot)
-            P.clearcoat_normal_texture = slot.texture
+            if slot is not None:
+                P.ext_slots.append(slot)
+                P.clearcoat_normal_texture = slot.texture
     if P.unlit and len(set(ext) & (MATERIAL_EXTENSIONS - {"KHR_materials_unlit"})):
         warnings.append(f"{what}: KHR_materials_unlit with other material extensions: unlit wins")

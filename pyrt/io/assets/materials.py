@@ -71,6 +71,23 @@ class VertexColorTexture(Texture):
         return out
 
 
+class FaceColorTexture(VertexColorTexture):
+    """Linear per-face colours (PLY ``face`` colours): every hit on triangle ``k`` of a bound mesh gets colour ``k``.
+
+    ``bind(mesh_id, faces, colors)`` with ``colors`` (F, 3), one row per face of the scene mesh (``ctx.prim_id``
+    indexes them); hits on meshes that were not bound get white (1, 1, 1).
+    """
+
+    def evaluate(self, ctx):
+        out = np.ones((ctx.n_hits, 3))
+        for mid in np.unique(ctx.mesh_id):
+            if int(mid) not in self._bound:
+                continue
+            sel = np.flatnonzero(ctx.mesh_id == mid)
+            out[sel] = self._bound[int(mid)][1][ctx.prim_id[sel]]
+        return out
+
+
 class SurfaceExtras:
     """Mixin adding glTF-style extras to a material: emission, occlusion and a normal map.
 

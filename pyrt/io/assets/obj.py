@@ -9,6 +9,9 @@ OBJ + MTL mapping (documented choice; the MTL "illum 2" model *is* Blinn-Phong)
   albedo ``kd``).
 - Transparent materials (``d < 1``, ``Tr > 0`` or ``illum`` 4, 6, 7, 9) -> :class:`pyrt.Glass` with
   ``ior = Ni`` (1.5 if ``Ni <= 1`` or absent, warning) and ``tint = Tf`` (default white).
+- A missing MTL file (``mtllib``) or texture file (``map_Kd``, ``map_Ke``, ``norm``) is a substitution, not an
+  error (:attr:`Asset.substitutions`, also a warning): the default material, or the material without that map
+  (``Kd`` alone), is used. A file that exists but cannot be read is an error naming it.
 - Files named by the OBJ (``mtllib``) and the MTL (``map_Kd``, ``map_Ke``, ``norm``) are read only if they are
   regular files: relative paths from the naming file's folder (``..`` allowed: model packs share texture folders)
   or absolute paths (exporters write them). They are read as an MTL or decoded as an image, nothing else.
@@ -25,8 +28,8 @@ import re
 import numpy as np
 import trimesh
 
-from pyrt.textures import ImageTexture, NormalMap, TextureError
-from pyrt.io.assets.common import AssetError, MTLParams, trimesh_load, vertex_colors
+from pyrt.textures import ImageTexture, NormalMap, TextureError, load_image
+from pyrt.io.assets.common import AssetError, MTLParams, colour_texels, trimesh_load, vertex_colors
 from pyrt.io.assets.asset import Asset, AssetInstance, AssetMesh
 from pyrt.io.assets.materials import mtl_is_transparent, mtl_kd_ks
 
@@ -35,11 +38,13 @@ _MTL_OPTS = {"-blendu": 1, "-blendv": 1, "-bm": 1, "-boost": 1, "-cc": 1, "-clam
              "-mm": 2, "-texres": 1, "-type": 1, "-o": 3, "-s": 3, "-t": 3}
 
 
-def _mtl_map(tokens, base, what, *, srgb, warnings, normal=False, cache=None):
-    """Parse ``map_* [options] file`` -> texture (missing file: AssetError).
+def _mtl_map(tokens, base, what, *, srgb, warnings, normal=False, cache=None, substitutions=None):
+    """Parse ``map_* [options] file`` -> texture; a missing file is an AssetError, or, when a ``substitutions``
+    list is given, a message appended to it and None (the map is left out: its factor alone is used).
 
     ``cache`` (a dict, one per load) maps ``(real path, decoding)`` to the first texture read from that
-    file: later maps of the same file share its decoded texels and lazy MIP pyramid.
+    file: later maps of the same file share its decoded texels and lazy MIP pyramid. Grey and grey + alpha
+    images are read as RGB(A) (:func:`~pyrt.io.assets.common.colour_texels`).
     """
     opts, i = {}, 0
     while i < len(tokens) and tokens[i] in _MTL_OPTS:
@@ -61,7 +66,10 @@ def _mtl_map(tokens, base, what, *, srgb, warnings, normal=False, cache=None):
         raise AssetError(f"{what}: no file name")
     fpath = fname if os.path.isabs(fname) else os.path.join(base, fname.replace("\\", "/"))
     if not os.path.isfile(fpath):
-        raise AssetError(f"{what}: texture file not found: {fpath}")
+        if substitutions is None:
+            raise AssetError(f"{what}: texture file not found: {fpath}")
+        substitutions.append(f"{what}: texture file not found: {fpath}; rendered with the factor alone")
+        return None
     kw = {}
     if "-s" in opts:
         s = [float(x) for x in opts["-s"][:2]] + [1.0] * (2 - len(opts["-s"][:2]))
@@ -74,8 +82,11 @@ def _mtl_map(tokens, base, what, *, srgb, warnings, normal=False, cache=None):
         warnings.append(f"{what}: map options {sorted(ignored)} ignored")
     cache = {} if cache is None else cache
     key = (os.path.realpath(fpath), "linear" if normal or not srgb else "srgb")
-    src = cache.get(key, fpath)
+    src = cache.get(key)
     try:
+        if src is None:
+            src = colour_texels(load_image(fpath)[0])
+            kw["name"] = fpath
         t = NormalMap(src, **kw) if normal else ImageTexture(src, srgb=srgb, channels=3, **kw)
     except TextureError as exc:
         raise AssetError(f"{what}: {exc}") from None
@@ -83,8 +94,9 @@ def _mtl_map(tokens, base, what, *, srgb, warnings, normal=False, cache=None):
     return t
 
 
-def parse_mtl(path, warnings=None, textures=None):
-    """Parse an MTL file into {name: :class:`MTLParams`}; texture files are loaded (missing -> AssetError).
+def parse_mtl(path, warnings=None, textures=None, substitutions=None):
+    """Parse an MTL file into {name: :class:`MTLParams`}; texture files are loaded (missing -> AssetError, or with
+    a ``substitutions`` list a message there and the map left out).
 
     ``textures``: the per-load texel cache of :func:`_mtl_map` (a new one when None); each image file is
     decoded once per decoding however many maps name it.
@@ -127,13 +139,13 @@ def parse_mtl(path, warnings=None, textures=None):
                     cur.illum = int(args[0])
                 elif key == "map_Kd":
                     cur.map_Kd = _mtl_map(args, base, f"{where}: map_Kd", srgb=True, warnings=warnings,
-                                          cache=textures)
+                                          cache=textures, substitutions=substitutions)
                 elif key == "map_Ke":
                     cur.map_Ke = _mtl_map(args, base, f"{where}: map_Ke", srgb=True, warnings=warnings,
-                                          cache=textures)
+                                          cache=textures, substitutions=substitutions)
                 elif key in ("norm", "map_Kn"):
                     cur.norm = _mtl_map(args, base, f"{where}: {key}", srgb=False, warnings=warnings, normal=True,
-                                        cache=textures)
+                                        cache=textures, substitutions=substitutions)
                 elif key.startswith("map_") or key in ("bump", "disp", "decal", "refl"):
                     warnings.append(f"{where}: {key} not supported; ignored")
                 elif key in ("Ka", "Pr", "Pm", "Ps", "Pc", "Pcr", "aniso", "anisor", "sharpness"):
@@ -161,15 +173,20 @@ def load_obj(path):
     has_vn = re.search(r"^\s*vn\s", text, flags=re.M) is not None
     mtls, textures = {}, {}  # textures: one decode per image file and decoding for the whole load
     base = os.path.dirname(os.path.abspath(path))
+    subst, lib_missing = [], False
     for m in re.finditer(r"^\s*mtllib\s+(.+?)\s*$", text, flags=re.M):
         mpath = os.path.join(base, m.group(1).replace("\\", "/"))
-        if not os.path.isfile(mpath):
-            raise AssetError(f"{path}: material library not found: {mpath}")
-        mtls.update(parse_mtl(mpath, W, textures))
+        if not os.path.isfile(mpath):      # trimesh reads the geometry without it: render with the default material
+            subst.append(f"{path}: material library not found: {mpath}; the default material is used")
+            lib_missing = True
+            continue
+        mtls.update(parse_mtl(mpath, W, textures, substitutions=subst))
     used = set(re.findall(r"^\s*usemtl\s+(.+?)\s*$", text, flags=re.M))
     missing = used - set(mtls)
-    if missing:
+    if missing and not lib_missing:
         W.append(f"{path}: material(s) {sorted(missing)} not defined in the MTL; default material used")
+    for msg in subst:
+        asset.substitute(msg)
     tm = trimesh_load(path, "OBJ") if utf8 else trimesh_load(
         io.BytesIO(text.encode("utf-8")), "OBJ", file_type="obj", resolver=trimesh.resolvers.FilePathResolver(path),
         label=path)

@@ -1,0 +1,23 @@
+"""Pillow image modes that :func:`pyrt.core.image_io.read_image` converts itself instead of taking what
+``skimage.io.imread`` returns: grey + alpha PNGs came back with scrambled axes ((4, 5, 2) read as (5, 2, 4)), CMYK
+as four ink channels that would be taken for RGBA, palettes without their transparency."""
+from __future__ import annotations
+
+import numpy as np
+
+#: Pillow image modes that ``skio.imread`` returns wrongly (grey+alpha PNGs come back with scrambled axes, CMYK as
+#: four ink channels that would be taken for RGBA) or that carry a colour table: converted here (see
+#: :func:`converted`)
+CONVERTED_MODES = ("LA", "La", "P", "PA", "CMYK", "YCbCr", "LAB", "HSV")
+
+
+def converted(im):
+    """``(H, W, C)`` uint8 of a Pillow image in one of :data:`CONVERTED_MODES`: grey+alpha as (grey, alpha); palette
+    images as RGB, or RGBA when the palette has transparency (a ``tRNS`` chunk); CMYK, YCbCr, LAB and HSV as RGB
+    (Pillow's conversions; CMYK -> RGB is the uncalibrated ``255 - ink``)."""
+    if im.mode in ("LA", "La"):
+        return np.asarray(im.convert("LA"))
+    if im.mode in ("P", "PA"):
+        alpha = im.mode == "PA" or "transparency" in im.info
+        return np.asarray(im.convert("RGBA" if alpha else "RGB"))
+    return np.asarray(im.convert("RGB"))
