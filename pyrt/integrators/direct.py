@@ -36,7 +36,7 @@ def estimate(lights, surf, bsdf, visible, rng):
     """
     L = np.zeros((surf.n_hits, 3))
     for light in lights:
-        if light.environment is None and light.n_samples == 1:
+        if light.environment is None and light.n_samples == 1 and not light.bsdf_samples:
             light_sampling_estimate(light, surf, bsdf, visible, rng, out=L)
         else:
             L += estimate_light(light, surf, bsdf, visible, rng)
