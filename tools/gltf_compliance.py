@@ -227,6 +227,10 @@ class Result:
     screenshot: str | None = None
 
 
+#: the preview phases that make up "prepare" (:attr:`pyrt.apps.preview.batch.AssetReport.prepare_time`)
+PREPARE_PHASES = ("frame", "normals", "scene", "geometry", "bvh")
+
+
 def _number(rep, *keys):
     """The first of ``keys`` found in the report or in a ``timings``/``phases``/``times`` dict of it; None if none."""
     for where in (rep, *(rep.get(k) for k in ("timings", "phases", "times"))):
@@ -247,6 +251,9 @@ def result_from_report(res, rep):
     if res.status == "ok":   # a failed preview's phase times are its report's defaults (0), not measurements
         res.load = _number(rep, "load_time", "load")
         res.prepare = _number(rep, "prepare_time", "prepare", "preparation_time", "preparation")
+        ph = rep.get("phases")
+        if res.prepare is None and isinstance(ph, dict) and ph:   # AssetReport.prepare_time: these phases' sum
+            res.prepare = float(sum(v for k, v in ph.items() if k in PREPARE_PHASES))
         res.render = _number(rep, "render_time", "render")
     res.total = _number(rep, "total_time")
     res.warnings = [str(w) for w in rep.get("warnings") or []]
