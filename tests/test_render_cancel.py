@@ -12,7 +12,7 @@ import pytest
 import pyrt
 from render_helpers import CancelAfter
 
-R = importlib.import_module("pyrt.render.fixed")   # the module (``pyrt.render`` is the function)
+R = importlib.import_module("pyrt.render.pool")   # where the chunks get their integrator class
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 

@@ -44,15 +44,7 @@ def pixel_strata(rng, spp, s):
     pixel). Memory is O(len(s)) whatever ``spp``.
     """
     s = np.asarray(s, dtype=np.int64)
-    k = math.isqrt(spp)
-    row = ((s + 1) * k - 1) // spp                  # the j with floor(j spp / k) <= s < floor((j+1) spp / k)
-    first = row * spp // k
-    n_row = (row + 1) * spp // k - first
-    xi = rng.random((s.shape[0], 2))
-    u = np.empty_like(xi)
-    u[:, 0] = (s - first + xi[:, 0]) / n_row
-    u[:, 1] = (first + xi[:, 1] * n_row) / spp
-    return u
+    return strata_points(rng, np.full(s.shape[0], spp, dtype=np.int64), s)
 
 
 def isqrt_array(n):

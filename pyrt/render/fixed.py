@@ -27,12 +27,10 @@ from pyrt.core import checks
 from pyrt.core.errors import RenderError
 from pyrt.core.film import Film
 from pyrt.integrators.prepared import PreparedScene, RenderStats
-from pyrt.integrators.glossy import GlossyIntegrator
-from pyrt.integrators.whitted import Integrator
 from pyrt.render.adaptive import render_adaptive
 from pyrt.render.chunks import ChunkLayout, shade_fixed_chunk
 from pyrt.render.distributed import DaskRunner, fixed_group
-from pyrt.render.pool import INTEGRATORS, merge_stats, run_pool
+from pyrt.render.pool import INTEGRATORS, integrator_factory, merge_stats, run_pool
 from pyrt.render.result import RenderResult
 
 
@@ -103,10 +101,9 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     t_start = time.perf_counter()
     if integrator not in INTEGRATORS:
         raise RenderError(f"render: integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
-    extra = {}
-    if integrator == "glossy":
-        extra = dict(glossy_samples=glossy_samples, glossy_depth=glossy_depth, glossy_threshold=glossy_threshold)
-    make = GlossyIntegrator if integrator == "glossy" else Integrator
+    integ = dict(integrator=integrator, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
+                 transparent_shadows=transparent_shadows, glossy_samples=glossy_samples, glossy_depth=glossy_depth,
+                 glossy_threshold=glossy_threshold)
     cam = scene.camera
     if spp is not None:
         cam = copy(cam)
@@ -122,9 +119,7 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     layout = ChunkLayout(S, n_pix, chunk_samples)
     split, pieces, n_chunks, chunk_pixels = layout.split, layout.pieces, layout.n_chunks, layout.pixels
 
-    def make_integrator():
-        return make(ps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
-                    record_rays=record_rays, transparent_shadows=transparent_shadows, **extra)
+    make_integrator = None if ps is None else integrator_factory(ps, record_rays=record_rays, **integ)
 
     def run_chunk(ci):
         return shade_fixed_chunk(ps, cam, make_integrator, seed, ci, layout, film, 0, aovs, nonfinite)
@@ -158,10 +153,8 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
                disable=(not progress) if progress is not None else None)
     try:
         if runner is not None:
-            spec = dict(threads=1, layout=layout, seed=seed, aovs=aovs, nonfinite=nonfinite, integrator=dict(
-                integrator=integrator, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
-                record_rays=record_rays, transparent_shadows=transparent_shadows, glossy_samples=glossy_samples,
-                glossy_depth=glossy_depth, glossy_threshold=glossy_threshold))
+            spec = dict(threads=1, layout=layout, seed=seed, aovs=aovs, nonfinite=nonfinite,
+                        integrator=dict(integ, record_rays=record_rays))
             _run_dask(runner, cam, spec, n_chunks, cancel, bar, film, collect)
         else:
             workers = max(1, min(ps.accel.threads if threads is None else int(threads), n_chunks))
@@ -185,12 +178,12 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
             cam1 = copy(cam)
             cam1.spp = 1
             fps = ps
+            fill_make = integrator_factory(ps, **integ)
             jobs = _fill_jobs(unstarted, split, n_chunks, chunk_pixels, chunk_samples)
 
             def fill_chunk(k):
                 lo, hi, key = jobs[k]
-                integ = make(fps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
-                             transparent_shadows=transparent_shadows, **extra)
+                integ = fill_make()
                 rng = np.random.default_rng([seed, key, 1])
                 rays = cam1.generate_rays(lo, hi, rng, differentials=fps.needs_differentials)
                 L, a = integ.render_samples(rays, want_aovs=aovs, rng=rng)
