@@ -102,6 +102,8 @@ def test_report_fields_are_read_defensively():
     assert G.result_from_report(G.Result("m", "p"), {**base, "timings": {"prepare": 0.75}}).prepare == 0.75
     assert G.result_from_report(G.Result("m", "p"), {**base, "prepare_time": None, "phases": {"prepare": True}}
                                 ).prepare is None
+    phases = {"load": 9.0, "frame": 0.25, "normals": 0.5, "bvh": 0.25, "render": 7.0}   # the preview's phases
+    assert G.result_from_report(G.Result("m", "p"), {**base, "phases": phases}).prepare == 1.0
     bad = G.result_from_report(G.Result("m", "p"), {"status": "weird", "error": "E"})
     assert (bad.status, bad.error, bad.load, bad.triangles, bad.warnings) == ("failed", "E", None, None, [])
     failed = G.result_from_report(G.Result("m", "p"), {**base, "status": "failed", "load_time": 0.0})

@@ -251,9 +251,11 @@ def result_from_report(res, rep):
     if res.status == "ok":   # a failed preview's phase times are its report's defaults (0), not measurements
         res.load = _number(rep, "load_time", "load")
         res.prepare = _number(rep, "prepare_time", "prepare", "preparation_time", "preparation")
-        ph = rep.get("phases")
-        if res.prepare is None and isinstance(ph, dict) and ph:   # AssetReport.prepare_time: these phases' sum
-            res.prepare = float(sum(v for k, v in ph.items() if k in PREPARE_PHASES))
+        ph = rep.get("phases") if isinstance(rep.get("phases"), dict) else {}
+        vals = [v for k, v in ph.items() if k in PREPARE_PHASES and isinstance(v, (int, float))
+                and not isinstance(v, bool)]
+        if res.prepare is None and vals:   # AssetReport.prepare_time: the sum of these phases
+            res.prepare = float(sum(vals))
         res.render = _number(rep, "render_time", "render")
     res.total = _number(rep, "total_time")
     res.warnings = [str(w) for w in rep.get("warnings") or []]
