@@ -4,6 +4,7 @@ Each run calls :func:`pyrt.apps.preview.render_preview` on the model (its defaul
 ``--threads`` aside) and reports the render phase (``result.render_time``); rounds alternate the order (A B, B A,
 ...). Prints every run, the medians, the ratio B / A and the image difference between the two trees (max and mean
 absolute difference of the linear images of their last runs; 0 when the change keeps images bit-identical).
+``pyrt.shaders`` is imported from each tree's ``shaders/`` (not the editable install's checkout).
 
 Usage: python tools/ab_preview.py TREE_A TREE_B MODEL [MODEL ...] [--rounds 2] [--threads 1] [--size 640x480]
    e.g. git archive BASE | tar -x -C /tmp/before && python tools/ab_preview.py /tmp/before . Duck.glb
@@ -21,15 +22,32 @@ import tempfile
 import numpy as np
 
 SNIPPET = r'''
-import sys, json
-sys.path.insert(0, sys.argv[1])
+import sys, json, importlib.util
+T = sys.argv[1]
+sys.path.insert(0, T)
+
+
+class TreeShaders:
+    """``pyrt.shaders`` from the tree's shaders/ (an editable install would map it to its own checkout)."""
+
+    @staticmethod
+    def find_spec(name, path=None, target=None):
+        """The spec of the tree's shaders package for ``pyrt.shaders`` (submodules follow its ``__path__``)."""
+        if name != "pyrt.shaders":
+            return None
+        return importlib.util.spec_from_file_location(name, T + "/shaders/__init__.py",
+                                                      submodule_search_locations=[T + "/shaders"])
+
+
+sys.meta_path.insert(0, TreeShaders)
 import numpy as np
+import pyrt.shaders.textures
 from pyrt.apps.preview import render_preview, PreviewOptions
 w, h = (int(x) for x in sys.argv[3].split("x"))
 threads = None if sys.argv[4] == "all" else int(sys.argv[4])
 r = render_preview(sys.argv[2], PreviewOptions(width=w, height=h, threads=threads))
 np.save(sys.argv[5], r.images[0])
-print(json.dumps({"t": r.render_time}))
+print(json.dumps({"t": r.render_time, "shaders": pyrt.shaders.textures.__file__}))
 '''
 
 
@@ -56,7 +74,7 @@ def main(argv=None):
                     sys.exit(f"{t}: {out.stderr.strip()[-1500:]}")
                 d = json.loads(out.stdout.strip().splitlines()[-1])
                 res[t].append(d["t"])
-                print(f"{os.path.basename(model)} {t}: {d['t']:.2f} s", flush=True)
+                print(f"{os.path.basename(model)} {t}: {d['t']:.2f} s (shaders {d['shaders']})", flush=True)
         ia, ib = np.load(os.path.join(tmp, "a.npy")), np.load(os.path.join(tmp, "b.npy"))
         diff = np.abs(ia.astype(np.float64) - ib)
         ma, mb = statistics.median(res[a]), statistics.median(res[b])
