@@ -185,10 +185,24 @@ def lookup_bilinear(image, uv, wrap="repeat"):
     x, y = uv_to_texel(uv, image.shape)
     x0, y0 = np.floor(x), np.floor(y)
     fx, fy = (x - x0)[:, None], (y - y0)[:, None]
-    out = ((1 - fx) * (1 - fy) * _gather(image, x0, y0, wrap)
-           + fx * (1 - fy) * _gather(image, x0 + 1, y0, wrap)
-           + (1 - fx) * fy * _gather(image, x0, y0 + 1, wrap)
-           + fx * fy * _gather(image, x0 + 1, y0 + 1, wrap))
+    h, w = image.shape[:2]
+    # the four taps' wrapped rows and columns once each, gathered by flat index from the (H*W, C) view of a
+    # contiguous image (cheaper than four 2-D fancy indexings; the same texels, the same sums)
+    ix0, iy0 = np.asarray(x0, dtype=np.int64), np.asarray(y0, dtype=np.int64)
+    cx0, cx1 = wrap_index(ix0, w, wrap[0]), wrap_index(ix0 + 1, w, wrap[0])
+    ry0, ry1 = wrap_index(iy0, h, wrap[1]) * w, wrap_index(iy0 + 1, h, wrap[1]) * w
+    if image.flags.c_contiguous:
+        flat = image.reshape(h * w, -1)
+
+        def tap(r, c):
+            return np.take(flat, r + c, axis=0).reshape((r.shape[0],) + image.shape[2:])
+    else:
+        def tap(r, c):
+            return image[r // w, c]
+    out = ((1 - fx) * (1 - fy) * tap(ry0, cx0)
+           + fx * (1 - fy) * tap(ry0, cx1)
+           + (1 - fx) * fy * tap(ry1, cx0)
+           + fx * fy * tap(ry1, cx1))
     return out.astype(image.dtype, copy=False)
 
 

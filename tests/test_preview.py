@@ -324,3 +324,30 @@ def test_environment_map_option_keeps_the_matched_backdrop(tmp_path):
         assert np.median(np.abs(C.luminance(rest) / C.luminance(bg) - 1)) < 1e-4
     finally:
         ps.close()
+
+
+def test_dielectric_cutoff_only_for_models_with_a_dielectric(monkeypatch):
+    """Models with a dielectric render with ``dielectric_cutoff`` (and ``dielectric_depth``), others with
+    pyrt.render's throughput cutoff 1e-4 and ``max_depth``; the option is validated."""
+    seen = []
+
+    class Stop(Exception):
+        pass
+
+    def fake_render_full(scene, **kw):
+        seen.append(kw)
+        raise Stop
+
+    monkeypatch.setattr(P_render, "render_full", fake_render_full)
+    ps = P.PreviewScene(load_asset(BLOB), P.PreviewOptions(dielectric_cutoff=0.05, **TINY))
+    with pytest.raises(Stop):
+        ps.render_view(0.0)
+    assert (seen[-1]["throughput_cutoff"], seen[-1]["max_depth"]) == (1e-4, 4)
+    monkeypatch.setattr(ps.prepared, "dielectric", np.ones_like(ps.prepared.dielectric, dtype=bool))
+    with pytest.raises(Stop):
+        ps.render_view(0.0)
+    assert (seen[-1]["throughput_cutoff"], seen[-1]["max_depth"]) == (0.05, 10)
+    assert P.PreviewOptions().dielectric_cutoff == 0.01
+    for bad in (-0.1, 1.0):
+        with pytest.raises(P.PreviewError, match="dielectric_cutoff"):
+            P.PreviewOptions(dielectric_cutoff=bad).validate()

@@ -272,17 +272,21 @@ def _environment_preview(light, surf, bsdf):
             L_out[sel] = bsdf.materials[k].albedo(ctx) / np.pi * env.irradiance_sh(ctx.ns)
     gi = np.flatnonzero(~lambert)
     if gi.size:
-        K_ = light.preview_samples
+        # the K_ samples of every hit in one batch (rows k * m .. (k + 1) * m - 1: sample k), one BSDF query and
+        # one prefiltered lookup instead of K_; summed in sample order as a loop over the samples would
+        K_, m = light.preview_samples, gi.size
         pts = sampling.hammersley(K_)
-        acc = np.zeros((gi.size, 3))
-        for k in range(K_):
-            u = np.broadcast_to(pts[k], (gi.size, 2)).copy()
-            wi, weight, pdf = bsdf.sample(gi, u)
-            cos_g = np.einsum("ij,ij->i", wi, surf.ng[gi])
-            ok = np.flatnonzero((cos_g > 0) & (pdf > 0))
-            if ok.size == 0:
-                continue
+        rows = np.tile(gi, K_)
+        u = np.repeat(pts, m, axis=0)
+        wi, weight, pdf = bsdf.sample(rows, u)
+        cos_g = np.einsum("ij,ij->i", wi, take_rows(surf.ng, rows))
+        ok = np.flatnonzero((cos_g > 0) & (pdf > 0))
+        val = np.zeros((rows.size, 3))
+        if ok.size:
             alpha = K.ggx_lobe_alpha_for_solid_angle(1.0 / (K_ * pdf[ok]))
-            acc[ok] += weight[ok] * env.prefiltered(wi[ok], alpha)
+            val[ok] = weight[ok] * env.prefiltered(wi[ok], alpha)
+        acc = val[:m].copy()
+        for k in range(1, K_):
+            acc += val[k * m:(k + 1) * m]
         L_out[gi] = acc / K_
     return L_out

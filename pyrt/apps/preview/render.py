@@ -152,10 +152,12 @@ class PreviewScene:
         self._set_view(azimuth)
         with _warnings.catch_warnings(record=True) as caught:
             _warnings.simplefilter("always")
-            depth = max(o.max_depth, o.dielectric_depth) if self.prepared.dielectric.any() else o.max_depth
+            glass = bool(self.prepared.dielectric.any())
+            depth = max(o.max_depth, o.dielectric_depth) if glass else o.max_depth
+            cutoff = o.dielectric_cutoff if glass else 1e-4
             res = render_full(self.scene, seed=o.seed, max_depth=depth, aovs=aovs, progress=False,
                               prepared=self.prepared, threads=o.threads, integrator="glossy",
-                              transparent_shadows=True)
+                              transparent_shadows=True, throughput_cutoff=cutoff)
         self.warnings += [str(w.message) for w in caught]
         if self.exposure is None:
             self.exposure, self.white = auto_exposure(res.image, self.model_mask())
