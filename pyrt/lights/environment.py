@@ -357,8 +357,36 @@ def _prefilter_stack(image):
     return maps
 
 
+class LatLongTable(Environment):
+    """An environment importance-sampled through a table over a lat-long grid (``self.distribution``, a
+    :func:`pyrt.shaders.envmap.distribution2d_build` table whose rows are the grid's latitudes): light
+    sampling, its pdf and the MIS-compensated table, shared by :class:`LatLongEnvironment` and the light
+    probes (which resample to such a grid)."""
+
+    def _sample_local(self, u):
+        return K.latlong_sample(self.distribution, u)
+
+    def _pdf_local(self, d):
+        return K.latlong_pdf(self.distribution, d)
+
+    @property
+    def compensated_distribution(self):
+        """The MIS-compensated table over the grid (:meth:`Environment.sample_compensated`; None for a
+        constant map)."""
+        if self._cdist is None:
+            h = self.distribution.func.shape[0]
+            self._cdist = (self._compensated_table(self.distribution, latlong_row_measure(h)),)
+        return self._cdist[0]
+
+    def _sample_compensated_local(self, u):
+        return incomplete_sample(K.latlong_sample, self.compensated_distribution, u)
+
+    def _pdf_compensated_local(self, d):
+        return incomplete_pdf(K.latlong_pdf, self.compensated_distribution, d)
+
+
 @ENVIRONMENTS.register("latlong")
-class LatLongEnvironment(Environment):
+class LatLongEnvironment(LatLongTable):
     """Lat-long (equirectangular) environment map.
 
     Parameters
@@ -396,26 +424,6 @@ class LatLongEnvironment(Environment):
 
     def _radiance_local(self, d):
         return K.latlong_lookup(self.image, d, self.filter)
-
-    def _sample_local(self, u):
-        return K.latlong_sample(self.distribution, u)
-
-    def _pdf_local(self, d):
-        return K.latlong_pdf(self.distribution, d)
-
-    @property
-    def compensated_distribution(self):
-        """The MIS-compensated table (:meth:`Environment.sample_compensated`; None for a constant map)."""
-        if self._cdist is None:
-            h = self.image.shape[0]
-            self._cdist = (self._compensated_table(self.distribution, latlong_row_measure(h)),)
-        return self._cdist[0]
-
-    def _sample_compensated_local(self, u):
-        return incomplete_sample(K.latlong_sample, self.compensated_distribution, u)
-
-    def _pdf_compensated_local(self, d):
-        return incomplete_pdf(K.latlong_pdf, self.compensated_distribution, d)
 
     def _sh9_local(self):
         return K.sh9_project_latlong(self.image)

@@ -20,15 +20,14 @@ from pyrt.shaders import probes as P
 from pyrt.shaders import textures as _tex
 from pyrt.shaders.color import luminance
 
-from pyrt.lights.environment import (ENVIRONMENTS, Environment, EnvironmentMapError, _prefilter_stack,
-                                     filtered_image, incomplete_pdf, incomplete_sample, latlong_row_measure,
-                                     procedural_sky)
+from pyrt.lights.environment import (ENVIRONMENTS, EnvironmentMapError, LatLongTable, _prefilter_stack,
+                                     filtered_image, procedural_sky)
 
 #: floor of the importance weights, relative to their mean luminance (keeps the pdf > 0 everywhere)
 TABLE_FLOOR = 1e-3
 
 
-class _ProbeEnvironment(Environment):
+class _ProbeEnvironment(LatLongTable):
     """Shared parts of the light probes: a square image, its mapping ``kind`` and the resampled tables."""
 
     kind = None
@@ -92,26 +91,6 @@ class _ProbeEnvironment(Environment):
             h = ll.shape[0]
             self._dist = K.distribution2d_build(lum * np.sin(np.pi * (np.arange(h) + 0.5) / h)[:, None])
         return self._dist
-
-    def _sample_local(self, u):
-        return K.latlong_sample(self.distribution, u)
-
-    def _pdf_local(self, d):
-        return K.latlong_pdf(self.distribution, d)
-
-    @property
-    def compensated_distribution(self):
-        """The MIS-compensated table over the resampled grid (:meth:`Environment.sample_compensated`)."""
-        if self._cdist is None:
-            h = self.distribution.func.shape[0]
-            self._cdist = (self._compensated_table(self.distribution, latlong_row_measure(h)),)
-        return self._cdist[0]
-
-    def _sample_compensated_local(self, u):
-        return incomplete_sample(K.latlong_sample, self.compensated_distribution, u)
-
-    def _pdf_compensated_local(self, d):
-        return incomplete_pdf(K.latlong_pdf, self.compensated_distribution, d)
 
     def _sh9_local(self):
         return K.sh9_project_latlong(self.latlong())
