@@ -265,8 +265,12 @@ def _split_sum_preview(light, surf, bsdf, gi, L_out):
     mids = surf.material_id
     rest = []
     for k in np.unique(mids[gi]):
-        sel = gi[mids[gi] == k]
-        ctx = surf.subset(sel)
+        if bsdf.surf is surf:       # every hit of material k (lambertian is per material): the group's
+            group = bsdf.groups[int(k)]     # persistent context shares texture lookups with the other lights
+            sel, ctx = group.idx, group.ctx
+        else:
+            sel = gi[mids[gi] == k]
+            ctx = surf.subset(sel)
         lobes = bsdf.materials[k].preview_lobes(ctx)
         if lobes is None:
             rest.append(sel)
