@@ -36,13 +36,13 @@ def _grid_mesh(n=6):
     return v, f, uv0
 
 
-def _surface(*, differentials=True, second_mesh=False):
+def _surface(*, differentials=True, second_mesh=False, copy_of_set0=False):
     cam = pyrt.Camera(position=(0.2, -0.3, 3), target=(0, 0, 0), fov=40, width=24, height=20)
     scene = pyrt.Scene(cam)
     v, f, uv0 = _grid_mesh()
     tm = trimesh.Trimesh(v, f, process=False)
     tm.visual = trimesh.visual.TextureVisuals(uv=uv0)
-    scene.add_mesh(tm, pyrt.Lambert(0.5), smooth=False, uv_sets={1: uv0 @ A_MAP.T + B_MAP})
+    scene.add_mesh(tm, pyrt.Lambert(0.5), smooth=False, uv_sets={1: uv0.copy() if copy_of_set0 else uv0 @ A_MAP.T + B_MAP})
     if second_mesh:    # a mesh without set 1, in front of the first one's left half
         tm2 = trimesh.Trimesh(v * [0.3, 0.3, 1] + [-0.6, 0, 0.5], f, process=False)
         tm2.visual = trimesh.visual.TextureVisuals(uv=uv0)
@@ -71,6 +71,12 @@ def test_second_set_is_the_affine_map_of_the_first_with_its_footprints_and_tange
     np.testing.assert_allclose(dpdv1, surf.dpdu * inv[0, 1] + surf.dpdv * inv[1, 1], atol=1e-12)
     assert surf.uv_set(0) == (surf.uv, surf.duvdx, surf.duvdy) and surf.uv_tangents(0) == (surf.dpdu, surf.dpdv)
     assert surf.uv_set(1)[0] is uv1                                  # reconstructed once per batch
+
+
+def test_a_second_set_equal_to_the_first_gives_the_same_bits():
+    surf = _surface(copy_of_set0=True)
+    for a, b in zip(surf.uv_set(1) + surf.uv_tangents(1), surf.uv_set(0) + surf.uv_tangents(0)):
+        np.testing.assert_array_equal(a, b)
 
 
 def test_views_gather_the_set_and_meshes_without_it_read_zeros():
