@@ -282,6 +282,7 @@ newmtl glass
 Kd 1 1 1
 Ni 1.33
 d 0.2
+illum 7
 """
 
 OBJ = """mtllib m.mtl

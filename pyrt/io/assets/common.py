@@ -134,6 +134,7 @@ class MTLParams:
     map_Kd: ImageTexture | None = None
     map_Ke: ImageTexture | None = None
     norm: NormalMap | None = None
+    map_d: ImageTexture | None = None     # 1 channel: the dissolve (opacity) map, times d
 
 
 @dataclass

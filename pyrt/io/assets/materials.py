@@ -249,8 +249,23 @@ def to_pyrt_material(params, *, vertex_colors=None):
     raise AssetError(f"unknown material parameters {type(params).__name__}")
 
 
+#: MTL illumination models that make a material glass (4: "Glass on, reflection: ray trace", 6: "Refraction on",
+#: 7: "Refraction on, reflection: Fresnel", 9: "Glass on, reflection: ray trace off")
+MTL_GLASS_ILLUM = (4, 6, 7, 9)
+
+
 def mtl_is_transparent(p):
-    return (p.d is not None and p.d < 1.0) or (p.illum in (4, 6, 7, 9))
+    """True for an MTL material that is glass (``illum`` 4, 6, 7 or 9); ``d`` / ``Tr`` / ``map_d`` alone are
+    dissolve (coverage, :func:`mtl_opacity`), as the MTL spec defines them."""
+    return p.illum in MTL_GLASS_ILLUM
+
+
+def mtl_opacity(p):
+    """The coverage of a non-glass MTL material: ``d`` (``1 - Tr``) times ``map_d``, or None (opaque)."""
+    d = 1.0 if p.d is None else float(np.clip(p.d, 0.0, 1.0))
+    if p.map_d is None:
+        return None if d >= 1.0 else d
+    return p.map_d if d >= 1.0 else ScaledTexture(p.map_d, d)
 
 
 def mtl_kd_ks(p):
@@ -279,7 +294,11 @@ def _mtl_material(p, vertex_colors=None):
     elif np.any(ke > 0):
         emission = ke
     exponent = float(p.Ns) if p.Ns is not None else 10.0
-    return ObjMaterial(kd_param, ks, max(exponent, 0.0), emission=emission, normal_map=p.norm, name=p.name)
+    mat = ObjMaterial(kd_param, ks, max(exponent, 0.0), emission=emission, normal_map=p.norm, name=p.name)
+    opacity = mtl_opacity(p)
+    if opacity is not None:     # dissolve: straight-through coverage (blend), shadows included
+        mat.set_coverage(opacity=opacity, alpha_mode="blend")
+    return mat
 
 
 def _ks_scale(kd_max, ks):

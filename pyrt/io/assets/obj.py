@@ -7,9 +7,13 @@ OBJ + MTL mapping (documented choice; the MTL "illum 2" model *is* Blinn-Phong)
   channel, ``ks`` is scaled down uniformly (warning) so the model conserves energy.
   ``Ke`` (and ``map_Ke``) is emitted radiance. ``Ka`` is not used (pyrt's ambient term uses the
   albedo ``kd``).
-- Transparent materials (``d < 1``, ``Tr > 0`` or ``illum`` 4, 6, 7, 9) -> :class:`pyrt.Glass` with
-  ``ior = Ni`` (1.5 if ``Ni <= 1`` or absent, warning) and ``tint = Tf`` (default white).
-- A missing MTL file (``mtllib``) or texture file (``map_Kd``, ``map_Ke``, ``norm``) is a substitution, not an
+- Glass (``illum`` 4, 6, 7, 9) -> :class:`pyrt.Glass` with ``ior = Ni`` (1.5 if ``Ni <= 1`` or absent, warning)
+  and ``tint = Tf`` (default white).
+- Dissolve (``d < 1``, ``Tr > 0``, ``map_d``; the MTL spec's "dissolve", not refraction) -> coverage: the
+  material's ``opacity = d x map_d`` with ``alpha_mode = "blend"`` (straight-through transparency, shadows
+  included; :mod:`pyrt.integrators.coverage`). ``map_d`` reads the channel ``-imfchan`` names (r, g, b), else the
+  image's alpha channel if it has one, else its first (grey) channel; linear, MIP-filtered like every map.
+- A missing MTL file (``mtllib``) or texture file (``map_Kd``, ``map_Ke``, ``map_d``, ``norm``) is a substitution, not an
   error (:attr:`Asset.substitutions`, also a warning): the default material, or the material without that map
   (``Kd`` alone), is used. A file that exists but cannot be read is an error naming it.
 - Files named by the OBJ (``mtllib``) and the MTL (``map_Kd``, ``map_Ke``, ``norm``) are read only if they are
@@ -38,7 +42,7 @@ _MTL_OPTS = {"-blendu": 1, "-blendv": 1, "-bm": 1, "-boost": 1, "-cc": 1, "-clam
              "-mm": 2, "-texres": 1, "-type": 1, "-o": 3, "-s": 3, "-t": 3}
 
 
-def _mtl_map(tokens, base, what, *, srgb, warnings, normal=False, cache=None, substitutions=None):
+def _mtl_map(tokens, base, what, *, srgb, warnings, normal=False, alpha=False, cache=None, substitutions=None):
     """Parse ``map_* [options] file`` -> texture; a missing file is an AssetError, or, when a ``substitutions``
     list is given, a message appended to it and None (the map is left out: its factor alone is used).
 
@@ -77,9 +81,11 @@ def _mtl_map(tokens, base, what, *, srgb, warnings, normal=False, cache=None, su
     if "-o" in opts:
         o = [float(x) for x in opts["-o"][:2]] + [0.0] * (2 - len(opts["-o"][:2]))
         kw["offset"] = tuple(o)
-    ignored = set(opts) - {"-s", "-o"}
+    ignored = set(opts) - {"-s", "-o"} - ({"-imfchan"} if alpha else set())
     if ignored:
         warnings.append(f"{what}: map options {sorted(ignored)} ignored")
+    if alpha:
+        return _mtl_scalar_map(fpath, what, opts.get("-imfchan"), kw)
     cache = {} if cache is None else cache
     key = (os.path.realpath(fpath), "linear" if normal or not srgb else "srgb")
     src = cache.get(key)
@@ -92,6 +98,31 @@ def _mtl_map(tokens, base, what, *, srgb, warnings, normal=False, cache=None, su
         raise AssetError(f"{what}: {exc}") from None
     cache.setdefault(key, t)
     return t
+
+
+#: ``-imfchan`` letters -> image channel (``m``, the "matte" channel, and the default: alpha if the image has one)
+_IMFCHAN = {"r": 0, "g": 1, "b": 2}
+
+
+def _mtl_scalar_map(fpath, what, imfchan, kw):
+    """A 1-channel linear texture from an image (``map_d``): the channel ``-imfchan`` names (r, g, b), else the
+    alpha channel of a grey+alpha / RGBA image, else its first channel (a grey matte)."""
+    try:
+        img = np.asarray(load_image(fpath)[0])
+        c = img.shape[2] if img.ndim == 3 else 1
+        img = img.reshape(img.shape[0], img.shape[1], c)
+        want = str(imfchan[0]).lower() if imfchan else "m"
+        if want in _IMFCHAN:
+            if _IMFCHAN[want] >= c:
+                raise AssetError(f"{what}: -imfchan {want} but the image has {c} channel(s)")
+            k = _IMFCHAN[want]
+        elif want in ("m", "l", "z"):
+            k = c - 1 if c in (2, 4) else 0
+        else:
+            raise AssetError(f"{what}: -imfchan must be one of r, g, b, m, l, z, got {want!r}")
+        return ImageTexture(np.ascontiguousarray(img[:, :, k]), srgb=False, name=f"{fpath} (dissolve)", **kw)
+    except TextureError as exc:
+        raise AssetError(f"{what}: {exc}") from None
 
 
 def parse_mtl(path, warnings=None, textures=None, substitutions=None):
@@ -143,6 +174,9 @@ def parse_mtl(path, warnings=None, textures=None, substitutions=None):
                 elif key == "map_Ke":
                     cur.map_Ke = _mtl_map(args, base, f"{where}: map_Ke", srgb=True, warnings=warnings,
                                           cache=textures, substitutions=substitutions)
+                elif key == "map_d":
+                    cur.map_d = _mtl_map(args, base, f"{where}: map_d", srgb=False, warnings=warnings, alpha=True,
+                                         cache=textures, substitutions=substitutions)
                 elif key in ("norm", "map_Kn"):
                     cur.norm = _mtl_map(args, base, f"{where}: {key}", srgb=False, warnings=warnings, normal=True,
                                         cache=textures, substitutions=substitutions)
