@@ -167,9 +167,10 @@ def test_gltf_images_decoded_once_and_shared(tmp_path, rng, monkeypatch):
     assert p1.metallic_texture._image is p0.metallic_texture._image
     assert p1.occlusion_texture._image is p0.occlusion_texture._image
     assert p0.roughness_texture._image is not p0.metallic_texture._image
-    # emissive reads the metallicRoughness image as sRGB: a separate decode of the same image
-    e = p1.emissive_texture.texture
-    assert e.decode == "srgb" and e._image is not p1.metallic_roughness_texture.texture._image
+    # emissive reads the metallicRoughness image as sRGB: the same 8-bit codes, its own table and pyramid
+    e, mr = p1.emissive_texture.texture, p1.metallic_roughness_texture.texture
+    assert e.decode == "srgb" and e.texels.dtype == np.uint8 and e._image is mr._image
+    assert e._pyramid is not mr._pyramid and not np.array_equal(e.table, mr.table)
     # decodes: base (sRGB), mr (linear), its G, B and R channels, emissive (sRGB) -- once each
     assert sorted(map(str, calls)) == sorted(["srgb", "linear", "linear", "linear", "linear", "srgb"])
 

@@ -162,7 +162,7 @@ def _channel(slot, c, label, cache):
     key = (slot.image, "linear", c)
     src = cache.get(key)
     if src is None:
-        src = np.ascontiguousarray(np.asarray(tex.image)[:, :, c])
+        src = np.ascontiguousarray(tex.texels[:, :, c])      # the stored codes (a linear slot): no decoded copy
     t = ImageTexture(src, srgb=False, wrap=tex.wrap, filter=tex.filter, scale=tex.scale, offset=tex.offset,
                      rotation_deg=tex.rotation_deg, name=label)
     if slot.image is not None:
