@@ -142,3 +142,26 @@ def test_views_with_repeated_hits_read_textures_once_per_hit(rng):
     g2 = surf.subset(slice(0, 100))
     mat.param(tex, g2.subset(np.arange(0, 100, 2)), 3)
     assert _Counting.rows == 50
+
+
+def test_channel_textures_share_one_lookup_and_equal_one_channel_copies(rng):
+    codes = rng.integers(0, 256, size=(64, 64, 3)).astype(np.uint8)
+    src = _Counting(codes, srgb=False, wrap=("repeat", "clamp"), scale=(2.0, 1.5))
+    n = 800
+    z = np.zeros((n, 2))
+    d = rng.normal(size=(n, 2)) * 0.02
+    ctx = SurfaceBatch(uv=rng.random((n, 2)), duvdx=d, duvdy=d[:, ::-1] * [1, -1], p=np.zeros((n, 3)))
+    _Counting.rows = 0
+    views = [T.ChannelTexture(src, c) for c in (2, 1, 0)]
+    got = [v.evaluate(ctx) for v in views]
+    assert _Counting.rows == n                                 # three channels, one lookup
+    for v, g in zip(views, got):
+        copy = T.ImageTexture(np.ascontiguousarray(codes[:, :, v.channel]), srgb=False, wrap=src.wrap,
+                              scale=src.scale)
+        assert g.shape == (n, 1)
+        np.testing.assert_array_equal(g, copy.evaluate(ctx))
+    other = _Counting(src, wrap="mirror")                      # same texels, another sampler: its own lookup
+    T.ChannelTexture(other, 0).evaluate(ctx)
+    assert _Counting.rows == 2 * n
+    with pytest.raises(T.TextureError, match="channel 3"):
+        T.ChannelTexture(src, 3)

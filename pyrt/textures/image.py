@@ -386,6 +386,13 @@ class ImageTexture(Texture):
         return self._table
 
     @property
+    def sampling_key(self):
+        """What decides this texture's lookups: its texels and pyramid (with their decoding) and its sampler
+        and UV transform. Textures with equal keys return the same values at the same hits."""
+        return (id(self._pyramid), self.wrap, self.filter, self.scale, self.offset, self.rotation_deg,
+                self.footprint_scale, self.max_anisotropy)
+
+    @property
     def mip_levels_built(self):
         """MIP levels (> 0) built so far; each was read by at least one lookup."""
         return self._pyramid.built
@@ -424,3 +431,55 @@ class ImageTexture(Texture):
     def evaluate(self, ctx):
         dx, dy = footprints(ctx)
         return self.lookup(ctx.uv, dx, dy)
+
+
+class ChannelTexture(Texture):
+    """One channel of an :class:`ImageTexture`'s lookup, e.g. glTF's metallic (B), roughness (G), occlusion (R).
+
+    No texels of its own: the source's lookup at a batch of hits is made once and kept on the batch
+    (``ctx._texture_cache``, keyed by :attr:`ImageTexture.sampling_key`), so the channels of one image read with
+    one sampler (the two or three of a packed occlusion-roughness-metallic map) cost one lookup, and the same
+    values as a 1-channel copy of the channel would give (every filter works channel by channel).
+
+    Parameters
+    ----------
+    source : ImageTexture
+    channel : int
+        ``0 <= channel < source.channels``.
+    name : str, optional
+        Label for messages.
+    """
+
+    channels = 1
+
+    def __init__(self, source, channel, *, name=None):
+        if not isinstance(source, ImageTexture):
+            raise TextureError(f"ChannelTexture({name or ''}): source must be an ImageTexture, got {type(source).__name__}")
+        if not 0 <= int(channel) < source.channels:
+            raise TextureError(f"texture {name or source.name or source.path}: channel {channel} but the image has "
+                               f"{source.channels} channel(s)")
+        self.source = source
+        self.channel = int(channel)
+        self.name = name
+
+    @classmethod
+    def example(cls):
+        """The G channel of :meth:`ImageTexture.example`."""
+        return cls(ImageTexture.example(), 1, name="example")
+
+    @property
+    def image(self):
+        """The channel's level 0, linear values, (H, W, 1) float32 (read-only)."""
+        return self.source.image[:, :, self.channel:self.channel + 1]
+
+    def lookup(self, uv, duvdx=None, duvdy=None):
+        """The source's :meth:`ImageTexture.lookup`, this channel: (N, 1) float64."""
+        return self.source.lookup(uv, duvdx, duvdy)[:, self.channel:self.channel + 1]
+
+    def evaluate(self, ctx):
+        cache = ctx.__dict__.setdefault("_texture_cache", {})
+        key = self.source.sampling_key
+        values = cache.get(key)
+        if values is None:
+            values = cache[key] = self.source.evaluate(ctx)
+        return values[:, self.channel:self.channel + 1]
