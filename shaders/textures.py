@@ -95,7 +95,8 @@ def wrap_index(i, n, mode):
     """
     i = np.asarray(i, dtype=np.int64)
     if mode == "repeat":
-        return np.mod(i, n)
+        # a power of two: the low bits (two's complement: the same as the modulo for negative i, ~10x cheaper)
+        return i & (n - 1) if n & (n - 1) == 0 else np.mod(i, n)
     if mode == "clamp":
         return np.clip(i, 0, n - 1)
     if mode == "mirror":
@@ -108,7 +109,7 @@ def _gather(image, ix, iy, wrap, table=None):
     """``image[wrap(iy), wrap(ix)]`` -> ``(..., C)``, decoded by ``table[code]`` when given."""
     h, w = image.shape[:2]
     taps = image[wrap_index(iy, h, wrap[1]), wrap_index(ix, w, wrap[0])]
-    return taps if table is None else table[taps]
+    return taps if table is None else table.take(taps)
 
 
 def _dtype(image, table):
@@ -209,7 +210,7 @@ def lookup_bilinear(image, uv, wrap="repeat", table=None):
 
         def tap(r, c):
             t = np.take(flat, r + c, axis=0).reshape((r.shape[0],) + image.shape[2:])
-            return t if table is None else table[t]
+            return t if table is None else table.take(t)
     else:
         def tap(r, c):
             return image[r // w, c] if table is None else table[image[r // w, c]]

@@ -165,3 +165,9 @@ def test_channel_textures_share_one_lookup_and_equal_one_channel_copies(rng):
     assert _Counting.rows == 2 * n
     with pytest.raises(T.TextureError, match="channel 3"):
         T.ChannelTexture(src, 3)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 64, 100, 2048])
+def test_repeat_wrap_is_the_modulo_for_every_size(n):
+    i = np.arange(-5 * n - 3, 5 * n + 4)
+    np.testing.assert_array_equal(K.wrap_index(i, n, "repeat"), np.mod(i, n))
