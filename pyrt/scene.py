@@ -44,6 +44,20 @@ def _positive_sizes(who, name, value, n):
     return a
 
 
+def _checked_uv_sets(uv_sets, n_vertices, name):
+    """``uv_sets`` of :meth:`Scene.add_mesh` as ``{int k >= 1: (V, 2) float64}`` (None when empty); a
+    :class:`GeometryError` naming the mesh for a bad key, shape or non-finite value."""
+    out = {}
+    for k, a in (uv_sets or {}).items():
+        a = np.asarray(a, dtype=np.float64)
+        if isinstance(k, bool) or not isinstance(k, numbers.Integral) or k < 1:
+            raise GeometryError(f"mesh {name!r}: uv_sets keys must be integers >= 1 (set 0 is the mesh's UVs), got {k!r}")
+        if a.shape != (n_vertices, 2) or not np.all(np.isfinite(a)):
+            raise GeometryError(f"mesh {name!r}: UV set {k} must be finite with shape ({n_vertices}, 2), got {a.shape}")
+        out[int(k)] = a
+    return out or None
+
+
 class Scene:
     """Container of meshes, materials, lights and a camera.
 
@@ -92,7 +106,7 @@ class Scene:
         return light
 
     def add_mesh(self, mesh, material, *, transform=None, smooth="auto", crease_angle=30.0, name=None, normals=None,
-                 shading=None):
+                 shading=None, uv_sets=None):
         """Add a trimesh mesh (or a ``(vertices, faces)`` pair) with a material.
 
         Parameters
@@ -114,6 +128,9 @@ class Scene:
             "phong": normals interpolated, lighting at every hit (the default with ``smooth``);
             "gouraud": lighting evaluated at the three vertices (vertex normals per ``smooth``) and
             the resulting radiance interpolated across the triangle (:mod:`pyrt.integrators.gouraud`).
+        uv_sets : dict, optional
+            ``{k: (V, 2)}``: UV sets k >= 1 beside the mesh's own UVs (set 0), read by textures with
+            ``texcoord=k`` (glTF ``TEXCOORD_k``; :mod:`pyrt.geometry.uvsets`).
         """
         name = name or f"mesh{len(self.meshes)}"
         if shading not in (None, "flat", "phong", "gouraud"):
@@ -134,6 +151,7 @@ class Scene:
             uv = np.asarray(vis_uv, dtype=np.float64)
             if not np.all(np.isfinite(uv)):
                 raise GeometryError(f"mesh {name!r}: texture coordinates are not finite")
+        uv_sets = _checked_uv_sets(uv_sets, len(mesh.vertices), name)
         if faces.shape[0] != len(mesh.faces):
             mesh = trimesh.Trimesh(vertices=v_obj, faces=faces, process=False)
         given = normals
@@ -146,6 +164,7 @@ class Scene:
         elif smooth == "auto":
             src, faces, normals = crease_normals(v_obj, faces, crease_angle, weld="edges")
             v_obj, uv = v_obj[src], (None if uv is None else uv[src])
+            uv_sets = uv_sets and {k: a[src] for k, a in uv_sets.items()}
         elif smooth:
             src = trimesh.Trimesh(vertices=v_obj, faces=faces, process=False)
             normals = np.asarray(src.vertex_normals, dtype=np.float64)
@@ -168,7 +187,7 @@ class Scene:
             faces = faces[:, [0, 2, 1]]    # a mirror turns counter-clockwise into clockwise: keep the front side
         mat_id = self.add_material(material)
         self.meshes.append(MeshData(vertices=v_world, faces=faces, normals=normals, uv=uv, vertices_object=v_obj,
-                                    material_id=mat_id, smooth=normals is not None, name=name))
+                                    material_id=mat_id, smooth=normals is not None, name=name, uv_sets=uv_sets or None))
         if shading == "gouraud":
             self.gouraud_meshes.add(len(self.meshes) - 1)
         return len(self.meshes) - 1

@@ -158,6 +158,46 @@ def reflect(wo, n):
     return -wo + 2.0 * dot(wo, n)[:, None] * n
 
 
+def valid_reflection_normal(ng, wo, n):
+    """Shading normals bent toward ``ng`` just enough that the mirror reflection of ``wo`` stays above the surface.
+
+    The idea of Blender Cycles' ``ensure_valid_reflection`` ("bump map correction"; Keller et al. 2017, "The
+    Iray light transport simulation and rendering system"): where ``r = reflect(wo, n)`` has ``ng . r`` below
+    ``t = min(0.9 ng . wo, 0.01)`` (or ``n`` faces away from ``wo``: then ``r = -wo``), ``r`` is lifted along
+    ``ng`` to ``ng . r = t`` and the normal becomes the half vector of ``wo`` and that ``r``, whose mirror
+    reflection of ``wo`` is ``r / |r|``, above the surface. Elsewhere ``n`` is returned unchanged. Only the
+    normal moves, so a BSDF evaluated about it stays as energy conserving as it is.
+
+    Parameters
+    ----------
+    ng, wo, n : (N, 3) float ndarray
+        Unit geometric normals (on the viewer's side, ``ng . wo > 0``), unit directions toward the viewer,
+        unit shading normals.
+
+    Returns
+    -------
+    (N, 3) ndarray
+        Unit normals, ``n`` itself on the rows that need no change.
+    """
+    cos_o = dot(n, wo)
+    r = 2.0 * cos_o[:, None] * n - wo
+    ng_r = dot(ng, r)
+    t = np.minimum(0.9 * dot(ng, wo), 0.01)
+    behind = cos_o <= 0         # no reflection about n: lift the straight continuation -wo instead
+    r = np.where(behind[:, None], -wo, r)
+    ng_r = np.where(behind, -dot(ng, wo), ng_r)
+    t = np.where(behind, 0.01, t)
+    fix = behind | (ng_r < t)
+    if not np.any(fix):
+        return n
+    idx = np.flatnonzero(fix)
+    r_l = r[idx] + ng[idx] * (t[idx] - ng_r[idx])[:, None]
+    h, hl = half_vector(wo[idx], normalize(r_l))
+    out = np.array(n, copy=True)
+    out[idx] = np.where((hl > 0)[:, None], h, ng[idx])     # hl = 0 only for wo exactly in the surface plane
+    return out
+
+
 def refract(wi, n, eta):
     """Refract ``wi`` (pointing away from the surface) through the interface with normal ``n``.
 

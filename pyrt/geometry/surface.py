@@ -22,6 +22,7 @@ import warnings
 import numpy as np
 
 from pyrt.geometry.offsets import terminator_lift
+from pyrt.geometry.uvsets import combine_rows as _combine, concat_uv_set, interpolate_uv, uv_set_at_hits, uv_tangents
 from pyrt.shaders.vec import coordinate_frame, cross, dot, max_component, normalize, put_rows, scale_rows, take_rows, to_local
 from pyrt.core.errors import Error
 
@@ -42,6 +43,7 @@ class MeshData:
     material_id: int
     smooth: bool
     name: str
+    uv_sets: dict | None = None   # {k: (V, 2)} UV sets k >= 1 a material reads (pyrt.geometry.uvsets)
 
 
 def validate_mesh(vertices, faces, name):
@@ -117,6 +119,7 @@ class GeometryTable:
         self.face_has_uv = np.repeat([m.uv is not None for m in self.meshes], nf)
         self.uv = np.concatenate([m.uv if m.uv is not None else np.zeros((m.vertices.shape[0], 2))
                                   for m in self.meshes])
+        self._uv_tables = {}
         self.any_smooth = bool(np.any(smooth))
         self.any_uv = bool(np.any(self.face_has_uv))
         # per-face bounds for ray offsets (pyrt.geometry.offsets.local_bound): the largest extent of the triangle's
@@ -128,6 +131,15 @@ class GeometryTable:
         self.face_normals = normalize(cross(p1 - p0, p2 - p0))
         self.face_extent = max_component(np.maximum(np.maximum(p0, p1), p2) - np.minimum(np.minimum(p0, p1), p2))
         self.face_absmax = np.maximum(np.maximum(np.abs(p0), np.abs(p1)), np.abs(p2))
+
+    def uv_table(self, k):
+        """UV set ``k`` of every vertex, (V, 2) float64 (set 0: :attr:`uv`; zeros for meshes without set ``k``), or
+        None when no mesh has it; built on the first request and kept (:mod:`pyrt.geometry.uvsets`)."""
+        if k == 0:
+            return self.uv
+        if k not in self._uv_tables:
+            self._uv_tables[k] = concat_uv_set(self.meshes, k)
+        return self._uv_tables[k]
 
 
 class SurfaceBatch:
@@ -141,9 +153,11 @@ class SurfaceBatch:
     FIELDS = ("p", "p_object", "ng", "ns", "front", "wo", "uv", "dpdu", "dpdv", "duvdx", "duvdy", "dpdx", "dpdy",
               "dndx", "dndy", "mesh_id", "prim_id", "face", "material_id", "bary", "t", "p_error",
               "frame_s", "frame_t", "tri_v", "tri_n", "smooth", "tri_extent", "tri_absmax", "n_vertex", "p_lift",
-              "ns_unmapped")
+              "ns_unmapped", "dbary")
     #: ``ns_unmapped``: the shading normals before :func:`pyrt.textures.apply_normal_maps` perturbed them (None
     #: when no normal map was applied; a clear coat's own frame starts from it)
+    #: ``dbary``: (N, 4) barycentric derivatives (db1/dx, db2/dx, db1/dy, db2/dy) from the ray differentials
+    #: (zeros without them): the footprints of every UV set (:meth:`uv_set`)
 
     def __init__(self, lazy=None, **kwargs):
         """``lazy`` maps field names to a function computing a dict of fields on first access."""
@@ -199,6 +213,30 @@ class SurfaceBatch:
         sub = _SurfaceSubset(self, idx)
         sub.__dict__["_parent"] = (self, idx)
         return sub
+
+    def uv_set(self, k):
+        """``(uv, duvdx, duvdy)`` of UV set ``k`` at the hits, each (N, 2) float64: set 0 is the fields ``uv``,
+        ``duvdx``, ``duvdy``; set ``k`` >= 1 (glTF ``TEXCOORD_k``) is interpolated on first request and kept,
+        zeros on meshes without it. A batch built from fields alone (no geometry) has only set 0, returned
+        for every ``k``."""
+        return (self.uv, self.duvdx, self.duvdy) if k == 0 else self._uv_set_values(k, "uv")
+
+    def uv_tangents(self, k):
+        """``(dpdu, dpdv)`` (N, 3) of UV set ``k`` (normal maps read in that set): set 0 is the fields ``dpdu``,
+        ``dpdv``; otherwise as :meth:`uv_set`."""
+        return (self.dpdu, self.dpdv) if k == 0 else self._uv_set_values(k, "tangents")
+
+    def _uv_set_values(self, k, what):
+        cache = self.__dict__.setdefault("_uv_sets", {})
+        if (k, what) not in cache:
+            cache[(k, what)] = self._compute_uv_set(k, what)
+        return cache[(k, what)]
+
+    def _compute_uv_set(self, k, what):
+        fn = self.__dict__.get("_uv_set_fn")
+        if fn is None:      # built from fields: one UV set
+            return (self.uv, self.duvdx, self.duvdy) if what == "uv" else (self.dpdu, self.dpdv)
+        return fn(k, what, self)
 
     def set_shading_normal(self, ns):
         """Replace the shading normals (unit, (N, 3)) and rebuild the local frame."""
@@ -290,6 +328,10 @@ class _SurfaceSubset(SurfaceBatch):
             return val
         raise AttributeError(name)
 
+    def _compute_uv_set(self, k, what):
+        # the base's set gathered (as every field of a view)
+        return tuple(None if a is None else take_view_rows(a, self._idx) for a in self._base._uv_set_values(k, what))
+
     @property
     def n_hits(self):
         idx = self._idx
@@ -339,18 +381,6 @@ def _bary_solver(e1, e2):
         r2 = dot(e2, dp)
         return (a22 * r1 - a12 * r2) * inv, (a11 * r2 - a12 * r1) * inv
     return solve
-
-
-def _combine(s1, a, s2, b):
-    """``s1[:, None] * a + s2[:, None] * b`` for (N,) weights and (N, C) rows, column by column (the same
-    arithmetic per element; broadcasting over the short axis is several times slower, :mod:`pyrt.shaders.vec`)."""
-    out = np.empty(a.shape)
-    tmp = np.empty(a.shape[0])
-    for c in range(a.shape[1]):
-        col = out[:, c]
-        np.multiply(s1, a[:, c], out=col)
-        col += np.multiply(s2, b[:, c], out=tmp)
-    return out
 
 
 def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=None):
@@ -414,29 +444,17 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
             put_rows(ni, b_, take_rows(ng_s, b_))
         put_rows(ns, s, ni)
 
-
     # Fields most kernels never read are computed on first access (model no more than needed).
     def uv_group():
         uvs = geo.uv
-        uv0, uv1, uv2 = take_rows(uvs, tri[:, 0]), take_rows(uvs, tri[:, 1]), take_rows(uvs, tri[:, 2])
-        uv = _combine(b0, uv0, b1, uv1)            # b0 uv0 + b1 uv1 + b2 uv2, column by column
-        uv += scale_rows(uv2, b2)
-        return {"uv": uv}
+        return {"uv": interpolate_uv(take_rows(uvs, tri[:, 0]), take_rows(uvs, tri[:, 1]), take_rows(uvs, tri[:, 2]),
+                                     b0, b1, b2)}
 
     def tangent_group():
         # dpdu / dpdv (tangent frames, anisotropic BRDFs, normal maps): most textures read only uv, not these
-        e1, e2 = v1 - v0, v2 - v0
         uvs = geo.uv
         uv0 = take_rows(uvs, tri[:, 0])
-        du1, du2 = take_rows(uvs, tri[:, 1]) - uv0, take_rows(uvs, tri[:, 2]) - uv0
-        det = du1[:, 0] * du2[:, 1] - du1[:, 1] * du2[:, 0]
-        ok = np.abs(det) > 1e-20
-        inv = np.divide(1.0, det, out=np.zeros_like(det), where=ok)
-        dpdu = (du2[:, 1:2] * e1 - du1[:, 1:2] * e2) * inv[:, None]
-        dpdv = (du1[:, 0:1] * e2 - du2[:, 0:1] * e1) * inv[:, None]
-        if not np.all(ok):
-            s_, t_ = coordinate_frame(ng[~ok])
-            dpdu[~ok], dpdv[~ok] = s_, t_
+        dpdu, dpdv = uv_tangents(v1 - v0, v2 - v0, take_rows(uvs, tri[:, 1]) - uv0, take_rows(uvs, tri[:, 2]) - uv0, ng)
         return {"dpdu": dpdu, "dpdv": dpdv}
 
     def object_group():
@@ -447,7 +465,7 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
         zeros3 = np.zeros((n, 3))
         if differentials is None:
             return {"dpdx": zeros3, "dpdy": zeros3, "dndx": zeros3, "dndy": zeros3,
-                    "duvdx": np.zeros((n, 2)), "duvdy": np.zeros((n, 2))}
+                    "duvdx": np.zeros((n, 2)), "duvdy": np.zeros((n, 2)), "dbary": np.zeros((n, 4))}
         rx_o, rx_d, ry_o, ry_d = differentials
         e1, e2 = v1 - v0, v2 - v0
         d_plane = dot(ng, p)
@@ -477,7 +495,8 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
         du1 = take_rows(uvs, tri[:, 1]) - uv0
         du2 = take_rows(uvs, tri[:, 2]) - uv0
         out = {"dpdx": dpdx, "dpdy": dpdy, "dndx": zeros3, "dndy": zeros3,
-               "duvdx": _combine(bx1, du1, bx2, du2), "duvdy": _combine(by1, du1, by2, du2)}
+               "duvdx": _combine(bx1, du1, bx2, du2), "duvdy": _combine(by1, du1, by2, du2),
+               "dbary": np.stack([bx1, bx2, by1, by2], axis=1)}
         if np.any(smooth):
             n0 = take_rows(nrm, tri[:, 0])
             dn1 = scale_rows(take_rows(nrm, tri[:, 1]) - n0, sign)
@@ -527,10 +546,12 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
         return {"tri_extent": geo.face_extent[face], "tri_absmax": take_rows(geo.face_absmax, face)}
     lazy.update({k: bounds_group for k in ("tri_extent", "tri_absmax")})
     lazy["p_object"] = object_group
-    lazy.update({k: differential_group for k in ("dpdx", "dpdy", "dndx", "dndy", "duvdx", "duvdy")})
+    lazy.update({k: differential_group for k in ("dpdx", "dpdy", "dndx", "dndy", "duvdx", "duvdy", "dbary")})
     surf = SurfaceBatch(lazy=lazy, p=p, ng=ng, ns=ns, front=front, wo=wo, mesh_id=hits.mesh_id, smooth=smooth,
                         n_vertex=n_vertex,
                         prim_id=hits.prim_id, face=face, material_id=geo.face_material[face], bary=bary, t=hits.t)
+    # UV sets k >= 1 on request (SurfaceBatch.uv_set; a function of the batch, not a closure over it: no cycle)
+    surf.__dict__["_uv_set_fn"] = lambda k, what, batch: uv_set_at_hits(geo.uv_table(k), tri, batch, what)
     return surf
 
 

@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from pyrt.core.sampler import stratified_samples
+from pyrt.shaders import dfg
 from pyrt.shaders import envmap as K
 from pyrt.shaders import sampling
 from pyrt.shaders.vec import max_component, put_rows, take_rows
@@ -256,6 +257,34 @@ def _add_environment_sample(light, L_out, surf, bsdf, visible, wi, pdf, mis):
         L_out[idx] += _shadowed_values(vis, val)
 
 
+def _split_sum_preview(light, surf, bsdf, gi, L_out):
+    """The split sum on the hits ``gi`` whose materials declare lobes (:meth:`Material.preview_lobes`): ``L_out``
+    gets ``occlusion (diffuse E_SH(n) / pi + sum_lobes albedo x prefiltered(dominant direction, alpha))``; returns
+    the hits left to the sampled estimate (materials without lobes)."""
+    env = light.environment
+    mids = surf.material_id
+    rest = []
+    for k in np.unique(mids[gi]):
+        if bsdf.surf is surf:       # every hit of material k (lambertian is per material): the group's
+            group = bsdf.groups[int(k)]     # persistent context shares texture lookups with the other lights
+            sel, ctx = group.idx, group.ctx
+        else:
+            sel = gi[mids[gi] == k]
+            ctx = surf.subset(sel)
+        lobes = bsdf.materials[k].preview_lobes(ctx)
+        if lobes is None:
+            rest.append(sel)
+            continue
+        out = lobes.diffuse / np.pi * env.irradiance_sh(ctx.ns)
+        for lobe in lobes.glossy:
+            n = ctx.ns if lobe.normal is None else lobe.normal
+            out += lobe.weight * env.prefiltered(dfg.dominant_direction(ctx.wo, n, lobe.alpha), lobe.alpha)
+        if lobes.occlusion is not None:
+            out *= lobes.occlusion[:, None]
+        L_out[sel] = out
+    return np.sort(np.concatenate(rest)) if rest else gi[:0]
+
+
 def _environment_preview(light, surf, bsdf):
     """Unshadowed, noise-free approximation (``strategy="preview"``, see :mod:`pyrt.lights.environment`)."""
     env = light.environment
@@ -271,6 +300,8 @@ def _environment_preview(light, surf, bsdf):
             ctx = surf.subset(sel)
             L_out[sel] = bsdf.materials[k].albedo(ctx) / np.pi * env.irradiance_sh(ctx.ns)
     gi = np.flatnonzero(~lambert)
+    if gi.size and light.preview_method == "split_sum":
+        gi = _split_sum_preview(light, surf, bsdf, gi, L_out)
     if gi.size:
         # the K_ samples of every hit in one batch (rows k * m .. (k + 1) * m - 1: sample k), one BSDF query and
         # one prefiltered lookup instead of K_; summed in sample order as a loop over the samples would

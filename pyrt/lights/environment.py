@@ -33,6 +33,11 @@ Strategies (``EnvironmentLight(strategy=...)``), ``n_samples`` per hit, stratifi
               estimate: ``preview_samples`` fixed Hammersley samples of its BSDF, each reading the
               roughness-indexed prefiltered map (GGX lobes, split-sum assumption ``n = v = r``) at
               the width ``alpha = sqrt(1 / (4 pi K pdf))`` that matches the sample's solid angle.
+              Materials that declare their lobes (``preview_method="split_sum"``, the default:
+              :meth:`pyrt.materials.Material.preview_lobes`) get the split sum instead (Karis 2013):
+              per GGX lobe one lookup of the prefiltered map at the lobe's dominant direction (Lagarde &
+              de Rousiers 2014) times its directional albedo ``F0 A + B`` from :mod:`shaders.dfg`'s
+              tables, plus ``diffuse / pi * E_SH(n)``, times the material's occlusion (glTF).
               Errors are measured by ``tools/ibl_chart.py`` and the tests.
 
 Every estimator but ``preview`` is unbiased; for a given seed the result is bit-identical.

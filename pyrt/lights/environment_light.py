@@ -43,6 +43,8 @@ from pyrt.lights.environment import HEURISTICS, STRATEGIES, Environment, Environ
 #: ``compensate=True``: measured by ``tools/estimator_chart.py`` (docs/environment.md), 1.5-2.4x (sun sky) and
 #: 1.6-1.7x (studio map) less relMSE x time than one light + one BSDF sample without compensation
 DEFAULT_SAMPLES = 4
+#: the values of ``EnvironmentLight(preview_method=...)``
+PREVIEW_METHODS = ("split_sum", "samples")
 
 
 class EnvironmentLight(Light):
@@ -64,13 +66,19 @@ class EnvironmentLight(Light):
     compensate : bool
         ``mis`` draws its light samples from the MIS-compensated table (module docstring). Default True.
     preview_samples : int
-        Fixed BSDF samples per hit of the ``preview`` approximation for non-Lambertian materials.
+        Fixed BSDF samples per hit of the ``preview`` approximation for materials it samples.
+    preview_method : {"split_sum", "samples"}
+        How ``preview`` lights non-Lambertian materials: ``"split_sum"`` (default) the materials that declare
+        their lobes (:meth:`pyrt.materials.Material.preview_lobes`: metallic-roughness, glTF PBR without
+        transmission, clear coats over them) by the split sum (prefiltered map x directional albedo, one lookup
+        per lobe) and the others by ``preview_samples`` BSDF samples; ``"samples"`` every one of them by samples.
     """
 
     delta = False
 
     def __init__(self, environment, *, strategy="mis", n_samples=DEFAULT_SAMPLES, bsdf_samples=None,
-                 heuristic="power", compensate=True, preview_samples=16, name=None):
+                 heuristic="power", compensate=True, preview_samples=16, preview_method="split_sum",
+                 name=None):
         owner = f"EnvironmentLight({name or ''})"
         if not isinstance(environment, Environment):
             raise EnvironmentMapError(f"{owner}: environment must be a pyrt Environment, got "
@@ -86,6 +94,9 @@ class EnvironmentLight(Light):
                 raise EnvironmentMapError(f"{owner}: {nm} must be a positive integer, got {v!r}")
         if not isinstance(compensate, (bool, np.bool_)):
             raise EnvironmentMapError(f"{owner}: compensate must be true or false, got {compensate!r}")
+        if preview_method not in PREVIEW_METHODS:
+            raise EnvironmentMapError(f"{owner}: preview_method must be one of {PREVIEW_METHODS}, got "
+                                      f"{preview_method!r}")
         self.environment = environment
         self.strategy = strategy
         self.n_samples = int(n_samples)
@@ -93,6 +104,7 @@ class EnvironmentLight(Light):
         self.heuristic = heuristic
         self.compensate = bool(compensate)
         self.preview_samples = int(preview_samples)
+        self.preview_method = preview_method
         self.name = name
 
     def sample(self, p, u):
@@ -139,7 +151,7 @@ class EnvironmentLight(Light):
 
 
 def set_environment(scene, environment, *, lighting="mis", n_samples=DEFAULT_SAMPLES, bsdf_samples=None,
-                    heuristic="power", compensate=True, preview_samples=16):
+                    heuristic="power", compensate=True, preview_samples=16, preview_method="split_sum"):
     """Use ``environment`` in ``scene``: seen where rays miss, and (unless ``lighting`` is None/False) as a
     light with the named strategy (the other keywords: :class:`EnvironmentLight`). Replaces a previous
     :class:`EnvironmentLight`. Returns the light or None.
@@ -151,6 +163,7 @@ def set_environment(scene, environment, *, lighting="mis", n_samples=DEFAULT_SAM
     if environment is None or lighting in (None, False):
         return None
     light = EnvironmentLight(environment, strategy=lighting, n_samples=n_samples, bsdf_samples=bsdf_samples,
-                             heuristic=heuristic, compensate=compensate, preview_samples=preview_samples)
+                             heuristic=heuristic, compensate=compensate, preview_samples=preview_samples,
+                             preview_method=preview_method)
     scene.add_light(light)
     return light

@@ -383,6 +383,11 @@ class Material:
         """Diffuse-like reflectance (N, 3): the ambient term and the albedo AOV."""
         return np.zeros((ctx.n_hits, 3))
 
+    def preview_lobes(self, ctx):
+        """The reflection as a Lambertian part and GGX lobes (:class:`pyrt.materials.preview.PreviewLobes`) for the
+        split-sum environment preview, or None (the default): the preview then samples :meth:`sample`."""
+        return None
+
     def emission(self, ctx):
         """Emitted radiance (N, 3), W m^-2 sr^-1, toward ``ctx.wo``."""
         return np.zeros((ctx.n_hits, 3))

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pyrt.materials import preview as _preview
 from pyrt.materials.base import DeltaLobe, Material, MaterialError, check_color, check_scalar, is_texture, register
 from pyrt.materials.library import MetallicRoughness, _check_choice
 from pyrt.shaders import brdfs
@@ -259,6 +260,24 @@ class GltfPBR(MetallicRoughness):
             lobes.append(DeltaLobe(wt, tint * (w * (1.0 - R) / (eta * eta))[:, None], "refract", eta))
         return lobes
 
+    def preview_lobes(self, ctx):
+        """Split-sum lobes of the opaque material (None where it transmits: the preview samples it): diffuse
+        ``(1 - m) base (1 - s (F0m + (1 - F0m) E5))`` (``F0m`` the largest channel of the dielectric F0, as the BRDF's
+        ``max(F)``), one GGX lobe of albedo ``(1 - m) s (F0_d A + B) + m (base A + B)``."""
+        if self.transmits:
+            return None
+        base = np.asarray(self.param(self.base_color, ctx))
+        m = self.param(self.metallic, ctx, 1)[:, None]
+        s = self.param(self.specular, ctx, 1)[:, None]
+        alpha = np.broadcast_to(self._alpha(ctx), (ctx.n_hits,))
+        mu = _preview.view_cosine(ctx)
+        f0d = np.broadcast_to(self._f0_dielectric(ctx), base.shape)
+        f0m = f0d.max(axis=1, keepdims=True)
+        diffuse = (1.0 - m) * (1.0 - s * (f0m + (1.0 - f0m) * _preview.schlick_diffuse_loss(mu))) * base
+        spec = ((1.0 - m) * s * _preview.schlick_albedo(f0d, mu, alpha, self.geometry)
+                + m * _preview.schlick_albedo(base, mu, alpha, self.geometry))
+        return _preview.PreviewLobes(diffuse, [_preview.GlossyLobe(spec, alpha)])
+
     def albedo(self, ctx):
         """The base colour times the opaque share ``1 - (1 - metallic) transmission``."""
         a = np.array(self.param(self.base_color, ctx))
@@ -438,6 +457,24 @@ class Clearcoat(Material):
         coat = np.broadcast_to(self._alpha(ctx), (ctx.n_hits,))
         c = np.broadcast_to(self.param(self.clearcoat, ctx, 1), (ctx.n_hits,))
         return np.where(c > 0, np.minimum(coat, base_a), base_a)
+
+    def preview_lobes(self, ctx):
+        """The base's lobes times ``1 - c F_c(n_c.v)`` plus the coat's GGX lobe of albedo ``c F_c (A + B)`` about
+        the coat's normal ``n_c`` (``fresnel="view"``; None for ``"half"`` or a base without lobes)."""
+        if self.fresnel != "view":
+            return None
+        lobes = self.base.preview_lobes(ctx)
+        if lobes is None:
+            return None
+        frame = self._coat_frame(ctx)
+        n_c = ctx.ns if frame is None else ctx.to_world(frame[2])
+        mu = _preview.view_cosine(ctx, n_c)
+        cw = self.param(self.clearcoat, ctx, 1) * fresnel.fr_schlick(mu, self._f0())
+        alpha = np.broadcast_to(self._alpha(ctx), (ctx.n_hits,))
+        coat = (cw * _preview.fresnel_free_albedo(mu, alpha, "smith_correlated"))[:, None]
+        out = lobes.scaled(1.0 - cw)
+        out.glossy.append(_preview.GlossyLobe(np.repeat(coat, 3, axis=1), alpha, None if frame is None else n_c))
+        return out
 
     def albedo(self, ctx):
         """The base's albedo (the ambient term and the albedo AOV)."""

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from pyrt.core import checks
+from pyrt.materials import preview as _preview
 from pyrt.materials.base import Material, MaterialError, check_color, check_scalar, is_texture, register
 from pyrt.shaders import brdfs
 from pyrt.shaders import fresnel
@@ -387,3 +388,14 @@ class MetallicRoughness(_MicrofacetSampling, Material):
 
     def albedo(self, ctx):
         return np.array(self.param(self.base_color, ctx))
+
+    def preview_lobes(self, ctx):
+        """Split-sum lobes: diffuse ``(1 - m) base (1 - F0)(1 - E5)``, one GGX lobe of albedo ``F0 A + B``."""
+        base = np.asarray(self.param(self.base_color, ctx))
+        m = self.param(self.metallic, ctx, 1)[:, None]
+        alpha = np.broadcast_to(self._alpha(ctx), (ctx.n_hits,))
+        mu = _preview.view_cosine(ctx)
+        f0 = brdfs.GLTF_DIELECTRIC_F0 * (1.0 - m) + base * m
+        diffuse = base * (1.0 - m) * (1.0 - f0) * (1.0 - _preview.schlick_diffuse_loss(mu))
+        return _preview.PreviewLobes(diffuse, [_preview.GlossyLobe(_preview.schlick_albedo(f0, mu, alpha, self.geometry),
+                                                                   alpha)])

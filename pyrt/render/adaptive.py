@@ -181,7 +181,7 @@ def _chunks(counts, chunk_samples):
     return list(zip(np.split(sel, cuts), np.split(c, cuts)))
 
 
-def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None, min_spp=8, seed=0, aovs=False,
+def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None, min_spp=4, seed=0, aovs=False,
                     progress=None, chunk_samples=1 << 15, threads=None, prepared=None, nonfinite="zero",
                     cancel=None, fill=False, fill_budget=2.0, on_pass=None, integrator="whitted", max_depth=8,
                     throughput_cutoff=1e-4, offset=None, record_rays=False, transparent_shadows=False,

@@ -39,7 +39,7 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
                 progress=None, chunk_samples=1 << 15, threads=None, record_rays=False, prepared=None,
                 nonfinite="zero", cancel=None, fill=False, fill_budget=2.0, transparent_shadows=False,
                 integrator="whitted", glossy_samples=4, glossy_depth=2, glossy_threshold=0.4,
-                target_error=None, time_budget=None, max_spp=None, min_spp=8, on_pass=None, dask=None,
+                target_error=None, time_budget=None, max_spp=None, min_spp=4, on_pass=None, dask=None,
                 dask_workers=2):
     """Render ``scene`` and return a :class:`RenderResult` with the image, AOVs and statistics.
 
@@ -281,7 +281,7 @@ def render(scene, **kwargs):
         until the estimated relMSE (:mod:`pyrt.core.metrics`) is at most ``target_error``, ``time_budget``
         seconds have passed, or every pixel that still needs samples has ``max_spp`` (default 65536),
         whichever comes first; at least one of ``target_error`` and ``time_budget``. ``min_spp`` (default
-        8, even): the base pass; ``on_pass``: called with a :class:`pyrt.render.adaptive.PassInfo` after
+        4, even): the base pass; ``on_pass``: called with a :class:`pyrt.render.adaptive.PassInfo` after
         every pass. Exclusive with ``spp``.
     dask : distributed.Client, str or True, optional
         Render the chunks (fixed spp) or each pass's chunks (adaptive) as tasks on Dask workers

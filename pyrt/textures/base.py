@@ -55,6 +55,9 @@ class Texture:
     channels = 3
     #: registry name used by scene files (``{"type": "checker", ...}``); set by :meth:`Registry.register`
     type_name = None
+    #: the UV set the texture reads (0: ``ctx.uv``; k >= 1: glTF ``TEXCOORD_k``, :meth:`SurfaceBatch.uv_set
+    #: <pyrt.geometry.SurfaceBatch.uv_set>`); image textures take it as a parameter
+    texcoord = 0
 
     def evaluate(self, ctx):  # pragma: no cover - interface
         """The texture's values at the hits of ``ctx``.
@@ -126,6 +129,17 @@ def footprints(ctx):
     dx = z if dx is None else np.asarray(dx, dtype=np.float64).reshape(n, 2)
     dy = z if dy is None else np.asarray(dy, dtype=np.float64).reshape(n, 2)
     return dx, dy
+
+
+def texcoords(ctx, k=0):
+    """``(uv, duvdx, duvdy)`` of UV set ``k`` at the hits of ``ctx``, each (N, 2) float64 (footprints as
+    :func:`footprints`: zeros where unknown). Set 0 reads ``ctx.uv`` and the footprint fields; set ``k`` >= 1
+    :meth:`ctx.uv_set(k) <pyrt.geometry.SurfaceBatch.uv_set>`."""
+    if k == 0:
+        return (ctx.uv, *footprints(ctx))
+    uv, dx, dy = ctx.uv_set(k)
+    n = ctx.n_hits
+    return uv, (np.zeros((n, 2)) if dx is None else dx), (np.zeros((n, 2)) if dy is None else dy)
 
 
 def dp_dxy(ctx):

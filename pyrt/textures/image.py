@@ -34,7 +34,7 @@ from pyrt.shaders import color as _color
 from pyrt.shaders import ewa as _ewa
 from pyrt.shaders import mip as _mip
 from pyrt.shaders import textures as _tex
-from pyrt.textures.base import TEXTURES, Texture, TextureError, footprints
+from pyrt.textures.base import TEXTURES, Texture, TextureError, texcoords
 
 
 # ----------------------------------------------------------------------------- image loading
@@ -281,11 +281,13 @@ class ImageTexture(Texture):
         Anisotropic filter: largest major/minor axis ratio (pbrt-v4: 8).
     name : str, optional
         Label for messages (arrays have no file name).
+    texcoord : int
+        The UV set read (0 = the mesh's UVs; k = glTF ``TEXCOORD_k``, :attr:`Texture.texcoord`).
     """
 
     def __init__(self, source, *, srgb=None, wrap="repeat", filter="trilinear", scale=(1.0, 1.0),
                  offset=(0.0, 0.0), rotation_deg=0.0, channels=None, select=None, footprint_scale=None,
-                 max_anisotropy=8.0, name=None, decode=None):
+                 max_anisotropy=8.0, name=None, decode=None, texcoord=0):
         shared = source if isinstance(source, ImageTexture) else None
         if shared is not None:  # same texels (decoded level 0 and lazy pyramid), own sampling options
             self.path = shared.path
@@ -337,6 +339,9 @@ class ImageTexture(Texture):
             raise TextureError(f"texture {label}: need footprint_scale > 0 and max_anisotropy >= 1")
         self.footprint_scale = float(footprint_scale)
         self.max_anisotropy = float(max_anisotropy)
+        if isinstance(texcoord, bool) or not isinstance(texcoord, (int, np.integer)) or texcoord < 0:
+            raise TextureError(f"texture {label}: texcoord must be an integer >= 0 (a UV set), got {texcoord!r}")
+        self.texcoord = int(texcoord)
         if shared is not None:
             if channels is not None and shared.channels != channels:
                 raise TextureError(f"texture {label}: has {shared.channels} channel(s), expected {channels}")
@@ -387,10 +392,10 @@ class ImageTexture(Texture):
 
     @property
     def sampling_key(self):
-        """What decides this texture's lookups: its texels and pyramid (with their decoding) and its sampler
-        and UV transform. Textures with equal keys return the same values at the same hits."""
-        return (id(self._pyramid), self.wrap, self.filter, self.scale, self.offset, self.rotation_deg,
-                self.footprint_scale, self.max_anisotropy)
+        """What decides this texture's lookups: its texels and pyramid (with their decoding), its UV set, its
+        sampler and UV transform. Textures with equal keys return the same values at the same hits."""
+        return (id(self._pyramid), self.texcoord, self.wrap, self.filter, self.scale, self.offset,
+                self.rotation_deg, self.footprint_scale, self.max_anisotropy)
 
     @property
     def mip_levels_built(self):
@@ -429,8 +434,7 @@ class ImageTexture(Texture):
         return out.astype(np.float64)
 
     def evaluate(self, ctx):
-        dx, dy = footprints(ctx)
-        return self.lookup(ctx.uv, dx, dy)
+        return self.lookup(*texcoords(ctx, self.texcoord))
 
 
 class ChannelTexture(Texture):
@@ -461,6 +465,7 @@ class ChannelTexture(Texture):
         self.source = source
         self.channel = int(channel)
         self.name = name
+        self.texcoord = source.texcoord          # the UV set its source reads
 
     @classmethod
     def example(cls):

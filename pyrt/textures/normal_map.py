@@ -4,8 +4,13 @@ from __future__ import annotations
 import numpy as np
 
 from pyrt.shaders import textures as _tex
+from pyrt.shaders.vec import valid_reflection_normal
 from pyrt.textures.base import TEXTURES, TextureError
 from pyrt.textures.image import ImageTexture
+
+
+#: what :func:`perturb_normal` does with normals whose mirror reflection goes below the surface (:class:`NormalMap`)
+REFLECTION_MODES = ("bend", "drop")
 
 
 @TEXTURES.register("normal_map")
@@ -26,6 +31,12 @@ class NormalMap(ImageTexture):
         Read DirectX-style maps (green = -v).
     filter : str
         As for :class:`ImageTexture`, default ``"bilinear"``.
+    reflection : {"bend", "drop"}
+        What :func:`perturb_normal` does where the mirror reflection of the view direction about the perturbed
+        normal would go below the geometric surface (the rims of strong bumps): ``"bend"`` (default) tilts the
+        normal toward the geometric one just enough that it does not
+        (:func:`pyrt.shaders.vec.valid_reflection_normal`, Cycles' bump-map correction); ``"drop"`` keeps the
+        normal, and the reflections there, which the integrators drop, are black.
     **kwargs
         Further :class:`ImageTexture` options (``wrap``, ``scale``, ``name`` ...).
     """
@@ -34,14 +45,20 @@ class NormalMap(ImageTexture):
     strength = 1.0
     #: True for DirectX-style maps (green = -v); read by :func:`perturb_normal`
     flip_green = False
+    #: "bend" or "drop": reflections the map tilts below the surface (the class docstring); read by :func:`perturb_normal`
+    reflection = "bend"
 
-    def __init__(self, source, *, strength=1.0, flip_green=False, filter="bilinear", **kwargs):
+    def __init__(self, source, *, strength=1.0, flip_green=False, filter="bilinear", reflection="bend", **kwargs):
         kwargs.setdefault("srgb", False)
         super().__init__(source, filter=filter, channels=3, **kwargs)
         if not np.isfinite(strength) or strength < 0:
             raise TextureError(f"NormalMap {self.path or self.name or ''}: strength must be finite and >= 0")
         self.strength = float(strength)
         self.flip_green = bool(flip_green)
+        if reflection not in REFLECTION_MODES:
+            raise TextureError(f"NormalMap {self.path or self.name or ''}: reflection must be one of "
+                               f"{REFLECTION_MODES}, got {reflection!r}")
+        self.reflection = reflection
 
     @classmethod
     def example(cls):
@@ -62,7 +79,8 @@ def perturb_normal(ctx, normal_map, *, ns=None):
     Parameters
     ----------
     ctx : SurfaceBatch
-        Uses ``ns`` (unit shading normal, turned toward the viewer), ``dpdu``, ``dpdv``, ``wo`` (or None),
+        Uses ``ns`` (unit shading normal, turned toward the viewer), ``dpdu``, ``dpdv`` (of the map's UV set,
+        :meth:`~pyrt.geometry.SurfaceBatch.uv_tangents`), ``wo`` (or None),
         ``front`` (or None: all front faces; on back faces the perturbation is mirrored with the surface) and what
         the texture reads (``uv``, footprints).
     normal_map : Texture
@@ -78,23 +96,25 @@ def perturb_normal(ctx, normal_map, *, ns=None):
         Unit normals ``normalize(x t + y b + z ns)`` with the tangent frame of
         :func:`pyrt.shaders.textures.tangent_frame`; exactly ``ctx.ns`` where the map is flat
         (0.5, 0.5, 1) or degenerate, and where the perturbed normal would face away from
-        ``ctx.wo`` (when ``ctx.wo`` is not None).
+        ``ctx.wo`` (when ``ctx.wo`` is not None); with the map's ``reflection = "bend"`` (default) and ``ctx.ng``
+        and ``ctx.wo`` given, tilted toward ``ctx.ng`` where the mirror reflection of ``wo`` would go below the
+        surface (:func:`pyrt.shaders.vec.valid_reflection_normal`).
     """
     ns = np.asarray(ctx.ns if ns is None else ns, dtype=np.float64)
     rgb = np.asarray(normal_map.evaluate(ctx), dtype=np.float64).reshape(ctx.n_hits, -1)
     if rgb.shape[1] != 3:
         raise TextureError(f"normal map {normal_map!r} must have 3 channels, got {rgb.shape[1]}")
-    if isinstance(normal_map, NormalMap):
-        strength, flip_green = normal_map.strength, normal_map.flip_green
-    else:
-        strength, flip_green = NormalMap.strength, NormalMap.flip_green
+    nm = normal_map if isinstance(normal_map, NormalMap) else NormalMap    # class defaults for other textures
+    strength, flip_green = nm.strength, nm.flip_green
     n_ts = _tex.decode_normal_map(rgb, strength, flip_green)
     if ctx.front is not None and not np.all(ctx.front):
         # a back face (double-sided surface seen from behind, ns turned toward the viewer): the same micro-surface
         # seen from its other side, so the whole perturbed normal is mirrored, -(x t + y b + z n_front), as the
         # glTF Sample Viewer flips t, b and n on back faces (not only n)
         n_ts = np.where(np.asarray(ctx.front)[:, None], n_ts, n_ts * np.array([-1.0, -1.0, 1.0]))
-    t, b = _tex.tangent_frame(ns, np.asarray(ctx.dpdu, dtype=np.float64), np.asarray(ctx.dpdv, dtype=np.float64))
+    # the tangents of the UV set the map is read in (its texcoord; set 0: ctx.dpdu, ctx.dpdv)
+    dpdu, dpdv = ctx.uv_tangents(normal_map.texcoord) if normal_map.texcoord else (ctx.dpdu, ctx.dpdv)
+    t, b = _tex.tangent_frame(ns, np.asarray(dpdu, dtype=np.float64), np.asarray(dpdv, dtype=np.float64))
     n = _tex.apply_tangent_normal(n_ts, ns, t, b)
     wo = ctx.wo
     if wo is not None:
@@ -103,6 +123,9 @@ def perturb_normal(ctx, normal_map, *, ns=None):
         # pyrt.geometry does for interpolated vertex normals.
         away = np.einsum("ij,ij->i", n, np.asarray(wo, dtype=np.float64)) <= 0
         n = np.where(away[:, None], ns, n)
+        if nm.reflection == "bend" and ctx.ng is not None:
+            # keep the mirror reflection of wo above the geometric surface (the integrators drop rays below it)
+            n = valid_reflection_normal(np.asarray(ctx.ng, dtype=np.float64), np.asarray(wo, dtype=np.float64), n)
     return n
 
 

@@ -15,7 +15,8 @@ Conventions
 -----------
 - **UVs** follow pyrt's convention (:mod:`pyrt.textures`): ``(0, 0)`` is the *bottom-left* of the
   image, ``v`` up, texel row ``(1 - v) H``. glTF puts ``(0, 0)`` at the top-left, so glTF
-  ``TEXCOORD_n`` are stored as ``(u, 1 - v)`` (the same flip trimesh applies); OBJ, PLY and trimesh
+  ``TEXCOORD_n`` are stored as ``(u, 1 - v)`` (the same flip trimesh applies; ``TEXCOORD_0`` is the mesh's UVs,
+  a further set is kept, in ``AssetMesh.uv_sets``, only when a texture's ``texCoord`` reads it); OBJ, PLY and trimesh
   UVs are already bottom-left and are used as they are. ``KHR_texture_transform`` is converted to
   the flipped space (:func:`gltf_uv_transform`). glTF normal maps are "green = up in the image",
   i.e. +v in pyrt's flipped UVs, which is :class:`pyrt.textures.NormalMap`'s default.

@@ -47,7 +47,7 @@ def alpha_texture(image, label, slot, cache):
         src = np.ascontiguousarray(img[:, :, c - 1])
     tex = slot.texture
     t = ImageTexture(src, srgb=False, wrap=tex.wrap, filter=tex.filter, scale=tex.scale, offset=tex.offset,
-                     rotation_deg=tex.rotation_deg, name=f"{label} A (alpha)")
+                     rotation_deg=tex.rotation_deg, name=f"{label} A (alpha)", texcoord=tex.texcoord)
     if slot.image is not None:
         cache.setdefault(key, t)
     return t

@@ -39,6 +39,7 @@ class AssetMesh:
     material: int = -1
     alpha: np.ndarray | None = None     # (V,) coverage alpha (glTF COLOR_0's A), read by MASK / BLEND materials
     face_colors: np.ndarray | None = None   # (F, 3) float64 linear, one per face (PLY); used when colors is None
+    uv_sets: dict | None = None         # {k: (V, 2)}: UV sets k >= 1 the material's textures read (glTF TEXCOORD_k)
 
 
 @dataclass
@@ -153,7 +154,7 @@ class Asset:
                 t0 = time.perf_counter()
                 prepared[inst.mesh] = _prepare_mesh(self.meshes[inst.mesh], crease_angle)
                 t_normals += time.perf_counter() - t0
-            tm, normals, colors, alpha = prepared[inst.mesh]
+            tm, normals, colors, alpha, uv_sets = prepared[inst.mesh]
             am = self.meshes[inst.mesh]
             if alpha is not None and not uses_alpha(self._params(am)):
                 alpha = None
@@ -167,7 +168,7 @@ class Asset:
                 self.warnings.append(f"instance {inst.node or k} of mesh {am.name!r} has a singular transform "
                                      "(zero scale): skipped")
                 continue
-            mid = scene.add_mesh(tm, material, transform=m, normals=normals,
+            mid = scene.add_mesh(tm, material, transform=m, normals=normals, uv_sets=uv_sets,
                                  name=f"{name_prefix}{inst.node or am.name}#{k}")
             if vc_tex is not None:
                 vc_tex.bind(mid, scene.meshes[mid].faces, colors)
@@ -236,16 +237,17 @@ def _transform_light(light, m):
 # ============================================================================ meshes for the scene
 
 def _prepare_mesh(am, crease_angle):
-    """(trimesh in object space with UVs, object-space normals, linear colours or None, vertex alpha or None) for
-    add_mesh.
+    """(trimesh in object space with UVs, object-space normals, linear colours or None, vertex alpha or None, further
+    UV sets or None) for add_mesh.
 
     The colours are per vertex, or, for a mesh with face colours only, per face of the faces
     :meth:`pyrt.Scene.add_mesh` keeps (its degenerate triangles, which it skips, are left out here too).
     """
-    v, f, uv, col, nrm, alpha = am.vertices, am.faces, am.uv, am.colors, am.normals, am.alpha
+    v, f, uv, col, nrm, alpha, uv_sets = am.vertices, am.faces, am.uv, am.colors, am.normals, am.alpha, am.uv_sets
     if nrm is None:
         src, f, nrm = crease_normals(v, f, crease_angle)
         v = v[src]
+        uv_sets = None if uv_sets is None else {k: a[src] for k, a in uv_sets.items()}
         uv = None if uv is None else uv[src]
         col = None if col is None else col[src]
         alpha = None if alpha is None else alpha[src]
@@ -254,4 +256,4 @@ def _prepare_mesh(am, crease_angle):
     tm = trimesh.Trimesh(vertices=v, faces=f, process=False)
     if uv is not None:
         tm.visual = trimesh.visual.TextureVisuals(uv=uv)
-    return tm, nrm, col, alpha
+    return tm, nrm, col, alpha, uv_sets

@@ -13,7 +13,7 @@ from pyrt.shaders import color as _color
 
 from pyrt.core.errors import Error
 from pyrt.geometry.normals import DEFAULT_CREASE_ANGLE
-from pyrt.textures import ImageTexture, NormalMap
+from pyrt.textures import ImageTexture, NormalMap, Texture
 
 __all__ = ["AssetError", "FORMATS", "DEFAULT_CREASE_ANGLE", "TextureSlot", "PBRParams", "MTLParams", "DefaultParams",
            "colour_texels"]
@@ -74,7 +74,7 @@ class PBRParams:
     alpha_mode: str = "OPAQUE"
     alpha_cutoff: float = 0.5
     alpha_texture: ImageTexture | None = None              # base colour's alpha channel (MASK / BLEND)
-    texcoord: int = 0
+    texcoords: tuple = ()                                   # the UV sets its textures read (uv_sets_read)
     # KHR_materials_* (pyrt.io.assets.gltf_khr); None / defaults: the extension is absent
     unlit: bool = False
     ior: float = 1.5
@@ -93,6 +93,16 @@ class PBRParams:
     clearcoat_roughness_texture: ImageTexture | None = None  # G
     clearcoat_normal_texture: NormalMap | None = None
     ext_slots: list = field(default_factory=list)           # the extensions' TextureSlots (UV sets)
+
+    def uv_sets_read(self):
+        """The sorted UV sets (``texcoord``, glTF ``TEXCOORD_k``) read by the material's textures, e.g. ``(0, 1)``."""
+        found = set()
+        for v in vars(self).values():
+            for t in (v if isinstance(v, list) else [v]):
+                t = t.texture if isinstance(t, TextureSlot) else t
+                if isinstance(t, Texture):
+                    found.add(t.texcoord)
+        return tuple(sorted(found))
 
     @property
     def uses_pbr_extensions(self):

@@ -72,9 +72,10 @@ def _gltf_texture(g, info, what, *, srgb, cache, kind="image", warnings=None, **
         if kind == "normal":
             if filt == "nearest":       # the sampler's nearest filter (else NormalMap's bilinear default)
                 kw["filter"] = "nearest"
-            t = NormalMap(arr, strength=float(info.get("scale", 1.0)), wrap=wrap, name=label, **kw, **extra)
+            t = NormalMap(arr, strength=float(info.get("scale", 1.0)), wrap=wrap, name=label, texcoord=texcoord,
+                          **kw, **extra)
         else:
-            t = ImageTexture(arr, srgb=srgb, wrap=wrap, filter=filt, name=label, **kw, **extra)
+            t = ImageTexture(arr, srgb=srgb, wrap=wrap, filter=filt, name=label, texcoord=texcoord, **kw, **extra)
     except TextureError as exc:
         raise AssetError(f"{g.path}: {what}: {exc}") from None
     cache.setdefault(key, t)
@@ -138,14 +139,7 @@ def _gltf_material(g, mi, warnings, cache):
         m, P, what, warnings,
         lambda info, label, srgb, kind="image": _gltf_texture(g, info, label, srgb=srgb, cache=cache, kind=kind),
         lambda slot, c, label: _channel(slot, c, label, cache), lambda i: g.image_array(i)[0])
-    sets = {s.texcoord for s in (P.base_color_texture, P.metallic_roughness_texture, P.emissive_texture,
-                                 *P.ext_slots) if s}
-    for k, tex in (("normalTexture", P.normal_texture), ("occlusionTexture", P.occlusion_texture)):
-        if k in m and tex is not None:
-            sets.add(int(m[k].get("texCoord", 0)))
-    if len(sets) > 1:
-        warnings.append(f"{what}: textures use several UV sets {sorted(sets)}; all read TEXCOORD_{min(sets)}")
-    P.texcoord = min(sets) if sets else 0
+    P.texcoords = P.uv_sets_read()
     other = set(m.get("extensions", {})) - SUPPORTED_EXTENSIONS
     if other:
         warnings.append(f"{what}: material extension(s) {sorted(other)} ignored")
@@ -289,26 +283,29 @@ def _load_gltf(path):
             mat = p.get("material", -1)
             if mat >= len(asset.materials):
                 raise AssetError(f"{path}: {where}: material {mat} does not exist")
-            tc = asset.materials[mat].texcoord if mat >= 0 else 0
-            uv = None
-            if f"TEXCOORD_{tc}" in attrs:
-                uv = g.accessor(attrs[f"TEXCOORD_{tc}"])[:, :2].copy()
-                uv[:, 1] = 1.0 - uv[:, 1]          # glTF top-left -> pyrt bottom-left
-            elif mat >= 0 and _has_textures(asset.materials[mat]):
-                W.append(f"{where}: material {asset.materials[mat].name!r} has textures but the primitive has "
-                         f"no TEXCOORD_{tc}")
+            # TEXCOORD_0 is the mesh's UVs; another set only when a texture of the material reads it
+            uv_sets = {}
+            for tc in sorted({0} | set(asset.materials[mat].texcoords if mat >= 0 else ())):
+                if f"TEXCOORD_{tc}" in attrs:
+                    uv_sets[tc] = g.accessor(attrs[f"TEXCOORD_{tc}"])[:, :2].copy()
+                    uv_sets[tc][:, 1] = 1.0 - uv_sets[tc][:, 1]          # glTF top-left -> pyrt bottom-left
+                elif mat >= 0 and tc in asset.materials[mat].texcoords:
+                    W.append(f"{where}: material {asset.materials[mat].name!r} has textures reading TEXCOORD_{tc} "
+                             f"but the primitive has none (they read UV (0, 0))")
+            uv = uv_sets.pop(0, None)
             colors = alpha = None
             if "COLOR_0" in attrs:
                 col4 = g.accessor(attrs["COLOR_0"])
                 colors = np.clip(col4[:, :3], 0.0, None)
                 if col4.shape[1] == 4:     # coverage alpha (used by MASK / BLEND materials only)
                     alpha = np.clip(col4[:, 3], 0.0, 1.0)
-            for arr, nm in ((normals, "NORMAL"), (uv, "TEXCOORD"), (colors, "COLOR_0")):
+            for arr, nm in ((normals, "NORMAL"), (uv, "TEXCOORD_0"), *((a, f"TEXCOORD_{k}") for k, a in uv_sets.items()),
+                            (colors, "COLOR_0")):
                 if arr is not None and arr.shape[0] != nv:
                     raise AssetError(f"{path}: {where}: {nm} has {arr.shape[0]} entries for {nv} vertices")
             asset.meshes.append(AssetMesh(name=f"{m.get('name', f'mesh{mi}')}.{pi}", vertices=pos, faces=faces,
                                           normals=normals, uv=uv, colors=colors, material=mat,
-                                          alpha=alpha))
+                                          alpha=alpha, uv_sets=uv_sets or None))
             ids.append(len(asset.meshes) - 1)
         mesh_prims[mi] = ids
         return ids
@@ -343,11 +340,6 @@ def _load_gltf(path):
     if not asset.instances:
         raise AssetError(f"{path}: the default scene has no triangle meshes")
     return asset
-
-
-def _has_textures(P):
-    return any(x is not None for x in (P.base_color_texture, P.metallic_roughness_texture, P.normal_texture,
-                                       P.occlusion_texture, P.emissive_texture)) or bool(P.ext_slots)
 
 
 def _unit(v):

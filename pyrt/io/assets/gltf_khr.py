@@ -94,7 +94,7 @@ def read_material_extensions(m, P, what, warnings, texture, channel, image_array
             t = slot.texture
             return ImageTexture(np.ascontiguousarray(arr[:, :, -1]), srgb=False, wrap=t.wrap, filter=t.filter,
                                 scale=t.scale, offset=t.offset, rotation_deg=t.rotation_deg,
-                                name=f"{slot.source} A ({key})")
+                                name=f"{slot.source} A ({key})", texcoord=t.texcoord)
         if slot.texture.channels <= c:
             raise AssetError(f"{what}: {key} {slot.source} has {slot.texture.channels} channel(s); "
                              f"the extension reads {cname}")

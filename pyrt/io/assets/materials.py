@@ -94,7 +94,8 @@ class SurfaceExtras:
     - ``emission_value`` (constant or texture): emitted radiance (W m^-2 sr^-1).
     - ``occlusion`` (1-channel texture or None): ``1 + strength (occ - 1)``; multiplies
       :meth:`albedo`, i.e. the constant ambient term (pyrt's only indirect light, which is what glTF
-      occlusion applies to) and the albedo AOV. Direct light is not occluded (glTF spec).
+      occlusion applies to) and the albedo AOV, and the split-sum environment preview
+      (:meth:`preview_lobes`: image-based light). Direct light is not occluded (glTF spec).
     - ``normal_map`` (:class:`pyrt.textures.NormalMap` or None): applied by the integrator
       (:func:`pyrt.textures.apply_normal_maps` perturbs the shading normal of every material with a
       ``normal_map`` attribute before shading).
@@ -115,6 +116,15 @@ class SurfaceExtras:
 
     def emission(self, ctx):
         return np.array(self.param(self.emission_value, ctx))
+
+    def preview_lobes(self, ctx):
+        """The material's split-sum lobes with the occlusion ``1 + strength (occ - 1)`` on the environment term."""
+        lobes = super().preview_lobes(ctx)
+        if lobes is None or self.occlusion is None:
+            return lobes
+        occ = 1.0 + self.occlusion_strength * (self.param(self.occlusion, ctx, 1) - 1.0)
+        lobes.occlusion = occ if lobes.occlusion is None else lobes.occlusion * occ
+        return lobes
 
 
 class ObjMaterial(SurfaceExtras, BlinnPhong):
