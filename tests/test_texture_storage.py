@@ -171,3 +171,11 @@ def test_channel_textures_share_one_lookup_and_equal_one_channel_copies(rng):
 def test_repeat_wrap_is_the_modulo_for_every_size(n):
     i = np.arange(-5 * n - 3, 5 * n + 4)
     np.testing.assert_array_equal(K.wrap_index(i, n, "repeat"), np.mod(i, n))
+
+
+def test_channel_texture_reads_its_sources_uv_set(rng):
+    codes = rng.integers(0, 256, size=(8, 8, 3)).astype(np.uint8)
+    a = T.ImageTexture(codes, srgb=False)
+    b = T.ImageTexture(a, texcoord=1)                 # the same texels and pyramid, another UV set
+    assert T.ChannelTexture(b, 1).texcoord == 1 and T.ChannelTexture(a, 1).texcoord == 0
+    assert a.sampling_key != b.sampling_key          # another UV set: not the same lookup
