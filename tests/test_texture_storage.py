@@ -179,3 +179,16 @@ def test_channel_texture_reads_its_sources_uv_set(rng):
     b = T.ImageTexture(a, texcoord=1)                 # the same texels and pyramid, another UV set
     assert T.ChannelTexture(b, 1).texcoord == 1 and T.ChannelTexture(a, 1).texcoord == 0
     assert a.sampling_key != b.sampling_key          # another UV set: not the same lookup
+
+
+def test_coded_pyramid_keeps_level_1_and_decodes_level_0_once(rng, monkeypatch):
+    codes = rng.integers(0, 256, size=(64, 64, 3)).astype(np.uint8)
+    tex = T.ImageTexture(codes)
+    calls = []
+    real = T.MipPyramid._first_reduction
+    monkeypatch.setattr(T.MipPyramid, "_first_reduction", lambda self: calls.append(1) or real(self))
+    tex._pyramid[3]
+    assert tex.mip_levels_built == [1, 3]
+    tex._pyramid[1], tex._pyramid[2], tex._pyramid[5]
+    assert len(calls) == 1
+    np.testing.assert_array_equal(tex._pyramid[1], M.reduce_levels(tex.image, 1))
