@@ -192,3 +192,29 @@ def test_coded_pyramid_keeps_level_1_and_decodes_level_0_once(rng, monkeypatch):
     tex._pyramid[1], tex._pyramid[2], tex._pyramid[5]
     assert len(calls) == 1
     np.testing.assert_array_equal(tex._pyramid[1], M.reduce_levels(tex.image, 1))
+
+
+def test_loading_and_the_first_level_make_no_float_copy_of_level_0(tmp_path, rng):
+    """tracemalloc bounds: an 8-bit PNG is held as its codes (a float32 copy would be 4x their bytes, an sRGB decode
+    over the image more), and level 1 is built strip by strip (a decoded level 0 would be 4x the codes)."""
+    import tracemalloc
+    from PIL import Image
+    codes = rng.integers(0, 256, size=(1024, 1024, 3)).astype(np.uint8)
+    Image.fromarray(codes).save(tmp_path / "big.png", compress_level=1)
+    Image.fromarray(codes[:4, :4]).save(tmp_path / "small.png")
+    T.ImageTexture(tmp_path / "small.png")._pyramid[1]         # the reader's imports happen outside the trace
+    tracemalloc.start()
+    try:
+        tex = T.ImageTexture(tmp_path / "big.png")
+        load_peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.reset_peak()
+        base = tracemalloc.get_traced_memory()[0]
+        tex._pyramid[1]
+        level_peak = tracemalloc.get_traced_memory()[1] - base
+    finally:
+        tracemalloc.stop()
+    assert tex.texels.nbytes == codes.nbytes
+    assert load_peak < 2.2 * codes.nbytes                      # the codes and the reader's copy, no float image
+    level1 = tex._pyramid[1].nbytes                            # float32: codes.nbytes (a quarter of the texels, x4 bytes)
+    assert level_peak < level1 + 2.0 * codes.nbytes            # level 1 + one strip's temporaries (measured 1.8x);
+    #                                                          a decoded level 0 alone would be 4 x codes
