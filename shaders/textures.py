@@ -42,7 +42,14 @@ Footprints and level selection
     Gaussian weights ``exp(-2 r^2) - exp(-2)`` inside ``r^2 < 1`` of the ellipse ``Sigma = M M^T + I``
     (texel units, the ``+I`` guarantees at least one texel), blended between two levels.
 
-Precision: lookups preserve the image's float dtype; index arithmetic is done in float64.
+Integer-stored level 0
+    8/16-bit images are kept as their codes (uint8 / uint16, 1 or 2 bytes per channel instead of 4) and
+    decoded per tap through ``table`` (a float array indexed by the code: ``value = table[code]``, e.g.
+    the 256 sRGB -> linear values), so level 0 reads exactly what a decoded float copy would hold.
+    ``table`` applies to level 0 only; levels >= 1 are float (filtered in linear space).
+
+Precision: lookups preserve the image's float dtype (the table's for integer storage); index arithmetic is
+done in float64.
 """
 import numpy as np
 
@@ -53,8 +60,6 @@ WRAP_MODES = ("repeat", "mirror", "clamp")
 #: Reconstruction filters that ignore the footprint / footprint-aware filters.
 RECONSTRUCTION_FILTERS = ("nearest", "bilinear", "bicubic")
 FOOTPRINT_FILTERS = ("trilinear", "anisotropic")
-#: pbrt-v4 EWA Gaussian falloff exp(-alpha r^2) - exp(-alpha).
-EWA_ALPHA = 2.0
 #: Default filter width in pixel steps per footprint filter. Trilinear: a one-pixel box (pbrt-v4
 #: uses 2, which over-blurs since the isotropic level already takes the larger axis). EWA: 1.5
 #: (pbrt-v4: 2); on the grazing-plane test against a 256-spp box-filtered reference the RMS error
@@ -90,7 +95,8 @@ def wrap_index(i, n, mode):
     """
     i = np.asarray(i, dtype=np.int64)
     if mode == "repeat":
-        return np.mod(i, n)
+        # a power of two: the low bits (two's complement: the same as the modulo for negative i, ~10x cheaper)
+        return i & (n - 1) if n & (n - 1) == 0 else np.mod(i, n)
     if mode == "clamp":
         return np.clip(i, 0, n - 1)
     if mode == "mirror":
@@ -99,10 +105,16 @@ def wrap_index(i, n, mode):
     raise ValueError(f"wrap mode must be one of {WRAP_MODES}, got {mode!r}")
 
 
-def _gather(image, ix, iy, wrap):
-    """``image[wrap(iy), wrap(ix)]`` -> ``(..., C)``."""
+def _gather(image, ix, iy, wrap, table=None):
+    """``image[wrap(iy), wrap(ix)]`` -> ``(..., C)``, decoded by ``table[code]`` when given."""
     h, w = image.shape[:2]
-    return image[wrap_index(iy, h, wrap[1]), wrap_index(ix, w, wrap[0])]
+    taps = image[wrap_index(iy, h, wrap[1]), wrap_index(ix, w, wrap[0])]
+    return taps if table is None else table.take(taps)
+
+
+def _dtype(image, table):
+    """The float dtype of a lookup's result: the table's for integer storage, else the image's."""
+    return image.dtype if table is None else table.dtype
 
 
 # ----------------------------------------------------------------------------- coordinates
@@ -156,30 +168,32 @@ def footprint_to_texels(duv, shape):
 
 # ----------------------------------------------------------------------------- reconstruction
 
-def lookup_nearest(image, uv, wrap="repeat"):
+def lookup_nearest(image, uv, wrap="repeat", table=None):
     """Nearest-texel lookup.
 
     Parameters
     ----------
-    image : (H, W, C) float ndarray
+    image : (H, W, C) float ndarray, or integer codes with ``table``
     uv : (N, 2) float ndarray
         Texture coordinates (see module docstring for the orientation).
     wrap : str or (str, str)
+    table : (K,) float ndarray, optional
+        Decode table of integer-stored texels (module docstring).
 
     Returns
     -------
-    (N, C) ndarray, dtype of ``image``.
+    (N, C) ndarray, dtype of ``image`` (of ``table`` when given).
     """
     wrap = check_wrap(wrap)
     x, y = uv_to_texel(uv, image.shape)
-    return _gather(image, np.floor(x + 0.5), np.floor(y + 0.5), wrap)
+    return _gather(image, np.floor(x + 0.5), np.floor(y + 0.5), wrap, table)
 
 
-def lookup_bilinear(image, uv, wrap="repeat"):
+def lookup_bilinear(image, uv, wrap="repeat", table=None):
     """Bilinear interpolation between the four nearest texel centres.
 
     Same parameters and return as :func:`lookup_nearest`. Weights are computed in float64 and the
-    result cast to the image dtype.
+    result cast to the image dtype (the table's).
     """
     wrap = check_wrap(wrap)
     x, y = uv_to_texel(uv, image.shape)
@@ -195,15 +209,16 @@ def lookup_bilinear(image, uv, wrap="repeat"):
         flat = image.reshape(h * w, -1)
 
         def tap(r, c):
-            return np.take(flat, r + c, axis=0).reshape((r.shape[0],) + image.shape[2:])
+            t = np.take(flat, r + c, axis=0).reshape((r.shape[0],) + image.shape[2:])
+            return t if table is None else table.take(t)
     else:
         def tap(r, c):
-            return image[r // w, c]
+            return image[r // w, c] if table is None else table[image[r // w, c]]
     out = ((1 - fx) * (1 - fy) * tap(ry0, cx0)
            + fx * (1 - fy) * tap(ry0, cx1)
            + (1 - fx) * fy * tap(ry1, cx0)
            + fx * fy * tap(ry1, cx1))
-    return out.astype(image.dtype, copy=False)
+    return out.astype(_dtype(image, table), copy=False)
 
 
 def catmull_rom_weights(f):
@@ -219,7 +234,7 @@ def catmull_rom_weights(f):
                      (f3 - f2) / 2], axis=1)
 
 
-def lookup_bicubic(image, uv, wrap="repeat"):
+def lookup_bicubic(image, uv, wrap="repeat", table=None):
     """Bicubic (Catmull-Rom) interpolation over the 4x4 neighbourhood.
 
     Interpolating and C1. Catmull-Rom overshoots at sharp edges; the result is clamped to the
@@ -234,11 +249,11 @@ def lookup_bicubic(image, uv, wrap="repeat"):
     lo = hi = None
     for j in range(4):
         for i in range(4):
-            tap = _gather(image, x0 + (i - 1), y0 + (j - 1), wrap)
+            tap = _gather(image, x0 + (i - 1), y0 + (j - 1), wrap, table)
             acc = acc + (wx[:, i] * wy[:, j])[:, None] * tap
             lo = tap if lo is None else np.minimum(lo, tap)
             hi = tap if hi is None else np.maximum(hi, tap)
-    return np.clip(acc, lo, hi).astype(image.dtype, copy=False)
+    return np.clip(acc, lo, hi).astype(_dtype(image, table), copy=False)
 
 
 RECONSTRUCT = {"nearest": lookup_nearest, "bilinear": lookup_bilinear, "bicubic": lookup_bicubic}
@@ -350,7 +365,7 @@ def levels_needed(l0, l1, w1):
     return sorted(int(v) for v in np.unique(used))
 
 
-def lookup_trilinear(levels, uv, duvdx, duvdy, wrap="repeat", footprint_scale=1.0):
+def lookup_trilinear(levels, uv, duvdx, duvdy, wrap="repeat", footprint_scale=1.0, table=None):
     """Trilinear MIP lookup: bilinear on the two levels around the footprint's level, blended.
 
     Parameters
@@ -362,170 +377,36 @@ def lookup_trilinear(levels, uv, duvdx, duvdy, wrap="repeat", footprint_scale=1.
     wrap : str or (str, str)
     footprint_scale : float
         See :func:`mip_level_isotropic`.
+    table : (K,) float ndarray, optional
+        Decode table of an integer-stored level 0 (levels >= 1 are float).
 
     Returns
     -------
-    (N, C) ndarray, dtype of ``levels[0]``.
+    (N, C) ndarray, dtype of ``levels[0]`` (of ``table`` when given).
+
+    Notes
+    -----
+    The lookups are ordered by their finer level ``l0`` once (a stable counting sort), so each level's
+    readers -- those with ``l0 = l`` (weight ``1 - w1``) and those with ``l0 = l - 1`` and ``w1 > 0`` --
+    are two contiguous runs of that order: one bilinear call per level read, no per-level mask over all
+    lookups. Each lookup gets its ``l0`` term, then its ``l1`` term, as a loop over levels would.
     """
     base = levels[0]
     lam = mip_level_isotropic(duvdx, duvdy, base.shape, footprint_scale)
     l0, l1, w1 = trilinear_levels(lam, len(levels))
     out = np.zeros((len(uv), base.shape[2]), dtype=np.float64)
-    for lev in levels_needed(l0, l1, w1):
-        w = np.where(l0 == lev, 1.0 - w1, 0.0) + np.where((l1 == lev) & (l1 != l0), w1, 0.0)
-        idx = np.flatnonzero(w > 0)
-        out[idx] += w[idx, None] * lookup_bilinear(levels[lev], uv[idx], wrap)
-    return out.astype(base.dtype, copy=False)
-
-
-# ----------------------------------------------------------------------------- EWA
-
-def ewa_axes(duvdx, duvdy, shape, footprint_scale=1.5, max_anisotropy=8.0):
-    """Ellipse half-axes in level-0 texels and the continuous EWA level (pbrt-v4 ``MIPMap::Filter``).
-
-    Returns
-    -------
-    major, minor : (N, 2) float64
-        Half-axes ``footprint_scale / 2 * duv`` in level-0 texels, ``|major| >= |minor|``, the
-        minor axis lengthened so that ``|major| / |minor| <= max_anisotropy``. A zero minor
-        axis with a non-zero major axis is replaced by the perpendicular of length
-        ``|major| / max_anisotropy``.
-    lam : (N,) float64
-        ``log2(|minor|)`` (``-inf`` for a zero footprint).
-    """
-    a = 0.5 * footprint_scale * footprint_to_texels(duvdx, shape)
-    b = 0.5 * footprint_scale * footprint_to_texels(duvdy, shape)
-    la, lb = np.hypot(a[:, 0], a[:, 1]), np.hypot(b[:, 0], b[:, 1])
-    swap = la < lb
-    major = np.where(swap[:, None], b, a)
-    minor = np.where(swap[:, None], a, b)
-    lmaj, lmin = np.maximum(la, lb), np.minimum(la, lb)
-    # A degenerate (zero) minor axis: use the perpendicular of the major axis.
-    perp = np.stack([-major[:, 1], major[:, 0]], axis=1)
-    lmin_safe = np.where(lmin > 0, lmin, 1.0)
-    unit_minor = np.where((lmin > 0)[:, None], minor / lmin_safe[:, None],
-                          perp / np.where(lmaj > 0, lmaj, 1.0)[:, None])
-    new_lmin = np.maximum(lmin, lmaj / max_anisotropy)
-    minor = unit_minor * new_lmin[:, None]
-    with np.errstate(divide="ignore"):
-        lam = np.where(new_lmin > 0, np.log2(np.where(new_lmin > 0, new_lmin, 1.0)), -np.inf)
-    return major, minor, lam
-
-
-def _ewa_level(image, uv, major, minor, wrap, max_taps=2_000_000):
-    """EWA-filter ``image`` (one level) at ``uv`` with half-axes given in *this level's* texels.
-
-    Ragged gather over the texels inside each ellipse: for every lookup and texel row the exact
-    x-interval where ``r^2 < 1`` is solved (a quadratic in x), so no tap outside the ellipse is
-    visited; all taps of all lookups are flattened into one array (``np.repeat``) and reduced with
-    ``np.bincount``. Processed in chunks of at most ``max_taps`` taps.
-    """
-    n = len(uv)
-    c = image.shape[2]
-    out = np.zeros((n, c), dtype=np.float64)
-    if n == 0:
-        return out
-    x, y = uv_to_texel(uv, image.shape)
-    # Covariance Sigma = M M^T + I (texels^2); r^2 = d^T Sigma^-1 d.
-    sxx = major[:, 0] ** 2 + minor[:, 0] ** 2 + 1.0
-    syy = major[:, 1] ** 2 + minor[:, 1] ** 2 + 1.0
-    sxy = major[:, 0] * major[:, 1] + minor[:, 0] * minor[:, 1]
-    det = sxx * syy - sxy * sxy  # >= 1 since Sigma >= I
-    ia, ib, ic = syy / det, -2.0 * sxy / det, sxx / det  # r^2 = ia dx^2 + ib dx dy + ic dy^2
-    ey = np.sqrt(syy)  # row half extent of r^2 < 1
-    y0 = np.ceil(y - ey).astype(np.int64)
-    ny = np.maximum(np.floor(y + ey).astype(np.int64) - y0 + 1, 0)
-    # One entry per (lookup, row): the x-interval of the ellipse on that row.
-    row_owner = np.repeat(np.arange(n), ny)
-    row_k = np.arange(len(row_owner)) - np.repeat(np.cumsum(ny) - ny, ny)
-    iy_r = y0[row_owner] + row_k
-    dy_r = iy_r - y[row_owner]
-    a_r, b_r = ia[row_owner], ib[row_owner] * dy_r
-    disc = b_r * b_r - 4.0 * a_r * (ic[row_owner] * dy_r * dy_r - 1.0)
-    half = np.sqrt(np.maximum(disc, 0.0)) / (2.0 * a_r)
-    mid = x[row_owner] - b_r / (2.0 * a_r)
-    ix0_r = np.ceil(mid - half).astype(np.int64)
-    nx_r = np.where(disc > 0, np.maximum(np.floor(mid + half).astype(np.int64) - ix0_r + 1, 0), 0)
-    taps = np.bincount(row_owner, weights=nx_r, minlength=n).astype(np.int64)
-    tap_csum = np.cumsum(taps)
-    row_start = np.concatenate([[0], np.cumsum(ny)])
-    cut = -np.exp(-EWA_ALPHA)
-    start = 0
-    while start < n:
-        base = tap_csum[start - 1] if start > 0 else 0
-        stop = max(int(np.searchsorted(tap_csum, base + max_taps, side="right")), start + 1)
-        rs = slice(row_start[start], row_start[stop])
-        cnt = nx_r[rs]
-        r_idx = np.repeat(np.arange(rs.start, rs.stop), cnt)
-        kx = np.arange(len(r_idx)) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-        owner = row_owner[r_idx]
-        ix = ix0_r[r_idx] + kx
-        dx = ix - x[owner]
-        dy = dy_r[r_idx]
-        r2 = ia[owner] * dx * dx + ib[owner] * dx * dy + ic[owner] * dy * dy
-        w = np.where(r2 < 1.0, np.exp(-EWA_ALPHA * np.minimum(r2, 1.0)) + cut, 0.0)
-        texels = _gather(image, ix, iy_r[r_idx], wrap)
-        local = owner - start
-        m = stop - start
-        wsum = np.bincount(local, weights=w, minlength=m)
-        for ch in range(c):
-            out[start:stop, ch] = np.bincount(local, weights=w * texels[:, ch], minlength=m)
-        out[start:stop] /= np.where(wsum > 0, wsum, 1.0)[:, None]
-        start = stop
-    return out
-
-
-def lookup_ewa(levels, uv, duvdx, duvdy, wrap="repeat", footprint_scale=1.5, max_anisotropy=8.0):
-    """Anisotropic EWA lookup (pbrt-v4 style), blended between two MIP levels.
-
-    Parameters
-    ----------
-    levels : sequence of (H_l, W_l, C) ndarrays
-        Lazily indexed pyramid, as in :func:`lookup_trilinear`.
-    uv, duvdx, duvdy : (N, 2) float ndarray
-    wrap : str or (str, str)
-    footprint_scale : float
-        Filter width in pixel steps (ellipse half-axes ``footprint_scale / 2 * duv``); default 1.5,
-        see :data:`DEFAULT_FOOTPRINT_SCALE`.
-    max_anisotropy : float
-        Largest allowed major/minor ratio (pbrt-v4: 8).
-
-    Returns
-    -------
-    (N, C) ndarray, dtype of ``levels[0]``.
-
-    Notes
-    -----
-    Level ``lambda = log2 |minor|`` (level-0 texels), split as in :func:`trilinear_levels`; at each
-    level the half-axes are rescaled by the level's resolution. Lookups with a zero footprint use
-    bilinear on level 0 (pbrt does the same); lookups at or beyond the coarsest level use bilinear
-    on the coarsest level. Work per lookup is bounded: at level ``floor(lambda)`` the minor
-    half-axis is 1-2 texels and the major at most ``2 max_anisotropy``.
-    """
-    wrap = check_wrap(wrap)
-    base = levels[0]
-    n_lev = len(levels)
-    major, minor, lam = ewa_axes(duvdx, duvdy, base.shape, footprint_scale, max_anisotropy)
-    l0, l1, w1 = trilinear_levels(lam, n_lev)
-    zero = ~np.isfinite(lam)
-    coarsest = lam >= n_lev - 1
-    out = np.zeros((len(uv), base.shape[2]), dtype=np.float64)
-    idx = np.flatnonzero(zero)
-    if len(idx):
-        out[idx] = lookup_bilinear(base, uv[idx], wrap)
-    idx = np.flatnonzero(coarsest)
-    if len(idx):
-        out[idx] = lookup_bilinear(levels[n_lev - 1], uv[idx], wrap)
-    filt = ~zero & ~coarsest
-    for lev in levels_needed(l0[filt], l1[filt], w1[filt]):
-        w = np.where(filt & (l0 == lev), 1.0 - w1, 0.0) + np.where(filt & (l1 == lev) & (l1 != l0), w1, 0.0)
-        idx = np.flatnonzero(w > 0)
-        img = levels[lev]
-        sx = img.shape[1] / base.shape[1]
-        sy = img.shape[0] / base.shape[0]
-        s = np.array([sx, sy])
-        out[idx] += w[idx, None] * _ewa_level(img, uv[idx], major[idx] * s, minor[idx] * s, wrap)
-    return out.astype(base.dtype, copy=False)
+    order = np.argsort(l0.astype(np.int16), kind="stable")     # levels < 64: a radix sort
+    start = np.concatenate([[0], np.cumsum(np.bincount(l0, minlength=len(levels)))])
+    for lev in range(len(levels)):
+        own = order[start[lev]:start[lev + 1]]
+        up = order[start[lev - 1]:start[lev]] if lev > 0 else own[:0]
+        up = up[w1[up] > 0]
+        if own.size + up.size == 0:
+            continue
+        idx = np.concatenate([own, up])
+        w = np.concatenate([1.0 - w1[own], w1[up]])
+        out[idx] += w[:, None] * lookup_bilinear(levels[lev], uv[idx], wrap, table if lev == 0 else None)
+    return out.astype(_dtype(base, table), copy=False)
 
 
 # ----------------------------------------------------------------------------- normal maps

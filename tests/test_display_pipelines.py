@@ -76,7 +76,7 @@ def test_texture_decode_gamma22():
     for decode, want in (("gamma2.2", v ** 2.2), ("srgb", color.srgb_decode(v)), ("linear", v)):
         tex = ImageTexture(texels, decode=decode, filter="nearest")
         assert tex.decode == decode
-        np.testing.assert_allclose(tex._image[0].astype(np.float64), want[0], rtol=1e-6, atol=1e-7)
+        np.testing.assert_allclose(tex.image[0].astype(np.float64), want[0], rtol=1e-6, atol=1e-7)
     assert ImageTexture(texels).decode == "srgb"           # default unchanged: integer images are sRGB
     assert ImageTexture(v.astype(np.float32)).decode == "linear"
     with pytest.raises(TextureError, match="decode"):

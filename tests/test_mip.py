@@ -163,15 +163,18 @@ def test_gltf_images_decoded_once_and_shared(tmp_path, rng, monkeypatch):
     assert b1._image is b0._image and b1._pyramid is b0._pyramid
     assert b0.wrap != b1.wrap                       # own sampler, shared texels
     assert p1.metallic_roughness_texture.texture._image is p0.metallic_roughness_texture.texture._image
-    assert p1.roughness_texture._image is p0.roughness_texture._image
-    assert p1.metallic_texture._image is p0.metallic_texture._image
-    assert p1.occlusion_texture._image is p0.occlusion_texture._image
-    assert p0.roughness_texture._image is not p0.metallic_texture._image
-    # emissive reads the metallicRoughness image as sRGB: a separate decode of the same image
-    e = p1.emissive_texture.texture
-    assert e.decode == "srgb" and e._image is not p1.metallic_roughness_texture.texture._image
-    # decodes: base (sRGB), mr (linear), its G, B and R channels, emissive (sRGB) -- once each
-    assert sorted(map(str, calls)) == sorted(["srgb", "linear", "linear", "linear", "linear", "srgb"])
+    # metallic (B), roughness (G), occlusion (R): channel views of the slot's texture, no copies
+    for p in (p0, p1):
+        assert isinstance(p.roughness_texture, T.ChannelTexture) and p.roughness_texture.channel == 1
+        assert p.metallic_texture.channel == 2 and p.occlusion_texture.channel == 0
+        assert p.roughness_texture.source is p.metallic_roughness_texture.texture
+        assert p.occlusion_texture.source._image is p.metallic_roughness_texture.texture._image
+    # emissive reads the metallicRoughness image as sRGB: the same 8-bit codes, its own table and pyramid
+    e, mr = p1.emissive_texture.texture, p1.metallic_roughness_texture.texture
+    assert e.decode == "srgb" and e.texels.dtype == np.uint8 and e._image is mr._image
+    assert e._pyramid is not mr._pyramid and not np.array_equal(e.table, mr.table)
+    # decodes: base (sRGB), mr (linear), emissive (sRGB) -- once each; the channels copy nothing
+    assert sorted(map(str, calls)) == sorted(["srgb", "linear", "srgb"])
 
 
 def test_obj_maps_of_one_file_decoded_once(tmp_path):

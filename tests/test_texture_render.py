@@ -9,6 +9,7 @@ import pytest
 
 import pyrt
 from pyrt import textures as T
+from pyrt.shaders import ewa as E
 from pyrt.shaders import textures as K
 
 
@@ -98,7 +99,7 @@ def test_mip_levels_only_built_when_minified_and_all_read():
         if filt == "trilinear":
             lam = K.mip_level_isotropic(dx, dy, img.shape, inner.footprint_scale)
         else:
-            _, _, lam = K.ewa_axes(dx, dy, img.shape, inner.footprint_scale, inner.max_anisotropy)
+            _, _, lam = E.ewa_axes(dx, dy, img.shape, inner.footprint_scale, inner.max_anisotropy)
             lam = lam[np.isfinite(lam) & (lam < K.n_mip_levels(img.shape) - 1)]
         expected = [lv for lv in K.levels_needed(*K.trilinear_levels(lam, K.n_mip_levels(img.shape))) if lv > 0]
         assert inner.mip_levels_built == expected

@@ -12,6 +12,7 @@ import pytest
 
 from pyrt.geometry import SurfaceBatch
 from pyrt.shaders import color
+from pyrt.shaders import ewa as E
 from pyrt.shaders import textures as K
 from pyrt import textures as T
 
@@ -114,7 +115,7 @@ def test_lookups_preserve_float32(rng):
         assert fn(img, uv).dtype == np.float32
     pyr = [K.build_mip_level(img, l) for l in range(K.n_mip_levels(img.shape))]
     assert K.lookup_trilinear(pyr, uv, d, d).dtype == np.float32
-    assert K.lookup_ewa(pyr, uv, d, d * [1, -0.1]).dtype == np.float32
+    assert E.lookup_ewa(pyr, uv, d, d * [1, -0.1]).dtype == np.float32
 
 
 # ----------------------------------------------------------------------------- UV transform
@@ -214,7 +215,7 @@ def test_mip_level_matches_analytic_plane_footprint(dist, theta_deg, rng):
     # Central difference vs derivative: relative error ~ (px/f tan(theta))^2 < 1e-4 here.
     assert abs(lam - lam_expected) < 1e-3
     # EWA: minor half-axis = 1.5 / 2 * dist * px / f (across), major stretched by 1 / cos(theta).
-    major, minor, lam_e = K.ewa_axes(dx[None], dy[None], tex_res, 1.5, 8.0)
+    major, minor, lam_e = E.ewa_axes(dx[None], dy[None], tex_res, 1.5, 8.0)
     across = 0.75 * dist * px / f / tile * tex_res[1]
     assert abs(lam_e[0] - np.log2(across)) < 1e-3
     ratio = np.linalg.norm(major) / np.linalg.norm(minor)
@@ -224,7 +225,7 @@ def test_mip_level_matches_analytic_plane_footprint(dist, theta_deg, rng):
 def test_ewa_axes_clamp_anisotropy():
     dx = np.array([[1.0, 0.0], [0.5, 0.0], [0.0, 0.0]])
     dy = np.array([[0.0, 0.001], [0.0, 0.0], [0.0, 0.0]])
-    major, minor, lam = K.ewa_axes(dx, dy, (100, 100), footprint_scale=2.0, max_anisotropy=8.0)
+    major, minor, lam = E.ewa_axes(dx, dy, (100, 100), footprint_scale=2.0, max_anisotropy=8.0)
     np.testing.assert_allclose(np.linalg.norm(major, axis=1), [100, 50, 0])
     np.testing.assert_allclose(np.linalg.norm(minor, axis=1), [12.5, 6.25, 0])
     np.testing.assert_allclose(lam[:2], np.log2([12.5, 6.25]))

@@ -58,7 +58,7 @@ import numpy as np
 from pyrt.core import checks
 from pyrt.core.errors import Error
 from pyrt.core.registry import Registry
-from pyrt.geometry.surface import parent_value
+from pyrt.geometry.surface import parent_value, take_view_rows
 from pyrt.shaders import sampling
 from pyrt.shaders.vec import dot
 from pyrt.textures import is_texture
@@ -317,7 +317,10 @@ class Material:
         Texture lookups are cached on ``ctx`` (keyed by the texture object), so a material evaluated
         for several lights on the same hits reads its textures once; a view cut from a batch that has the
         lookup (:func:`pyrt.geometry.surface.parent_value`, e.g. the hits a BSDF sample is drawn at, cut from
-        the material's group that evaluated ``f_cos``) gathers it instead of reading the texture again.
+        the material's group that evaluated ``f_cos``) gathers it instead of reading the texture again. A view
+        with at least as many rows as the batch it was cut from (all its hits, or hits repeated: several BSDF
+        samples per hit) reads the texture at that batch, once per hit, caches it there for later views, and
+        gathers (the same rows: each depends only on its hit).
         """
         n = ctx.n_hits
         if is_texture(value):
@@ -328,6 +331,10 @@ class Material:
             out = parent_value(ctx, "_param_cache", key)
             if out is not None:
                 cache[key] = out
+                return out
+            parent = ctx.__dict__.get("_parent")
+            if parent is not None and parent[0].n_hits <= n:
+                cache[key] = out = take_view_rows(self.param(value, parent[0], channels), parent[1])
                 return out
             out = np.asarray(value.evaluate(ctx), dtype=np.float64)
             if channels == 1:

@@ -7,10 +7,10 @@
 - :mod:`pyrt.textures.normal_map`: :class:`NormalMap`, :func:`perturb_normal`, :func:`apply_normal_maps`.
 """
 from pyrt.textures.base import TEXTURES, ConstantTexture, Texture, TextureError, is_texture, texture_from_dict
-from pyrt.textures.image import FILTERS, ImageTexture, MipPyramid, load_image
+from pyrt.textures.image import FILTERS, ChannelTexture, ImageTexture, MipPyramid, load_image
 from pyrt.textures.normal_map import NormalMap, apply_normal_maps, flat_normal_map, perturb_normal
 from pyrt.textures.procedural import CheckerTexture, FbmTexture, NoiseTexture, PerlinTexture, VoronoiTexture
 
-__all__ = ["FILTERS", "TEXTURES", "CheckerTexture", "ConstantTexture", "FbmTexture", "ImageTexture", "MipPyramid",
+__all__ = ["FILTERS", "TEXTURES", "ChannelTexture", "CheckerTexture", "ConstantTexture", "FbmTexture", "ImageTexture", "MipPyramid",
            "NoiseTexture", "NormalMap", "PerlinTexture", "Texture", "TextureError", "VoronoiTexture",
            "apply_normal_maps", "flat_normal_map", "is_texture", "load_image", "perturb_normal", "texture_from_dict"]

@@ -63,9 +63,14 @@ class PreviewOptions:
     crease_angle: float = 30.0
     time_budget: float | None = None     # seconds per asset
     threads: int | None = None           # Embree/shading threads per render (None = all cores)
+    #: camera samples per render chunk (pyrt.render's chunk_samples, 32768 there): a chunk's working set is
+    #: ~4-6 kB per sample and each thread holds one; 16384 keeps the helmet-like model of
+    #: tools/make_textured_model.py under 500 MB peak RSS on 2 threads (~450 against ~620 MB; docs/preview.md).
+    #: Chunks draw their own random streams, so the noise (not the estimate) depends on it
+    chunk_samples: int = 16384
 
     def validate(self):
-        for name in ("width", "height", "spp"):
+        for name in ("width", "height", "spp", "chunk_samples"):
             v = getattr(self, name)
             if int(v) != v or v < 1:
                 raise PreviewError(f"{name} must be a positive integer, got {v!r}")

@@ -12,7 +12,7 @@ import math
 import numpy as np
 import trimesh
 
-from pyrt.textures import ImageTexture, NormalMap, TextureError
+from pyrt.textures import ChannelTexture, ImageTexture, NormalMap, TextureError
 from pyrt.io.assets.common import AssetError, PBRParams, TextureSlot, malformed_is_asset_error
 from pyrt.io.assets.alpha import ALPHA_MODES, alpha_texture
 from pyrt.io.assets.asset import Asset, AssetCamera, AssetInstance, AssetLight, AssetMesh
@@ -147,21 +147,10 @@ def _gltf_material(g, mi, warnings, cache):
 
 
 def _channel(slot, c, label, cache):
-    """A 1-channel linear texture from channel ``c`` of a slot's ImageTexture (same wrap/filter/transform).
-
-    The channel's texels are extracted once per load and image (``cache`` key ``(image, "linear", c)``)
-    and shared by every material reading that channel.
-    """
-    tex = slot.texture
-    key = (slot.image, "linear", c)
-    src = cache.get(key)
-    if src is None:
-        src = np.ascontiguousarray(np.asarray(tex.image)[:, :, c])
-    t = ImageTexture(src, srgb=False, wrap=tex.wrap, filter=tex.filter, scale=tex.scale, offset=tex.offset,
-                     rotation_deg=tex.rotation_deg, name=label, texcoord=tex.texcoord)
-    if slot.image is not None:
-        cache.setdefault(key, t)
-    return t
+    """Channel ``c`` of a slot's ImageTexture as a 1-channel texture (:class:`pyrt.textures.ChannelTexture`: no
+    copy; the channels of one image and sampler, e.g. a packed occlusion-roughness-metallic map, share one
+    lookup per batch of hits). ``cache`` is unused (kept for the extension readers' signature)."""
+    return ChannelTexture(slot.texture, c, name=label)
 
 
 def _node_local(node):

@@ -293,8 +293,8 @@ class GltfFile:
         return None if os.path.isfile(fpath) else fpath
 
     def image_array(self, ii):
-        """Image ``ii`` decoded by :func:`pyrt.textures.load_image`: ``((H, W, C) float32 in its stored
-        encoding, label)``, cached; grey and grey + alpha images as RGB(A) (:func:`colour_texels`). Embedded
+        """Image ``ii`` decoded by :func:`pyrt.textures.load_image`: ``((H, W, C) uint8 / uint16 codes (8/16-bit
+        PNG and JPEG; :class:`pyrt.textures.ImageTexture` keeps them as they are), label)``, cached; grey and grey + alpha images as RGB(A) (:func:`colour_texels`). Embedded
         images go through a temporary file of their type."""
         if ii in self._img_cache:
             return self._img_cache[ii]
@@ -319,7 +319,7 @@ class GltfFile:
 
 def _load_image_file(path, label):
     try:
-        return load_image(path)[0]
+        return load_image(path, integers=True)[0]
     except TextureError as exc:
         raise AssetError(f"{label}: {exc}") from None
 

@@ -91,7 +91,7 @@ def _mtl_map(tokens, base, what, *, srgb, warnings, normal=False, alpha=False, c
     src = cache.get(key)
     try:
         if src is None:
-            src = colour_texels(load_image(fpath)[0])
+            src = colour_texels(load_image(fpath, integers=True)[0])
             kw["name"] = fpath
         t = NormalMap(src, **kw) if normal else ImageTexture(src, srgb=srgb, channels=3, **kw)
     except TextureError as exc:
