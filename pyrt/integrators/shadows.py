@@ -25,7 +25,11 @@ that crosses more than :data:`MAX_INTERFACES` dielectric surfaces is blocked (0)
 
 Cost model: the closest-hit loop below runs only when the switch is on *and* the scene has a
 dielectric; otherwise the integrator keeps its single occlusion query per shadow ray (and its bool
-answer, bit-identical images).
+answer, bit-identical images). With the switch on, every shadow ray is first an occlusion (any-hit) query
+and only the rays it finds blocked walk the loop (``Integrator.visibility``): a ray with nothing on its way
+would have ended on the loop's first step with transmittance 1, so the values are the same, exactly (tested),
+and the closest-hit rays are those that meet something (AttenuationTest at 320x240: 1.36 M shadow rays,
+267 k of them walked instead of all).
 """
 from __future__ import annotations
 

@@ -293,23 +293,23 @@ class Integrator:
         occlusion query finds blocked are re-traced through those surfaces (and through dielectrics with
         :attr:`transparent_shadows`)."""
         cover = self.ps.coverage
-        if cover is not None and cover.shadows:
-            def covered(idx, wi, dist, end=None):
-                """Transmittance (k, 3) of the shadow rays from hits ``idx`` through see-through surfaces."""
+        if (cover is not None and cover.shadows) or self.transparent_shadows:
+            covers = cover if cover is not None and cover.shadows else None
+            layers = coverage.MAX_LAYERS if covers is not None else shadows.MAX_INTERFACES
+
+            def transmitted(idx, wi, dist, end=None):
+                """Transmittance (k, 3) of the shadow rays from hits ``idx`` along ``wi`` to the light through
+                see-through surfaces: the cheap any-hit query first, the closest-hit walk
+                (:func:`pyrt.integrators.shadows.transmittance`) only for the rays it finds blocked (the others
+                would find no hit on its first step: the same values, exactly)."""
                 origins, tmax = self.offset.shadow(surf.subset(idx), wi, dist, end)
                 T = np.ones((idx.size, 3))
-                b = np.flatnonzero(self._occluded(origins, wi, tmax))   # the cheap any-hit query first
+                b = np.flatnonzero(self._occluded(origins, wi, tmax))
                 if b.size:
                     T[b] = shadows.transmittance(self.ps, self.offset, take_rows(origins, b), take_rows(wi, b),
-                                                 np.take(tmax, b), self._shadow_hits, coverage.MAX_LAYERS,
-                                                 coverage=cover, dielectrics=self.transparent_shadows)
+                                                 np.take(tmax, b), self._shadow_hits, layers,
+                                                 coverage=covers, dielectrics=self.transparent_shadows)
                 return T
-            return covered
-        if self.transparent_shadows:
-            def transmitted(idx, wi, dist, end=None):
-                """Transmittance (k, 3) of the shadow rays from hits ``idx`` along ``wi`` to the light."""
-                origins, tmax = self.offset.shadow(surf.subset(idx), wi, dist, end)
-                return shadows.transmittance(self.ps, self.offset, origins, wi, tmax, self._shadow_hits)
             return transmitted
 
         def visible(idx, wi, dist, end=None):
