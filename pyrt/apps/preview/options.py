@@ -60,6 +60,15 @@ class PreviewOptions:
     #: with two or more (~0.0016), whose number grows with the depth: a documented bias of the preview (about
     #: -0.2% mean on GlassVaseFlowers, docs/preview.md); 1e-4 renders what pyrt.render would
     dielectric_cutoff: float = 0.01
+    #: where the model has a dielectric: from this bounce on, a glass hit continues along one of its reflected and
+    #: refracted rays (chosen by weight, weighted 1 / probability: unbiased, a little noisier) instead of both
+    #: (pyrt.render_full's split_depth); 1 splits at the first glass surface the camera sees only. None: both at
+    #: every bounce (the tree of rays pyrt.render traces)
+    split_depth: int | None = 1
+    #: from this bounce on, the studio rig's (and the file's) delta lights light a hit by one of them, chosen by its
+    #: irradiance there (pyrt.render_full's light_select_depth: one shadow ray instead of three, unbiased, noisier
+    #: in what reflections and refractions show). None: every light at every hit
+    light_select_depth: int | None = 1
     crease_angle: float = 30.0
     time_budget: float | None = None     # seconds per asset
     threads: int | None = None           # Embree/shading threads per render (None = all cores)
@@ -97,6 +106,10 @@ class PreviewOptions:
             raise PreviewError(f"tonemap must be one of {', '.join(TONEMAPS)}, got {self.tonemap!r}")
         if not 0 <= self.dielectric_cutoff < 1:
             raise PreviewError(f"dielectric_cutoff must be in [0, 1), got {self.dielectric_cutoff}")
+        for name in ("split_depth", "light_select_depth"):
+            v = getattr(self, name)
+            if v is not None and (int(v) != v or v < 0):
+                raise PreviewError(f"{name} must be None or an integer >= 0, got {v!r}")
         if self.time_budget is not None and not self.time_budget > 0:
             raise PreviewError(f"time_budget must be > 0 seconds, got {self.time_budget}")
         return self
