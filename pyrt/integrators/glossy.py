@@ -125,7 +125,7 @@ class GlossyIntegrator(Integrator):
         gi, pi = np.flatnonzero(sampled), np.flatnonzero(~sampled)
         select = self._selects_lights(depth)
         if select:         # one delta light per hit (their samples have MIS weight 1 here too)
-            L += light_choice.one_light_estimate(self.selectable_lights, dsurf, visible, rng, self.scene.materials)
+            L += light_choice.one_light_estimate(self.selectable_lights, dsurf, bsdf, visible, rng)
         for light in self.scene.lights:
             if select and light in self.selectable_lights:
                 continue

@@ -18,9 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pyrt.integrators import direct
-from pyrt.materials.dispatch import BSDFBatch
-from pyrt.shaders.vec import put_rows, take_rows
+from pyrt.shaders.vec import max_component, put_rows, take_rows
 
 
 def selectable(light):
@@ -29,21 +27,26 @@ def selectable(light):
     return light.environment is None and light.delta and light.n_samples == 1 and not light.bsdf_samples
 
 
-def one_light_estimate(lights, surf, visible, rng, materials):
+def one_light_estimate(lights, surf, bsdf, visible, rng):
     """Direct light (N, 3) from the ``lights`` (each :func:`selectable`) at the hits of ``surf``, one light per
     hit chosen by irradiance (module docstring).
+
+    The chosen lights' directions, distances and irradiances (divided by the choice's probability) are
+    gathered into one batch: one BSDF query and one shadow-ray query for all the hits, whichever light each
+    chose (the cost of the light sampling estimator is mostly per query, not per ray).
 
     Parameters
     ----------
     lights : list of pyrt.lights.Light
     surf : pyrt.geometry.SurfaceBatch
-        The hits (ordered by material, as the integrator passes them: subsets keep the order).
+        The hits.
+    bsdf : pyrt.materials.dispatch.BSDFBatch
+        Their BSDFs.
     visible : callable
-        ``visible(idx, wi, dist, end=None)`` of the integrator for the hits of ``surf``.
+        ``visible(idx, wi, dist, end=None)`` of the integrator for the hits of ``surf``: a bool (k,) or a
+        transmittance (k, 3).
     rng : numpy.random.Generator
         One uniform number per hit chooses the light.
-    materials : list of pyrt.materials.Material
-        The scene's materials (the chosen hits' BSDFs).
     """
     n = surf.n_hits
     L = np.zeros((n, 3))
@@ -51,22 +54,38 @@ def one_light_estimate(lights, surf, visible, rng, materials):
         return L
     u0 = np.zeros((n, 2))
     w = np.zeros((len(lights), n))
+    samples = []
     for i, light in enumerate(lights):
         ls = light.sample_li(surf.p, u0)                 # delta lights: u is ignored
-        lit = ls.active() & surf.light_side(ls.wi)
-        w[i] = np.where(lit, ls.irradiance().mean(axis=1), 0.0)
+        E = ls.irradiance()
+        w[i] = np.where(ls.active() & surf.light_side(ls.wi), E.mean(axis=1), 0.0)
+        samples.append((ls.wi, np.broadcast_to(np.asarray(ls.dist, dtype=np.float64), (n,)), E))
     c = np.cumsum(w, axis=0)
     total = c[-1]
     pick = np.minimum(np.sum(rng.random(n) * total >= c, axis=0), len(lights) - 1)
-    for i, light in enumerate(lights):
-        idx = np.flatnonzero((pick == i) & (w[i] > 0))
-        if idx.size == 0:
+    rows = np.flatnonzero(total > 0)
+    rows = rows[w[pick[rows], rows] > 0]
+    if rows.size == 0:
+        return L
+    wi, dist, E = np.zeros((rows.size, 3)), np.zeros(rows.size), np.zeros((rows.size, 3))
+    for i, (wi_i, dist_i, E_i) in enumerate(samples):
+        k = np.flatnonzero(pick[rows] == i)
+        if k.size == 0:
             continue
-        sub = surf.subset(idx)
-
-        def vis(j, wi, dist, end=None, idx=idx):
-            """Shadow rays from the subset's hits ``j``."""
-            return visible(idx[j], wi, dist, end)
-        est = direct.light_sampling_estimate(light, sub, BSDFBatch(sub, materials), vis, rng)
-        put_rows(L, idx, take_rows(L, idx) + est * (total[idx] / w[i, idx])[:, None])
+        r = rows[k]
+        put_rows(wi, k, take_rows(wi_i, r))
+        dist[k] = dist_i[r]
+        put_rows(E, k, take_rows(E_i, r) * (total[r] / w[i, r])[:, None])
+    f = bsdf.f_cos(rows, wi)
+    keep = np.flatnonzero(max_component(f) > 0)
+    if keep.size == 0:
+        return L
+    rows, wi, dist, f, E = rows[keep], take_rows(wi, keep), dist[keep], take_rows(f, keep), take_rows(E, keep)
+    vis = visible(rows, wi, dist)                       # end points p + wi dist (lights of several positions)
+    val = f * E
+    if vis.ndim == 1:
+        val[~vis] = 0.0
+    else:
+        val *= vis
+    put_rows(L, rows, val)
     return L

@@ -368,7 +368,7 @@ class Integrator:
             return direct.estimate(self.scene.lights, dsurf, bsdf, visible, rng)
         rest = [lt for lt in self.scene.lights if lt not in self.selectable_lights]
         L = direct.estimate(rest, dsurf, bsdf, visible, rng)
-        return L + light_choice.one_light_estimate(self.selectable_lights, dsurf, visible, rng, self.scene.materials)
+        return L + light_choice.one_light_estimate(self.selectable_lights, dsurf, bsdf, visible, rng)
 
     def _selects_lights(self, depth):
         """True where bounce ``depth`` lights a hit by one chosen delta light (:mod:`pyrt.integrators.light_choice`):

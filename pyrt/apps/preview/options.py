@@ -69,12 +69,16 @@ class PreviewOptions:
     #: irradiance there (pyrt.render_full's light_select_depth: one shadow ray instead of three, unbiased, noisier
     #: in what reflections and refractions show). None: every light at every hit
     light_select_depth: int | None = 1
+    #: camera samples per render chunk (pyrt.render_full's chunk_samples, there 32768): the shading cost of the
+    #: rays past the first bounce is mostly per batch (a texture lookup, a BSDF or shadow query per material and
+    #: light), and bigger chunks make fewer, bigger batches (docs/preview.md: cost and memory)
+    chunk_samples: int = 1 << 16
     crease_angle: float = 30.0
     time_budget: float | None = None     # seconds per asset
     threads: int | None = None           # Embree/shading threads per render (None = all cores)
 
     def validate(self):
-        for name in ("width", "height", "spp"):
+        for name in ("width", "height", "spp", "chunk_samples"):
             v = getattr(self, name)
             if int(v) != v or v < 1:
                 raise PreviewError(f"{name} must be a positive integer, got {v!r}")

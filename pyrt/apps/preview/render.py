@@ -158,7 +158,8 @@ class PreviewScene:
             res = render_full(self.scene, seed=o.seed, max_depth=depth, aovs=aovs, progress=False,
                               prepared=self.prepared, threads=o.threads, integrator="glossy",
                               transparent_shadows=True, throughput_cutoff=cutoff,
-                              split_depth=o.split_depth if glass else None, light_select_depth=o.light_select_depth)
+                              split_depth=o.split_depth if glass else None, light_select_depth=o.light_select_depth,
+                              chunk_samples=o.chunk_samples)
         self.warnings += [str(w.message) for w in caught]
         if self.exposure is None:
             self.exposure, self.white = auto_exposure(res.image, self.model_mask())
