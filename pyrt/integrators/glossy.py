@@ -116,16 +116,16 @@ class GlossyIntegrator(Integrator):
             mask &= ~self.ps.face_gouraud[surf.face[idx]]
         return mask if mask.any() else None
 
-    def _direct_light(self, dsurf, bsdf, visible, rng, sampled, depth):
+    def _direct_light(self, dsurf, bsdf, visible, rng, sampled, depth, choose=None):
         """Direct light with the light samples at glossy hits MIS-weighted against the glossy rays."""
         if sampled is None:
-            return super()._direct_light(dsurf, bsdf, visible, rng, sampled, depth)
+            return super()._direct_light(dsurf, bsdf, visible, rng, sampled, depth, choose)
         nb = self.n_glossy(depth)
         L = np.zeros((dsurf.n_hits, 3))
         gi, pi = np.flatnonzero(sampled), np.flatnonzero(~sampled)
-        select = self._selects_lights(depth)
-        if select:         # one delta light per hit (their samples have MIS weight 1 here too)
-            L += light_choice.one_light_estimate(self.selectable_lights, dsurf, bsdf, visible, rng)
+        select = choose is not None
+        if select:         # one delta light per chosen hit (their samples have MIS weight 1 here too)
+            L += light_choice.one_light_estimate(self.selectable_lights, dsurf, bsdf, visible, rng, choose)
         for light in self.scene.lights:
             if select and light in self.selectable_lights:
                 continue
