@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 import pyrt
+from pyrt.apps.preview import PreviewError, PreviewOptions
 from pyrt.core.rays import RayBatch
 from pyrt.integrators import GlossyIntegrator, Integrator, PreparedScene
 
@@ -78,3 +79,11 @@ def test_selection_from_bounce_one_leaves_camera_hits_exact():
 def test_light_select_depth_is_checked():
     with pytest.raises(pyrt.RenderError):
         pyrt.render_full(_scene(), light_select_depth=-1)
+
+
+@pytest.mark.parametrize("field, bad", [("light_select_depth", -1), ("split_depth", 1.5),
+                                        ("dielectric_chunk_samples", 0)])
+def test_preview_options_check_the_speed_switches(field, bad):
+    PreviewOptions(**{field: None if field != "dielectric_chunk_samples" else 4096}).validate()
+    with pytest.raises(PreviewError, match=field):
+        PreviewOptions(**{field: bad}).validate()
