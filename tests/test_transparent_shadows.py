@@ -7,6 +7,8 @@ import pytest
 import pyrt
 from pyrt.shaders.fresnel import fr_dielectric
 
+from pyrt.integrators import Integrator, PreparedScene
+
 from render_helpers import pixel_centre_hits_on_plane_y0
 
 LIGHT = np.array([0.3, 1.3, -0.2])
@@ -101,3 +103,46 @@ def test_switch_is_a_bool_and_a_scene_file_key():
         pyrt.render(_scene(), transparent_shadows="yes")
     _, opts = pyrt.load_dict({"render": {"transparent_shadows": True}})
     assert opts["transparent_shadows"] is True
+
+
+
+class _Counting(Integrator):
+    """Counts the shadow rays that enter the closest-hit walk."""
+
+    walked = 0
+
+    def _shadow_hits(self, o, d, tmax):
+        self.walked += o.shape[0]
+        return super()._shadow_hits(o, d, tmax)
+
+
+class _WalkEveryRay(_Counting):
+    """The walk without the any-hit pre-test: every shadow ray starts the closest-hit loop (the method before)."""
+
+    def _occluded(self, o, d, tmax):
+        return np.ones(o.shape[0], dtype=bool)
+
+
+def test_any_hit_pretest_keeps_the_transmittance_exactly_and_walks_only_blocked_rays():
+    """Slab shadows, a half-covering opaque box and open floor: the image with the pre-test is bit-identical to
+    walking every shadow ray, and the closest-hit loop sees only the rays the occlusion query found blocked."""
+    def blockers(s):
+        _slab(pyrt.Glass(ior=1.5, absorption=(0.5, 1.0, 2.0)))(s)
+        s.add_box((0.4, 1.2, -0.2), (0.1, 0.05, 0.1), pyrt.Lambert(albedo=0.5))
+    glass = _scene(lambda s: s.add_box((0.3, 1.0, -0.2), (0.15, 0.05, 0.15), pyrt.Glass(ior=1.4)))
+    for scene, open_floor in ((_scene(blockers), False), (glass, True)):
+        cam = scene.camera
+        rays = cam.generate_rays(0, cam.width * cam.height, np.random.default_rng(0))
+        ps = PreparedScene(scene)
+        try:
+            a = _Counting(ps, transparent_shadows=True)
+            b = _WalkEveryRay(ps, transparent_shadows=True)
+            La, _ = a.render_samples(rays)
+            Lb, _ = b.render_samples(rays)
+        finally:
+            ps.close()
+        np.testing.assert_array_equal(La, Lb)
+        assert 0 < La.max() and np.any((La > 0) & (La < La.max() * 0.99))   # lit, and partly shadowed
+        # every pixel's one shadow ray walks without the pre-test; with it only those through the blockers
+        assert b.walked >= cam.width * cam.height and a.walked > 0
+        assert (a.walked < b.walked) if open_floor else (a.walked <= b.walked)

@@ -37,6 +37,7 @@ from pyrt.core.rays import RayBatch
 from pyrt.core.sampler import stratified_samples
 from pyrt.geometry.surface import reflect_differentials
 from pyrt.integrators import direct
+from pyrt.integrators import light_choice
 from pyrt.integrators.whitted import Integrator, normalize_rows
 from pyrt.materials.dispatch import BSDFBatch
 from pyrt.shaders import sampling
@@ -115,14 +116,19 @@ class GlossyIntegrator(Integrator):
             mask &= ~self.ps.face_gouraud[surf.face[idx]]
         return mask if mask.any() else None
 
-    def _direct_light(self, dsurf, bsdf, visible, rng, sampled, depth):
+    def _direct_light(self, dsurf, bsdf, visible, rng, sampled, depth, choose=None):
         """Direct light with the light samples at glossy hits MIS-weighted against the glossy rays."""
         if sampled is None:
-            return super()._direct_light(dsurf, bsdf, visible, rng, sampled, depth)
+            return super()._direct_light(dsurf, bsdf, visible, rng, sampled, depth, choose)
         nb = self.n_glossy(depth)
         L = np.zeros((dsurf.n_hits, 3))
         gi, pi = np.flatnonzero(sampled), np.flatnonzero(~sampled)
+        select = choose is not None
+        if select:         # one delta light per chosen hit (their samples have MIS weight 1 here too)
+            L += light_choice.one_light_estimate(self.selectable_lights, dsurf, bsdf, visible, rng, choose)
         for light in self.scene.lights:
+            if select and light in self.selectable_lights:
+                continue
             if light.environment is None:
                 if light.delta or light not in self.traced_lights:
                     L += direct.light_sampling_estimate(light, dsurf, bsdf, visible, rng)
@@ -177,7 +183,7 @@ class GlossyIntegrator(Integrator):
 
     def _spawn(self, surf, thr_h, s_idx, dsub, stack_h, idx, sampled, depth, rng):
         """The delta-lobe rays of :meth:`_spawn_specular` and the glossy rays of :meth:`_spawn_glossy`."""
-        spec = self._spawn_specular(surf, thr_h, s_idx, dsub, stack_h)
+        spec = self._spawn_specular(surf, thr_h, s_idx, dsub, stack_h, depth, rng)
         if sampled is None:
             return spec
         gl = self._spawn_glossy(surf, thr_h, s_idx, dsub, stack_h, idx[sampled], depth, rng)

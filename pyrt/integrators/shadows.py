@@ -25,7 +25,11 @@ that crosses more than :data:`MAX_INTERFACES` dielectric surfaces is blocked (0)
 
 Cost model: the closest-hit loop below runs only when the switch is on *and* the scene has a
 dielectric; otherwise the integrator keeps its single occlusion query per shadow ray (and its bool
-answer, bit-identical images).
+answer, bit-identical images). With the switch on, every shadow ray is first an occlusion (any-hit) query
+and only the rays it finds blocked walk the loop (``Integrator.visibility``): a ray with nothing on its way
+would have ended on the loop's first step with transmittance 1, so the values are the same, exactly (tested),
+and the closest-hit rays are those that meet something (AttenuationTest at 320x240: 1.36 M shadow rays,
+267 k of them walked instead of all).
 """
 from __future__ import annotations
 
@@ -35,7 +39,7 @@ from pyrt.geometry.accel import Hits
 from pyrt.geometry.surface import surface_from_hits
 from pyrt.integrators.media import beer_lambert
 from pyrt.shaders import fresnel
-from pyrt.shaders.vec import dot, take_rows
+from pyrt.shaders.vec import dot, put_rows, take_rows
 
 #: dielectric interfaces a shadow ray may cross before it counts as blocked
 MAX_INTERFACES = 16
@@ -89,12 +93,12 @@ def transmittance(ps, offset, origins, wi, tmax, intersect, max_interfaces=MAX_I
     for _ in range(max_interfaces + 1):
         if todo.size == 0:
             return T
-        hits = intersect(o[todo], wi[todo], tm[todo])
+        hits = intersect(take_rows(o, todo), take_rows(wi, todo), np.take(tm, todo))
         hi = np.flatnonzero(hits.hit)
         if hi.size == 0:
             return T
         sel = todo[hi]
-        surf = surface_from_hits(ps.geo, _subset(hits, hi), o[sel], wi[sel])
+        surf = surface_from_hits(ps.geo, _subset(hits, hi), take_rows(o, sel), take_rows(wi, sel))
         mids = surf.material_id
         diel = ps.dielectric[mids] if dielectrics else np.zeros(mids.size, dtype=bool)
         passes = diel if coverage is None else diel | coverage.see_through[mids]
@@ -105,25 +109,26 @@ def transmittance(ps, offset, origins, wi, tmax, intersect, max_interfaces=MAX_I
             ctx = surf.subset(lanes)
             mat = materials[k]
             rows = sel[lanes]
+            w_r = take_rows(wi, rows)             # row gathers (fancy indexing of (N, 3) rows is 3-4x slower)
             if not diel[lanes[0]]:                # a mask / blend surface (pyrt.integrators.coverage)
-                T[rows] *= coverage.shadow_factor(k, ctx)[:, None]
+                put_rows(T, rows, take_rows(T, rows) * coverage.shadow_factor(k, ctx)[:, None])
             else:
-                R = fresnel.fr_dielectric(np.abs(dot(wi[rows], ctx.ns)), mat.param(mat.ior, ctx, 1))
+                R = fresnel.fr_dielectric(np.abs(dot(w_r, ctx.ns)), mat.param(mat.ior, ctx, 1))
                 factor = mat.param(mat.tint, ctx) * (1.0 - R)[:, None]
                 inside = ~ctx.front                   # the segment just travelled was inside the dielectric
                 if np.any(inside) and np.any(np.asarray(mat.absorption) > 0):
                     sig = np.broadcast_to(np.asarray(mat.absorption, dtype=np.float64), (lanes.size, 3))
                     factor = np.where(inside[:, None], factor * beer_lambert(sig, hits.t[hi[lanes]] + lead[rows]),
                                       factor)
-                T[rows] *= factor
-            new_o = offset(ctx, wi[rows])
+                put_rows(T, rows, take_rows(T, rows) * factor)
+            new_o = offset(ctx, w_r)
             # the offset moves the origin off the surface along ng, not along the ray: the ray line from new_o
             # meets the surface plane (ng . off) / (ng . wi) behind it (|cos| clamped: grazing crossings)
-            cos_g = np.abs(dot(wi[rows], ctx.ng))
+            cos_g = np.abs(dot(w_r, ctx.ng))
             lead[rows] = np.abs(dot(new_o - ctx.p, ctx.ng)) / np.maximum(cos_g, GRAZING_COS)
-            tm[rows] -= dot(new_o - o[rows], wi[rows])   # the same end point, from the new origin
-            o[rows] = new_o
-            tm[rows] = np.maximum(tm[rows], 0.0)
+            # the same end point, from the new origin
+            tm[rows] = np.maximum(np.take(tm, rows) - dot(new_o - take_rows(o, rows), w_r), 0.0)
+            put_rows(o, rows, new_o)
         todo = sel[cross]
         todo = todo[np.max(T[todo], axis=1) > 0]
     T[todo] = 0.0                                 # still crossing after max_interfaces: blocked

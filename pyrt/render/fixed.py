@@ -40,7 +40,7 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
                 nonfinite="zero", cancel=None, fill=False, fill_budget=2.0, transparent_shadows=False,
                 integrator="whitted", glossy_samples=4, glossy_depth=2, glossy_threshold=0.4,
                 target_error=None, time_budget=None, max_spp=None, min_spp=4, on_pass=None, dask=None,
-                dask_workers=2):
+                dask_workers=2, split_depth=None, light_select_depth=None):
     """Render ``scene`` and return a :class:`RenderResult` with the image, AOVs and statistics.
 
     Parameters are those of :func:`render`, plus:
@@ -71,6 +71,13 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         ``"whitted"`` (default): only delta lobes (mirrors, glass) spawn rays. ``"glossy"``
         (:mod:`pyrt.integrators.glossy`): glossy lobes also spawn BSDF-sampled rays, MIS-combined with
         light sampling.
+    split_depth : int, optional
+        From this bounce on, a dielectric hit continues along one of its delta lobes (reflection or
+        refraction, chosen by weight and weighted by 1 / probability: unbiased, noisier) instead of both
+        (:class:`pyrt.integrators.whitted.Integrator`); default None: both at every bounce.
+    light_select_depth : int, optional
+        From this bounce on, the delta lights light each hit by one of them, chosen by irradiance and weighted
+        by 1 / probability (:mod:`pyrt.integrators.light_choice`: unbiased, noisier); default None: all of them.
     glossy_samples, glossy_depth, glossy_threshold : int, int, float
         The glossy integrator's rays per hit on the first bounce (1 deeper), the bounces that spawn them
         and the ``glossy_alpha`` above which a lobe counts as diffuse (:class:`GlossyIntegrator`).
@@ -97,13 +104,15 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
                                throughput_cutoff=throughput_cutoff, offset=offset, record_rays=record_rays,
                                transparent_shadows=transparent_shadows, glossy_samples=glossy_samples,
                                glossy_depth=glossy_depth, glossy_threshold=glossy_threshold, dask=dask,
-                               dask_workers=dask_workers)
+                               dask_workers=dask_workers, split_depth=split_depth,
+                               light_select_depth=light_select_depth)
     t_start = time.perf_counter()
     if integrator not in INTEGRATORS:
         raise RenderError(f"render: integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
     integ = dict(integrator=integrator, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
                  transparent_shadows=transparent_shadows, glossy_samples=glossy_samples, glossy_depth=glossy_depth,
-                 glossy_threshold=glossy_threshold)
+                 glossy_threshold=glossy_threshold, split_depth=split_depth,
+                 light_select_depth=light_select_depth)
     cam = scene.camera
     if spp is not None:
         cam = copy(cam)

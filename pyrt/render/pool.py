@@ -67,7 +67,8 @@ def run_pool(run, n, workers, abort, bar, collect, stopped=None):
 
 
 def integrator_factory(ps, integrator, *, max_depth, throughput_cutoff, offset, record_rays=False,
-                       transparent_shadows=False, glossy_samples=4, glossy_depth=2, glossy_threshold=0.4):
+                       transparent_shadows=False, glossy_samples=4, glossy_depth=2, glossy_threshold=0.4,
+                       split_depth=None, light_select_depth=None):
     """A function of no argument returning a fresh integrator for one chunk (``"whitted"`` or ``"glossy"``)
     over the prepared scene ``ps``; :class:`RenderError` for another name."""
     if integrator not in INTEGRATORS:
@@ -79,5 +80,6 @@ def integrator_factory(ps, integrator, *, max_depth, throughput_cutoff, offset, 
 
     def make():
         return cls(ps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
-                   record_rays=record_rays, transparent_shadows=transparent_shadows, **extra)
+                   record_rays=record_rays, transparent_shadows=transparent_shadows, split_depth=split_depth,
+                   light_select_depth=light_select_depth, **extra)
     return make

@@ -60,6 +60,21 @@ class PreviewOptions:
     #: with two or more (~0.0016), whose number grows with the depth: a documented bias of the preview (about
     #: -0.2% mean on GlassVaseFlowers, docs/preview.md); 1e-4 renders what pyrt.render would
     dielectric_cutoff: float = 0.01
+    #: where the model has a dielectric: from this bounce on, a glass hit continues along one of its reflected and
+    #: refracted rays (chosen by weight, weighted 1 / probability: unbiased, noisier) instead of both
+    #: (pyrt.render_full's split_depth). Default None: both at every bounce (measured, docs/preview.md: 1 saves
+    #: ~15% of GlassVaseFlowers' render for 1.5x its RMSE, a loss at equal time)
+    split_depth: int | None = None
+    #: from this bounce on, the hits of glossy (BSDF-sampled) rays are lit by one of the delta lights (the studio
+    #: rig's, the file's), chosen by its irradiance there (pyrt.render_full's light_select_depth: one shadow ray and
+    #: BSDF query instead of three, unbiased); camera hits and what mirrors and glass show keep every light.
+    #: None: every light at every hit
+    light_select_depth: int | None = 1
+    #: camera samples per render chunk where the model has a dielectric (elsewhere chunk_samples below): past
+    #: the first bounce the shading cost is mostly per batch (a texture lookup, a BSDF or shadow query per material
+    #: and light) and the glass rays' batches are small; bigger chunks make fewer, bigger ones (docs/preview.md:
+    #: TransmissionTest's render CPU x 0.71 with the light selection, peak RSS 539 -> 718 MB)
+    dielectric_chunk_samples: int = 1 << 16
     crease_angle: float = 30.0
     time_budget: float | None = None     # seconds per asset
     threads: int | None = None           # Embree/shading threads per render (None = all cores)
@@ -70,7 +85,7 @@ class PreviewOptions:
     chunk_samples: int = 16384
 
     def validate(self):
-        for name in ("width", "height", "spp", "chunk_samples"):
+        for name in ("width", "height", "spp", "chunk_samples", "dielectric_chunk_samples"):
             v = getattr(self, name)
             if int(v) != v or v < 1:
                 raise PreviewError(f"{name} must be a positive integer, got {v!r}")
@@ -102,6 +117,10 @@ class PreviewOptions:
             raise PreviewError(f"tonemap must be one of {', '.join(TONEMAPS)}, got {self.tonemap!r}")
         if not 0 <= self.dielectric_cutoff < 1:
             raise PreviewError(f"dielectric_cutoff must be in [0, 1), got {self.dielectric_cutoff}")
+        for name in ("split_depth", "light_select_depth"):
+            v = getattr(self, name)
+            if v is not None and (int(v) != v or v < 0):
+                raise PreviewError(f"{name} must be None or an integer >= 0, got {v!r}")
         if self.time_budget is not None and not self.time_budget > 0:
             raise PreviewError(f"time_budget must be > 0 seconds, got {self.time_budget}")
         return self

@@ -155,9 +155,11 @@ class PreviewScene:
             glass = bool(self.prepared.dielectric.any())
             depth = max(o.max_depth, o.dielectric_depth) if glass else o.max_depth
             cutoff = o.dielectric_cutoff if glass else 1e-4
+            glass_kw = dict(split_depth=o.split_depth, chunk_samples=o.dielectric_chunk_samples) if glass else {}
             res = render_full(self.scene, seed=o.seed, max_depth=depth, aovs=aovs, progress=False,
                               prepared=self.prepared, threads=o.threads, integrator="glossy",
-                              transparent_shadows=True, throughput_cutoff=cutoff, chunk_samples=o.chunk_samples)
+                              transparent_shadows=True, throughput_cutoff=cutoff,
+                              light_select_depth=o.light_select_depth, **{"chunk_samples": o.chunk_samples, **glass_kw})
         self.warnings += [str(w.message) for w in caught]
         if self.exposure is None:
             self.exposure, self.white = auto_exposure(res.image, self.model_mask())
