@@ -16,7 +16,7 @@ from pyrt.geometry.normals import crease_normals
 from pyrt.geometry.surface import GeometryError, GeometryTable, MeshData, validate_mesh
 from pyrt.lights.base import Light
 from pyrt.materials import Material
-from pyrt.core.transforms import SceneError, transform_matrix  # noqa: F401 (public here too)
+from pyrt.core.transforms import SceneError, apply_matrix, transform_matrix  # noqa: F401 (public here too)
 
 
 def _rgb(owner, name, v):
@@ -150,7 +150,7 @@ class Scene:
             src = trimesh.Trimesh(vertices=v_obj, faces=faces, process=False)
             normals = np.asarray(src.vertex_normals, dtype=np.float64)
         m = np.eye(4) if transform is None else transform_matrix(matrix=transform)
-        v_world = v_obj @ m[:3, :3].T + m[:3, 3]
+        v_world = apply_matrix(v_obj, m)
         if not np.all(np.isfinite(v_world)):
             raise GeometryError(f"mesh {name!r}: transformed vertices are not finite")
         # Embree sees float32 vertices: keep exactly those (as float64) so that rebuilt hit points lie on
@@ -161,7 +161,7 @@ class Scene:
         v_world = v_world.astype(np.float32).astype(np.float64)
         if normals is not None:
             nm = np.linalg.inv(m[:3, :3]).T
-            normals = normals @ nm.T
+            normals = apply_matrix(normals, nm)
             ln = np.linalg.norm(normals, axis=1, keepdims=True)
             normals = np.divide(normals, ln, out=np.zeros_like(normals), where=ln > 0)
         if np.linalg.det(m[:3, :3]) < 0:

@@ -15,6 +15,7 @@ import numpy as np
 from pyrt.shaders import color as _color
 
 from pyrt.core.camera import Camera
+from pyrt.core.transforms import apply_matrix
 from pyrt.core.image_io import encode_png, tonemap_to_display, write_bytes, write_exr
 from pyrt.integrators import PreparedScene
 from pyrt.render import render_full
@@ -46,7 +47,7 @@ class PreviewScene:
             self.up_axis, self.up_reason = o.up, "given"
         self.up_matrix = up_transform(self.up_axis)
         v = asset.world_vertices()
-        v = v @ self.up_matrix[:3, :3].T
+        v = apply_matrix(v, self.up_matrix)
         self.center, self.radius = bounding_sphere(v)
         if not self.radius > 0:
             raise PreviewError(f"{asset.path}: the model has zero size")

@@ -12,6 +12,7 @@ import numpy as np
 import trimesh
 
 from pyrt.core.camera import Camera
+from pyrt.core.transforms import apply_matrix
 from pyrt.geometry.normals import crease_normals
 from pyrt.lights import DirectionalLight, PointLight, SpotLight
 from pyrt.io.assets.common import DEFAULT_CREASE_ANGLE, AssetError, DefaultParams, PBRParams
@@ -123,8 +124,7 @@ class Asset:
         """All instances' vertices in world space, (N, 3) float64."""
         out = []
         for inst in self.instances:
-            m = inst.world_from_object
-            out.append(self.meshes[inst.mesh].vertices @ m[:3, :3].T + m[:3, 3])
+            out.append(apply_matrix(self.meshes[inst.mesh].vertices, inst.world_from_object))
         return np.concatenate(out) if out else np.zeros((0, 3))
 
     def bounds(self):
