@@ -122,7 +122,8 @@ class _SharedBuffers:
                                 ("rtcSetSharedGeometryBuffer", None, [vp, i, u, i, vp, sz, sz, sz]),
                                 ("rtcCommitGeometry", None, [vp]), ("rtcAttachGeometry", u, [vp, vp]),
                                 ("rtcReleaseGeometry", None, [vp]), ("rtcGetGeometry", vp, [vp, u]),
-                                ("rtcGetGeometryBufferData", vp, [vp, i, u]), ("rtcSetSceneBuildQuality", None, [vp, i])):
+                                ("rtcGetGeometryBufferData", vp, [vp, i, u]), ("rtcSetSceneBuildQuality", None, [vp, i]),
+                                ("rtcSetGeometryBuildQuality", None, [vp, i])):
             fn = lib[name]
             fn.restype, fn.argtypes = res, args
             self.fn[name] = fn
@@ -165,10 +166,11 @@ class _SharedBuffers:
         scene.is_committed = old
         return ctypes.c_void_p.from_address(id(scene) + head).value if seen == 0x5A17 else None
 
-    def attach(self, handle, v4, faces, nf):
+    def attach(self, handle, v4, faces, nf, quality="medium"):
         """Attach a triangle mesh reading ``v4`` ((V, 4) float32: x, y, z, pad) and the first ``nf`` rows of
-        ``faces`` ((nf + 1, 3) uint32: one row of padding, as Embree may read 16 bytes at a time); returns its
-        geometry id, or None (nothing attached) if Embree reports an error. The arrays must outlive the scene."""
+        ``faces`` ((nf + 1, 3) uint32: one row of padding, as Embree may read 16 bytes at a time), built at
+        ``quality`` (a :data:`BUILD_QUALITIES` name); returns its geometry id, or None (nothing attached) if
+        Embree reports an error. The arrays must outlive the scene."""
         fn = self.fn
         dev = fn["rtcGetSceneDevice"](handle)
         try:
@@ -180,6 +182,8 @@ class _SharedBuffers:
                                              0, 16, v4.shape[0])
             fn["rtcSetSharedGeometryBuffer"](geom, _RTC_BUFFER_TYPE_INDEX, 0, _RTC_FORMAT_UINT3, faces.ctypes.data,
                                              0, 12, nf)
+            if quality != "medium":
+                fn["rtcSetGeometryBuildQuality"](geom, BUILD_QUALITIES[quality])
             fn["rtcCommitGeometry"](geom)
             gid = fn["rtcAttachGeometry"](handle, geom) if fn["rtcGetDeviceError"](dev) == 0 else None
             fn["rtcReleaseGeometry"](geom)                   # the scene holds it now (or nobody: freed)
@@ -188,7 +192,9 @@ class _SharedBuffers:
             fn["rtcReleaseDevice"](dev)                      # rtcGetSceneDevice took a reference
 
     def set_build_quality(self, handle, quality):
-        """Set the scene's BVH build quality (a :data:`BUILD_QUALITIES` name) before its commit."""
+        """Set the scene's BVH build quality (a :data:`BUILD_QUALITIES` name) before its commit (a triangle mesh
+        is built at its own geometry's quality as well: :meth:`attach` sets that; measured, the scene's alone
+        changes nothing on one big mesh)."""
         self.fn["rtcSetSceneBuildQuality"](handle, BUILD_QUALITIES[quality])
 
 
@@ -211,9 +217,10 @@ class Accel:
         the same geometry, see the module docstring), or the binding's copy where that is not available;
         "copy": always the binding's element-by-element copy. :attr:`buffers` says what was used.
     build_quality : {"medium", "low", "high"}
-        Embree's BVH build quality (``rtcSetSceneBuildQuality``; Embree's default is "medium"). "low" builds
-        faster and traces slower; it needs the shared path's scene handle (ignored, and :attr:`build_quality`
-        is "medium", when the binding's copy is used).
+        Embree's BVH build quality, of the scene and of every mesh (``rtcSetSceneBuildQuality``,
+        ``rtcSetGeometryBuildQuality``; Embree's default is "medium"). "low" builds faster and traces slower;
+        it needs the shared path's scene handle (ignored, and :attr:`build_quality` is "medium", when the
+        binding's copy is used).
     """
 
     def __init__(self, *, threads=None, buffers="shared", build_quality="medium"):
@@ -262,7 +269,7 @@ class Accel:
             v4[:, :3] = v
             f3 = np.zeros((f.shape[0] + 1, 3), dtype=np.uint32)
             f3[:-1] = f
-            gid = self._api.attach(self._handle, v4, f3, f.shape[0])
+            gid = self._api.attach(self._handle, v4, f3, f.shape[0], self.build_quality)
             if gid is not None and gid != len(self._meshes):
                 raise RuntimeError(f"Accel: Embree gave mesh {len(self._meshes)} the geometry id {gid}")
             v, f = v4, f3

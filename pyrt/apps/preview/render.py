@@ -23,7 +23,8 @@ from pyrt.lights import LatLongEnvironment, set_environment
 from pyrt.materials import Lambert
 from pyrt.scene import Scene
 from pyrt.io.assets import Asset, load_asset
-from pyrt.apps.preview.options import BudgetExceeded, PreviewError, PreviewInterrupted, PreviewOptions
+from pyrt.apps.preview.options import (BVH_LOW_TRIANGLES, BudgetExceeded, PreviewError, PreviewInterrupted,
+                                      PreviewOptions)
 from pyrt.apps.preview.studio import STUDIO_PREVIEW_SAMPLES, StudioEnvironment, camera_rotation
 from pyrt.apps.preview.rig import (auto_exposure, bounding_sphere, detect_up_axis, frame_camera, frame_points,
                                    ground_radiance, hull_points, studio_rig, up_transform)
@@ -92,7 +93,10 @@ class PreviewScene:
             self.studio_environment = True
             self.ambient_radiance = 0.0
         self.scene.ambient = np.full(3, self.ambient_radiance)
-        self.prepared = PreparedScene(self.scene, threads=o.threads)
+        quality = o.bvh_quality
+        if quality == "auto":
+            quality = "low" if asset.n_triangles >= BVH_LOW_TRIANGLES else "medium"
+        self.prepared = PreparedScene(self.scene, threads=o.threads, build_quality=quality)
         self.timings.update(self.prepared.timings)
         self.exposure = o.exposure
         self.white = None
