@@ -93,17 +93,25 @@ def _crease_by_position(vertices, faces, crease_angle):
     acc_pos = np.empty((n_pos, 3))
     for c in range(3):   # weights (F, 3): each corner's angle x its face normal's component c
         acc_pos[:, c] = np.bincount(cpos, weights=(ang * fn[:, c:c + 1]).ravel(), minlength=n_pos)
-    la = np.linalg.norm(acc_pos, axis=1, keepdims=True)
+    la = norm(acc_pos)[:, None]
     unit_pos = np.divide(acc_pos, la, out=np.zeros_like(acc_pos), where=la > 0)
     # a position is "smooth" when every face normal there is within half the crease angle of the mean direction
     # (less a margin far above the rounding of these dot products); its corners all accept every other corner
     half = math.radians(crease_angle) / 2 - 1e-7
     cos_half = math.cos(half) if half > 0 else 2.0           # 2: no position qualifies
-    far = np.empty((nf, 3), dtype=bool)
-    for k in range(3):
-        far[:, k] = np.einsum("ij,ij->i", fn, np.take(unit_pos, cpos[k::3], axis=0)) < cos_half
-    rough_pos = np.bincount(cpos, weights=far.ravel(), minlength=n_pos) > 0
-    del far
+    # Only some corners need their dot product: with u the position's mean direction and W its summed angles,
+    # sum_j w_j (1 - n_j . u) = W - |acc| and every term is >= 0 (|n_j| <= 1), so a corner of angle w has
+    # 1 - n . u <= (W - |acc|) / w; where w (1 - cos_half) exceeds that bound (plus a margin far above its
+    # rounding) the corner is within half the crease angle. On a smooth mesh almost every corner is: the dot
+    # products (three (F, 3) gathers) are formed for the few others only. Same classification as testing all.
+    w = ang.ravel()
+    total = np.bincount(cpos, weights=w, minlength=n_pos)
+    slack = total - la[:, 0] + (1e-9 * total + 1e-300)
+    cand = np.flatnonzero(w * (1.0 - cos_half) <= np.take(slack, cpos))
+    far = np.einsum("ij,ij->i", np.take(fn, cand // 3, axis=0), np.take(unit_pos, cpos[cand], axis=0)) < cos_half
+    rough_pos = np.zeros(n_pos, dtype=bool)
+    rough_pos[cpos[cand[far]]] = True
+    del cand, far, slack
     rough = np.flatnonzero(rough_pos[cpos])                   # corners of the other positions, ascending
     acc_rough = _pairwise_normals(rough, cpos, fn, ang, crease_angle)
     # split vertices whose corners got different normals: the output vertices in (source vertex, normal bits)

@@ -209,9 +209,9 @@ class PreviewResult:
 
 #: The phases a preview reports (:attr:`PreviewResult.phases`, the ``pyrt-preview`` summary line, the batch summary):
 #: reading the file; up axis and bounds; welding + crease-angle normals (meshes without normals); materials and
-#: :meth:`pyrt.Scene.add_mesh`; the flat geometry table, float32 range check and copies into Embree; Embree's
-#: BVH build; rendering every view; tone mapping and encoding the files; writing them. Tangents have no phase: they
-#: are computed per hit from the triangles' UVs.
+#: :meth:`pyrt.Scene.add_mesh`; the flat geometry table, float32 range check and handing the arrays to Embree;
+#: Embree's BVH build; rendering every view; tone mapping and encoding the files; writing them. Tangents have no
+#: phase: they are computed per hit from the triangles' UVs.
 PHASES = ("load", "frame", "normals", "scene", "geometry", "bvh", "render", "encode", "write")
 
 
