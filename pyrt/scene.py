@@ -145,7 +145,7 @@ class Scene:
                                     f"got {normals.shape}")
         elif smooth == "auto":
             src, faces, normals = crease_normals(v_obj, faces, crease_angle, weld="edges")
-            v_obj, uv = v_obj[src], (None if uv is None else uv[src])
+            v_obj, uv = np.take(v_obj, src, axis=0), (None if uv is None else np.take(uv, src, axis=0))
         elif smooth:
             src = trimesh.Trimesh(vertices=v_obj, faces=faces, process=False)
             normals = np.asarray(src.vertex_normals, dtype=np.float64)
