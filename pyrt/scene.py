@@ -13,6 +13,7 @@ import trimesh
 from pyrt.core import checks
 from pyrt.core.camera import Camera
 from pyrt.geometry.normals import crease_normals
+from pyrt.shaders.vec import divide_rows, norm
 from pyrt.geometry.surface import GeometryError, GeometryTable, MeshData, validate_mesh
 from pyrt.lights.base import Light
 from pyrt.materials import Material
@@ -162,8 +163,7 @@ class Scene:
         if normals is not None:
             nm = np.linalg.inv(m[:3, :3]).T
             normals = apply_matrix(normals, nm)
-            ln = np.linalg.norm(normals, axis=1, keepdims=True)
-            normals = np.divide(normals, ln, out=np.zeros_like(normals), where=ln > 0)
+            normals = divide_rows(normals, norm(normals))       # bitwise the broadcast np.divide by the norm
         if np.linalg.det(m[:3, :3]) < 0:
             faces = faces[:, [0, 2, 1]]    # a mirror turns counter-clockwise into clockwise: keep the front side
         mat_id = self.add_material(material)

@@ -85,6 +85,20 @@ def norm(a):
     return np.sqrt(dot(a, a))
 
 
+def divide_rows(a, s):
+    """``a / s[:, None]`` where ``s > 0``, zero rows elsewhere, column by column: (N, C), (N,) -> (N, C).
+
+    Bitwise ``np.divide(a, s[:, None], out=np.zeros_like(a), where=s[:, None] > 0)`` at a fraction of its time
+    (a broadcast over the short last axis; see the note above). Unlike :func:`normalize` it divides (no
+    multiplication by an inverse), so results keep the bits of code written with ``np.divide``.
+    """
+    out = np.zeros(np.broadcast_shapes(a.shape, s.shape + (1,)), dtype=np.result_type(a, s))
+    pos = s > 0
+    for c in range(out.shape[-1]):
+        np.divide(a[:, c], s, out=out[:, c], where=pos)
+    return out
+
+
 def normalize(a):
     """Unit vectors; rows of zero length stay zero (no NaN)."""
     n = norm(a)

@@ -195,3 +195,15 @@ def test_vec_cross_is_bitwise_np_cross():
         assert np.array_equal(cross(a, b), np.cross(a, b))
     a = rng.normal(size=(100, 3)).astype(np.float32)
     assert cross(a, a[::-1]).dtype == np.float32 and np.array_equal(cross(a, a[::-1]), np.cross(a, a[::-1]))
+
+
+def test_vec_divide_rows_is_bitwise_the_broadcast_divide():
+    from pyrt.shaders.vec import divide_rows, norm
+
+    rng = np.random.default_rng(5)
+    a = rng.normal(size=(2000, 3))
+    a[:50] = 0.0
+    s = np.linalg.norm(a, axis=1, keepdims=True)
+    ref = np.divide(a, s, out=np.zeros_like(a), where=s > 0)
+    assert np.array_equal(divide_rows(a, norm(a)).view(np.int64), ref.view(np.int64))
+    assert np.array_equal(norm(a), s[:, 0])

@@ -24,7 +24,7 @@ import math
 import numpy as np
 import trimesh
 
-from pyrt.shaders.vec import cross, norm
+from pyrt.shaders.vec import cross, divide_rows, norm, scale_rows
 
 #: Default crease angle (degrees).
 DEFAULT_CREASE_ANGLE = 30.0
@@ -92,9 +92,9 @@ def _crease_by_position(vertices, faces, crease_angle):
     # pass 1: one angle-weighted sum per position; the same terms, in corner order, as pass 2's pairs
     acc_pos = np.empty((n_pos, 3))
     for c in range(3):   # weights (F, 3): each corner's angle x its face normal's component c
-        acc_pos[:, c] = np.bincount(cpos, weights=(ang * fn[:, c:c + 1]).ravel(), minlength=n_pos)
+        acc_pos[:, c] = np.bincount(cpos, weights=scale_rows(ang, fn[:, c]).ravel(), minlength=n_pos)
     la = norm(acc_pos)[:, None]
-    unit_pos = np.divide(acc_pos, la, out=np.zeros_like(acc_pos), where=la > 0)
+    unit_pos = divide_rows(acc_pos, la[:, 0])
     # a position is "smooth" when every face normal there is within half the crease angle of the mean direction
     # (less a margin far above the rounding of these dot products); its corners all accept every other corner
     half = math.radians(crease_angle) / 2 - 1e-7
@@ -151,16 +151,15 @@ def _face_normals_and_angles(v, f):
 
     Three gathers of (F, 3) corner positions and three edge lengths (not a (F, 3, 3) copy and six norms); the
     values are bitwise those of the direct formulas (``a - b == -(b - a)`` exactly in IEEE arithmetic; the
-    column-by-column ``cross`` and ``norm`` of :mod:`pyrt.shaders.vec` are bitwise ``np.cross`` and
-    ``np.linalg.norm(axis=1)``, at less than half their time).
+    column-by-column ``cross``, ``norm`` and ``divide_rows`` of :mod:`pyrt.shaders.vec` are bitwise ``np.cross``,
+    ``np.linalg.norm(axis=1)`` and the broadcast ``np.divide``, at less than half their time).
     """
     nf = f.shape[0]
     p = [np.take(v, f[:, k], axis=0) for k in range(3)]
     e = [p[(k + 1) % 3] - p[k] for k in range(3)]             # edge k: corner k -> corner k+1
     del p
     fn = cross(e[0], -e[2])
-    ln = norm(fn)[:, None]
-    fn = np.divide(fn, ln, out=np.zeros_like(fn), where=ln > 0)
+    fn = divide_rows(fn, norm(fn))
     length = [norm(x) for x in e]
     ang = np.zeros((nf, 3))
     for k in range(3):                                         # corner k: toward k+1 (e[k]) and k+2 (-e[k+2])
