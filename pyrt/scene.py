@@ -13,10 +13,11 @@ import trimesh
 from pyrt.core import checks
 from pyrt.core.camera import Camera
 from pyrt.geometry.normals import crease_normals
+from pyrt.shaders.vec import divide_rows, norm
 from pyrt.geometry.surface import GeometryError, GeometryTable, MeshData, validate_mesh
 from pyrt.lights.base import Light
 from pyrt.materials import Material
-from pyrt.core.transforms import SceneError, transform_matrix  # noqa: F401 (public here too)
+from pyrt.core.transforms import SceneError, apply_matrix, transform_matrix  # noqa: F401 (public here too)
 
 
 def _rgb(owner, name, v):
@@ -163,13 +164,13 @@ class Scene:
                                     f"got {normals.shape}")
         elif smooth == "auto":
             src, faces, normals = crease_normals(v_obj, faces, crease_angle, weld="edges")
-            v_obj, uv = v_obj[src], (None if uv is None else uv[src])
-            uv_sets = uv_sets and {k: a[src] for k, a in uv_sets.items()}
+            v_obj, uv = np.take(v_obj, src, axis=0), (None if uv is None else np.take(uv, src, axis=0))
+            uv_sets = uv_sets and {k: np.take(a, src, axis=0) for k, a in uv_sets.items()}
         elif smooth:
             src = trimesh.Trimesh(vertices=v_obj, faces=faces, process=False)
             normals = np.asarray(src.vertex_normals, dtype=np.float64)
         m = np.eye(4) if transform is None else transform_matrix(matrix=transform)
-        v_world = v_obj @ m[:3, :3].T + m[:3, 3]
+        v_world = apply_matrix(v_obj, m)
         if not np.all(np.isfinite(v_world)):
             raise GeometryError(f"mesh {name!r}: transformed vertices are not finite")
         # Embree sees float32 vertices: keep exactly those (as float64) so that rebuilt hit points lie on
@@ -180,9 +181,8 @@ class Scene:
         v_world = v_world.astype(np.float32).astype(np.float64)
         if normals is not None:
             nm = np.linalg.inv(m[:3, :3]).T
-            normals = normals @ nm.T
-            ln = np.linalg.norm(normals, axis=1, keepdims=True)
-            normals = np.divide(normals, ln, out=np.zeros_like(normals), where=ln > 0)
+            normals = apply_matrix(normals, nm)
+            normals = divide_rows(normals, norm(normals))       # bitwise the broadcast np.divide by the norm
         if np.linalg.det(m[:3, :3]) < 0:
             faces = faces[:, [0, 2, 1]]    # a mirror turns counter-clockwise into clockwise: keep the front side
         mat_id = self.add_material(material)

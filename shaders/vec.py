@@ -85,6 +85,20 @@ def norm(a):
     return np.sqrt(dot(a, a))
 
 
+def divide_rows(a, s):
+    """``a / s[:, None]`` where ``s > 0``, zero rows elsewhere, column by column: (N, C), (N,) -> (N, C).
+
+    Bitwise ``np.divide(a, s[:, None], out=np.zeros_like(a), where=s[:, None] > 0)`` at a fraction of its time
+    (a broadcast over the short last axis; see the note above). Unlike :func:`normalize` it divides (no
+    multiplication by an inverse), so results keep the bits of code written with ``np.divide``.
+    """
+    out = np.zeros(np.broadcast_shapes(a.shape, s.shape + (1,)), dtype=np.result_type(a, s))
+    pos = s > 0
+    for c in range(out.shape[-1]):
+        np.divide(a[:, c], s, out=out[:, c], where=pos)
+    return out
+
+
 def normalize(a):
     """Unit vectors; rows of zero length stay zero (no NaN)."""
     n = norm(a)
@@ -135,8 +149,18 @@ def safe_sqrt(x):
 
 
 def cross(a, b):
-    """Row-wise cross product."""
-    return np.cross(a, b)
+    """Row-wise cross product of (..., 3) arrays (broadcastable), column by column.
+
+    Bitwise ``np.cross(a, b)`` (the same products and differences, ``a1 b2 - a2 b1``, ...) at ~0.4x its time on
+    (N, 3) rows (measured on 5.2 M rows: 0.17 s against 0.40 s of CPU).
+    """
+    a = np.asarray(a)
+    b = np.asarray(b)
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape), dtype=np.result_type(a, b))
+    for k in range(3):
+        i, j = (k + 1) % 3, (k + 2) % 3
+        np.subtract(a[..., i] * b[..., j], a[..., j] * b[..., i], out=out[..., k])
+    return out
 
 
 def half_vector(wo, wi):

@@ -296,6 +296,24 @@ def test_options_are_validated():
         P.PreviewOptions(up="y").validate()
     with pytest.raises(P.PreviewError, match="formats"):
         P.PreviewOptions(formats=("jpg",)).validate()
+    with pytest.raises(P.PreviewError, match="bvh_quality"):
+        P.PreviewOptions(bvh_quality="fast").validate()
+
+
+def test_bvh_quality_auto_picks_low_for_big_models_and_keeps_the_image(monkeypatch):
+    """``bvh_quality="auto"``: Embree's "low" build from BVH_LOW_TRIANGLES triangles on, "medium" below; the BVH
+    changes, the closest hits and so the image do not (bitwise)."""
+    asset = load_asset(BLOB)
+    images = {}
+    for threshold, quality, expect in ((10 ** 9, "auto", "medium"), (1, "auto", "low"), (10 ** 9, "high", "high")):
+        monkeypatch.setattr(P_render, "BVH_LOW_TRIANGLES", threshold)
+        ps = P.PreviewScene(asset, P.PreviewOptions(bvh_quality=quality, width=48, height=36, spp=1))
+        try:
+            assert ps.prepared.accel.build_quality == expect
+            images[expect] = ps.render_view(35.0).image
+        finally:
+            ps.close()
+    assert np.array_equal(images["low"], images["medium"]) and np.array_equal(images["high"], images["medium"])
 
 
 def test_asset_camera_and_lights():

@@ -3,6 +3,7 @@
     python tools/big_mesh.py                         # generate /tmp/pyrt_big_mesh.ply (5.24 M triangles), preview it
     python tools/big_mesh.py --python /work/main/.venv/bin/python   # the same run with another checkout's pyrt
     python tools/big_mesh.py --subdivisions 7        # 328 k triangles (quick)
+    python tools/big_mesh.py --preview-args="--bvh-quality medium"   # more pyrt-preview options
 
 The mesh is generated in code, never committed: an icosphere of ``--subdivisions`` levels (9: 5,242,880 triangles,
 2,621,442 vertices) whose radius is displaced by smooth bumps (a sum of three products of sines, amplitude 5 %) and
@@ -104,6 +105,7 @@ def main(argv=None):
     ap.add_argument("--python", default=sys.executable, help="interpreter whose pyrt runs the preview")
     ap.add_argument("--out", default=None, help="preview PNG (default: a file in the temporary folder)")
     ap.add_argument("--runs", type=int, default=1, help="repeat the preview (one at a time)")
+    ap.add_argument("--preview-args", default="", help="more pyrt-preview arguments, e.g. '--bvh-quality medium'")
     args = ap.parse_args(argv)
     mesh = args.mesh or os.path.join(tempfile.gettempdir(), f"pyrt_big_mesh_{args.subdivisions}.ply")
     if not os.path.exists(mesh):
@@ -116,10 +118,10 @@ def main(argv=None):
     out = args.out or os.path.join(tempfile.gettempdir(), "pyrt_big_mesh_preview.png")
     for k in range(args.runs):
         load0 = os.getloadavg()
-        wall, rss, cpu, stdout, err = run_preview(args.python, mesh, out)
+        wall, rss, cpu, stdout, err = run_preview(args.python, mesh, out, args.preview_args.split())
         load1 = os.getloadavg()
         summary = [ln for ln in stdout.splitlines() if "triangles" in ln]
-        print(f"run {k + 1}: {args.python}")
+        print(f"run {k + 1}: {args.python} {args.preview_args}".rstrip())
         for ln in summary:
             print(f"  summary: {ln}")
         print(f"  wall {wall:.1f} s, CPU {cpu:.1f} s, peak RSS {rss / 2**30:.2f} GiB, load average {load0[0]:.1f} -> {load1[0]:.1f}"

@@ -24,6 +24,8 @@ import math
 import numpy as np
 import trimesh
 
+from pyrt.shaders.vec import cross, divide_rows, norm, scale_rows
+
 #: Default crease angle (degrees).
 DEFAULT_CREASE_ANGLE = 30.0
 
@@ -90,18 +92,26 @@ def _crease_by_position(vertices, faces, crease_angle):
     # pass 1: one angle-weighted sum per position; the same terms, in corner order, as pass 2's pairs
     acc_pos = np.empty((n_pos, 3))
     for c in range(3):   # weights (F, 3): each corner's angle x its face normal's component c
-        acc_pos[:, c] = np.bincount(cpos, weights=(ang * fn[:, c:c + 1]).ravel(), minlength=n_pos)
-    la = np.linalg.norm(acc_pos, axis=1, keepdims=True)
-    unit_pos = np.divide(acc_pos, la, out=np.zeros_like(acc_pos), where=la > 0)
+        acc_pos[:, c] = np.bincount(cpos, weights=scale_rows(ang, fn[:, c]).ravel(), minlength=n_pos)
+    la = norm(acc_pos)[:, None]
+    unit_pos = divide_rows(acc_pos, la[:, 0])
     # a position is "smooth" when every face normal there is within half the crease angle of the mean direction
     # (less a margin far above the rounding of these dot products); its corners all accept every other corner
     half = math.radians(crease_angle) / 2 - 1e-7
     cos_half = math.cos(half) if half > 0 else 2.0           # 2: no position qualifies
-    far = np.empty((nf, 3), dtype=bool)
-    for k in range(3):
-        far[:, k] = np.einsum("ij,ij->i", fn, np.take(unit_pos, cpos[k::3], axis=0)) < cos_half
-    rough_pos = np.bincount(cpos, weights=far.ravel(), minlength=n_pos) > 0
-    del far
+    # Only some corners need their dot product: with u the position's mean direction and W its summed angles,
+    # sum_j w_j (1 - n_j . u) = W - |acc| and every term is >= 0 (|n_j| <= 1), so a corner of angle w has
+    # 1 - n . u <= (W - |acc|) / w; where w (1 - cos_half) exceeds that bound (plus a margin far above its
+    # rounding) the corner is within half the crease angle. On a smooth mesh almost every corner is: the dot
+    # products (three (F, 3) gathers) are formed for the few others only. Same classification as testing all.
+    w = ang.ravel()
+    total = np.bincount(cpos, weights=w, minlength=n_pos)
+    slack = total - la[:, 0] + (1e-9 * total + 1e-300)
+    cand = np.flatnonzero(w * (1.0 - cos_half) <= np.take(slack, cpos))
+    far = np.einsum("ij,ij->i", np.take(fn, cand // 3, axis=0), np.take(unit_pos, cpos[cand], axis=0)) < cos_half
+    rough_pos = np.zeros(n_pos, dtype=bool)
+    rough_pos[cpos[cand[far]]] = True
+    del cand, far, slack
     rough = np.flatnonzero(rough_pos[cpos])                   # corners of the other positions, ascending
     acc_rough = _pairwise_normals(rough, cpos, fn, ang, crease_angle)
     # split vertices whose corners got different normals: the output vertices in (source vertex, normal bits)
@@ -115,37 +125,42 @@ def _crease_by_position(vertices, faces, crease_angle):
     ukey, first_idx, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
     inv = inv.ravel()
     urv = rv[first_idx]
-    # output order: by source vertex, then (several normals of one vertex) by the normal's bits as np.unique sorts
-    src = np.concatenate([sv, urv])
-    rank = np.concatenate([np.zeros(sv.size, dtype=np.int64), np.arange(urv.size) - np.searchsorted(urv, urv)])
-    normals = np.concatenate([np.take(unit_pos, pos_of_vertex[sv], axis=0), acc_rough[first_idx]])
+    # output order: by source vertex, then (several normals of one vertex) by the normal's bits as np.unique sorts.
+    # sv and urv both ascend and share no vertex (smooth / rough), so the order is their merge: each one's place is
+    # its index plus the number of the other's vertices below it (no sort of all the output vertices)
+    smooth_normals = np.take(unit_pos, pos_of_vertex[sv], axis=0)
     out_of_vertex = np.zeros(v.shape[0], dtype=np.int64)
     if not urv.size:                 # no vertex split: sv (ascending) is the output order
         out_of_vertex[sv] = np.arange(sv.size)
-        return sv.astype(np.int64), np.take(out_of_vertex, corner_vertex).reshape(nf, 3), normals
-    order = np.lexsort((rank, src))
-    new_index = np.empty(order.size, dtype=np.int64)
-    new_index[order] = np.arange(order.size)
-    out_of_vertex[sv] = new_index[:sv.size]
+        return sv.astype(np.int64), np.take(out_of_vertex, corner_vertex).reshape(nf, 3), smooth_normals
+    at_sv = np.arange(sv.size) + np.searchsorted(urv, sv)
+    at_urv = np.arange(urv.size) + np.searchsorted(sv, urv)
+    n_out = sv.size + urv.size
+    src = np.empty(n_out, dtype=np.int64)
+    src[at_sv], src[at_urv] = sv, urv
+    normals = np.empty((n_out, 3))
+    normals[at_sv], normals[at_urv] = smooth_normals, acc_rough[first_idx]
+    out_of_vertex[sv] = at_sv
     out_faces = np.take(out_of_vertex, corner_vertex)
-    out_faces[rough] = new_index[sv.size + inv]
-    return src[order].astype(np.int64), out_faces.reshape(nf, 3), np.take(normals, order, axis=0)
+    out_faces[rough] = at_urv[inv]
+    return src, out_faces.reshape(nf, 3), normals
 
 
 def _face_normals_and_angles(v, f):
     """Unit face normals (zero for degenerate faces) and the interior angle at each corner: (F, 3), (F, 3).
 
     Three gathers of (F, 3) corner positions and three edge lengths (not a (F, 3, 3) copy and six norms); the
-    values are bitwise those of the direct formulas (``a - b == -(b - a)`` exactly in IEEE arithmetic).
+    values are bitwise those of the direct formulas (``a - b == -(b - a)`` exactly in IEEE arithmetic; the
+    column-by-column ``cross``, ``norm`` and ``divide_rows`` of :mod:`pyrt.shaders.vec` are bitwise ``np.cross``,
+    ``np.linalg.norm(axis=1)`` and the broadcast ``np.divide``, at less than half their time).
     """
     nf = f.shape[0]
     p = [np.take(v, f[:, k], axis=0) for k in range(3)]
     e = [p[(k + 1) % 3] - p[k] for k in range(3)]             # edge k: corner k -> corner k+1
     del p
-    fn = np.cross(e[0], -e[2])
-    ln = np.linalg.norm(fn, axis=1, keepdims=True)
-    fn = np.divide(fn, ln, out=np.zeros_like(fn), where=ln > 0)
-    length = [np.linalg.norm(x, axis=1) for x in e]
+    fn = cross(e[0], -e[2])
+    fn = divide_rows(fn, norm(fn))
+    length = [norm(x) for x in e]
     ang = np.zeros((nf, 3))
     for k in range(3):                                         # corner k: toward k+1 (e[k]) and k+2 (-e[k+2])
         nab = length[k] * length[(k + 2) % 3]
@@ -158,11 +173,18 @@ def _position_ids(v):
     """Weld by exact position: ``(group id of each vertex (V,), number of groups)``; -0.0 and 0.0 are one position.
 
     Sorted by one 64-bit hash of the three coordinates' bits (one argsort instead of a three-key lexsort); if two
-    different positions share a hash (never seen, but possible), by the three keys instead.
+    different positions share a hash (never seen, but possible), by the three keys instead. When every hash is
+    distinct (one sort of the hashes, ~0.4x the argsort's time) every vertex is its own position: ``arange(V)``.
     """
     bits = (v + 0.0).view(np.int64)                            # + 0.0 turns -0.0 into 0.0; no NaN here (validated)
-    with np.errstate(over="ignore"):
-        h = bits[:, 0] * np.int64(-7046029254386353131) + bits[:, 1] * np.int64(-4658895280553007687) + bits[:, 2]
+    ub = bits.view(np.uint64)
+    h = _mix64(ub[:, 0])
+    for k in (1, 2):
+        h = _mix64(h ^ ub[:, k])
+    h = h.view(np.int64)
+    sh = np.sort(h)
+    if not np.any(sh[1:] == sh[:-1]):        # distinct hashes, so distinct positions (indexed meshes): no argsort
+        return np.arange(v.shape[0]), v.shape[0]
     order = np.argsort(h, kind="stable")
     sb = np.take(bits, order, axis=0)
     new = np.ones(order.size, dtype=bool)
@@ -175,6 +197,21 @@ def _position_ids(v):
     gid = np.empty(order.size, dtype=np.int64)
     gid[order] = np.cumsum(new) - 1
     return gid, int(new.sum())
+
+
+def _mix64(z):
+    """SplitMix64's finaliser (Steele et al. 2014) on uint64 (a new array): every input bit reaches every output bit.
+
+    Coordinates read from float32 files have 29 zero low bits in float64; a plain multiply-add of them keeps those
+    zeros (a 35-bit hash: measured, equal hashes of different positions on the 2.6 M vertices of tools/big_mesh.py,
+    so the slow three-key sort ran). Mixed, such collisions are as rare as 64-bit chance allows.
+    """
+    z = z ^ (z >> np.uint64(30))
+    z *= np.uint64(0xBF58476D1CE4E5B9)
+    z ^= z >> np.uint64(27)
+    z *= np.uint64(0x94D049BB133111EB)
+    z ^= z >> np.uint64(31)
+    return z
 
 
 def _pairwise_normals(corners, cpos, fn, ang, crease_angle):

@@ -41,6 +41,8 @@ class PreparedScene:
     scene : pyrt.Scene
     threads : int, optional
         Worker threads of the accelerator's batch queries (default: all cores).
+    build_quality : {"medium", "low", "high"}
+        Embree's BVH build quality (:class:`pyrt.geometry.Accel`; default Embree's "medium").
 
     Besides ``geo`` (:class:`pyrt.geometry.GeometryTable`) and ``accel`` (:class:`pyrt.geometry.Accel`) it
     holds what the integrators look at before they render, to model no more than the scene needs:
@@ -56,7 +58,7 @@ class PreparedScene:
     #: Embree) and ``"bvh"`` (Embree's BVH build). Tangents have no phase: they are computed per hit.
     timings: dict
 
-    def __init__(self, scene, *, threads=None):
+    def __init__(self, scene, *, threads=None, build_quality="medium"):
         t0 = time.perf_counter()
         scene.validate()      # parameters changed since construction are errors here, not wrong images
         tune_allocator()      # every render goes through here: chunk temporaries reuse heap memory
@@ -64,7 +66,7 @@ class PreparedScene:
         self.geo = scene.geometry_table()
         # meshes float32 ray tracing distorts or loses: warned about; nothing left to render: an error
         precision.check_range(scene.meshes, scene.camera.position)
-        self.accel = Accel(threads=threads)
+        self.accel = Accel(threads=threads, build_quality=build_quality)
         for m in self.geo.meshes:
             self.accel.add_mesh(m.vertices, m.faces)
         t1 = time.perf_counter()

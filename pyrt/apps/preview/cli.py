@@ -62,6 +62,8 @@ def _parser():
     ap.add_argument("--seed", type=nonnegative_int, default=0)
     ap.add_argument("--budget", type=positive_float, help="time budget per asset (s)")
     ap.add_argument("--threads", type=positive_int, help="render threads per asset")
+    ap.add_argument("--bvh-quality", default="auto", choices=["auto", "low", "medium", "high"],
+                    help="Embree's BVH build quality (auto: low from 1 M triangles, else medium)")
     ap.add_argument("--dask", nargs="?", const="local", default=None, metavar="SCHEDULER",
                     help="run the batch on Dask: a LocalCluster, or the given scheduler address")
     ap.add_argument("--workers", type=positive_int, default=2, help="LocalCluster workers (with --dask)")
@@ -94,7 +96,8 @@ def _run(args, cancel):
                           ground=not args.no_ground, studio_env=args.studio_env == "on", environment=args.env, environment_lighting=args.env_lighting,
                           environment_samples=args.env_samples, exposure=args.exposure,
                           tonemap=args.tonemap, turntable=args.turntable, formats=formats, aovs=args.aovs,
-                          seed=args.seed, time_budget=args.budget, threads=args.threads).validate()
+                          seed=args.seed, time_budget=args.budget, threads=args.threads,
+                          bvh_quality=args.bvh_quality).validate()
     paths = collect_inputs(args.models)
     if not paths:
         raise PreviewError(f"no models found in {' '.join(args.models)} "

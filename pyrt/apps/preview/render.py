@@ -15,6 +15,7 @@ import numpy as np
 from pyrt.shaders import color as _color
 
 from pyrt.core.camera import Camera
+from pyrt.core.transforms import apply_matrix
 from pyrt.core.image_io import encode_png, tonemap_to_display, write_bytes, write_exr
 from pyrt.integrators import PreparedScene
 from pyrt.render import render_full
@@ -22,7 +23,8 @@ from pyrt.lights import LatLongEnvironment, set_environment
 from pyrt.materials import Lambert
 from pyrt.scene import Scene
 from pyrt.io.assets import Asset, load_asset
-from pyrt.apps.preview.options import BudgetExceeded, PreviewError, PreviewInterrupted, PreviewOptions
+from pyrt.apps.preview.options import (BVH_LOW_TRIANGLES, BudgetExceeded, PreviewError, PreviewInterrupted,
+                                      PreviewOptions)
 from pyrt.apps.preview.studio import STUDIO_PREVIEW_SAMPLES, StudioEnvironment, camera_rotation
 from pyrt.apps.preview.rig import (auto_exposure, bounding_sphere, detect_up_axis, frame_camera, frame_points,
                                    ground_radiance, hull_points, studio_rig, up_transform)
@@ -46,7 +48,7 @@ class PreviewScene:
             self.up_axis, self.up_reason = o.up, "given"
         self.up_matrix = up_transform(self.up_axis)
         v = asset.world_vertices()
-        v = v @ self.up_matrix[:3, :3].T
+        v = apply_matrix(v, self.up_matrix)
         self.center, self.radius = bounding_sphere(v)
         if not self.radius > 0:
             raise PreviewError(f"{asset.path}: the model has zero size")
@@ -91,7 +93,10 @@ class PreviewScene:
             self.studio_environment = True
             self.ambient_radiance = 0.0
         self.scene.ambient = np.full(3, self.ambient_radiance)
-        self.prepared = PreparedScene(self.scene, threads=o.threads)
+        quality = o.bvh_quality
+        if quality == "auto":
+            quality = "low" if asset.n_triangles >= BVH_LOW_TRIANGLES else "medium"
+        self.prepared = PreparedScene(self.scene, threads=o.threads, build_quality=quality)
         self.timings.update(self.prepared.timings)
         self.exposure = o.exposure
         self.white = None
@@ -206,9 +211,9 @@ class PreviewResult:
 
 #: The phases a preview reports (:attr:`PreviewResult.phases`, the ``pyrt-preview`` summary line, the batch summary):
 #: reading the file; up axis and bounds; welding + crease-angle normals (meshes without normals); materials and
-#: :meth:`pyrt.Scene.add_mesh`; the flat geometry table, float32 range check and copies into Embree; Embree's
-#: BVH build; rendering every view; tone mapping and encoding the files; writing them. Tangents have no phase: they
-#: are computed per hit from the triangles' UVs.
+#: :meth:`pyrt.Scene.add_mesh`; the flat geometry table, float32 range check and handing the arrays to Embree;
+#: Embree's BVH build; rendering every view; tone mapping and encoding the files; writing them. Tangents have no
+#: phase: they are computed per hit from the triangles' UVs.
 PHASES = ("load", "frame", "normals", "scene", "geometry", "bvh", "render", "encode", "write")
 
 

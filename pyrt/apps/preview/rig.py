@@ -13,6 +13,7 @@ from scipy.spatial import ConvexHull, QhullError, cKDTree
 from pyrt.shaders import color as _color
 
 from pyrt.core.camera import Camera
+from pyrt.core.transforms import apply_matrix
 from pyrt.lights import DirectionalLight
 from pyrt.apps.preview.options import AXES, PreviewError, PreviewOptions
 
@@ -42,8 +43,12 @@ def up_transform(axis):
     if axis == "+y":
         return np.eye(4)
     if axis == "-y":
-        return trimesh.transformations.rotation_matrix(math.pi, [1, 0, 0])
-    return trimesh.transformations.rotation_matrix(math.pi / 2, np.cross(a, [0.0, 1.0, 0.0]))
+        m = trimesh.transformations.rotation_matrix(math.pi, [1, 0, 0])
+    else:
+        m = trimesh.transformations.rotation_matrix(math.pi / 2, np.cross(a, [0.0, 1.0, 0.0]))
+    # exact: the entries are 0 and +-1 (cos(pi / 2) is 6.1e-17 in floating point), so the turn moves coordinates
+    # without rounding them (pyrt.core.transforms.apply_matrix)
+    return np.round(m) + 0.0
 
 
 #: above this many faces the up-axis guess samples the surface from a deterministic random subset of them
@@ -222,7 +227,7 @@ def detect_up_axis(asset):
     for inst in asset.instances:
         m = inst.world_from_object
         am = asset.meshes[inst.mesh]
-        v.append(am.vertices @ m[:3, :3].T + m[:3, 3])
+        v.append(apply_matrix(am.vertices, m))
         f.append(am.faces + off)
         off += am.vertices.shape[0]
     if not v:
