@@ -12,8 +12,8 @@ from pyrt.apps.preview import render as R
 ASSETS = os.path.join(os.path.dirname(__file__), "..", "assets", "models")
 
 
-def test_default_chunk_is_16384_samples_and_is_checked():
-    assert P.PreviewOptions().chunk_samples == 16384
+def test_default_chunk_is_32768_samples_and_is_checked():
+    assert P.PreviewOptions().chunk_samples == 32768
     for bad in (0, -5, 1.5):
         with pytest.raises(P.PreviewError, match="chunk_samples"):
             P.PreviewOptions(chunk_samples=bad).validate()

@@ -78,11 +78,13 @@ class PreviewOptions:
     crease_angle: float = 30.0
     time_budget: float | None = None     # seconds per asset
     threads: int | None = None           # Embree/shading threads per render (None = all cores)
-    #: camera samples per render chunk (pyrt.render's chunk_samples, 32768 there): a chunk's working set is
-    #: ~4-6 kB per sample and each thread holds one; 16384 keeps the helmet-like model of
-    #: tools/make_textured_model.py under 500 MB peak RSS on 2 threads (~450 against ~620 MB; docs/preview.md).
-    #: Chunks draw their own random streams, so the noise (not the estimate) depends on it
-    chunk_samples: int = 16384
+    #: camera samples per render chunk (pyrt.render's chunk_samples, the same 32768 by default): a chunk's working
+    #: set is ~4-6 kB per sample and each thread holds one. 16384 keeps the helmet-like model of
+    #: tools/make_textured_model.py under 500 MB peak RSS on 2 threads (~450 against ~620 MB) but doubles the
+    #: per-batch cost of models with many materials (ClearCoatTest render 13.1-14.9 s against 6.8-8.4 s at 32768,
+    #: docs/preview.md), so it is not the default. Chunks draw their own random streams: the noise (not the
+    #: estimate) depends on it
+    chunk_samples: int = 32768
     #: Embree's BVH build quality ("low", "medium", "high"; pyrt.geometry.Accel): "auto" builds models of at least
     #: BVH_LOW_TRIANGLES triangles at "low" (the 5.24 M-triangle mesh of tools/big_mesh.py: 2.0 s of CPU instead
     #: of 3.9 s, the same image, no render-time change measurable), smaller ones at Embree's default "medium"
