@@ -18,9 +18,10 @@ import statistics
 import subprocess
 import sys
 
-SNIPPET = r'''
-import sys, time, json
-sys.path.insert(0, sys.argv[1])
+from _trees import TREE_PREAMBLE  # noqa: E402  (tools/_trees.py)
+
+SNIPPET = TREE_PREAMBLE + r'''
+import time, json
 import numpy as np, pyrt
 asset = pyrt.load_asset(sys.argv[2])
 lo, hi = asset.bounds(); c = (lo + hi) / 2; r = float(np.linalg.norm(hi - lo)) / 2

@@ -23,25 +23,10 @@ import tempfile
 
 import numpy as np
 
-SNIPPET = r'''
-import sys, json, importlib.util
-T = sys.argv[1]
-sys.path.insert(0, T)
+from _trees import TREE_PREAMBLE  # noqa: E402  (tools/_trees.py)
 
-
-class TreeShaders:
-    """``pyrt.shaders`` from the tree's shaders/ (an editable install would map it to its own checkout)."""
-
-    @staticmethod
-    def find_spec(name, path=None, target=None):
-        """The spec of the tree's shaders package for ``pyrt.shaders`` (submodules follow its ``__path__``)."""
-        if name != "pyrt.shaders":
-            return None
-        return importlib.util.spec_from_file_location(name, T + "/shaders/__init__.py",
-                                                      submodule_search_locations=[T + "/shaders"])
-
-
-sys.meta_path.insert(0, TreeShaders)
+SNIPPET = TREE_PREAMBLE + r'''
+import json
 import time
 import numpy as np
 import pyrt.shaders.textures

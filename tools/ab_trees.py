@@ -18,22 +18,10 @@ import statistics
 import subprocess
 import sys
 
-SNIPPET = r'''
-import importlib.abc, importlib.util, json, os, sys
-root = sys.argv[1]
-D = os.path.join(root, "shaders")
+from _trees import TREE_PREAMBLE  # noqa: E402  (tools/_trees.py)
 
-class _Shaders(importlib.abc.MetaPathFinder):      # pyrt.shaders from this tree, not the installed one
-    def find_spec(self, name, path=None, target=None):
-        if name == "pyrt.shaders":
-            return importlib.util.spec_from_file_location(name, os.path.join(D, "__init__.py"),
-                                                          submodule_search_locations=[D])
-        if name.startswith("pyrt.shaders."):
-            f = os.path.join(D, name.split(".")[-1] + ".py")
-            return importlib.util.spec_from_file_location(name, f) if os.path.exists(f) else None
-
-sys.meta_path.insert(0, _Shaders())
-sys.path[:0] = [root, os.path.join(root, "tools")]
+SNIPPET = TREE_PREAMBLE + r'''
+sys.path.insert(1, os.path.join(_TREE, "tools"))
 import bench, pyrt
 pyrt.render(bench.make_scene(bench.bumpy_sphere(2), 64, 48))
 e2e, emb, _, _ = bench.measure(bench.make_scene(bench.bumpy_sphere(6)), 3)

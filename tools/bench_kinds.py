@@ -115,23 +115,11 @@ def measure(kind, spp, repeats, width=320, height=240, embree=False):
     ps.close()
     return out
 
+from _trees import TREE_PREAMBLE  # noqa: E402  (tools/_trees.py)
 
-_SNIPPET = r'''
-import importlib.abc, importlib.util, json, os, sys
-root = sys.argv[1]
-D = os.path.join(root, "shaders")
-
-class _Shaders(importlib.abc.MetaPathFinder):      # pyrt.shaders from this tree, not the installed one
-    def find_spec(self, name, path=None, target=None):
-        if name == "pyrt.shaders":
-            return importlib.util.spec_from_file_location(name, os.path.join(D, "__init__.py"),
-                                                          submodule_search_locations=[D])
-        if name.startswith("pyrt.shaders."):
-            f = os.path.join(D, name.split(".")[-1] + ".py")
-            return importlib.util.spec_from_file_location(name, f) if os.path.exists(f) else None
-
-sys.meta_path.insert(0, _Shaders())
-sys.path[:0] = [root, sys.argv[2]]
+_SNIPPET = TREE_PREAMBLE + r'''
+import json
+sys.path.insert(1, sys.argv[2])
 import bench_kinds, pyrt
 out = bench_kinds.measure(sys.argv[3], int(sys.argv[4]), int(sys.argv[5]), embree=sys.argv[6] == "1")
 out["file"] = pyrt.__file__
