@@ -15,6 +15,7 @@ import trimesh
 from PIL import Image
 
 import pyrt
+from material_helpers import LocalCtx, direction
 from pyrt.io import assets as A
 from pyrt.io.assets import AssetError, load_asset
 from pyrt.materials import Clearcoat, GltfPBR, Lambert, Unlit
@@ -164,7 +165,7 @@ def test_extension_textures_read_the_channels_the_specs_name(tmp_path):
                                     "clearcoatRoughnessFactor": 0.5, "clearcoatRoughnessTexture": {"index": 0}}}}]
     path = write_gltf(tmp_path / "t.gltf", [_quad()], mats, images=[img])
     _, (m,) = _materials(path)
-    ctx = _Ctx(1)
+    ctx = LocalCtx(1)
     assert m.param(m.clearcoat, ctx, 1)[0] == pytest.approx(0.2)            # R
     assert m.param(m.roughness, ctx, 1)[0] == pytest.approx(0.5 * 0.4)      # G
     assert m.base.param(m.base.transmission, ctx, 1)[0] == pytest.approx(0.5 * 0.2)  # R
@@ -172,33 +173,6 @@ def test_extension_textures_read_the_channels_the_specs_name(tmp_path):
 
 
 # ---------------------------------------------------------------------------------------------- clear coat
-
-class _Ctx:
-    """A surface batch in its own local frame (normal +z), constant UV 0.5."""
-
-    def __init__(self, n):
-        self.n_hits = n
-        self.ns = np.tile([0.0, 0.0, 1.0], (n, 1))
-        self.ng = self.ns
-        self.dpdu, self.dpdv = np.tile([1.0, 0, 0], (n, 1)), np.tile([0, 1.0, 0], (n, 1))
-        self.front = np.ones(n, dtype=bool)
-        self.uv = np.full((n, 2), 0.5)
-        self.p = np.zeros((n, 3))
-        self.wo = self.ns
-        self.ns_unmapped = None
-        self.duvdx = self.duvdy = self.dpdx = self.dpdy = None
-
-    def to_local(self, w):
-        return np.asarray(w, dtype=np.float64)
-
-    def to_world(self, w):
-        return np.asarray(w, dtype=np.float64)
-
-
-def _dir(theta_deg, phi_deg=0.0):
-    t, p = math.radians(theta_deg), math.radians(phi_deg)
-    return np.array([math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), math.cos(t)])
-
 
 def _albedo(mat, theta_o, n_t=400, n_p=256, phi_o=0.0):
     """Directional albedo (3,) toward (theta_o, phi_o) by midpoint quadrature in (cos theta, phi) (error < 1e-3
@@ -208,8 +182,8 @@ def _albedo(mat, theta_o, n_t=400, n_p=256, phi_o=0.0):
     C, P = np.meshgrid(c, ph, indexing="ij")
     s = np.sqrt(1 - C * C)
     wi = np.stack([s * np.cos(P), s * np.sin(P), C], -1).reshape(-1, 3)
-    wo = np.tile(_dir(theta_o, phi_o), (wi.shape[0], 1))
-    return mat.f_cos(wo, wi, _Ctx(wi.shape[0])).sum(0) * (2 * np.pi / (n_t * n_p))
+    wo = np.tile(direction(theta_o, phi_o), (wi.shape[0], 1))
+    return mat.f_cos(wo, wi, LocalCtx(wi.shape[0])).sum(0) * (2 * np.pi / (n_t * n_p))
 
 
 def _ggx_spec_cos(wo, wi, alpha):
@@ -235,12 +209,12 @@ def test_clearcoat_fresnel_weighting_matches_the_spec_closed_form(theta_o):
     wi = rng.normal(size=(500, 3))
     wi[:, 2] = np.abs(wi[:, 2]) + 0.01
     wi /= np.linalg.norm(wi, axis=1, keepdims=True)
-    wo = np.tile(_dir(theta_o, 20.0), (500, 1))
+    wo = np.tile(direction(theta_o, 20.0), (500, 1))
     F = 0.04 + 0.96 * (1 - wo[0, 2]) ** 5
     expected = (np.array([0.5, 0.3, 0.1]) / np.pi * wi[:, 2:3] * (1 - c * F)
                 + (c * F * _ggx_spec_cos(wo, wi, r * r))[:, None])
-    np.testing.assert_allclose(coat.f_cos(wo, wi, _Ctx(500)), expected, rtol=1e-9)
-    assert coat.coat_weight(wo[:1], _Ctx(1))[0] == pytest.approx(c * F, rel=1e-12)
+    np.testing.assert_allclose(coat.f_cos(wo, wi, LocalCtx(500)), expected, rtol=1e-9)
+    assert coat.coat_weight(wo[:1], LocalCtx(1))[0] == pytest.approx(c * F, rel=1e-12)
     if theta_o == 0.0:
         assert F == pytest.approx(0.04)
     if theta_o == 89.0:
@@ -268,7 +242,7 @@ def test_clearcoat_half_vector_variant_is_reciprocal_but_gains_energy_at_grazing
     a, b = np.abs(rng.normal(size=(300, 3))), np.abs(rng.normal(size=(300, 3)))
     a /= np.linalg.norm(a, axis=1, keepdims=True)
     b /= np.linalg.norm(b, axis=1, keepdims=True)
-    np.testing.assert_allclose(coat.f_cos(a, b, _Ctx(300)) / b[:, 2:3], coat.f_cos(b, a, _Ctx(300)) / a[:, 2:3],
+    np.testing.assert_allclose(coat.f_cos(a, b, LocalCtx(300)) / b[:, 2:3], coat.f_cos(b, a, LocalCtx(300)) / a[:, 2:3],
                                rtol=1e-9)
     assert _albedo(coat, 85.0).max() > 1.2              # measured 1.267 (view: 0.899)
     assert _albedo(Clearcoat(Lambert(albedo=1.0), clearcoat=1.0, roughness=0.3), 85.0).max() <= 1.0 + 2e-3
@@ -288,8 +262,8 @@ def test_clearcoat_normal_map_tilts_the_coat_lobe_only():
     wi = rng.normal(size=(400, 3))
     wi[:, 2] = np.abs(wi[:, 2]) + 0.2
     wi /= np.linalg.norm(wi, axis=1, keepdims=True)
-    wo = np.tile(_dir(30.0, 10.0), (400, 1))
-    ctx = _Ctx(400)
+    wo = np.tile(direction(30.0, 10.0), (400, 1))
+    ctx = LocalCtx(400)
     ctx.wo = wo
     R = np.array([[math.cos(tilt), 0, math.sin(tilt)], [0, 1, 0], [-math.sin(tilt), 0, math.cos(tilt)]])  # z -> n_c
     wo_c, wi_c = wo @ R, wi @ R                         # coordinates in a frame whose z is n_c
@@ -314,8 +288,8 @@ def test_clearcoat_ignores_the_base_normal_map():
     wi = rng.normal(size=(300, 3))
     wi[:, 2] = np.abs(wi[:, 2]) + 0.2
     wi /= np.linalg.norm(wi, axis=1, keepdims=True)
-    wo = np.tile(_dir(35.0, 60.0), (300, 1))
-    ctx = _Ctx(300)
+    wo = np.tile(direction(35.0, 60.0), (300, 1))
+    ctx = LocalCtx(300)
     ctx.ns_unmapped = np.tile(n0, (300, 1))
     R = np.array([[1, 0, 0], [0, math.cos(tilt), math.sin(tilt)], [0, -math.sin(tilt), math.cos(tilt)]])  # z -> n0
     assert np.allclose(R @ [0, 0, 1], n0)
@@ -454,8 +428,8 @@ def test_smooth_transmission_delta_lobes_sum_to_the_transmissive_share(thin, the
     equal w = 0.7 exactly, from outside and from inside (total internal reflection included); the opaque share
     0.3 is the GGX lobes'."""
     m = GltfPBR(base_color=1.0, roughness=0.0, transmission=0.7, thin=thin, ior=1.5)
-    wo = np.tile(_dir(theta_o, 15.0), (4, 1))
-    ctx = _Ctx(4)
+    wo = np.tile(direction(theta_o, 15.0), (4, 1))
+    ctx = LocalCtx(4)
     ctx.front[2:] = False
     total = np.zeros((4, 3))
     for lobe in m.delta_lobes(wo, ctx):
@@ -478,16 +452,16 @@ def test_sampling_of_transmission_and_coat_frames_matches_pdf_and_f(case, theta_
     """sample(): pdf equals pdf(), weight = f_cos / pdf, E[weight] (transmission x eta^2 for a volume) equals the
     albedo by quadrature over the sphere within 5 standard errors; chi-square of the upper hemisphere (the
     contract tests' harness) p > 1e-4."""
-    from test_material_contracts import Ctx, _chi_square_p
+    from test_material_contracts import _chi_square_p
 
     mat = _sampling_cases()[case]
     n = 60_000
-    wo = np.tile(_dir(theta_o, 30.0), (n, 1))
-    wi, weight, pdf = mat.sample(wo, np.random.default_rng(3).random((n, 2)), Ctx(n))
+    wo = np.tile(direction(theta_o, 30.0), (n, 1))
+    wi, weight, pdf = mat.sample(wo, np.random.default_rng(3).random((n, 2)), LocalCtx(n))
     ok = pdf > 0
     k = int(ok.sum())
-    np.testing.assert_allclose(pdf[ok], mat.pdf(wo[ok], wi[ok], Ctx(k)), rtol=1e-9)
-    np.testing.assert_allclose(weight[ok] * pdf[ok][:, None], mat.f_cos(wo[ok], wi[ok], Ctx(k)), rtol=1e-9,
+    np.testing.assert_allclose(pdf[ok], mat.pdf(wo[ok], wi[ok], LocalCtx(k)), rtol=1e-9)
+    np.testing.assert_allclose(weight[ok] * pdf[ok][:, None], mat.f_cos(wo[ok], wi[ok], LocalCtx(k)), rtol=1e-9,
                                atol=1e-300)
     assert np.all(np.isfinite(weight)) and np.all(weight[~ok] == 0)
     eta2 = mat.ior ** 2 if (mat.transmits and not mat.thin) else 1.0

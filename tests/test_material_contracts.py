@@ -13,6 +13,7 @@ import pytest
 from scipy import stats
 
 import pyrt
+from material_helpers import LocalCtx, direction
 from pyrt.materials import CosineQuery, IsotropicMaterial
 from pyrt.shaders.vec import dot
 
@@ -20,33 +21,6 @@ NAMES = sorted(pyrt.MATERIALS)
 #: materials with a non-delta lobe (the ones f_cos / sample / pdf describe)
 GLOSSY = [n for n in NAMES if pyrt.MATERIALS[n].has_diffuse]
 DELTA = [n for n in NAMES if pyrt.MATERIALS[n].has_delta]
-
-
-class Ctx:
-    """A surface batch in its own local frame (shading normal +z), enough for every material's kernels."""
-
-    def __init__(self, n, wo=None):
-        self.n_hits = n
-        self.dpdu = np.tile([1.0, 0.0, 0.0], (n, 1))
-        self.dpdv = np.tile([0.0, 1.0, 0.0], (n, 1))
-        self.ns = np.tile([0.0, 0.0, 1.0], (n, 1))
-        self.ng = self.ns
-        self.front = np.ones(n, dtype=bool)
-        self.uv = np.full((n, 2), 0.5)
-        self.p = np.zeros((n, 3))
-        self.wo = wo if wo is not None else self.ns
-        self.duvdx = self.duvdy = self.dpdx = self.dpdy = None
-
-    def to_local(self, w):
-        return np.asarray(w, dtype=np.float64)
-
-    def to_world(self, w):
-        return np.asarray(w, dtype=np.float64)
-
-
-def _dir(theta_deg, phi_deg=0.0):
-    t, p = math.radians(theta_deg), math.radians(phi_deg)
-    return np.array([math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), math.cos(t)])
 
 
 def _hemisphere_quadrature(n_theta=160, n_phi=192):
@@ -71,10 +45,10 @@ def _albedo(mat, wo):
     for a material that ``transmits`` the lower one (the mirrored nodes) with the transmitted radiance's
     1/ior^2 compression undone (energy = reflected + transmitted power fraction)."""
     n = QUAD_W.shape[0]
-    rho = np.sum(mat.f_cos(np.tile(wo, (n, 1)), QUAD_W, Ctx(n)) * QUAD_DW[:, None], axis=0)
+    rho = np.sum(mat.f_cos(np.tile(wo, (n, 1)), QUAD_W, LocalCtx(n)) * QUAD_DW[:, None], axis=0)
     if mat.transmits:
         below = QUAD_W * [1.0, 1.0, -1.0]
-        rho = rho + mat.ior ** 2 * np.sum(mat.f_cos(np.tile(wo, (n, 1)), below, Ctx(n)) * QUAD_DW[:, None], axis=0)
+        rho = rho + mat.ior ** 2 * np.sum(mat.f_cos(np.tile(wo, (n, 1)), below, LocalCtx(n)) * QUAD_DW[:, None], axis=0)
     return rho
 
 
@@ -99,7 +73,7 @@ def test_f_cos_is_finite_non_negative_and_zero_below_the_horizon(name):
     wo[:, 2] = np.abs(wo[:, 2])
     wo[:10, 2] = 0.0                                     # grazing viewer
     wo[:10] /= np.linalg.norm(wo[:10], axis=1, keepdims=True)
-    f = mat.f_cos(wo, wi, Ctx(4000))
+    f = mat.f_cos(wo, wi, LocalCtx(4000))
     assert f.shape == (4000, 3) and f.dtype == np.float64
     assert np.all(np.isfinite(f)) and np.all(f >= 0)
     if not mat.transmits:                                # a transmission lobe lives below the horizon
@@ -114,7 +88,7 @@ def _reciprocity_pair(mat):
     b[:, 2] = np.abs(b[:, 2]) + 0.05
     a /= np.linalg.norm(a, axis=1, keepdims=True)
     b /= np.linalg.norm(b, axis=1, keepdims=True)
-    return mat.f_cos(a, b, Ctx(2000)) / b[:, 2:3], mat.f_cos(b, a, Ctx(2000)) / a[:, 2:3]
+    return mat.f_cos(a, b, LocalCtx(2000)) / b[:, 2:3], mat.f_cos(b, a, LocalCtx(2000)) / a[:, 2:3]
 
 
 @pytest.mark.parametrize("name", [n for n in GLOSSY if pyrt.MATERIALS[n].reciprocal])
@@ -136,7 +110,7 @@ def test_energy_conservation_white_furnace(name, theta_o):
     """Directional albedo <= 1 per channel (quadrature error < 1e-3; the classic models are not energy
     conserving by construction and are checked only for finiteness)."""
     mat = pyrt.MATERIALS[name].example()
-    rho = _albedo(mat, _dir(theta_o))
+    rho = _albedo(mat, direction(theta_o))
     assert np.all(np.isfinite(rho)) and np.all(rho >= 0)
     if mat.reciprocal:
         assert np.all(rho <= 1.0 + 2e-3), rho
@@ -148,13 +122,13 @@ def test_sample_weight_and_pdf_are_consistent(name, theta_o):
     """sample() gives weight = f_cos / pdf with pdf = pdf(); E[weight] = albedo (5 standard errors)."""
     mat = pyrt.MATERIALS[name].example()
     n = 60_000
-    wo = np.tile(_dir(theta_o, 30.0), (n, 1))
-    wi, weight, pdf = mat.sample(wo, np.random.default_rng(3).random((n, 2)), Ctx(n))
+    wo = np.tile(direction(theta_o, 30.0), (n, 1))
+    wi, weight, pdf = mat.sample(wo, np.random.default_rng(3).random((n, 2)), LocalCtx(n))
     up = (wi[:, 2] > 0) | (mat.transmits & (wi[:, 2] < 0))    # the lobes' support (full sphere: transmission)
     k = int(up.sum())
-    np.testing.assert_allclose(pdf[up], mat.pdf(wo[up], wi[up], Ctx(k)), rtol=1e-9)
+    np.testing.assert_allclose(pdf[up], mat.pdf(wo[up], wi[up], LocalCtx(k)), rtol=1e-9)
     ok = up & (pdf > 0)
-    np.testing.assert_allclose(weight[ok] * pdf[ok][:, None], mat.f_cos(wo[ok], wi[ok], Ctx(int(ok.sum()))),
+    np.testing.assert_allclose(weight[ok] * pdf[ok][:, None], mat.f_cos(wo[ok], wi[ok], LocalCtx(int(ok.sum()))),
                                rtol=1e-9, atol=1e-300)
     assert np.all(np.isfinite(weight)) and np.all(weight[~up] == 0)
     rho = _albedo(mat, wo[0])
@@ -169,8 +143,8 @@ def _chi_square_p(mat, theta_o):
     over each cell (8 x 8 Gauss points per cell); cells with expectation < 5 are pooled, samples below the
     horizon form one more cell."""
     n, nt, nphi = 200_000, 12, 24
-    wo_d = _dir(theta_o, 10.0)
-    wi, _, _ = mat.sample(np.tile(wo_d, (n, 1)), np.random.default_rng(4).random((n, 2)), Ctx(n))
+    wo_d = direction(theta_o, 10.0)
+    wi, _, _ = mat.sample(np.tile(wo_d, (n, 1)), np.random.default_rng(4).random((n, 2)), LocalCtx(n))
     up = wi[:, 2] > 0
     c_edges = np.linspace(0.0, 1.0, nt + 1)
     p_edges = np.linspace(-np.pi, np.pi, nphi + 1)
@@ -187,7 +161,7 @@ def _chi_square_p(mat, theta_o):
             C, P = np.meshgrid(c, ph, indexing="ij")
             s = np.sqrt(1 - C * C)
             w = np.stack([s * np.cos(P), s * np.sin(P), C], -1).reshape(-1, 3)
-            pdf = mat.pdf(np.tile(wo_d, (w.shape[0], 1)), w, Ctx(w.shape[0])).reshape(8, 8)
+            pdf = mat.pdf(np.tile(wo_d, (w.shape[0], 1)), w, LocalCtx(w.shape[0])).reshape(8, 8)
             exp[i, j] = np.einsum("ab,a,b->", pdf, wc, wp)
     exp *= n
     obs, exp = obs.ravel(), exp.ravel()
@@ -229,7 +203,7 @@ def test_isotropic_fast_path_equals_local_frame(name):
     wo /= np.linalg.norm(wo, axis=1, keepdims=True)
     wi = rng.normal(size=(3000, 3))
     wi /= np.linalg.norm(wi, axis=1, keepdims=True)
-    ctx = Ctx(3000, wo=wo)
+    ctx = LocalCtx(3000, wo=wo)
     fast = mat.f_cos_cosines(CosineQuery(ctx, None, wi, dot(wi, ctx.ns), dot(wo, ctx.ns)))
     np.testing.assert_allclose(fast, mat.f_cos(wo, wi, ctx), rtol=1e-12, atol=1e-15)
 
@@ -240,8 +214,8 @@ def test_delta_lobes_conserve_energy(name, theta_o):
     """Reflected weight + refracted weight * eta^2 (radiance compression undone) <= 1, both finite and >= 0;
     lobe directions with weight are unit length, reflection mirrors wo about the normal."""
     mat = pyrt.MATERIALS[name].example()
-    wo = np.tile(_dir(theta_o, 20.0), (8, 1))
-    ctx = Ctx(8)
+    wo = np.tile(direction(theta_o, 20.0), (8, 1))
+    ctx = LocalCtx(8)
     ctx.front[4:] = False                                 # the inside of a dielectric too
     total = np.zeros((8, 3))
     for lobe in mat.delta_lobes(wo, ctx):
@@ -267,9 +241,9 @@ def test_transmission_obeys_generalised_reciprocity(name):
     b[:, 2] = -np.abs(b[:, 2]) - 0.05
     a /= np.linalg.norm(a, axis=1, keepdims=True)
     b /= np.linalg.norm(b, axis=1, keepdims=True)
-    f_ab = mat.f_cos(a, b, Ctx(2000)) / np.abs(b[:, 2:3])
-    f_ba = mat.f_cos(b, a, Ctx(2000)) / np.abs(a[:, 2:3])
+    f_ab = mat.f_cos(a, b, LocalCtx(2000)) / np.abs(b[:, 2:3])
+    f_ba = mat.f_cos(b, a, LocalCtx(2000)) / np.abs(a[:, 2:3])
     assert np.count_nonzero(f_ab[:, 0]) > 200
     np.testing.assert_allclose(f_ab / 1.0 ** 2, f_ba / mat.ior ** 2, rtol=1e-9, atol=1e-12)
-    f_aa, f_aa2 = mat.f_cos(a, a[::-1], Ctx(2000)) / a[::-1, 2:3], mat.f_cos(a[::-1], a, Ctx(2000)) / a[:, 2:3]
+    f_aa, f_aa2 = mat.f_cos(a, a[::-1], LocalCtx(2000)) / a[::-1, 2:3], mat.f_cos(a[::-1], a, LocalCtx(2000)) / a[:, 2:3]
     np.testing.assert_allclose(f_aa, f_aa2, rtol=1e-9, atol=1e-12)

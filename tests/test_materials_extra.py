@@ -11,7 +11,8 @@ import pytest
 import pyrt
 from pyrt.shaders import brdfs, fresnel, metals
 
-from test_material_contracts import QUAD_DW, QUAD_W, Ctx, _albedo, _dir
+from material_helpers import LocalCtx, direction
+from test_material_contracts import QUAD_DW, QUAD_W, _albedo
 
 
 def _f0_conductor(eta, k):
@@ -24,7 +25,7 @@ def _f0_conductor(eta, k):
 def test_conductor_normal_incidence_reflectance_closed_form(metal):
     mat = pyrt.Conductor(metal=metal)
     eta, k = metals.METALS[metal]
-    (lobe,) = mat.delta_lobes(np.array([[0.0, 0.0, 1.0]]), Ctx(1))
+    (lobe,) = mat.delta_lobes(np.array([[0.0, 0.0, 1.0]]), LocalCtx(1))
     assert lobe.kind == "reflect"
     np.testing.assert_allclose(lobe.wi, [[0.0, 0.0, 1.0]], atol=1e-15)
     np.testing.assert_allclose(lobe.weight[0], _f0_conductor(eta, k), rtol=1e-12)
@@ -33,8 +34,8 @@ def test_conductor_normal_incidence_reflectance_closed_form(metal):
 def test_conductor_eta_k_parameters_and_grazing_limit():
     eta, k = np.array([0.2, 0.9, 1.6]), np.array([3.0, 2.5, 1.7])
     mat = pyrt.Conductor(eta=eta, k=k)
-    wo = np.stack([_dir(t, 30.0) for t in (0.0, 60.0, 89.9, 89.999)])
-    (lobe,) = mat.delta_lobes(wo, Ctx(4))
+    wo = np.stack([direction(t, 30.0) for t in (0.0, 60.0, 89.9, 89.999)])
+    (lobe,) = mat.delta_lobes(wo, LocalCtx(4))
     np.testing.assert_allclose(lobe.weight[0], _f0_conductor(eta, k), rtol=1e-12)
     np.testing.assert_allclose(lobe.weight, fresnel.fr_conductor(wo[:, 2], eta, k), rtol=1e-15)
     np.testing.assert_allclose(lobe.wi, wo * [-1, -1, 1], atol=1e-15)
@@ -73,7 +74,7 @@ def _ggx_lobe_integral(mat, wo, alpha, n_s=256, n_phi=256):
     wo_n = np.tile(wo, (h.shape[0], 1))
     cos_oh = h @ wo
     wi = 2 * cos_oh[:, None] * h - wo_n
-    f = mat.f_cos(wo_n, wi, Ctx(h.shape[0]))
+    f = mat.f_cos(wo_n, wi, LocalCtx(h.shape[0]))
     return np.sum(f * (4 * np.abs(cos_oh) * dw)[:, None], axis=0)
 
 
@@ -88,8 +89,8 @@ ALPHAS = [0.2, 0.1, 0.05, 0.02]
 
 @pytest.mark.parametrize("theta_o", [0.0, 45.0, 75.0])
 def test_ggx_conductor_converges_to_smooth_conductor_as_alpha_to_0(theta_o):
-    wo = _dir(theta_o, 10.0)
-    F = pyrt.Conductor(metal="gold").delta_lobes(wo[None], Ctx(1))[0].weight[0]
+    wo = direction(theta_o, 10.0)
+    F = pyrt.Conductor(metal="gold").delta_lobes(wo[None], LocalCtx(1))[0].weight[0]
     errors = []
     for alpha in ALPHAS:
         ct = pyrt.CookTorrance(metal="gold", fresnel="conductor", alpha=alpha)
@@ -100,7 +101,7 @@ def test_ggx_conductor_converges_to_smooth_conductor_as_alpha_to_0(theta_o):
 
 
 def test_ggx_lobe_quadrature_is_converged():
-    wo = _dir(45.0, 10.0)
+    wo = direction(45.0, 10.0)
     ct = pyrt.CookTorrance(metal="gold", fresnel="conductor", alpha=0.02)
     a = _ggx_lobe_integral(ct, wo, 0.02)
     b = _ggx_lobe_integral(ct, wo, 0.02, n_s=512, n_phi=512)
@@ -142,8 +143,8 @@ def _random_pairs(rng, n):
 def test_oren_nayar_sigma_0_is_lambert_exactly(rng):
     wo, wi = _random_pairs(rng, 5000)
     albedo = [0.9, 0.5, 0.2]
-    on = pyrt.OrenNayar(albedo, sigma=0.0).f_cos(wo, wi, Ctx(5000))
-    lam = pyrt.Lambert(albedo).f_cos(wo, wi, Ctx(5000))
+    on = pyrt.OrenNayar(albedo, sigma=0.0).f_cos(wo, wi, LocalCtx(5000))
+    lam = pyrt.Lambert(albedo).f_cos(wo, wi, LocalCtx(5000))
     assert np.array_equal(on, lam)
 
 
@@ -152,7 +153,7 @@ def test_oren_nayar_matches_the_angular_form(rng):
     wo, wi = _random_pairs(rng, 3000)
     wi[:, 2] = np.abs(wi[:, 2])
     sigma = math.radians(30.0)
-    got = pyrt.OrenNayar(1.0, sigma_deg=30.0).f_cos(wo, wi, Ctx(3000))[:, 0]
+    got = pyrt.OrenNayar(1.0, sigma_deg=30.0).f_cos(wo, wi, LocalCtx(3000))[:, 0]
     th_o, th_i = np.arccos(wo[:, 2]), np.arccos(wi[:, 2])
     dphi = np.arctan2(wi[:, 1], wi[:, 0]) - np.arctan2(wo[:, 1], wo[:, 0])
     a_ = np.maximum(th_o, th_i)
@@ -172,7 +173,7 @@ def _albedo_fine(mat, wo, n=400):
     T, P = np.meshgrid(t, ph, indexing="ij")
     w = np.stack([np.sin(T) * np.cos(P), np.sin(T) * np.sin(P), np.cos(T)], -1).reshape(-1, 3)
     dw = ((np.sin(t) * wt)[:, None] * np.full((1, n), 2 * np.pi / n)).reshape(-1)
-    return float(np.sum(mat.f_cos(np.tile(wo, (len(w), 1)), w, Ctx(len(w)))[:, 0] * dw))
+    return float(np.sum(mat.f_cos(np.tile(wo, (len(w), 1)), w, LocalCtx(len(w)))[:, 0] * dw))
 
 
 #: white-albedo directional albedo of the qualitative model at theta_o = 0 / 60 / 89.9 degrees (measured here)
@@ -186,7 +187,7 @@ def test_oren_nayar_white_albedo_measured(sigma_deg):
     reflects up to 1.5 % more than it receives at grazing view (the B term is not normalised against
     A); for sigma >= 20 degrees it stays below 1. Measured values pinned to catch a changed kernel."""
     mat = pyrt.OrenNayar(1.0, sigma_deg=sigma_deg)
-    got = [_albedo_fine(mat, _dir(t)) for t in (0.0, 60.0, 89.9)]
+    got = [_albedo_fine(mat, direction(t)) for t in (0.0, 60.0, 89.9)]
     np.testing.assert_allclose(got, ON_WHITE_ALBEDO[sigma_deg], atol=2e-5)
     assert max(got) <= 1.0152
 
@@ -283,12 +284,12 @@ CASES = [  # (theta_v, phi_v, theta_l, phi_l) in degrees, albedo, metallic, roug
 def test_learnopengl_reproduces_the_tutorial_shader(angles, albedo, metallic, roughness):
     tv, pv, tl, pl = angles
     N = np.array([0.0, 0.0, 1.0])
-    V, L = _dir(tv, pv), _dir(tl, pl)
+    V, L = direction(tv, pv), direction(tl, pl)
     want = learnopengl_brdf_times_NdotL(N, V, L, np.array(albedo), metallic, roughness)
     # the shader's max(denominator, 0.001) guard is inactive in these cases
     assert 4.0 * V[2] * L[2] > 0.001
     mat = pyrt.LearnOpenGLPBR(albedo=albedo, metallic=metallic, roughness=roughness)
-    got = mat.f_cos(V[None], L[None], Ctx(1))[0]
+    got = mat.f_cos(V[None], L[None], LocalCtx(1))[0]
     np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-15)
 
 
@@ -296,6 +297,6 @@ def test_learnopengl_is_metallic_roughness_with_schlick_ggx_k_direct(rng):
     wo, wi = _random_pairs(rng, 2000)
     mat = pyrt.LearnOpenGLPBR(albedo=[0.7, 0.4, 0.2], metallic=0.3, roughness=0.6)
     assert isinstance(mat, pyrt.MetallicRoughness) and mat.geometry == "schlick_ue4"
-    np.testing.assert_allclose(mat.f_cos(wo, wi, Ctx(2000)), brdfs.gltf_metallic_roughness_f_cos(
+    np.testing.assert_allclose(mat.f_cos(wo, wi, LocalCtx(2000)), brdfs.gltf_metallic_roughness_f_cos(
         wo, wi, [0.7, 0.4, 0.2], 0.3, 0.6, geometry="schlick_ue4"), rtol=0, atol=0)
     assert pyrt.MATERIALS["learnopengl"] is pyrt.LearnOpenGLPBR
