@@ -295,6 +295,12 @@ def cook_torrance_f_cos(wo, wi, kd, ks, alpha, *, distribution="ggx", geometry="
 GLTF_DIELECTRIC_F0 = 0.04
 
 
+def gltf_f0(base_color, metallic):
+    """glTF 2.0's normal-incidence reflectance ``lerp(0.04, base_color, metallic)`` (Appendix B); ``metallic`` a
+    float or (N, 1) so it broadcasts over the colour channels."""
+    return GLTF_DIELECTRIC_F0 * (1.0 - metallic) + base_color * metallic
+
+
 def gltf_metallic_roughness_f_cos(wo, wi, base_color, metallic, roughness, *,
                                   geometry="smith_separable"):
     """glTF 2.0 metallic-roughness BRDF times cos (glTF 2.0 specification, Appendix B).
@@ -323,7 +329,7 @@ def gltf_metallic_roughness_f_cos(wo, wi, base_color, metallic, roughness, *,
     base = _col(base_color, n, dt)
     m = _lane(metallic, n, dt)[:, None]
     alpha = _mf.roughness_to_alpha(_lane(roughness, n, dt))
-    f0 = GLTF_DIELECTRIC_F0 * (1.0 - m) + base * m
+    f0 = gltf_f0(base, m)
     c_diff = base * (1.0 - m)
     spec, cos_oh = microfacet_spec_cos(wo, wi, alpha, distribution="ggx", geometry=geometry)
     F = _fresnel.fr_schlick(cos_oh, f0)

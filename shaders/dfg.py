@@ -117,8 +117,7 @@ def dominant_direction(wo, n, alpha):
     """Frostbite's dominant direction of a GGX reflection lobe (Lagarde & de Rousiers 2014, listing 22):
     ``normalize(lerp(n, r, s (sqrt(s) + alpha)))``, ``s = 1 - alpha``, ``r`` the mirror direction of ``wo``
     about ``n`` (world (N, 3) arrays; ``alpha`` (N,)). The lobe's peak leans toward the normal as it widens."""
-    cos = np.einsum("ij,ij->i", wo, n)
-    r = 2.0 * cos[:, None] * n - wo
+    r = reflect(wo, n)
     s = 1.0 - np.clip(alpha, 0.0, 1.0)
     f = (s * (np.sqrt(s) + alpha))[:, None]
     d = n + f * (r - n)

@@ -469,7 +469,7 @@ class Clearcoat(Material):
         frame = self._coat_frame(ctx)
         n_c = ctx.ns if frame is None else ctx.to_world(frame[2])
         mu = _preview.view_cosine(ctx, n_c)
-        cw = self.param(self.clearcoat, ctx, 1) * fresnel.fr_schlick(mu, self._f0())
+        cw = self.coat_weight(ctx.to_local(ctx.wo), ctx)
         alpha = np.broadcast_to(self._alpha(ctx), (ctx.n_hits,))
         coat = (cw * _preview.fresnel_free_albedo(mu, alpha, "smith_correlated"))[:, None]
         out = lobes.scaled(1.0 - cw)

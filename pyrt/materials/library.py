@@ -376,7 +376,7 @@ class MetallicRoughness(_MicrofacetSampling, Material):
     def _spec_prob(self, wo, ctx):
         base = self.param(self.base_color, ctx)
         m = self.param(self.metallic, ctx, 1)[:, None]
-        f0 = brdfs.GLTF_DIELECTRIC_F0 * (1.0 - m) + base * m
+        f0 = brdfs.gltf_f0(base, m)
         F = _luminance(fresnel.fr_schlick(np.clip(wo[:, 2], 0.0, 1.0), f0))
         d = _luminance(base * (1.0 - m)) * (1.0 - F)
         return np.divide(F, F + d, out=np.ones_like(F), where=(F + d) > 0)
@@ -395,7 +395,7 @@ class MetallicRoughness(_MicrofacetSampling, Material):
         m = self.param(self.metallic, ctx, 1)[:, None]
         alpha = np.broadcast_to(self._alpha(ctx), (ctx.n_hits,))
         mu = _preview.view_cosine(ctx)
-        f0 = brdfs.GLTF_DIELECTRIC_F0 * (1.0 - m) + base * m
+        f0 = brdfs.gltf_f0(base, m)
         diffuse = base * (1.0 - m) * (1.0 - f0) * (1.0 - _preview.schlick_diffuse_loss(mu))
         return _preview.PreviewLobes(diffuse, [_preview.GlossyLobe(_preview.schlick_albedo(f0, mu, alpha, self.geometry),
                                                                    alpha)])
