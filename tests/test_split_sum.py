@@ -122,11 +122,11 @@ MATERIALS = {
 @pytest.mark.parametrize("mu", [0.95, 0.6, 0.25])
 def test_white_furnace_equals_directional_albedo(name, mu):
     """Under a constant environment (prefiltered = L, SH irradiance = pi L, both exact) the split sum is the
-    material's directional albedo: tables within 4e-3, interpolation, plus 4 standard errors of the reference."""
+    material's directional albedo within the tables' 4e-3 plus 4 standard errors of the reference (measured <= 4e-4)."""
     mat = MATERIALS[name]
     ref, se = _albedo_by_sampling(mat, mu)
     got = _split_sum_white(mat, mu)
-    np.testing.assert_allclose(got, ref, atol=8e-3 + 4 * se.max())
+    np.testing.assert_allclose(got, ref, atol=4e-3 + 4 * se.max())   # measured <= 4e-4
 
 
 def test_transmitting_and_half_fresnel_coat_fall_back_to_samples():
@@ -152,16 +152,17 @@ def test_render_white_furnace_and_switch():
     set_environment(sc, ConstantEnvironment(2.0), lighting="preview")
     img = pyrt.render(sc, spp=1).astype(np.float64).reshape(-1, 3)
     ref, se = _albedo_by_sampling(mat, 1.0 - 1e-4)
-    np.testing.assert_allclose(img.mean(0), 2.0 * ref, atol=2 * (8e-3 + 4 * se.max()))
+    np.testing.assert_allclose(img.mean(0), 2.0 * ref, atol=2.0 * (4e-3 + 4 * se.max()))
     assert np.ptp(img, axis=0).max() < 1e-5
     set_environment(sc, ConstantEnvironment(2.0), lighting="preview", preview_method="samples")
     assert not np.allclose(pyrt.render(sc, spp=1).reshape(-1, 3), img, atol=1e-6)
 
 
 def test_split_sum_close_to_the_integral_on_a_sky():
-    """On a smooth sky the split sum stays within 10 % (mean absolute, relative to the mean) of the unshadowed
-    integral of a glossy plane (measured 2-4 %: the split sum's n = v = r assumption); 16-sample MIS is the
-    reference (the plane sees only the sky)."""
+    """On a smooth sky the split sum stays within 10 % (mean absolute difference over the mean) of the unshadowed
+    integral of a rough gold plane, and no further from it than the sampled preview it replaces: measured 5.1 %
+    against 5.8 %, of which ~2 % is the reference's own noise (two 64-sample MIS references differ by 2.5 %; the
+    plane sees only the sky, so MIS without shadows is the integral)."""
     env = LatLongEnvironment(procedural_sky(64, 32, sun_angle=30.0, sun_radiance=(5.0, 5.0, 5.0)),
                              filter="bilinear")
     mat = MetallicRoughness(base_color=0.8, metallic=1.0, roughness=0.5)
@@ -169,9 +170,12 @@ def test_split_sum_close_to_the_integral_on_a_sky():
     sc.camera.fov = 30
     set_environment(sc, env, lighting="mis", n_samples=64)
     ref = pyrt.render(sc, spp=4, seed=2).astype(np.float64)
-    set_environment(sc, env, lighting="preview")
-    got = pyrt.render(sc, spp=1).astype(np.float64)
-    assert np.abs(got - ref).mean() / ref.mean() < 0.10
+    err = {}
+    for method in ("split_sum", "samples"):
+        set_environment(sc, env, lighting="preview", preview_method=method)
+        got = pyrt.render(sc, spp=1).astype(np.float64)
+        err[method] = np.abs(got - ref).mean() / ref.mean()
+    assert err["split_sum"] < 0.10 and err["split_sum"] <= err["samples"], err
 
 
 def test_occlusion_map_scales_the_environment():
