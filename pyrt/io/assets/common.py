@@ -174,8 +174,8 @@ def trimesh_load(path, fmt, *, label=None, **kw):
 
 def vertex_colors(mesh):
     """Linear RGB vertex colours (8-bit sRGB in the file) or None."""
-    vis = mesh.visual
-    if getattr(vis, "kind", None) != "vertex":
+    vis = mesh.visual     # ColorVisuals / TextureVisuals: both declare ``kind`` (None when no colours)
+    if not isinstance(vis, trimesh.visual.ColorVisuals) or vis.kind != "vertex":
         return None
     c = np.asarray(vis.vertex_colors)
     if c.shape[0] != len(mesh.vertices):
@@ -187,7 +187,7 @@ def vertex_colors(mesh):
 def face_colors(mesh):
     """Linear RGB face colours ``(F, 3)`` (8-bit sRGB in the file, e.g. PLY ``face`` ``red green blue``) or None."""
     vis = mesh.visual
-    if getattr(vis, "kind", None) != "face":
+    if not isinstance(vis, trimesh.visual.ColorVisuals) or vis.kind != "face":
         return None
     c = np.asarray(vis.face_colors)
     if c.shape[0] != len(mesh.faces):
