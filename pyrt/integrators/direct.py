@@ -265,12 +265,8 @@ def _split_sum_preview(light, surf, bsdf, gi, L_out):
     mids = surf.material_id
     rest = []
     for k in np.unique(mids[gi]):
-        if bsdf.surf is surf:       # every hit of material k (lambertian is per material): the group's
-            group = bsdf.groups[int(k)]     # persistent context shares texture lookups with the other lights
-            sel, ctx = group.idx, group.ctx
-        else:
-            sel = gi[mids[gi] == k]
-            ctx = surf.subset(sel)
+        group = bsdf.groups[int(k)]   # every hit of material k (lambertian is per material): the group's
+        sel, ctx = group.idx, group.ctx   # persistent context shares texture lookups with the other lights
         lobes = bsdf.materials[k].preview_lobes(ctx)
         if lobes is None:
             rest.append(sel)
@@ -286,7 +282,8 @@ def _split_sum_preview(light, surf, bsdf, gi, L_out):
 
 
 def _environment_preview(light, surf, bsdf):
-    """Unshadowed, noise-free approximation (``strategy="preview"``, see :mod:`pyrt.lights.environment`)."""
+    """Unshadowed, noise-free approximation (``strategy="preview"``, see :mod:`pyrt.lights.environment`);
+    ``bsdf`` is the :class:`BSDFBatch` of ``surf`` (its material groups are used)."""
     env = light.environment
     n = surf.n_hits
     L_out = np.zeros((n, 3))
@@ -296,9 +293,8 @@ def _environment_preview(light, surf, bsdf):
     li = np.flatnonzero(lambert)
     if li.size:
         for k in np.unique(mids[li]):
-            sel = li[mids[li] == k]
-            ctx = surf.subset(sel)
-            L_out[sel] = bsdf.materials[k].albedo(ctx) / np.pi * env.irradiance_sh(ctx.ns)
+            group = bsdf.groups[int(k)]
+            L_out[group.idx] = bsdf.materials[k].albedo(group.ctx) / np.pi * env.irradiance_sh(group.ctx.ns)
     gi = np.flatnonzero(~lambert)
     if gi.size and light.preview_method == "split_sum":
         gi = _split_sum_preview(light, surf, bsdf, gi, L_out)
