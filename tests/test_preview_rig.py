@@ -147,3 +147,38 @@ def test_turntable_views_keep_one_distance():
             assert x.min() >= 0 and x.max() <= 64 and y.min() >= 0 and y.max() <= 48
     finally:
         ps.close()
+
+
+def _box_asset(extents):
+    from pyrt.io.assets.asset import Asset, AssetInstance, AssetMesh
+    box = trimesh.creation.box(extents=extents)
+    return Asset(path="box.ply", format="ply", meshes=[AssetMesh("b", box.vertices.copy(), box.faces.copy())],
+                 instances=[AssetInstance(0, np.eye(4))])
+
+
+@pytest.mark.parametrize("extents, board", [((2.0, 1.5, 0.5), True), ((2.0, 1.5, 0.51), False),
+                                            ((1.0, 1.0, 1.0), False), ((0.2, 1.0, 2.0), False)])
+def test_automatic_azimuth_views_boards_face_on(extents, board):
+    """``azimuth=None``: a model whose z extent is at most BOARD_DEPTH_RATIO (1/4) of its x extent is seen from
+    +z (azimuth 0: the camera looks along -z); any other from 35 degrees; a given
+    azimuth always wins."""
+    from pyrt.apps.preview.options import BOARD_DEPTH_RATIO, DEFAULT_AZIMUTH
+    assert BOARD_DEPTH_RATIO == 0.25 and DEFAULT_AZIMUTH == 35.0
+    a = _box_asset(extents)
+    for azimuth, want in ((None, 0.0 if board else 35.0), (80.0, 80.0)):
+        ps = P.PreviewScene(a, P.PreviewOptions(width=64, height=48, spp=1, up="+y", azimuth=azimuth))
+        try:
+            assert ps.board is board
+            assert ps.azimuth == want
+            cam = ps.camera(ps.azimuth)
+            d = -cam.forward
+            assert math.degrees(math.atan2(d[0], d[2])) == pytest.approx(want, abs=1e-6)
+        finally:
+            ps.close()
+
+
+def test_turntable_starts_at_the_automatic_azimuth(tmp_path):
+    """A turntable of a board starts face-on and steps by 360 / N."""
+    res = P.render_preview(_box_asset((2.0, 1.5, 0.2)), P.PreviewOptions(width=16, height=12, spp=1, up="+y",
+                                                                           turntable=4))
+    assert res.azimuths == [0.0, 90.0, 180.0, 270.0]

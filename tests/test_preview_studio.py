@@ -52,7 +52,7 @@ def test_gold_sphere_reflects_the_studio(roughness):
     ps = P.PreviewScene(_sphere_asset(F0, 1.0, roughness), o)
     try:
         assert ps.studio_environment and np.all(ps.scene.ambient == 0)
-        img = ps.render_view(o.azimuth).image.astype(np.float64)
+        img = ps.render_view(ps.azimuth).image.astype(np.float64)
         mask = ps.model_mask()
         assert np.all(img[mask] > 0)
         cam = ps.scene.camera

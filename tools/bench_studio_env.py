@@ -59,7 +59,7 @@ def main(argv=None):
                 for flag in ((True, False) if r % 2 == 0 else (False, True)):
                     ps = on if flag else off
                     t = time.perf_counter()
-                    ps.render_view(ps.options.azimuth)
+                    ps.render_view(ps.azimuth)
                     times[flag].append(time.perf_counter() - t)
         finally:
             on.close()

@@ -38,7 +38,7 @@ def render(ps, spp, glossy_samples, seed):
     """One view of the preview scene ``ps`` (its default azimuth) as ``PreviewScene.render_view`` renders it, with
     ``spp`` and ``glossy_samples``; returns (image, seconds)."""
     o = ps.options
-    ps._set_view(o.azimuth)
+    ps._set_view(ps.azimuth)
     ps.scene.camera.spp = spp
     t0 = time.perf_counter()
     res = pyrt.render_full(ps.scene, seed=seed, max_depth=o.max_depth, progress=False, prepared=ps.prepared,

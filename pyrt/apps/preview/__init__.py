@@ -14,7 +14,8 @@ The pieces, each a function that can be used and tested alone
   plane is a mirror symmetry and the other's is not; a 1.5x lead wins, else STL (a CAD / 3D-printing
   format) is taken as +z and the others as +y. Override with ``up="+z"`` etc.
 - **Framing** (:func:`frame_points`, ``framing="fit"``): seen at ``azimuth``/``elevation`` (degrees; azimuth
-  0 looks from +z toward -z, positive azimuth moves the camera toward +x), the camera is moved sideways
+  0 looks from +z toward -z, positive azimuth moves the camera toward +x; ``azimuth=None``, the default: 0 for a
+  thin board, z extent <= ``BOARD_DEPTH_RATIO`` x extent, else 35), the camera is moved sideways
   until the projection of the model's convex hull is centred, and along the view axis until it spans
   ``1 / margin`` of the frame in its limiting dimension (nothing is clipped: the model projects inside its
   hull). ``framing="sphere"`` (:func:`frame_camera`): the bounding sphere (centre of the bounding box,

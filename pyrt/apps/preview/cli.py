@@ -38,7 +38,8 @@ def _parser():
     ap.add_argument("--height", type=positive_int, default=480)
     ap.add_argument("--spp", type=positive_int, default=4)
     ap.add_argument("--fov", type=finite_float, default=35.0, help="vertical field of view (degrees)")
-    ap.add_argument("--azimuth", type=finite_float, default=35.0)
+    ap.add_argument("--azimuth", type=finite_float, default=None,
+                    help="camera azimuth in degrees (0 = from +z; default: 0 for thin boards, else 35)")
     ap.add_argument("--elevation", type=finite_float, default=20.0)
     ap.add_argument("--up", default="auto", choices=["auto", *AXES])
     ap.add_argument("--framing", default="fit", choices=["fit", "sphere"],

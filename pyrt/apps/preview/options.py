@@ -27,7 +27,10 @@ class PreviewOptions:
     height: int = 480
     spp: int = 4
     fov: float = 35.0                    # vertical field of view
-    azimuth: float = 35.0                # camera azimuth around the up axis (0 = from +z)
+    #: camera azimuth around the up axis in degrees (0 = from +z, glTF's front). None: automatic, 35 degrees, or 0
+    #: (face-on) for a thin "board" model whose depth (z extent) is at most BOARD_DEPTH_RATIO of its width (x extent)
+    #: once its up axis is +y: test panels and signs, whose oblique view hides parts behind their own dividers
+    azimuth: float | None = None
     elevation: float = 20.0              # camera elevation above the ground plane
     margin: float = 1.1                  # framing margin: the model spans 1 / margin of the frame
     framing: str = "fit"                 # "fit" (projected hull fills the frame) or "sphere" (bounding sphere)
@@ -75,6 +78,12 @@ class PreviewOptions:
     #: and light) and the glass rays' batches are small; bigger chunks make fewer, bigger ones (docs/preview.md:
     #: TransmissionTest's render CPU x 0.71 with the light selection, peak RSS 539 -> 718 MB)
     dielectric_chunk_samples: int = 1 << 16
+    #: glossy reflection rays (pyrt.render_full's integrator="glossy"): BSDF samples per glossy camera hit, the
+    #: bounces that spawn them (rays at bounces 0 .. glossy_depth - 1; 0 turns them off: direct light and the
+    #: environment estimate only) and the GGX alpha above which a lobe counts as diffuse
+    glossy_samples: int = 4
+    glossy_depth: int = 2
+    glossy_threshold: float = 0.4
     crease_angle: float = 30.0
     time_budget: float | None = None     # seconds per asset
     threads: int | None = None           # Embree/shading threads per render (None = all cores)
@@ -96,6 +105,12 @@ class PreviewOptions:
             v = getattr(self, name)
             if int(v) != v or v < 1:
                 raise PreviewError(f"{name} must be a positive integer, got {v!r}")
+        if int(self.glossy_samples) != self.glossy_samples or self.glossy_samples < 1:
+            raise PreviewError(f"glossy_samples must be a positive integer, got {self.glossy_samples!r}")
+        if int(self.glossy_depth) != self.glossy_depth or self.glossy_depth < 0:
+            raise PreviewError(f"glossy_depth must be an integer >= 0, got {self.glossy_depth!r}")
+        if not self.glossy_threshold >= 0:
+            raise PreviewError(f"glossy_threshold must be >= 0, got {self.glossy_threshold}")
         if not 0 < self.fov < 180:
             raise PreviewError(f"fov must be in (0, 180) degrees, got {self.fov}")
         if not -89.0 <= self.elevation <= 89.0:
@@ -134,6 +149,11 @@ class PreviewOptions:
             raise PreviewError(f"time_budget must be > 0 seconds, got {self.time_budget}")
         return self
 
+
+#: ``azimuth=None`` views a model face-on (azimuth 0) when its z extent is at most this fraction of its x extent
+BOARD_DEPTH_RATIO = 0.25
+#: ``azimuth=None`` views every other model from this azimuth (degrees)
+DEFAULT_AZIMUTH = 35.0
 
 #: ``bvh_quality="auto"`` builds models of at least this many triangles (instances counted) at Embree's "low" quality
 BVH_LOW_TRIANGLES = 1_000_000

@@ -23,7 +23,7 @@ from pyrt.lights import LatLongEnvironment, set_environment
 from pyrt.materials import Lambert
 from pyrt.scene import Scene
 from pyrt.io.assets import Asset, load_asset
-from pyrt.apps.preview.options import (BVH_LOW_TRIANGLES, BudgetExceeded, PreviewError, PreviewInterrupted,
+from pyrt.apps.preview.options import (BOARD_DEPTH_RATIO, BVH_LOW_TRIANGLES, DEFAULT_AZIMUTH, BudgetExceeded, PreviewError, PreviewInterrupted,
                                       PreviewOptions)
 from pyrt.apps.preview.studio import STUDIO_PREVIEW_SAMPLES, StudioEnvironment, camera_rotation
 from pyrt.apps.preview.rig import (auto_exposure, bounding_sphere, detect_up_axis, frame_camera, frame_points,
@@ -53,6 +53,11 @@ class PreviewScene:
         if not self.radius > 0:
             raise PreviewError(f"{asset.path}: the model has zero size")
         self.hull = hull_points(v)              # what the framing fits (the model's projection lies inside)
+        ext = v.max(axis=0) - v.min(axis=0)
+        #: True for a thin "board" (z extent <= BOARD_DEPTH_RATIO x extent): viewed face-on when azimuth is automatic
+        self.board = bool(ext[2] <= BOARD_DEPTH_RATIO * ext[0])
+        #: the azimuth of the (first) view in degrees: the option's, or the automatic one (PreviewOptions.azimuth)
+        self.azimuth = float(o.azimuth) if o.azimuth is not None else (0.0 if self.board else DEFAULT_AZIMUTH)
         if o.turntable > 1:                     # every view fits all views' hulls: a turntable does not breathe
             self.hull = hull_points(np.concatenate([(self.hull - self.center) @ camera_rotation(360.0 * k / o.turntable).T
                                                     + self.center for k in range(o.turntable)]))
@@ -164,7 +169,8 @@ class PreviewScene:
             res = render_full(self.scene, seed=o.seed, max_depth=depth, aovs=aovs, progress=False,
                               prepared=self.prepared, threads=o.threads, integrator="glossy",
                               transparent_shadows=True, throughput_cutoff=cutoff,
-                              light_select_depth=o.light_select_depth, **{"chunk_samples": o.chunk_samples, **glass_kw})
+                              light_select_depth=o.light_select_depth, glossy_samples=o.glossy_samples,
+                              glossy_depth=o.glossy_depth, glossy_threshold=o.glossy_threshold, **{"chunk_samples": o.chunk_samples, **glass_kw})
         self.warnings += [str(w.message) for w in caught]
         if self.exposure is None:
             self.exposure, self.white = auto_exposure(res.image, self.model_mask())
@@ -309,7 +315,7 @@ def render_preview(model, options=None, *, name="preview", deadline=None, cancel
     ps = PreviewScene(asset, o)
     try:
         n_views = max(1, o.turntable)
-        az = [o.azimuth + 360.0 * k / n_views for k in range(n_views)] if o.turntable else [o.azimuth]
+        az = [ps.azimuth + 360.0 * k / n_views for k in range(n_views)] if o.turntable else [ps.azimuth]
         images, aovs = [], []
         files = {}
         t_render = 0.0
