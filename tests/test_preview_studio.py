@@ -144,3 +144,23 @@ def test_studio_prefilter_matches_the_engine_stack(rng):
         x = envmap.roughness_map_lookup(cheap, PREFILTER_ALPHAS, d, np.full(len(d), a))
         y = envmap.roughness_map_lookup(ref, PREFILTER_ALPHAS, d, np.full(len(d), a))
         assert np.abs(x - y).max() <= 0.03 * env.image.max(), a
+
+
+def test_shipped_prefiltered_stack_equals_a_fresh_build(tmp_path, monkeypatch):
+    """pyrt/apps/preview/studio_prefiltered.npz (tools/make_tables.py) is the default studio map's stack as built
+    today (float32: within 1e-6 relative); a changed map or a missing file falls back to building it."""
+    from pyrt.apps.preview import studio as S
+    env = S.StudioEnvironment()
+    grey = np.asarray(env.image[..., :1], dtype=np.float64)
+    shipped = S.shipped_prefiltered(grey)
+    assert shipped is not None, "studio_prefiltered.npz is stale: run python tools/make_tables.py"
+    fresh = S.build_studio_prefiltered(grey)
+    assert len(shipped) == len(fresh) == len(S.PREFILTER_ALPHAS) - 1
+    for a, b in zip(shipped, fresh):
+        assert a.shape == b.shape
+        np.testing.assert_allclose(a, b, rtol=1e-6, atol=0)
+    assert S.shipped_prefiltered(grey * 1.01) is None          # another map: not used
+    monkeypatch.setattr(S, "PREFILTERED_FILE", tmp_path / "missing.npz")
+    assert S.shipped_prefiltered(grey) is None
+    maps = S.StudioEnvironment()._build_prefiltered()
+    np.testing.assert_allclose(maps[1][..., :1], fresh[0], rtol=0, atol=0)

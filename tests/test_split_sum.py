@@ -194,3 +194,25 @@ def test_occlusion_map_scales_the_environment():
 def test_preview_method_is_checked():
     with pytest.raises(pyrt.Error, match="preview_method"):
         EnvironmentLight(ConstantEnvironment(1.0), strategy="preview", preview_method="fast")
+
+
+def test_shipped_tables_equal_a_fresh_build(tmp_path, monkeypatch):
+    """pyrt/materials/dfg_tables.npz (tools/make_tables.py) holds what shaders.dfg builds today, for every shipped
+    Smith term and E5; without the file the tables are built (same values)."""
+    from pyrt.materials import preview as PV
+    shipped = PV._shipped()
+    assert set(shipped) == {"E5"} | {f"{ab}_{g}" for g in PV.SHIPPED_GEOMETRIES for ab in "AB"}
+    np.testing.assert_allclose(shipped["E5"], dfg.schlick_diffuse_loss_table(), rtol=0, atol=1e-12)
+    for g in PV.SHIPPED_GEOMETRIES:
+        A, B = dfg.specular_albedo_tables(geometry=g)
+        np.testing.assert_allclose(shipped[f"A_{g}"], A, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(shipped[f"B_{g}"], B, rtol=0, atol=1e-12)
+    monkeypatch.setattr(PV, "TABLES_FILE", tmp_path / "missing.npz")
+    PV._shipped.cache_clear()
+    PV._ab.cache_clear()
+    try:
+        assert PV._shipped() == {}
+        np.testing.assert_allclose(PV._ab("smith_separable")[0], shipped["A_smith_separable"], atol=1e-12)
+    finally:
+        PV._shipped.cache_clear()
+        PV._ab.cache_clear()

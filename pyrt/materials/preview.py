@@ -4,12 +4,14 @@
 the material's BSDF, see :mod:`pyrt.lights.environment`): a Lambertian part, lit by the environment's SH
 irradiance, and GGX lobes, each lit by the environment prefiltered with its width at its dominant direction and
 weighted by its directional albedo (the split sum, :mod:`shaders.dfg`). The helpers here give those albedos from
-tables built once per process (about 0.15 s, on first use).
+tables shipped with pyrt (:data:`TABLES_FILE`, read on first use) or, for a geometry term not shipped, built once
+per process (about 0.15 s).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import lru_cache
+from pathlib import Path
 
 import numpy as np
 
@@ -45,14 +47,45 @@ class PreviewLobes:
                             self.occlusion)
 
 
+#: the tables of :func:`shaders.dfg.specular_albedo_tables` (default grid and samples) for :data:`SHIPPED_GEOMETRIES`
+#: and :func:`shaders.dfg.schlick_diffuse_loss_table`, written by ``tools/make_tables.py`` (tests/test_split_sum.py
+#: checks them against a fresh build): read in ~1 ms instead of built in ~0.15 s by every preview process
+TABLES_FILE = Path(__file__).with_name("dfg_tables.npz")
+#: the Smith terms whose tables are shipped (the glTF materials' and the clear coat's)
+SHIPPED_GEOMETRIES = ("smith_separable", "smith_correlated")
+
+
+@lru_cache(maxsize=None)
+def _shipped():
+    """The arrays of :data:`TABLES_FILE` ({} when it is missing or unreadable: the tables are then built)."""
+    try:
+        with np.load(TABLES_FILE) as f:
+            return {k: f[k] for k in f.files}
+    except (OSError, ValueError):
+        return {}
+
+
 @lru_cache(maxsize=None)
 def _ab(geometry):
+    t = _shipped()
+    if f"A_{geometry}" in t:
+        return t[f"A_{geometry}"], t[f"B_{geometry}"]
     return dfg.specular_albedo_tables(geometry=geometry)
 
 
 @lru_cache(maxsize=None)
 def _e5():
-    return dfg.schlick_diffuse_loss_table()
+    t = _shipped()
+    return t["E5"] if "E5" in t else dfg.schlick_diffuse_loss_table()
+
+
+def write_tables(path=TABLES_FILE):
+    """Build the shipped tables (:data:`SHIPPED_GEOMETRIES`, E5) and write them to ``path`` (tools/make_tables.py)."""
+    arrays = {"E5": dfg.schlick_diffuse_loss_table()}
+    for g in SHIPPED_GEOMETRIES:
+        arrays[f"A_{g}"], arrays[f"B_{g}"] = dfg.specular_albedo_tables(geometry=g)
+    np.savez_compressed(path, **arrays)
+    return path
 
 
 def view_cosine(ctx, normal=None):

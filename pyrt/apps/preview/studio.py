@@ -20,6 +20,7 @@ backdrop (``hide_background``).
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -100,14 +101,58 @@ class StudioEnvironment(LatLongEnvironment):
 
     def _build_prefiltered(self):
         grey = np.asarray(self.image[..., :1], dtype=np.float64)
-        h, w = grey.shape[:2]
-        levels = [_tex.build_mip_level(grey, lv) for lv in range(_tex.n_mip_levels(grey.shape))]
-        maps = [np.asarray(self.image, dtype=np.float64)]
-        for a in PREFILTER_ALPHAS[1:]:
-            wo = int(min(w // 2, max(32, 2 ** math.ceil(math.log2(4.0 * math.pi / a)))))
-            one = _envmap.prefilter_latlong_ggx(levels, a, (max(16, wo // 2), wo), n_samples=PREFILTER_SAMPLES)
-            maps.append(np.repeat(one, 3, axis=2))
-        return maps
+        one = shipped_prefiltered(grey)
+        if one is None:
+            one = build_studio_prefiltered(grey)
+        return [np.asarray(self.image, dtype=np.float64)] + [np.repeat(m, 3, axis=2) for m in one]
+
+
+def build_studio_prefiltered(grey):
+    """The studio stack's prefiltered maps (one channel, float64) for ``PREFILTER_ALPHAS[1:]`` from the grey map
+    ``grey`` (H, W, 1): at half the map's width at most, :data:`PREFILTER_SAMPLES` samples per texel."""
+    h, w = grey.shape[:2]
+    levels = [_tex.build_mip_level(grey, lv) for lv in range(_tex.n_mip_levels(grey.shape))]
+    maps = []
+    for a in PREFILTER_ALPHAS[1:]:
+        wo = int(min(w // 2, max(32, 2 ** math.ceil(math.log2(4.0 * math.pi / a)))))
+        maps.append(_envmap.prefilter_latlong_ggx(levels, a, (max(16, wo // 2), wo), n_samples=PREFILTER_SAMPLES))
+    return maps
+
+
+#: :func:`build_studio_prefiltered` of the default 256 x 128 map in float32 (within 6e-8 of the float64 build),
+#: shipped with pyrt (``tools/make_tables.py`` writes it; tests/test_preview_studio.py checks it against a fresh
+#: build): reading it takes ~2 ms, building it ~0.2 s of every preview process
+PREFILTERED_FILE = Path(__file__).with_name("studio_prefiltered.npz")
+
+
+def image_fingerprint(grey):
+    """Three sums of the map (float64) that any change of the studio's definition changes (not bit-exact: the
+    map's transcendental functions may differ in the last bit between CPUs; compared with rtol 1e-9)."""
+    g = np.asarray(grey, dtype=np.float64).ravel()
+    return np.array([g.sum(), (g * g).sum(), (g * np.linspace(0.0, 1.0, g.size)).sum()])
+
+
+def shipped_prefiltered(grey):
+    """The maps of :data:`PREFILTERED_FILE` when they were built from this ``grey`` map with today's alphas and
+    sample count (else None: the caller builds them)."""
+    try:
+        with np.load(PREFILTERED_FILE) as f:
+            ok = (f["shape"].tolist() == list(grey.shape) and f["alphas"].tolist() == list(PREFILTER_ALPHAS)
+                  and int(f["samples"]) == PREFILTER_SAMPLES
+                  and np.allclose(f["fingerprint"], image_fingerprint(grey), rtol=1e-9, atol=0.0))
+            return [f[f"map{k}"].astype(np.float64) for k in range(len(PREFILTER_ALPHAS) - 1)] if ok else None
+    except (OSError, KeyError, ValueError):
+        return None
+
+
+def write_shipped_prefiltered(path=PREFILTERED_FILE):
+    """Build the default studio map's stack and write it to ``path`` (what ``tools/make_tables.py`` runs)."""
+    grey = studio_environment_image(256, 128)[..., :1].astype(np.float64)
+    maps = build_studio_prefiltered(grey)
+    np.savez_compressed(path, shape=np.array(grey.shape), alphas=np.array(PREFILTER_ALPHAS),
+                        samples=np.array(PREFILTER_SAMPLES), fingerprint=image_fingerprint(grey),
+                        **{f"map{k}": m.astype(np.float32) for k, m in enumerate(maps)})
+    return path
 
 
 def camera_rotation(azimuth):
