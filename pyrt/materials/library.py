@@ -117,7 +117,8 @@ class _MicrofacetSampling:
             else:
                 h = _mf.sample_beckmann_ndf(uu[s], a_s)
             wi[s] = reflect(wo[s], h)
-        pdf = self.pdf(wo, wi, ctx)
+        # self.pdf(wo, wi, ctx) with the alpha and strategy probability already at hand (the same numbers)
+        pdf = ps * self._spec_pdf(wo, wi, alpha) + (1.0 - ps) * sampling.cosine_hemisphere_pdf(wi)
         f = self.f_cos(wo, wi, ctx)
         ok = (pdf > 0) & (wi[:, 2] > 0) & (wo[:, 2] > 0)
         weight = np.where(ok[:, None], f / np.where(ok, pdf, 1.0)[:, None], 0.0)
