@@ -189,36 +189,50 @@ def lookup_nearest(image, uv, wrap="repeat", table=None):
     return _gather(image, np.floor(x + 0.5), np.floor(y + 0.5), wrap, table)
 
 
+def bilinear_taps(shape, uv, wrap):
+    """Where and how much a bilinear lookup reads on an image of ``shape = (H, W, ...)``, whatever its texels:
+    ``(flat, weights)``, four (N,) int64 flat texel indices ``row * W + col`` (wrapped) of the taps (y0, x0),
+    (y0, x1), (y1, x0), (y1, x1) and their four (N, 1) float64 weights. :func:`bilinear_combine` applies them."""
+    wrap = check_wrap(wrap)
+    x, y = uv_to_texel(uv, shape)
+    x0, y0 = np.floor(x), np.floor(y)
+    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
+    h, w = shape[0], shape[1]
+    # the four taps' wrapped rows and columns once each, gathered by flat index from the (H*W, C) view of a
+    # contiguous image (cheaper than four 2-D fancy indexings; the same texels, the same sums)
+    ix0, iy0 = np.asarray(x0, dtype=np.int64), np.asarray(y0, dtype=np.int64)
+    cx0, cx1 = wrap_index(ix0, w, wrap[0]), wrap_index(ix0 + 1, w, wrap[0])
+    ry0, ry1 = wrap_index(iy0, h, wrap[1]) * w, wrap_index(iy0 + 1, h, wrap[1]) * w
+    flat = (ry0 + cx0, ry0 + cx1, ry1 + cx0, ry1 + cx1)
+    weights = ((1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy)
+    return flat, weights
+
+
+def bilinear_combine(image, flat, weights, table=None):
+    """The bilinear lookup of :func:`bilinear_taps`' ``(flat, weights)`` on ``image`` (H, W, C): ``sum_k
+    weights[k] * image[flat[k]]`` (decoded by ``table``), cast to the image's (the table's) dtype."""
+    h, w = image.shape[:2]
+    if image.flags.c_contiguous:
+        src = image.reshape(h * w, -1)
+
+        def tap(i):
+            t = np.take(src, i, axis=0).reshape((i.shape[0],) + image.shape[2:])
+            return t if table is None else table.take(t)
+    else:
+        def tap(i):
+            return image[i // w, i % w] if table is None else table[image[i // w, i % w]]
+    out = (weights[0] * tap(flat[0]) + weights[1] * tap(flat[1]) + weights[2] * tap(flat[2])
+           + weights[3] * tap(flat[3]))
+    return out.astype(_dtype(image, table), copy=False)
+
+
 def lookup_bilinear(image, uv, wrap="repeat", table=None):
     """Bilinear interpolation between the four nearest texel centres.
 
     Same parameters and return as :func:`lookup_nearest`. Weights are computed in float64 and the
     result cast to the image dtype (the table's).
     """
-    wrap = check_wrap(wrap)
-    x, y = uv_to_texel(uv, image.shape)
-    x0, y0 = np.floor(x), np.floor(y)
-    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
-    h, w = image.shape[:2]
-    # the four taps' wrapped rows and columns once each, gathered by flat index from the (H*W, C) view of a
-    # contiguous image (cheaper than four 2-D fancy indexings; the same texels, the same sums)
-    ix0, iy0 = np.asarray(x0, dtype=np.int64), np.asarray(y0, dtype=np.int64)
-    cx0, cx1 = wrap_index(ix0, w, wrap[0]), wrap_index(ix0 + 1, w, wrap[0])
-    ry0, ry1 = wrap_index(iy0, h, wrap[1]) * w, wrap_index(iy0 + 1, h, wrap[1]) * w
-    if image.flags.c_contiguous:
-        flat = image.reshape(h * w, -1)
-
-        def tap(r, c):
-            t = np.take(flat, r + c, axis=0).reshape((r.shape[0],) + image.shape[2:])
-            return t if table is None else table.take(t)
-    else:
-        def tap(r, c):
-            return image[r // w, c] if table is None else table[image[r // w, c]]
-    out = ((1 - fx) * (1 - fy) * tap(ry0, cx0)
-           + fx * (1 - fy) * tap(ry0, cx1)
-           + (1 - fx) * fy * tap(ry1, cx0)
-           + fx * fy * tap(ry1, cx1))
-    return out.astype(_dtype(image, table), copy=False)
+    return bilinear_combine(image, *bilinear_taps(image.shape, uv, wrap), table)
 
 
 def catmull_rom_weights(f):
@@ -391,21 +405,46 @@ def lookup_trilinear(levels, uv, duvdx, duvdy, wrap="repeat", footprint_scale=1.
     are two contiguous runs of that order: one bilinear call per level read, no per-level mask over all
     lookups. Each lookup gets its ``l0`` term, then its ``l1`` term, as a loop over levels would.
     """
-    base = levels[0]
-    lam = mip_level_isotropic(duvdx, duvdy, base.shape, footprint_scale)
-    l0, l1, w1 = trilinear_levels(lam, len(levels))
-    out = np.zeros((len(uv), base.shape[2]), dtype=np.float64)
+    plan = trilinear_plan(levels[0].shape, len(levels), uv, duvdx, duvdy, wrap, footprint_scale)
+    return apply_trilinear_plan(levels, plan, table)
+
+
+def trilinear_plan(shape, n_levels, uv, duvdx, duvdy, wrap="repeat", footprint_scale=1.0):
+    """What :func:`lookup_trilinear` reads on a pyramid of ``n_levels`` over a level 0 of ``shape``, whatever its
+    texels: the same for every texture of that shape read at the same UVs with the same wrap and footprint scale
+    (a glTF material's base colour, normal, metallic-roughness, occlusion and emissive maps usually are), so it
+    is computed once and applied to each (:func:`apply_trilinear_plan`, the same numbers as
+    :func:`lookup_trilinear`).
+
+    Returns a tuple ``(n, steps)``: ``n`` lookups and, per MIP level read, ``(level, idx, w, flat, weights)``:
+    the lookups ``idx`` (k,) that read it with weight ``w`` (k, 1) and their bilinear taps on that level
+    (:func:`bilinear_taps`).
+    """
+    lam = mip_level_isotropic(duvdx, duvdy, shape, footprint_scale)
+    l0, l1, w1 = trilinear_levels(lam, n_levels)
     order = np.argsort(l0.astype(np.int16), kind="stable")     # levels < 64: a radix sort
-    start = np.concatenate([[0], np.cumsum(np.bincount(l0, minlength=len(levels)))])
-    for lev in range(len(levels)):
+    start = np.concatenate([[0], np.cumsum(np.bincount(l0, minlength=n_levels))])
+    steps = []
+    for lev in range(n_levels):
         own = order[start[lev]:start[lev + 1]]
         up = order[start[lev - 1]:start[lev]] if lev > 0 else own[:0]
         up = up[w1[up] > 0]
         if own.size + up.size == 0:
             continue
         idx = np.concatenate([own, up])
-        w = np.concatenate([1.0 - w1[own], w1[up]])
-        out[idx] += w[:, None] * lookup_bilinear(levels[lev], uv[idx], wrap, table if lev == 0 else None)
+        w = np.concatenate([1.0 - w1[own], w1[up]])[:, None]
+        steps.append((lev, idx, w) + bilinear_taps(mip_level_shape(shape, lev), uv[idx], wrap))
+    return len(uv), steps
+
+
+def apply_trilinear_plan(levels, plan, table=None):
+    """:func:`lookup_trilinear` of the pyramid ``levels`` from its :func:`trilinear_plan` ((N, C), dtype of level 0,
+    of ``table`` when given); only the levels the plan reads are indexed (a lazy pyramid builds no other)."""
+    n, steps = plan
+    base = levels[0]
+    out = np.zeros((n, base.shape[2]), dtype=np.float64)
+    for lev, idx, w, flat, weights in steps:
+        out[idx] += w * bilinear_combine(levels[lev], flat, weights, table if lev == 0 else None)
     return out.astype(_dtype(base, table), copy=False)
 
 

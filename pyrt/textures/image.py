@@ -407,6 +407,17 @@ class ImageTexture(Texture):
         (8/16-bit), kept once any coarser level was built (:class:`MipPyramid`)."""
         return self._pyramid.built
 
+    def _transformed(self, uv, duvdx=None, duvdy=None):
+        """Mesh UVs and footprints (None: zeros) as float64 (N, 2), through this texture's UV transform."""
+        uv = np.asarray(uv, dtype=np.float64)
+        n = len(uv)
+        duvdx = np.zeros((n, 2)) if duvdx is None else np.asarray(duvdx, dtype=np.float64)
+        duvdy = np.zeros((n, 2)) if duvdy is None else np.asarray(duvdy, dtype=np.float64)
+        if self.scale != (1.0, 1.0) or self.offset != (0.0, 0.0) or self.rotation_deg != 0.0:  # identity: exact
+            uv, duvdx, duvdy = _tex.transform_uv(uv, duvdx, duvdy, scale=self.scale, offset=self.offset,
+                                                 rotation=np.deg2rad(self.rotation_deg))
+        return uv, duvdx, duvdy
+
     def lookup(self, uv, duvdx=None, duvdy=None):
         """Filtered lookup at raw mesh UVs.
 
@@ -421,13 +432,7 @@ class ImageTexture(Texture):
         -------
         (N, channels) float64 ndarray
         """
-        uv = np.asarray(uv, dtype=np.float64)
-        n = len(uv)
-        duvdx = np.zeros((n, 2)) if duvdx is None else np.asarray(duvdx, dtype=np.float64)
-        duvdy = np.zeros((n, 2)) if duvdy is None else np.asarray(duvdy, dtype=np.float64)
-        if self.scale != (1.0, 1.0) or self.offset != (0.0, 0.0) or self.rotation_deg != 0.0:  # identity: exact
-            uv, duvdx, duvdy = _tex.transform_uv(uv, duvdx, duvdy, scale=self.scale, offset=self.offset,
-                                                 rotation=np.deg2rad(self.rotation_deg))
+        uv, duvdx, duvdy = self._transformed(uv, duvdx, duvdy)
         if self.filter in _tex.RECONSTRUCT:
             out = _tex.RECONSTRUCT[self.filter](self._image, uv, self.wrap, self._table)
         elif self.filter == "trilinear":
@@ -438,8 +443,27 @@ class ImageTexture(Texture):
                                   self.max_anisotropy, self._table)
         return out.astype(np.float64)
 
+    @property
+    def plan_key(self):
+        """What decides where (not what) a trilinear lookup reads: level 0's size, the UV set, the sampler and the
+        UV transform. Textures with equal keys share one :func:`pyrt.shaders.textures.trilinear_plan` per batch."""
+        return (self._image.shape[:2], len(self._pyramid), self.texcoord, self.wrap, self.scale, self.offset,
+                self.rotation_deg, self.footprint_scale)
+
     def evaluate(self, ctx):
-        return self.lookup(*texcoords(ctx, self.texcoord))
+        """The filtered lookup at the hits of ``ctx``; trilinear lookups reuse the batch's plan for this texture's
+        :attr:`plan_key` (``ctx._plan_cache``): the MIP levels, taps and weights are computed once for all the
+        same-sized maps a material reads at the same UVs (the same numbers as :meth:`lookup`)."""
+        if self.filter != "trilinear":
+            return self.lookup(*texcoords(ctx, self.texcoord))
+        cache = ctx.__dict__.setdefault("_plan_cache", {})
+        key = self.plan_key
+        plan = cache.get(key)
+        if plan is None:
+            uv, duvdx, duvdy = self._transformed(*texcoords(ctx, self.texcoord))
+            plan = cache[key] = _tex.trilinear_plan(self._image.shape, len(self._pyramid), uv, duvdx, duvdy,
+                                                    self.wrap, self.footprint_scale)
+        return _tex.apply_trilinear_plan(self._pyramid, plan, self._table).astype(np.float64)
 
 
 class ChannelTexture(Texture):
