@@ -115,6 +115,11 @@ MATERIALS = {
                                  specular_color=(1.0, 0.8, 0.6), ior=1.7),
     "clearcoat": Clearcoat(MetallicRoughness(base_color=(0.7, 0.1, 0.1), roughness=0.6), clearcoat=0.8,
                            roughness=0.35),
+    # smooth transmission (roughness <= SMOOTH_ROUGHNESS): the reflection half; its mirror share is a delta lobe
+    "gltf_pbr_smooth_transmission": GltfPBR(base_color=(0.7, 0.8, 0.9), metallic=0.2, roughness=0.02,
+                                            transmission=0.8, ior=1.5),
+    "gltf_pbr_smooth_thin": GltfPBR(base_color=(0.9, 0.6, 0.6), roughness=0.0, transmission=0.6, thin=True,
+                                    specular=0.8),
 }
 
 
@@ -130,9 +135,11 @@ def test_white_furnace_equals_directional_albedo(name, mu):
 
 
 def test_transmitting_and_half_fresnel_coat_fall_back_to_samples():
-    """Materials whose reflection is not GGX-plus-Lambert in the preview's sense declare no lobes."""
+    """Materials whose reflection is not GGX-plus-Lambert in the preview's sense declare no lobes (rough
+    transmission; smooth transmission declares its reflection half)."""
     ctx = _batch([0.7])
-    assert GltfPBR(transmission=0.5).preview_lobes(ctx) is None
+    assert GltfPBR(transmission=0.5).preview_lobes(ctx) is None          # rough (0.5) transmission: sampled
+    assert GltfPBR(transmission=0.5, roughness=0.0).preview_lobes(ctx) is not None
     assert Clearcoat(MetallicRoughness(), fresnel="half").preview_lobes(ctx) is None
     assert pyrt.BlinnPhong(kd=0.5, ks=0.3, exponent=60).preview_lobes(ctx) is None
 

@@ -261,11 +261,18 @@ class GltfPBR(MetallicRoughness):
         return lobes
 
     def preview_lobes(self, ctx):
-        """Split-sum lobes of the opaque material (None where it transmits: the preview samples it): diffuse
-        ``(1 - m) base (1 - s (F0m + (1 - F0m) E5))`` (``F0m`` the largest channel of the dielectric F0, as the BRDF's
-        ``max(F)``), one GGX lobe of albedo ``(1 - m) s (F0_d A + B) + m (base A + B)``."""
+        """Split-sum lobes of the reflection half (None where the batch has rough transmission: the preview samples
+        it): diffuse ``(1 - m)(1 - t) base (1 - s (F0m + (1 - F0m) E5))`` (``F0m`` the largest channel of the
+        dielectric F0, as the BRDF's ``max(F)``; ``t`` the transmission), one GGX lobe of albedo
+        ``(1 - m) s k (F0_d A + B) + m (base A + B)`` with ``k = 1 - t`` on smooth transmitting hits, whose
+        mirror share is a delta lobe traced as a ray (:meth:`delta_lobes`), else 1."""
+        tr = share = 0.0
         if self.transmits:
-            return None
+            w_rough, _ = self._transmission_weights(ctx)
+            if np.any(w_rough > 0):
+                return None
+            tr = self.param(self.transmission, ctx, 1)[:, None]
+            share = np.where(self.param(self.roughness, ctx, 1) <= SMOOTH_ROUGHNESS, 1.0 - tr[:, 0], 1.0)[:, None]
         base = np.asarray(self.param(self.base_color, ctx))
         m = self.param(self.metallic, ctx, 1)[:, None]
         s = self.param(self.specular, ctx, 1)[:, None]
@@ -274,7 +281,11 @@ class GltfPBR(MetallicRoughness):
         f0d = np.broadcast_to(self._f0_dielectric(ctx), base.shape)
         f0m = f0d.max(axis=1, keepdims=True)
         diffuse = (1.0 - m) * (1.0 - s * (f0m + (1.0 - f0m) * _preview.schlick_diffuse_loss(mu))) * base
-        spec = ((1.0 - m) * s * _preview.schlick_albedo(f0d, mu, alpha, self.geometry)
+        s_d = s
+        if self.transmits:
+            diffuse = diffuse * (1.0 - tr)
+            s_d = s * share
+        spec = ((1.0 - m) * s_d * _preview.schlick_albedo(f0d, mu, alpha, self.geometry)
                 + m * _preview.schlick_albedo(base, mu, alpha, self.geometry))
         return _preview.PreviewLobes(diffuse, [_preview.GlossyLobe(spec, alpha)])
 
