@@ -369,3 +369,29 @@ def test_dielectric_cutoff_only_for_models_with_a_dielectric(monkeypatch):
     for bad in (-0.1, 1.0):
         with pytest.raises(P.PreviewError, match="dielectric_cutoff"):
             P.PreviewOptions(dielectric_cutoff=bad).validate()
+
+
+def test_adaptive_preview_spends_samples_where_the_image_needs_them(tmp_path, capsys):
+    """``target_error`` renders adaptively (base pass ``min_spp``, at most ``max_spp``): edges of the model get more
+    samples than the flat background; bad combinations are refused with a one-line CLI error (exit 2)."""
+    from pyrt.io.assets import load_asset
+    o = P.PreviewOptions(width=48, height=36, target_error=1e-4, max_spp=8, min_spp=2, threads=1)
+    ps = P.PreviewScene(load_asset(BLOB), o)
+    try:
+        res = ps.render_view(ps.azimuth)
+        spp = res.film.weight.reshape(36, 48)
+        mask = ps.model_mask()
+    finally:
+        ps.close()
+    assert np.isfinite(res.image).all() and res.stop_reason in ("target_error", "max_spp")
+    assert spp.min() >= 2 and spp.max() <= 8
+    assert spp[mask].mean() > spp[~mask].mean()           # the blob's shading and edges, not the backdrop
+    for kw, what in ((dict(target_error=-1.0), "target_error"), (dict(max_spp=8), "max_spp needs target_error"),
+                     (dict(target_error=1e-3, min_spp=3), "min_spp")):
+        with pytest.raises(P.PreviewError, match=what):
+            P.PreviewOptions(**kw).validate()
+    assert P.main([BLOB, "-o", str(tmp_path / "a.png"), "--max-spp", "8", "--quiet"]) == 2
+    assert "pyrt-preview: error: max_spp needs target_error" in capsys.readouterr().err
+    rc = P.main([BLOB, "-o", str(tmp_path / "b.png"), "--width", "24", "--height", "18", "--target-error", "1e-2",
+                 "--quiet"])
+    assert rc == 0 and (tmp_path / "b.png").exists()

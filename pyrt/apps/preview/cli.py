@@ -36,7 +36,12 @@ def _parser():
     ap.add_argument("--out-dir", help="output folder (batch mode; default: preview_out)")
     ap.add_argument("--width", type=positive_int, default=640)
     ap.add_argument("--height", type=positive_int, default=480)
-    ap.add_argument("--spp", type=positive_int, default=4)
+    ap.add_argument("--spp", type=positive_int, default=4, help="samples per pixel (fixed; default 4)")
+    ap.add_argument("--target-error", type=positive_float, metavar="E",
+                    help="adaptive sampling to this estimated relMSE instead of --spp (with --max-spp, --min-spp)")
+    ap.add_argument("--max-spp", type=positive_int, metavar="N", help="adaptive: samples per pixel at most (default 16)")
+    ap.add_argument("--min-spp", type=positive_int, default=2, metavar="N",
+                    help="adaptive: the base pass's samples per pixel (even, default 2)")
     ap.add_argument("--fov", type=finite_float, default=35.0, help="vertical field of view (degrees)")
     ap.add_argument("--azimuth", type=finite_float, default=None,
                     help="camera azimuth in degrees (0 = from +z; default: 0 for thin boards, else 35)")
@@ -98,7 +103,9 @@ def _run(args, cancel):
                           environment_samples=args.env_samples, exposure=args.exposure,
                           tonemap=args.tonemap, turntable=args.turntable, formats=formats, aovs=args.aovs,
                           seed=args.seed, time_budget=args.budget, threads=args.threads,
-                          bvh_quality=args.bvh_quality).validate()
+                          bvh_quality=args.bvh_quality, target_error=args.target_error,
+                          max_spp=args.max_spp,
+                          min_spp=args.min_spp).validate()
     paths = collect_inputs(args.models)
     if not paths:
         raise PreviewError(f"no models found in {' '.join(args.models)} "

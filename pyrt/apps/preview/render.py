@@ -23,7 +23,7 @@ from pyrt.lights import LatLongEnvironment, set_environment
 from pyrt.materials import Lambert
 from pyrt.scene import Scene
 from pyrt.io.assets import Asset, load_asset
-from pyrt.apps.preview.options import (BOARD_DEPTH_RATIO, BVH_LOW_TRIANGLES, DEFAULT_AZIMUTH, BudgetExceeded, PreviewError, PreviewInterrupted,
+from pyrt.apps.preview.options import (ADAPTIVE_MAX_SPP, BOARD_DEPTH_RATIO, BVH_LOW_TRIANGLES, DEFAULT_AZIMUTH, BudgetExceeded, PreviewError, PreviewInterrupted,
                                       PreviewOptions)
 from pyrt.apps.preview.studio import STUDIO_PREVIEW_SAMPLES, StudioEnvironment, camera_rotation
 from pyrt.apps.preview.rig import (auto_exposure, bounding_sphere, detect_up_axis, frame_camera, frame_points,
@@ -170,7 +170,10 @@ class PreviewScene:
                               prepared=self.prepared, threads=o.threads, integrator="glossy",
                               transparent_shadows=True, throughput_cutoff=cutoff,
                               light_select_depth=o.light_select_depth, glossy_samples=o.glossy_samples,
-                              glossy_depth=o.glossy_depth, glossy_threshold=o.glossy_threshold, **{"chunk_samples": o.chunk_samples, **glass_kw})
+                              glossy_depth=o.glossy_depth, glossy_threshold=o.glossy_threshold,
+                              target_error=o.target_error,
+                              max_spp=(o.max_spp or ADAPTIVE_MAX_SPP) if o.target_error is not None else None,
+                              min_spp=o.min_spp, **{"chunk_samples": o.chunk_samples, **glass_kw})
         self.warnings += [str(w.message) for w in caught]
         if self.exposure is None:
             self.exposure, self.white = auto_exposure(res.image, self.model_mask())
