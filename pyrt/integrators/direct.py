@@ -218,43 +218,53 @@ def environment_estimate(light, surf, bsdf, visible, rng):
 
 
 def _add_bsdf_sample(light, L_out, bsdf, surf, visible, all_idx, u, mis):
-    """Add one BSDF-sampled direction per hit (random numbers ``u`` (N, 2)), MIS-weighted if ``mis``."""
+    """Add one BSDF-sampled direction per hit (random numbers ``u`` (N, 2)), MIS-weighted if ``mis``.
+
+    Rows are gathered and scattered with :func:`take_rows` / :func:`put_rows` (``np.take`` / ``np.put`` of whole
+    rows: cheaper than fancy indexing of (N, 3) arrays; the same numbers)."""
     env = light.environment
     wi, weight, pdf_b = bsdf.sample(all_idx, u)
     ok = surf.light_side(wi) & (pdf_b > 0) & (max_component(weight) > 0)
     idx = np.flatnonzero(ok)
     if idx.size == 0:
         return
-    val = weight[idx] * env.radiance(wi[idx])
+    w = take_rows(wi, idx)
+    val = take_rows(weight, idx) * env.radiance(w)
     if mis:
-        val *= light.mis_weights(light.mis_pdf(wi[idx]), pdf_b[idx])[1][:, None]
-    keep = max_component(val) > 0
-    idx, val = idx[keep], val[keep]
+        val *= light.mis_weights(light.mis_pdf(w), np.take(pdf_b, idx))[1][:, None]
+    keep = np.flatnonzero(max_component(val) > 0)
+    if keep.size < idx.size:
+        idx, w, val = idx[keep], take_rows(w, keep), take_rows(val, keep)
     if idx.size:
-        vis = visible(idx, wi[idx], np.full(idx.size, np.inf))
-        L_out[idx] += _shadowed_values(vis, val)
+        vis = visible(idx, w, np.full(idx.size, np.inf))
+        put_rows(L_out, idx, take_rows(L_out, idx) + _shadowed_values(vis, val))
 
 
 def _add_environment_sample(light, L_out, surf, bsdf, visible, wi, pdf, mis):
-    """Add one environment-sampled direction per hit (``pdf`` its density), MIS-weighted if ``mis``."""
+    """Add one environment-sampled direction per hit (``pdf`` its density), MIS-weighted if ``mis`` (rows gathered
+    and scattered as in :func:`_add_bsdf_sample`)."""
     # ng . wi > 0, or the shadow-terminator zone (see SurfaceBatch.light_side): the shadow ray decides
     idx = np.flatnonzero(surf.light_side(wi) & (pdf > 0))
     if idx.size == 0:
         return
-    Le = light.environment.radiance(wi[idx])
-    lit = max_component(Le) > 0
-    idx, Le = idx[lit], Le[lit]
+    w = take_rows(wi, idx)
+    Le = light.environment.radiance(w)
+    lit = np.flatnonzero(max_component(Le) > 0)
+    if lit.size < idx.size:
+        idx, w, Le = idx[lit], take_rows(w, lit), take_rows(Le, lit)
     if idx.size == 0:
         return
-    f = bsdf.f_cos(idx, wi[idx])
-    val = f * Le / pdf[idx, None]
+    f = bsdf.f_cos(idx, w)
+    p = np.take(pdf, idx)
+    val = f * Le / p[:, None]
     if mis:
-        val *= light.mis_weights(pdf[idx], bsdf.pdf(idx, wi[idx]))[0][:, None]
-    keep = max_component(val) > 0
-    idx, val = idx[keep], val[keep]
+        val *= light.mis_weights(p, bsdf.pdf(idx, w))[0][:, None]
+    keep = np.flatnonzero(max_component(val) > 0)
+    if keep.size < idx.size:
+        idx, w, val = idx[keep], take_rows(w, keep), take_rows(val, keep)
     if idx.size:
-        vis = visible(idx, wi[idx], np.full(idx.size, np.inf))
-        L_out[idx] += _shadowed_values(vis, val)
+        vis = visible(idx, w, np.full(idx.size, np.inf))
+        put_rows(L_out, idx, take_rows(L_out, idx) + _shadowed_values(vis, val))
 
 
 def _split_sum_preview(light, surf, bsdf, gi, L_out):
