@@ -40,7 +40,17 @@ def test_cli_rejects_bad_option_values(tmp_path, capsys, option, value):
     err = capsys.readouterr().err
     assert exc.value.code == 2
     assert f"argument {option}" in err and "Traceback" not in err
+    lines = err.strip().splitlines()                 # one line, no usage block: "pyrt: error: argument ..."
+    assert len(lines) == 1 and lines[0].startswith("pyrt: error: argument "), lines
     assert not out.exists()
+
+
+def test_acne_cli_bad_arguments_are_one_line(capsys):
+    from pyrt.apps.acne.cli import main as acne_main
+    with pytest.raises(SystemExit) as exc:
+        acne_main(["--bogus"])
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert exc.value.code == 2 and len(lines) == 1 and lines[0].startswith("pyrt-acne: error: "), lines
 
 
 def test_cli_white_applies_to_reinhard_only(tmp_path, capsys):

@@ -395,3 +395,14 @@ def test_adaptive_preview_spends_samples_where_the_image_needs_them(tmp_path, ca
     rc = P.main([BLOB, "-o", str(tmp_path / "b.png"), "--width", "24", "--height", "18", "--target-error", "1e-2",
                  "--quiet"])
     assert rc == 0 and (tmp_path / "b.png").exists()
+
+
+@pytest.mark.parametrize("argv", [["x.glb", "--width", "-3"], [], ["x.glb", "--tonemap", "bogus"],
+                                  ["x.glb", "--unknown-flag"]])
+def test_bad_arguments_give_one_line_errors(argv, capsys):
+    """Bad command-line arguments: exit 2 and exactly one line on stderr, ``pyrt-preview: error: ...``."""
+    with pytest.raises(SystemExit) as e:
+        P.main(argv)
+    assert e.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("pyrt-preview: error: "), err

@@ -1,7 +1,7 @@
 """Command line: ``python -m pyrt render SCENE -o out.exr [-o out.png] [options]``.
 
 Exit codes: 0 done; 2 an error, reported as one line ``pyrt: error: <message>`` (``--debug`` also prints
-the traceback), or argparse's usage line for a bad option value; 130 interrupted. The first SIGINT
+the traceback; bad arguments too, on one line), 130 interrupted. The first SIGINT
 (Ctrl-C) or SIGTERM stops the render after the chunks in progress and writes what was rendered (the
 rest of the image is black, and a line says how much was kept); a second one aborts at once. Output
 paths are checked before the scene is loaded, and every file is replaced atomically.
@@ -18,7 +18,7 @@ import pyrt
 from pyrt.core.image_io import TONEMAPS
 from pyrt.geometry.offsets import STRATEGIES
 from pyrt.render import INTEGRATORS
-from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, check_outputs, finite_float, interrupts,
+from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, ArgumentParser, check_outputs, finite_float, interrupts,
                               nonnegative_int, positive_float, positive_int)
 
 
@@ -27,7 +27,7 @@ class CommandError(pyrt.Error, ValueError):
 
 
 def _parser():
-    ap = argparse.ArgumentParser(prog="pyrt", description="pyrt: Embree + NumPy renderer")
+    ap = ArgumentParser(prog="pyrt", description="pyrt: Embree + NumPy renderer")
     ap.add_argument("--debug", action="store_true", help="print the traceback of an error")
     sub = ap.add_subparsers(dest="cmd", required=True)
     r = sub.add_parser("render", help="render a scene file (TOML or JSON)")

@@ -1,8 +1,8 @@
 """What the command-line programs share: argparse value types, output-path checks made before any
 rendering, and the two-stage handling of SIGINT / SIGTERM (the first stops cleanly, the second aborts).
 
-Exit codes of the programs: 0 done, 2 an error (one line ``PROG: error: <message>``, or argparse's usage
-line), 130 interrupted.
+Exit codes of the programs: 0 done, 2 an error (one line ``PROG: error: <message>``, bad arguments included:
+:class:`ArgumentParser`), 130 interrupted.
 """
 from __future__ import annotations
 
@@ -28,6 +28,16 @@ class OutputPathError(Error, ValueError):
 
 
 # ============================================================================ argparse types
+
+class ArgumentParser(argparse.ArgumentParser):
+    """argparse's parser whose errors are one line, ``PROG: error: <message> (PROG --help: the options)``, exit 2,
+    instead of the usage block and then the message (sub-commands inherit it: ``pyrt render``'s say ``pyrt``)."""
+
+    def error(self, message):
+        """Print the one-line error to stderr and exit with :data:`EXIT_ERROR`."""
+        prog = self.prog.split()[0] if self.prog else "pyrt"
+        self.exit(EXIT_ERROR, f"{prog}: error: {message} ({self.prog} --help: the options)\n")
+
 
 def _integer(text):
     try:

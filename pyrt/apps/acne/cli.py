@@ -1,11 +1,11 @@
 """``python -m pyrt.apps.acne``: run the matrix over offset strategies (and your own) and print the table."""
 from __future__ import annotations
 
-import argparse
 import importlib
 import sys
 
 from pyrt.geometry import offsets
+from pyrt.apps.common import ArgumentParser
 from pyrt.apps.acne.scenes import default_matrix, quick_matrix
 from pyrt.apps.acne.measure import format_table, run_matrix
 
@@ -42,7 +42,7 @@ def main(argv=None):
     int
         The exit status (0).
     """
-    ap = argparse.ArgumentParser(prog="python -m pyrt.apps.acne", description=DESCRIPTION)
+    ap = ArgumentParser(prog="pyrt-acne", description=DESCRIPTION)
     ap.add_argument("--strategies", default=",".join(offsets.STRATEGIES),
                     help="comma-separated names from pyrt.geometry.offsets.STRATEGIES (default: all)")
     ap.add_argument("--offset", action="append", default=[],

@@ -1,13 +1,12 @@
 """The ``pyrt-preview`` command line.
 
 Exit codes: 0 every asset ok; 1 a batch in which some asset failed (the summary says which); 2 an error
-(``pyrt-preview: error: <message>``, ``--debug`` adds the traceback; or argparse's usage line); 130
+(one line ``pyrt-preview: error: <message>``, bad arguments too; ``--debug`` adds the traceback); 130
 interrupted. The first SIGINT / SIGTERM lets the view in progress finish, keeps the finished assets'
 files, writes the summary and exits 130; a second one aborts at once.
 """
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import os
 import sys
@@ -18,7 +17,8 @@ import traceback
 from pyrt.core.errors import Error
 from pyrt.core.image_io import TONEMAPS
 from pyrt.io.assets import FORMATS
-from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, check_output_folder, check_outputs, finite_float,
+from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, ArgumentParser, check_output_folder, check_outputs,
+                              finite_float,
                               interrupts, nonnegative_int, positive_float, positive_int)
 from pyrt.apps.preview.options import AXES, PreviewError, PreviewInterrupted, PreviewOptions
 from pyrt.apps.preview.render import format_phases, render_preview, write_files
@@ -28,7 +28,7 @@ from pyrt.apps.preview.batch import collect_inputs, format_summary, preview_batc
 # ============================================================================ command line
 
 def _parser():
-    ap = argparse.ArgumentParser(prog="pyrt-preview", description="Preview 3D models (glTF/GLB, OBJ, PLY, STL) "
+    ap = ArgumentParser(prog="pyrt-preview", description="Preview 3D models (glTF/GLB, OBJ, PLY, STL) "
                                  "with a studio rig, auto-framing and auto-exposure.")
     ap.add_argument("models", nargs="+", help="model files, folders or glob patterns")
     ap.add_argument("-o", "--output", action="append",
