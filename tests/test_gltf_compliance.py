@@ -111,7 +111,7 @@ def test_report_fields_are_read_defensively():
 
 
 def test_table_status_from_run_and_notes():
-    ok = G.Result("Duck", "d", status="ok", triangles=4212, load=0.1, render=3.0, total=3.2, rss_mb=259.4,
+    ok = G.Result("Duck", "d", status="ok", triangles=4212, load=0.1, render=3.0, total=3.2, process=4.25, rss_mb=259.4,
                   extensions=["KHR_materials_clearcoat"], warnings=["a", "b"])
     odd = G.Result("Alpha|Blend", "a", status="ok", triangles=10, load=1.0, prepare=0.5, render=2.0)
     bad = G.Result("Broken", "b", status="failed", error="AssetError: no mesh")
@@ -122,7 +122,7 @@ def test_table_status_from_run_and_notes():
     lines = G.build_table([ok, odd, bad, slow, new], notes).splitlines()
     assert len(lines) == 7 and lines[1].startswith("|---|")
     cells = [[c.strip() for c in ln.strip("|").split(" | ")] for ln in lines[2:]]
-    assert cells[0] == ["Duck", "materials_clearcoat", "4212", "0.10", "", "3.00", "3.20", "259", "2", "ok", ""]
+    assert cells[0] == ["Duck", "materials_clearcoat", "4212", "0.10", "", "3.00", "3.20", "4.25", "259", "2", "ok", ""]
     assert cells[1][0] == "Alpha\\|Blend" and cells[1][4] == "0.50"
     assert cells[1][-2:] == ["differs", "MASK renders opaque"]
     assert cells[2][-2:] == ["failed", "AssetError: no mesh"]               # a failed run overrides the note
