@@ -16,6 +16,7 @@ from pyrt.geometry.normals import crease_normals
 from pyrt.shaders.vec import divide_rows, norm
 from pyrt.geometry.surface import GeometryError, GeometryTable, MeshData, validate_mesh
 from pyrt.lights.base import Light
+from pyrt.lights.mesh import EmissiveMeshLight
 from pyrt.materials import Material
 from pyrt.core.transforms import SceneError, apply_matrix, transform_matrix  # noqa: F401 (public here too)
 
@@ -191,6 +192,21 @@ class Scene:
         if shading == "gouraud":
             self.gouraud_meshes.add(len(self.meshes) - 1)
         return len(self.meshes) - 1
+
+    def add_emissive_lights(self, *, n_samples=1, name="emitters"):
+        """Make the emissive meshes (materials that declare ``emits``) a light source: add one
+        :class:`pyrt.EmissiveMeshLight` over them, so that every hit that receives direct light samples them with
+        ``n_samples`` shadow rays (the glossy integrator MIS-combines those with its BSDF rays). Call it once the
+        meshes are added (later meshes are not part of it). Returns the light, or None when no mesh emits
+        (no material declares ``emits``, or their emission is 0 at every probe point; nothing is added). Off unless called: without it, emitters light other surfaces only through the glossy
+        integrator's BSDF rays.
+        """
+        if any(lt.scene_emitter for lt in self.lights):
+            raise SceneError("add_emissive_lights: the scene already has an emissive-mesh light")
+        if not any(self.materials[m.material_id].emits for m in self.meshes):
+            return None
+        light = EmissiveMeshLight(self.meshes, self.materials, n_samples=n_samples, name=name)
+        return self.add_light(light) if light.sampled_triangles else None
 
     # -- convenience primitives ----------------------------------------------------------------
     def add_sphere(self, center, radius, material, *, subdivisions=4, smooth=True, name=None):

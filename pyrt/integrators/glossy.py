@@ -93,6 +93,12 @@ class GlossyIntegrator(Integrator):
                 self.emitter_lights[mesh.material_id] += [lt for lt in lts
                                                           if lt not in self.emitter_lights[mesh.material_id]]
         self.traced_lights = [lt for lts in self.emitter_lights.values() for lt in lts]
+        # emissive-mesh lights (Scene.add_emissive_lights): the rays that hit their triangles reach them
+        self.mesh_lights = [lt for lt in scene.lights if lt.scene_emitter]
+        for lt in self.mesh_lights:
+            if not lt.built_for(scene.meshes):
+                raise RenderError(f"render: {lt.label} was built for other meshes than this scene's")
+        self.traced_lights += self.mesh_lights
         env_lights = [lt for lt in scene.lights if lt.environment is not None and lt.strategy in _ENV_LIGHT_SAMPLED]
         self.env_light = env_lights[0] if env_lights else None
 
@@ -134,9 +140,9 @@ class GlossyIntegrator(Integrator):
                     L += direct.light_sampling_estimate(light, dsurf, bsdf, visible, rng)
                     continue
 
-                def w_light(idx, wi, light=light):
-                    w = mis_weights(light.n_samples, light.pdf_li(take_rows(dsurf.p, idx), wi), nb,
-                                    bsdf.pdf(idx, wi))[0]
+                def w_light(idx, wi, pdf=None, light=light):
+                    p_l = light.pdf_li(take_rows(dsurf.p, idx), wi) if pdf is None else pdf
+                    w = mis_weights(light.n_samples, p_l, nb, bsdf.pdf(idx, wi))[0]
                     return np.where(sampled[idx], w, 1.0)
                 L += direct.light_sampling_estimate(light, dsurf, bsdf, visible, rng, weight=w_light)
                 continue
@@ -160,7 +166,7 @@ class GlossyIntegrator(Integrator):
     @staticmethod
     def _env_light_sampling(light, surf, bsdf, visible, rng, nb):
         """The environment by its map at glossy hits, light samples weighted by ``w_l`` against ``nb`` rays."""
-        def w_light(idx, wi):
+        def w_light(idx, wi, pdf=None):
             return mis_weights(light.n_samples, light.pdf_li(None, wi), nb, bsdf.pdf(idx, wi))[0]
         return direct.light_sampling_estimate(light, surf, bsdf, visible, rng, weight=w_light)
 
@@ -172,12 +178,18 @@ class GlossyIntegrator(Integrator):
         w = mis_weights(lt.n_samples, lt.pdf_li(None, d), 1, bsdf_pdf)[1]
         return np.where(bsdf_pdf > 0, w, 1.0)
 
-    def _emission_weight(self, k, o, d, bsdf_pdf):
-        """``w_b`` of material ``k``'s emission for glossy rays from ``o`` along ``d`` (1 if it is no light)."""
-        lts = self.emitter_lights.get(int(k))
-        if not lts:
+    def _emission_weight(self, k, o, d, bsdf_pdf, ctx=None):
+        """``w_b`` of material ``k``'s emission for glossy rays from ``o`` along ``d`` hitting ``ctx`` (1 if it is no
+        light): area lights by their ``pdf_li`` of the direction, emissive-mesh lights by their density at the
+        hit point (:meth:`Light.pdf_hit`: the hit's triangle, distance and cosine; ``ctx`` is needed for them)."""
+        lts = self.emitter_lights.get(int(k), [])
+        mesh_lts = [lt for lt in self.mesh_lights if int(k) in lt.material_ids]
+        if not lts and not mesh_lts:
             return np.ones(d.shape[0])
         p_l = sum(lt.n_samples * lt.pdf_li(o, d) for lt in lts)
+        if mesh_lts:
+            cos_l = dot(d, ctx.ng)
+            p_l = p_l + sum(lt.n_samples * lt.pdf_hit(ctx.mesh_id, ctx.prim_id, ctx.t, cos_l) for lt in mesh_lts)
         w = mis_weights(1, p_l, 1, bsdf_pdf)[1]
         return np.where(bsdf_pdf > 0, w, 1.0)
 

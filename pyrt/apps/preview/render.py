@@ -66,6 +66,10 @@ class PreviewScene:
                                                    crease_angle=o.crease_angle, lights=o.lights in ("asset", "both"),
                                                    timings=self.timings)
         self.warnings += [str(w.message) for w in caught]
+        #: the model's emissive meshes as a light (PreviewOptions.emissive_lights), None when off or nothing emits
+        self.emissive_light = None
+        if o.emissive_lights == "auto":
+            self.emissive_light = self.scene.add_emissive_lights(n_samples=o.emissive_samples)
         self.asset_lights = list(self.scene.lights)
         self.ground_mesh = None
         if o.ground:
