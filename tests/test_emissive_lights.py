@@ -350,3 +350,18 @@ def test_light_and_ray_weights_of_one_point_sum_to_one():
         np.testing.assert_allclose(w_l + w_b, 1.0, rtol=1e-4)         # hit t is float32-exact, the sample's float64
         assert 0.05 < w_b.mean() < 0.95
         np.testing.assert_array_equal(integ._emission_weight(k, o, ls.wi, np.zeros(n), ctx), 1.0)  # delta rays
+
+
+def test_scene_files_turn_the_emissive_meshes_into_a_light():
+    spec = {"camera": {"position": [0, 0.5, 3], "target": [0, 0, 0], "width": 8, "height": 6},
+            "materials": {"lamp": {"type": "area_emitter", "radiance": 2.0}, "floor": {"type": "lambert"}},
+            "meshes": [{"primitive": "plane", "size": 4, "material": "floor"},
+                       {"primitive": "plane", "size": 1, "normal": [0, -1, 0], "translate": [0, 1, 0], "material": "lamp"}],
+            "lights": [{"type": "emissive_mesh", "n_samples": 3}]}
+    sc, _ = pyrt.load_dict(spec)
+    (light,) = sc.lights
+    assert light.scene_emitter and light.n_samples == 3 and light.mesh_ids == (1,)
+    with pytest.raises(pyrt.SceneFileError, match="allowed parameters"):
+        pyrt.load_dict({**spec, "lights": [{"type": "emissive_mesh", "samples": 3}]})
+    with pytest.raises(pyrt.SceneFileError, match="n_samples must be a positive integer"):
+        pyrt.load_dict({**spec, "lights": [{"type": "emissive_mesh", "n_samples": 0}]})
