@@ -78,12 +78,14 @@ def main(argv=None):
     ap.add_argument("--runs", type=int, default=1, help="timed repetitions of each variant and seed")
     ap.add_argument("--width", type=int, default=320)
     ap.add_argument("--height", type=int, default=240)
+    ap.add_argument("--only", action="append", help="run only the variants whose name contains this (repeatable)")
     args = ap.parse_args(argv)
     size = dict(width=args.width, height=args.height)
     asset = pyrt.load_asset(args.model)
     scenes = {False: PreviewScene(asset, PreviewOptions(emissive_lights="off", **size)),
               True: PreviewScene(asset, PreviewOptions(emissive_lights="auto", **size))}
-    variants = {k: v for k, v in VARIANTS.items() if v[2] is None or scenes[True].emissive_light is not None}
+    variants = {k: v for k, v in VARIANTS.items() if (v[2] is None or scenes[True].emissive_light is not None)
+                and (not args.only or any(w in k for w in args.only))}
     times = {k: [] for k in variants}
     images = {k: {} for k in variants}
     for _ in range(args.runs):

@@ -21,6 +21,12 @@ glossy rays (``n_b`` samples, density ``p_b``). Light samples are weighted by
   only (weight 1); an emissive mesh that is no light is reached by glossy rays only (weight 1). The light's
   exact shape is sampled while rays hit its triangulated mesh: a disk or sphere light is counted with
   weight ``w_l`` instead of 1 on the sliver between the two (below 1% of the area at 64 segments);
+- emissive meshes made a light by ``Scene.add_emissive_lights`` (:class:`pyrt.EmissiveMeshLight`, every triangle
+  of an emitting material): both strategies, MIS, with the densities of the *point*: a light sample carries its
+  own ``p_l = pmf / area * r^2 / |cos|`` (:attr:`LightSample.pdf`), and a glossy ray that hits one of the
+  light's triangles gets ``w_b`` from :meth:`Light.pdf_hit` with the hit's mesh, triangle, distance ``t`` and
+  cosine (no extra ray). Triangles the light does not sample (``pmf = 0``: no emission at its probe points)
+  have ``p_l = 0``, so their emission keeps weight 1, as do delta (mirror, glass) rays and camera rays;
 - the environment light: at glossy hits it is light-sampled with its map (``Environment.sample``, whatever
   its ``strategy``; its own BSDF half of ``"mis"`` is left to the glossy rays) and MIS-weighted; with
   ``strategy="bsdf"`` or ``"preview"`` it is not light-sampled there and escaped glossy rays count with
