@@ -108,6 +108,60 @@ def test_half_black_emission_texture_gives_the_half_quads_irradiance():
         assert abs(full - ref) > 20 * se      # the untextured answer would fail
 
 
+@pytest.mark.parametrize("how", ["uv_set_1", "offset"])
+def test_emission_texture_read_in_its_uv_set_and_with_its_transform(how):
+    """The bright half of the quad moves where the texture says: UV set 1 (set 0 is all zeros, black: reading it
+    would give no light) or a texture offset of 0.5 in u (repeat wrap: the bright half becomes u < 0.5)."""
+    import trimesh
+    img = np.array([[[0.0] * 3, [1.0] * 3], [[0.0] * 3, [1.0] * 3]])
+    sc = pyrt.Scene()
+    m = trimesh.Trimesh(vertices=QUAD, faces=DOWN, process=False)
+    if how == "uv_set_1":
+        m.visual = trimesh.visual.TextureVisuals(uv=np.zeros((4, 2)))
+        tex = ImageTexture(img, filter="nearest", decode="linear", texcoord=1)
+        sc.add_mesh(m, pyrt.Lambert(0.0, emission=tex), smooth=False, uv_sets={1: UV})
+        bright = [0.0, 0.5]
+    else:
+        m.visual = trimesh.visual.TextureVisuals(uv=UV)
+        tex = ImageTexture(img, filter="nearest", decode="linear", offset=(0.5, 0.0))
+        sc.add_mesh(m, pyrt.Lambert(0.0, emission=tex), smooth=False)
+        bright = [-0.5, 0.0]
+    light = sc.add_emissive_lights()
+    half = np.array([[bright[0], 1.0, -0.5], [bright[1], 1.0, -0.5], [bright[1], 1.0, 0.5], [bright[0], 1.0, 0.5]])
+    p, n = np.array([0.3, 0.0, 0.1]), np.array([0.0, 1.0, 0.0])
+    mean, se = irradiance_estimate(light, p, n)
+    ref = polygon_irradiance(half, p, n, 1.0)
+    other = polygon_irradiance(QUAD, p, n, 1.0) - ref
+    assert abs(mean - ref) <= 5 * se and abs(other - ref) > 20 * se, (mean, ref, other, se)
+
+
+def test_vertex_colour_emission_reads_the_scene_meshes_colours():
+    """Emission from colours bound to scene mesh 1 (a floor is mesh 0): the sampled radiance is the barycentric
+    interpolation of the vertex colours at the sampled point (the light's surface batch reports scene mesh ids)."""
+    from pyrt.io.assets.materials import VertexColorTexture
+    cols = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 1.0, 1.0]])
+    tex = VertexColorTexture()
+    sc = pyrt.Scene()
+    sc.add_plane((0, 0, 0), 4.0, pyrt.Lambert(0.5))
+    mid = sc.add_mesh(quad_mesh(), pyrt.Lambert(0.0, emission=tex), smooth=False)
+    tex.bind(mid, sc.meshes[mid].faces, cols)
+    light = sc.add_emissive_lights()
+    n = 300
+    p = np.zeros((n, 3)) + [0.1, 0.0, -0.2]
+    ls = light.sample_li(p, np.random.default_rng(9).random((n, 2)))
+    Le = ls.irradiance() * ls.pdf[:, None]
+    y = p + ls.dist[:, None] * ls.wi
+    expect = np.zeros((n, 3))
+    for f in sc.meshes[mid].faces:
+        v = QUAD[f]
+        b = np.linalg.lstsq(np.column_stack([v[1] - v[0], v[2] - v[0]]), (y - v[0]).T, rcond=None)[0].T
+        inside = (b >= -1e-9).all(axis=1) & (b.sum(axis=1) <= 1 + 1e-9)
+        bb = np.column_stack([1 - b.sum(axis=1), b])[inside]
+        expect[inside] = bb @ cols[f]
+    np.testing.assert_allclose(Le, expect, atol=1e-9)
+    assert np.ptp(Le[:, 0]) > 0.5         # not the unbound white
+
+
 @pytest.mark.parametrize("material, behind", [
     (pyrt.AreaEmitter(2.0), 0.0),                                    # one-sided by default
     (pyrt.AreaEmitter(2.0, two_sided=True), 1.0),
@@ -315,13 +369,14 @@ def test_bad_arguments_raise_pyrt_errors_naming_the_problem(tmp_path, capsys):
     assert "emissive-samples" in capsys.readouterr().err
 
 
-def test_glossy_render_refuses_a_light_built_for_other_meshes():
+@pytest.mark.parametrize("integrator", ["whitted", "glossy"])
+def test_render_refuses_a_light_built_for_other_meshes(integrator):
     sc, light = emitter_scene(pyrt.AreaEmitter(1.0))
     other = pyrt.Scene(sc.camera)
     other.add_mesh(quad_mesh(), pyrt.AreaEmitter(1.0), smooth=False)
     other.add_light(light)
     with pytest.raises(pyrt.RenderError, match="built for other meshes"):
-        pyrt.render(other, integrator="glossy", spp=1)
+        pyrt.render(other, integrator=integrator, spp=1)
 
 
 def test_light_and_ray_weights_of_one_point_sum_to_one():

@@ -101,9 +101,6 @@ class GlossyIntegrator(Integrator):
         self.traced_lights = [lt for lts in self.emitter_lights.values() for lt in lts]
         # emissive-mesh lights (Scene.add_emissive_lights): the rays that hit their triangles reach them
         self.mesh_lights = [lt for lt in scene.lights if lt.scene_emitter]
-        for lt in self.mesh_lights:
-            if not lt.built_for(scene.meshes):
-                raise RenderError(f"render: {lt.label} was built for other meshes than this scene's")
         self.traced_lights += self.mesh_lights
         env_lights = [lt for lt in scene.lights if lt.environment is not None and lt.strategy in _ENV_LIGHT_SAMPLED]
         self.env_light = env_lights[0] if env_lights else None

@@ -105,6 +105,9 @@ class Integrator:
             "render", "light_select_depth", light_select_depth, RenderError, lo=0)
         #: the lights light_select_depth chooses between (the others are estimated as before)
         self.selectable_lights = [lt for lt in self.scene.lights if light_choice.selectable(lt)]
+        for lt in self.scene.lights:   # an emissive-mesh light samples (and MIS-weights) its own scene's triangles
+            if lt.scene_emitter and not lt.built_for(self.scene.meshes):
+                raise RenderError(f"render: {lt.label} was built for other meshes than this scene's")
         self.stats = RenderStats()
 
     # -- Embree calls with bookkeeping -------------------------------------------------------

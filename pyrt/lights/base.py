@@ -214,6 +214,11 @@ class Light:
         the light samples scene triangles (:attr:`scene_emitter`)."""
         return np.zeros(np.asarray(dist).shape[0])
 
+    def built_for(self, meshes):
+        """True when the light may light a scene with these ``meshes`` (every light but a :attr:`scene_emitter`,
+        which must find its own meshes there)."""
+        return True
+
     def ray_distance(self, p, wi):
         """Distance (N,) from ``p`` along ``wi`` to the light's emitting surface, ``inf`` where the ray misses it
         (the lights that BSDF sampling can reach define it; for the others every ray misses)."""

@@ -52,7 +52,7 @@ _PROBES = np.array([[1 / 3, 1 / 3], [1 / 6, 1 / 6], [2 / 3, 1 / 6], [1 / 6, 2 / 
 #: triangles per block when the bound is evaluated (bounded memory on big emitters)
 _BLOCK = 1 << 15
 #: rays x triangles per block of the brute-force :meth:`EmissiveMeshLight.pdf_li`
-_PDF_BLOCK = 1 << 20
+_PDF_BLOCK = 1 << 18
 
 
 def _emission(materials, ctx):
