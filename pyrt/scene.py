@@ -197,15 +197,20 @@ class Scene:
         """Make the emissive meshes (materials that declare ``emits``) a light source: add one
         :class:`pyrt.EmissiveMeshLight` over them, so that every hit that receives direct light samples them with
         ``n_samples`` shadow rays (the glossy integrator MIS-combines those with its BSDF rays). Call it once the
-        meshes are added (later meshes are not part of it). Returns the light, or None when no mesh emits
-        (no material declares ``emits``, or their emission is 0 at every probe point; nothing is added). Off unless called: without it, emitters light other surfaces only through the glossy
+        meshes are added (later meshes are not part of it). The visible meshes of area lights added by
+        :meth:`pyrt.AreaLight.add_to` are left out (their light samples them already). Returns the light, or None
+        when no other mesh emits (no material declares ``emits``, or their emission is 0 at every probe point;
+        nothing is added). Off unless called: without it, emitters light other surfaces only through the glossy
         integrator's BSDF rays.
         """
         if any(lt.scene_emitter for lt in self.lights):
             raise SceneError("add_emissive_lights: the scene already has an emissive-mesh light")
-        if not any(self.materials[m.material_id].emits for m in self.meshes):
+        # the visible meshes of area lights (AreaLight.add_to) are sampled by their own light: not twice
+        own = {lt.emitter_mesh_name for lt in self.lights if lt.has_mesh}
+        ids = [i for i, m in enumerate(self.meshes) if self.materials[m.material_id].emits and m.name not in own]
+        if not ids:
             return None
-        light = EmissiveMeshLight(self.meshes, self.materials, n_samples=n_samples, name=name)
+        light = EmissiveMeshLight(self.meshes, self.materials, mesh_ids=ids, n_samples=n_samples, name=name)
         return self.add_light(light) if light.sampled_triangles else None
 
     # -- convenience primitives ----------------------------------------------------------------

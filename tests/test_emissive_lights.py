@@ -420,3 +420,17 @@ def test_scene_files_turn_the_emissive_meshes_into_a_light():
         pyrt.load_dict({**spec, "lights": [{"type": "emissive_mesh", "samples": 3}]})
     with pytest.raises(pyrt.SceneFileError, match="n_samples must be a positive integer"):
         pyrt.load_dict({**spec, "lights": [{"type": "emissive_mesh", "n_samples": 0}]})
+
+
+def test_area_light_meshes_are_not_sampled_twice():
+    """The visible mesh of a RectLight (AreaLight.add_to) is lit by the RectLight: add_emissive_lights leaves it out
+    (None when nothing else emits; only the other emitter otherwise), so the floor's irradiance is counted once."""
+    sc = pyrt.Scene()
+    sc.add_plane((0, 0, 0), 4.0, pyrt.Lambert(0.5))
+    rect = pyrt.RectLight((0.0, 1.0, 0.0), size=1.0, radiance=2.0, name="key")
+    rect.add_to(sc)
+    assert sc.meshes[-1].name == rect.emitter_mesh_name == "key_emitter"
+    assert sc.add_emissive_lights() is None and sc.lights == [rect]
+    mid = sc.add_mesh(quad_mesh(), pyrt.AreaEmitter(1.0), smooth=False, name="panel")
+    light = sc.add_emissive_lights()
+    assert light.mesh_ids == (mid,)

@@ -91,7 +91,7 @@ class GlossyIntegrator(Integrator):
         by_name = {}
         for lt in scene.lights:
             if lt.has_mesh and not lt.delta:
-                by_name.setdefault(f"{lt.name or type(lt).__name__}_emitter", []).append(lt)
+                by_name.setdefault(lt.emitter_mesh_name, []).append(lt)
         for mesh in scene.meshes:
             lts = by_name.get(mesh.name)
             if lts and scene.materials[mesh.material_id].emits:

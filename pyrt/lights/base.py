@@ -214,6 +214,12 @@ class Light:
         the light samples scene triangles (:attr:`scene_emitter`)."""
         return np.zeros(np.asarray(dist).shape[0])
 
+    @property
+    def emitter_mesh_name(self):
+        """The name of the visible emitter mesh :meth:`add_to` adds for a light with :attr:`has_mesh`
+        (``"<name>_emitter"``), else None."""
+        return f"{self.name or type(self).__name__}_emitter" if self.has_mesh else None
+
     def built_for(self, meshes):
         """True when the light may light a scene with these ``meshes`` (every light but a :attr:`scene_emitter`,
         which must find its own meshes there)."""
