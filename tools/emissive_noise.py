@@ -32,6 +32,8 @@ import numpy as np
 
 import pyrt
 from pyrt.apps.preview import PreviewOptions, PreviewScene
+from pyrt.geometry import offsets
+from pyrt.geometry.surface import surface_from_hits
 
 VARIANTS = {                          # name -> (spp, glossy_samples, emissive light samples or None: off)
     "off: 4 spp, 4 glossy (before)": (4, 4, None),
@@ -70,6 +72,26 @@ def wall_mask(ps, model):
     one = np.ones(d.shape[0])
     emitter = ps.emissive_light.pdf_hit(hits.mesh_id, np.maximum(hits.prim_id, 0), one, one) > 0
     return model & ~emitter.reshape(cam.height, cam.width)
+
+
+def sample_use(ps, walls, seed=0):
+    """Where one emitter sample per wall pixel goes (pixel-centre camera hits): the shares with ``E = 0`` (the
+    back of a one-sided emitter, a triangle edge-on), below the receiver's horizon, blocked by a shadow ray, and
+    the rest (those that add light): ``(zero, horizon, blocked, useful)``."""
+    cam = ps.scene.camera
+    ys, xs = np.mgrid[0:cam.height, 0:cam.width]
+    d = cam.directions(xs.ravel() + 0.5, ys.ravel() + 0.5)[walls.ravel()]
+    o = np.broadcast_to(cam.position, d.shape).copy()
+    idx, hits = ps.prepared.accel.intersect_hits(o, d)
+    surf = surface_from_hits(ps.prepared.geo, hits, o[idx], d[idx])
+    ls = ps.emissive_light.sample_li(surf.p, np.random.default_rng(seed).random((idx.size, 2)))
+    lit = ls.irradiance().max(axis=1) > 0
+    side = surf.light_side(ls.wi)
+    live = np.flatnonzero(lit & side)
+    org, tmax = offsets.get_strategy(None).shadow(surf.subset(live), ls.wi[live], ls.dist[live], None)
+    blocked = ps.prepared.accel.occluded(org, ls.wi[live], tmax)
+    n = max(idx.size, 1)
+    return np.mean(~lit), np.mean(lit & ~side), blocked.sum() / n, (live.size - blocked.sum()) / n
 
 
 def main(argv=None):
@@ -112,6 +134,10 @@ def main(argv=None):
         mean_w = float(np.mean((images[name][1][walls] + images[name][2][walls]) / 2))
         t = statistics.median(times[name])
         print(f"| {name} | {t:.2f} | {row[0]:.4g} | {row[1]:.4g} | {mean_w:.4g} | {row[1] * t:.4g} |")
+    if scenes[True].emissive_light is not None:
+        zero, horizon, blocked, useful = sample_use(ps, walls)
+        print(f"emitter samples at the wall pixels' camera hits: E = 0 (back faces) {zero:.1%}, below the horizon "
+              f"{horizon:.1%}, shadowed {blocked:.1%}, adding light {useful:.1%}")
     for p in scenes.values():
         p.close()
 
