@@ -193,10 +193,12 @@ class Scene:
             self.gouraud_meshes.add(len(self.meshes) - 1)
         return len(self.meshes) - 1
 
-    def add_emissive_lights(self, *, n_samples=1, name="emitters"):
+    def add_emissive_lights(self, *, n_samples=1, selection="power", name="emitters"):
         """Make the emissive meshes (materials that declare ``emits``) a light source: add one
         :class:`pyrt.EmissiveMeshLight` over them, so that every hit that receives direct light samples them with
-        ``n_samples`` shadow rays (the glossy integrator MIS-combines those with its BSDF rays). Call it once the
+        ``n_samples`` shadow rays (the glossy integrator MIS-combines those with its BSDF rays); ``selection``
+        chooses the triangles by power (``"power"``, default) or per shading point (``"oriented"``,
+        :mod:`pyrt.lights.mesh_clusters`). Call it once the
         meshes are added (later meshes are not part of it). The visible meshes of area lights added by
         :meth:`pyrt.AreaLight.add_to` are left out (their light samples them already). Returns the light, or None
         when no other mesh emits (no material declares ``emits``, or their emission is 0 at every probe point;
@@ -210,7 +212,8 @@ class Scene:
         ids = [i for i, m in enumerate(self.meshes) if self.materials[m.material_id].emits and m.name not in own]
         if not ids:
             return None
-        light = EmissiveMeshLight(self.meshes, self.materials, mesh_ids=ids, n_samples=n_samples, name=name)
+        light = EmissiveMeshLight(self.meshes, self.materials, mesh_ids=ids, n_samples=n_samples, selection=selection,
+                                  name=name)
         return self.add_light(light) if light.sampled_triangles else None
 
     # -- convenience primitives ----------------------------------------------------------------

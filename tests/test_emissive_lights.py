@@ -43,10 +43,10 @@ def quad_mesh(uv=False):
     return m
 
 
-def emitter_scene(material, uv=False, n_samples=1):
+def emitter_scene(material, uv=False, n_samples=1, selection="power"):
     sc = pyrt.Scene(pyrt.Camera(position=(0, 0.5, 3.0), target=(0, 0, 0)))
     sc.add_mesh(quad_mesh(uv), material, smooth=False, name="panel")
-    light = sc.add_emissive_lights(n_samples=n_samples)
+    light = sc.add_emissive_lights(n_samples=n_samples, selection=selection)
     return sc, light
 
 
@@ -60,10 +60,11 @@ def irradiance_estimate(light, p, n, count=200_000, seed=0):
 
 # ------------------------------------------------------------------------------------------- (a) closed form
 
+@pytest.mark.parametrize("selection", ["power", "oriented"])
 @pytest.mark.parametrize("p, n", [((0.0, 0.0, 0.0), (0.0, 1.0, 0.0)), ((0.7, 0.2, -0.3), (0.0, 1.0, 0.0)),
                                   ((0.4, -0.5, 0.9), (-0.3, 0.9, -0.3))])
-def test_irradiance_from_a_uniform_quad_matches_lamberts_polygon_formula(p, n):
-    _, light = emitter_scene(pyrt.AreaEmitter(3.0))
+def test_irradiance_from_a_uniform_quad_matches_lamberts_polygon_formula(p, n, selection):
+    _, light = emitter_scene(pyrt.AreaEmitter(3.0), selection=selection)
     n = np.asarray(n) / np.linalg.norm(n)
     mean, se = irradiance_estimate(light, p, n)
     ref = polygon_irradiance(QUAD, np.asarray(p), n, 3.0)
@@ -71,9 +72,10 @@ def test_irradiance_from_a_uniform_quad_matches_lamberts_polygon_formula(p, n):
     assert se < 0.01 * ref          # the test can tell a wrong density (a factor of 2 is far outside)
 
 
-def test_sample_pdf_equals_pdf_li_and_pdf_hit():
+@pytest.mark.parametrize("selection", ["power", "oriented"])
+def test_sample_pdf_equals_pdf_li_and_pdf_hit(selection):
     """The sample's own density, the brute-force pdf_li of the direction and pdf_hit of the point agree."""
-    _, light = emitter_scene(pyrt.AreaEmitter(3.0))
+    _, light = emitter_scene(pyrt.AreaEmitter(3.0), selection=selection)
     rng = np.random.default_rng(1)
     p = np.column_stack([rng.uniform(-2, 2, 500), rng.uniform(-1, 0.5, 500), rng.uniform(-2, 2, 500)])
     ls = light.sample_li(p, rng.random((500, 2)))
@@ -86,9 +88,9 @@ def test_sample_pdf_equals_pdf_li_and_pdf_hit():
         b = np.linalg.lstsq(np.column_stack([e1, e2]), q.T, rcond=None)[0].T
         inside = (b >= -1e-9).all(axis=1) & (b.sum(axis=1) <= 1 + 1e-9)
         tri[inside] = k
-    np.testing.assert_allclose(light.pdf_hit(np.zeros(500, dtype=np.int64), tri, ls.dist, -ls.wi[:, 1]), ls.pdf,
+    np.testing.assert_allclose(light.pdf_hit(p, np.zeros(500, dtype=np.int64), tri, ls.dist, -ls.wi[:, 1]), ls.pdf,
                                rtol=1e-9)
-    assert np.all(light.pdf_hit(np.ones(500, dtype=np.int64), tri, ls.dist, ls.wi[:, 1]) == 0)  # not its mesh
+    assert np.all(light.pdf_hit(p, np.ones(500, dtype=np.int64), tri, ls.dist, ls.wi[:, 1]) == 0)  # not its mesh
 
 
 # -------------------------------------------------------------------------------- (c) textures, (d) sidedness
@@ -233,18 +235,20 @@ def test_triangles_that_emit_nothing_at_their_probes_are_not_sampled():
     n = 1000
     ls = light.sample_li(np.zeros((n, 3)), np.random.default_rng(5).random((n, 2)))
     assert np.all(ls.irradiance().max(axis=1) > 0)
-    assert np.all(light.pdf_hit(np.zeros(n, dtype=np.int64), np.full(n, dark), ls.dist, np.ones(n)) == 0)
+    assert np.all(light.pdf_hit(np.zeros((n, 3)), np.zeros(n, dtype=np.int64), np.full(n, dark), ls.dist,
+                                np.ones(n)) == 0)
 
 
 # ------------------------------------------------------------------------------- (b) renders: NEE vs BSDF rays
 
-def _receiver_scene(material, emissive_samples):
+def _receiver_scene(material, emissive_samples, selection="power"):
     cam = pyrt.Camera(position=(0, 1.0, 3.0), target=(0, 0, 0), fov=40, width=16, height=12, spp=16)
     sc = pyrt.Scene(cam)
     sc.add_plane((0, 0, 0), 4.0, material, name="floor")
     sc.add_mesh(quad_mesh(), pyrt.AreaEmitter(3.0), smooth=False, name="panel")
+    sc.add_box((1.2, 0.6, -0.8), 0.3, pyrt.AreaEmitter(5.0), name="cube")       # one-sided: the oriented cut
     if emissive_samples:
-        sc.add_emissive_lights(n_samples=emissive_samples)
+        sc.add_emissive_lights(n_samples=emissive_samples, selection=selection)
     return sc
 
 
@@ -255,20 +259,23 @@ def _floor_radiance(sc, seeds, **kw):
     return vals.mean(), vals.std(ddof=1) / math.sqrt(len(vals))
 
 
-@pytest.mark.parametrize("material, threshold", [
-    (pyrt.MetallicRoughness(base_color=0.8, metallic=1.0, roughness=0.5), 0.4),     # glossy (alpha 0.25)
-    pytest.param(pyrt.MetallicRoughness(base_color=0.8, metallic=0.0, roughness=1.0), 1.0,   # diffuse + wide lobe
+@pytest.mark.parametrize("material, threshold, selection", [
+    (pyrt.MetallicRoughness(base_color=0.8, metallic=1.0, roughness=0.5), 0.4, "power"),     # glossy (alpha 0.25)
+    (pyrt.MetallicRoughness(base_color=0.8, metallic=1.0, roughness=0.5), 0.4, "oriented"),
+    pytest.param(pyrt.MetallicRoughness(base_color=0.8, metallic=0.0, roughness=1.0), 1.0, "power",  # + diffuse
+                 marks=pytest.mark.slow),
+    pytest.param(pyrt.MetallicRoughness(base_color=0.8, metallic=0.0, roughness=1.0), 1.0, "oriented",
                  marks=pytest.mark.slow),
 ])
-def test_emitter_sampling_with_mis_agrees_with_bsdf_rays_alone(material, threshold):
+def test_emitter_sampling_with_mis_agrees_with_bsdf_rays_alone(material, threshold, selection):
     """Three estimators of the same image: the glossy rays alone (no emissive light, 64 per hit), the emissive
     light alone (glossy_threshold 0: no rays, light samples with weight 1) and both MIS-combined. They agree
     within 5 standard errors; counting a direction twice would double the MIS estimate."""
     seeds = range(6)
     bsdf, se_b = _floor_radiance(_receiver_scene(material, 0), seeds, spp=16, glossy_samples=64,
                                  glossy_threshold=threshold)
-    nee, se_n = _floor_radiance(_receiver_scene(material, 2), seeds, spp=16, glossy_threshold=0.0)
-    mis, se_m = _floor_radiance(_receiver_scene(material, 2), seeds, spp=16, glossy_samples=4,
+    nee, se_n = _floor_radiance(_receiver_scene(material, 2, selection), seeds, spp=16, glossy_threshold=0.0)
+    mis, se_m = _floor_radiance(_receiver_scene(material, 2, selection), seeds, spp=16, glossy_samples=4,
                                 glossy_threshold=threshold)
     assert bsdf > 0.05
     for est, se in ((nee, se_n), (mis, se_m)):
@@ -276,7 +283,8 @@ def test_emitter_sampling_with_mis_agrees_with_bsdf_rays_alone(material, thresho
     assert 5 * math.hypot(se_m, se_b) < 0.2 * bsdf       # double counting (2x) would be far outside
 
 
-def test_lambertian_floor_lit_by_emitter_matches_the_closed_form():
+@pytest.mark.parametrize("selection", ["power", "oriented"])
+def test_lambertian_floor_lit_by_emitter_matches_the_closed_form(selection):
     """A Lambertian floor under the emissive quad (camera straight down past its edge): each pixel's radiance is
     albedo / pi x the polygon irradiance averaged over the pixel (8 x 8 sub-pixel midpoints); without the
     emissive light the floor gets nothing (Lambertian hits trace no rays)."""
@@ -288,7 +296,7 @@ def test_lambertian_floor_lit_by_emitter_matches_the_closed_form():
     sc.add_mesh((panel, DOWN), pyrt.AreaEmitter(3.0), smooth=False, name="panel")
     dark = pyrt.render(sc, integrator="glossy", seed=0)
     assert dark.max() == 0
-    sc.add_emissive_lights(n_samples=4)
+    sc.add_emissive_lights(n_samples=4, selection=selection)
     imgs = np.array([pyrt.render(sc, integrator="glossy", seed=s)[..., 0] for s in range(4)], dtype=np.float64)
     k = 8
     ys, xs = np.mgrid[0:cam.height * k, 0:cam.width * k]
@@ -363,6 +371,8 @@ def test_bad_arguments_raise_pyrt_errors_naming_the_problem(tmp_path, capsys):
         PreviewOptions(emissive_lights="on").validate()
     with pytest.raises(PreviewError, match="emissive_samples must be a positive integer"):
         PreviewOptions(emissive_samples=0).validate()
+    with pytest.raises(PreviewError, match="emissive_selection must be 'power' or 'oriented'"):
+        PreviewOptions(emissive_selection="bvh").validate()
     with pytest.raises(SystemExit) as exc:
         preview_main([_obj(tmp_path, True), "-o", str(tmp_path / "x.png"), "--emissive-samples", "0"])
     assert exc.value.code == 2
@@ -379,32 +389,39 @@ def test_render_refuses_a_light_built_for_other_meshes(integrator):
         pyrt.render(other, integrator=integrator, spp=1)
 
 
-def test_light_and_ray_weights_of_one_point_sum_to_one():
+@pytest.mark.parametrize("selection", ["power", "oriented"])
+def test_light_and_ray_weights_of_one_point_sum_to_one(selection):
     """At a glossy hit: the MIS weight of a light sample toward a point of the emissive quad (its own pdf) plus the
     weight the integrator gives a glossy ray that hits the same point (``_emission_weight`` with the hit's
     triangle and distance) is 1: each direction is counted once."""
     from pyrt.geometry.surface import surface_from_hits
     from pyrt.integrators import PreparedScene
     from pyrt.integrators.glossy import GlossyIntegrator, mis_weights
-    sc = _receiver_scene(pyrt.MetallicRoughness(base_color=0.8, metallic=1.0, roughness=0.5), 3)
+    sc = _receiver_scene(pyrt.MetallicRoughness(base_color=0.8, metallic=1.0, roughness=0.5), 3, selection)
     light = next(lt for lt in sc.lights if lt.scene_emitter)
     n = 400
     rng = np.random.default_rng(7)
     o = np.column_stack([rng.uniform(-1, 1, n), np.full(n, 1e-3), rng.uniform(-1, 1, n)])
     ls = light.sample_li(o, rng.random((n, 2)))
     p_b = rng.exponential(size=n)                         # any BSDF density of the direction
+    lit = np.flatnonzero(ls.irradiance().max(axis=1) > 0)     # samples on faces that face o (their point is hit)
+    assert lit.size > n // 3
+    o, wi, dist, pdf, p_b = o[lit], ls.wi[lit], ls.dist[lit], ls.pdf[lit], p_b[lit]
     with PreparedScene(sc) as ps:
         integ = GlossyIntegrator(ps, glossy_samples=4)
-        hits = ps.accel.intersect(o, ls.wi)
-        assert np.all(hits.hit) and np.all(hits.mesh_id == 1)
-        ctx = surface_from_hits(ps.geo, hits, o, ls.wi)
-        np.testing.assert_allclose(hits.t, ls.dist, rtol=1e-5)
-        k = int(ctx.material_id[0])
-        w_l = mis_weights(light.n_samples, ls.pdf, 4, p_b)[0]
-        w_b = integ._emission_weight(k, o, ls.wi, 4 * p_b, ctx)
+        hits = ps.accel.intersect(o, wi)
+        assert np.all(hits.hit) and np.all(np.isin(hits.mesh_id, [1, 2]))
+        np.testing.assert_allclose(hits.t, dist, rtol=1e-5)
+        ctx = surface_from_hits(ps.geo, hits, o, wi)
+        w_l = mis_weights(light.n_samples, pdf, 4, p_b)[0]
+        w_b = np.zeros(lit.size)
+        for k in np.unique(ctx.material_id):
+            sel = np.flatnonzero(ctx.material_id == k)
+            w_b[sel] = integ._emission_weight(int(k), o[sel], wi[sel], 4 * p_b[sel], ctx.subset(sel))
+            np.testing.assert_array_equal(integ._emission_weight(int(k), o[sel], wi[sel], np.zeros(sel.size),
+                                                                 ctx.subset(sel)), 1.0)   # delta rays: weight 1
         np.testing.assert_allclose(w_l + w_b, 1.0, rtol=1e-4)         # hit t is float32-exact, the sample's float64
         assert 0.05 < w_b.mean() < 0.95
-        np.testing.assert_array_equal(integ._emission_weight(k, o, ls.wi, np.zeros(n), ctx), 1.0)  # delta rays
 
 
 def test_scene_files_turn_the_emissive_meshes_into_a_light():
@@ -434,3 +451,76 @@ def test_area_light_meshes_are_not_sampled_twice():
     mid = sc.add_mesh(quad_mesh(), pyrt.AreaEmitter(1.0), smooth=False, name="panel")
     light = sc.add_emissive_lights()
     assert light.mesh_ids == (mid,)
+
+
+# ------------------------------------------------------------------------------------ selection="oriented"
+
+def _cube_faces(center, size):
+    """The six faces (4 vertices each, counter-clockwise seen from outside) and outward normals of a cube."""
+    c, h = np.asarray(center, dtype=np.float64), size / 2
+    faces = []
+    for axis in range(3):
+        for sgn in (-1.0, 1.0):
+            n = np.zeros(3)
+            n[axis] = sgn
+            u, v = np.roll(np.eye(3), 1, axis=0)[axis], np.roll(np.eye(3), 2, axis=0)[axis]
+            if sgn < 0:
+                u, v = v, u
+            q = c + n * h
+            faces.append((np.array([q - h * u - h * v, q + h * u - h * v, q + h * u + h * v, q - h * u + h * v]), n))
+    return faces
+
+
+@pytest.mark.parametrize("selection", ["power", "oriented"])
+def test_one_sided_cube_irradiance_matches_the_sum_over_its_faces_that_face_the_point(selection):
+    """A one-sided emissive cube (AreaEmitter) beside a panel: the irradiance at points outside is the polygon
+    formula summed over the faces that face the point (convex: exactly the visible ones) plus the panel's; the
+    oriented choice, which never samples the faces of a cluster behind the point, gives the same."""
+    sc = pyrt.Scene()
+    sc.add_mesh(quad_mesh(), pyrt.AreaEmitter(3.0), smooth=False)
+    sc.add_box((1.5, 1.2, 0.0), 0.6, pyrt.AreaEmitter(5.0))
+    light = sc.add_emissive_lights(selection=selection)
+    n = np.array([0.0, 1.0, 0.0])
+    for p in ([0.0, 0.0, 0.0], [2.5, 0.2, 0.4]):
+        p = np.asarray(p)
+        ref = polygon_irradiance(QUAD, p, n, 3.0)
+        for verts, nf in _cube_faces((1.5, 1.2, 0.0), 0.6):
+            if nf @ (p - verts[0]) > 0:
+                ref += polygon_irradiance(verts, p, n, 5.0)
+        mean, se = irradiance_estimate(light, p, n)
+        assert abs(mean - ref) <= 5 * se, (selection, p, mean, ref, se)
+
+
+def test_oriented_choice_probabilities_chi_square_and_the_back_face_cut():
+    """At a point, the oriented light's triangle probabilities sum to 1, faces of one-sided clusters behind the
+    point get 0 (two-sided ones do not), and the chosen triangles follow the probabilities (chi-square)."""
+    sc = pyrt.Scene()
+    sc.add_box((1.5, 1.2, 0.0), 0.6, pyrt.AreaEmitter(5.0))                    # one-sided: 6 clusters
+    sc.add_box((-1.5, 1.2, 0.0), 0.6, pyrt.Lambert(0.0, emission=5.0))         # two-sided (double_sided)
+    light = sc.add_emissive_lights(selection="oriented")
+    assert light._choice.clusters == 12 and light._choice.cut.sum() == 6
+    p = np.array([[0.0, 0.0, 0.3]])
+    tris = np.arange(light.triangles)
+    prob = light._choice.triangle_probabilities(p, tris)[0]
+    np.testing.assert_allclose(prob.sum(), 1.0, rtol=1e-12)
+    geo_n = light._geo.face_normals
+    y0 = light._geo.vertices[light._geo.faces[:, 0]]
+    facing = np.einsum("ij,ij->i", geo_n, p[0] - y0) > 0
+    one_sided = tris < 12
+    assert np.all(prob[one_sided & ~facing] == 0) and np.all(prob[one_sided & facing] > 0)
+    assert np.all(prob[~one_sided] > 0)
+    n = 100_000
+    tri, _, pr = light._choice.choose(np.repeat(p, n, axis=0), np.random.default_rng(11).random(n))
+    np.testing.assert_allclose(pr, prob[tri], rtol=1e-12)
+    obs = np.bincount(tri, minlength=tris.size)
+    keep = prob > 0
+    assert np.all(obs[~keep] == 0)
+    chi2 = np.sum((obs[keep] - n * prob[keep]) ** 2 / (n * prob[keep]))
+    assert stats.chi2.sf(chi2, keep.sum() - 1) > 1e-4
+
+
+def test_bad_selection_is_a_light_error():
+    sc = pyrt.Scene()
+    sc.add_mesh(quad_mesh(), pyrt.AreaEmitter(3.0), smooth=False)
+    with pytest.raises(LightError, match="selection must be 'power' or 'oriented'"):
+        sc.add_emissive_lights(selection="bvh")

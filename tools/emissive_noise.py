@@ -35,14 +35,17 @@ from pyrt.apps.preview import PreviewOptions, PreviewScene
 from pyrt.geometry import offsets
 from pyrt.geometry.surface import surface_from_hits
 
-VARIANTS = {                          # name -> (spp, glossy_samples, emissive light samples or None: off)
-    "off: 4 spp, 4 glossy (before)": (4, 4, None),
-    "off: 4 spp, 16 glossy": (4, 16, None),
-    "off: 16 spp, 4 glossy": (16, 4, None),
-    "emissive 1: 4 spp, 4 glossy": (4, 4, 1),
-    "emissive 2: 4 spp, 4 glossy": (4, 4, 2),
-    "emissive 4: 4 spp, 4 glossy": (4, 4, 4),
-    "emissive 8: 4 spp, 4 glossy": (4, 4, 8),
+VARIANTS = {        # name -> (spp, glossy_samples, emissive light samples or None: off, triangle selection)
+    "off: 4 spp, 4 glossy (before)": (4, 4, None, None),
+    "off: 4 spp, 16 glossy": (4, 16, None, None),
+    "off: 16 spp, 4 glossy": (16, 4, None, None),
+    "emissive 1: 4 spp, 4 glossy": (4, 4, 1, "power"),
+    "emissive 2: 4 spp, 4 glossy": (4, 4, 2, "power"),
+    "emissive 4: 4 spp, 4 glossy": (4, 4, 4, "power"),
+    "emissive 8: 4 spp, 4 glossy": (4, 4, 8, "power"),
+    "oriented 1: 4 spp, 4 glossy": (4, 4, 1, "oriented"),
+    "oriented 2: 4 spp, 4 glossy": (4, 4, 2, "oriented"),
+    "oriented 4: 4 spp, 4 glossy": (4, 4, 4, "oriented"),
 }
 
 
@@ -69,8 +72,9 @@ def wall_mask(ps, model):
     ys, xs = np.mgrid[0:cam.height, 0:cam.width]
     d = cam.directions(xs.ravel() + 0.5, ys.ravel() + 0.5)
     hits = ps.prepared.accel.intersect(np.broadcast_to(cam.position, d.shape), d)
-    one = np.ones(d.shape[0])
-    emitter = ps.emissive_light.pdf_hit(hits.mesh_id, np.maximum(hits.prim_id, 0), one, one) > 0
+    lt = ps.emissive_light
+    tri = lt.triangle_index(hits.mesh_id, np.maximum(hits.prim_id, 0))
+    emitter = (tri >= 0) & (np.take(lt.pmf, np.maximum(tri, 0)) > 0)
     return model & ~emitter.reshape(cam.height, cam.width)
 
 
@@ -104,19 +108,20 @@ def main(argv=None):
     args = ap.parse_args(argv)
     size = dict(width=args.width, height=args.height)
     asset = pyrt.load_asset(args.model)
-    scenes = {False: PreviewScene(asset, PreviewOptions(emissive_lights="off", **size)),
-              True: PreviewScene(asset, PreviewOptions(emissive_lights="auto", **size))}
-    variants = {k: v for k, v in VARIANTS.items() if (v[2] is None or scenes[True].emissive_light is not None)
+    scenes = {None: PreviewScene(asset, PreviewOptions(emissive_lights="off", **size))}
+    for sel in ("power", "oriented"):
+        scenes[sel] = PreviewScene(asset, PreviewOptions(emissive_lights="auto", emissive_selection=sel, **size))
+    variants = {k: v for k, v in VARIANTS.items() if (v[2] is None or scenes["power"].emissive_light is not None)
                 and (not args.only or any(w in k for w in args.only))}
     times = {k: [] for k in variants}
     images = {k: {} for k in variants}
     for _ in range(args.runs):
         for seed in (1, 2):
-            for name, (spp, gs, ne) in variants.items():     # interleaved: load drifts hit every variant alike
-                img, dt = render(scenes[ne is not None], spp, gs, seed, ne)
+            for name, (spp, gs, ne, sel) in variants.items():   # interleaved: load drifts hit every variant alike
+                img, dt = render(scenes[sel], spp, gs, seed, ne)
                 times[name].append(dt)
                 images[name][seed] = img
-    ps = scenes[True]
+    ps = scenes["power"]
     ps._set_view(ps.options.azimuth)
     model = ps.model_mask()          # the camera of the view rendered
     walls = wall_mask(ps, model) if ps.emissive_light is not None else model
@@ -134,10 +139,13 @@ def main(argv=None):
         mean_w = float(np.mean((images[name][1][walls] + images[name][2][walls]) / 2))
         t = statistics.median(times[name])
         print(f"| {name} | {t:.2f} | {row[0]:.4g} | {row[1]:.4g} | {mean_w:.4g} | {row[1] * t:.4g} |")
-    if scenes[True].emissive_light is not None:
-        zero, horizon, blocked, useful = sample_use(ps, walls)
-        print(f"emitter samples at the wall pixels' camera hits: E = 0 (back faces) {zero:.1%}, below the horizon "
-              f"{horizon:.1%}, shadowed {blocked:.1%}, adding light {useful:.1%}")
+    for sel in ("power", "oriented"):
+        if scenes[sel].emissive_light is None:
+            continue
+        scenes[sel]._set_view(ps.options.azimuth)
+        zero, horizon, blocked, useful = sample_use(scenes[sel], walls)
+        print(f"{sel}: emitter samples at the wall pixels' camera hits: E = 0 (back faces) {zero:.1%}, below the "
+              f"horizon {horizon:.1%}, shadowed {blocked:.1%}, adding light {useful:.1%}")
     for p in scenes.values():
         p.close()
 

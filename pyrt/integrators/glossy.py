@@ -192,7 +192,7 @@ class GlossyIntegrator(Integrator):
         p_l = sum(lt.n_samples * lt.pdf_li(o, d) for lt in lts)
         if mesh_lts:
             cos_l = dot(d, ctx.ng)
-            p_l = p_l + sum(lt.n_samples * lt.pdf_hit(ctx.mesh_id, ctx.prim_id, ctx.t, cos_l) for lt in mesh_lts)
+            p_l = p_l + sum(lt.n_samples * lt.pdf_hit(o, ctx.mesh_id, ctx.prim_id, ctx.t, cos_l) for lt in mesh_lts)
         w = mis_weights(1, p_l, 1, bsdf_pdf)[1]
         return np.where(bsdf_pdf > 0, w, 1.0)
 

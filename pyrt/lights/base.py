@@ -208,10 +208,10 @@ class Light:
             return np.zeros(wi.shape[0])
         raise NotImplementedError(f"{type(self).__name__} defines no pdf_li")
 
-    def pdf_hit(self, mesh_id, prim_id, dist, cos_l):
-        """Solid-angle density (N,) of the light's sampling at points a ray hit (scene mesh ``mesh_id``, its triangle
-        ``prim_id``, at distance ``dist``, cosine ``cos_l`` between the ray and the triangle's normal): 0 unless
-        the light samples scene triangles (:attr:`scene_emitter`)."""
+    def pdf_hit(self, p, mesh_id, prim_id, dist, cos_l):
+        """Solid-angle density (N,) of the light's sampling from the points ``p`` at the points their rays hit
+        (scene mesh ``mesh_id``, its triangle ``prim_id``, at distance ``dist``, cosine ``cos_l`` between the ray
+        and the triangle's normal): 0 unless the light samples scene triangles (:attr:`scene_emitter`)."""
         return np.zeros(np.asarray(dist).shape[0])
 
     @property

@@ -46,6 +46,7 @@ from pyrt.shaders.vec import cross, dot, take_rows
 
 from pyrt.lights.base import LIGHTS, Light, LightError, LightSample
 from pyrt.lights.area import AreaEmitter
+from pyrt.lights.mesh_clusters import ClusterChoice
 
 #: barycentric (b1, b2) of the four points per triangle at which the emission bound is evaluated
 _PROBES = np.array([[1 / 3, 1 / 3], [1 / 6, 1 / 6], [2 / 3, 1 / 6], [1 / 6, 2 / 3]])
@@ -89,6 +90,9 @@ class EmissiveMeshLight(Light):
         The meshes that emit light (default: every mesh whose material declares ``emits``).
     n_samples : int
         Shadow rays per hit (stratified), each toward one sampled triangle point.
+    selection : {"power", "oriented"}
+        How a triangle is chosen: by power wherever the shading point is (default), or first a cluster of
+        triangles by its power, distance and side at the shading point (:mod:`pyrt.lights.mesh_clusters`).
     name : str, optional
     """
 
@@ -104,9 +108,13 @@ class EmissiveMeshLight(Light):
                         smooth=False, name="quad")
         return cls([mesh], [AreaEmitter(5.0)])
 
-    def __init__(self, meshes, materials, *, mesh_ids=None, n_samples=1, name=None):
+    def __init__(self, meshes, materials, *, mesh_ids=None, n_samples=1, selection="power", name=None):
         self.name = name
         owner = f"EmissiveMeshLight({name or ''})"
+        if selection not in ("power", "oriented"):
+            raise LightError(f"{owner}: selection must be 'power' or 'oriented', got {selection!r}")
+        #: how a triangle is chosen ("power" or "oriented", see the class docstring)
+        self.selection = selection
         if not isinstance(n_samples, numbers.Integral) or isinstance(n_samples, bool) or n_samples < 1:
             raise LightError(f"{owner}: n_samples must be a positive integer, got {n_samples!r}")
         self.n_samples = int(n_samples)
@@ -132,7 +140,7 @@ class EmissiveMeshLight(Light):
         v = geo.vertices
         p0, p1, p2 = (take_rows(v, geo.faces[:, k]) for k in range(3))
         self._area = 0.5 * np.linalg.norm(cross(p1 - p0, p2 - p0), axis=1)
-        bound = self._emission_bound()
+        bound = self._emission_bound(back=False)
         weight = self._area * bound
         total = float(weight.sum())
         #: (F,) float64 probability of choosing each triangle of the light's table (0: not part of the light; all 0
@@ -146,6 +154,10 @@ class EmissiveMeshLight(Light):
         self.area_pdf = np.divide(self.pmf, self._area, out=np.zeros_like(self.pmf), where=self._area > 0)
         #: RGB radiance when the emission is the same at every probe point of every triangle, else None
         self.L = self._uniform
+        self._choice = None
+        if selection == "oriented" and total > 0:
+            one_sided = self._emission_bound(back=True) == 0
+            self._choice = ClusterChoice(geo.vertices, geo.faces, geo.face_normals, geo.face_mesh, weight, one_sided)
         self.validate()
 
     @property
@@ -183,8 +195,9 @@ class EmissiveMeshLight(Light):
                     u=b1, v=b2, ng=take_rows(geo.face_normals, tri))
         return surface_from_hits(geo, hits, origins, dirs, mesh_ids=np.take(self._scene_mesh, mesh))
 
-    def _emission_bound(self):
-        """(F,) mean emission (RGB mean) of each triangle's four probe points seen from its front."""
+    def _emission_bound(self, back):
+        """(F,) mean emission (RGB mean) of each triangle's four probe points seen from its front (or ``back``);
+        the front pass also records :attr:`L` (the radiance when it is the same at every probe)."""
         geo = self._geo
         n_f = self._area.size
         out = np.zeros(n_f)
@@ -200,6 +213,8 @@ class EmissiveMeshLight(Light):
                 y = ((1 - b1 - b2) * take_rows(geo.vertices, f[:, 0]) + b1 * take_rows(geo.vertices, f[:, 1])
                      + b2 * take_rows(geo.vertices, f[:, 2]))
                 n = take_rows(geo.face_normals, tri)
+                if back:
+                    n = -n
                 Le = _emission(self._materials, self._surface(tri, bb1, bb2, y + n, -n, np.ones(tri.size)))
                 acc += Le
                 if first is None:
@@ -207,16 +222,20 @@ class EmissiveMeshLight(Light):
                 same = same and bool(np.all(Le == first))
             rgb[tri] = acc / len(_PROBES)
             out[tri] = rgb[tri].mean(axis=1)
-        self._uniform = first if same else None
+        if not back:
+            self._uniform = first if same else None
         return np.maximum(out, 0.0)
 
     def sample_li(self, p, u):
         """A :class:`LightSample` (``E`` and the sample's solid-angle ``pdf``) at the points ``p`` (N, 3)."""
         n = p.shape[0]
         u0 = u[:, 0]
-        tri = np.minimum(np.searchsorted(self._cdf, u0, side="right"), self._cdf.size - 1)
-        pm = np.take(self.pmf, tri)
-        r = np.clip(np.divide(u0 - np.take(self._cdf_lo, tri), pm, out=np.zeros(n), where=pm > 0), 0.0, 1.0)
+        if self._choice is not None:
+            tri, r, pm = self._choice.choose(p, u0)
+        else:
+            tri = np.minimum(np.searchsorted(self._cdf, u0, side="right"), self._cdf.size - 1)
+            pm = np.take(self.pmf, tri)
+            r = np.clip(np.divide(u0 - np.take(self._cdf_lo, tri), pm, out=np.zeros(n), where=pm > 0), 0.0, 1.0)
         su = np.sqrt(r)
         b0 = 1.0 - su
         b1 = u[:, 1] * su
@@ -232,7 +251,8 @@ class EmissiveMeshLight(Light):
         wi = d * inv[:, None]
         wi[~ok] = (0.0, 0.0, 1.0)
         cos_l = np.abs(dot(take_rows(geo.face_normals, tri), wi))
-        pdf = np.take(self.area_pdf, tri) * np.divide(dist * dist, cos_l, out=np.zeros(n), where=cos_l > 0)
+        pdf = (np.divide(pm, np.take(self._area, tri)) * np.divide(dist * dist, cos_l, out=np.zeros(n),
+                                                                  where=cos_l > 0))
         live = ok & (cos_l > 0) & (pm > 0)
         E = np.zeros((n, 3))
         idx = np.flatnonzero(live)
@@ -242,22 +262,30 @@ class EmissiveMeshLight(Light):
         pdf = np.where(live, pdf, 0.0)
         return LightSample(wi, np.where(ok, dist, 1.0), E, pdf=pdf)
 
-    def pdf_point(self, tri, dist, cos_l):
-        """Solid-angle density (N,) of sampling the point at distance ``dist`` on light triangle ``tri`` whose
-        normal makes the cosine ``cos_l`` with the direction: ``pmf / area * dist^2 / |cos_l|``."""
+    def pdf_point(self, p, tri, dist, cos_l):
+        """Solid-angle density (N,) of sampling, from the points ``p`` (N, 3), the point at distance ``dist`` on light
+        triangle ``tri`` whose normal makes the cosine ``cos_l`` with the direction:
+        ``P(tri | p) / area * dist^2 / |cos_l|`` (``P(tri | p) = pmf`` with ``selection="power"``)."""
         c = np.abs(cos_l)
-        return np.take(self.area_pdf, tri) * np.divide(dist * dist, c, out=np.zeros(c.shape), where=c > 0)
+        prob = np.take(self.pmf, tri) if self._choice is None else self._choice.triangle_probability(p, tri)
+        return (np.divide(prob, np.take(self._area, tri))
+                * np.divide(dist * dist, c, out=np.zeros(c.shape), where=c > 0))
 
-    def pdf_hit(self, mesh_id, prim_id, dist, cos_l):
-        """Solid-angle density (N,) of the light's sampling at the points a ray hit: scene mesh ``mesh_id``, its
-        triangle ``prim_id`` at distance ``dist`` with cosine ``cos_l``; 0 on triangles the light does not
-        sample."""
+    def triangle_index(self, mesh_id, prim_id):
+        """(N,) the light's triangle for scene mesh ``mesh_id`` and its triangle ``prim_id``, -1 where the mesh is
+        not the light's."""
         mesh_id = np.asarray(mesh_id, dtype=np.int64)
         inside = (mesh_id >= 0) & (mesh_id < self._local.size)
         local = np.where(inside, np.take(self._local, np.where(inside, mesh_id, 0)), -1)
-        mine = local >= 0
-        tri = np.where(mine, np.take(self._geo.face_offset, np.maximum(local, 0)) + prim_id, 0)
-        return np.where(mine, self.pdf_point(tri, dist, cos_l), 0.0)
+        return np.where(local >= 0, np.take(self._geo.face_offset, np.maximum(local, 0)) + prim_id, -1)
+
+    def pdf_hit(self, p, mesh_id, prim_id, dist, cos_l):
+        """Solid-angle density (N,) of the light's sampling from the points ``p`` (N, 3) at the points rays from them
+        hit: scene mesh ``mesh_id``, its triangle ``prim_id`` at distance ``dist`` with cosine ``cos_l``; 0 on
+        triangles the light does not sample."""
+        tri = self.triangle_index(mesh_id, prim_id)
+        mine = tri >= 0
+        return np.where(mine, self.pdf_point(p, np.maximum(tri, 0), dist, cos_l), 0.0)
 
     def pdf_li(self, p, wi):
         """Solid-angle density (N,) of :meth:`sample_li` toward ``wi`` from ``p``: the sum over every light
@@ -270,7 +298,8 @@ class EmissiveMeshLight(Light):
         v0, v1, v2 = (take_rows(geo.vertices, f[:, k]) for k in range(3))
         e1, e2 = v1 - v0, v2 - v0
         nrm = take_rows(geo.face_normals, live)
-        apdf = np.take(self.area_pdf, live)
+        apdf = np.take(self.area_pdf, live)[None, :]
+        area = np.take(self._area, live)[None, :]
         out = np.zeros(wi.shape[0])
         step = max(1, _PDF_BLOCK // max(1, live.size))
         for lo in range(0, wi.shape[0], step):
@@ -287,6 +316,8 @@ class EmissiveMeshLight(Light):
             t = np.einsum("ijk,jk->ij", q, e2) * inv
             hit = ok & (bu >= 0) & (bv >= 0) & (bu + bv <= 1) & (t > 0)
             c = np.abs(np.einsum("ijk,jk->ij", np.broadcast_to(d, (d.shape[0], live.size, 3)), nrm))
-            val = apdf[None] * np.divide(t * t, c, out=np.zeros_like(t), where=hit & (c > 0))
+            if self._choice is not None:
+                apdf = self._choice.triangle_probabilities(p[lo:lo + step], live) / area
+            val = apdf * np.divide(t * t, c, out=np.zeros_like(t), where=hit & (c > 0))
             out[lo:lo + step] = np.where(hit, val, 0.0).sum(axis=1)
         return out

@@ -57,6 +57,8 @@ def _parser():
                          "off: only through glossy reflection rays")
     ap.add_argument("--emissive-samples", type=positive_int, default=2,
                     help="shadow rays per hit toward the emissive surfaces")
+    ap.add_argument("--emissive-selection", default="power", choices=["power", "oriented"],
+                    help="how the emissive triangles are chosen: by power, or per shading point (distance, side)")
     ap.add_argument("--exposure", type=finite_float, help="exposure in stops (default: automatic)")
     ap.add_argument("--tonemap", default="reinhard", choices=TONEMAPS,
                     help="tone mapper: reinhard (default; automatic white point), pbr_neutral (Khronos PBR Neutral, "
@@ -100,7 +102,8 @@ def _run(args, cancel):
                           elevation=args.elevation, up=args.up, framing=args.framing, camera=args.camera, lights=args.lights,
                           ground=not args.no_ground, studio_env=args.studio_env == "on", environment=args.env, environment_lighting=args.env_lighting,
                           environment_samples=args.env_samples, emissive_lights=args.emissive_lights,
-                          emissive_samples=args.emissive_samples, exposure=args.exposure,
+                          emissive_samples=args.emissive_samples, emissive_selection=args.emissive_selection,
+                          exposure=args.exposure,
                           tonemap=args.tonemap, turntable=args.turntable, formats=formats, aovs=args.aovs,
                           seed=args.seed, time_budget=args.budget, threads=args.threads,
                           bvh_quality=args.bvh_quality).validate()

@@ -71,7 +71,8 @@ class PreviewScene:
         self.emissive_light = None
         if o.emissive_lights == "auto":
             t_em = time.perf_counter()
-            self.emissive_light = self.scene.add_emissive_lights(n_samples=o.emissive_samples)
+            self.emissive_light = self.scene.add_emissive_lights(n_samples=o.emissive_samples,
+                                                                 selection=o.emissive_selection)
             self.timings["emitters"] = time.perf_counter() - t_em
         self.asset_lights = list(self.scene.lights)
         self.ground_mesh = None
