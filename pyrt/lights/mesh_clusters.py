@@ -109,13 +109,13 @@ class ClusterChoice:
         """(N, K) probability of each cluster at the points ``p`` (N, 3); rows of zeros where no cluster can light
         the point. (Whole-array operations in place on one (N, K) array: this runs once per light sample and
         batch.)"""
-        imp = p @ self._m2c                                  # |p - c|^2 = |p|^2 - 2 p.c + |c|^2
+        imp = _rows_times(p, self._m2c)                      # |p - c|^2 = |p|^2 - 2 p.c + |c|^2
         imp += self._cc
         imp += dot(p, p)[:, None]
         np.maximum(imp, self.radius2, out=imp)
         np.divide(self.power, imp, out=imp)
         if self.any_cut:    # n.p - min n.y > 0: in front of the cluster (offset -inf: clusters never cut)
-            side = p @ self._nT
+            side = _rows_times(p, self._nT)
             side -= self._cut_offset
             np.multiply(imp, side > 0, out=imp)
         tot = imp.sum(axis=1)
@@ -151,3 +151,14 @@ class ClusterChoice:
         k = np.take(self.tri_cluster, tris)
         probs = self.probabilities(p)
         return np.where(k[None, :] >= 0, probs[:, np.maximum(k, 0)] * np.take(self.pmf_in, tris)[None, :], 0.0)
+
+
+def _rows_times(p, m):
+    """``p @ m`` for (N, 3) rows and a (3, K) matrix by column arithmetic (three broadcast products): NumPy's BLAS
+    matmul would start threads of its own beside the renderer's (pyrt.core.transforms.apply_matrix measured it)."""
+    out = np.multiply(p[:, 0:1], m[0])
+    tmp = np.empty_like(out)
+    for c in (1, 2):
+        np.multiply(p[:, c:c + 1], m[c], out=tmp)
+        out += tmp
+    return out
