@@ -15,6 +15,9 @@ Sampling
   seen from the front. It is exact for a constant emission (factor x strength) and an estimate of the
   texture's mean over the triangle for a textured one. Triangles whose four values are all 0 are not part of
   the light (``pdf = 0`` there: what they emit is left to BSDF rays with weight 1, as without this light).
+  That is ``selection="power"`` (the default); ``selection="oriented"`` first chooses a cluster of triangles per
+  shading point (power over squared distance, none behind a one-sided planar cluster) and then a triangle
+  inside it by the same power (:mod:`pyrt.lights.mesh_clusters`).
 - A point ``y`` uniform on the triangle (``b0 = 1 - sqrt(u0)``, ``b1 = u1 sqrt(u0)``, ``u0`` the first random
   number re-used after the discrete choice), its density in solid angle from a shading point ``p``:
   ``pdf = pmf_j / area_j * r^2 / |cos theta_l|``, ``r = |y - p|``, ``cos theta_l = n_j . wi``.
