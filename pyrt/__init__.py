@@ -24,6 +24,7 @@ from pyrt.scene import Scene, SceneError, transform_matrix
 from pyrt.lights import (ConstantEnvironment, CubeMapEnvironment, EnvironmentLight, EnvironmentMapError,
                           LatLongEnvironment, procedural_sky, set_environment)
 from pyrt.lights import AreaEmitter, DiskLight, RectLight, SphereLight
+from pyrt.lights import EmissiveMeshLight
 from pyrt.core.image_io import atomic_write, read_exr, write_exr, write_png, tonemap_to_display
 from pyrt.io.scene_file import SceneFileError, load_scene
 from pyrt.io.scene_file import load_dict
@@ -39,6 +40,7 @@ __all__ = [
     "atomic_write", "read_exr", "write_exr", "write_png", "tonemap_to_display", "SceneFileError", "load_scene",
     "ConstantEnvironment", "CubeMapEnvironment", "EnvironmentLight", "EnvironmentMapError", "LatLongEnvironment",
     "procedural_sky", "set_environment", "AreaEmitter", "DiskLight", "RectLight", "SphereLight",
+    "EmissiveMeshLight",
     "Texture", "TextureError", "ConstantTexture", "ImageTexture", "CheckerTexture", "NoiseTexture", "PerlinTexture",
     "FbmTexture", "VoronoiTexture", "NormalMap", "perturb_normal",
     "load_dict", "load_asset", "AssetError", "RenderError",

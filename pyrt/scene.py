@@ -16,6 +16,7 @@ from pyrt.geometry.normals import crease_normals
 from pyrt.shaders.vec import divide_rows, norm
 from pyrt.geometry.surface import GeometryError, GeometryTable, MeshData, validate_mesh
 from pyrt.lights.base import Light
+from pyrt.lights.mesh import EmissiveMeshLight
 from pyrt.materials import Material
 from pyrt.core.transforms import SceneError, apply_matrix, transform_matrix  # noqa: F401 (public here too)
 
@@ -191,6 +192,29 @@ class Scene:
         if shading == "gouraud":
             self.gouraud_meshes.add(len(self.meshes) - 1)
         return len(self.meshes) - 1
+
+    def add_emissive_lights(self, *, n_samples=1, selection="power", name="emitters"):
+        """Make the emissive meshes (materials that declare ``emits``) a light source: add one
+        :class:`pyrt.EmissiveMeshLight` over them, so that every hit that receives direct light samples them with
+        ``n_samples`` shadow rays (the glossy integrator MIS-combines those with its BSDF rays); ``selection``
+        chooses the triangles by power (``"power"``, default) or per shading point (``"oriented"``,
+        :mod:`pyrt.lights.mesh_clusters`). Call it once the
+        meshes are added (later meshes are not part of it). The visible meshes of area lights added by
+        :meth:`pyrt.AreaLight.add_to` are left out (their light samples them already). Returns the light, or None
+        when no other mesh emits (no material declares ``emits``, or their emission is 0 at every probe point;
+        nothing is added). Off unless called: without it, emitters light other surfaces only through the glossy
+        integrator's BSDF rays.
+        """
+        if any(lt.scene_emitter for lt in self.lights):
+            raise SceneError("add_emissive_lights: the scene already has an emissive-mesh light")
+        # the visible meshes of area lights (AreaLight.add_to) are sampled by their own light: not twice
+        own = {lt.emitter_mesh_name for lt in self.lights if lt.has_mesh}
+        ids = [i for i, m in enumerate(self.meshes) if self.materials[m.material_id].emits and m.name not in own]
+        if not ids:
+            return None
+        light = EmissiveMeshLight(self.meshes, self.materials, mesh_ids=ids, n_samples=n_samples, selection=selection,
+                                  name=name)
+        return self.add_light(light) if light.sampled_triangles else None
 
     # -- convenience primitives ----------------------------------------------------------------
     def add_sphere(self, center, radius, material, *, subdivisions=4, smooth=True, name=None):

@@ -229,7 +229,7 @@ class Result:
 
 
 #: the preview phases that make up "prepare" (:attr:`pyrt.apps.preview.batch.AssetReport.prepare_time`)
-PREPARE_PHASES = ("frame", "normals", "scene", "geometry", "bvh")
+PREPARE_PHASES = ("frame", "normals", "scene", "emitters", "geometry", "bvh")
 
 
 def _number(rep, *keys):

@@ -383,7 +383,7 @@ def _bary_solver(e1, e2):
     return solve
 
 
-def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=None):
+def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=None, mesh_ids=None):
     """Build a :class:`SurfaceBatch` for the rays that hit (``hits.hit`` must be all True).
 
     Parameters
@@ -395,6 +395,8 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
         The rays (dirs unit length).
     differentials : tuple of four (N, 3) arrays or None
         ``(rx_o, rx_d, ry_o, ry_d)``: origins and directions of the x/y offset rays.
+    mesh_ids : (N,) int64, optional
+        The batch's ``mesh_id`` (default ``hits.mesh_id``): a table over some of a scene's meshes reports theirs.
     """
     n = hits.t.shape[0]
     face = geo.face_offset[hits.mesh_id] + hits.prim_id
@@ -547,7 +549,8 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
     lazy.update({k: bounds_group for k in ("tri_extent", "tri_absmax")})
     lazy["p_object"] = object_group
     lazy.update({k: differential_group for k in ("dpdx", "dpdy", "dndx", "dndy", "duvdx", "duvdy", "dbary")})
-    surf = SurfaceBatch(lazy=lazy, p=p, ng=ng, ns=ns, front=front, wo=wo, mesh_id=hits.mesh_id, smooth=smooth,
+    surf = SurfaceBatch(lazy=lazy, p=p, ng=ng, ns=ns, front=front, wo=wo, smooth=smooth,
+                        mesh_id=hits.mesh_id if mesh_ids is None else mesh_ids,
                         n_vertex=n_vertex,
                         prim_id=hits.prim_id, face=face, material_id=geo.face_material[face], bary=bary, t=hits.t)
     # UV sets k >= 1 on request (SurfaceBatch.uv_set; a function of the batch, not a closure over it: no cycle)

@@ -69,8 +69,7 @@ class CoverageTable:
         self.mode = np.array([ALPHA_MODES.index(m.alpha_mode) for m in materials], dtype=np.int64)
         self.cutoff = np.array([float(m.alpha_cutoff) for m in materials])
         #: back faces culled for camera and secondary rays
-        self.cull = np.array([not m.double_sided and not m.is_dielectric and not m.transmits for m in materials],
-                             dtype=bool)
+        self.cull = np.array([m.culls_back_faces for m in materials], dtype=bool)
         #: shadow rays may pass (mask or blend)
         self.see_through = self.mode > 0
         #: hits on these materials need a look

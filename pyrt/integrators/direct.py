@@ -62,7 +62,7 @@ def area_mis_estimate(light, surf, bsdf, visible, rng):
     """
     n_l, n_b = light.n_samples, light.bsdf_samples
 
-    def w_light(idx, wi):
+    def w_light(idx, wi, pdf=None):
         """MIS weight of the light samples that reach the light."""
         return sampling.power_heuristic(light.pdf_li(take_rows(surf.p, idx), wi), bsdf.pdf(idx, wi), 2.0, n_l, n_b)
     L = light_sampling_estimate(light, surf, bsdf, visible, rng, weight=w_light)
@@ -98,8 +98,9 @@ def light_sampling_estimate(light, surf, bsdf, visible, rng, weight=None, out=No
 
     ``light.n_samples`` samples per hit (stratified for non-delta lights), each one shadow ray where the
     light can contribute: on the light's side of the surface (``surf.light_side``), ``E > 0`` and a
-    non-zero BSDF. ``weight(idx, wi) -> (k,)``, if given, multiplies each unoccluded sample (the MIS weight
-    of light sampling when another strategy also reaches the light, :mod:`pyrt.integrators.glossy`).
+    non-zero BSDF. ``weight(idx, wi, pdf) -> (k,)``, if given, multiplies each unoccluded sample (the MIS weight
+    of light sampling when another strategy also reaches the light, :mod:`pyrt.integrators.glossy`); ``pdf`` is
+    the samples' own density (:attr:`LightSample.pdf`) or None (then ``light.pdf_li`` of the direction).
     ``out`` (N, 3), for a light with one sample per hit: the contributions are added into it in place and
     it is returned (:func:`estimate`'s accumulator).
     """
@@ -137,7 +138,8 @@ def light_sampling_estimate(light, surf, bsdf, visible, rng, weight=None, out=No
         vis = visible(idx, wi_a, np.take(dist, idx), light.position if light.fixed_position else None)
         if weight is not None:    # MIS against the glossy integrator's BSDF rays: the weight of each lit lane
             lit = np.flatnonzero(vis if vis.ndim == 1 else max_component(vis) > 0)
-            w_lit = weight(idx[lit], take_rows(wi_a, lit))
+            pdf_lit = None if ls.pdf is None else np.take(ls.pdf, idx[lit])
+            w_lit = weight(idx[lit], take_rows(wi_a, lit), pdf_lit)
         idx, f = _shadowed(vis, idx, f)
         if weight is not None:
             f = f * w_lit[:, None]

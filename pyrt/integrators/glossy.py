@@ -21,6 +21,12 @@ glossy rays (``n_b`` samples, density ``p_b``). Light samples are weighted by
   only (weight 1); an emissive mesh that is no light is reached by glossy rays only (weight 1). The light's
   exact shape is sampled while rays hit its triangulated mesh: a disk or sphere light is counted with
   weight ``w_l`` instead of 1 on the sliver between the two (below 1% of the area at 64 segments);
+- emissive meshes made a light by ``Scene.add_emissive_lights`` (:class:`pyrt.EmissiveMeshLight`, every triangle
+  of an emitting material): both strategies, MIS, with the densities of the *point*: a light sample carries its
+  own ``p_l = pmf / area * r^2 / |cos|`` (:attr:`LightSample.pdf`), and a glossy ray that hits one of the
+  light's triangles gets ``w_b`` from :meth:`Light.pdf_hit` with the hit's mesh, triangle, distance ``t`` and
+  cosine (no extra ray). Triangles the light does not sample (``pmf = 0``: no emission at its probe points)
+  have ``p_l = 0``, so their emission keeps weight 1, as do delta (mirror, glass) rays and camera rays;
 - the environment light: at glossy hits it is light-sampled with its map (``Environment.sample``, whatever
   its ``strategy``; its own BSDF half of ``"mis"`` is left to the glossy rays) and MIS-weighted; with
   ``strategy="bsdf"`` or ``"preview"`` it is not light-sampled there and escaped glossy rays count with
@@ -85,7 +91,7 @@ class GlossyIntegrator(Integrator):
         by_name = {}
         for lt in scene.lights:
             if lt.has_mesh and not lt.delta:
-                by_name.setdefault(f"{lt.name or type(lt).__name__}_emitter", []).append(lt)
+                by_name.setdefault(lt.emitter_mesh_name, []).append(lt)
         for mesh in scene.meshes:
             lts = by_name.get(mesh.name)
             if lts and scene.materials[mesh.material_id].emits:
@@ -93,6 +99,9 @@ class GlossyIntegrator(Integrator):
                 self.emitter_lights[mesh.material_id] += [lt for lt in lts
                                                           if lt not in self.emitter_lights[mesh.material_id]]
         self.traced_lights = [lt for lts in self.emitter_lights.values() for lt in lts]
+        # emissive-mesh lights (Scene.add_emissive_lights): the rays that hit their triangles reach them
+        self.mesh_lights = [lt for lt in scene.lights if lt.scene_emitter]
+        self.traced_lights += self.mesh_lights
         env_lights = [lt for lt in scene.lights if lt.environment is not None and lt.strategy in _ENV_LIGHT_SAMPLED]
         self.env_light = env_lights[0] if env_lights else None
 
@@ -134,9 +143,9 @@ class GlossyIntegrator(Integrator):
                     L += direct.light_sampling_estimate(light, dsurf, bsdf, visible, rng)
                     continue
 
-                def w_light(idx, wi, light=light):
-                    w = mis_weights(light.n_samples, light.pdf_li(take_rows(dsurf.p, idx), wi), nb,
-                                    bsdf.pdf(idx, wi))[0]
+                def w_light(idx, wi, pdf=None, light=light):
+                    p_l = light.pdf_li(take_rows(dsurf.p, idx), wi) if pdf is None else pdf
+                    w = mis_weights(light.n_samples, p_l, nb, bsdf.pdf(idx, wi))[0]
                     return np.where(sampled[idx], w, 1.0)
                 L += direct.light_sampling_estimate(light, dsurf, bsdf, visible, rng, weight=w_light)
                 continue
@@ -160,7 +169,7 @@ class GlossyIntegrator(Integrator):
     @staticmethod
     def _env_light_sampling(light, surf, bsdf, visible, rng, nb):
         """The environment by its map at glossy hits, light samples weighted by ``w_l`` against ``nb`` rays."""
-        def w_light(idx, wi):
+        def w_light(idx, wi, pdf=None):
             return mis_weights(light.n_samples, light.pdf_li(None, wi), nb, bsdf.pdf(idx, wi))[0]
         return direct.light_sampling_estimate(light, surf, bsdf, visible, rng, weight=w_light)
 
@@ -172,12 +181,18 @@ class GlossyIntegrator(Integrator):
         w = mis_weights(lt.n_samples, lt.pdf_li(None, d), 1, bsdf_pdf)[1]
         return np.where(bsdf_pdf > 0, w, 1.0)
 
-    def _emission_weight(self, k, o, d, bsdf_pdf):
-        """``w_b`` of material ``k``'s emission for glossy rays from ``o`` along ``d`` (1 if it is no light)."""
-        lts = self.emitter_lights.get(int(k))
-        if not lts:
+    def _emission_weight(self, k, o, d, bsdf_pdf, ctx=None):
+        """``w_b`` of material ``k``'s emission for glossy rays from ``o`` along ``d`` hitting ``ctx`` (1 if it is no
+        light): area lights by their ``pdf_li`` of the direction, emissive-mesh lights by their density at the
+        hit point (:meth:`Light.pdf_hit`: the hit's triangle, distance and cosine; ``ctx`` is needed for them)."""
+        lts = self.emitter_lights.get(int(k), [])
+        mesh_lts = [lt for lt in self.mesh_lights if int(k) in lt.material_ids]
+        if not lts and not mesh_lts:
             return np.ones(d.shape[0])
         p_l = sum(lt.n_samples * lt.pdf_li(o, d) for lt in lts)
+        if mesh_lts:
+            cos_l = dot(d, ctx.ng)
+            p_l = p_l + sum(lt.n_samples * lt.pdf_hit(o, ctx.mesh_id, ctx.prim_id, ctx.t, cos_l) for lt in mesh_lts)
         w = mis_weights(1, p_l, 1, bsdf_pdf)[1]
         return np.where(bsdf_pdf > 0, w, 1.0)
 

@@ -105,6 +105,9 @@ class Integrator:
             "render", "light_select_depth", light_select_depth, RenderError, lo=0)
         #: the lights light_select_depth chooses between (the others are estimated as before)
         self.selectable_lights = [lt for lt in self.scene.lights if light_choice.selectable(lt)]
+        for lt in self.scene.lights:   # an emissive-mesh light samples (and MIS-weights) its own scene's triangles
+            if lt.scene_emitter and not lt.built_for(self.scene.meshes):
+                raise RenderError(f"render: {lt.label} was built for other meshes than this scene's")
         self.stats = RenderStats()
 
     # -- Embree calls with bookkeeping -------------------------------------------------------
@@ -260,7 +263,7 @@ class Integrator:
                     Le = mat.emission(ctx)
                     if bpdf is not None:   # emitters reached by BSDF-sampled rays: MIS against light sampling
                         Le = Le * self._emission_weight(k, take_rows(o, h[sel]), take_rows(d, h[sel]),
-                                                        np.take(bpdf, h[sel]))[:, None]
+                                                        np.take(bpdf, h[sel]), ctx)[:, None]
                     Lh[sel] += Le
                 if want_albedo:
                     first = h[sel] < n_rays
@@ -393,8 +396,9 @@ class Integrator:
         """MIS weight (N,) of the environment seen by escaped BSDF-sampled rays (Whitted traces none: 1)."""
         return np.ones(d.shape[0])
 
-    def _emission_weight(self, k, o, d, bsdf_pdf):
-        """MIS weight (N,) of material ``k``'s emission reached by BSDF-sampled rays (Whitted: 1)."""
+    def _emission_weight(self, k, o, d, bsdf_pdf, ctx=None):
+        """MIS weight (N,) of material ``k``'s emission reached by BSDF-sampled rays from ``o`` along ``d`` at the
+        hits ``ctx`` (their mesh, triangle and distance ``t``; Whitted: 1)."""
         return np.ones(d.shape[0])
 
     def _spawn_specular(self, surf, thr_h, s_idx, dsub, stack_h=None, depth=0, rng=None):

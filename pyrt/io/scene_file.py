@@ -26,7 +26,8 @@ Format (every key optional unless marked; unknown keys are errors naming the tab
                         # light's keyword arguments (image / profile paths relative to the scene file)
                         # area lights: type = "rect" (center, normal, size, tangent) | "disk" (center, normal,
                         # radius) | "sphere" (center, radius); radiance or power, color, n_samples, bsdf_samples;
-                        # visible = true adds the emitting mesh (seen by camera rays)
+                        # visible = true adds the emitting mesh (seen by camera rays);
+                        # type = "emissive_mesh" (n_samples, name): the emissive meshes above as a light
     [environment]       # type = "constant" (color) | "latlong" (file: EXR or .hdr, relative to the scene file) |
                         # "cube" (file: cross image, or faces = [6 files]) | "sky" (procedural: sun_direction,
                         # sun_angle, sun_radiance, zenith, horizon, ground, width, height);
@@ -331,6 +332,14 @@ def _load(data, base, path):
         for k in LIGHT_PATH_ARGUMENTS:  # image / IES files relative to the scene file
             if isinstance(kwargs.get(k), str) and not os.path.isabs(kwargs[k]):
                 kwargs[k] = os.path.join(base, kwargs[k])
+        if LIGHTS[kind].scene_emitter:       # the emissive meshes loaded above (Scene.add_emissive_lights)
+            try:
+                scene.add_emissive_lights(**kwargs)
+            except TypeError as e:
+                raise SceneFileError(f"{path}: {where}: {e}; allowed parameters: ['n_samples', 'name']") from None
+            except ValueError as e:
+                raise SceneFileError(f"{path}: {where}: {e}") from None
+            continue
         visible = kwargs.pop("visible", True) if LIGHTS[kind].has_mesh else None
         light = _construct(LIGHTS[kind], kwargs, where, path)
         if visible is None:

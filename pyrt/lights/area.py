@@ -124,7 +124,7 @@ class AreaLight(Light):
         scene.add_light(self)
         if visible:
             scene.add_mesh(self.mesh(), AreaEmitter(self.L, name=self.name), smooth=self._smooth,
-                           name=f"{self.name or type(self).__name__}_emitter")
+                           name=self.emitter_mesh_name)
         return self
 
     _smooth = False

@@ -72,14 +72,19 @@ class LightSample:
         Factored form ``E = scale[:, None] * rgb`` (None: scale 1 everywhere).
     rgb : (3,) float64 ndarray or None
         The light's colour in the factored form (None when ``E`` is given).
+    pdf : (N,) float64 ndarray or None
+        The solid-angle density of each sample, when the light knows it better than :meth:`Light.pdf_li` of the
+        direction would (a sampled point on one of several emitter triangles: the MIS weights use it); None:
+        ``pdf_li(p, wi)``.
     """
 
-    __slots__ = ("wi", "dist", "E", "scale", "rgb")
+    __slots__ = ("wi", "dist", "E", "scale", "rgb", "pdf")
 
-    def __init__(self, wi, dist, E=None, *, scale=None, rgb=None):
+    def __init__(self, wi, dist, E=None, *, scale=None, rgb=None, pdf=None):
         if (E is None) == (rgb is None):
             raise ValueError("LightSample: give E or rgb (with an optional scale), not both")
         self.wi, self.dist, self.E, self.scale, self.rgb = wi, dist, E, scale, rgb
+        self.pdf = pdf
 
     @property
     def factored(self):
@@ -146,6 +151,9 @@ class Light:
     delta = True
     #: True for lights that can add a visible emitter mesh to a scene (:meth:`add_to`)
     has_mesh = False
+    #: True for lights that sample triangles of the scene's own meshes (:class:`pyrt.lights.mesh.EmissiveMeshLight`):
+    #: a ray that hits them reaches the light, and :meth:`pdf_hit` gives the light's density there
+    scene_emitter = False
     #: the :class:`pyrt.lights.environment.Environment` an environment light samples, else None; the
     #: integrators then use the environment estimator (strategies, MIS) with the light's settings
     environment = None
@@ -199,6 +207,23 @@ class Light:
         if self.delta:
             return np.zeros(wi.shape[0])
         raise NotImplementedError(f"{type(self).__name__} defines no pdf_li")
+
+    def pdf_hit(self, p, mesh_id, prim_id, dist, cos_l):
+        """Solid-angle density (N,) of the light's sampling from the points ``p`` at the points their rays hit
+        (scene mesh ``mesh_id``, its triangle ``prim_id``, at distance ``dist``, cosine ``cos_l`` between the ray
+        and the triangle's normal): 0 unless the light samples scene triangles (:attr:`scene_emitter`)."""
+        return np.zeros(np.asarray(dist).shape[0])
+
+    @property
+    def emitter_mesh_name(self):
+        """The name of the visible emitter mesh :meth:`add_to` adds for a light with :attr:`has_mesh`
+        (``"<name>_emitter"``), else None."""
+        return f"{self.name or type(self).__name__}_emitter" if self.has_mesh else None
+
+    def built_for(self, meshes):
+        """True when the light may light a scene with these ``meshes`` (every light but a :attr:`scene_emitter`,
+        which must find its own meshes there)."""
+        return True
 
     def ray_distance(self, p, wi):
         """Distance (N,) from ``p`` along ``wi`` to the light's emitting surface, ``inf`` where the ray misses it

@@ -295,6 +295,12 @@ class Material:
         self._validate_coverage()
         return self
 
+    @property
+    def culls_back_faces(self):
+        """True when camera and secondary rays skip this material's back faces: :attr:`double_sided` False, not a
+        dielectric or transmitting material (whose back faces are the way out of their volume)."""
+        return not self.double_sided and not self.is_dielectric and not self.transmits
+
     def coverage(self, ctx):
         """Coverage alpha (N,) in [0, 1] at the hits of ``ctx`` (:attr:`opacity` resolved, clipped)."""
         return np.clip(self.param(self.opacity, ctx, 1), 0.0, 1.0)

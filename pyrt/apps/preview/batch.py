@@ -40,8 +40,10 @@ class AssetReport:
 
     @property
     def prepare_time(self):
-        """Seconds between loading and rendering: up axis and bounds, normals, scene, geometry tables, BVH."""
-        return float(sum(self.phases.get(k, 0.0) for k in ("frame", "normals", "scene", "geometry", "bvh")))
+        """Seconds between loading and rendering: up axis and bounds, normals, scene, emitters (the emissive-mesh
+        light's table), geometry tables, BVH."""
+        return float(sum(self.phases.get(k, 0.0) for k in ("frame", "normals", "scene", "emitters", "geometry",
+                                                             "bvh")))
 
 
 def output_name(path, taken=None):

@@ -58,6 +58,13 @@ def _parser():
     ap.add_argument("--env", help="lat-long environment map (OpenEXR or Radiance .hdr)")
     ap.add_argument("--env-lighting", default="mis", help="environment light strategy (mis, map, bsdf, preview, ...)")
     ap.add_argument("--env-samples", type=positive_int, default=8, help="environment light samples per hit")
+    ap.add_argument("--emissive-lights", default="auto", choices=["auto", "off"],
+                    help="auto: the model's emissive surfaces light the scene by shadow rays too (when it has any); "
+                         "off: only through glossy reflection rays")
+    ap.add_argument("--emissive-samples", type=positive_int, default=2,
+                    help="shadow rays per hit toward the emissive surfaces")
+    ap.add_argument("--emissive-selection", default="power", choices=["power", "oriented"],
+                    help="how the emissive triangles are chosen: by power, or per shading point (distance, side)")
     ap.add_argument("--exposure", type=finite_float, help="exposure in stops (default: automatic)")
     ap.add_argument("--tonemap", default="reinhard", choices=TONEMAPS,
                     help="tone mapper: reinhard (default; automatic white point), pbr_neutral (Khronos PBR Neutral, "
@@ -100,7 +107,9 @@ def _run(args, cancel):
     opts = PreviewOptions(width=args.width, height=args.height, spp=args.spp, fov=args.fov, azimuth=args.azimuth,
                           elevation=args.elevation, up=args.up, framing=args.framing, camera=args.camera, lights=args.lights,
                           ground=not args.no_ground, studio_env=args.studio_env == "on", environment=args.env, environment_lighting=args.env_lighting,
-                          environment_samples=args.env_samples, exposure=args.exposure,
+                          environment_samples=args.env_samples, emissive_lights=args.emissive_lights,
+                          emissive_samples=args.emissive_samples, emissive_selection=args.emissive_selection,
+                          exposure=args.exposure,
                           tonemap=args.tonemap, turntable=args.turntable, formats=formats, aovs=args.aovs,
                           seed=args.seed, time_budget=args.budget, threads=args.threads,
                           bvh_quality=args.bvh_quality, target_error=args.target_error,

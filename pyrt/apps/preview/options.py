@@ -48,6 +48,12 @@ class PreviewOptions:
     environment_intensity: float = 1.0
     environment_lighting: str = "mis"    # EnvironmentLight strategy ("mis", "preview" = no shadows, no noise, ...)
     environment_samples: int = 8         # environment light samples per hit
+    #: "auto": the model's emissive meshes are a light source (Scene.add_emissive_lights: every lit hit samples them
+    #: with shadow rays, MIS with the glossy rays) when it has emissive materials; "off": they light other surfaces
+    #: only through the glossy rays (pyrt.render's default)
+    emissive_lights: str = "auto"
+    emissive_samples: int = 2            # shadow rays per hit toward the emissive triangles (docs/preview.md)
+    emissive_selection: str = "power"    # how they are chosen: "power" or "oriented" (per shading point)
     exposure: float | None = None        # stops; None = automatic
     tonemap: str = "reinhard"            # any of pyrt.core.image_io.TONEMAPS (pbr_neutral, aces, ...)
     turntable: int = 0                   # number of views (0 = a single view)
@@ -107,7 +113,11 @@ class PreviewOptions:
     bvh_quality: str = "auto"
 
     def validate(self):
-        for name in ("width", "height", "spp", "chunk_samples", "dielectric_chunk_samples"):
+        if self.emissive_lights not in ("auto", "off"):
+            raise PreviewError(f"emissive_lights must be 'auto' or 'off', got {self.emissive_lights!r}")
+        if self.emissive_selection not in ("power", "oriented"):
+            raise PreviewError(f"emissive_selection must be 'power' or 'oriented', got {self.emissive_selection!r}")
+        for name in ("width", "height", "spp", "chunk_samples", "dielectric_chunk_samples", "emissive_samples"):
             v = getattr(self, name)
             if int(v) != v or v < 1:
                 raise PreviewError(f"{name} must be a positive integer, got {v!r}")

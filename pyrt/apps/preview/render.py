@@ -40,7 +40,8 @@ class PreviewScene:
         self.asset = asset
         self.warnings = list(asset.warnings)
         t0 = time.perf_counter()
-        #: seconds per preparation phase: "frame" (up axis, bounds), "normals", "scene", "geometry", "bvh"
+        #: seconds per preparation phase: "frame" (up axis, bounds), "normals", "scene", "emitters" (the emissive-mesh
+        #: light, when the model emits), "geometry", "bvh"
         self.timings = {}
         if o.up == "auto":
             self.up_axis, self.up_reason = detect_up_axis(up_axis_sample(asset))
@@ -71,6 +72,13 @@ class PreviewScene:
                                                    crease_angle=o.crease_angle, lights=o.lights in ("asset", "both"),
                                                    timings=self.timings)
         self.warnings += [str(w.message) for w in caught]
+        #: the model's emissive meshes as a light (PreviewOptions.emissive_lights), None when off or nothing emits
+        self.emissive_light = None
+        if o.emissive_lights == "auto":
+            t_em = time.perf_counter()
+            self.emissive_light = self.scene.add_emissive_lights(n_samples=o.emissive_samples,
+                                                                 selection=o.emissive_selection)
+            self.timings["emitters"] = time.perf_counter() - t_em
         self.asset_lights = list(self.scene.lights)
         self.ground_mesh = None
         if o.ground:
@@ -223,7 +231,7 @@ class PreviewResult:
 #: :meth:`pyrt.Scene.add_mesh`; the flat geometry table, float32 range check and handing the arrays to Embree;
 #: Embree's BVH build; rendering every view; tone mapping and encoding the files; writing them. Tangents have no
 #: phase: they are computed per hit from the triangles' UVs.
-PHASES = ("load", "frame", "normals", "scene", "geometry", "bvh", "render", "encode", "write")
+PHASES = ("load", "frame", "normals", "scene", "emitters", "geometry", "bvh", "render", "encode", "write")
 
 
 def format_phases(phases):

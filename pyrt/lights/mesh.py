@@ -1,0 +1,326 @@
+"""Emissive scene triangles as a light source: :class:`EmissiveMeshLight` (next-event estimation on emitters).
+
+A mesh whose material emits (glTF ``emissiveFactor`` x ``KHR_materials_emissive_strength`` x
+``emissiveTexture``, OBJ ``Ke``, :class:`pyrt.Lambert` ``emission``, an :class:`AreaEmitter` mesh) is seen by
+camera rays and reached by BSDF-sampled rays whatever the lights are. This light also lets every hit that
+receives direct light (Lambertian ones too) *sample* those triangles with shadow rays, as pbrt-v4's
+``DiffuseAreaLight`` / ``TriangleLight`` with a power light sampler does (one light per triangle there; one
+vectorised light over all of them here).
+
+Sampling
+--------
+- A triangle ``j`` is chosen from a discrete CDF (float64) with ``pmf_j`` proportional to ``area_j x b_j``, the
+  emission bound ``b_j``: the mean over the RGB channels of the material's own :meth:`Material.emission`
+  evaluated at four fixed points of the triangle (its centroid and ``(2/3, 1/6, 1/6)`` with its permutations),
+  seen from the front. It is exact for a constant emission (factor x strength) and an estimate of the
+  texture's mean over the triangle for a textured one. Triangles whose four values are all 0 are not part of
+  the light (``pdf = 0`` there: what they emit is left to BSDF rays with weight 1, as without this light).
+  That is ``selection="power"`` (the default); ``selection="oriented"`` first chooses a cluster of triangles per
+  shading point (power over squared distance, none behind a one-sided planar cluster) and then a triangle
+  inside it by the same power (:mod:`pyrt.lights.mesh_clusters`).
+- A point ``y`` uniform on the triangle (``b0 = 1 - sqrt(u0)``, ``b1 = u1 sqrt(u0)``, ``u0`` the first random
+  number re-used after the discrete choice), its density in solid angle from a shading point ``p``:
+  ``pdf = pmf_j / area_j * r^2 / |cos theta_l|``, ``r = |y - p|``, ``cos theta_l = n_j . wi``.
+- The radiance ``L_e(y, -wi)`` is evaluated **exactly** at ``y``: a :class:`pyrt.geometry.SurfaceBatch` is built
+  for (triangle, barycentrics) by :func:`pyrt.geometry.surface.surface_from_hits` (the scene's own surface
+  reconstruction: UVs and every UV set, texture transforms, vertex colours) with ``wo`` toward ``p``, and the
+  material's :meth:`emission` is called on it. Sidedness is the material's: :class:`AreaEmitter` emits from its
+  front only unless ``two_sided``; a material whose back faces are culled (glTF ``doubleSided`` false,
+  :attr:`Material.culls_back_faces`) emits only from its front, as camera rays see it; alpha ``mask`` and
+  ``blend`` scale it by the coverage at full texture resolution (a ray sees it filtered at its footprint).
+- ``E = L_e |cos theta_l| area_j / (pmf_j r^2)`` (W/m^2), the sample's ``pdf`` carried on the
+  :class:`LightSample` for MIS.
+
+A BSDF-sampled ray that hits one of these triangles needs the same density: the integrator asks
+:meth:`EmissiveMeshLight.pdf_hit` with the hit's mesh, triangle, distance and cosine (no extra ray);
+:meth:`pdf_li` (a direction only) intersects every emitter triangle by brute force, O(N x triangles), for the
+contract tests and small emitters. Build it with :meth:`pyrt.Scene.add_emissive_lights` once the meshes are in
+the scene (meshes added later are not part of it).
+"""
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+
+from pyrt.geometry.accel import Hits
+from pyrt.geometry.surface import GeometryTable, MeshData, surface_from_hits
+from pyrt.shaders.vec import cross, dot, take_rows
+
+from pyrt.lights.base import LIGHTS, Light, LightError, LightSample
+from pyrt.lights.area import AreaEmitter
+from pyrt.lights.mesh_clusters import ClusterChoice
+
+#: barycentric (b1, b2) of the four points per triangle at which the emission bound is evaluated
+_PROBES = np.array([[1 / 3, 1 / 3], [1 / 6, 1 / 6], [2 / 3, 1 / 6], [1 / 6, 2 / 3]])
+#: triangles per block when the bound is evaluated (bounded memory on big emitters)
+_BLOCK = 1 << 15
+#: rays x triangles per block of the brute-force :meth:`EmissiveMeshLight.pdf_li`
+_PDF_BLOCK = 1 << 18
+
+
+def _emission(materials, ctx):
+    """Emitted radiance (N, 3) toward ``ctx.wo`` at the hits of ``ctx``, per material, with its sidedness and
+    coverage (module docstring)."""
+    L = np.zeros((ctx.n_hits, 3))
+    mids = ctx.material_id
+    for k in np.unique(mids):
+        sel = np.flatnonzero(mids == k)
+        sub = ctx.subset(sel)
+        mat = materials[int(k)]
+        Le = np.array(mat.emission(sub), dtype=np.float64).reshape(sel.size, 3)
+        if mat.culls_back_faces:
+            Le *= sub.front[:, None]
+        if mat.alpha_mode == "mask":
+            Le *= (mat.coverage(sub) >= mat.alpha_cutoff)[:, None]
+        elif mat.alpha_mode == "blend":
+            Le *= mat.coverage(sub)[:, None]
+        L[sel] = Le
+    return L
+
+
+@LIGHTS.register("emissive_mesh")
+class EmissiveMeshLight(Light):
+    """The emissive triangles of a scene's meshes as one light (module docstring).
+
+    Parameters
+    ----------
+    meshes : list of pyrt.geometry.MeshData
+        The scene's meshes (``scene.meshes``); the light keeps references to them.
+    materials : list of Material
+        The scene's materials (``scene.materials``), indexed by ``MeshData.material_id``.
+    mesh_ids : sequence of int, optional
+        The meshes that emit light (default: every mesh whose material declares ``emits``).
+    n_samples : int
+        Shadow rays per hit (stratified), each toward one sampled triangle point.
+    selection : {"power", "oriented"}
+        How a triangle is chosen: by power wherever the shading point is (default), or first a cluster of
+        triangles by its power, distance and side at the shading point (:mod:`pyrt.lights.mesh_clusters`).
+    name : str, optional
+    """
+
+    delta = False
+    scene_emitter = True
+
+    @classmethod
+    def example(cls):
+        """A 1 x 0.5 quad at height 2 facing down, uniform radiance 5 (an :class:`AreaEmitter`)."""
+        v = np.array([[-0.5, 2.0, -0.25], [0.5, 2.0, -0.25], [0.5, 2.0, 0.25], [-0.5, 2.0, 0.25]])
+        f = np.array([[0, 1, 2], [0, 2, 3]])        # winding normal -y
+        mesh = MeshData(vertices=v, faces=f, normals=None, uv=None, vertices_object=v, material_id=0,
+                        smooth=False, name="quad")
+        return cls([mesh], [AreaEmitter(5.0)])
+
+    def __init__(self, meshes, materials, *, mesh_ids=None, n_samples=1, selection="power", name=None):
+        self.name = name
+        owner = f"EmissiveMeshLight({name or ''})"
+        if selection not in ("power", "oriented"):
+            raise LightError(f"{owner}: selection must be 'power' or 'oriented', got {selection!r}")
+        #: how a triangle is chosen ("power" or "oriented", see the class docstring)
+        self.selection = selection
+        if not isinstance(n_samples, numbers.Integral) or isinstance(n_samples, bool) or n_samples < 1:
+            raise LightError(f"{owner}: n_samples must be a positive integer, got {n_samples!r}")
+        self.n_samples = int(n_samples)
+        meshes, materials = list(meshes), list(materials)
+        if mesh_ids is None:
+            mesh_ids = [i for i, m in enumerate(meshes) if materials[m.material_id].emits]
+        ids = []
+        for i in mesh_ids:
+            if not isinstance(i, numbers.Integral) or isinstance(i, bool) or not 0 <= i < len(meshes):
+                raise LightError(f"{owner}: mesh_ids must be indices of the scene's {len(meshes)} meshes, got {i!r}")
+            ids.append(int(i))
+        if not ids:
+            raise LightError(f"{owner}: the scene has no emissive mesh (no material declares emits)")
+        self._materials = materials
+        self._geo = GeometryTable([meshes[i] for i in ids])
+        #: the scene meshes (indices into ``scene.meshes``) whose triangles the light samples
+        self.mesh_ids = tuple(ids)
+        self._meshes = tuple(meshes[i] for i in ids)
+        self._scene_mesh = np.array(ids, dtype=np.int64)
+        self._local = np.full(len(meshes), -1, dtype=np.int64)      # scene mesh id -> index in the light's table
+        self._local[self._scene_mesh] = np.arange(len(ids))
+        geo = self._geo
+        v = geo.vertices
+        p0, p1, p2 = (take_rows(v, geo.faces[:, k]) for k in range(3))
+        self._area = 0.5 * np.linalg.norm(cross(p1 - p0, p2 - p0), axis=1)
+        bound = self._emission_bound(back=False)
+        weight = self._area * bound
+        total = float(weight.sum())
+        #: (F,) float64 probability of choosing each triangle of the light's table (0: not part of the light; all 0
+        #: when nothing emits at the probe points: the light then contributes nothing)
+        self.pmf = weight / total if total > 0 else np.zeros_like(weight)
+        self._cdf = np.cumsum(self.pmf)
+        if total > 0:
+            self._cdf[-1] = 1.0
+        self._cdf_lo = self._cdf - self.pmf
+        #: (F,) float64 area density ``pmf / area`` (1/m^2) of the sampled points on each triangle
+        self.area_pdf = np.divide(self.pmf, self._area, out=np.zeros_like(self.pmf), where=self._area > 0)
+        #: RGB radiance when the emission is the same at every probe point of every triangle, else None
+        self.L = self._uniform
+        self._choice = None
+        if selection == "oriented" and total > 0:
+            one_sided = self._emission_bound(back=True) == 0
+            self._choice = ClusterChoice(geo.vertices, geo.faces, geo.face_normals, geo.face_mesh, weight, one_sided)
+        self.validate()
+
+    @property
+    def material_ids(self):
+        """The scene material ids (a frozenset) of the meshes the light samples."""
+        return frozenset(int(m.material_id) for m in self._meshes)
+
+    @property
+    def triangles(self):
+        """Number of triangles in the light's table (those with ``pmf = 0`` included)."""
+        return int(self._area.size)
+
+    @property
+    def sampled_triangles(self):
+        """Number of triangles the light samples (``pmf > 0``)."""
+        return int(np.count_nonzero(self.pmf))
+
+    def built_for(self, meshes):
+        """True when ``meshes`` (a scene's list) holds, at :attr:`mesh_ids`, the very meshes the light samples."""
+        return all(i < len(meshes) and meshes[i] is m for i, m in zip(self.mesh_ids, self._meshes))
+
+    def validate(self):
+        """The base checks; ``mesh_ids`` must still name meshes whose material emits."""
+        super().validate()
+        for m in self._meshes:
+            if not self._materials[m.material_id].emits:
+                raise LightError(f"{self.label}: mesh {m.name!r} no longer has an emitting material")
+
+    def _surface(self, tri, b1, b2, origins, dirs, dist):
+        """The surface batch at the points (light triangle ``tri``, barycentrics ``b1``, ``b2``) seen along the unit
+        ``dirs`` from ``origins`` at distance ``dist``; its ``mesh_id`` are the scene's mesh ids."""
+        geo = self._geo
+        mesh = geo.face_mesh[tri]
+        hits = Hits(hit=np.ones(tri.size, dtype=bool), t=dist, mesh_id=mesh, prim_id=tri - geo.face_offset[mesh],
+                    u=b1, v=b2, ng=take_rows(geo.face_normals, tri))
+        return surface_from_hits(geo, hits, origins, dirs, mesh_ids=np.take(self._scene_mesh, mesh))
+
+    def _emission_bound(self, back):
+        """(F,) mean emission (RGB mean) of each triangle's four probe points seen from its front (or ``back``);
+        the front pass also records :attr:`L` (the radiance when it is the same at every probe)."""
+        geo = self._geo
+        n_f = self._area.size
+        out = np.zeros(n_f)
+        rgb = np.zeros((n_f, 3))
+        same = True
+        first = None
+        for lo in range(0, n_f, _BLOCK):
+            tri = np.arange(lo, min(n_f, lo + _BLOCK))
+            acc = np.zeros((tri.size, 3))
+            for b1, b2 in _PROBES:
+                bb1, bb2 = np.full(tri.size, b1), np.full(tri.size, b2)
+                f = take_rows(geo.faces, tri)
+                y = ((1 - b1 - b2) * take_rows(geo.vertices, f[:, 0]) + b1 * take_rows(geo.vertices, f[:, 1])
+                     + b2 * take_rows(geo.vertices, f[:, 2]))
+                n = take_rows(geo.face_normals, tri)
+                if back:
+                    n = -n
+                Le = _emission(self._materials, self._surface(tri, bb1, bb2, y + n, -n, np.ones(tri.size)))
+                acc += Le
+                if first is None:
+                    first = Le[0].copy()
+                same = same and bool(np.all(Le == first))
+            rgb[tri] = acc / len(_PROBES)
+            out[tri] = rgb[tri].mean(axis=1)
+        if not back:
+            self._uniform = first if same else None
+        return np.maximum(out, 0.0)
+
+    def sample_li(self, p, u):
+        """A :class:`LightSample` (``E`` and the sample's solid-angle ``pdf``) at the points ``p`` (N, 3)."""
+        n = p.shape[0]
+        u0 = u[:, 0]
+        if self._choice is not None:
+            tri, r, pm = self._choice.choose(p, u0)
+        else:
+            tri = np.minimum(np.searchsorted(self._cdf, u0, side="right"), self._cdf.size - 1)
+            pm = np.take(self.pmf, tri)
+            r = np.clip(np.divide(u0 - np.take(self._cdf_lo, tri), pm, out=np.zeros(n), where=pm > 0), 0.0, 1.0)
+        su = np.sqrt(r)
+        b0 = 1.0 - su
+        b1 = u[:, 1] * su
+        b2 = np.maximum(1.0 - b0 - b1, 0.0)
+        geo = self._geo
+        f = take_rows(geo.faces, tri)
+        y = (b0[:, None] * take_rows(geo.vertices, f[:, 0]) + b1[:, None] * take_rows(geo.vertices, f[:, 1])
+             + b2[:, None] * take_rows(geo.vertices, f[:, 2]))
+        d = y - p
+        dist = np.sqrt(dot(d, d))
+        ok = dist > 0
+        inv = np.divide(1.0, dist, out=np.zeros(n), where=ok)
+        wi = d * inv[:, None]
+        wi[~ok] = (0.0, 0.0, 1.0)
+        cos_l = np.abs(dot(take_rows(geo.face_normals, tri), wi))
+        pdf = (np.divide(pm, np.take(self._area, tri)) * np.divide(dist * dist, cos_l, out=np.zeros(n),
+                                                                  where=cos_l > 0))
+        live = ok & (cos_l > 0) & (pm > 0)
+        E = np.zeros((n, 3))
+        idx = np.flatnonzero(live)
+        if idx.size:
+            ctx = self._surface(tri[idx], b1[idx], b2[idx], take_rows(p, idx), take_rows(wi, idx), dist[idx])
+            E[idx] = _emission(self._materials, ctx) / pdf[idx, None]
+        pdf = np.where(live, pdf, 0.0)
+        return LightSample(wi, np.where(ok, dist, 1.0), E, pdf=pdf)
+
+    def pdf_point(self, p, tri, dist, cos_l):
+        """Solid-angle density (N,) of sampling, from the points ``p`` (N, 3), the point at distance ``dist`` on light
+        triangle ``tri`` whose normal makes the cosine ``cos_l`` with the direction:
+        ``P(tri | p) / area * dist^2 / |cos_l|`` (``P(tri | p) = pmf`` with ``selection="power"``)."""
+        c = np.abs(cos_l)
+        prob = np.take(self.pmf, tri) if self._choice is None else self._choice.triangle_probability(p, tri)
+        return (np.divide(prob, np.take(self._area, tri))
+                * np.divide(dist * dist, c, out=np.zeros(c.shape), where=c > 0))
+
+    def triangle_index(self, mesh_id, prim_id):
+        """(N,) the light's triangle for scene mesh ``mesh_id`` and its triangle ``prim_id``, -1 where the mesh is
+        not the light's."""
+        mesh_id = np.asarray(mesh_id, dtype=np.int64)
+        inside = (mesh_id >= 0) & (mesh_id < self._local.size)
+        local = np.where(inside, np.take(self._local, np.where(inside, mesh_id, 0)), -1)
+        return np.where(local >= 0, np.take(self._geo.face_offset, np.maximum(local, 0)) + prim_id, -1)
+
+    def pdf_hit(self, p, mesh_id, prim_id, dist, cos_l):
+        """Solid-angle density (N,) of the light's sampling from the points ``p`` (N, 3) at the points rays from them
+        hit: scene mesh ``mesh_id``, its triangle ``prim_id`` at distance ``dist`` with cosine ``cos_l``; 0 on
+        triangles the light does not sample."""
+        tri = self.triangle_index(mesh_id, prim_id)
+        mine = tri >= 0
+        return np.where(mine, self.pdf_point(p, np.maximum(tri, 0), dist, cos_l), 0.0)
+
+    def pdf_li(self, p, wi):
+        """Solid-angle density (N,) of :meth:`sample_li` toward ``wi`` from ``p``: the sum over every light
+        triangle the ray ``p + t wi`` (t > 0) crosses (brute force, both sides; module docstring)."""
+        p = np.asarray(p, dtype=np.float64)
+        wi = np.asarray(wi, dtype=np.float64)
+        geo = self._geo
+        live = np.flatnonzero(self.pmf > 0)
+        f = take_rows(geo.faces, live)
+        v0, v1, v2 = (take_rows(geo.vertices, f[:, k]) for k in range(3))
+        e1, e2 = v1 - v0, v2 - v0
+        nrm = take_rows(geo.face_normals, live)
+        apdf = np.take(self.area_pdf, live)[None, :]
+        area = np.take(self._area, live)[None, :]
+        out = np.zeros(wi.shape[0])
+        step = max(1, _PDF_BLOCK // max(1, live.size))
+        for lo in range(0, wi.shape[0], step):
+            d = wi[lo:lo + step, None, :]
+            o = p[lo:lo + step, None, :]
+            h = np.cross(d, e2[None])                           # Moller-Trumbore, (n, F)
+            a = np.einsum("ijk,jk->ij", h, e1)
+            ok = np.abs(a) > 1e-300
+            inv = np.divide(1.0, a, out=np.zeros_like(a), where=ok)
+            s = o - v0[None]
+            bu = np.einsum("ijk,ijk->ij", s, h) * inv
+            q = np.cross(s, e1[None])
+            bv = np.einsum("ijk,ijk->ij", np.broadcast_to(d, q.shape), q) * inv
+            t = np.einsum("ijk,jk->ij", q, e2) * inv
+            hit = ok & (bu >= 0) & (bv >= 0) & (bu + bv <= 1) & (t > 0)
+            c = np.abs(np.einsum("ijk,jk->ij", np.broadcast_to(d, (d.shape[0], live.size, 3)), nrm))
+            if self._choice is not None:
+                apdf = self._choice.triangle_probabilities(p[lo:lo + step], live) / area
+            val = apdf * np.divide(t * t, c, out=np.zeros_like(t), where=hit & (c > 0))
+            out[lo:lo + step] = np.where(hit, val, 0.0).sum(axis=1)
+        return out
