@@ -345,7 +345,7 @@ def test_previewer_turns_emitter_sampling_on_for_emissive_models_only(tmp_path, 
     assert (ps.emissive_light is not None) == emissive == (len(lights) == 1)
     if emissive:
         assert ps.emissive_light.n_samples == PreviewOptions().emissive_samples
-        assert ps.render_view(ps.options.azimuth).image.max() > 0
+        assert ps.render_view(ps.azimuth).image.max() > 0
     off = PreviewScene(pyrt.load_asset(_obj(tmp_path, emissive)), PreviewOptions(emissive_lights="off", **tiny))
     assert off.emissive_light is None and not any(lt.scene_emitter for lt in off.scene.lights)
 

@@ -122,7 +122,7 @@ def main(argv=None):
                 times[name].append(dt)
                 images[name][seed] = img
     ps = scenes["power"]
-    ps._set_view(ps.options.azimuth)
+    ps._set_view(ps.azimuth)
     model = ps.model_mask()          # the camera of the view rendered
     walls = wall_mask(ps, model) if ps.emissive_light is not None else model
     print(f"{os.path.basename(args.model)} at {args.width}x{args.height}, {int(model.sum())} model pixels "
@@ -142,7 +142,7 @@ def main(argv=None):
     for sel in ("power", "oriented"):
         if scenes[sel].emissive_light is None:
             continue
-        scenes[sel]._set_view(ps.options.azimuth)
+        scenes[sel]._set_view(scenes[sel].azimuth)
         zero, horizon, blocked, useful = sample_use(scenes[sel], walls)
         print(f"{sel}: emitter samples at the wall pixels' camera hits: E = 0 (back faces) {zero:.1%}, below the "
               f"horizon {horizon:.1%}, shadowed {blocked:.1%}, adding light {useful:.1%}")
