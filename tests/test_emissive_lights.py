@@ -524,3 +524,43 @@ def test_bad_selection_is_a_light_error():
     sc.add_mesh(quad_mesh(), pyrt.AreaEmitter(3.0), smooth=False)
     with pytest.raises(LightError, match="selection must be 'power' or 'oriented'"):
         sc.add_emissive_lights(selection="bvh")
+
+
+def test_previewer_samples_only_emitters_that_are_light_sources(tmp_path):
+    """``emissive_lights="auto"`` keeps the light only when its power (pi sum A L) is
+    at least EMISSIVE_POWER_RATIO of the key light onto the model (key x pi R^2): scaling the key up past that
+    point turns it off (decorative glow), down turns it on; without the studio rig it is always on."""
+    from pyrt.apps.preview.options import EMISSIVE_POWER_RATIO
+    tiny = dict(width=32, height=24, spp=1)
+    path = _obj(tmp_path, True)
+    ps = PreviewScene(pyrt.load_asset(path), PreviewOptions(**tiny))
+    try:
+        lt = ps.emissive_light
+        assert lt is not None
+        ratio = lt.power / (PreviewOptions().key * math.pi * ps.radius ** 2)
+        radius = ps.radius
+    finally:
+        ps.close()
+    key0 = PreviewOptions().key
+    for key, on in ((0.5 * key0 * ratio / EMISSIVE_POWER_RATIO, True),
+                    (2.0 * key0 * ratio / EMISSIVE_POWER_RATIO, False)):
+        ps = PreviewScene(pyrt.load_asset(path), PreviewOptions(key=key, **tiny))
+        try:
+            assert (ps.emissive_light is not None) is on, (key, ratio)
+            assert any(lt.scene_emitter for lt in ps.scene.lights) is on
+            assert ps.radius == radius
+        finally:
+            ps.close()
+    ps = PreviewScene(pyrt.load_asset(path), PreviewOptions(key=1e9, lights="asset", **tiny))
+    try:
+        assert ps.emissive_light is not None       # no studio rig: nothing to compare with
+    finally:
+        ps.close()
+
+
+def test_power_of_a_uniform_one_sided_emitter():
+    """``EmissiveMeshLight.power`` = pi A L for a one-sided Lambertian emitter of constant radiance L."""
+    import trimesh
+    _, light = emitter_scene(pyrt.AreaEmitter(3.0))
+    area = trimesh.Trimesh(vertices=QUAD, faces=DOWN, process=False).area
+    assert light.power == pytest.approx(math.pi * area * 3.0, rel=1e-12)

@@ -39,6 +39,8 @@ the scene (meshes added later are not part of it).
 """
 from __future__ import annotations
 
+import math
+
 import numbers
 
 import numpy as np
@@ -146,6 +148,9 @@ class EmissiveMeshLight(Light):
         bound = self._emission_bound(back=False)
         weight = self._area * bound
         total = float(weight.sum())
+        #: estimated emitted power (W): ``pi sum_i A_i Lbar_i`` of a one-sided Lambertian emitter, ``Lbar_i`` the
+        #: triangle's mean RGB radiance at its probe points (front side; exact for constant emission)
+        self.power = math.pi * total
         #: (F,) float64 probability of choosing each triangle of the light's table (0: not part of the light; all 0
         #: when nothing emits at the probe points: the light then contributes nothing)
         self.pmf = weight / total if total > 0 else np.zeros_like(weight)

@@ -59,11 +59,11 @@ def _parser():
     ap.add_argument("--env-lighting", default="mis", help="environment light strategy (mis, map, bsdf, preview, ...)")
     ap.add_argument("--env-samples", type=positive_int, default=8, help="environment light samples per hit")
     ap.add_argument("--emissive-lights", default="auto", choices=["auto", "off"],
-                    help="auto: the model's emissive surfaces light the scene by shadow rays too (when it has any); "
-                         "off: only through glossy reflection rays")
-    ap.add_argument("--emissive-samples", type=positive_int, default=2,
+                    help="auto: the model's emissive surfaces light the scene by shadow rays too when they are a "
+                         "light source (power >= 0.1 x the key light onto the model); off: only through glossy rays")
+    ap.add_argument("--emissive-samples", type=positive_int, default=PreviewOptions.emissive_samples,
                     help="shadow rays per hit toward the emissive surfaces")
-    ap.add_argument("--emissive-selection", default="power", choices=["power", "oriented"],
+    ap.add_argument("--emissive-selection", default=PreviewOptions.emissive_selection, choices=["power", "oriented"],
                     help="how the emissive triangles are chosen: by power, or per shading point (distance, side)")
     ap.add_argument("--exposure", type=finite_float, help="exposure in stops (default: automatic)")
     ap.add_argument("--tonemap", default="reinhard", choices=TONEMAPS,

@@ -23,8 +23,9 @@ from pyrt.lights import LatLongEnvironment, set_environment
 from pyrt.materials import Lambert
 from pyrt.scene import Scene
 from pyrt.io.assets import Asset, load_asset
-from pyrt.apps.preview.options import (ADAPTIVE_MAX_SPP, BOARD_DEPTH_RATIO, BVH_LOW_TRIANGLES, DEFAULT_AZIMUTH, BudgetExceeded, PreviewError, PreviewInterrupted,
-                                      PreviewOptions)
+from pyrt.apps.preview.options import (ADAPTIVE_MAX_SPP, BOARD_DEPTH_RATIO, BVH_LOW_TRIANGLES, DEFAULT_AZIMUTH,
+                                       EMISSIVE_POWER_RATIO, BudgetExceeded, PreviewError, PreviewInterrupted,
+                                       PreviewOptions)
 from pyrt.apps.preview.studio import STUDIO_PREVIEW_SAMPLES, StudioEnvironment, camera_rotation
 from pyrt.apps.preview.rig import (auto_exposure, bounding_sphere, detect_up_axis, frame_camera, frame_points,
                                    ground_radiance, hull_points, studio_rig, up_transform)
@@ -78,6 +79,10 @@ class PreviewScene:
             t_em = time.perf_counter()
             self.emissive_light = self.scene.add_emissive_lights(n_samples=o.emissive_samples,
                                                                  selection=o.emissive_selection)
+            rig_power = o.key * math.pi * self.radius ** 2 if o.lights in ("studio", "both") else 0.0
+            if self.emissive_light is not None and self.emissive_light.power < EMISSIVE_POWER_RATIO * rig_power:
+                self.scene.lights.remove(self.emissive_light)      # decorative emitters (EMISSIVE_POWER_RATIO)
+                self.emissive_light = None
             self.timings["emitters"] = time.perf_counter() - t_em
         self.asset_lights = list(self.scene.lights)
         self.ground_mesh = None
