@@ -60,7 +60,7 @@ def _parser():
     ap.add_argument("--env-samples", type=positive_int, default=8, help="environment light samples per hit")
     ap.add_argument("--emissive-lights", default="auto", choices=["auto", "off"],
                     help="auto: the model's emissive surfaces light the scene by shadow rays too when they are a "
-                         "light source (power >= 0.1 x the key light onto the model); off: only through glossy rays")
+                         "light source (power >= 0.25 x the key light onto the model); off: only through glossy rays")
     ap.add_argument("--emissive-samples", type=positive_int, default=PreviewOptions.emissive_samples,
                     help="shadow rays per hit toward the emissive surfaces")
     ap.add_argument("--emissive-selection", default=PreviewOptions.emissive_selection, choices=["power", "oriented"],
