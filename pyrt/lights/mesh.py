@@ -40,7 +40,6 @@ the scene (meshes added later are not part of it).
 from __future__ import annotations
 
 import math
-
 import numbers
 
 import numpy as np
