@@ -91,3 +91,23 @@ def test_preview_cli_sigint_exits_130_with_the_summary(tmp_path):
     assert "skipped" in summary
     ok = [f for f in os.listdir(out) if f.endswith(".png")]
     assert 0 < len(ok) < 40 and f"{len(ok)}/40 assets ok" in summary
+
+
+@pytest.mark.parametrize("module, args, code, out_name", [
+    ("pyrt.apps.preview.cli", [BLOB, "--width", "24", "--height", "18", "--spp", "1"], 0, "v.png"),
+    ("pyrt.apps.preview.cli", ["missing.glb"], 2, None),
+    ("pyrt.apps.cli", ["render", os.path.join(ROOT, "assets", "default_scene.toml"), "--width", "32", "--height",
+                       "24", "--spp", "1"], 0, "r.png"),
+])
+def test_console_scripts_exit_with_main_s_code_and_keep_their_output(tmp_path, module, args, code, out_name):
+    """The console scripts (``console_main``: ``main`` then ``os._exit`` without the interpreter's teardown) exit
+    with main's code, with stdout / stderr flushed and the files written."""
+    argv = list(args) + (["-o", str(tmp_path / out_name)] if out_name else ["-o", str(tmp_path / "x.png")])
+    prog = f"import sys; sys.argv = ['prog'] + {argv!r}; from {module} import console_main; console_main()"
+    proc = subprocess.run([sys.executable, "-c", prog], capture_output=True, text=True, timeout=300, cwd=str(tmp_path))
+    assert proc.returncode == code, proc.stderr
+    if out_name:
+        assert (tmp_path / out_name).stat().st_size > 0
+        assert proc.stdout.strip()                    # the summary line, flushed before os._exit
+    else:
+        assert proc.stderr.strip().startswith("pyrt-preview: error: ")

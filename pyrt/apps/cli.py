@@ -19,7 +19,7 @@ from pyrt.core.image_io import TONEMAPS
 from pyrt.geometry.offsets import STRATEGIES
 from pyrt.render import INTEGRATORS
 from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, ArgumentParser, check_outputs, finite_float, interrupts,
-                              nonnegative_int, positive_float, positive_int)
+                              nonnegative_int, positive_float, positive_int, run_console)
 
 
 class CommandError(pyrt.Error, ValueError):
@@ -182,3 +182,8 @@ def _write_outputs(args, image, aovs, quiet=False):
 
 if __name__ == "__main__":
     sys.exit(main())
+
+
+def console_main():
+    """The console script: :func:`main` without the interpreter's teardown (:func:`pyrt.apps.common.run_console`)."""
+    run_console(main)

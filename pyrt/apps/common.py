@@ -11,6 +11,7 @@ from contextlib import contextmanager
 import math
 import os
 import signal
+import sys
 import threading
 
 from pyrt.core.errors import Error
@@ -25,6 +26,23 @@ OUTPUT_EXTENSIONS = (".exr", ".png")
 
 class OutputPathError(Error, ValueError):
     """An output path that cannot be written (no such folder, not writable, unknown extension, repeated)."""
+
+
+# ============================================================================ console scripts
+
+def run_console(main):
+    """Run a program's ``main()`` as its console script and exit with its code without the interpreter's teardown.
+
+    Once ``main`` returns, every file is written, closed and renamed into place; what remains is freeing the
+    render's arrays and every imported module, ~0.3 s after a preview (``time pyrt-preview Duck.glb``: 2.85 s against
+    2.48 s, medians of 3, docs/preview.md). So stdout and stderr are flushed and the process ends with
+    ``os._exit``. An exception (``SystemExit`` from argparse's errors included) propagates as usual. The programs'
+    ``main(argv)`` itself returns normally (tests and ``python -m`` call it).
+    """
+    rc = main()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(int(rc or 0))
 
 
 # ============================================================================ argparse types

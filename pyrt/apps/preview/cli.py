@@ -18,8 +18,7 @@ from pyrt.core.errors import Error
 from pyrt.core.image_io import TONEMAPS
 from pyrt.io.assets import FORMATS
 from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, ArgumentParser, check_output_folder, check_outputs,
-                              finite_float,
-                              interrupts, nonnegative_int, positive_float, positive_int)
+                              finite_float, interrupts, nonnegative_int, positive_float, positive_int, run_console)
 from pyrt.apps.preview.options import AXES, PreviewError, PreviewInterrupted, PreviewOptions
 from pyrt.apps.preview.render import format_phases, render_preview, write_files
 from pyrt.apps.preview.batch import collect_inputs, format_summary, preview_batch
@@ -169,3 +168,8 @@ def _main_single(path, outputs, opts, quiet, cancel):
         print("pyrt-preview: interrupted after the view had finished; the outputs are complete", file=sys.stderr)
         return EXIT_INTERRUPTED
     return 0
+
+
+def console_main():
+    """The console script: :func:`main` without the interpreter's teardown (:func:`pyrt.apps.common.run_console`)."""
+    run_console(main)
