@@ -40,16 +40,20 @@ def test_tables_mirror_limit_and_energy():
     assert (A + B).max() <= 1 + 1e-9
 
 
-def test_tables_against_direct_quadrature():
-    """Visible-normal sampling against a 1200 x 1200 midpoint rule over the hemisphere of the same lobe
-    (rough cells, where the rule resolves the lobe: its error is below 1e-3 there)."""
-    from pyrt.shaders import brdfs
-    n = 1200
+def _hemisphere_midpoints(n):
+    """Directions (n^2, 3) and solid angles (n^2,) of an n x n midpoint rule in (theta, phi) over the upper hemisphere."""
     th = (np.arange(n) + 0.5) * (np.pi / 2) / n
     ph = (np.arange(n) + 0.5) * 2 * np.pi / n
     T, P = np.meshgrid(th, ph, indexing="ij")
     l = np.stack([np.sin(T) * np.cos(P), np.sin(T) * np.sin(P), np.cos(T)], -1).reshape(-1, 3)
-    dw = (np.sin(T) * (np.pi / 2 / n) * (2 * np.pi / n)).ravel()
+    return l, (np.sin(T) * (np.pi / 2 / n) * (2 * np.pi / n)).ravel()
+
+
+def test_tables_against_direct_quadrature():
+    """Visible-normal sampling against a 1200 x 1200 midpoint rule over the hemisphere of the same lobe
+    (rough cells, where the rule resolves the lobe: its error is below 1e-3 there)."""
+    from pyrt.shaders import brdfs
+    l, dw = _hemisphere_midpoints(1200)
     for geometry in ("smith_separable", "smith_correlated"):
         A, B = dfg.specular_albedo_tables(geometry=geometry)
         mus, rs = dfg.grid(*A.shape)
@@ -63,12 +67,7 @@ def test_e5_against_quadrature():
     """E5(mu) against a 2D midpoint rule over the hemisphere (1000 x 1000 cells: error < 1e-5)."""
     table = dfg.schlick_diffuse_loss_table(16)
     mus, _ = dfg.grid(16, 2)
-    n = 1000
-    th = (np.arange(n) + 0.5) * (np.pi / 2) / n
-    ph = (np.arange(n) + 0.5) * 2 * np.pi / n
-    T, P = np.meshgrid(th, ph, indexing="ij")
-    l = np.stack([np.sin(T) * np.cos(P), np.sin(T) * np.sin(P), np.cos(T)], -1).reshape(-1, 3)
-    dw = (np.sin(T) * (np.pi / 2 / n) * (2 * np.pi / n)).ravel()
+    l, dw = _hemisphere_midpoints(1000)
     for i in (0, 5, 15):
         v = np.array([math.sqrt(1 - mus[i] ** 2), 0.0, mus[i]])
         h = l + v
