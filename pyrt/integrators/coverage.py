@@ -97,10 +97,7 @@ class CoverageTable:
     def shadow_factor(self, k, ctx):
         """Transmittance (N,) of see-through material ``k`` for shadow rays at the hits ``ctx``: mask 1 below
         the cutoff and 0 above, blend ``1 - a``."""
-        a = self.materials[k].coverage(ctx)
-        if self.mode[k] == _MASK:
-            return (a < self.cutoff[k]).astype(np.float64)
-        return 1.0 - a
+        return 1.0 - self.materials[k].seen_fraction(ctx)
 
     def cull_hits(self, geo, idx, hits, o, d, intersect_hits, respawn):
         """Culling only (no mask or blend material): the closest hits of the rays ``o, d`` with back faces of

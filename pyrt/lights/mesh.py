@@ -33,7 +33,8 @@ Sampling
 
 A BSDF-sampled ray that hits one of these triangles needs the same density: the integrator asks
 :meth:`EmissiveMeshLight.pdf_hit` with the hit's mesh, triangle, distance and cosine (no extra ray);
-:meth:`pdf_li` (a direction only) intersects every emitter triangle by brute force, O(N x triangles), for the
+:meth:`pdf_li` (a direction only) finds every emitter triangle the ray crosses with Embree (closest-hit queries of
+a scene of the light's own triangles, re-traced past each hit), for the
 contract tests and small emitters. Build it with :meth:`pyrt.Scene.add_emissive_lights` once the meshes are in
 the scene (meshes added later are not part of it).
 """
@@ -44,7 +45,7 @@ import numbers
 
 import numpy as np
 
-from pyrt.geometry.accel import Hits
+from pyrt.geometry.accel import Accel, Hits
 from pyrt.geometry.surface import GeometryTable, MeshData, surface_from_hits
 from pyrt.shaders.vec import cross, dot, take_rows
 
@@ -56,8 +57,6 @@ from pyrt.lights.mesh_clusters import ClusterChoice
 _PROBES = np.array([[1 / 3, 1 / 3], [1 / 6, 1 / 6], [2 / 3, 1 / 6], [1 / 6, 2 / 3]])
 #: triangles per block when the bound is evaluated (bounded memory on big emitters)
 _BLOCK = 1 << 15
-#: rays x triangles per block of the brute-force :meth:`EmissiveMeshLight.pdf_li`
-_PDF_BLOCK = 1 << 18
 
 
 def _emission(materials, ctx):
@@ -72,10 +71,8 @@ def _emission(materials, ctx):
         Le = np.array(mat.emission(sub), dtype=np.float64).reshape(sel.size, 3)
         if mat.culls_back_faces:
             Le *= sub.front[:, None]
-        if mat.alpha_mode == "mask":
-            Le *= (mat.coverage(sub) >= mat.alpha_cutoff)[:, None]
-        elif mat.alpha_mode == "blend":
-            Le *= mat.coverage(sub)[:, None]
+        if mat.alpha_mode != "opaque":
+            Le *= mat.seen_fraction(sub)[:, None]
         L[sel] = Le
     return L
 
@@ -162,6 +159,7 @@ class EmissiveMeshLight(Light):
         #: RGB radiance when the emission is the same at every probe point of every triangle, else None
         self.L = self._uniform
         self._choice = None
+        self._pdf_accel = None                     # Embree scene of the light's triangles (pdf_li, built on first use)
         if selection == "oriented" and total > 0:
             one_sided = self._emission_bound(back=True) == 0
             self._choice = ClusterChoice(geo.vertices, geo.faces, geo.face_normals, geo.face_mesh, weight, one_sided)
@@ -202,6 +200,13 @@ class EmissiveMeshLight(Light):
                     u=b1, v=b2, ng=take_rows(geo.face_normals, tri))
         return surface_from_hits(geo, hits, origins, dirs, mesh_ids=np.take(self._scene_mesh, mesh))
 
+    def _points(self, tri, b0, b1, b2):
+        """The points (N, 3) ``b0 v0 + b1 v1 + b2 v2`` of light triangles ``tri`` (N,) at barycentrics (N,) each."""
+        f = take_rows(self._geo.faces, tri)
+        v = self._geo.vertices
+        return (b0[:, None] * take_rows(v, f[:, 0]) + b1[:, None] * take_rows(v, f[:, 1])
+                + b2[:, None] * take_rows(v, f[:, 2]))
+
     def _emission_bound(self, back):
         """(F,) mean emission (RGB mean) of each triangle's four probe points seen from its front (or ``back``);
         the front pass also records :attr:`L` (the radiance when it is the same at every probe)."""
@@ -216,9 +221,7 @@ class EmissiveMeshLight(Light):
             acc = np.zeros((tri.size, 3))
             for b1, b2 in _PROBES:
                 bb1, bb2 = np.full(tri.size, b1), np.full(tri.size, b2)
-                f = take_rows(geo.faces, tri)
-                y = ((1 - b1 - b2) * take_rows(geo.vertices, f[:, 0]) + b1 * take_rows(geo.vertices, f[:, 1])
-                     + b2 * take_rows(geo.vertices, f[:, 2]))
+                y = self._points(tri, 1.0 - bb1 - bb2, bb1, bb2)
                 n = take_rows(geo.face_normals, tri)
                 if back:
                     n = -n
@@ -247,17 +250,14 @@ class EmissiveMeshLight(Light):
         b0 = 1.0 - su
         b1 = u[:, 1] * su
         b2 = np.maximum(1.0 - b0 - b1, 0.0)
-        geo = self._geo
-        f = take_rows(geo.faces, tri)
-        y = (b0[:, None] * take_rows(geo.vertices, f[:, 0]) + b1[:, None] * take_rows(geo.vertices, f[:, 1])
-             + b2[:, None] * take_rows(geo.vertices, f[:, 2]))
+        y = self._points(tri, b0, b1, b2)
         d = y - p
         dist = np.sqrt(dot(d, d))
         ok = dist > 0
         inv = np.divide(1.0, dist, out=np.zeros(n), where=ok)
         wi = d * inv[:, None]
         wi[~ok] = (0.0, 0.0, 1.0)
-        cos_l = np.abs(dot(take_rows(geo.face_normals, tri), wi))
+        cos_l = np.abs(dot(take_rows(self._geo.face_normals, tri), wi))
         pdf = (np.divide(pm, np.take(self._area, tri)) * np.divide(dist * dist, cos_l, out=np.zeros(n),
                                                                   where=cos_l > 0))
         live = ok & (cos_l > 0) & (pm > 0)
@@ -295,36 +295,39 @@ class EmissiveMeshLight(Light):
         return np.where(mine, self.pdf_point(p, np.maximum(tri, 0), dist, cos_l), 0.0)
 
     def pdf_li(self, p, wi):
-        """Solid-angle density (N,) of :meth:`sample_li` toward ``wi`` from ``p``: the sum over every light
-        triangle the ray ``p + t wi`` (t > 0) crosses (brute force, both sides; module docstring)."""
+        """Solid-angle density (N,) of :meth:`sample_li` toward ``wi`` from ``p``: the sum of :meth:`pdf_point` over
+        every light triangle the ray ``p + t wi`` (t > 0) crosses, front or back. Embree finds them (a scene of the
+        light's triangles, built on first use; closest hits re-traced just past each one, as many rounds as there
+        are layers); ``t`` and the cosine are recomputed in float64 from the hit triangle's plane (Embree's are
+        float32). The integrators never call it for this light: they know the hit (:meth:`pdf_hit`)."""
         p = np.asarray(p, dtype=np.float64)
         wi = np.asarray(wi, dtype=np.float64)
+        n = wi.shape[0]
+        out = np.zeros(n)
+        if self._pdf_accel is None:
+            self._pdf_accel = Accel(threads=1)
+            self._pdf_accel.add_mesh(self._geo.vertices, self._geo.faces)   # prim_id = the light's triangle index
         geo = self._geo
-        live = np.flatnonzero(self.pmf > 0)
-        f = take_rows(geo.faces, live)
-        v0, v1, v2 = (take_rows(geo.vertices, f[:, k]) for k in range(3))
-        e1, e2 = v1 - v0, v2 - v0
-        nrm = take_rows(geo.face_normals, live)
-        apdf = np.take(self.area_pdf, live)[None, :]
-        area = np.take(self._area, live)[None, :]
-        out = np.zeros(wi.shape[0])
-        step = max(1, _PDF_BLOCK // max(1, live.size))
-        for lo in range(0, wi.shape[0], step):
-            d = wi[lo:lo + step, None, :]
-            o = p[lo:lo + step, None, :]
-            h = np.cross(d, e2[None])                           # Moller-Trumbore, (n, F)
-            a = np.einsum("ijk,jk->ij", h, e1)
-            ok = np.abs(a) > 1e-300
-            inv = np.divide(1.0, a, out=np.zeros_like(a), where=ok)
-            s = o - v0[None]
-            bu = np.einsum("ijk,ijk->ij", s, h) * inv
-            q = np.cross(s, e1[None])
-            bv = np.einsum("ijk,ijk->ij", np.broadcast_to(d, q.shape), q) * inv
-            t = np.einsum("ijk,jk->ij", q, e2) * inv
-            hit = ok & (bu >= 0) & (bv >= 0) & (bu + bv <= 1) & (t > 0)
-            c = np.abs(np.einsum("ijk,jk->ij", np.broadcast_to(d, (d.shape[0], live.size, 3)), nrm))
-            if self._choice is not None:
-                apdf = self._choice.triangle_probabilities(p[lo:lo + step], live) / area
-            val = apdf * np.divide(t * t, c, out=np.zeros_like(t), where=hit & (c > 0))
-            out[lo:lo + step] = np.where(hit, val, 0.0).sum(axis=1)
+        # the retrace starts past the last triangle by more than Embree's float32 rounding (1e-5 of the scene's size)
+        eps = 1e-5 * float(np.abs(geo.vertices).max() + np.abs(p).max(initial=0.0))
+        rows = np.arange(n)
+        t_done = np.zeros(n)                       # distance from p of the last triangle counted
+        last = np.full(n, -1)                      # that triangle
+        for _ in range(self.triangles + 1):        # each round moves every ray past one more triangle
+            if rows.size == 0:
+                break
+            w = take_rows(wi, rows)
+            start = take_rows(p, rows) + np.where(last[rows] >= 0, t_done[rows] + eps, 0.0)[:, None] * w
+            h = self._pdf_accel.intersect(start, w)
+            hit = np.flatnonzero(h.hit)
+            rows, tri = rows[hit], h.prim_id[hit]
+            w, q = take_rows(wi, rows), take_rows(p, rows)
+            nrm = take_rows(geo.face_normals, tri)
+            cos_l = dot(w, nrm)
+            v0 = take_rows(geo.vertices, take_rows(geo.faces, tri)[:, 0])
+            t = np.divide(dot(v0 - q, nrm), cos_l, out=np.zeros(rows.size), where=cos_l != 0)
+            new = tri != last[rows]
+            out[rows[new]] += self.pdf_point(take_rows(q, np.flatnonzero(new)), tri[new], t[new], cos_l[new])
+            t_done[rows] = np.maximum(t, t_done[rows])
+            last[rows] = tri
         return out

@@ -305,6 +305,17 @@ class Material:
         """Coverage alpha (N,) in [0, 1] at the hits of ``ctx`` (:attr:`opacity` resolved, clipped)."""
         return np.clip(self.param(self.opacity, ctx, 1), 0.0, 1.0)
 
+    def seen_fraction(self, ctx):
+        """How much of the surface a ray sees at the hits of ``ctx`` (N,): 1 (opaque); ``"mask"`` 1 where the
+        coverage is at least :attr:`alpha_cutoff`, else 0; ``"blend"`` the coverage. A shadow ray is let through by
+        ``1 - seen_fraction`` (:meth:`pyrt.integrators.coverage.CoverageTable.shadow_factor`); an emitter's light is
+        scaled by it (:class:`pyrt.EmissiveMeshLight`)."""
+        if self.alpha_mode == "mask":
+            return (self.coverage(ctx) >= self.alpha_cutoff).astype(np.float64)
+        if self.alpha_mode == "blend":
+            return self.coverage(ctx)
+        return np.ones(ctx.n_hits)
+
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
         if "lambertian" not in cls.__dict__:
