@@ -193,7 +193,7 @@ class Scene:
             self.gouraud_meshes.add(len(self.meshes) - 1)
         return len(self.meshes) - 1
 
-    def add_emissive_lights(self, *, n_samples=1, selection="power", name="emitters"):
+    def add_emissive_lights(self, *, n_samples=1, selection="power", min_power=0.0, name="emitters"):
         """Make the emissive meshes (materials that declare ``emits``) a light source: add one
         :class:`pyrt.EmissiveMeshLight` over them, so that every hit that receives direct light samples them with
         ``n_samples`` shadow rays (the glossy integrator MIS-combines those with its BSDF rays); ``selection``
@@ -202,7 +202,8 @@ class Scene:
         meshes are added (later meshes are not part of it). The visible meshes of area lights added by
         :meth:`pyrt.AreaLight.add_to` are left out (their light samples them already). Returns the light, or None
         when no other mesh emits (no material declares ``emits``, or their emission is 0 at every probe point;
-        nothing is added). Off unless called: without it, emitters light other surfaces only through the glossy
+        nothing is added; also when its estimated power, :attr:`pyrt.EmissiveMeshLight.power` in W, is below
+        ``min_power``). Off unless called: without it, emitters light other surfaces only through the glossy
         integrator's BSDF rays.
         """
         if any(lt.scene_emitter for lt in self.lights):
@@ -214,7 +215,7 @@ class Scene:
             return None
         light = EmissiveMeshLight(self.meshes, self.materials, mesh_ids=ids, n_samples=n_samples, selection=selection,
                                   name=name)
-        return self.add_light(light) if light.sampled_triangles else None
+        return self.add_light(light) if light.sampled_triangles and light.power >= min_power else None
 
     # -- convenience primitives ----------------------------------------------------------------
     def add_sphere(self, center, radius, material, *, subdivisions=4, smooth=True, name=None):

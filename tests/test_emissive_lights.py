@@ -564,3 +564,8 @@ def test_power_of_a_uniform_one_sided_emitter():
     _, light = emitter_scene(pyrt.AreaEmitter(3.0))
     area = trimesh.Trimesh(vertices=QUAD, faces=DOWN, process=False).area
     assert light.power == pytest.approx(math.pi * area * 3.0, rel=1e-12)
+    for min_power, added in ((0.99 * light.power, True), (1.01 * light.power, False)):
+        sc = pyrt.Scene(pyrt.Camera(position=(0, 0.5, 3.0), target=(0, 0, 0)))
+        sc.add_mesh(quad_mesh(), pyrt.AreaEmitter(3.0), smooth=False, name="panel")
+        got = sc.add_emissive_lights(min_power=min_power)
+        assert (got is not None) is added and (len(sc.lights) == 1) is added

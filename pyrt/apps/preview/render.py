@@ -77,12 +77,11 @@ class PreviewScene:
         self.emissive_light = None
         if o.emissive_lights == "auto":
             t_em = time.perf_counter()
-            self.emissive_light = self.scene.add_emissive_lights(n_samples=o.emissive_samples,
-                                                                 selection=o.emissive_selection)
+            # only a light source, not decorative glow (EMISSIVE_POWER_RATIO of the key light onto the model)
             rig_power = o.key * math.pi * self.radius ** 2 if o.lights in ("studio", "both") else 0.0
-            if self.emissive_light is not None and self.emissive_light.power < EMISSIVE_POWER_RATIO * rig_power:
-                self.scene.lights.remove(self.emissive_light)      # decorative emitters (EMISSIVE_POWER_RATIO)
-                self.emissive_light = None
+            self.emissive_light = self.scene.add_emissive_lights(n_samples=o.emissive_samples,
+                                                                 selection=o.emissive_selection,
+                                                                 min_power=EMISSIVE_POWER_RATIO * rig_power)
             self.timings["emitters"] = time.perf_counter() - t_em
         self.asset_lights = list(self.scene.lights)
         self.ground_mesh = None
