@@ -2,8 +2,10 @@
 
 Issue 14's targets are end-to-end: "a textured model like the 15 k-triangle helmet with five 2048^2 textures
 <= 3 s and <= 500 MB" -- the whole process (imports, load, preparation, render, PNG), so each run is a fresh
-``pyrt-preview`` process under ``/usr/bin/time -v`` (wall clock, maximum resident set size). Rounds alternate the
-order of the checkouts (A B, B A, ...); the load average is printed before every run (this machine is shared).
+``pyrt-preview`` process: its wall clock, the peak memory of its process tree (the summed PSS of the preview and
+its forked render workers, :mod:`_memory`: what the machine holds) and, beside it, the largest single process's
+peak resident set (``ru_maxrss``, what ``/usr/bin/time`` reports; it counts only one of the processes, but
+counts the pages they share in full). Rounds alternate the order of the checkouts (A B, B A, ...); the load average is printed before every run (this machine is shared).
 Prints every run's summary line and the medians per model and checkout.
 
 Usage::
@@ -20,20 +22,26 @@ import re
 import statistics
 import subprocess
 import tempfile
+import time
+
+from _memory import TreeMemory
 
 
 def run_once(preview, model, out, extra=()):
-    """One ``pyrt-preview`` run under ``/usr/bin/time -v``: (wall s, peak RSS MB, summary line, load average)."""
+    """One ``pyrt-preview`` run: (wall s, peak tree PSS MB, largest process's max RSS MB, summary line, load)."""
     with open("/proc/loadavg") as fh:
         load = float(fh.read().split()[0])
-    proc = subprocess.run(["/usr/bin/time", "-v", preview, model, "-o", out, *extra], capture_output=True, text=True)
-    err = proc.stderr + proc.stdout
-    m = re.search(r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): (?:(\d+):)?(\d+):([\d.]+)", err)
-    wall = (int(m.group(1) or 0) * 3600 + int(m.group(2)) * 60 + float(m.group(3))) if m else float("nan")
-    m = re.search(r"Maximum resident set size \(kbytes\): (\d+)", err)
-    rss = int(m.group(1)) / 1024 if m else float("nan")
+    with tempfile.TemporaryFile("w+") as log:
+        t0 = time.monotonic()
+        proc = subprocess.Popen([preview, model, "-o", out, *extra], stdout=log, stderr=subprocess.STDOUT, text=True)
+        with TreeMemory(proc.pid) as mem:
+            _, status, ru = os.wait4(proc.pid, 0)
+        wall = time.monotonic() - t0
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        log.seek(0)
+        err = log.read()
     line = next((ln for ln in err.splitlines() if "triangles," in ln), err.strip().splitlines()[-1] if err else "")
-    return wall, rss, line, load
+    return wall, mem.peak_mb, ru.ru_maxrss / 1024, line, load
 
 
 def main(argv=None):
@@ -53,14 +61,15 @@ def main(argv=None):
             for model in a.models:
                 for i, exe in enumerate(order):
                     out = os.path.join(tmp, f"{i}.png")
-                    wall, rss, line, load = run_once(exe, model, out, extra)
-                    res.setdefault((model, exe), []).append((wall, rss))
+                    wall, pss, rss, line, load = run_once(exe, model, out, extra)
+                    res.setdefault((model, exe), []).append((wall, pss, rss))
                     print(f"round {r + 1} {exe} {os.path.basename(model)} (load {load:.2f}): wall {wall:.2f} s, "
-                          f"peak RSS {rss:.0f} MB\n    {line}", flush=True)
+                          f"peak memory {pss:.0f} MB (largest process {rss:.0f} MB)\n    {line}", flush=True)
     print("\nmedians")
     for (model, exe), v in res.items():
         print(f"{os.path.basename(model):28s} {exe:50s} wall {statistics.median(x[0] for x in v):6.2f} s   "
-              f"peak RSS {statistics.median(x[1] for x in v):5.0f} MB   ({len(v)} runs)")
+              f"peak memory {statistics.median(x[1] for x in v):5.0f} MB   "
+              f"(largest process {statistics.median(x[2] for x in v):5.0f} MB; {len(v)} runs)")
 
 
 if __name__ == "__main__":

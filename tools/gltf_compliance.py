@@ -8,8 +8,9 @@
 top or in a sub-folder such as ``glTF/``), ``screenshot.*`` (the reference image), ``LICENSE.md`` and
 ``README.md``. Every model is previewed by :func:`pyrt.apps.preview.preview_asset` at the previewer's defaults
 (:class:`pyrt.apps.preview.PreviewOptions`: 640x480, 4 spp, studio rig, glossy integrator) in its own Python
-process, so that its peak resident memory is measured alone (``os.wait4``'s ``ru_maxrss``, which includes the
-interpreter and the imports: a model that fails while loading peaks at ~120 MB), under a time limit
+process, so that its peak memory is measured alone (the summed PSS of the process and its forked render workers,
+sampled by :class:`_memory.TreeMemory`: what the machine holds; the interpreter and the imports included: a model
+that fails while loading peaks at ~120 MB), under a time limit
 (``--timeout``, default 600 s; a model over it is killed and reported failed).
 
 Writes into ``-o OUT`` (default ``out/compliance``): ``renders/NAME.png`` (pyrt's image), ``results.json`` (all
@@ -38,6 +39,8 @@ import struct
 import subprocess
 import sys
 import time
+
+from _memory import TreeMemory
 import tomllib
 
 import numpy as np
@@ -264,7 +267,8 @@ def result_from_report(res, rep):
 
 
 def run_model(model, out_dir, timeout):
-    """Preview ``model`` in a child process; its peak RSS from ``os.wait4``. Returns a :class:`Result`."""
+    """Preview ``model`` in a child process; the peak memory of its process tree (:class:`TreeMemory`).
+    Returns a :class:`Result`."""
     renders = os.path.join(out_dir, "renders")
     os.makedirs(renders, exist_ok=True)
     report = os.path.join(out_dir, f".{model.name}.json")
@@ -277,19 +281,20 @@ def run_model(model, out_dir, timeout):
     with open(errlog, "wb") as err:
         t0 = time.monotonic()
         proc = subprocess.Popen(cmd, stdout=err, stderr=err)
-        while True:
-            pid, status, ru = os.wait4(proc.pid, os.WNOHANG)
-            if pid:
-                break
-            if time.monotonic() - t0 > timeout:
-                proc.kill()
-                pid, status, ru = os.wait4(proc.pid, 0)
-                res.status, res.error = "timeout", f"killed after {timeout:g} s (--timeout)"
-                break
-            time.sleep(0.05)
+        with TreeMemory(proc.pid) as mem:
+            while True:
+                pid, status, ru = os.wait4(proc.pid, os.WNOHANG)
+                if pid:
+                    break
+                if time.monotonic() - t0 > timeout:
+                    proc.kill()
+                    pid, status, ru = os.wait4(proc.pid, 0)
+                    res.status, res.error = "timeout", f"killed after {timeout:g} s (--timeout)"
+                    break
+                time.sleep(0.05)
     proc.returncode = os.waitstatus_to_exitcode(status)   # reaped here: Popen must not wait for it again
     res.process = time.monotonic() - t0
-    res.rss_mb = ru.ru_maxrss / 1024.0                     # Linux: kilobytes
+    res.rss_mb = mem.peak_mb
     if res.status != "timeout":
         if os.path.exists(report):
             with open(report) as fh:
@@ -336,7 +341,7 @@ def _md(s):
 
 def build_table(results, notes):
     """The markdown table, one row per :class:`Result` (missing measurements are blank cells)."""
-    rows = ["| model | extensions | triangles | load s | prepare s | render s | total s | process s | peak RSS MB "
+    rows = ["| model | extensions | triangles | load s | prepare s | render s | total s | process s | peak MB "
             "| warnings | status | what differs and why |",
             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---|"]
     for r in results:
@@ -367,8 +372,8 @@ def build_markdown(results, notes, creds, *, sheet=None, command="", machine="")
              "in its own process. Times are seconds inside the preview (the batch summary's load / prepare / render; "
              "total = the whole `preview_asset` call, PNG encoding included; process = the child process's wall clock, "
              "what `time pyrt-preview MODEL -o out.png` shows: interpreter start, imports (~1 s) and exit included); "
-             "peak RSS is the process's maximum "
-             "resident set, Python and the imports included. The status and the \"what differs\" notes come from "
+             "peak MB is the memory of the process and its forked render workers (their summed proportional set size, "
+             "sampled every 30 ms: shared pages counted once), Python and the imports included. The status and the \"what differs\" notes come from "
              "`tools/gltf_compliance_notes.toml`, written by a person looking at the sheet; edit it and run the tool "
              "with `--rebuild` to update this page.", ""]
     if machine:

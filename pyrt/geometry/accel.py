@@ -401,6 +401,12 @@ class Accel:
         if n:
             self._map(run, n)
 
+    def single_threaded(self):
+        """Answer every batch on the calling thread from now on: what a forked worker process does with an
+        accelerator it inherited (the parent's thread pool has no threads in the child)."""
+        self.threads = 1
+        self._pool = None
+
     def close(self):
         if self._pool is not None:
             self._pool.shutdown()

@@ -37,7 +37,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 import math
-import threading
 import time
 import warnings
 
@@ -51,7 +50,7 @@ from pyrt.core.metrics import relmse_per_pixel
 from pyrt.integrators.prepared import PreparedScene, RenderStats
 from pyrt.render.chunks import shade_adaptive_chunk
 from pyrt.render.distributed import DaskRunner, adaptive_group
-from pyrt.render.pool import integrator_factory, merge_stats, run_pool
+from pyrt.render.pool import ChunkPool, integrator_factory, merge_stats, use_processes
 from pyrt.render.result import RenderResult
 
 #: samples per pixel cap when ``max_spp`` is not given
@@ -186,7 +185,7 @@ def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None,
                     cancel=None, fill=False, fill_budget=2.0, on_pass=None, integrator="whitted", max_depth=8,
                     throughput_cutoff=1e-4, offset=None, record_rays=False, transparent_shadows=False,
                     glossy_samples=4, glossy_depth=2, glossy_threshold=0.4, dask=None, dask_workers=2,
-                    split_depth=None, light_select_depth=None):
+                    split_depth=None, light_select_depth=None, parallel="auto"):
     """Render ``scene`` in adaptive passes until the estimated relMSE is at most ``target_error``, the
     ``time_budget`` (seconds, counted from the call) is spent, or no pixel may take more samples
     (``max_spp``): a :class:`RenderResult` with ``passes``, ``estimated_error``, ``stop_reason`` and the film
@@ -223,9 +222,20 @@ def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None,
     try:
         make = None if ps is None else integrator_factory(ps, **integ)
         spec = dict(threads=1, seed=seed, aovs=aovs, nonfinite=nonfinite, integrator=integ)
-        return _passes(scene.camera, ps, make, t_start, target_error, time_budget, max_spp, min_spp, seed, aovs,
-                       progress, max(2, chunk_samples - chunk_samples % 2), threads, nonfinite, cancel, fill,
-                       fill_budget, on_pass, runner, spec)
+        cam = scene.camera
+        workers = 1 if ps is None else (ps.accel.threads if threads is None else int(threads))
+        processes = use_processes(parallel, workers) and runner is None
+        deadline = t_start + time_budget if time_budget is not None else math.inf
+
+        def task(index, key, P, C, base, spp_after, timed):
+            if timed and time.perf_counter() >= deadline:
+                return None
+            return shade_adaptive_chunk(ps, cam, make, seed, index, key, P, C, base, spp_after, aovs, nonfinite)
+
+        with ChunkPool(task, workers if runner is None else 1, processes=processes, prepared=ps) as pool:
+            return _passes(cam, ps, pool, t_start, target_error, time_budget, max_spp, min_spp, seed, aovs,
+                           progress, max(2, chunk_samples - chunk_samples % 2), nonfinite, cancel, fill,
+                           fill_budget, on_pass, runner, spec)
     finally:
         if own:
             ps.close()
@@ -233,38 +243,30 @@ def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None,
             runner.close()
 
 
-def _passes(cam, ps, make, t_start, target_error, time_budget, max_spp, min_spp, seed, aovs, progress,
-            chunk_samples, threads, nonfinite, cancel, fill, fill_budget, on_pass, runner=None, spec=None):
-    """The pass loop of :func:`render_adaptive` (``ps`` prepared, parameters checked; with a Dask ``runner``
-    the chunks run on its workers, ``spec`` their settings)."""
+def _passes(cam, ps, pool, t_start, target_error, time_budget, max_spp, min_spp, seed, aovs, progress,
+            chunk_samples, nonfinite, cancel, fill, fill_budget, on_pass, runner=None, spec=None):
+    """The pass loop of :func:`render_adaptive` (``ps`` prepared, parameters checked; the chunks run on
+    ``pool``, a :class:`ChunkPool` of :func:`shade_adaptive_chunk` tasks, or with a Dask ``runner`` on its
+    workers, ``spec`` their settings)."""
     W, H = cam.width, cam.height
     n_pix = W * H
     film = Film(W, H, aovs=aovs, nonfinite=nonfinite)
     half = Film(W, H, nonfinite=nonfinite)           # half B; half A is film - half
     deadline = t_start + time_budget if time_budget is not None else math.inf
     stats = RenderStats()
-    workers_max = 1 if ps is None else (ps.accel.threads if threads is None else int(threads))
     bar = tqdm(desc="pass 0", unit="sample", unit_scale=True, leave=False,
                disable=(not progress) if progress is not None else None)
     totals = {"chunks": 0, "chunks_total": 0, "render_s": 0.0}
-    stopped = threading.Event()
 
     def run_pass(counts, index, timed=True, honour_cancel=True):
         chunks = _chunks(counts, chunk_samples)
         order = np.random.default_rng([seed, 0xADA, index, 1 << 20]).permutation(len(chunks))
         spp_after = film.weight + counts
         base = half.weight.astype(np.int64)             # samples per half so far (A and B have as many)
-        stopped.clear()
 
-        def run_chunk(k):
-            if (honour_cancel and cancel is not None and cancel.is_set()) or \
-                    (timed and time.perf_counter() >= deadline):
-                stopped.set()
-                return None
-            key = int(order[k])
-            P, C = chunks[key]
-            return shade_adaptive_chunk(ps, cam, make, seed, index, key, P, C, base[P], spp_after[P], aovs,
-                                        nonfinite)
+        def halted():
+            return (honour_cancel and cancel is not None and cancel.is_set()) or \
+                (timed and time.perf_counter() >= deadline)
 
         def collect(k, res):
             if res is None:
@@ -278,13 +280,14 @@ def _passes(cam, ps, make, t_start, target_error, time_budget, max_spp, min_spp,
 
         t0 = time.perf_counter()
         if runner is not None:
-            def halted():
-                return (honour_cancel and cancel is not None and cancel.is_set()) or \
-                    (timed and time.perf_counter() >= deadline)
             _run_dask_pass(runner, cam, spec, index, chunks, order, base, spp_after, collect, halted)
         else:
-            workers = max(1, min(workers_max, len(chunks)))
-            run_pool(run_chunk, len(chunks), workers, threading.Event(), _NoBar(), collect, stopped)
+            args = []
+            for k in range(len(chunks)):
+                key = int(order[k])
+                P, C = chunks[key]
+                args.append((index, key, P, C, base[P], spp_after[P], timed))
+            pool.map(args, _NoBar(), collect, halted)
         totals["render_s"] += time.perf_counter() - t0
         totals["chunks_total"] += len(chunks)
 

@@ -16,7 +16,6 @@ in chunk order, by the calling thread (the same float64 sums whatever the thread
 from __future__ import annotations
 
 from copy import copy
-import threading
 import time
 import warnings
 
@@ -30,7 +29,7 @@ from pyrt.integrators.prepared import PreparedScene, RenderStats
 from pyrt.render.adaptive import render_adaptive
 from pyrt.render.chunks import ChunkLayout, shade_fixed_chunk
 from pyrt.render.distributed import DaskRunner, fixed_group
-from pyrt.render.pool import INTEGRATORS, integrator_factory, merge_stats, run_pool
+from pyrt.render.pool import INTEGRATORS, ChunkPool, integrator_factory, merge_stats, use_processes
 from pyrt.render.result import RenderResult
 
 
@@ -40,7 +39,7 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
                 nonfinite="zero", cancel=None, fill=False, fill_budget=2.0, transparent_shadows=False,
                 integrator="whitted", glossy_samples=4, glossy_depth=2, glossy_threshold=0.4,
                 target_error=None, time_budget=None, max_spp=None, min_spp=4, on_pass=None, dask=None,
-                dask_workers=2, split_depth=None, light_select_depth=None):
+                dask_workers=2, split_depth=None, light_select_depth=None, parallel="auto"):
     """Render ``scene`` and return a :class:`RenderResult` with the image, AOVs and statistics.
 
     Parameters are those of :func:`render`, plus:
@@ -82,15 +81,20 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         The glossy integrator's rays per hit on the first bounce (1 deeper), the bounces that spawn them
         and the ``glossy_alpha`` above which a lobe counts as diffuse (:class:`GlossyIntegrator`).
 
+    parallel : {"auto", "threads", "processes"}
+        What the ``threads`` workers are (:mod:`pyrt.render.pool`): worker processes forked once the scene is
+        prepared (no shared GIL: the shading's small-array NumPy calls run in parallel), or threads of this
+        process. "auto" (default): processes on Linux, threads elsewhere; one worker renders on the calling
+        thread. The image is the same bit for bit either way.
+
     A ``KeyboardInterrupt`` while rendering cancels the chunks not yet started, waits for the running
-    ones, shuts the thread pool down and propagates (no thread is left running).
+    ones, shuts the worker pool down and propagates (no thread or process is left running).
 
     Chunks of at most ``chunk_samples`` samples (whole pixels, or pieces of one pixel above
-    ``chunk_samples`` spp: see the module docstring) are shaded on a pool of ``threads`` workers (NumPy
-    releases the GIL in its array loops, Embree in its traversal), at most ``2 * threads`` in flight.
-    Every chunk has its own random stream ``default_rng([seed, chunk_index])``; whole-pixel chunks write
-    disjoint ranges of the film, pieces are added in chunk order, so the image does not depend on the
-    number of threads or the order in which chunks finish.
+    ``chunk_samples`` spp: see the module docstring) are shaded on a pool of ``threads`` workers,
+    threads or forked processes (``parallel``), a bounded number in flight. Every chunk has its own random
+    stream ``default_rng([seed, chunk_index])`` and its pixel sums are added to the film in chunk order, so
+    the image does not depend on the number or kind of workers or the order in which chunks finish.
     """
     if target_error is not None or time_budget is not None or max_spp is not None:
         if spp is not None:
@@ -105,7 +109,7 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
                                transparent_shadows=transparent_shadows, glossy_samples=glossy_samples,
                                glossy_depth=glossy_depth, glossy_threshold=glossy_threshold, dask=dask,
                                dask_workers=dask_workers, split_depth=split_depth,
-                               light_select_depth=light_select_depth)
+                               light_select_depth=light_select_depth, parallel=parallel)
     t_start = time.perf_counter()
     if integrator not in INTEGRATORS:
         raise RenderError(f"render: integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
@@ -129,33 +133,32 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     split, pieces, n_chunks, chunk_pixels = layout.split, layout.pieces, layout.n_chunks, layout.pixels
 
     make_integrator = None if ps is None else integrator_factory(ps, record_rays=record_rays, **integ)
+    workers = 1 if ps is None else max(1, min(ps.accel.threads if threads is None else int(threads), n_chunks))
+    processes = use_processes(parallel, workers) and runner is None
 
     def run_chunk(ci):
+        if processes:   # the worker's writes stay in the worker: the chunk's pixels come back as a film
+            lo, hi = chunk_pixels(ci)
+            part = None if split else Film(hi - lo, 1, aovs=aovs, nonfinite=nonfinite)
+            st, piece = shade_fixed_chunk(ps, cam, make_integrator, seed, ci, layout, part, lo, aovs, nonfinite)
+            return st, piece if split else part
         return shade_fixed_chunk(ps, cam, make_integrator, seed, ci, layout, film, 0, aovs, nonfinite)
 
-    abort = threading.Event()    # set on an error or a KeyboardInterrupt (the caller's ``cancel`` is not touched)
-    stopped = threading.Event()  # a chunk saw the cancellation: start no more
-
-    def run_or_skip(ci):
-        if abort.is_set() or (cancel is not None and cancel.is_set()):
-            stopped.set()
-            return None
-        return run_chunk(ci)
+    def halted():
+        return cancel is not None and cancel.is_set()
 
     pieces_done = np.zeros(n_pix, dtype=np.int64)     # per pixel: its chunks finished (all: ``pieces``)
     done = {"chunks": 0, "samples": 0}
     stats = RenderStats()
 
     def collect(ci, res):
-        if res is None:
-            return
         st, part = res
         lo, hi = chunk_pixels(ci)
         if part is not None:
             film.add_film(part, lo)
         pieces_done[lo:hi] += 1
         done["chunks"] += 1
-        done["samples"] += int(part.weight[0]) if part is not None else (hi - lo) * S
+        done["samples"] += int(part.weight[0]) if split else (hi - lo) * S
         merge_stats(stats, st)
 
     bar = tqdm(total=n_chunks, desc="render", unit="chunk", leave=False,
@@ -166,8 +169,8 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
                         integrator=dict(integ, record_rays=record_rays))
             _run_dask(runner, cam, spec, n_chunks, cancel, bar, film, collect)
         else:
-            workers = max(1, min(ps.accel.threads if threads is None else int(threads), n_chunks))
-            run_pool(run_or_skip, n_chunks, workers, abort, bar, collect, stopped)
+            with ChunkPool(run_chunk, workers, processes=processes, prepared=ps) as pool:
+                pool.map([(ci,) for ci in range(n_chunks)], bar, collect, halted)
     except BaseException:
         if own:
             ps.close()
@@ -202,8 +205,8 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
             fill_bar = tqdm(total=len(jobs), desc="fill", unit="chunk", leave=False,
                             disable=(not progress) if progress is not None else None)
             try:
-                run_pool(fill_chunk, len(jobs), workers, threading.Event(), fill_bar,
-                          lambda k, st: merge_stats(stats, st))
+                with ChunkPool(fill_chunk, workers) as pool:     # threads: the chunks write into ``film``
+                    pool.map([(k,) for k in range(len(jobs))], fill_bar, lambda k, st: merge_stats(stats, st))
             finally:
                 fill_bar.close()
                 if own:
@@ -278,7 +281,8 @@ def render(scene, **kwargs):
         Camera samples per chunk (bounds memory at any ``spp``: a pixel with more samples is split over
         several chunks; default 32768: measured fastest on the benchmark scene).
     threads : int, optional
-        Worker threads for chunks and for Embree batches (default: all cores).
+        Workers for chunks and for Embree batches (default: all cores); processes or threads, see
+        ``parallel`` in :func:`render_full`.
     cancel : threading.Event, optional
         Stop early when set (no new chunk starts); the chunks not rendered stay black. Use
         :func:`render_full` to learn whether the image is complete.
