@@ -135,3 +135,25 @@ def test_keyboard_interrupt_leaves_no_worker_process():
         pyrt.render_full(sc, spp=8, threads=2, parallel="processes", progress=False)
     timer.join()
     assert time.perf_counter() - t0 < 4.0 and _no_children()
+
+
+def _auto_in_child(q):
+    q.put(P.use_processes("auto", 2))
+
+
+def test_auto_is_threads_in_a_daemonic_process():
+    ctx = multiprocessing.get_context("fork")
+    q = ctx.Queue()
+    p = ctx.Process(target=_auto_in_child, args=(q,), daemon=True)
+    p.start()
+    got = q.get(timeout=30)
+    p.join()
+    assert got is False
+
+
+def test_command_lines_take_parallel(tmp_path):
+    from pyrt.apps.cli import main
+    out = tmp_path / "a.exr"
+    assert main(["render", str(ROOT / "assets/default_scene.toml"), "-o", str(out), "--width", "32",
+                 "--height", "24", "--spp", "2", "--parallel", "threads", "--threads", "2"]) == 0
+    assert out.exists()

@@ -1,4 +1,4 @@
-"""tools/_memory.py: the summed PSS of a process tree counts a forked child's own pages and the shared ones once."""
+"""tools/_usage.py: the summed PSS of a process tree counts a forked child's own pages and the shared ones once."""
 import os
 import subprocess
 import sys
@@ -8,7 +8,7 @@ import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "tools"))
-from _memory import TreeMemory, tree_pss_mb  # noqa: E402
+from _usage import TreeMemory, tree_pss_mb  # noqa: E402
 
 pytestmark = pytest.mark.skipif(not os.path.exists("/proc/self/smaps_rollup"), reason="Linux /proc")
 

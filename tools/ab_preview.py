@@ -4,7 +4,7 @@ Each run calls :func:`pyrt.apps.preview.render_preview` on the model (its defaul
 ``--threads`` aside) and reports the render phase (``result.render_time``); rounds alternate the order (A B, B A,
 ...). Prints every run, the medians, the ratio B / A and the image difference between the two trees (max and mean
 absolute difference of the linear images of their last runs; 0 when the change keeps images bit-identical), and
-the CPU time of the render phase (``time.process_time`` around each view, all threads): on a machine shared with
+the CPU time of the render phase (``os.times`` around each view: all threads and the render's worker processes): on a machine shared with
 other jobs the wall time follows the load, the CPU time much less.
 ``pyrt.shaders`` is imported from each tree's ``shaders/`` (not the editable install's checkout).
 
@@ -37,11 +37,11 @@ _view, _cpu = PreviewScene.render_view, [0.0]
 
 def timed_view(self, *args, **kwargs):
     """``render_view`` with the process's CPU time spent in it added up (all threads)."""
-    c = time.process_time()
+    c = sum(os.times()[:4])
     try:
         return _view(self, *args, **kwargs)
     finally:
-        _cpu[0] += time.process_time() - c
+        _cpu[0] += sum(os.times()[:4]) - c
 
 
 PreviewScene.render_view = timed_view

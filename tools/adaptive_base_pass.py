@@ -16,6 +16,8 @@ import time
 
 import numpy as np
 
+from _usage import cpu_seconds  # noqa: E402  (tools/_usage.py)
+
 import pyrt
 from pyrt.core.metrics import relmse
 
@@ -41,17 +43,17 @@ def main(argv=None):
                           **ms.PYRT_OPTIONS).astype(np.float64)
         for rnd in range(args.rounds):
             for m in (mins if rnd % 2 == 0 else mins[::-1]):
-                t, c = time.perf_counter(), time.process_time()
+                t, c = time.perf_counter(), cpu_seconds()
                 img = pyrt.render(sc, target_error=TARGETS[name], max_spp=4096, min_spp=m, seed=7 + rnd,
                                   prepared=prep, progress=False, **ms.PYRT_OPTIONS)
                 print(json.dumps({"scene": name, "min_spp": m, "wall": round(time.perf_counter() - t, 3),
-                                  "cpu": round(time.process_time() - c, 3), "target": TARGETS[name],
+                                  "cpu": round(cpu_seconds() - c, 3), "target": TARGETS[name],
                                   "relmse": relmse(img.astype(np.float64), ref)}), flush=True)
         for spp in (4, 8, 16):
-            t, c = time.perf_counter(), time.process_time()
+            t, c = time.perf_counter(), cpu_seconds()
             img = pyrt.render(sc, spp=spp, seed=5, prepared=prep, progress=False, **ms.PYRT_OPTIONS)
             print(json.dumps({"scene": name, "fixed_spp": spp, "wall": round(time.perf_counter() - t, 3),
-                              "cpu": round(time.process_time() - c, 3),
+                              "cpu": round(cpu_seconds() - c, 3),
                               "relmse": relmse(img.astype(np.float64), ref)}), flush=True)
         prep.close()
 

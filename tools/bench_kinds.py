@@ -37,6 +37,8 @@ import time
 
 import numpy as np
 
+from _usage import cpu_seconds  # noqa: E402  (tools/_usage.py)
+
 KINDS = ("diffuse", "shadowed", "specular", "env")
 
 
@@ -93,10 +95,10 @@ def measure(kind, spp, repeats, width=320, height=240, embree=False):
     pyrt.render_full(scene, seed=0, prepared=ps, progress=False)   # warm-up (allocations, lazy tables)
     times, cpu = [], []
     for _ in range(repeats):
-        t0, c0 = time.perf_counter(), time.process_time()
+        t0, c0 = time.perf_counter(), cpu_seconds()
         pyrt.render_full(scene, seed=0, prepared=ps, progress=False)
         times.append(time.perf_counter() - t0)
-        cpu.append(time.process_time() - c0)
+        cpu.append(cpu_seconds() - c0)
     med = statistics.median(times)
     out = {"kind": kind, "spp": spp, "times": times, "cpu": cpu, "median_s": med,
            "median_cpu_s": statistics.median(cpu), "samples_per_s": width * height * spp / med}

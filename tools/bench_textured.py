@@ -3,7 +3,7 @@
 Issue 14's targets are end-to-end: "a textured model like the 15 k-triangle helmet with five 2048^2 textures
 <= 3 s and <= 500 MB" -- the whole process (imports, load, preparation, render, PNG), so each run is a fresh
 ``pyrt-preview`` process: its wall clock, the peak memory of its process tree (the summed PSS of the preview and
-its forked render workers, :mod:`_memory`: what the machine holds) and, beside it, the largest single process's
+its forked render workers, :mod:`_usage`: what the machine holds) and, beside it, the largest single process's
 peak resident set (``ru_maxrss``, what ``/usr/bin/time`` reports; it counts only one of the processes, but
 counts the pages they share in full). Rounds alternate the order of the checkouts (A B, B A, ...); the load average is printed before every run (this machine is shared).
 Prints every run's summary line and the medians per model and checkout.
@@ -24,7 +24,7 @@ import subprocess
 import tempfile
 import time
 
-from _memory import TreeMemory
+from _usage import TreeMemory
 
 
 def run_once(preview, model, out, extra=()):

@@ -9,7 +9,7 @@ top or in a sub-folder such as ``glTF/``), ``screenshot.*`` (the reference image
 ``README.md``. Every model is previewed by :func:`pyrt.apps.preview.preview_asset` at the previewer's defaults
 (:class:`pyrt.apps.preview.PreviewOptions`: 640x480, 4 spp, studio rig, glossy integrator) in its own Python
 process, so that its peak memory is measured alone (the summed PSS of the process and its forked render workers,
-sampled by :class:`_memory.TreeMemory`: what the machine holds; the interpreter and the imports included: a model
+sampled by :class:`_usage.TreeMemory`: what the machine holds; the interpreter and the imports included: a model
 that fails while loading peaks at ~120 MB), under a time limit
 (``--timeout``, default 600 s; a model over it is killed and reported failed).
 
@@ -40,7 +40,7 @@ import subprocess
 import sys
 import time
 
-from _memory import TreeMemory
+from _usage import TreeMemory
 import tomllib
 
 import numpy as np

@@ -18,6 +18,7 @@ import pyrt
 from pyrt.core.image_io import TONEMAPS
 from pyrt.geometry.offsets import STRATEGIES
 from pyrt.render import INTEGRATORS
+from pyrt.render.pool import PARALLEL
 from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, ArgumentParser, check_outputs, finite_float, interrupts,
                               nonnegative_int, positive_float, positive_int, run_console)
 
@@ -48,6 +49,9 @@ def _parser():
                    help="worker processes of the local cluster of --dask (default 2)")
     r.add_argument("--write-every", type=positive_float, metavar="SECONDS",
                    help="adaptive: rewrite the outputs with the current image after a pass, at most every SECONDS")
+    r.add_argument("--threads", type=positive_int, help="render workers (default: all cores)")
+    r.add_argument("--parallel", choices=list(PARALLEL),
+                   help="render workers as forked processes or threads (default auto: processes on Linux)")
     r.add_argument("--width", type=positive_int, help="image width in pixels (overrides the scene)")
     r.add_argument("--height", type=positive_int, help="image height in pixels (overrides the scene)")
     r.add_argument("--seed", type=nonnegative_int)
@@ -112,7 +116,7 @@ def _render(args, cancel):
     if args.height is not None:
         scene.camera.height = args.height
     for key in ("seed", "max_depth", "offset", "transparent_shadows", "integrator", "target_error", "time_budget",
-                "max_spp", "min_spp"):
+                "max_spp", "min_spp", "threads", "parallel"):
         if getattr(args, key) is not None:
             opts[key] = getattr(args, key)
     if args.spp is not None:      # the command line's --spp wins over a scene file's adaptive keys

@@ -54,7 +54,8 @@ PROCESS_WINDOW = 4
 
 
 def use_processes(parallel, workers):
-    """Whether a render with ``workers`` workers and ``parallel`` (:data:`PARALLEL`) runs on processes."""
+    """Whether a render with ``workers`` workers and ``parallel`` (:data:`PARALLEL`) runs on processes: "auto"
+    does on Linux, except in a daemonic process (which may not have children), "processes" wherever fork is."""
     if parallel not in PARALLEL:
         raise RenderError(f"render: parallel must be one of {list(PARALLEL)}, got {parallel!r}")
     if workers <= 1 or parallel == "threads":
@@ -65,7 +66,8 @@ def use_processes(parallel, workers):
             raise RenderError(f"render: parallel='processes' needs the fork start method, which {sys.platform} "
                               "does not have; use parallel='threads'")
         return True
-    return fork and sys.platform.startswith("linux")
+    # a daemonic process (a Dask worker's, a multiprocessing pool's) may not start children: threads there
+    return fork and sys.platform.startswith("linux") and not multiprocessing.current_process().daemon
 
 
 #: per render: token -> (task, prepared scene); read by the forked workers, which inherit it

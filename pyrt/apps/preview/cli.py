@@ -19,6 +19,7 @@ from pyrt.core.image_io import TONEMAPS
 from pyrt.io.assets import FORMATS
 from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, ArgumentParser, check_output_folder, check_outputs,
                               finite_float, interrupts, nonnegative_int, positive_float, positive_int, run_console)
+from pyrt.render.pool import PARALLEL
 from pyrt.apps.preview.options import AXES, PreviewError, PreviewInterrupted, PreviewOptions
 from pyrt.apps.preview.render import format_phases, render_preview, write_files
 from pyrt.apps.preview.batch import collect_inputs, format_summary, preview_batch
@@ -73,7 +74,9 @@ def _parser():
     ap.add_argument("--aovs", action="store_true", help="also write depth/normal/albedo")
     ap.add_argument("--seed", type=nonnegative_int, default=0)
     ap.add_argument("--budget", type=positive_float, help="time budget per asset (s)")
-    ap.add_argument("--threads", type=positive_int, help="render threads per asset")
+    ap.add_argument("--threads", type=positive_int, help="render workers per asset (default: all cores)")
+    ap.add_argument("--parallel", default="auto", choices=list(PARALLEL),
+                    help="render workers as forked processes or threads (default auto: processes on Linux)")
     ap.add_argument("--bvh-quality", default="auto", choices=["auto", "low", "medium", "high"],
                     help="Embree's BVH build quality (auto: low from 1 M triangles, else medium)")
     ap.add_argument("--dask", nargs="?", const="local", default=None, metavar="SCHEDULER",
@@ -110,7 +113,7 @@ def _run(args, cancel):
                           emissive_samples=args.emissive_samples, emissive_selection=args.emissive_selection,
                           exposure=args.exposure,
                           tonemap=args.tonemap, turntable=args.turntable, formats=formats, aovs=args.aovs,
-                          seed=args.seed, time_budget=args.budget, threads=args.threads,
+                          seed=args.seed, time_budget=args.budget, threads=args.threads, parallel=args.parallel,
                           bvh_quality=args.bvh_quality, target_error=args.target_error,
                           max_spp=args.max_spp,
                           min_spp=args.min_spp).validate()

@@ -5,6 +5,7 @@ from dataclasses import dataclass
 
 from pyrt.core.errors import Error
 from pyrt.core.image_io import TONEMAPS
+from pyrt.render.pool import PARALLEL
 
 
 class PreviewError(Error, ValueError):
@@ -98,7 +99,9 @@ class PreviewOptions:
     min_spp: int = 2
     crease_angle: float = 30.0
     time_budget: float | None = None     # seconds per asset
-    threads: int | None = None           # Embree/shading threads per render (None = all cores)
+    threads: int | None = None           # Embree/shading workers per render (None = all cores)
+    #: what the workers are: pyrt.render_full's parallel ("auto": forked processes on Linux, threads elsewhere)
+    parallel: str = "auto"
     #: camera samples per render chunk (pyrt.render's chunk_samples, the same 32768 by default): a chunk's working
     #: set is ~4-6 kB per sample and each thread holds one. 16384 keeps the helmet-like model of
     #: tools/make_textured_model.py under 500 MB peak RSS on 2 threads (~450 against ~620 MB) but doubles the
@@ -168,6 +171,8 @@ class PreviewOptions:
             v = getattr(self, name)
             if v is not None and (int(v) != v or v < 0):
                 raise PreviewError(f"{name} must be None or an integer >= 0, got {v!r}")
+        if self.parallel not in PARALLEL:
+            raise PreviewError(f"parallel must be one of {list(PARALLEL)}, got {self.parallel!r}")
         if self.bvh_quality not in ("auto", "low", "medium", "high"):
             raise PreviewError(f"bvh_quality must be 'auto', 'low', 'medium' or 'high', got {self.bvh_quality!r}")
         if self.time_budget is not None and not self.time_budget > 0:

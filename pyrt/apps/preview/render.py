@@ -179,7 +179,7 @@ class PreviewScene:
             cutoff = o.dielectric_cutoff if glass else 1e-4
             glass_kw = dict(split_depth=o.split_depth, chunk_samples=o.dielectric_chunk_samples) if glass else {}
             res = render_full(self.scene, seed=o.seed, max_depth=depth, aovs=aovs, progress=False,
-                              prepared=self.prepared, threads=o.threads, integrator="glossy",
+                              prepared=self.prepared, threads=o.threads, parallel=o.parallel, integrator="glossy",
                               transparent_shadows=True, throughput_cutoff=cutoff,
                               light_select_depth=o.light_select_depth, glossy_samples=o.glossy_samples,
                               glossy_depth=o.glossy_depth, glossy_threshold=o.glossy_threshold,

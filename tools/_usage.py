@@ -1,4 +1,4 @@
-"""The memory a process and its descendants use, sampled while it runs (for the benchmark tools).
+"""What a process and its descendants use -- memory sampled while it runs, CPU time -- for the benchmark tools.
 
 A render on forked worker processes (:mod:`pyrt.render.pool`) is several processes sharing the parent's pages
 copy-on-write, so no one process's peak resident set (``ru_maxrss``) says what the machine holds: summing the
@@ -7,11 +7,21 @@ of processes mapping it, ``/proc/PID/smaps_rollup``) adds up over the tree to th
 :class:`TreeMemory` sums it over the process and its descendants every ``interval`` seconds on a thread and
 keeps the peak (a spike shorter than the interval can be missed: the renders' working sets live for a
 chunk, tenths of a second). Linux only; elsewhere the peak is NaN.
+
+:func:`cpu_seconds` likewise counts the render's worker processes: ``time.process_time()`` is this process's
+threads only.
 """
 from __future__ import annotations
 
 import os
 import threading
+
+
+def cpu_seconds():
+    """User + system CPU seconds of this process and of its children that have ended (a render's worker
+    processes end, and are counted, when the render returns)."""
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
 
 
 def _children(pid):
