@@ -31,8 +31,11 @@ def _no_children():
     return multiprocessing.active_children() == []
 
 
-def test_auto_is_processes_on_linux_and_one_worker_is_the_calling_thread():
-    assert P.use_processes("auto", 2) == os.uname().sysname.startswith("Linux")
+def test_auto_is_processes_on_linux_for_long_renders_and_one_worker_is_the_calling_thread():
+    linux = os.uname().sysname.startswith("Linux")
+    assert P.use_processes("auto", 2) == linux and P.use_processes("auto", 2, P.PROCESS_MIN_CHUNKS) == linux
+    assert not P.use_processes("auto", 2, P.PROCESS_MIN_CHUNKS - 1)      # too short to repay the fork
+    assert P.use_processes("processes", 2, 2)
     assert not P.use_processes("auto", 1) and not P.use_processes("processes", 1)
     assert not P.use_processes("threads", 2) and P.use_processes("processes", 2)
     with pytest.raises(RenderError, match="parallel must be one of"):

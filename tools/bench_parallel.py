@@ -44,7 +44,8 @@ def _case(name, args):
         kw = {}
     elif name == "default":
         scene, kw = pyrt.load_scene(os.path.join(ROOT, "assets", "default_scene.toml"))
-        kw = {k: v for k, v in kw.items() if k not in ("target_error", "time_budget", "max_spp", "min_spp")}
+        kw = {k: v for k, v in kw.items() if k not in ("target_error", "time_budget", "max_spp", "min_spp", "seed",
+                                                      "progress", "threads", "parallel", "prepared")}
         kw["spp"] = args.default_spp
     elif name in KINDS:
         import bench_kinds

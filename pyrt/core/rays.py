@@ -64,3 +64,34 @@ class RayBatch:
 
     def __repr__(self):
         return f"RayBatch({self.size} rays, depth {self.depth})"
+
+    def rows(self, lo, hi):
+        """The rays ``lo .. hi - 1`` (views of this batch's arrays)."""
+        def cut(a):
+            return None if a is None else a[lo:hi]
+        return RayBatch(self.origins[lo:hi], self.directions[lo:hi], sample=self.sample[lo:hi],
+                        throughput=self.throughput[lo:hi], depth=self.depth,
+                        differentials=None if self.differentials is None else tuple(x[lo:hi] for x in
+                                                                                    self.differentials),
+                        stack=cut(self.stack), pixel=cut(self.pixel), tmax=cut(self.tmax), bsdf_pdf=cut(self.bsdf_pdf))
+
+    @staticmethod
+    def concatenate(batches):
+        """One batch of the rays of ``batches`` (of one depth), in order. ``bsdf_pdf`` is 0 (delta-lobe rays) for
+        the rays of a batch without one; ``differentials``, ``stack``, ``pixel`` and ``tmax`` are kept when every
+        batch has them."""
+        if len(batches) == 1:
+            return batches[0]
+
+        def cat(name):
+            parts = [getattr(b, name) for b in batches]
+            return None if any(p is None for p in parts) else np.concatenate(parts)
+        pdfs = [b.bsdf_pdf for b in batches]
+        bsdf_pdf = None if all(p is None for p in pdfs) else np.concatenate(
+            [np.zeros(b.size) if p is None else p for b, p in zip(batches, pdfs)])
+        diffs = None
+        if all(b.differentials is not None for b in batches):
+            diffs = tuple(np.concatenate([b.differentials[k] for b in batches]) for k in range(4))
+        return RayBatch(cat("origins"), cat("directions"), sample=cat("sample"), throughput=cat("throughput"),
+                        depth=batches[0].depth, differentials=diffs, stack=cat("stack"), pixel=cat("pixel"),
+                        tmax=cat("tmax"), bsdf_pdf=bsdf_pdf)

@@ -22,6 +22,7 @@ This module knows nothing about Embree; it asks :class:`pyrt.geometry.accel.Acce
 """
 from __future__ import annotations
 
+import copy
 import time
 
 import numpy as np
@@ -87,7 +88,7 @@ class Integrator:
 
     def __init__(self, prepared, *, max_depth=8, throughput_cutoff=1e-4, offset=None, record_rays=False,
                  transparent_shadows=False, split_depth=None,
-                 light_select_depth=None):
+                 light_select_depth=None, batch_rays=None):
         self.max_depth = checks.integer("render", "max_depth", max_depth, RenderError, lo=0)
         self.throughput_cutoff = checks.finite_number("render", "throughput_cutoff", throughput_cutoff, RenderError,
                                                       lo=0.0)
@@ -108,6 +109,9 @@ class Integrator:
         for lt in self.scene.lights:   # an emissive-mesh light samples (and MIS-weights) its own scene's triangles
             if lt.scene_emitter and not lt.built_for(self.scene.meshes):
                 raise RenderError(f"render: {lt.label} was built for other meshes than this scene's")
+        #: shade a bounce in slices of at most this many rays (:meth:`render_samples`); None: all at once
+        self.batch_rays = None if batch_rays is None else checks.integer("render", "batch_rays", batch_rays,
+                                                                          RenderError, lo=1)
         self.stats = RenderStats()
 
     # -- Embree calls with bookkeeping -------------------------------------------------------
@@ -172,146 +176,166 @@ class Integrator:
     # -- one chunk ---------------------------------------------------------------------------
     def render_samples(self, rays, want_aovs=False, rng=None):
         """Radiance (N, 3) float64 for the camera rays of the :class:`pyrt.core.rays.RayBatch` ``rays`` (their
-        ``sample`` indices are 0..N-1), and the first hit's AOVs if asked (``depth``, ``normal``, ``albedo``)."""
+        ``sample`` indices are 0..N-1), and the first hit's AOVs if asked (``depth``, ``normal``, ``albedo``).
+
+        Bounce by bounce (:meth:`_bounce`); with :attr:`batch_rays` set, a bounce of more rays is shaded in slices
+        of at most that many and the rays the slices spawn make the next bounce's one batch: the working set is
+        a slice's, while the deep bounces, whose batches are small, pay their per-query costs (a texture lookup,
+        a BSDF and a shadow query per material and light) once per chunk instead of once per slice."""
         n = rays.size
         L = np.zeros((n, 3))
         aovs = None
         if want_aovs:
             aovs = {"depth": np.full(n, np.inf), "normal": np.zeros((n, 3)), "albedo": np.zeros((n, 3))}
         rng = rng if rng is not None else np.random.default_rng(0)
-        o, d, thr, sample, diffs = rays.origins, rays.directions, rays.throughput, rays.sample, rays.differentials
+        use_diffs = rays.differentials is not None and self.ps.needs_differentials
+        batch = rays
+        if self.ps.media is not None and rays.stack is None:
+            batch = copy.copy(rays)
+            batch.stack = self.ps.media.empty(n)
+        step = self.batch_rays
+        for depth in range(self.max_depth + 1):
+            if batch is None or batch.size == 0:
+                break
+            if step is None or batch.size <= step:
+                batch = self._bounce(depth, batch, L, aovs, rng, use_diffs)
+            else:
+                parts = [self._bounce(depth, batch.rows(lo, min(lo + step, batch.size)), L, aovs, rng, use_diffs)
+                         for lo in range(0, batch.size, step)]
+                parts = [b for b in parts if b is not None and b.size]
+                batch = RayBatch.concatenate(parts) if parts else None
+        return L, aovs
+
+    def _bounce(self, depth, batch, L, aovs, rng, use_diffs):
+        """Shade the rays ``batch`` of bounce ``depth``: their radiance added into ``L`` at their ``sample`` rows
+        (camera hits' AOVs into ``aovs``); returns the rays they spawn (a :class:`RayBatch` of bounce ``depth +
+        1``), or None."""
+        o, d, thr, sample, diffs = batch.origins, batch.directions, batch.throughput, batch.sample, batch.differentials
+        stack = batch.stack
+        bpdf = batch.bsdf_pdf      # MIS state of BSDF-sampled rays (None: none in the batch)
         materials = self.scene.materials
         lights = self.scene.lights
         ambient = self.scene.ambient
-        use_diffs = diffs is not None and self.ps.needs_differentials
         media = self.ps.media
         cover = self.ps.coverage
-        stack = (media.empty(n) if rays.stack is None else rays.stack) if media is not None else None
-        bpdf = rays.bsdf_pdf      # MIS state of BSDF-sampled rays (None: none in the batch)
-        for depth in range(self.max_depth + 1):
-            if o.shape[0] == 0:
-                break
-            kind = "primary" if depth == 0 else "secondary"
-            n_rays = o.shape[0]   # rays of this bounce; blend surfaces append records after them (coverage)
-            if media is None and cover is not None and not cover.shadows:   # culling only: hits-only queries
-                h, hsub = self._intersect(o, d, kind, hits_only=True)
-                h, hsub, dropped = cover.cull_hits(self.ps.geo, h, hsub, o, d, self._retrace_hits, self.offset)
-                if dropped.size:      # more than coverage.MAX_LAYERS culled faces on the way: radiance 0
-                    thr = thr.copy()
-                    thr[dropped] = 0.0
-            elif media is not None or cover is not None:
-                hits = self._intersect(o, d, kind)
-                if cover is not None:  # alpha cut-outs skipped, blend surfaces split, back faces culled
-                    parent, w, hits = cover.resolve(self.ps.geo, hits, o, d, diffs if use_diffs else None,
-                                                    self._retrace, self.offset, thr_max=max_component(thr),
-                                                    cutoff=self.throughput_cutoff)
-                    if parent.size > n_rays:   # blend records: the rays they continue, weighted
-                        o, d, sample = take_rows(o, parent), take_rows(d, parent), np.take(sample, parent)
-                        thr = take_rows(thr, parent)
-                        diffs = None if diffs is None else tuple(take_rows(x, parent) for x in diffs)
-                        stack = None if stack is None else stack[parent]
-                        bpdf = None if bpdf is None else np.take(bpdf, parent)
-                    if np.any(w != 1.0):
-                        thr = thr * w[:, None]
-                if media is not None:  # nested dielectrics: continue through false hits; Beer-Lambert absorption
-                    hits, seg_t, stack = media.skip_false_hits(
-                        self.ps.geo, hits, o, d, stack, self._retrace_covered,
-                        lambda hs, o2, d2: self.offset(surface_from_hits(self.ps.geo, hs, o2, d2), d2))
-                    thr = thr * media.attenuation(stack, seg_t)
-                h = np.flatnonzero(hits.hit)
-                hsub = _subset_hits(hits, h)
-            else:
-                h, hsub = self._intersect(o, d, kind, hits_only=True)
-                if depth == 0 and self.ps.face_gouraud is None:
-                    h, hsub = self._by_material(h, hsub)
-            one_per_sample = depth == 0 and o.shape[0] == n_rays   # camera rays, no blend split: unique samples
-            if h.size < o.shape[0]:
-                miss = np.ones(o.shape[0], dtype=bool)
-                miss[h] = False
-                m = np.flatnonzero(miss)      # row gathers: boolean indexing of (N, 3) arrays is slow and keeps the GIL
-                Lm = self.background(take_rows(d, m), primary=depth == 0)
-                if bpdf is not None:   # escaped BSDF-sampled rays: MIS against the environment's light sampling
-                    Lm = Lm * self._escape_weight(take_rows(d, m), np.take(bpdf, m))[:, None]
-                _scatter_add(L, np.take(sample, m), take_rows(thr, m) * Lm, unique=one_per_sample)
-            if h.size == 0:
-                break
-            dsub = None
-            if use_diffs:
-                dsub = tuple(take_rows(x, h) for x in diffs)
-            surf = surface_from_hits(self.ps.geo, hsub, take_rows(o, h), take_rows(d, h), dsub)
-            if self.ps.has_normal_maps:
-                apply_normal_maps(surf, materials)
-            s_idx, thr_h = sample[h], take_rows(thr, h)
-            aov_rows = None
-            if aovs is not None and depth == 0:   # the nearest surface a camera ray keeps (not blend records)
-                aov_rows = np.flatnonzero(h < n_rays)
-                aovs["depth"][s_idx[aov_rows]] = hsub.t[aov_rows]
-                aovs["normal"][s_idx[aov_rows]] = surf.ns[aov_rows]
-            mids = surf.material_id
-            present = np.flatnonzero(np.bincount(mids, minlength=len(materials)))
-            Lh = np.zeros((h.size, 3))
-            # emission and ambient, per material type (only for materials that have them)
-            use_ambient = np.any(ambient > 0)
-            for k in present:
-                mat = materials[k]
-                want_albedo = aovs is not None and depth == 0
-                if not (self.ps.emits[k] or want_albedo or (mat.has_diffuse and use_ambient)):
-                    continue
-                sel = np.flatnonzero(mids == k)
-                ctx = surf.subset(sel)
-                if self.ps.emits[k]:
-                    Le = mat.emission(ctx)
-                    if bpdf is not None:   # emitters reached by BSDF-sampled rays: MIS against light sampling
-                        Le = Le * self._emission_weight(k, take_rows(o, h[sel]), take_rows(d, h[sel]),
-                                                        np.take(bpdf, h[sel]), ctx)[:, None]
-                    Lh[sel] += Le
-                if want_albedo:
-                    first = h[sel] < n_rays
-                    aovs["albedo"][s_idx[sel[first]]] = mat.albedo(ctx)[first]
-                if mat.has_diffuse and use_ambient:
-                    Lh[sel] += mat.albedo(ctx) * ambient
-            # direct light at hits whose material has a non-delta lobe
-            diffuse_idx = np.flatnonzero(self.ps.has_diffuse[mids])
-            if self.ps.face_gouraud is not None and diffuse_idx.size and lights:
-                g = diffuse_idx[self.ps.face_gouraud[surf.face[diffuse_idx]]]
-                if g.size:  # Gouraud faces: lighting at the vertices, interpolated (pyrt.integrators.gouraud)
-                    Lh[g] += gouraud.direct_light(self.ps, lights, self.visibility, surf.subset(g), o[h[g]], rng)
-                    diffuse_idx = np.setdiff1d(diffuse_idx, g, assume_unique=True)
-            sampled = self._sampled_hits(surf, diffuse_idx, depth)   # hits that trace their non-delta lobe
-            if diffuse_idx.size and lights:
-                dm = mids[diffuse_idx]
-                rows = diffuse_idx
-                if dm.size > 1 and np.any(dm[1:] < dm[:-1]):
-                    # ordered by material: BSDFBatch then dispatches every light's query by slicing
-                    order = np.concatenate([np.flatnonzero(dm == k) for k in np.flatnonzero(np.bincount(dm))])
-                    diffuse_idx = rows = diffuse_idx[order]
-                    sampled = None if sampled is None else sampled[order]
-                elif diffuse_idx[-1] - diffuse_idx[0] + 1 == diffuse_idx.size:
-                    # increasing (flatnonzero) and as many as the span: one run of rows (camera hits ordered by
-                    # material, the diffuse materials side by side): views of the batch's fields, no gathers
-                    rows = slice(int(diffuse_idx[0]), int(diffuse_idx[-1]) + 1)
-                dsurf = surf.subset(rows)
-                bsdf = BSDFBatch(dsurf, materials)
-                visible = self.visibility(dsurf)
-                choose = None
-                if self._selects_lights(depth):   # camera hits, or hits of BSDF-sampled rays: one light each
-                    choose = (np.ones(diffuse_idx.size, dtype=bool) if depth == 0 else
-                              np.take(bpdf, h[diffuse_idx]) > 0 if bpdf is not None else None)
-                    choose = choose if choose is not None and choose.any() else None
-                Ld = self._direct_light(dsurf, bsdf, visible, rng, sampled, depth, choose)
-                put_rows(Lh, diffuse_idx, take_rows(Lh, diffuse_idx) + Ld)
-            _scatter_add(L, s_idx, thr_h * Lh, unique=one_per_sample)   # camera rays: one per sample
-            if depth == self.max_depth:
-                break
-            # specular continuation
-            new = self._spawn(surf, thr_h, s_idx, dsub, None if media is None else stack[h], diffuse_idx, sampled,
-                              depth, rng)
-            if new is None:
-                break
+        kind = "primary" if depth == 0 else "secondary"
+        n_rays = o.shape[0]   # rays of this bounce; blend surfaces append records after them (coverage)
+        if media is None and cover is not None and not cover.shadows:   # culling only: hits-only queries
+            h, hsub = self._intersect(o, d, kind, hits_only=True)
+            h, hsub, dropped = cover.cull_hits(self.ps.geo, h, hsub, o, d, self._retrace_hits, self.offset)
+            if dropped.size:      # more than coverage.MAX_LAYERS culled faces on the way: radiance 0
+                thr = thr.copy()
+                thr[dropped] = 0.0
+        elif media is not None or cover is not None:
+            hits = self._intersect(o, d, kind)
+            if cover is not None:  # alpha cut-outs skipped, blend surfaces split, back faces culled
+                parent, w, hits = cover.resolve(self.ps.geo, hits, o, d, diffs if use_diffs else None,
+                                                self._retrace, self.offset, thr_max=max_component(thr),
+                                                cutoff=self.throughput_cutoff)
+                if parent.size > n_rays:   # blend records: the rays they continue, weighted
+                    o, d, sample = take_rows(o, parent), take_rows(d, parent), np.take(sample, parent)
+                    thr = take_rows(thr, parent)
+                    diffs = None if diffs is None else tuple(take_rows(x, parent) for x in diffs)
+                    stack = None if stack is None else stack[parent]
+                    bpdf = None if bpdf is None else np.take(bpdf, parent)
+                if np.any(w != 1.0):
+                    thr = thr * w[:, None]
+            if media is not None:  # nested dielectrics: continue through false hits; Beer-Lambert absorption
+                hits, seg_t, stack = media.skip_false_hits(
+                    self.ps.geo, hits, o, d, stack, self._retrace_covered,
+                    lambda hs, o2, d2: self.offset(surface_from_hits(self.ps.geo, hs, o2, d2), d2))
+                thr = thr * media.attenuation(stack, seg_t)
+            h = np.flatnonzero(hits.hit)
+            hsub = _subset_hits(hits, h)
+        else:
+            h, hsub = self._intersect(o, d, kind, hits_only=True)
+            if depth == 0 and self.ps.face_gouraud is None:
+                h, hsub = self._by_material(h, hsub)
+        one_per_sample = depth == 0 and o.shape[0] == n_rays   # camera rays, no blend split: unique samples
+        if h.size < o.shape[0]:
+            miss = np.ones(o.shape[0], dtype=bool)
+            miss[h] = False
+            m = np.flatnonzero(miss)      # row gathers: boolean indexing of (N, 3) arrays is slow and keeps the GIL
+            Lm = self.background(take_rows(d, m), primary=depth == 0)
+            if bpdf is not None:   # escaped BSDF-sampled rays: MIS against the environment's light sampling
+                Lm = Lm * self._escape_weight(take_rows(d, m), np.take(bpdf, m))[:, None]
+            _scatter_add(L, np.take(sample, m), take_rows(thr, m) * Lm, unique=one_per_sample)
+        if h.size == 0:
+            return None
+        dsub = None
+        if use_diffs:
+            dsub = tuple(take_rows(x, h) for x in diffs)
+        surf = surface_from_hits(self.ps.geo, hsub, take_rows(o, h), take_rows(d, h), dsub)
+        if self.ps.has_normal_maps:
+            apply_normal_maps(surf, materials)
+        s_idx, thr_h = sample[h], take_rows(thr, h)
+        aov_rows = None
+        if aovs is not None and depth == 0:   # the nearest surface a camera ray keeps (not blend records)
+            aov_rows = np.flatnonzero(h < n_rays)
+            aovs["depth"][s_idx[aov_rows]] = hsub.t[aov_rows]
+            aovs["normal"][s_idx[aov_rows]] = surf.ns[aov_rows]
+        mids = surf.material_id
+        present = np.flatnonzero(np.bincount(mids, minlength=len(materials)))
+        Lh = np.zeros((h.size, 3))
+        # emission and ambient, per material type (only for materials that have them)
+        use_ambient = np.any(ambient > 0)
+        for k in present:
+            mat = materials[k]
+            want_albedo = aovs is not None and depth == 0
+            if not (self.ps.emits[k] or want_albedo or (mat.has_diffuse and use_ambient)):
+                continue
+            sel = np.flatnonzero(mids == k)
+            ctx = surf.subset(sel)
+            if self.ps.emits[k]:
+                Le = mat.emission(ctx)
+                if bpdf is not None:   # emitters reached by BSDF-sampled rays: MIS against light sampling
+                    Le = Le * self._emission_weight(k, take_rows(o, h[sel]), take_rows(d, h[sel]),
+                                                    np.take(bpdf, h[sel]), ctx)[:, None]
+                Lh[sel] += Le
+            if want_albedo:
+                first = h[sel] < n_rays
+                aovs["albedo"][s_idx[sel[first]]] = mat.albedo(ctx)[first]
+            if mat.has_diffuse and use_ambient:
+                Lh[sel] += mat.albedo(ctx) * ambient
+        # direct light at hits whose material has a non-delta lobe
+        diffuse_idx = np.flatnonzero(self.ps.has_diffuse[mids])
+        if self.ps.face_gouraud is not None and diffuse_idx.size and lights:
+            g = diffuse_idx[self.ps.face_gouraud[surf.face[diffuse_idx]]]
+            if g.size:  # Gouraud faces: lighting at the vertices, interpolated (pyrt.integrators.gouraud)
+                Lh[g] += gouraud.direct_light(self.ps, lights, self.visibility, surf.subset(g), o[h[g]], rng)
+                diffuse_idx = np.setdiff1d(diffuse_idx, g, assume_unique=True)
+        sampled = self._sampled_hits(surf, diffuse_idx, depth)   # hits that trace their non-delta lobe
+        if diffuse_idx.size and lights:
+            dm = mids[diffuse_idx]
+            rows = diffuse_idx
+            if dm.size > 1 and np.any(dm[1:] < dm[:-1]):
+                # ordered by material: BSDFBatch then dispatches every light's query by slicing
+                order = np.concatenate([np.flatnonzero(dm == k) for k in np.flatnonzero(np.bincount(dm))])
+                diffuse_idx = rows = diffuse_idx[order]
+                sampled = None if sampled is None else sampled[order]
+            elif diffuse_idx[-1] - diffuse_idx[0] + 1 == diffuse_idx.size:
+                # increasing (flatnonzero) and as many as the span: one run of rows (camera hits ordered by
+                # material, the diffuse materials side by side): views of the batch's fields, no gathers
+                rows = slice(int(diffuse_idx[0]), int(diffuse_idx[-1]) + 1)
+            dsurf = surf.subset(rows)
+            bsdf = BSDFBatch(dsurf, materials)
+            visible = self.visibility(dsurf)
+            choose = None
+            if self._selects_lights(depth):   # camera hits, or hits of BSDF-sampled rays: one light each
+                choose = (np.ones(diffuse_idx.size, dtype=bool) if depth == 0 else
+                          np.take(bpdf, h[diffuse_idx]) > 0 if bpdf is not None else None)
+                choose = choose if choose is not None and choose.any() else None
+            Ld = self._direct_light(dsurf, bsdf, visible, rng, sampled, depth, choose)
+            put_rows(Lh, diffuse_idx, take_rows(Lh, diffuse_idx) + Ld)
+        _scatter_add(L, s_idx, thr_h * Lh, unique=one_per_sample)   # camera rays: one per sample
+        if depth == self.max_depth:
+            return None
+        # specular continuation
+        new = self._spawn(surf, thr_h, s_idx, dsub, None if media is None else stack[h], diffuse_idx, sampled,
+                          depth, rng)
+        if new is not None:
             new.depth = depth + 1
-            o, d, thr, sample, diffs, stack, bpdf = (new.origins, new.directions, new.throughput, new.sample,
-                                                     new.differentials, new.stack, new.bsdf_pdf)
-        return L, aovs
+        return new
 
     def visibility(self, surf):
         """``visible(idx, wi, dist, end=None)`` for the hits of ``surf``: shadow rays through Embree's occlusion

@@ -185,7 +185,7 @@ def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None,
                     cancel=None, fill=False, fill_budget=2.0, on_pass=None, integrator="whitted", max_depth=8,
                     throughput_cutoff=1e-4, offset=None, record_rays=False, transparent_shadows=False,
                     glossy_samples=4, glossy_depth=2, glossy_threshold=0.4, dask=None, dask_workers=2,
-                    split_depth=None, light_select_depth=None, parallel="auto"):
+                    split_depth=None, light_select_depth=None, parallel="auto", batch_rays=None):
     """Render ``scene`` in adaptive passes until the estimated relMSE is at most ``target_error``, the
     ``time_budget`` (seconds, counted from the call) is spent, or no pixel may take more samples
     (``max_spp``): a :class:`RenderResult` with ``passes``, ``estimated_error``, ``stop_reason`` and the film
@@ -215,7 +215,7 @@ def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None,
     integ = dict(integrator=integrator, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
                  record_rays=record_rays, transparent_shadows=transparent_shadows, glossy_samples=glossy_samples,
                  glossy_depth=glossy_depth, glossy_threshold=glossy_threshold, split_depth=split_depth,
-                 light_select_depth=light_select_depth)
+                 light_select_depth=light_select_depth, batch_rays=batch_rays)
     runner = None if dask is None else DaskRunner(dask, scene, dask_workers)
     own = prepared is None and runner is None
     ps = prepared if prepared is not None or runner is not None else PreparedScene(scene, threads=threads)
@@ -224,7 +224,9 @@ def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None,
         spec = dict(threads=1, seed=seed, aovs=aovs, nonfinite=nonfinite, integrator=integ)
         cam = scene.camera
         workers = 1 if ps is None else (ps.accel.threads if threads is None else int(threads))
-        processes = use_processes(parallel, workers) and runner is None
+        # the base pass's chunks, times 4: the passes after it add at least as many samples again, usually more
+        base_chunks = -(-scene.camera.width * scene.camera.height * min_spp // chunk_samples)
+        processes = use_processes(parallel, workers, 4 * base_chunks) and runner is None
         deadline = t_start + time_budget if time_budget is not None else math.inf
 
         def task(index, key, P, C, base, spp_after, timed):

@@ -39,7 +39,7 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
                 nonfinite="zero", cancel=None, fill=False, fill_budget=2.0, transparent_shadows=False,
                 integrator="whitted", glossy_samples=4, glossy_depth=2, glossy_threshold=0.4,
                 target_error=None, time_budget=None, max_spp=None, min_spp=4, on_pass=None, dask=None,
-                dask_workers=2, split_depth=None, light_select_depth=None, parallel="auto"):
+                dask_workers=2, split_depth=None, light_select_depth=None, parallel="auto", batch_rays=None):
     """Render ``scene`` and return a :class:`RenderResult` with the image, AOVs and statistics.
 
     Parameters are those of :func:`render`, plus:
@@ -81,11 +81,18 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         The glossy integrator's rays per hit on the first bounce (1 deeper), the bounces that spawn them
         and the ``glossy_alpha`` above which a lobe counts as diffuse (:class:`GlossyIntegrator`).
 
+    batch_rays : int, optional
+        Shade every bounce of a chunk in slices of at most this many rays, the rays they spawn gathered into one
+        batch for the next bounce (:meth:`pyrt.integrators.whitted.Integrator.render_samples`): with a
+        ``chunk_samples`` several times larger, the same working set and bigger (cheaper per ray) deep
+        bounces. Default None: a bounce at once. The estimate is the same; the noise differs (other random
+        draws).
     parallel : {"auto", "threads", "processes"}
         What the ``threads`` workers are (:mod:`pyrt.render.pool`): worker processes forked once the scene is
         prepared (no shared GIL: the shading's small-array NumPy calls run in parallel), or threads of this
-        process. "auto" (default): processes on Linux, threads elsewhere; one worker renders on the calling
-        thread. The image is the same bit for bit either way.
+        process. "auto" (default): processes on Linux for renders of at least
+        :data:`pyrt.render.pool.PROCESS_MIN_CHUNKS` chunks (forking costs ~60 ms), threads otherwise and
+        elsewhere; one worker renders on the calling thread. The image is the same bit for bit either way.
 
     A ``KeyboardInterrupt`` while rendering cancels the chunks not yet started, waits for the running
     ones, shuts the worker pool down and propagates (no thread or process is left running).
@@ -109,14 +116,14 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
                                transparent_shadows=transparent_shadows, glossy_samples=glossy_samples,
                                glossy_depth=glossy_depth, glossy_threshold=glossy_threshold, dask=dask,
                                dask_workers=dask_workers, split_depth=split_depth,
-                               light_select_depth=light_select_depth, parallel=parallel)
+                               light_select_depth=light_select_depth, parallel=parallel, batch_rays=batch_rays)
     t_start = time.perf_counter()
     if integrator not in INTEGRATORS:
         raise RenderError(f"render: integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
     integ = dict(integrator=integrator, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
                  transparent_shadows=transparent_shadows, glossy_samples=glossy_samples, glossy_depth=glossy_depth,
                  glossy_threshold=glossy_threshold, split_depth=split_depth,
-                 light_select_depth=light_select_depth)
+                 light_select_depth=light_select_depth, batch_rays=batch_rays)
     cam = scene.camera
     if spp is not None:
         cam = copy(cam)
@@ -134,7 +141,7 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
 
     make_integrator = None if ps is None else integrator_factory(ps, record_rays=record_rays, **integ)
     workers = 1 if ps is None else max(1, min(ps.accel.threads if threads is None else int(threads), n_chunks))
-    processes = use_processes(parallel, workers) and runner is None
+    processes = use_processes(parallel, workers, n_chunks) and runner is None
 
     def run_chunk(ci):
         if processes:   # the worker's writes stay in the worker: the chunk's pixels come back as a film

@@ -53,9 +53,16 @@ WINDOW = 16
 PROCESS_WINDOW = 4
 
 
-def use_processes(parallel, workers):
-    """Whether a render with ``workers`` workers and ``parallel`` (:data:`PARALLEL`) runs on processes: "auto"
-    does on Linux, except in a daemonic process (which may not have children), "processes" wherever fork is."""
+#: "auto" forks worker processes for renders of at least this many chunks: forking, the workers' cold heaps and
+#: the results' transfer cost ~60 ms of wall and ~0.1 s of CPU per render (tools/bench_parallel.py: the 1-spp bench
+#: scene, 10 chunks, 0.274 s on processes against 0.213 s on threads), which only longer renders repay
+PROCESS_MIN_CHUNKS = 16
+
+
+def use_processes(parallel, workers, chunks=None):
+    """Whether a render of ``chunks`` chunks (None: unknown) on ``workers`` workers runs on processes, for
+    ``parallel`` (:data:`PARALLEL`): "processes" wherever fork is; "auto" on Linux for renders of at least
+    :data:`PROCESS_MIN_CHUNKS` chunks, except in a daemonic process (which may not have children)."""
     if parallel not in PARALLEL:
         raise RenderError(f"render: parallel must be one of {list(PARALLEL)}, got {parallel!r}")
     if workers <= 1 or parallel == "threads":
@@ -66,7 +73,8 @@ def use_processes(parallel, workers):
             raise RenderError(f"render: parallel='processes' needs the fork start method, which {sys.platform} "
                               "does not have; use parallel='threads'")
         return True
-    # a daemonic process (a Dask worker's, a multiprocessing pool's) may not start children: threads there
+    if chunks is not None and chunks < PROCESS_MIN_CHUNKS:
+        return False
     return fork and sys.platform.startswith("linux") and not multiprocessing.current_process().daemon
 
 
@@ -195,7 +203,7 @@ class ChunkPool:
 
 def integrator_factory(ps, integrator, *, max_depth, throughput_cutoff, offset, record_rays=False,
                        transparent_shadows=False, glossy_samples=4, glossy_depth=2, glossy_threshold=0.4,
-                       split_depth=None, light_select_depth=None):
+                       split_depth=None, light_select_depth=None, batch_rays=None):
     """A function of no argument returning a fresh integrator for one chunk (``"whitted"`` or ``"glossy"``)
     over the prepared scene ``ps``; :class:`RenderError` for another name."""
     if integrator not in INTEGRATORS:
@@ -208,5 +216,5 @@ def integrator_factory(ps, integrator, *, max_depth, throughput_cutoff, offset, 
     def make():
         return cls(ps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
                    record_rays=record_rays, transparent_shadows=transparent_shadows, split_depth=split_depth,
-                   light_select_depth=light_select_depth, **extra)
+                   light_select_depth=light_select_depth, batch_rays=batch_rays, **extra)
     return make
