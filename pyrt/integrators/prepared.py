@@ -12,6 +12,7 @@ from pyrt.geometry.accel import Accel
 from pyrt.integrators import gouraud
 from pyrt.integrators.coverage import CoverageTable
 from pyrt.integrators.media import NestedMedia
+from pyrt.textures.image import image_textures
 
 
 @dataclass
@@ -90,6 +91,18 @@ class PreparedScene:
         self.coverage = CoverageTable.for_scene(mats)
         # materials with a tangent-space normal map (Material.normal_map, see pyrt.textures)
         self.has_normal_maps = any(m.normal_map is not None for m in mats)
+
+    def before_fork(self):
+        """Build now what every forked render worker (:class:`pyrt.render.pool.ChunkPool`) would otherwise build
+        for itself, the same in each: the MIP pyramids of the scene's image textures, so that the workers share
+        one copy of them (copy-on-write) instead of holding one each. Once per prepared scene; the seconds it took
+        are ``timings["mip_levels"]``."""
+        if "mip_levels" in self.timings:
+            return
+        t0 = time.perf_counter()
+        for tex in image_textures(*self.scene.materials, *self.scene.lights):
+            tex.build_mip_levels()
+        self.timings["mip_levels"] = time.perf_counter() - t0
 
     def close(self):
         """Release the Embree scene."""

@@ -12,8 +12,9 @@ Python-level work holds it: on the glTF previews two threads used 1.1-1.4 of the
 ``fork`` is the platform's way to start processes, i.e. Linux) do not share a GIL. They are forked once per
 render, after the scene is prepared (the BVH built), so they inherit the prepared scene, the camera and the
 integrator settings copy-on-write, without pickling or rebuilding anything; a task sends only its arguments (a
-chunk index, or an adaptive pass's pixels) and gets back the chunk's pixel sums and statistics. What a worker
-builds lazily during the render (a texture's MIP levels, an emitter's Embree scene) it builds for itself.
+chunk index, or an adaptive pass's pixels) and gets back the chunk's pixel sums and statistics. The textures' MIP
+pyramids are built before the fork (:meth:`PreparedScene.before_fork`: one shared copy instead of one per worker);
+whatever else a worker builds lazily during the render (an emitter's Embree scene) it builds for itself.
 Workers ignore SIGINT: a Ctrl-C reaches the parent, which stops submitting chunks and waits for the running ones.
 """
 from __future__ import annotations
@@ -123,6 +124,8 @@ class ChunkPool:
     def __enter__(self):
         if self.workers > 1:
             if self.processes:
+                if self.prepared is not None:
+                    self.prepared.before_fork()
                 self._token = next(_TOKENS)
                 _TASKS[self._token] = (self.task, self.prepared)
                 self._pool = ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("fork"),

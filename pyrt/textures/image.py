@@ -231,6 +231,12 @@ class MipPyramid:
             out[r // 2:(r + step) // 2] = _mip.reduce_level(table[base[r:r + step]])
         return out
 
+    def build_all(self):
+        """Build every level now, each from the one above (what forked render workers would otherwise each build
+        for themselves: built before the fork, the workers share one copy)."""
+        for level in range(1, len(self._levels)):
+            self[level]
+
     @property
     def built(self):
         """Indices (> 0) of the levels built so far, ascending."""
@@ -401,6 +407,12 @@ class ImageTexture(Texture):
         return (id(self._pyramid), self.texcoord, self.wrap, self.filter, self.scale, self.offset,
                 self.rotation_deg, self.footprint_scale, self.max_anisotropy)
 
+    def build_mip_levels(self):
+        """Build the whole MIP pyramid now if this texture's filter reads one (trilinear, EWA); see
+        :meth:`MipPyramid.build_all`."""
+        if self.filter not in _tex.RECONSTRUCT:
+            self._pyramid.build_all()
+
     @property
     def mip_levels_built(self):
         """MIP levels (> 0) built so far: each was read by at least one lookup, but for level 1 of coded texels
@@ -517,3 +529,23 @@ class ChannelTexture(Texture):
         if values is None:
             values = cache[key] = self.source.evaluate(ctx)
         return values[:, self.channel:self.channel + 1]
+
+
+def image_textures(*roots):
+    """The :class:`ImageTexture` objects reachable from ``roots`` (materials, lights, textures) through the
+    attributes of pyrt's objects, lists, tuples and dicts, each once, in the order found."""
+    found, seen, todo = [], set(), list(roots)
+    while todo:
+        obj = todo.pop()
+        if id(obj) in seen or obj is None or isinstance(obj, (str, bytes, int, float, np.ndarray)):
+            continue
+        seen.add(id(obj))
+        if isinstance(obj, ImageTexture):
+            found.append(obj)
+        if isinstance(obj, dict):
+            todo.extend(obj.values())
+        elif isinstance(obj, (list, tuple)):
+            todo.extend(obj)
+        elif type(obj).__module__.startswith("pyrt.") and "__dict__" in dir(type(obj)):   # pyrt's own objects
+            todo.extend(vars(obj).values())
+    return found

@@ -106,9 +106,19 @@ class PreviewOptions:
     #: set is ~4-6 kB per sample and each thread holds one. 16384 keeps the helmet-like model of
     #: tools/make_textured_model.py under 500 MB peak RSS on 2 threads (~450 against ~620 MB) but doubles the
     #: per-batch cost of models with many materials (ClearCoatTest render 13.1-14.9 s against 6.8-8.4 s at 32768,
-    #: docs/preview.md), so it is not the default. Chunks draw their own random streams: the noise (not the
-    #: estimate) depends on it
+    #: docs/preview.md), so it is not the default (batch_rays below bounds the working set instead). Chunks draw their
+    #: own random streams: the noise (not the estimate) depends on it
     chunk_samples: int = 32768
+    #: rays shaded at once per bounce (pyrt.render_full's batch_rays): a chunk's bounce is cut into slices of at most
+    #: this many, the rays they spawn make one batch at the next bounce; None: a bounce at once. The glossy rays'
+    #: bounce holds up to glossy_samples rays per camera hit, the working-set peak: sliced, the helmet-like model
+    #: of tools/make_textured_model.py peaks at 469 MB against 597 MB (tools/bench_textured.py --set, 2 runs each,
+    #: the process tree's PSS), ClearCoatTest renders x1.05 of 32768's time and 32768 x1.07 of None's, Fox and
+    #: OrientationTest x0.92 and x0.85 (docs/preview.md)
+    batch_rays: int | None = 24576
+    #: batch_rays where the model has a dielectric (None: batch_rays): its chunks' size, so that the camera rays
+    #: are shaded at once (glass models pay per batch at every bounce)
+    dielectric_batch_rays: int | None = 1 << 16
     #: Embree's BVH build quality ("low", "medium", "high"; pyrt.geometry.Accel): "auto" builds models of at least
     #: BVH_LOW_TRIANGLES triangles at "low" (the 5.24 M-triangle mesh of tools/big_mesh.py: 2.0 s of CPU instead
     #: of 3.9 s, the same image, no render-time change measurable), smaller ones at Embree's default "medium"
@@ -124,6 +134,10 @@ class PreviewOptions:
             v = getattr(self, name)
             if int(v) != v or v < 1:
                 raise PreviewError(f"{name} must be a positive integer, got {v!r}")
+        for name in ("batch_rays", "dielectric_batch_rays"):
+            v = getattr(self, name)
+            if v is not None and (int(v) != v or v < 1):
+                raise PreviewError(f"{name} must be a positive integer or None, got {v!r}")
         if int(self.glossy_samples) != self.glossy_samples or self.glossy_samples < 1:
             raise PreviewError(f"glossy_samples must be a positive integer, got {self.glossy_samples!r}")
         if int(self.glossy_depth) != self.glossy_depth or self.glossy_depth < 0:

@@ -177,7 +177,8 @@ class PreviewScene:
             glass = bool(self.prepared.dielectric.any())
             depth = max(o.max_depth, o.dielectric_depth) if glass else o.max_depth
             cutoff = o.dielectric_cutoff if glass else 1e-4
-            glass_kw = dict(split_depth=o.split_depth, chunk_samples=o.dielectric_chunk_samples) if glass else {}
+            glass_kw = dict(split_depth=o.split_depth, chunk_samples=o.dielectric_chunk_samples,
+                            batch_rays=o.dielectric_batch_rays or o.batch_rays) if glass else {}
             res = render_full(self.scene, seed=o.seed, max_depth=depth, aovs=aovs, progress=False,
                               prepared=self.prepared, threads=o.threads, parallel=o.parallel, integrator="glossy",
                               transparent_shadows=True, throughput_cutoff=cutoff,
@@ -185,7 +186,7 @@ class PreviewScene:
                               glossy_depth=o.glossy_depth, glossy_threshold=o.glossy_threshold,
                               target_error=o.target_error,
                               max_spp=(o.max_spp or ADAPTIVE_MAX_SPP) if o.target_error is not None else None,
-                              min_spp=o.min_spp, **{"chunk_samples": o.chunk_samples, **glass_kw})
+                              min_spp=o.min_spp, **{"chunk_samples": o.chunk_samples, "batch_rays": o.batch_rays, **glass_kw})
         self.warnings += [str(w.message) for w in caught]
         if self.exposure is None:
             self.exposure, self.white = auto_exposure(res.image, self.model_mask())
