@@ -26,6 +26,7 @@ import itertools
 import multiprocessing
 import signal
 import sys
+import warnings
 
 from pyrt.core.errors import RenderError
 from pyrt.integrators.glossy import GlossyIntegrator
@@ -130,6 +131,13 @@ class ChunkPool:
                 _TASKS[self._token] = (self.task, self.prepared)
                 self._pool = ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("fork"),
                                                  initializer=_child_init, initargs=(self._token,))
+                # fork the workers now (the first submit does): Python >= 3.12 warns at a fork of a process
+                # with threads (Embree's, BLAS's idle pools are always there) that a lock one of them holds
+                # could deadlock the child; the workers run only the chunks' code, which takes none of them
+                with warnings.catch_warnings():
+                    warnings.filterwarnings("ignore", message=r".*use of fork\(\) may lead to deadlocks",
+                                            category=DeprecationWarning)
+                    self._pool.submit(int).result()
             else:
                 self._pool = ThreadPoolExecutor(max_workers=self.workers)
         return self
