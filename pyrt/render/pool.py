@@ -8,8 +8,8 @@ memory does not grow with the number of chunks.
 **Threads or processes.** Embree's traversal and NumPy's array loops release the GIL, but the shading of a chunk
 is many NumPy calls on arrays of a few hundred to a few thousand rays (per material, light and bounce), whose
 Python-level work holds it: on the glTF previews two threads used 1.1-1.4 of the 2 cores (ClearCoatTest: render
-12.65 s on one thread, 11.19 s on two). Forked worker processes (``parallel="processes"``, the default where
-``fork`` is the platform's way to start processes, i.e. Linux) do not share a GIL. They are forked once per
+12.65 s on one thread, 11.19 s on two). Forked worker processes (``parallel="processes"``, and "auto" on Linux for
+renders whose chunks add up to :data:`AUTO_PROCESS_SECONDS`) do not share a GIL. They are forked once per
 render, after the scene is prepared (the BVH built), so they inherit the prepared scene, the camera and the
 integrator settings copy-on-write, without pickling or rebuilding anything; a task sends only its arguments (a
 chunk index, or an adaptive pass's pixels) and gets back the chunk's pixel sums and statistics. The textures' MIP
@@ -26,6 +26,7 @@ import itertools
 import multiprocessing
 import signal
 import sys
+import time
 import warnings
 
 from pyrt.core.errors import RenderError
@@ -34,7 +35,8 @@ from pyrt.integrators.whitted import Integrator
 
 #: ``integrator=`` names: strict Whitted (delta lobes only, the default) and glossy reflection rays
 INTEGRATORS = ("whitted", "glossy")
-#: ``parallel=`` choices: "auto" (processes where fork is the platform's start method, threads elsewhere)
+#: ``parallel=`` choices: "auto" (on Linux processes for renders long enough to repay the fork, see
+#: :func:`use_processes`; threads otherwise)
 PARALLEL = ("auto", "threads", "processes")
 
 
@@ -55,16 +57,20 @@ WINDOW = 16
 PROCESS_WINDOW = 4
 
 
-#: "auto" forks worker processes for renders of at least this many chunks: forking, the workers' cold heaps and
-#: the results' transfer cost ~60 ms of wall and ~0.1 s of CPU per render (tools/bench_parallel.py: the 1-spp bench
-#: scene, 10 chunks, 0.274 s on processes against 0.213 s on threads), which only longer renders repay
-PROCESS_MIN_CHUNKS = 16
+#: "auto" forks worker processes when a render's chunks, timed by its first one (shaded alone on the calling
+#: thread), add up to at least this many CPU seconds: forking, the workers' cold heaps and the results' transfer cost
+#: ~60 ms of wall and ~0.1 s of CPU per render, which short renders of cheap chunks do not repay
+#: (tools/bench_parallel.py: processes / threads 1.10x on the 1-spp bench scene, 0.37 s of CPU; 1.06-1.14x on the
+#: diffuse and shadowed kinds at 16 spp, 0.56-0.64 s; 0.68-0.87x on the specular and env kinds, 1.9-2.9 s; 0.64-0.72x on
+#: the default scene and a glTF preview, 6-7 s)
+AUTO_PROCESS_SECONDS = 1.5
 
 
-def use_processes(parallel, workers, chunks=None):
-    """Whether a render of ``chunks`` chunks (None: unknown) on ``workers`` workers runs on processes, for
-    ``parallel`` (:data:`PARALLEL`): "processes" wherever fork is; "auto" on Linux for renders of at least
-    :data:`PROCESS_MIN_CHUNKS` chunks, except in a daemonic process (which may not have children)."""
+def use_processes(parallel, workers):
+    """How a render on ``workers`` workers with ``parallel`` (:data:`PARALLEL`) runs: True (forked processes),
+    False (threads, or the calling thread for one worker), or "measure" for "auto" on Linux outside a daemonic
+    process (which may not have children): :class:`ChunkPool` times the first chunk and forks when the render's
+    chunks add up to :data:`AUTO_PROCESS_SECONDS`. "processes" wherever fork is (else a :class:`RenderError`)."""
     if parallel not in PARALLEL:
         raise RenderError(f"render: parallel must be one of {list(PARALLEL)}, got {parallel!r}")
     if workers <= 1 or parallel == "threads":
@@ -75,9 +81,9 @@ def use_processes(parallel, workers, chunks=None):
             raise RenderError(f"render: parallel='processes' needs the fork start method, which {sys.platform} "
                               "does not have; use parallel='threads'")
         return True
-    if chunks is not None and chunks < PROCESS_MIN_CHUNKS:
-        return False
-    return fork and sys.platform.startswith("linux") and not multiprocessing.current_process().daemon
+    if fork and sys.platform.startswith("linux") and not multiprocessing.current_process().daemon:
+        return "measure"
+    return False
 
 
 #: per render: token -> (task, prepared scene); read by the forked workers, which inherit it
@@ -111,8 +117,10 @@ class ChunkPool:
         ``task(*args)`` shades one chunk. In processes its result is pickled back; it must not write into
         the caller's objects (a worker's writes stay in the worker).
     workers : int
-    processes : bool
-        Forked processes instead of threads (see the module docstring); needs the ``fork`` start method.
+    processes : bool or "measure"
+        Forked processes instead of threads (see the module docstring; needs the ``fork`` start method); "measure":
+        the first :meth:`map` shades its first task on the calling thread, and forks processes for the rest when
+        that task's time times the number of tasks is at least :data:`AUTO_PROCESS_SECONDS`, else starts threads.
     prepared : PreparedScene, optional
         The prepared scene ``task`` reads (its accelerator is made single-threaded in the workers).
     """
@@ -123,6 +131,13 @@ class ChunkPool:
         self._token = None
 
     def __enter__(self):
+        if self.processes != "measure":
+            self._start(self.processes)
+        return self
+
+    def _start(self, processes):
+        """Start the workers: ``processes`` or threads (nothing for one worker)."""
+        self.processes = bool(processes)
         if self.workers > 1:
             if self.processes:
                 if self.prepared is not None:
@@ -140,7 +155,6 @@ class ChunkPool:
                     self._pool.submit(int).result()
             else:
                 self._pool = ThreadPoolExecutor(max_workers=self.workers)
-        return self
 
     def __exit__(self, *exc):
         self.close()
@@ -174,8 +188,21 @@ class ChunkPool:
         re-raised (a worker process that died is a :class:`RenderError`).
         """
         n = len(args)
+        first = 0
+        if self.processes == "measure":      # the first task on this thread, timed: then processes or threads
+            if n == 0 or (halted is not None and halted()):
+                return n == 0
+            t0 = time.process_time()
+            res = self.task(*args[0])
+            cost = time.process_time() - t0
+            if res is None:
+                return False
+            collect(0, res)
+            bar.update()
+            self._start(cost * n >= AUTO_PROCESS_SECONDS)
+            first = 1
         if self._pool is None:
-            for i in range(n):
+            for i in range(first, n):
                 res = None if halted is not None and halted() else self.task(*args[i])
                 if res is None:
                     return False
@@ -184,7 +211,7 @@ class ChunkPool:
             return True
         window = deque()
         limit = (PROCESS_WINDOW if self.processes else WINDOW) * self.workers
-        nxt, stopped = 0, False
+        nxt, stopped = first, False
         try:
             while window or nxt < n:
                 while nxt < n and len(window) < limit and not stopped:
