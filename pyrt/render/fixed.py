@@ -90,9 +90,9 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     parallel : {"auto", "threads", "processes"}
         What the ``threads`` workers are (:mod:`pyrt.render.pool`): worker processes forked once the scene is
         prepared (no shared GIL: the shading's small-array NumPy calls run in parallel), or threads of this
-        process. "auto" (default): on Linux the first chunk is shaded on the calling thread and timed, and the
-        rest go to processes when the chunks add up to :data:`pyrt.render.pool.AUTO_PROCESS_SECONDS` of CPU
-        (forking costs ~60 ms), else to threads; threads elsewhere; one worker renders on the calling thread. The image is the same bit for bit either way.
+        process. "auto" (default): on Linux the render starts on threads and times its first chunk; the rest go to
+        processes when the chunks add up to :data:`pyrt.render.pool.AUTO_PROCESS_SECONDS` of CPU (forking costs
+        ~60 ms), else stay on threads; threads elsewhere; one worker renders on the calling thread. The image is the same bit for bit either way.
 
     A ``KeyboardInterrupt`` while rendering cancels the chunks not yet started, waits for the running
     ones, shuts the worker pool down and propagates (no thread or process is left running).

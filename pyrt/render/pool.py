@@ -57,8 +57,8 @@ WINDOW = 16
 PROCESS_WINDOW = 4
 
 
-#: "auto" forks worker processes when a render's chunks, timed by its first one (shaded alone on the calling
-#: thread), add up to at least this many CPU seconds: forking, the workers' cold heaps and the results' transfer cost
+#: "auto" forks worker processes when a render's chunks, timed by its first one (on a worker thread: its thread's
+#: CPU time), add up to at least this many CPU seconds: forking, the workers' cold heaps and the results' transfer cost
 #: ~60 ms of wall and ~0.1 s of CPU per render, which short renders of cheap chunks do not repay
 #: (tools/bench_parallel.py: processes / threads 1.10x on the 1-spp bench scene, 0.37 s of CPU; 1.06-1.14x on the
 #: diffuse and shadowed kinds at 16 spp, 0.56-0.64 s; 0.68-0.87x on the specular and env kinds, 1.9-2.9 s; 0.64-0.72x on
@@ -69,8 +69,8 @@ AUTO_PROCESS_SECONDS = 1.5
 def use_processes(parallel, workers):
     """How a render on ``workers`` workers with ``parallel`` (:data:`PARALLEL`) runs: True (forked processes),
     False (threads, or the calling thread for one worker), or "measure" for "auto" on Linux outside a daemonic
-    process (which may not have children): :class:`ChunkPool` times the first chunk and forks when the render's
-    chunks add up to :data:`AUTO_PROCESS_SECONDS`. "processes" wherever fork is (else a :class:`RenderError`)."""
+    process (which may not have children): :class:`ChunkPool` starts on threads, times the first chunk and forks
+    when the render's chunks add up to :data:`AUTO_PROCESS_SECONDS`. "processes" wherever fork is (else a :class:`RenderError`)."""
     if parallel not in PARALLEL:
         raise RenderError(f"render: parallel must be one of {list(PARALLEL)}, got {parallel!r}")
     if workers <= 1 or parallel == "threads":
@@ -119,8 +119,9 @@ class ChunkPool:
     workers : int
     processes : bool or "measure"
         Forked processes instead of threads (see the module docstring; needs the ``fork`` start method); "measure":
-        the first :meth:`map` shades its first task on the calling thread, and forks processes for the rest when
-        that task's time times the number of tasks is at least :data:`AUTO_PROCESS_SECONDS`, else starts threads.
+        the first :meth:`map` starts on threads, one task per worker, and when its first task's CPU time times the
+        number of tasks is at least :data:`AUTO_PROCESS_SECONDS` it collects those and forks processes for the
+        rest; else it goes on with the threads.
     prepared : PreparedScene, optional
         The prepared scene ``task`` reads (its accelerator is made single-threaded in the workers).
     """
@@ -137,9 +138,10 @@ class ChunkPool:
 
     def _start(self, processes):
         """Start the workers: ``processes`` or threads (nothing for one worker)."""
-        self.processes = bool(processes)
+        if processes:
+            self.processes = True
         if self.workers > 1:
-            if self.processes:
+            if self.processes is True:
                 if self.prepared is not None:
                     self.prepared.before_fork()
                 self._token = next(_TOKENS)
@@ -166,14 +168,17 @@ class ChunkPool:
             self._pool = None
         _TASKS.pop(self._token, None)
 
-    def _submit(self, args, halted):
-        if self.processes:
+    def _submit(self, args, halted, timed=False):
+        """Submit one task; ``timed``: on a thread, returning ``(result, its CPU seconds on that thread)``."""
+        if self.processes is True:
             return self._pool.submit(_child_run, self._token, args)
-        if halted is None:
+        if halted is None and not timed:
             return self._pool.submit(self.task, *args)
 
         def guarded():
-            return None if halted() else self.task(*args)
+            t0 = time.thread_time()
+            res = None if halted is not None and halted() else self.task(*args)
+            return (res, time.thread_time() - t0) if timed else res
         return self._pool.submit(guarded)
 
     def map(self, args, bar, collect, halted=None):
@@ -188,21 +193,11 @@ class ChunkPool:
         re-raised (a worker process that died is a :class:`RenderError`).
         """
         n = len(args)
-        first = 0
-        if self.processes == "measure":      # the first task on this thread, timed: then processes or threads
-            if n == 0 or (halted is not None and halted()):
-                return n == 0
-            t0 = time.process_time()
-            res = self.task(*args[0])
-            cost = time.process_time() - t0
-            if res is None:
-                return False
-            collect(0, res)
-            bar.update()
-            self._start(cost * n >= AUTO_PROCESS_SECONDS)
-            first = 1
+        measuring = self.processes == "measure"
+        if measuring:                  # threads until the first task is timed (on its worker thread)
+            self._start(False)
         if self._pool is None:
-            for i in range(first, n):
+            for i in range(n):
                 res = None if halted is not None and halted() else self.task(*args[i])
                 if res is None:
                     return False
@@ -210,25 +205,43 @@ class ChunkPool:
                 bar.update()
             return True
         window = deque()
-        limit = (PROCESS_WINDOW if self.processes else WINDOW) * self.workers
-        nxt, stopped = first, False
+        nxt, stopped = 0, False
         try:
             while window or nxt < n:
+                limit = self.workers if measuring else (PROCESS_WINDOW if self.processes else WINDOW) * self.workers
                 while nxt < n and len(window) < limit and not stopped:
-                    if halted is not None and self.processes and halted():
+                    if halted is not None and self.processes is True and halted():
                         stopped = True
                         break
-                    window.append((nxt, self._submit(args[nxt], halted)))
+                    window.append((nxt, measuring, self._submit(args[nxt], halted, timed=measuring)))
                     nxt += 1
                 if not window:
                     break
-                i, f = window.popleft()
+                i, timed, f = window.popleft()
                 res = f.result()
+                cost = None
+                if timed:
+                    res, cost = res
                 if res is None:
                     stopped = True
                     continue
                 collect(i, res)
                 bar.update()
+                if measuring and cost is not None:
+                    measuring = False
+                    if cost * n >= AUTO_PROCESS_SECONDS:   # long enough to repay the fork: the rest on processes
+                        while window:                     # the tasks already on threads first, in order
+                            i, timed, f = window.popleft()
+                            res = f.result()[0]
+                            if res is None:
+                                stopped = True
+                                continue
+                            collect(i, res)
+                            bar.update()
+                        self._pool.shutdown(wait=True)
+                        self._pool = None
+                        self._start(True)
+                    self.processes = self.processes is True
         except BrokenProcessPool as exc:
             self.close(cancel=True)
             raise RenderError(f"render: a worker process died ({exc}); parallel='threads' renders without "
