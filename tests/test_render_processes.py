@@ -169,11 +169,12 @@ def _costly(i, seconds):
 
 @pytest.mark.parametrize("seconds, forks", [(0.0, False), (0.2, True)])
 def test_measure_forks_only_when_the_chunks_add_up(seconds, forks):
-    """10 tasks of ``seconds`` CPU each; 10 x 0.2 s >= AUTO_PROCESS_SECONDS forks after the first (the two tasks
-    already on threads, one per worker, finish there)."""
+    """10 tasks of ``seconds`` CPU each; 10 x 0.2 s >= AUTO_PROCESS_SECONDS forks once the probe (task 5) is timed
+    on a thread; task 0, on the other thread meanwhile, is finished there."""
     assert 10 * 0.2 >= P.AUTO_PROCESS_SECONDS
     pids = []
     with P.ChunkPool(_costly, 2, processes="measure") as pool:
         assert pool.map([(i, seconds) for i in range(10)], _Bar(), lambda i, r: pids.append(r))
         assert pool.processes is forks
-    assert pids[:2] == [os.getpid()] * 2 and (os.getpid() not in pids[2:]) is forks and _no_children()
+    me = os.getpid()
+    assert pids[0] == pids[5] == me and (me not in pids[1:5] + pids[6:]) is forks and _no_children()

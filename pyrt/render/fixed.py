@@ -90,7 +90,7 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     parallel : {"auto", "threads", "processes"}
         What the ``threads`` workers are (:mod:`pyrt.render.pool`): worker processes forked once the scene is
         prepared (no shared GIL: the shading's small-array NumPy calls run in parallel), or threads of this
-        process. "auto" (default): on Linux the render starts on threads and times its first chunk; the rest go to
+        process. "auto" (default): on Linux the render starts on threads and times its middle chunk; the rest go to
         processes when the chunks add up to :data:`pyrt.render.pool.AUTO_PROCESS_SECONDS` of CPU (forking costs
         ~60 ms), else stay on threads; threads elsewhere; one worker renders on the calling thread. The image is the same bit for bit either way.
 

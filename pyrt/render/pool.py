@@ -20,7 +20,7 @@ Workers ignore SIGINT: a Ctrl-C reaches the parent, which stops submitting chunk
 from __future__ import annotations
 
 from collections import deque
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from concurrent.futures.process import BrokenProcessPool, ProcessPoolExecutor
 import itertools
 import multiprocessing
@@ -57,7 +57,7 @@ WINDOW = 16
 PROCESS_WINDOW = 4
 
 
-#: "auto" forks worker processes when a render's chunks, timed by its first one (on a worker thread: its thread's
+#: "auto" forks worker processes when a render's chunks, timed by its middle one (on a worker thread: its thread's
 #: CPU time), add up to at least this many CPU seconds: forking, the workers' cold heaps and the results' transfer cost
 #: ~60 ms of wall and ~0.1 s of CPU per render, which short renders of cheap chunks do not repay
 #: (tools/bench_parallel.py: processes / threads 1.10x on the 1-spp bench scene, 0.37 s of CPU; 1.06-1.14x on the
@@ -69,8 +69,8 @@ AUTO_PROCESS_SECONDS = 1.5
 def use_processes(parallel, workers):
     """How a render on ``workers`` workers with ``parallel`` (:data:`PARALLEL`) runs: True (forked processes),
     False (threads, or the calling thread for one worker), or "measure" for "auto" on Linux outside a daemonic
-    process (which may not have children): :class:`ChunkPool` starts on threads, times the first chunk and forks
-    when the render's chunks add up to :data:`AUTO_PROCESS_SECONDS`. "processes" wherever fork is (else a :class:`RenderError`)."""
+    process (which may not have children): :class:`ChunkPool` starts on threads, times the middle chunk and
+    forks when the render's chunks add up to :data:`AUTO_PROCESS_SECONDS`. "processes" wherever fork is (else a :class:`RenderError`)."""
     if parallel not in PARALLEL:
         raise RenderError(f"render: parallel must be one of {list(PARALLEL)}, got {parallel!r}")
     if workers <= 1 or parallel == "threads":
@@ -119,9 +119,9 @@ class ChunkPool:
     workers : int
     processes : bool or "measure"
         Forked processes instead of threads (see the module docstring; needs the ``fork`` start method); "measure":
-        the first :meth:`map` starts on threads, one task per worker, and when its first task's CPU time times the
-        number of tasks is at least :data:`AUTO_PROCESS_SECONDS` it collects those and forks processes for the
-        rest; else it goes on with the threads.
+        the first :meth:`map` times its middle task on a thread (its thread's CPU time) while task 0 runs on
+        another; when that time times the number of tasks is at least :data:`AUTO_PROCESS_SECONDS` it forks
+        processes for the rest, else it goes on with threads.
     prepared : PreparedScene, optional
         The prepared scene ``task`` reads (its accelerator is made single-threaded in the workers).
     """
@@ -193,9 +193,9 @@ class ChunkPool:
         re-raised (a worker process that died is a :class:`RenderError`).
         """
         n = len(args)
-        measuring = self.processes == "measure"
-        if measuring:                  # threads until the first task is timed (on its worker thread)
-            self._start(False)
+        ready = {}                      # task index -> a finished future (the timing probe's)
+        if self.processes == "measure":
+            self._start(False)          # threads while a probe is timed
         if self._pool is None:
             for i in range(n):
                 res = None if halted is not None and halted() else self.task(*args[i])
@@ -207,41 +207,52 @@ class ChunkPool:
         window = deque()
         nxt, stopped = 0, False
         try:
+            if self.processes == "measure" and n:
+                # the probe: the middle task (the first rows of an image are often sky, cheaper than the rest),
+                # timed on its thread while task 0 runs on the other; then processes or threads for the rest
+                k = n // 2
+                probe = self._submit(args[k], halted, timed=True)
+                if k:
+                    window.append((0, self._submit(args[0], halted)))
+                    nxt = 1
+                res, cost = probe.result()
+                ready[k] = Future()
+                ready[k].set_result(res)
+                if res is not None and cost * n >= AUTO_PROCESS_SECONDS:
+                    while window:             # what runs on threads is collected first, in order
+                        i, f = window.popleft()
+                        res = f.result()
+                        if res is None:
+                            stopped = True
+                            continue
+                        collect(i, res)
+                        bar.update()
+                    self._pool.shutdown(wait=True)
+                    self._pool = None
+                    self._start(True)
+                else:
+                    self.processes = False
+            limit = (PROCESS_WINDOW if self.processes else WINDOW) * self.workers
             while window or nxt < n:
-                limit = self.workers if measuring else (PROCESS_WINDOW if self.processes else WINDOW) * self.workers
                 while nxt < n and len(window) < limit and not stopped:
-                    if halted is not None and self.processes is True and halted():
+                    if nxt in ready:
+                        window.append((nxt, ready.pop(nxt)))
+                        nxt += 1
+                        continue
+                    if halted is not None and self.processes and halted():
                         stopped = True
                         break
-                    window.append((nxt, measuring, self._submit(args[nxt], halted, timed=measuring)))
+                    window.append((nxt, self._submit(args[nxt], halted)))
                     nxt += 1
                 if not window:
                     break
-                i, timed, f = window.popleft()
+                i, f = window.popleft()
                 res = f.result()
-                cost = None
-                if timed:
-                    res, cost = res
                 if res is None:
                     stopped = True
                     continue
                 collect(i, res)
                 bar.update()
-                if measuring and cost is not None:
-                    measuring = False
-                    if cost * n >= AUTO_PROCESS_SECONDS:   # long enough to repay the fork: the rest on processes
-                        while window:                     # the tasks already on threads first, in order
-                            i, timed, f = window.popleft()
-                            res = f.result()[0]
-                            if res is None:
-                                stopped = True
-                                continue
-                            collect(i, res)
-                            bar.update()
-                        self._pool.shutdown(wait=True)
-                        self._pool = None
-                        self._start(True)
-                    self.processes = self.processes is True
         except BrokenProcessPool as exc:
             self.close(cancel=True)
             raise RenderError(f"render: a worker process died ({exc}); parallel='threads' renders without "
