@@ -54,3 +54,25 @@ def test_tuned_render_faults_far_fewer_pages():
     tuned = _faults(None)
     assert untuned > 2000, f"expected the untuned render to fault in pages (got {untuned}): the test shows nothing"
     assert tuned < 0.1 * untuned, f"tuned render faulted {tuned} pages, untuned {untuned}"
+
+
+def test_release_free_memory_returns_freed_heap_pages():
+    """malloc_trim(0) after freeing many small blocks: the process's RSS falls (glibc only)."""
+    code = r"""
+import json, os, numpy as np
+from pyrt.core import memory
+memory.tune_allocator()                      # the render's setting: up to 256 MiB of free heap kept
+def rss():
+    with open("/proc/self/statm") as fh:
+        return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+blocks = [np.ones(100_000) for _ in range(2000)]      # 1.6 GB of 800 kB heap blocks
+del blocks[:-1]                                       # the last one keeps the heap's top in use
+before = rss()
+ok = memory.release_free_memory()
+print(json.dumps({"ok": ok, "before": before, "after": rss()}))
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    r = json.loads(out)
+    if not r["ok"]:
+        pytest.skip("not glibc")
+    assert r["before"] - r["after"] > 500, r

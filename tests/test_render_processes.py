@@ -31,9 +31,11 @@ def _no_children():
     return multiprocessing.active_children() == []
 
 
-def test_auto_measures_on_linux_and_one_worker_is_the_calling_thread():
+def test_auto_is_processes_on_linux_for_long_renders_and_one_worker_is_the_calling_thread():
     linux = os.uname().sysname.startswith("Linux")
-    assert P.use_processes("auto", 2) == ("measure" if linux else False)
+    assert P.use_processes("auto", 2) == linux and P.use_processes("auto", 2, P.PROCESS_MIN_CHUNKS) == linux
+    assert not P.use_processes("auto", 2, P.PROCESS_MIN_CHUNKS - 1)      # too short to repay the fork
+    assert P.use_processes("processes", 2, 2)
     assert not P.use_processes("auto", 1) and not P.use_processes("processes", 1)
     assert not P.use_processes("threads", 2) and P.use_processes("processes", 2)
     with pytest.raises(RenderError, match="parallel must be one of"):
@@ -139,7 +141,7 @@ def test_keyboard_interrupt_leaves_no_worker_process():
 
 
 def _auto_in_child(q):
-    q.put(P.use_processes("auto", 2))          # not "measure": a daemonic process may not fork
+    q.put(P.use_processes("auto", 2))
 
 
 def test_auto_is_threads_in_a_daemonic_process():
@@ -158,23 +160,3 @@ def test_command_lines_take_parallel(tmp_path):
     assert main(["render", str(ROOT / "assets/default_scene.toml"), "-o", str(out), "--width", "32",
                  "--height", "24", "--spp", "2", "--parallel", "threads", "--threads", "2"]) == 0
     assert out.exists()
-
-
-def _costly(i, seconds):
-    t = time.thread_time()
-    while time.thread_time() - t < seconds:
-        pass
-    return os.getpid()
-
-
-@pytest.mark.parametrize("seconds, forks", [(0.0, False), (0.2, True)])
-def test_measure_forks_only_when_the_chunks_add_up(seconds, forks):
-    """10 tasks of ``seconds`` CPU each; 10 x 0.2 s >= AUTO_PROCESS_SECONDS forks once the probe (task 5) is timed
-    on a thread; task 0, on the other thread meanwhile, is finished there."""
-    assert 10 * 0.2 >= P.AUTO_PROCESS_SECONDS
-    pids = []
-    with P.ChunkPool(_costly, 2, processes="measure") as pool:
-        assert pool.map([(i, seconds) for i in range(10)], _Bar(), lambda i, r: pids.append(r))
-        assert pool.processes is forks
-    me = os.getpid()
-    assert pids[0] == pids[5] == me and (me not in pids[1:5] + pids[6:]) is forks and _no_children()

@@ -51,7 +51,7 @@ def _parser():
                    help="adaptive: rewrite the outputs with the current image after a pass, at most every SECONDS")
     r.add_argument("--threads", type=positive_int, help="render workers (default: all cores)")
     r.add_argument("--parallel", choices=list(PARALLEL),
-                   help="render workers as forked processes or threads (default auto: processes on Linux for renders of more than ~1.5 CPU seconds)")
+                   help="render workers as forked processes or threads (default auto: processes on Linux for renders of at least 16 chunks)")
     r.add_argument("--width", type=positive_int, help="image width in pixels (overrides the scene)")
     r.add_argument("--height", type=positive_int, help="image height in pixels (overrides the scene)")
     r.add_argument("--seed", type=nonnegative_int)

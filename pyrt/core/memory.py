@@ -59,3 +59,25 @@ def tune_allocator():
         return False
     ok = libc.mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD) == 1
     return bool(libc.mallopt(_M_TRIM_THRESHOLD, TRIM_THRESHOLD) == 1 and ok)
+
+
+def release_free_memory():
+    """Return the heap's free pages to the OS now (glibc ``malloc_trim(0)``; elsewhere nothing). True when it ran.
+
+    Called before render workers are forked (:class:`pyrt.render.pool.ChunkPool`): the trim threshold above keeps
+    up to 256 MiB of freed memory in the process, and a forked worker that reuses those free blocks writes into
+    pages it shares with the parent, which copies every one of them (memory and page faults: measured +300 MB
+    for a glass preview after two chunks had run in the parent). Trimmed, the workers' new blocks are fresh
+    pages of their own."""
+    try:
+        glibc = os.confstr("CS_GNU_LIBC_VERSION")
+    except (AttributeError, ValueError, OSError):
+        return False
+    if not glibc or not glibc.startswith("glibc"):
+        return False
+    try:
+        libc = ctypes.CDLL("libc.so.6")
+    except OSError:
+        return False
+    libc.malloc_trim(0)
+    return True

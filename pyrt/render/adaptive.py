@@ -224,7 +224,9 @@ def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None,
         spec = dict(threads=1, seed=seed, aovs=aovs, nonfinite=nonfinite, integrator=integ)
         cam = scene.camera
         workers = 1 if ps is None else (ps.accel.threads if threads is None else int(threads))
-        processes = use_processes(parallel, workers) if runner is None else False
+        # the base pass's chunks, times 4: the passes after it add at least as many samples again, usually more
+        base_chunks = -(-scene.camera.width * scene.camera.height * min_spp // chunk_samples)
+        processes = use_processes(parallel, workers, 4 * base_chunks) and runner is None
         deadline = t_start + time_budget if time_budget is not None else math.inf
 
         def task(index, key, P, C, base, spp_after, timed):

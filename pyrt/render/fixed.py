@@ -90,9 +90,9 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     parallel : {"auto", "threads", "processes"}
         What the ``threads`` workers are (:mod:`pyrt.render.pool`): worker processes forked once the scene is
         prepared (no shared GIL: the shading's small-array NumPy calls run in parallel), or threads of this
-        process. "auto" (default): on Linux the render starts on threads and times its middle chunk; the rest go to
-        processes when the chunks add up to :data:`pyrt.render.pool.AUTO_PROCESS_SECONDS` of CPU (forking costs
-        ~60 ms), else stay on threads; threads elsewhere; one worker renders on the calling thread. The image is the same bit for bit either way.
+        process. "auto" (default): processes on Linux for renders of at least
+        :data:`pyrt.render.pool.PROCESS_MIN_CHUNKS` chunks (forking costs ~60 ms), threads otherwise and
+        elsewhere; one worker renders on the calling thread. The image is the same bit for bit either way.
 
     A ``KeyboardInterrupt`` while rendering cancels the chunks not yet started, waits for the running
     ones, shuts the worker pool down and propagates (no thread or process is left running).
@@ -141,10 +141,10 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
 
     make_integrator = None if ps is None else integrator_factory(ps, record_rays=record_rays, **integ)
     workers = 1 if ps is None else max(1, min(ps.accel.threads if threads is None else int(threads), n_chunks))
-    processes = use_processes(parallel, workers) if runner is None else False
+    processes = use_processes(parallel, workers, n_chunks) and runner is None
 
     def run_chunk(ci):
-        if processes:   # (maybe) a worker process, whose writes stay there: the chunk's pixels come back as a film
+        if processes:   # the worker's writes stay in the worker: the chunk's pixels come back as a film
             lo, hi = chunk_pixels(ci)
             part = None if split else Film(hi - lo, 1, aovs=aovs, nonfinite=nonfinite)
             st, piece = shade_fixed_chunk(ps, cam, make_integrator, seed, ci, layout, part, lo, aovs, nonfinite)

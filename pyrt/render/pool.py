@@ -8,8 +8,8 @@ memory does not grow with the number of chunks.
 **Threads or processes.** Embree's traversal and NumPy's array loops release the GIL, but the shading of a chunk
 is many NumPy calls on arrays of a few hundred to a few thousand rays (per material, light and bounce), whose
 Python-level work holds it: on the glTF previews two threads used 1.1-1.4 of the 2 cores (ClearCoatTest: render
-12.65 s on one thread, 11.19 s on two). Forked worker processes (``parallel="processes"``, and "auto" on Linux for
-renders whose chunks add up to :data:`AUTO_PROCESS_SECONDS`) do not share a GIL. They are forked once per
+12.65 s on one thread, 11.19 s on two). Forked worker processes (``parallel="processes"``, the default where
+``fork`` is the platform's way to start processes, i.e. Linux) do not share a GIL. They are forked once per
 render, after the scene is prepared (the BVH built), so they inherit the prepared scene, the camera and the
 integrator settings copy-on-write, without pickling or rebuilding anything; a task sends only its arguments (a
 chunk index, or an adaptive pass's pixels) and gets back the chunk's pixel sums and statistics. The textures' MIP
@@ -20,23 +20,22 @@ Workers ignore SIGINT: a Ctrl-C reaches the parent, which stops submitting chunk
 from __future__ import annotations
 
 from collections import deque
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor
 from concurrent.futures.process import BrokenProcessPool, ProcessPoolExecutor
 import itertools
 import multiprocessing
 import signal
 import sys
-import time
 import warnings
 
 from pyrt.core.errors import RenderError
+from pyrt.core.memory import release_free_memory
 from pyrt.integrators.glossy import GlossyIntegrator
 from pyrt.integrators.whitted import Integrator
 
 #: ``integrator=`` names: strict Whitted (delta lobes only, the default) and glossy reflection rays
 INTEGRATORS = ("whitted", "glossy")
-#: ``parallel=`` choices: "auto" (on Linux processes for renders long enough to repay the fork, see
-#: :func:`use_processes`; threads otherwise)
+#: ``parallel=`` choices: "auto" (processes where fork is the platform's start method, threads elsewhere)
 PARALLEL = ("auto", "threads", "processes")
 
 
@@ -57,20 +56,16 @@ WINDOW = 16
 PROCESS_WINDOW = 4
 
 
-#: "auto" forks worker processes when a render's chunks, timed by its middle one (on a worker thread: its thread's
-#: CPU time), add up to at least this many CPU seconds: forking, the workers' cold heaps and the results' transfer cost
-#: ~60 ms of wall and ~0.1 s of CPU per render, which short renders of cheap chunks do not repay
-#: (tools/bench_parallel.py: processes / threads 1.10x on the 1-spp bench scene, 0.37 s of CPU; 1.06-1.14x on the
-#: diffuse and shadowed kinds at 16 spp, 0.56-0.64 s; 0.68-0.87x on the specular and env kinds, 1.9-2.9 s; 0.64-0.72x on
-#: the default scene and a glTF preview, 6-7 s)
-AUTO_PROCESS_SECONDS = 1.5
+#: "auto" forks worker processes for renders of at least this many chunks: forking, the workers' cold heaps and
+#: the results' transfer cost ~60 ms of wall and ~0.1 s of CPU per render (tools/bench_parallel.py: the 1-spp bench
+#: scene, 10 chunks, 0.274 s on processes against 0.213 s on threads), which only longer renders repay
+PROCESS_MIN_CHUNKS = 16
 
 
-def use_processes(parallel, workers):
-    """How a render on ``workers`` workers with ``parallel`` (:data:`PARALLEL`) runs: True (forked processes),
-    False (threads, or the calling thread for one worker), or "measure" for "auto" on Linux outside a daemonic
-    process (which may not have children): :class:`ChunkPool` starts on threads, times the middle chunk and
-    forks when the render's chunks add up to :data:`AUTO_PROCESS_SECONDS`. "processes" wherever fork is (else a :class:`RenderError`)."""
+def use_processes(parallel, workers, chunks=None):
+    """Whether a render of ``chunks`` chunks (None: unknown) on ``workers`` workers runs on processes, for
+    ``parallel`` (:data:`PARALLEL`): "processes" wherever fork is; "auto" on Linux for renders of at least
+    :data:`PROCESS_MIN_CHUNKS` chunks, except in a daemonic process (which may not have children)."""
     if parallel not in PARALLEL:
         raise RenderError(f"render: parallel must be one of {list(PARALLEL)}, got {parallel!r}")
     if workers <= 1 or parallel == "threads":
@@ -81,9 +76,9 @@ def use_processes(parallel, workers):
             raise RenderError(f"render: parallel='processes' needs the fork start method, which {sys.platform} "
                               "does not have; use parallel='threads'")
         return True
-    if fork and sys.platform.startswith("linux") and not multiprocessing.current_process().daemon:
-        return "measure"
-    return False
+    if chunks is not None and chunks < PROCESS_MIN_CHUNKS:
+        return False
+    return fork and sys.platform.startswith("linux") and not multiprocessing.current_process().daemon
 
 
 #: per render: token -> (task, prepared scene); read by the forked workers, which inherit it
@@ -117,11 +112,8 @@ class ChunkPool:
         ``task(*args)`` shades one chunk. In processes its result is pickled back; it must not write into
         the caller's objects (a worker's writes stay in the worker).
     workers : int
-    processes : bool or "measure"
-        Forked processes instead of threads (see the module docstring; needs the ``fork`` start method); "measure":
-        the first :meth:`map` times its middle task on a thread (its thread's CPU time) while task 0 runs on
-        another; when that time times the number of tasks is at least :data:`AUTO_PROCESS_SECONDS` it forks
-        processes for the rest, else it goes on with threads.
+    processes : bool
+        Forked processes instead of threads (see the module docstring); needs the ``fork`` start method.
     prepared : PreparedScene, optional
         The prepared scene ``task`` reads (its accelerator is made single-threaded in the workers).
     """
@@ -132,18 +124,11 @@ class ChunkPool:
         self._token = None
 
     def __enter__(self):
-        if self.processes != "measure":
-            self._start(self.processes)
-        return self
-
-    def _start(self, processes):
-        """Start the workers: ``processes`` or threads (nothing for one worker)."""
-        if processes:
-            self.processes = True
         if self.workers > 1:
-            if self.processes is True:
+            if self.processes:
                 if self.prepared is not None:
                     self.prepared.before_fork()
+                release_free_memory()         # free heap pages would be copied by the workers that reuse them
                 self._token = next(_TOKENS)
                 _TASKS[self._token] = (self.task, self.prepared)
                 self._pool = ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("fork"),
@@ -157,6 +142,7 @@ class ChunkPool:
                     self._pool.submit(int).result()
             else:
                 self._pool = ThreadPoolExecutor(max_workers=self.workers)
+        return self
 
     def __exit__(self, *exc):
         self.close()
@@ -168,17 +154,14 @@ class ChunkPool:
             self._pool = None
         _TASKS.pop(self._token, None)
 
-    def _submit(self, args, halted, timed=False):
-        """Submit one task; ``timed``: on a thread, returning ``(result, its CPU seconds on that thread)``."""
-        if self.processes is True:
+    def _submit(self, args, halted):
+        if self.processes:
             return self._pool.submit(_child_run, self._token, args)
-        if halted is None and not timed:
+        if halted is None:
             return self._pool.submit(self.task, *args)
 
         def guarded():
-            t0 = time.thread_time()
-            res = None if halted is not None and halted() else self.task(*args)
-            return (res, time.thread_time() - t0) if timed else res
+            return None if halted() else self.task(*args)
         return self._pool.submit(guarded)
 
     def map(self, args, bar, collect, halted=None):
@@ -193,9 +176,6 @@ class ChunkPool:
         re-raised (a worker process that died is a :class:`RenderError`).
         """
         n = len(args)
-        ready = {}                      # task index -> a finished future (the timing probe's)
-        if self.processes == "measure":
-            self._start(False)          # threads while a probe is timed
         if self._pool is None:
             for i in range(n):
                 res = None if halted is not None and halted() else self.task(*args[i])
@@ -205,40 +185,11 @@ class ChunkPool:
                 bar.update()
             return True
         window = deque()
+        limit = (PROCESS_WINDOW if self.processes else WINDOW) * self.workers
         nxt, stopped = 0, False
         try:
-            if self.processes == "measure" and n:
-                # the probe: the middle task (the first rows of an image are often sky, cheaper than the rest),
-                # timed on its thread while task 0 runs on the other; then processes or threads for the rest
-                k = n // 2
-                probe = self._submit(args[k], halted, timed=True)
-                if k:
-                    window.append((0, self._submit(args[0], halted)))
-                    nxt = 1
-                res, cost = probe.result()
-                ready[k] = Future()
-                ready[k].set_result(res)
-                if res is not None and cost * n >= AUTO_PROCESS_SECONDS:
-                    while window:             # what runs on threads is collected first, in order
-                        i, f = window.popleft()
-                        res = f.result()
-                        if res is None:
-                            stopped = True
-                            continue
-                        collect(i, res)
-                        bar.update()
-                    self._pool.shutdown(wait=True)
-                    self._pool = None
-                    self._start(True)
-                else:
-                    self.processes = False
-            limit = (PROCESS_WINDOW if self.processes else WINDOW) * self.workers
             while window or nxt < n:
                 while nxt < n and len(window) < limit and not stopped:
-                    if nxt in ready:
-                        window.append((nxt, ready.pop(nxt)))
-                        nxt += 1
-                        continue
                     if halted is not None and self.processes and halted():
                         stopped = True
                         break

@@ -76,7 +76,7 @@ def _parser():
     ap.add_argument("--budget", type=positive_float, help="time budget per asset (s)")
     ap.add_argument("--threads", type=positive_int, help="render workers per asset (default: all cores)")
     ap.add_argument("--parallel", default="auto", choices=list(PARALLEL),
-                    help="render workers as forked processes or threads (default auto: processes on Linux for renders of more than ~1.5 CPU seconds)")
+                    help="render workers as forked processes or threads (default auto: processes on Linux for renders of at least 16 chunks)")
     ap.add_argument("--bvh-quality", default="auto", choices=["auto", "low", "medium", "high"],
                     help="Embree's BVH build quality (auto: low from 1 M triangles, else medium)")
     ap.add_argument("--dask", nargs="?", const="local", default=None, metavar="SCHEDULER",

@@ -100,8 +100,8 @@ class PreviewOptions:
     crease_angle: float = 30.0
     time_budget: float | None = None     # seconds per asset
     threads: int | None = None           # Embree/shading workers per render (None = all cores)
-    #: what the workers are: pyrt.render_full's parallel ("auto": forked processes on Linux for renders of more than
-    #: pyrt.render.pool.AUTO_PROCESS_SECONDS of CPU, else threads)
+    #: what the workers are: pyrt.render_full's parallel ("auto": forked processes on Linux for renders of at least
+    #: pyrt.render.pool.PROCESS_MIN_CHUNKS chunks, else threads)
     parallel: str = "auto"
     #: camera samples per render chunk (pyrt.render's chunk_samples, the same 32768 by default): a chunk's working
     #: set is ~4-6 kB per sample and each thread holds one. 16384 keeps the helmet-like model of
