@@ -47,15 +47,8 @@ def tune_allocator():
     """
     if os.environ.get(ENV_SWITCH, "").strip().lower() == "default":
         return False
-    try:
-        glibc = os.confstr("CS_GNU_LIBC_VERSION")    # "glibc 2.36"; missing or an error elsewhere
-    except (AttributeError, ValueError, OSError):
-        return False
-    if not glibc or not glibc.startswith("glibc"):
-        return False
-    try:
-        libc = ctypes.CDLL("libc.so.6")
-    except OSError:
+    libc = _glibc()
+    if libc is None:
         return False
     ok = libc.mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD) == 1
     return bool(libc.mallopt(_M_TRIM_THRESHOLD, TRIM_THRESHOLD) == 1 and ok)
@@ -69,15 +62,22 @@ def release_free_memory():
     pages it shares with the parent, which copies every one of them (memory and page faults: measured +300 MB
     for a glass preview after two chunks had run in the parent). Trimmed, the workers' new blocks are fresh
     pages of their own."""
-    try:
-        glibc = os.confstr("CS_GNU_LIBC_VERSION")
-    except (AttributeError, ValueError, OSError):
-        return False
-    if not glibc or not glibc.startswith("glibc"):
-        return False
-    try:
-        libc = ctypes.CDLL("libc.so.6")
-    except OSError:
+    libc = _glibc()
+    if libc is None:
         return False
     libc.malloc_trim(0)
     return True
+
+
+def _glibc():
+    """The C library when it is glibc (``ctypes.CDLL``), else None."""
+    try:
+        glibc = os.confstr("CS_GNU_LIBC_VERSION")    # "glibc 2.36"; missing or an error elsewhere
+    except (AttributeError, ValueError, OSError):
+        return None
+    if not glibc or not glibc.startswith("glibc"):
+        return None
+    try:
+        return ctypes.CDLL("libc.so.6")
+    except OSError:
+        return None
