@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 import pyrt
-from pyrt.textures.image import ImageTexture, image_textures
+from pyrt.integrators.prepared import image_textures
+from pyrt.textures.image import ImageTexture
 from pyrt.textures.normal_map import NormalMap
 
 

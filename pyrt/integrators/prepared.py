@@ -12,7 +12,10 @@ from pyrt.geometry.accel import Accel
 from pyrt.integrators import gouraud
 from pyrt.integrators.coverage import CoverageTable
 from pyrt.integrators.media import NestedMedia
-from pyrt.textures.image import image_textures
+from pyrt.lights.base import Light
+from pyrt.materials.base import Material
+from pyrt.textures.base import Texture
+from pyrt.textures.image import ImageTexture
 
 
 @dataclass
@@ -113,3 +116,25 @@ class PreparedScene:
 
     def __exit__(self, *exc):
         self.close()
+
+
+def image_textures(*roots):
+    """The :class:`ImageTexture` objects reachable from ``roots`` through the attributes of materials, lights and
+    textures (and the lists, tuples and dicts they hold), each once, in the order found. A texture held by an
+    object of another kind is not found: the render still reads it, only :meth:`PreparedScene.before_fork` does
+    not build its pyramid ahead (each worker then builds what it reads)."""
+    found, seen, todo = [], set(), list(roots)
+    while todo:
+        obj = todo.pop()
+        if id(obj) in seen:
+            continue
+        seen.add(id(obj))
+        if isinstance(obj, ImageTexture):
+            found.append(obj)
+        if isinstance(obj, dict):
+            todo.extend(obj.values())
+        elif isinstance(obj, (list, tuple)):
+            todo.extend(obj)
+        elif isinstance(obj, (Material, Light, Texture)):
+            todo.extend(vars(obj).values())
+    return found

@@ -180,8 +180,8 @@ class Integrator:
 
         Bounce by bounce (:meth:`_bounce`); with :attr:`batch_rays` set, a bounce of more rays is shaded in slices
         of at most that many and the rays the slices spawn make the next bounce's one batch: the working set is
-        a slice's, while the deep bounces, whose batches are small, pay their per-query costs (a texture lookup,
-        a BSDF and a shadow query per material and light) once per chunk instead of once per slice."""
+        a slice's, and a small deep bounce is still one batch (one texture lookup, BSDF and shadow query per
+        material and light for the whole chunk)."""
         n = rays.size
         L = np.zeros((n, 3))
         aovs = None

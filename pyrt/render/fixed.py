@@ -83,15 +83,16 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
 
     batch_rays : int, optional
         Shade every bounce of a chunk in slices of at most this many rays, the rays they spawn gathered into one
-        batch for the next bounce (:meth:`pyrt.integrators.whitted.Integrator.render_samples`): with a
-        ``chunk_samples`` several times larger, the same working set and bigger (cheaper per ray) deep
-        bounces. Default None: a bounce at once. The estimate is the same; the noise differs (other random
-        draws).
+        batch for the next bounce (:meth:`pyrt.integrators.whitted.Integrator.render_samples`): it bounds the
+        working set of a bounce that holds more rays than the chunk's camera samples (the glossy integrator's
+        first bounce: ``glossy_samples`` rays per hit), at the cost of more per-batch work where it cuts (the
+        previewer: docs/preview.md). Default None: a bounce at once. The estimate is the same; the noise differs
+        (other random draws).
     parallel : {"auto", "threads", "processes"}
         What the ``threads`` workers are (:mod:`pyrt.render.pool`): worker processes forked once the scene is
         prepared (no shared GIL: the shading's small-array NumPy calls run in parallel), or threads of this
         process. "auto" (default): processes on Linux for renders of at least
-        :data:`pyrt.render.pool.PROCESS_MIN_CHUNKS` chunks (forking costs ~60 ms), threads otherwise and
+        :data:`pyrt.render.pool.PROCESS_MIN_CHUNKS` chunks (forking costs ~50 ms), threads otherwise and
         elsewhere; one worker renders on the calling thread. The image is the same bit for bit either way.
 
     A ``KeyboardInterrupt`` while rendering cancels the chunks not yet started, waits for the running

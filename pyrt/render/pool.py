@@ -8,8 +8,8 @@ memory does not grow with the number of chunks.
 **Threads or processes.** Embree's traversal and NumPy's array loops release the GIL, but the shading of a chunk
 is many NumPy calls on arrays of a few hundred to a few thousand rays (per material, light and bounce), whose
 Python-level work holds it: on the glTF previews two threads used 1.1-1.4 of the 2 cores (ClearCoatTest: render
-12.65 s on one thread, 11.19 s on two). Forked worker processes (``parallel="processes"``, the default where
-``fork`` is the platform's way to start processes, i.e. Linux) do not share a GIL. They are forked once per
+12.65 s on one thread, 11.19 s on two). Forked worker processes (``parallel="processes"``, and "auto" on Linux
+for renders of at least :data:`PROCESS_MIN_CHUNKS` chunks) do not share a GIL. They are forked once per
 render, after the scene is prepared (the BVH built), so they inherit the prepared scene, the camera and the
 integrator settings copy-on-write, without pickling or rebuilding anything; a task sends only its arguments (a
 chunk index, or an adaptive pass's pixels) and gets back the chunk's pixel sums and statistics. The textures' MIP
@@ -35,7 +35,8 @@ from pyrt.integrators.whitted import Integrator
 
 #: ``integrator=`` names: strict Whitted (delta lobes only, the default) and glossy reflection rays
 INTEGRATORS = ("whitted", "glossy")
-#: ``parallel=`` choices: "auto" (processes where fork is the platform's start method, threads elsewhere)
+#: ``parallel=`` choices: "auto" (processes on Linux for renders of at least PROCESS_MIN_CHUNKS chunks, see
+#: :func:`use_processes`; threads otherwise)
 PARALLEL = ("auto", "threads", "processes")
 
 
@@ -57,8 +58,10 @@ PROCESS_WINDOW = 4
 
 
 #: "auto" forks worker processes for renders of at least this many chunks: forking, the workers' cold heaps and
-#: the results' transfer cost ~60 ms of wall and ~0.1 s of CPU per render (tools/bench_parallel.py: the 1-spp bench
-#: scene, 10 chunks, 0.274 s on processes against 0.213 s on threads), which only longer renders repay
+#: the results' transfer cost ~50 ms of wall and ~0.1 s of CPU per render (tools/bench_parallel.py --rounds 3: the
+#: 1-spp bench scene, 10 chunks, 0.262 s and 0.48 CPU s on processes against 0.213 s and 0.37 s on threads), which
+#: only longer renders repay. The 38-chunk diffuse and shadowed kinds of tools/bench_kinds.py at 16 spp still lose
+#: (x1.20-1.22); the previews, 38 chunks of costlier shading, gain (x0.48-0.67)
 PROCESS_MIN_CHUNKS = 16
 
 

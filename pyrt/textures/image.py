@@ -530,22 +530,3 @@ class ChannelTexture(Texture):
             values = cache[key] = self.source.evaluate(ctx)
         return values[:, self.channel:self.channel + 1]
 
-
-def image_textures(*roots):
-    """The :class:`ImageTexture` objects reachable from ``roots`` (materials, lights, textures) through the
-    attributes of pyrt's objects, lists, tuples and dicts, each once, in the order found."""
-    found, seen, todo = [], set(), list(roots)
-    while todo:
-        obj = todo.pop()
-        if id(obj) in seen or obj is None or isinstance(obj, (str, bytes, int, float, np.ndarray)):
-            continue
-        seen.add(id(obj))
-        if isinstance(obj, ImageTexture):
-            found.append(obj)
-        if isinstance(obj, dict):
-            todo.extend(obj.values())
-        elif isinstance(obj, (list, tuple)):
-            todo.extend(obj)
-        elif type(obj).__module__.startswith("pyrt.") and "__dict__" in dir(type(obj)):   # pyrt's own objects
-            todo.extend(vars(obj).values())
-    return found
