@@ -208,19 +208,43 @@ def bilinear_taps(shape, uv, wrap):
     return flat, weights
 
 
+def bilinear_channels(image, flat, weights, table=None):
+    """:func:`bilinear_combine` channel by channel: the lookup as a ``(C, N)`` array (row ``c`` = channel ``c``),
+    the same numbers.
+
+    The four taps of every lookup are one gather (a contiguous image's texels viewed as one opaque item each, so
+    the gather copies whole texels, 2-4x faster than ``take(axis=0)`` of (N, C) rows), and the weighted sum runs on
+    1-D rows: NumPy broadcasting (N, 1) weights over the 3-wide channel axis runs 3 elements at a time. Each
+    channel is decoded by ``table`` and summed ``w0 t0 + w1 t1 + w2 t2 + w3 t3`` in float64, then cast, as
+    :func:`bilinear_combine` does."""
+    h, w = image.shape[:2]
+    c = image.shape[2] if image.ndim == 3 else 1
+    n = flat[0].shape[0]
+    dt = _dtype(image, table)
+    if not image.flags.c_contiguous:
+        return np.ascontiguousarray(bilinear_combine(image, flat, weights, table).reshape(n, c).T)
+    texel = np.dtype((np.void, c * image.dtype.itemsize))
+    items = image.reshape(-1).view(texel)                               # (H*W,) one item per texel
+    taps = items.take(np.concatenate(flat)).view(image.dtype).reshape(4 * n, c)
+    w0, w1, w2, w3 = (np.asarray(x).reshape(-1) for x in weights)
+    out = np.empty((c, n), dtype=dt)
+    for ch in range(c):
+        col = taps[:, ch]
+        v = (col if table is None else table.take(col)).reshape(4, n)
+        out[ch] = w0 * v[0] + w1 * v[1] + w2 * v[2] + w3 * v[3]
+    return out
+
+
 def bilinear_combine(image, flat, weights, table=None):
     """The bilinear lookup of :func:`bilinear_taps`' ``(flat, weights)`` on ``image`` (H, W, C): ``sum_k
     weights[k] * image[flat[k]]`` (decoded by ``table``), cast to the image's (the table's) dtype."""
     h, w = image.shape[:2]
     if image.flags.c_contiguous:
-        src = image.reshape(h * w, -1)
+        out = bilinear_channels(image, flat, weights, table)
+        return np.ascontiguousarray(out.T).reshape((flat[0].shape[0],) + image.shape[2:])
 
-        def tap(i):
-            t = np.take(src, i, axis=0).reshape((i.shape[0],) + image.shape[2:])
-            return t if table is None else table.take(t)
-    else:
-        def tap(i):
-            return image[i // w, i % w] if table is None else table[image[i // w, i % w]]
+    def tap(i):
+        return image[i // w, i % w] if table is None else table[image[i // w, i % w]]
     out = (weights[0] * tap(flat[0]) + weights[1] * tap(flat[1]) + weights[2] * tap(flat[2])
            + weights[3] * tap(flat[3]))
     return out.astype(_dtype(image, table), copy=False)
@@ -442,10 +466,13 @@ def apply_trilinear_plan(levels, plan, table=None):
     of ``table`` when given); only the levels the plan reads are indexed (a lazy pyramid builds no other)."""
     n, steps = plan
     base = levels[0]
-    out = np.zeros((n, base.shape[2]), dtype=np.float64)
+    out = np.zeros((base.shape[2], n), dtype=np.float64)     # channel rows (bilinear_channels)
     for lev, idx, w, flat, weights in steps:
-        out[idx] += w * bilinear_combine(levels[lev], flat, weights, table if lev == 0 else None)
-    return out.astype(_dtype(base, table), copy=False)
+        bil = bilinear_channels(levels[lev], flat, weights, table if lev == 0 else None)
+        wk = w.reshape(-1)
+        for row, b in zip(out, bil):
+            row[idx] += wk * b
+    return out.T.astype(_dtype(base, table), order="C")
 
 
 # ----------------------------------------------------------------------------- normal maps
