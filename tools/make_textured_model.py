@@ -127,7 +127,9 @@ def helmet_mesh(rings, segments):
     idx = np.arange((rings + 1) * (segments + 1)).reshape(rings + 1, segments + 1)
     a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
     c, d = idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
-    tris = np.concatenate([np.stack([a, c, b], 1)[segments:], np.stack([b, c, d], 1)[:-segments]])
+    # counter-clockwise seen from outside (glTF's front faces): x, z = sin(T) (cos P, sin P), y = cos(T) is a
+    # left-handed (T, P) chart, so a -> b (+P) -> c (+T) turns counter-clockwise around the outward normal
+    tris = np.concatenate([np.stack([a, b, c], 1)[segments:], np.stack([b, d, c], 1)[:-segments]])
     # vertex normals: area-weighted face normals, the seam's duplicates averaged by position
     v = pos[tris]
     fn = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
