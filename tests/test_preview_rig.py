@@ -1,5 +1,6 @@
 """The previewer's up-axis guess (hull support, symmetry, file metadata) and its framing (the projected hull
 fills the frame), issue 14 item 6. The scan-like shapes come from tools/scan_shapes.py."""
+import dataclasses
 import math
 import os
 import sys
@@ -182,3 +183,73 @@ def test_turntable_starts_at_the_automatic_azimuth(tmp_path):
     res = P.render_preview(_box_asset((2.0, 1.5, 0.2)), P.PreviewOptions(width=16, height=12, spp=1, up="+y",
                                                                            turntable=4))
     assert res.azimuths == [0.0, 90.0, 180.0, 270.0]
+
+
+# ----------------------------------------------------------------------------- inside-out models
+
+def _box_glb(path, inside_out, double_sided=False):
+    """A unit box as a single-sided glTF (the default material), its faces wound counter-clockwise seen from
+    outside (glTF's front) or, ``inside_out``, clockwise."""
+    from pyrt.io.assets.gltf_file import pack_glb
+    box = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+    faces = box.faces[:, ::-1] if inside_out else box.faces
+    pos = np.ascontiguousarray(box.vertices, dtype=np.float32)
+    idx = np.ascontiguousarray(faces, dtype=np.uint32)
+    blob = pos.tobytes() + idx.tobytes()
+    header = {
+        "asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "material": 0}]}],
+        "materials": [{"doubleSided": double_sided, "pbrMetallicRoughness": {"metallicFactor": 0.0}}],
+        "buffers": [{"byteLength": len(blob)}],
+        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": pos.nbytes},
+                        {"buffer": 0, "byteOffset": pos.nbytes, "byteLength": idx.nbytes}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": len(pos), "type": "VEC3",
+                       "min": pos.min(0).tolist(), "max": pos.max(0).tolist()},
+                      {"bufferView": 1, "componentType": 5125, "count": idx.size, "type": "SCALAR"}],
+    }
+    with open(path, "wb") as fh:
+        fh.write(pack_glb(header, blob))
+    return str(path)
+
+
+@pytest.mark.parametrize("inside_out, double_sided, warned", [(False, False, False), (True, False, True),
+                                                              (True, True, False)])
+def test_inside_out_model_is_named_and_double_sided_shows_it(tmp_path, inside_out, double_sided, warned):
+    """A closed single-sided box wound inside out: every face the camera reaches first is a back face (fraction 1),
+    culled, so the render shows the inside of the far walls; the preview says so once and names --double-sided.
+    A box wound right: fraction 0, no warning. With double_sided the inside-out box is seen from outside: the
+    same pixels as the right box (culling off, the geometric normal faces the camera either way)."""
+    path = _box_glb(tmp_path / "box.glb", inside_out)
+    opts = P.PreviewOptions(width=48, height=36, spp=1, up="+y", double_sided=double_sided, ground=False)
+    ps = P.PreviewScene(load_asset(path), opts)
+    try:
+        ps._set_view(ps.azimuth)
+        frac, n = ps.back_face_fraction()
+    finally:
+        ps.close()
+    if double_sided:                  # nothing in view culls back faces
+        assert (frac, n) == (0.0, 0)
+    else:
+        assert n > 100 and frac == (1.0 if inside_out else 0.0)
+    res = P.render_preview(path, opts)
+    named = [w for w in res.warnings if "seen from behind" in w]
+    assert len(named) == (1 if warned else 0)
+    if warned:
+        assert "--double-sided" in named[0] and "box.glb" in named[0]
+    if inside_out and double_sided:
+        ok = P.render_preview(_box_glb(tmp_path / "ok.glb", False), dataclasses.replace(opts, double_sided=False))
+        np.testing.assert_allclose(res.images[0], ok.images[0], rtol=1e-6, atol=1e-7)
+
+
+@pytest.mark.parametrize("extra, warned", [([], True), (["--double-sided"], False)])
+def test_preview_cli_names_an_inside_out_model(tmp_path, capsys, extra, warned):
+    """``pyrt-preview``: the inside-out box gets one ``warning:`` line naming it and the remedy; ``--double-sided``
+    renders both sides and has nothing to say."""
+    path = _box_glb(tmp_path / "box.glb", inside_out=True)
+    code = P.main([path, "-o", str(tmp_path / "v.png"), "--width", "32", "--height", "24", "--spp", "1"] + extra)
+    err = capsys.readouterr().err
+    assert code == 0 and os.path.exists(tmp_path / "v.png")
+    lines = [ln for ln in err.splitlines() if "seen from behind" in ln]
+    assert len(lines) == (1 if warned else 0)
+    if warned:
+        assert lines[0].startswith("warning: ") and "--double-sided" in lines[0]

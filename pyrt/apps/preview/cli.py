@@ -77,6 +77,9 @@ def _parser():
     ap.add_argument("--threads", type=positive_int, help="render workers per asset (default: all cores)")
     ap.add_argument("--parallel", default="auto", choices=list(PARALLEL),
                     help="render workers as forked processes or threads (default auto: processes on Linux for renders of at least 16 chunks)")
+    ap.add_argument("--double-sided", action="store_true",
+                    help="render both sides of every face (default: as the file says; back faces of single-sided "
+                         "glTF materials are culled)")
     ap.add_argument("--bvh-quality", default="auto", choices=["auto", "low", "medium", "high"],
                     help="Embree's BVH build quality (auto: low from 1 M triangles, else medium)")
     ap.add_argument("--dask", nargs="?", const="local", default=None, metavar="SCHEDULER",
@@ -114,7 +117,7 @@ def _run(args, cancel):
                           exposure=args.exposure,
                           tonemap=args.tonemap, turntable=args.turntable, formats=formats, aovs=args.aovs,
                           seed=args.seed, time_budget=args.budget, threads=args.threads, parallel=args.parallel,
-                          bvh_quality=args.bvh_quality, target_error=args.target_error,
+                          bvh_quality=args.bvh_quality, double_sided=args.double_sided, target_error=args.target_error,
                           max_spp=args.max_spp,
                           min_spp=args.min_spp).validate()
     paths = collect_inputs(args.models)

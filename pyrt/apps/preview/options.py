@@ -98,6 +98,10 @@ class PreviewOptions:
     max_spp: int | None = None
     min_spp: int = 2
     crease_angle: float = 30.0
+    #: render both sides of every model face (False: as the file says, glTF's doubleSided; back faces of single-sided
+    #: materials are culled). The previewer warns when most of the single-sided surface a view sees is back faces
+    #: (BACK_FACE_WARNING: inverted winding or normals, the model looks hollow); this is the remedy it names
+    double_sided: bool = False
     time_budget: float | None = None     # seconds per asset
     threads: int | None = None           # Embree/shading workers per render (None = all cores)
     #: what the workers are: pyrt.render_full's parallel ("auto": forked processes on Linux for renders of at least
@@ -210,6 +214,13 @@ ADAPTIVE_MAX_SPP = 16
 BOARD_DEPTH_RATIO = 0.25
 #: ``azimuth=None`` views every other model from this azimuth (degrees)
 DEFAULT_AZIMUTH = 35.0
+
+#: the previewer warns when more than this fraction of the single-sided model surface a view's first rays reach
+#: (culling off, a BACK_FACE_GRID of pixel-centre rays) is back faces: a model whose faces are wound clockwise seen
+#: from outside (or whose normals point inward) looks hollow when they are culled as glTF's doubleSided=false asks
+BACK_FACE_WARNING = 0.5
+#: the pixel-centre rays of that check (columns, rows), spread over the view
+BACK_FACE_GRID = (64, 48)
 
 #: ``bvh_quality="auto"`` builds models of at least this many triangles (instances counted) at Embree's "low" quality
 BVH_LOW_TRIANGLES = 1_000_000

@@ -23,8 +23,8 @@ from pyrt.lights import LatLongEnvironment, set_environment
 from pyrt.materials import Lambert
 from pyrt.scene import Scene
 from pyrt.io.assets import Asset, load_asset
-from pyrt.apps.preview.options import (ADAPTIVE_MAX_SPP, BOARD_DEPTH_RATIO, BVH_LOW_TRIANGLES, DEFAULT_AZIMUTH,
-                                       EMISSIVE_POWER_RATIO, BudgetExceeded, PreviewError, PreviewInterrupted,
+from pyrt.apps.preview.options import (ADAPTIVE_MAX_SPP, BACK_FACE_GRID, BACK_FACE_WARNING, BOARD_DEPTH_RATIO,
+                                       BVH_LOW_TRIANGLES, DEFAULT_AZIMUTH, EMISSIVE_POWER_RATIO, BudgetExceeded, PreviewError, PreviewInterrupted,
                                        PreviewOptions)
 from pyrt.apps.preview.studio import STUDIO_PREVIEW_SAMPLES, StudioEnvironment, camera_rotation
 from pyrt.apps.preview.rig import (auto_exposure, bounding_sphere, detect_up_axis, frame_camera, frame_points,
@@ -73,6 +73,10 @@ class PreviewScene:
                                                    crease_angle=o.crease_angle, lights=o.lights in ("asset", "both"),
                                                    timings=self.timings)
         self.warnings += [str(w.message) for w in caught]
+        if o.double_sided:        # both sides of every model face (PreviewOptions.double_sided)
+            for mid in sorted({self.scene.meshes[k].material_id for k in self.model_meshes}):
+                self.scene.materials[mid].set_coverage(double_sided=True)
+        self._back_faces_checked = False
         #: the model's emissive meshes as a light (PreviewOptions.emissive_lights), None when off or nothing emits
         self.emissive_light = None
         if o.emissive_lights == "auto":
@@ -158,6 +162,29 @@ class PreviewScene:
         self.scene.background = bg
         self.scene.lights[:] = list(self.asset_lights) + rig
 
+    def back_face_fraction(self, camera=None, grid=BACK_FACE_GRID):
+        """``(fraction, n)``: of the ``n`` rays of a ``grid = (columns, rows)`` of pixel centres over the view whose
+        first surface (culling off) is a model face of a material that culls back faces
+        (:attr:`pyrt.materials.Material.culls_back_faces`), the fraction that reach that face from behind (its
+        winding normal, counter-clockwise = front, points away from the camera). Near 1 for a closed model wound
+        inside out: culled, its near side vanishes and the inside of its far side shows."""
+        cam = camera or self.scene.camera
+        gw, gh = min(grid[0], cam.width), min(grid[1], cam.height)
+        xs = (np.arange(gw) + 0.5) * (cam.width / gw)
+        ys = (np.arange(gh) + 0.5) * (cam.height / gh)
+        X, Y = np.meshgrid(xs, ys)
+        d = cam.directions(X.ravel(), Y.ravel())
+        hits = self.prepared.accel.intersect(np.broadcast_to(cam.position, d.shape), d)
+        geo = self.prepared.geo
+        culls = np.array([m.culls_back_faces for m in self.scene.materials], dtype=bool)
+        h = np.flatnonzero(hits.hit & np.isin(hits.mesh_id, self.model_meshes))
+        face = geo.face_offset[hits.mesh_id[h]] + hits.prim_id[h]
+        sel = culls[geo.face_material[face]]
+        if not sel.any():
+            return 0.0, 0
+        back = np.einsum("ij,ij->i", geo.face_normals[face[sel]], d[h[sel]]) > 0
+        return float(back.mean()), int(sel.sum())
+
     def model_mask(self, camera=None):
         """(H, W) bool: pixel-centre rays that hit the model (not the ground, not the background)."""
         cam = camera or self.scene.camera
@@ -172,6 +199,14 @@ class PreviewScene:
         """Render one view; the first call fixes the exposure (unless given). Returns a RenderResult."""
         o = self.options
         self._set_view(azimuth)
+        if not self._back_faces_checked:      # once per model, at its first view
+            self._back_faces_checked = True
+            frac, n = self.back_face_fraction()
+            if frac > BACK_FACE_WARNING:
+                self.warnings.append(
+                    f"{self.asset.path}: {100 * frac:.0f}% of the single-sided surface in view is seen from behind "
+                    "(faces wound clockwise seen from outside, or normals inverted?): back faces are culled as the "
+                    "file asks (glTF doubleSided false), so the model looks hollow; --double-sided renders both sides")
         with _warnings.catch_warnings(record=True) as caught:
             _warnings.simplefilter("always")
             glass = bool(self.prepared.dielectric.any())
