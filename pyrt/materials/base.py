@@ -386,6 +386,12 @@ class Material:
         weight = f / np.where(pdf > 0, pdf, 1.0)[:, None]
         return wi, weight, pdf
 
+    def sample_direction(self, wo, u, ctx):
+        """The local directions ``wi`` (N, 3) that :meth:`sample` draws for ``u``, without its weight and pdf (what
+        a layered material needs of its base to mix strategies: :class:`pyrt.materials.Clearcoat`). Models whose
+        ``sample`` evaluates the BSDF override it to skip that."""
+        return self.sample(wo, u, ctx)[0]
+
     def pdf(self, wo, wi, ctx):
         """Solid-angle density (N,) of :meth:`sample` for local ``wo``, ``wi``."""
         return sampling.cosine_hemisphere_pdf(wi)

@@ -222,8 +222,22 @@ class GltfPBR(MetallicRoughness):
         w_rough, _ = self._transmission_weights(ctx)
         if not np.any(w_rough > 0):
             return super().sample(wo, u, ctx)
+        wi, valid = self._mixture_direction(wo, u, ctx, w_rough)
+        return _finish_sample(self, wo, wi, valid, ctx)
+
+    def sample_direction(self, wo, u, ctx):
+        """The direction :meth:`sample` draws (zero where it is invalid, as there), without its weight and pdf."""
+        w_rough, _ = self._transmission_weights(ctx)
+        if not np.any(w_rough > 0):
+            return super().sample_direction(wo, u, ctx)
+        wi, valid = self._mixture_direction(wo, u, ctx, w_rough)
+        return np.where(valid[:, None], wi, 0.0)
+
+    def _mixture_direction(self, wo, u, ctx, w_rough):
+        """``(wi, valid)``: the reflection strategies' direction, or with probability ``w_rough`` the transmission
+        lobe's."""
         take, uu = _split_u(u, w_rough)
-        wi, _, _ = super().sample(wo, uu, ctx)
+        wi = super().sample_direction(wo, uu, ctx)
         alpha = self._alpha(ctx)
         if self.thin:
             wt = reflect(wo, _mf.sample_ggx_vndf(wo, uu, alpha)) * _FLIP_Z
@@ -231,7 +245,7 @@ class GltfPBR(MetallicRoughness):
         else:
             wt, ok = brdfs.sample_rough_dielectric(wo, uu, alpha, self._eta(ctx))
         valid = np.where(take, ok, wi[:, 2] > 0) & (wo[:, 2] > 0)
-        return _finish_sample(self, wo, np.where(take[:, None], wt, wi), valid, ctx)
+        return np.where(take[:, None], wt, wi), valid
 
     def delta_lobes(self, wo, ctx, *, eta=None):
         """The smooth transmissive share ``w``: its mirror reflection, and the light straight through a thin wall
@@ -441,7 +455,7 @@ class Clearcoat(Material):
     def sample(self, wo, u, ctx):
         """The coat's GGX visible normals with probability ``p_coat``, else the base's own sampling."""
         take, uu = _split_u(u, self._coat_prob(wo, ctx))
-        wb, _, _ = self.base.sample(wo, uu, ctx)
+        wb = self.base.sample_direction(wo, uu, ctx)
         wo_c = self._to_coat(wo, ctx)
         wc = reflect(wo_c, _mf.sample_ggx_vndf(wo_c, uu, self._alpha(ctx)))
         valid_c = wc[:, 2] > 0

@@ -100,7 +100,22 @@ class _MicrofacetSampling:
         ps = self._spec_prob(wo, ctx)
         return ps * self._spec_pdf(wo, wi, alpha) + (1.0 - ps) * sampling.cosine_hemisphere_pdf(wi)
 
+    def sample_direction(self, wo, u, ctx):
+        """The direction :meth:`sample` draws for ``u``, without its weight and pdf."""
+        return self._sample_wi(wo, u, ctx)[0]
+
     def sample(self, wo, u, ctx):
+        wi, alpha, ps = self._sample_wi(wo, u, ctx)
+        # self.pdf(wo, wi, ctx) with the alpha and strategy probability already at hand (the same numbers)
+        pdf = ps * self._spec_pdf(wo, wi, alpha) + (1.0 - ps) * sampling.cosine_hemisphere_pdf(wi)
+        f = self.f_cos(wo, wi, ctx)
+        ok = (pdf > 0) & (wi[:, 2] > 0) & (wo[:, 2] > 0)
+        weight = np.where(ok[:, None], f / np.where(ok, pdf, 1.0)[:, None], 0.0)
+        return wi, weight, np.where(ok, pdf, 0.0)
+
+    def _sample_wi(self, wo, u, ctx):
+        """``(wi, alpha, p_spec)``: the sampled local directions, the lobe's alpha and the probability of the
+        specular strategy."""
         alpha = self._alpha(ctx)
         ps = self._spec_prob(wo, ctx)
         spec = u[:, 0] < ps
@@ -117,12 +132,7 @@ class _MicrofacetSampling:
             else:
                 h = _mf.sample_beckmann_ndf(uu[s], a_s)
             wi[s] = reflect(wo[s], h)
-        # self.pdf(wo, wi, ctx) with the alpha and strategy probability already at hand (the same numbers)
-        pdf = ps * self._spec_pdf(wo, wi, alpha) + (1.0 - ps) * sampling.cosine_hemisphere_pdf(wi)
-        f = self.f_cos(wo, wi, ctx)
-        ok = (pdf > 0) & (wi[:, 2] > 0) & (wo[:, 2] > 0)
-        weight = np.where(ok[:, None], f / np.where(ok, pdf, 1.0)[:, None], 0.0)
-        return wi, weight, np.where(ok, pdf, 0.0)
+        return wi, alpha, ps
 
 
 @register
