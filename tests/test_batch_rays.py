@@ -31,9 +31,9 @@ def test_slices_at_least_the_chunk_change_nothing(integrator):
 def test_deterministic_paths_give_the_same_image_in_slices():
     """Delta light, delta lobes, no jitter: nothing random, so slicing only reorders float64 additions."""
     s = _scene()
-    a = pyrt.render_full(s, threads=1, aovs=True)
+    a = pyrt.render_full(s, threads=1, aovs=True, split_depth=None)   # the full tree: no random branch choice
     for step in (1, 7, 100):
-        b = pyrt.render_full(s, threads=1, aovs=True, batch_rays=step)
+        b = pyrt.render_full(s, threads=1, aovs=True, batch_rays=step, split_depth=None)
         np.testing.assert_allclose(b.image, a.image, rtol=1e-6, atol=1e-7)   # float32 image
         for k in a.aovs:
             np.testing.assert_array_equal(b.aovs[k], a.aovs[k])

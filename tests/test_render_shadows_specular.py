@@ -143,7 +143,7 @@ def test_closed_glass_slab_transmits_geometric_series():
     back, front = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
     _emitter_wall(scene, 5.0, back, (0, 0, -1))
     _emitter_wall(scene, -5.0, front, (0, 0, 1))
-    img = pyrt.render(scene, max_depth=40, throughput_cutoff=0.0)
+    img = pyrt.render(scene, max_depth=40, throughput_cutoff=0.0, split_depth=None)   # the full tree: exact
     R = 0.04
     T = 1 - R
     np.testing.assert_allclose(img[..., 1], T * T / (1 - R * R), rtol=1e-5)
@@ -157,7 +157,7 @@ def test_specular_rays_never_leave_on_the_wrong_side_of_the_geometric_surface():
     cam = pyrt.Camera(position=(0, 0, 3), target=(0, 0, 0), fov=45, width=64, height=64, spp=4)
     scene = pyrt.Scene(cam, background=(0.2, 0.4, 0.8))
     scene.add_sphere((0, 0, 0), 1.0, pyrt.Mirror(0.9), subdivisions=1, name="mirror")
-    res = pyrt.render_full(scene, record_rays=True, max_depth=8)
+    res = pyrt.render_full(scene, record_rays=True, max_depth=8, split_depth=None)
     rec = res.stats.recorded
     prim = [r for r in rec if r[0] == "intersect"][0]
     secondary = [r for r in rec if r[0] == "intersect"][1:]

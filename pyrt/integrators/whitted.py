@@ -45,6 +45,11 @@ from pyrt.textures import apply_normal_maps
 from pyrt.shaders.vec import dot, max_component, put_rows, take_rows
 
 
+#: the bounce from which a dielectric hit follows one of its reflection and refraction instead of both (the
+#: ``split_depth`` default of every render; :class:`Integrator` documents the measurement behind it)
+DEFAULT_SPLIT_DEPTH = 3
+
+
 def _scatter_add(acc, idx, vals, unique=False):
     """acc[idx] += vals with repeated indices (per RGB channel, via bincount); ``unique``: idx has none."""
     if unique:
@@ -75,9 +80,14 @@ class Integrator:
     split_depth : int or None
         Bounce from which a hit on a dielectric with several delta lobes (reflection and refraction) continues
         along *one* of them instead of all (:func:`choose_one_lobe`: chosen with probability ``p`` in proportion
-        to its mean RGB weight, weighted ``1 / p``; unbiased, noisier). None (default): every lobe at every
-        bounce (deterministic splitting, the tree of rays of Whitted); 0: one branch from the camera hits on;
-        the previewer uses 1 (both branches at the first glass surface, one below it).
+        to its mean RGB weight, weighted ``1 / p``; unbiased, noisier). Default :data:`DEFAULT_SPLIT_DEPTH` (3):
+        Whitted's tree of rays for the camera hits and two bounces below them, one branch deeper, where a path has
+        already crossed or bounced off three surfaces and contributes little: on the mirror/glass and default
+        scenes of ``tools/bench_mitsuba.py`` (160 x 120, 16 and 64 spp, 3 seeds, against a 512-spp reference) the
+        relMSE stayed within 1 % of the full tree's at 0.62-0.78 of its CPU time (relMSE x CPU 0.63-0.82; split
+        depth 2: 0.64-0.85 with 15-28 % more relMSE; 4: 0.70-0.84). None: every lobe at every bounce (the full tree,
+        deterministic: what tests of exact series use); 0: one branch from the camera hits on. The previewer passes
+        its own (None).
     light_select_depth : int or None
         Bounce from which the delta lights (point, spot, directional) light a hit by one of them, chosen by its
         irradiance there (:mod:`pyrt.integrators.light_choice`: one shadow ray instead of one per light;
@@ -87,7 +97,7 @@ class Integrator:
     """
 
     def __init__(self, prepared, *, max_depth=8, throughput_cutoff=1e-4, offset=None, record_rays=False,
-                 transparent_shadows=False, split_depth=None,
+                 transparent_shadows=False, split_depth=DEFAULT_SPLIT_DEPTH,
                  light_select_depth=None, batch_rays=None):
         self.max_depth = checks.integer("render", "max_depth", max_depth, RenderError, lo=0)
         self.throughput_cutoff = checks.finite_number("render", "throughput_cutoff", throughput_cutoff, RenderError,

@@ -58,6 +58,7 @@ from pyrt.core.errors import RenderError
 from pyrt.core.film import Film
 from pyrt.core.metrics import relmse_per_pixel
 from pyrt.integrators.prepared import PreparedScene, RenderStats
+from pyrt.integrators.whitted import DEFAULT_SPLIT_DEPTH
 from pyrt.render.chunks import shade_adaptive_chunk
 from pyrt.render.distributed import DaskRunner, adaptive_group
 from pyrt.render.pool import ChunkPool, integrator_factory, merge_stats, use_processes
@@ -213,7 +214,7 @@ def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None,
                     cancel=None, fill=False, fill_budget=2.0, on_pass=None, integrator="whitted", max_depth=8,
                     throughput_cutoff=1e-4, offset=None, record_rays=False, transparent_shadows=False,
                     glossy_samples=4, glossy_depth=2, glossy_threshold=0.4, dask=None, dask_workers=2,
-                    split_depth=None, light_select_depth=None, parallel="auto", batch_rays=None):
+                    split_depth=DEFAULT_SPLIT_DEPTH, light_select_depth=None, parallel="auto", batch_rays=None):
     """Render ``scene`` in adaptive passes until the estimated relMSE is at most ``target_error``, the
     ``time_budget`` (seconds, counted from the call) is spent, or no pixel may take more samples
     (``max_spp``): a :class:`RenderResult` with ``passes``, ``estimated_error``, ``stop_reason`` and the film

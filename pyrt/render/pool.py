@@ -31,7 +31,7 @@ import warnings
 from pyrt.core.errors import RenderError
 from pyrt.core.memory import release_free_memory
 from pyrt.integrators.glossy import GlossyIntegrator
-from pyrt.integrators.whitted import Integrator
+from pyrt.integrators.whitted import DEFAULT_SPLIT_DEPTH, Integrator
 
 #: ``integrator=`` names: strict Whitted (delta lobes only, the default) and glossy reflection rays
 INTEGRATORS = ("whitted", "glossy")
@@ -219,7 +219,7 @@ class ChunkPool:
 
 def integrator_factory(ps, integrator, *, max_depth, throughput_cutoff, offset, record_rays=False,
                        transparent_shadows=False, glossy_samples=4, glossy_depth=2, glossy_threshold=0.4,
-                       split_depth=None, light_select_depth=None, batch_rays=None):
+                       split_depth=DEFAULT_SPLIT_DEPTH, light_select_depth=None, batch_rays=None):
     """A function of no argument returning a fresh integrator for one chunk (``"whitted"`` or ``"glossy"``)
     over the prepared scene ``ps``; :class:`RenderError` for another name."""
     if integrator not in INTEGRATORS:
