@@ -24,8 +24,8 @@ from pyrt.materials import Lambert
 from pyrt.scene import Scene
 from pyrt.io.assets import Asset, load_asset
 from pyrt.apps.preview.options import (ADAPTIVE_MAX_SPP, BACK_FACE_GRID, BACK_FACE_WARNING, BOARD_DEPTH_RATIO,
-                                       BVH_LOW_TRIANGLES, DEFAULT_AZIMUTH, EMISSIVE_POWER_RATIO, BudgetExceeded, PreviewError, PreviewInterrupted,
-                                       PreviewOptions)
+                                       BVH_LOW_TRIANGLES, DEFAULT_AZIMUTH, EMISSIVE_POWER_RATIO, BudgetExceeded,
+                                       PreviewError, PreviewInterrupted, PreviewOptions)
 from pyrt.apps.preview.studio import STUDIO_PREVIEW_SAMPLES, StudioEnvironment, camera_rotation
 from pyrt.apps.preview.rig import (auto_exposure, bounding_sphere, detect_up_axis, frame_camera, frame_points,
                                    ground_radiance, hull_points, studio_rig, up_transform)
