@@ -153,10 +153,10 @@ def pixel_errors(film, half):
 
 def estimated_error(film, err, shape):
     """The image's estimated relMSE from the per-pixel estimates ``err`` (:func:`pixel_errors`): the mean over the
-    pixels with samples of ``max(a_p, NEIGHBOURHOOD box(a)_p) / n_p``, ``a_p = err_p n_p`` the per-sample error and ``box`` its
-    mean over the (2 SMOOTH_RADIUS + 1)^2 pixels around (:func:`box_smooth`, the allocation's smoothing): a pixel
-    whose halves agree by chance is counted at its neighbourhood's error (module notes, step 2). ``inf`` when no
-    pixel has an estimate."""
+    pixels with samples of ``max(a_p, NEIGHBOURHOOD box(a)_p) / n_p``, ``a_p = err_p n_p`` the per-sample error
+    and ``box`` its mean over the (2 SMOOTH_RADIUS + 1)^2 pixels around (:func:`box_smooth`, the allocation's
+    smoothing): a pixel whose halves agree by chance is counted at 0.7 of its neighbourhood's error (module notes,
+    step 2). ``inf`` when no pixel has an estimate."""
     ok = np.isfinite(err)
     if not ok.any():
         return math.inf
