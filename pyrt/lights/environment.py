@@ -442,6 +442,7 @@ class LatLongEnvironment(LatLongTable):
 
     @property
     def radiance_resolution(self):
+        """The map's (H, W): what :meth:`irradiance`'s quadrature refines."""
         return self.image.shape[:2]
 
     def _sh9_local(self):
@@ -508,7 +509,8 @@ class CubeMapEnvironment(Environment):
         return K.cube_lookup(self.faces, d, self.filter)
 
     @property
-    def radiance_resolution(self):          # a lat-long map of 2S x 4S texels resolves S x S faces
+    def radiance_resolution(self):
+        """(2S, 4S): a lat-long map of that size resolves S x S faces (what :meth:`irradiance` refines)."""
         return 2 * self.faces.shape[1], 4 * self.faces.shape[1]
 
     def _sample_local(self, u):

@@ -40,16 +40,19 @@ per channel. Hits of other materials and of smooth-shaded faces are estimated as
 bookkeeping (which hits, ``E`` per distinct normal, at most :data:`pyrt.integrators.direct.CV_MAX_NORMALS` normals
 per batch) is in :func:`pyrt.integrators.direct.environment_estimate`.
 
-Off by default: it removes the noise of unoccluded light, but at the same time it moves the noise of the samples
-that find the sun from the lit ground (where the plain estimate had it) into the sun's shadows (where the plain
-estimate, whose sun samples are blocked, had none) -- and the relMSE weighs a shadow's error by ``1 / R^2``.
-``python tools/control_variate_chart.py`` (320 x 240, 4-64 spp, threads = 1, medians of 3 interleaved runs,
-docs/environment.md): issue 13's ``sky`` scene (a 400 W m^-2 sr^-1 sun, 4 + 4 samples) 0.79-0.80x relMSE at
-1.00-1.01x the time (a win); ``tools/bench_kinds.py``'s ``env`` scene (a 2000 sun in a 256 x 128 map, 1 + 1
-samples) 2.8-3.0x the relMSE at 1.04-1.06x the time (a loss: the shadowed ground's part of the relMSE rises 20x).
-The sun's estimate is noisy because the importance table of a bilinear map is 3 x 3-dilated (half its mass on the
-sun's rim, where ``L / p`` is small); with ``filter="nearest"`` (an exact table) both scenes' plain relMSE drops
-(1.5x, 5x) and the variate is neutral (0.93x, 0.97x; 160 x 120, 16 spp).
+Off by default: it removes the noise of unoccluded light, but it also moves the noise of the samples that find
+the sun from the lit ground (where the plain estimate had it) into the sun's shadows (where the plain estimate,
+whose sun samples are blocked, had none), and relMSE weighs a shadow's error by ``1 / R^2``.
+``python tools/control_variate_chart.py`` (320 x 240, 4 / 16 / 64 spp, threads = 1, 3 interleaved runs,
+docs/environment.md): issue 13's ``sky`` scene (a sun of radiance 400 in a 512 x 256 map, 4 + 4 samples) 0.79-0.80x
+the relMSE at 1.02-1.03x the time, relMSE x time 0.81-0.82x (a win); ``tools/bench_kinds.py``'s ``env`` scene (a sun of
+2000 in a 256 x 128 map, 1 + 1 samples) 2.8-3.0x the relMSE at 1.03-1.07x the time, relMSE x time 2.9-3.2x (a loss:
+at 16 spp the lit ground's part of the relMSE falls 13x, the shadowed ground's rises 38x). The sun's own estimate is
+that noisy because the importance table of a bilinear map is 3 x 3-dilated: a third (256 x 128 map) or a fifth
+(512 x 256) of the sun's table mass lies on texels below half their dilated weight, and ``L / p`` of a sun sample
+varies by 66 % / 47 % (relative standard deviation over the table's texels). Read with ``filter="nearest"`` (an
+exact table) the plain relMSE of both scenes is lower (1.5x, 5.6x, each against its own reference) and the variate
+nearly neutral (relMSE x time 0.95-0.96x and 1.02-1.06x).
 
 Defaults (``n_samples = bsdf_samples = 4``, ``compensate=True``, power heuristic) were picked from
 ``tools/estimator_chart.py``: relMSE x render time at equal shadow rays per pixel, against one light and one
@@ -104,8 +107,8 @@ class EnvironmentLight(Light):
         Every sampled strategy: at hits of Lambertian materials on flat faces add the unshadowed irradiance
         ``albedo / pi * E(n)`` (:meth:`pyrt.lights.environment.Environment.irradiance`) and let the samples
         estimate only what occluders take away, ``(V - 1)`` times their value (module docstring). Default False:
-        it moves the map samples' noise from lit ground into sun shadows, and loses 3x at equal time on
-        ``tools/bench_kinds.py``'s ``env`` scene while it wins 1.25x on issue 13's ``sky`` scene (module docstring).
+        it moves the sun samples' noise from lit ground into the sun's shadows, and loses 2.9-3.2x at equal time on
+        ``tools/bench_kinds.py``'s ``env`` scene while it wins 1.22-1.24x on issue 13's ``sky`` scene (module docstring).
     """
 
     delta = False
