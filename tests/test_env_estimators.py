@@ -85,10 +85,12 @@ def test_white_furnace_compensated_is_pure_bsdf_sampling(nl, nb):
 
 @pytest.mark.parametrize("nl,nb", SPLITS)
 def test_white_furnace_split_uncompensated(nl, nb):
-    """Without compensation the light samples are uniform; rho * L within 4.5 standard errors."""
+    """Without compensation the light samples are uniform; rho * L within 4.5 standard errors (the samples'
+    estimate: without the control variate, which makes it exact, tests/test_env_control_variate.py)."""
     rho, L = 0.5, 2.0
     sc = _plane_scene(pyrt.Lambert(albedo=rho))
-    set_environment(sc, ConstantEnvironment(L), n_samples=nl, bsdf_samples=nb, compensate=False)
+    set_environment(sc, ConstantEnvironment(L), n_samples=nl, bsdf_samples=nb, compensate=False,
+                    control_variate=False)
     m, se = _mean_se(_pixels(sc, 2))
     assert np.all(np.abs(m - rho * L) <= 4.5 * se + 1e-9), (m, se)
 
@@ -96,17 +98,21 @@ def test_white_furnace_split_uncompensated(nl, nb):
 # ----------------------------------------------------------------------------- unbiased under a map
 
 
+@pytest.mark.parametrize("cv", [False, True])
 @pytest.mark.parametrize("compensate", [False, True])
 @pytest.mark.parametrize("nl,nb", SPLITS)
-def test_lambert_plane_matches_closed_form(nl, nb, compensate):
-    """Lambert plane under the sky with a sun: E[estimate] = rho / pi * E(+y) in closed form."""
+def test_lambert_plane_matches_closed_form(nl, nb, compensate, cv):
+    """Lambert plane under the sky with a sun: E[estimate] = rho / pi * E(+y) in closed form. With the control
+    variate the unoccluded plane gets rho / pi * E(+y) of the quadrature, which is exact for a nearest-filtered
+    map and the normal +y (cells nest in texel rings, the horizon is a row boundary): every pixel equals the
+    closed form to the float32 rounding of the image (se = 0)."""
     env = LatLongEnvironment(_sky(), filter="nearest")
     rho = 0.5
     ref = rho / np.pi * _exact_up_irradiance(env.image)
     sc = _plane_scene(pyrt.Lambert(albedo=rho))
-    set_environment(sc, env, n_samples=nl, bsdf_samples=nb, compensate=compensate)
+    set_environment(sc, env, n_samples=nl, bsdf_samples=nb, compensate=compensate, control_variate=cv)
     m, se = _mean_se(_pixels(sc, 3))
-    assert np.all(np.abs(m - ref) <= 4.5 * se), (m, ref, se)
+    assert np.all(np.abs(m - ref) <= 4.5 * se + (1.2e-7 * ref if cv else 0.0)), (m, ref, se)
 
 
 def _glossy_plane(env, **light):
@@ -169,17 +175,23 @@ def test_parameters_are_checked_and_named():
         EnvironmentLight(env, bsdf_samples=0)
     with pytest.raises(EnvironmentMapError, match="compensate"):
         EnvironmentLight(env, compensate="yes")
+    with pytest.raises(EnvironmentMapError, match="control_variate"):
+        EnvironmentLight(env, control_variate=1)
     lt = EnvironmentLight(env, n_samples=3)
-    assert lt.bsdf_samples == 3
+    assert lt.bsdf_samples == 3 and lt.control_variate is False
+    lt.control_variate = "no"                     # assigned later: PreparedScene's validate() names it
+    with pytest.raises(EnvironmentMapError, match="control_variate"):
+        lt.validate()
 
 
 def test_scene_file_keys(tmp_path):
     p = tmp_path / "s.toml"
     p.write_text('[camera]\nposition = [0, 3, 0]\ntarget = [0, 0, 0]\nup = [0, 0, -1]\nwidth = 8\nheight = 8\n'
-                 '[environment]\ntype = "sky"\nsamples = 2\nbsdf_samples = 5\ncompensate = true\n')
+                 '[environment]\ntype = "sky"\nsamples = 2\nbsdf_samples = 5\ncompensate = true\n'
+                 'control_variate = true\n')
     sc, _ = pyrt.load_scene(str(p))
     lt = [x for x in sc.lights if x.environment is not None][0]
-    assert (lt.n_samples, lt.bsdf_samples, lt.compensate) == (2, 5, True)
+    assert (lt.n_samples, lt.bsdf_samples, lt.compensate, lt.control_variate) == (2, 5, True, True)
     p.write_text(p.read_text().replace("compensate = true", 'compensate = "maybe"'))
     with pytest.raises(pyrt.Error, match="compensate"):
         pyrt.load_scene(str(p))

@@ -8,7 +8,9 @@ For every light at every hit that can receive light, :func:`estimate` returns th
 - environment lights (``light.environment`` set) by the strategy the light names
   (:func:`environment_estimate`): uniform, cosine, map (light sampling), bsdf (the materials'
   ``sample``), mis (``n_samples`` light and ``bsdf_samples`` BSDF samples, power or balance heuristic with
-  the counts, optionally from the MIS-compensated table) or the unshadowed ``preview``.
+  the counts, optionally from the MIS-compensated table) or the unshadowed ``preview``; with the light's
+  ``control_variate`` (off by default) Lambertian hits on flat faces get the unshadowed irradiance ``albedo / pi E(n)``
+  exactly and their samples add ``(V - 1)`` times their value (:func:`control_variate_hits`).
 
 ``bsdf`` is a :class:`pyrt.materials.dispatch.BSDFBatch` over the hits (``f_cos``, ``sample``, ``pdf`` in
 world space); ``visible(idx, wi, dist, end=None)`` traces shadow rays from hits ``idx`` and returns a
@@ -24,7 +26,14 @@ from pyrt.core.sampler import stratified_samples
 from pyrt.shaders import dfg
 from pyrt.shaders import envmap as K
 from pyrt.shaders import sampling
-from pyrt.shaders.vec import max_component, put_rows, take_rows
+from pyrt.shaders.vec import dot, max_component, put_rows, take_rows
+
+#: at most this many distinct normals of one batch get the control variate (the ones with the most hits, ties in
+#: the order of :func:`distinct_rows`): bounds the quadratures a batch can ask for (each ~0.05-3 ms, once per
+#: process and normal) on finely faceted flat-shaded meshes; the rest keep the plain estimate. The choice depends
+#: on the batch alone (not on what was computed before), so images do not depend on the worker count.
+CV_MAX_NORMALS = 64
+_HASH = (np.uint64(0x9E3779B97F4A7C15), np.uint64(0xC2B2AE3D27D4EB4F))
 
 
 def estimate(lights, surf, bsdf, visible, rng):
@@ -165,6 +174,69 @@ def _shadowed_values(vis, val):
     return val * vis
 
 
+def distinct_rows(a):
+    """``(rows (m, 3), inverse (k,))`` of the distinct rows of a float64 ``a`` (k, 3) (``rows[inverse] == a``), in
+    a deterministic order: one row when all are equal (an upward-facing plane), else rows grouped by a 64-bit hash
+    of their bits (``np.unique`` on integers, 10x cheaper than on rows), checked, ``np.unique(axis=0)`` on a
+    collision."""
+    if (a == a[0]).all():
+        return a[:1], np.zeros(a.shape[0], dtype=np.int64)
+    bits = np.ascontiguousarray(a, dtype=np.float64).view(np.uint64)
+    key = (bits[:, 0] * _HASH[0] + bits[:, 1]) * _HASH[1] + bits[:, 2]    # wraps modulo 2^64
+    _, first, inv = np.unique(key, return_index=True, return_inverse=True)
+    rows = take_rows(a, first)
+    if (take_rows(rows, inv) == a).all():
+        return rows, inv.reshape(-1)
+    rows, inv = np.unique(a, axis=0, return_inverse=True)
+    return rows, inv.reshape(-1)
+
+
+def control_variate_hits(light, surf, bsdf):
+    """The hits the control variate applies to and what it adds there, or None (off, or no such hit).
+
+    Hits of Lambertian materials (``material.lambertian``) on flat faces (``surf.smooth`` False and the shading
+    normal equal to the geometric one: no normal map) seen from the front (``n.wo > 0``), there ``f cos =
+    albedo / pi max(0, n.wi)`` and the sampled domain ``n.wi > 0`` is its whole support. Their distinct normals
+    (:func:`distinct_rows`), at most :data:`CV_MAX_NORMALS` of them per batch, get ``E(n)`` from
+    :meth:`pyrt.lights.environment.Environment.irradiance` (cached per normal).
+
+    Returns ``(mask (N,) bool, idx (k,), base (k, 3))``: ``base = albedo / pi E(n)`` at the hits ``idx``.
+    """
+    if not light.control_variate:
+        return None
+    lam = np.array([m.lambertian for m in bsdf.materials], dtype=bool)
+    if not lam.any():
+        return None
+    idx = np.flatnonzero(lam[surf.material_id])
+    if idx.size == 0:
+        return None
+    ns = take_rows(surf.ns, idx)
+    flat = (ns == take_rows(surf.ng, idx)).all(axis=1) & (dot(ns, take_rows(surf.wo, idx)) > 0)
+    if surf.smooth is not None:
+        flat &= ~np.take(surf.smooth, idx)
+    if not flat.all():
+        keep = np.flatnonzero(flat)
+        if keep.size == 0:
+            return None
+        idx, ns = idx[keep], take_rows(ns, keep)
+    normals, inv = distinct_rows(ns)
+    if normals.shape[0] > CV_MAX_NORMALS:
+        top = np.argsort(-np.bincount(inv), kind="stable")[:CV_MAX_NORMALS]
+        slot = np.full(normals.shape[0], -1)
+        slot[top] = np.arange(top.size)
+        inv = slot[inv]
+        keep = np.flatnonzero(inv >= 0)
+        idx, inv, normals = idx[keep], inv[keep], take_rows(normals, top)
+    albedo = np.zeros((surf.n_hits, 3))
+    for k in np.unique(surf.material_id[idx]):
+        group = bsdf.groups[int(k)]      # the group's context: its texture lookups are the ones f_cos read
+        put_rows(albedo, group.idx, bsdf.materials[k].albedo(group.ctx))
+    E = take_rows(light.environment.irradiance(normals), inv)
+    mask = np.zeros(surf.n_hits, dtype=bool)
+    mask[idx] = True
+    return mask, idx, take_rows(albedo, idx) / np.pi * E
+
+
 def environment_estimate(light, surf, bsdf, visible, rng):
     """Image-based lighting (N, 3) at the hits of ``surf`` with the strategy of ``light``
     (a :class:`pyrt.EnvironmentLight`: ``strategy``, ``n_samples``, ``bsdf_samples``, ``heuristic``,
@@ -176,10 +248,16 @@ def environment_estimate(light, surf, bsdf, visible, rng):
     :meth:`EnvironmentLight.mis_weights` (``w_l + w_b = 1``), each divided by its own count. Random numbers
     per round ``s``: the light sample's ``u`` then the BSDF sample's (while ``s`` is below each count), the
     second coordinate stratified over the rounds of that technique.
+
+    Control variate (``light.control_variate``, :func:`control_variate_hits`): at its hits every sample adds
+    ``(V - 1) value`` instead of ``V value`` and the estimate gets ``albedo / pi E(n)``; other hits are computed
+    exactly as without it (the same random numbers: the image of a seed changes only at those hits).
     """
     n = surf.n_hits
     if light.strategy == "preview":
         return _environment_preview(light, surf, bsdf)
+    cv = control_variate_hits(light, surf, bsdf)
+    cv_mask = None if cv is None else cv[0]
     env = light.environment
     ns = light.n_samples
     strategy = light.strategy
@@ -205,7 +283,7 @@ def environment_estimate(light, surf, bsdf, visible, rng):
                 wi, pdf = env.sample(u)
             else:
                 wi, pdf = light.mis_sample(u)
-            _add_environment_sample(light, L_light, surf, bsdf, visible, wi, pdf, mis=mis)
+            _add_environment_sample(light, L_light, surf, bsdf, visible, wi, pdf, mis, cv_mask)
         if strategy == "bsdf" or (mis and s < nb):
             if mis:
                 u = rng.random((n, 2))
@@ -213,17 +291,31 @@ def environment_estimate(light, surf, bsdf, visible, rng):
             elif u is None:
                 u = rng.random((n, 2))
                 u[:, 1] = (s + u[:, 1]) / ns
-            _add_bsdf_sample(light, L_bsdf, bsdf, surf, visible, all_idx, u, mis)
-    if L_bsdf is L_light:
-        return L_light / ns
-    return L_light / ns + L_bsdf / nb
+            _add_bsdf_sample(light, L_bsdf, bsdf, surf, visible, all_idx, u, mis, cv_mask)
+    L = L_light / ns if L_bsdf is L_light else L_light / ns + L_bsdf / nb
+    if cv is not None:
+        put_rows(L, cv[1], take_rows(L, cv[1]) + cv[2])
+    return L
 
 
-def _add_bsdf_sample(light, L_out, bsdf, surf, visible, all_idx, u, mis):
+def _sample_values(vis, val, cv_mask, idx):
+    """What samples of value ``val`` (k, 3) at hits ``idx`` with visibility ``vis`` add: ``V val``
+    (:func:`_shadowed_values`), at the control variate's hits (``cv_mask`` (N,), or None) ``(V - 1) val``."""
+    plain = _shadowed_values(vis, val)
+    if cv_mask is None:
+        return plain
+    m = cv_mask[idx]
+    if not m.any():
+        return plain
+    occluded = np.where(vis[:, None], 0.0, -val) if vis.ndim == 1 else val * (vis - 1.0)
+    return occluded if m.all() else np.where(m[:, None], occluded, plain)
+
+
+def _add_bsdf_sample(light, L_out, bsdf, surf, visible, all_idx, u, mis, cv_mask=None):
     """Add one BSDF-sampled direction per hit (random numbers ``u`` (N, 2)), MIS-weighted if ``mis``.
 
     Rows are gathered and scattered with :func:`take_rows` / :func:`put_rows` (``np.take`` / ``np.put`` of whole
-    rows: cheaper than fancy indexing of (N, 3) arrays; the same numbers)."""
+    rows: cheaper than fancy indexing of (N, 3) arrays; the same numbers). ``cv_mask``: :func:`_sample_values`."""
     env = light.environment
     wi, weight, pdf_b = bsdf.sample(all_idx, u)
     ok = surf.light_side(wi) & (pdf_b > 0) & (max_component(weight) > 0)
@@ -239,12 +331,12 @@ def _add_bsdf_sample(light, L_out, bsdf, surf, visible, all_idx, u, mis):
         idx, w, val = idx[keep], take_rows(w, keep), take_rows(val, keep)
     if idx.size:
         vis = visible(idx, w, np.full(idx.size, np.inf))
-        put_rows(L_out, idx, take_rows(L_out, idx) + _shadowed_values(vis, val))
+        put_rows(L_out, idx, take_rows(L_out, idx) + _sample_values(vis, val, cv_mask, idx))
 
 
-def _add_environment_sample(light, L_out, surf, bsdf, visible, wi, pdf, mis):
+def _add_environment_sample(light, L_out, surf, bsdf, visible, wi, pdf, mis, cv_mask=None):
     """Add one environment-sampled direction per hit (``pdf`` its density), MIS-weighted if ``mis`` (rows gathered
-    and scattered as in :func:`_add_bsdf_sample`)."""
+    and scattered as in :func:`_add_bsdf_sample`; ``cv_mask``: :func:`_sample_values`)."""
     # ng . wi > 0, or the shadow-terminator zone (see SurfaceBatch.light_side): the shadow ray decides
     idx = np.flatnonzero(surf.light_side(wi) & (pdf > 0))
     if idx.size == 0:
@@ -266,7 +358,7 @@ def _add_environment_sample(light, L_out, surf, bsdf, visible, wi, pdf, mis):
         idx, w, val = idx[keep], take_rows(w, keep), take_rows(val, keep)
     if idx.size:
         vis = visible(idx, w, np.full(idx.size, np.inf))
-        put_rows(L_out, idx, take_rows(L_out, idx) + _shadowed_values(vis, val))
+        put_rows(L_out, idx, take_rows(L_out, idx) + _sample_values(vis, val, cv_mask, idx))
 
 
 def _split_sum_preview(light, surf, bsdf, gi, L_out):

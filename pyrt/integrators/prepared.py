@@ -13,6 +13,7 @@ from pyrt.integrators import gouraud
 from pyrt.integrators.coverage import CoverageTable
 from pyrt.integrators.media import NestedMedia
 from pyrt.lights.base import Light
+from pyrt.lights.irradiance import irradiance_table
 from pyrt.materials.base import Material
 from pyrt.textures.base import Texture
 from pyrt.textures.image import ImageTexture
@@ -98,14 +99,24 @@ class PreparedScene:
     def before_fork(self):
         """Build now what every forked render worker (:class:`pyrt.render.pool.ChunkPool`) would otherwise build
         for itself, the same in each: the MIP pyramids of the scene's image textures, so that the workers share
-        one copy of them (copy-on-write) instead of holding one each. Once per prepared scene; the seconds it took
-        are ``timings["mip_levels"]``."""
+        one copy of them (copy-on-write) instead of holding one each; and the irradiance grid of an environment
+        light with the control variate in a scene with Lambertian materials (:func:`pyrt.lights.irradiance.
+        irradiance_table`: 0.22 s for a 512 x 256 map, kept by the environment across renders). Once per prepared
+        scene; the seconds it took are ``timings["mip_levels"]`` and ``timings["irradiance"]``."""
         if "mip_levels" in self.timings:
             return
         t0 = time.perf_counter()
         for tex in image_textures(*self.scene.materials, *self.scene.lights):
             tex.build_mip_levels()
-        self.timings["mip_levels"] = time.perf_counter() - t0
+        t1 = time.perf_counter()
+        self.timings["mip_levels"] = t1 - t0
+        if any(m.lambertian for m in self.scene.materials):
+            for lt in self.scene.lights:
+                env = lt.environment
+                if env is not None and lt.control_variate and lt.strategy != "preview" \
+                        and env.radiance_resolution is not None:
+                    irradiance_table(env)
+        self.timings["irradiance"] = time.perf_counter() - t1
 
     def close(self):
         """Release the Embree scene."""

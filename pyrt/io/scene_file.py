@@ -35,7 +35,8 @@ Format (every key optional unless marked; unknown keys are errors naming the tab
                         # background; lighting = "mis" | "map" | "bsdf" | "cosine" | "uniform" | "preview" |
                         # false (background only), samples (default 4), heuristic ("power" | "balance"),
                         # preview_samples; mis only: bsdf_samples (default = samples), compensate (default
-                        # true: MIS-compensated map samples)
+                        # true: MIS-compensated map samples); control_variate (default false; true: Lambertian
+                        # hits on flat faces get the exact unshadowed irradiance, samples only the shadows)
 
 The same structure as a Python dict (Mitsuba's ``mi.load_dict`` idea) goes to :func:`load_dict`;
 :func:`load_scene` parses a file and calls it.
@@ -84,7 +85,7 @@ _PRIMITIVE_KEYS = {"sphere": {"radius", "subdivisions"}, "box": {"extents"}, "pl
 _COVERAGE_KEYS = ("opacity", "alpha_mode", "alpha_cutoff", "double_sided")
 _TOP_KEYS = {"camera", "render", "materials", "meshes", "lights", "environment"}
 _ENV_COMMON = {"type", "intensity", "rotate", "hide_background", "background", "lighting", "samples", "heuristic",
-               "preview_samples", "name", "bsdf_samples", "compensate"}
+               "preview_samples", "name", "bsdf_samples", "compensate", "control_variate"}
 _ENV_KEYS = {"constant": {"color"}, "latlong": {"file", "filter"}, "cube": {"file", "faces", "filter"},
              "sky": {"sun_direction", "sun_angle", "sun_radiance", "zenith", "horizon", "ground", "width", "height",
                      "filter"}}
@@ -394,7 +395,8 @@ def _load_environment(spec, scene, base, path):
                          where, path)
     lighting = spec.get("lighting", "mis")
     try:
-        given = {"samples": "n_samples", "bsdf_samples": "bsdf_samples", "compensate": "compensate"}
+        given = {"samples": "n_samples", "bsdf_samples": "bsdf_samples", "compensate": "compensate",
+                 "control_variate": "control_variate"}
         split = {kw: spec[k] for k, kw in given.items() if k in spec}   # else set_environment's defaults
         set_environment(scene, env, lighting=lighting, heuristic=spec.get("heuristic", "power"),
                         preview_samples=spec.get("preview_samples", 16), **split)

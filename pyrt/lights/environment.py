@@ -60,6 +60,7 @@ from pyrt.core.image_io import read_exr, read_hdr
 from pyrt.core.registry import Registry
 from pyrt.core.transforms import SceneError, transform_matrix
 from pyrt.lights.base import LightError
+from pyrt.lights.irradiance import unshadowed_irradiance
 
 #: estimator names accepted by :class:`pyrt.lights.environment_light.EnvironmentLight`
 STRATEGIES = ("uniform", "cosine", "map", "bsdf", "mis", "preview")
@@ -187,6 +188,8 @@ class Environment:
     hide_background = False
     #: radiance (3,) seen by camera rays when :attr:`hide_background` is set
     background = np.zeros(3)
+    #: lat-long (H, W) texels that resolve the radiance (:meth:`irradiance`'s quadrature); None: it is constant
+    radiance_resolution = (128, 256)
 
     @classmethod
     def example(cls):
@@ -268,6 +271,11 @@ class Environment:
         """Unshadowed irradiance (N, 3) from the 9-term SH approximation at world normals ``n``."""
         return K.sh9_irradiance(self.sh9(), self.to_local(n))
 
+    def irradiance(self, n):
+        """Unshadowed irradiance ``int L max(0, n.w) dw`` (N, 3), W m^-2, at unit world normals ``n`` (N, 3): the
+        cached quadrature of :mod:`pyrt.lights.irradiance` (<= 5e-4 relative; constant radiance: ``pi L`` exactly)."""
+        return unshadowed_irradiance(self, n)
+
     def prefiltered(self, d, alpha):
         """Radiance prefiltered with a GGX lobe of width ``alpha`` (N,) around world directions ``d``."""
         if self._prefiltered is None:
@@ -324,6 +332,8 @@ class ConstantEnvironment(Environment):
         super().__init__(intensity=intensity, rotate=rotate, hide_background=hide_background,
                          background=background, name=name)
         self.color = _rgb(f"ConstantEnvironment({name or ''})", "color", color)
+
+    radiance_resolution = None      # constant: E(n) = pi L exactly
 
     def _radiance_local(self, d):
         return np.broadcast_to(self.color, (d.shape[0], 3))
@@ -430,6 +440,11 @@ class LatLongEnvironment(LatLongTable):
     def _radiance_local(self, d):
         return K.latlong_lookup(self.image, d, self.filter)
 
+    @property
+    def radiance_resolution(self):
+        """The map's (H, W): what :meth:`irradiance`'s quadrature refines."""
+        return self.image.shape[:2]
+
     def _sh9_local(self):
         return K.sh9_project_latlong(self.image)
 
@@ -492,6 +507,11 @@ class CubeMapEnvironment(Environment):
 
     def _radiance_local(self, d):
         return K.cube_lookup(self.faces, d, self.filter)
+
+    @property
+    def radiance_resolution(self):
+        """(2S, 4S): a lat-long map of that size resolves S x S faces (what :meth:`irradiance` refines)."""
+        return 2 * self.faces.shape[1], 4 * self.faces.shape[1]
 
     def _sample_local(self, u):
         return K.cube_sample(self.distribution, u)

@@ -23,6 +23,37 @@ the compensated density is 0 (the map below its mean) the BSDF samples have weig
 stays unbiased; the compensated table is never used alone (``strategy="map"``, :meth:`sample_li`,
 :meth:`pdf_li` and the glossy integrator's light sampling keep the full table).
 
+Control variate (``control_variate=True``, every strategy but ``preview``)
+-----------------------------------------------------------------------
+At a hit of a Lambertian material (:attr:`pyrt.materials.Material.lambertian`, ``f = rho / pi``) on a flat face
+(the shading normal is the geometric one ``n``: no interpolated vertex normals, no normal map, and ``n.wo > 0``)
+every strategy's samples, with the visibility ``V`` replaced by 1, estimate ``rho / pi E(n)`` without bias, with
+``E(n) = int L max(0, n.w) dw`` the unshadowed irradiance (the sampled domain ``n.w > 0`` is the whole support
+of ``f cos``). So
+
+    ``F_cv = rho / pi E(n) + sum_samples (V - 1) value``
+
+has the expectation of the plain estimate ``sum V value`` (``E`` from :meth:`Environment.irradiance`, whose
+quadrature error is the only bias, <= 5e-4 relative), and its variance comes only from the samples that occluders
+block: zero on unoccluded ground. With transparent shadows ``V`` is a transmittance (k, 3) and ``V - 1`` is taken
+per channel. Hits of other materials and of smooth-shaded faces are estimated as before, bit for bit; the
+bookkeeping (which hits, ``E`` per distinct normal, at most :data:`pyrt.integrators.direct.CV_MAX_NORMALS` normals
+per batch) is in :func:`pyrt.integrators.direct.environment_estimate`.
+
+Off by default: it removes the noise of unoccluded light, but it also moves the noise of the samples that find
+the sun from the lit ground (where the plain estimate had it) into the sun's shadows (where the plain estimate,
+whose sun samples are blocked, had none), and relMSE weighs a shadow's error by ``1 / R^2``.
+``python tools/control_variate_chart.py`` (320 x 240, 4 / 16 / 64 spp, threads = 1, 3 interleaved runs,
+docs/environment.md): issue 13's ``sky`` scene (a sun of radiance 400 in a 512 x 256 map, 4 + 4 samples) 0.79-0.80x
+the relMSE at 1.02-1.03x the time, relMSE x time 0.81-0.82x (a win); ``tools/bench_kinds.py``'s ``env`` scene (a sun of
+2000 in a 256 x 128 map, 1 + 1 samples) 2.8-3.0x the relMSE at 1.03-1.07x the time, relMSE x time 2.9-3.2x (a loss:
+at 16 spp the lit ground's part of the relMSE falls 13x, the shadowed ground's rises 38x). The sun's own estimate is
+that noisy because the importance table of a bilinear map is 3 x 3-dilated: a third (256 x 128 map) or a fifth
+(512 x 256) of the sun's table mass lies on texels below half their dilated weight, and ``L / p`` of a sun sample
+varies by 66 % / 47 % (relative standard deviation over the table's texels). Read with ``filter="nearest"`` (an
+exact table) the plain relMSE of both scenes is lower (1.5x, 5.6x, each against its own reference) and the variate
+nearly neutral (relMSE x time 0.95-0.96x and 1.02-1.06x).
+
 Defaults (``n_samples = bsdf_samples = 4``, ``compensate=True``, power heuristic) were picked from
 ``tools/estimator_chart.py``: relMSE x render time at equal shadow rays per pixel, against one light and one
 BSDF sample per hit without compensation (the default before), was 0.44x under a sky with a sun and 0.57x
@@ -72,13 +103,19 @@ class EnvironmentLight(Light):
         their lobes (:meth:`pyrt.materials.Material.preview_lobes`: metallic-roughness, glTF PBR without
         transmission, clear coats over them) by the split sum (prefiltered map x directional albedo, one lookup
         per lobe) and the others by ``preview_samples`` BSDF samples; ``"samples"`` every one of them by samples.
+    control_variate : bool
+        Every sampled strategy: at hits of Lambertian materials on flat faces add the unshadowed irradiance
+        ``albedo / pi * E(n)`` (:meth:`pyrt.lights.environment.Environment.irradiance`) and let the samples
+        estimate only what occluders take away, ``(V - 1)`` times their value (module docstring). Default False:
+        it moves the sun samples' noise from lit ground into the sun's shadows, and loses 2.9-3.2x at equal time on
+        ``tools/bench_kinds.py``'s ``env`` scene while it wins 1.22-1.24x on issue 13's ``sky`` scene (module docstring).
     """
 
     delta = False
 
     def __init__(self, environment, *, strategy="mis", n_samples=DEFAULT_SAMPLES, bsdf_samples=None,
                  heuristic="power", compensate=True, preview_samples=16, preview_method="split_sum",
-                 name=None):
+                 control_variate=False, name=None):
         owner = f"EnvironmentLight({name or ''})"
         if not isinstance(environment, Environment):
             raise EnvironmentMapError(f"{owner}: environment must be a pyrt Environment, got "
@@ -92,8 +129,9 @@ class EnvironmentLight(Light):
         for nm, v in (("n_samples", n_samples), ("bsdf_samples", bsdf_samples), ("preview_samples", preview_samples)):
             if not isinstance(v, numbers.Integral) or isinstance(v, bool) or v < 1:
                 raise EnvironmentMapError(f"{owner}: {nm} must be a positive integer, got {v!r}")
-        if not isinstance(compensate, (bool, np.bool_)):
-            raise EnvironmentMapError(f"{owner}: compensate must be true or false, got {compensate!r}")
+        for nm, v in (("compensate", compensate), ("control_variate", control_variate)):
+            if not isinstance(v, (bool, np.bool_)):
+                raise EnvironmentMapError(f"{owner}: {nm} must be true or false, got {v!r}")
         if preview_method not in PREVIEW_METHODS:
             raise EnvironmentMapError(f"{owner}: preview_method must be one of {PREVIEW_METHODS}, got "
                                       f"{preview_method!r}")
@@ -105,7 +143,15 @@ class EnvironmentLight(Light):
         self.compensate = bool(compensate)
         self.preview_samples = int(preview_samples)
         self.preview_method = preview_method
+        self.control_variate = bool(control_variate)
         self.name = name
+
+    def validate(self):
+        """The base checks, and ``compensate`` and ``control_variate`` still true or false."""
+        super().validate()
+        for nm, v in (("compensate", self.compensate), ("control_variate", self.control_variate)):
+            if not isinstance(v, (bool, np.bool_)):
+                raise EnvironmentMapError(f"{self.label}: {nm} must be true or false, got {v!r}")
 
     def sample(self, p, u):
         """Environment importance sample as a plain light sample (``E = L / pdf``, ``dist = inf``)."""
@@ -151,7 +197,8 @@ class EnvironmentLight(Light):
 
 
 def set_environment(scene, environment, *, lighting="mis", n_samples=DEFAULT_SAMPLES, bsdf_samples=None,
-                    heuristic="power", compensate=True, preview_samples=16, preview_method="split_sum"):
+                    heuristic="power", compensate=True, preview_samples=16, preview_method="split_sum",
+                    control_variate=False):
     """Use ``environment`` in ``scene``: seen where rays miss, and (unless ``lighting`` is None/False) as a
     light with the named strategy (the other keywords: :class:`EnvironmentLight`). Replaces a previous
     :class:`EnvironmentLight`. Returns the light or None.
@@ -164,6 +211,6 @@ def set_environment(scene, environment, *, lighting="mis", n_samples=DEFAULT_SAM
         return None
     light = EnvironmentLight(environment, strategy=lighting, n_samples=n_samples, bsdf_samples=bsdf_samples,
                              heuristic=heuristic, compensate=compensate, preview_samples=preview_samples,
-                             preview_method=preview_method)
+                             preview_method=preview_method, control_variate=control_variate)
     scene.add_light(light)
     return light

@@ -72,6 +72,13 @@ class _ProbeEnvironment(LatLongTable):
             return _tex.lookup_nearest(self.image, uv, "clamp")
         return _tex.lookup_bilinear(self.image, uv, "clamp")
 
+    @property
+    def radiance_resolution(self):
+        """The lat-long texels (H, W) = (S / 2, S) of an S x S probe (about its texel size at the image centre):
+        what :meth:`pyrt.lights.environment.Environment.irradiance` refines."""
+        s = self.image.shape[0]
+        return max(2, s // 2), max(4, s)
+
     def latlong(self):
         """The probe resampled to a lat-long map ``(H, 2H, 3)`` float64 (built once)."""
         if self._latlong is None:
