@@ -85,6 +85,17 @@ def _sample_cdf_rows(cdf, rows, u, shifted=None):
     return k, np.clip(frac, 0.0, np.nextafter(1.0, 0.0))
 
 
+def distribution2d_sample_cells(dist, u):
+    """The cells and in-cell offsets :func:`distribution2d_sample` draws for ``u`` (N, 2): ``(row, col, fu, fv, p)``,
+    int64 row and column, the offsets in [0, 1) along u and v (uniform within the cell, from ``u`` as there) and
+    the density ``p`` (N,) with respect to area in ``[0, 1)^2`` (``func / integral``; 1 for the uniform fallback)."""
+    u = np.asarray(u, dtype=np.float64)
+    zeros = np.zeros(u.shape[0], dtype=np.int64)
+    row, fv = _sample_cdf_rows(dist.cdf_marg[None, :], zeros, u[:, 1])
+    col, fu = _sample_cdf_rows(dist.cdf_cond, row, u[:, 0], dist.cdf_shifted)
+    return row, col, fu, fv, _cell_pdf(dist, row, col)
+
+
 def distribution2d_sample(dist, u):
     """Sample ``(u, v)`` in ``[0, 1)^2`` from ``dist`` with random numbers ``u`` (N, 2).
 
@@ -97,13 +108,10 @@ def distribution2d_sample(dist, u):
     pdf : (N,) float64
         Density with respect to area in ``[0, 1)^2`` (``func / integral``; 1 for the uniform fallback).
     """
-    u = np.asarray(u, dtype=np.float64)
     h, w = dist.func.shape
-    zeros = np.zeros(u.shape[0], dtype=np.int64)
-    row, fv = _sample_cdf_rows(dist.cdf_marg[None, :], zeros, u[:, 1])
-    col, fu = _sample_cdf_rows(dist.cdf_cond, row, u[:, 0], dist.cdf_shifted)
+    row, col, fu, fv, p = distribution2d_sample_cells(dist, u)
     uv = np.stack([(col + fu) / w, (row + fv) / h], axis=1)
-    return uv, _cell_pdf(dist, row, col)
+    return uv, p
 
 
 def _cell_pdf(dist, row, col):

@@ -214,15 +214,20 @@ def _z(a, b):
     return (da.mean(axis=0) - db.mean(axis=0)) / (np.sqrt((va + vb).sum(axis=0)) / n_px)
 
 
-@pytest.mark.parametrize("lighting,kw", [("mis", {}), ("mis", {"compensate": False, "n_samples": 1}),
-                                         ("map", {"n_samples": 2}), ("cosine", {"n_samples": 2})])
-def test_unbiased_with_occlusion_and_less_noise_on_the_ground(lighting, kw):
+@pytest.mark.parametrize("lighting,kw,max_ratio,max_far", [("mis", {}, 0.8, 0.45),
+                                                            ("mis", {"compensate": False, "n_samples": 1}, 0.3, 0.1),
+                                                            ("map", {"n_samples": 2}, 0.3, 0.1),
+                                                            ("cosine", {"n_samples": 2}, 0.3, 0.1)])
+def test_unbiased_with_occlusion_and_less_noise_on_the_ground(lighting, kw, max_ratio, max_far):
     """Sphere over a plane under the sky with a sun, 16 seeds each (independent seeds for the two): the ground's
     mean with the variate agrees with the plain estimate's (|z| <= 4.5 per channel, the ground's 504 pixels
     pooled); so do the ground pixels far from the sphere (the image's top third) alone; the sphere's pixels are
     bit-identical for the same seed; the per-pixel variance over seeds is lower on the ground and far lower on
-    its far part, where the sphere hides little of the sky (measured, ground / far part: mean ratio 0.10 / 0.027
-    for the default mis, 0.014-0.092 / <= 0.011 for the others; 57-79 % of the far part's pixels noise-free)."""
+    its far part, where the sphere hides little of the sky. Measured, ground / far part, mean variance ratio: with
+    the texel table's light samples 0.10 / 0.027 for the default mis, 0.014-0.092 / <= 0.011 for the others; since
+    the bilinear map's light samples follow its bilinear luminance (pyrt.lights.latlong_sampling: the plain
+    estimate itself far less noisy) 0.62 / 0.32 for the default mis (4 + 4 compensated), 0.065 / 0.011 (1 + 1
+    uncompensated), 0.15 / 0.018 (map), 0.014 / 0 (cosine); 56-76 % of the far part's pixels noise-free."""
     ground = _ground()
     far = ground.copy()
     far[8:] = False
@@ -234,35 +239,36 @@ def test_unbiased_with_occlusion_and_less_noise_on_the_ground(lighting, kw):
     plain_100 = _stack(_occluded_scene(False, lighting=lighting, **kw), [100])[0]
     np.testing.assert_array_equal(a[0][~ground], plain_100[~ground])
     ratio = a[:, ground].var(axis=0).mean() / b[:, ground].var(axis=0).mean()
-    assert ratio < 0.3, ratio
+    assert ratio < max_ratio, ratio
     ratio_far = a[:, far].var(axis=0).mean() / b[:, far].var(axis=0).mean()
-    assert ratio_far < 0.1, ratio_far
+    assert ratio_far < max_far, ratio_far
     assert (a[:, far].var(axis=0).max(axis=-1) == 0).mean() > 0.3
 
 
 def test_transparent_shadows_unbiased():
     """A glass sphere casting a coloured transparent shadow (V a transmittance (k, 3): (V - 1) per channel): the
-    ground's means with and without the variate agree (|z| <= 4.5), and the variate still lowers the noise."""
+    ground's means with and without the variate agree (|z| <= 4.5), and the variate still lowers the noise (variance
+    ratio 0.53 measured with the bilinear light samples)."""
     glass = pyrt.Glass(ior=1.5, tint=(0.9, 0.6, 0.3))
     ground = _ground()
     a = _stack(_occluded_scene(True, ball=glass), range(300, 316), transparent_shadows=True)
     b = _stack(_occluded_scene(False, ball=glass), range(400, 416), transparent_shadows=True)
     z = _z(a[:, ground], b[:, ground])
     assert np.all(np.abs(z) <= Z), z
-    assert a[:, ground].var(axis=0).mean() < 0.5 * b[:, ground].var(axis=0).mean()
+    assert a[:, ground].var(axis=0).mean() < 0.75 * b[:, ground].var(axis=0).mean()
 
 
 def test_glossy_integrator_unbiased():
     """Under integrator="glossy" (a roughness-0.2 gold sphere traces glossy rays; the Lambert ground's hits take
     the light's own strategy, with the variate): the ground's means agree (|z| <= 4.5), the noise is lower
-    (measured variance ratio 0.10)."""
+    (measured variance ratio 0.10 with the texel table's light samples, 0.65 with the bilinear ones)."""
     ground = _ground()
     ball = pyrt.CookTorrance(metal="gold", roughness=0.2)
     a = _stack(_occluded_scene(True, ball=ball), range(700, 716), integrator="glossy")
     b = _stack(_occluded_scene(False, ball=ball), range(800, 816), integrator="glossy")
     z = _z(a[:, ground], b[:, ground])
     assert np.all(np.abs(z) <= Z), z
-    assert a[:, ground].var(axis=0).mean() < 0.3 * b[:, ground].var(axis=0).mean()
+    assert a[:, ground].var(axis=0).mean() < 0.85 * b[:, ground].var(axis=0).mean()
 
 
 def test_other_materials_and_smooth_faces_are_bit_identical():

@@ -388,3 +388,31 @@ def test_mis_heuristics_sum_to_one(rng):
     np.testing.assert_allclose(sampling.power_heuristic(a, b) + sampling.power_heuristic(b, a), 1.0)
     np.testing.assert_allclose(sampling.balance_heuristic(a, b), a / (a + b))
     assert sampling.power_heuristic(np.zeros(1), np.zeros(1))[0] == 0.0
+
+
+def test_bilinear_map_samples_follow_its_bilinear_luminance():
+    """Light samples of a bilinear lat-long map (pyrt.shaders.envmap_bilinear): the density returned equals
+    ``pdf(d)`` (1e-9), integrates to 1 over the sphere (uniform-direction estimate within 5 standard errors) and
+    follows the luminance the lookup returns: ``L / p`` varies by < 10 % (relative std) over all samples of a sky
+    with a 3-degree sun (measured 3.7 %), where the 3x3-dilated texel table's varies by > 50 % (measured 88 %).
+    The row (latitude) is monotone in ``u[:, 1]``, so stratifying it stratifies latitude as the texel table does."""
+    from pyrt.lights.environment import procedural_sky
+    from pyrt.shaders import envmap_bilinear as KB
+    img = procedural_sky(64, 32, sun_direction=(0.4, 0.6, 0.3), sun_angle=3.0)
+    table = KB.bilinear_table(img)
+    rng = np.random.default_rng(5)
+    d, p = KB.sample(table, rng.random((100_000, 2)))
+    np.testing.assert_allclose(KB.pdf(table, d), p, rtol=1e-9)
+    np.testing.assert_allclose(np.linalg.norm(d, axis=1), 1.0, rtol=1e-12)
+    uni = sampling.square_to_uniform_sphere(rng.random((1_000_000, 2)))
+    vals = KB.pdf(table, uni) * 4 * np.pi
+    assert abs(vals.mean() - 1.0) <= 5 * vals.std() / np.sqrt(vals.size)
+    ratio = luminance(K.latlong_lookup(img, d, "bilinear")) / p
+    assert ratio.std() / ratio.mean() < 0.10
+    old = K.distribution2d_build(K.latlong_sampling_weights(img, "bilinear"))
+    d2, p2 = K.latlong_sample(old, rng.random((100_000, 2)))
+    r2 = luminance(K.latlong_lookup(img, d2, "bilinear")) / p2
+    assert r2.std() / r2.mean() > 0.5
+    u = np.column_stack([np.full(500, 0.3), np.sort(rng.random(500))])
+    rows = KB.distribution2d_sample_cells(table.dist, u)[0]
+    assert np.all(np.diff(rows) >= 0)

@@ -12,16 +12,15 @@ An *environment* is radiance arriving from infinitely far away, ``L(d)`` for wor
    through Embree, using one of the strategies in :data:`STRATEGIES`, or approximated without
    shadows (``strategy="preview"``).
 
-:func:`pyrt.lights.environment_light.set_environment` does both. Mapping formulas (lat-long, cube faces), the importance-sampling
-table and the SH/prefilter kernels are in :mod:`shaders.envmap`.
+:func:`pyrt.lights.environment_light.set_environment` does both. Kernels: :mod:`shaders.envmap`.
 
 Strategies (``EnvironmentLight(strategy=...)``), ``n_samples`` per hit, stratified in ``u``
 --------------------------------------------------------------------------------------------
 ``uniform``   directions uniform on the sphere, pdf ``1 / (4 pi)``.
 ``cosine``    cosine-weighted hemisphere around the shading normal, pdf ``cos theta / pi``.
-``map``       importance sampling of the environment (lat-long: piecewise-constant table weighted by
-              ``luminance * sin theta``, pdf ``p(u, v) / (2 pi^2 sin theta)``; cube: per-texel table
-              weighted by luminance times the texel's solid-angle Jacobian; constant: uniform sphere).
+``map``       importance sampling of the environment (lat-long: in proportion to the bilinear luminance times
+              ``sin theta``, :mod:`pyrt.lights.latlong_sampling`, or a texel table for ``filter="nearest"``; cube:
+              per-texel table of luminance times the texels' solid angle; constant: uniform sphere).
 ``bsdf``      the material's own ``sample()`` (GGX visible normals etc. for glossy models).
 ``mis``       ``n_samples`` ``map`` samples and ``bsdf_samples`` BSDF samples, combined with the power
               (``heuristic="power"``, beta = 2) or balance heuristic with the sample counts (Veach
@@ -38,9 +37,8 @@ Strategies (``EnvironmentLight(strategy=...)``), ``n_samples`` per hit, stratifi
               per GGX lobe one lookup of the prefiltered map at the lobe's dominant direction (Lagarde &
               de Rousiers 2014) times its directional albedo ``F0 A + B`` from :mod:`shaders.dfg`'s
               tables, plus ``diffuse / pi * E_SH(n)``, times the material's occlusion (glTF).
-              Errors are measured by ``tools/ibl_chart.py`` and the tests.
-
-Every estimator but ``preview`` is unbiased; for a given seed the result is bit-identical.
+              Errors are measured by ``tools/ibl_chart.py`` and the tests. Every estimator but ``preview`` is
+              unbiased; for a given seed the result is bit-identical.
 """
 from __future__ import annotations
 
@@ -61,6 +59,7 @@ from pyrt.core.registry import Registry
 from pyrt.core.transforms import SceneError, transform_matrix
 from pyrt.lights.base import LightError
 from pyrt.lights.irradiance import unshadowed_irradiance
+from pyrt.lights.latlong_sampling import BilinearSampling
 
 #: estimator names accepted by :class:`pyrt.lights.environment_light.EnvironmentLight`
 STRATEGIES = ("uniform", "cosine", "map", "bsdf", "mis", "preview")
@@ -401,7 +400,7 @@ class LatLongTable(Environment):
 
 
 @ENVIRONMENTS.register("latlong")
-class LatLongEnvironment(LatLongTable):
+class LatLongEnvironment(BilinearSampling, LatLongTable):
     """Lat-long (equirectangular) environment map.
 
     Parameters
@@ -410,8 +409,8 @@ class LatLongEnvironment(LatLongTable):
         Linear radiance, row 0 = straight up (+y), ``u = atan2(x, -z) / 2 pi`` (Mitsuba 3's mapping;
         see :mod:`shaders.envmap`).
     filter : {"bilinear", "nearest"}
-        Reconstruction of ``radiance()``. The importance table is exact for ``nearest`` and
-        conservative (3x3-dilated, still unbiased) for ``bilinear``.
+        Reconstruction of ``radiance()``. Light samples follow its luminance: a texel table for ``nearest``,
+        the bilinear luminance for ``bilinear`` (:mod:`pyrt.lights.latlong_sampling`).
     """
 
 
@@ -432,7 +431,9 @@ class LatLongEnvironment(LatLongTable):
 
     @property
     def distribution(self):
-        """The importance-sampling table (built once, on first use)."""
+        """The importance-sampling table (built once, on first use; bilinear maps: the dual cells')."""
+        if self.filter == "bilinear":
+            return self.bilinear_table.dist
         if self._dist is None:
             self._dist = K.distribution2d_build(K.latlong_sampling_weights(self.image, self.filter))
         return self._dist
