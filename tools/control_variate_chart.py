@@ -50,7 +50,7 @@ from pyrt.core.metrics import relmse
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import _mitsuba_scenes  # noqa: E402  (tools/_mitsuba_scenes.py)
 import bench_kinds  # noqa: E402  (tools/bench_kinds.py)
-from _charts import pyplot  # noqa: E402  (tools/_charts.py)
+from _charts import finish_error_time_axes, pyplot, save_figure  # noqa: E402  (tools/_charts.py)
 
 
 def make_scene(name, width, height, workdir, filter="bilinear"):
@@ -172,15 +172,8 @@ def plot(rows, path, title):
             pts = sorted((r for r in rows if r["scene"] == scene and r["control_variate"] == cv), key=lambda r: r["spp"])
             ax.loglog([p["time_s"] for p in pts], [p["relmse"] for p in pts], "-o" if cv else "--o", ms=3,
                       label="control variate" if cv else "plain")
-        ax.set_title(scene)
-        ax.set_xlabel("render time (s, median)")
-        ax.set_ylabel("relMSE vs reference")
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
-    fig.suptitle(title, fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=80)
-    print(f"wrote {path}")
+        finish_error_time_axes(ax, scene)
+    save_figure(fig, title, path)
 
 
 def main():

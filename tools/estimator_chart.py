@@ -51,7 +51,7 @@ import pyrt
 from pyrt.core.metrics import relmse
 from pyrt.lights import LatLongEnvironment, set_environment
 from pyrt.shaders.envmap import latlong_texel_directions
-from _charts import pyplot  # noqa: E402  (tools/_charts.py)
+from _charts import finish_error_time_axes, pyplot, save_figure  # noqa: E402  (tools/_charts.py)
 
 #: environment estimators: (label, n_light, n_bsdf, compensate, heuristic); shadow rays per hit n_light + n_bsdf
 ESTIMATORS = [
@@ -231,15 +231,8 @@ def plot(rows, path, title):
             lw = 2.4 if label in (BASELINE[scene], "L4B4+c") else 1.0
             ax.loglog([p["time_s"] for p in pts], [p["relmse"] for p in pts], "-" if "+c" in label else "--",
                       marker="o", ms=3, lw=lw, label=label)
-        ax.set_title(scene)
-        ax.set_xlabel("render time (s, median)")
-        ax.set_ylabel("relMSE vs reference")
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=7, ncol=2)
-    fig.suptitle(title, fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=80)
-    print(f"wrote {path}")
+        finish_error_time_axes(ax, scene, legend_size=7, ncol=2)
+    save_figure(fig, title, path)
 
 
 def main():
