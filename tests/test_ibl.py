@@ -397,3 +397,15 @@ def test_example_scene_renders():
     sc.camera.width, sc.camera.height = 24, 14
     img = pyrt.render(sc, spp=1, **opts)
     assert np.all(np.isfinite(img)) and img.mean() > 0
+
+
+def test_sh_preview_follows_intensity_changes():
+    """``Environment.irradiance_sh`` (the preview's Lambert lighting) scales with ``intensity`` set after the first
+    query: the SH projection is cached without it (it was cached with the intensity of the first call)."""
+    env = LatLongEnvironment(procedural_sky(32, 16))
+    n = np.array([[0.0, 1.0, 0.0], [0.3, 0.2, 0.93]])
+    e1 = env.irradiance_sh(n)
+    env.intensity = 2.5
+    np.testing.assert_allclose(env.irradiance_sh(n), 2.5 * e1, rtol=1e-12)
+    np.testing.assert_allclose(env.mean_radiance(), 2.5 * LatLongEnvironment(procedural_sky(32, 16)).mean_radiance(),
+                               rtol=1e-12)

@@ -261,10 +261,10 @@ class Environment:
         return self._pdf_compensated_local(self.to_local(d))
 
     def sh9(self):
-        """Nine SH coefficients (9, 3) of the radiance in the environment frame (intensity included)."""
-        if self._sh is None:
-            self._sh = self.intensity * self._sh9_local()
-        return self._sh
+        """Nine SH coefficients (9, 3) of the radiance in the environment frame (the current intensity included)."""
+        if self._sh is None:          # the map's own coefficients, once; intensity applied per call
+            self._sh = self._sh9_local()
+        return self.intensity * self._sh
 
     def irradiance_sh(self, n):
         """Unshadowed irradiance (N, 3) from the 9-term SH approximation at world normals ``n``."""
