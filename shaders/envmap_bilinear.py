@@ -22,8 +22,7 @@ import numpy as np
 
 from .color import luminance
 from .distribution import Distribution2D, compensated_weights, distribution2d_build, distribution2d_sample_cells
-
-_INV_2PI2 = 1.0 / (2.0 * np.pi * np.pi)
+from .envmap import _INV_2PI2, latlong_dir_to_uv, latlong_uv_to_dir
 
 
 class BilinearTable(NamedTuple):
@@ -111,9 +110,8 @@ def sample(table, u):
     uu = (i + 0.5 + s) / w
     uu = uu - np.floor(uu)
     v = table.v0[k] + t * (table.v1[k] - table.v0[k])
-    theta, phi = np.pi * v, 2.0 * np.pi * uu
-    st = np.sin(theta)
-    d = np.stack([np.sin(phi) * st, np.cos(theta), -np.cos(phi) * st], axis=1)
+    d = latlong_uv_to_dir(np.stack([uu, v], axis=1))
+    st = np.sin(np.pi * v)
     p = _density_uv(table, k, i, s, t)
     return d, np.divide(p * _INV_2PI2, st, out=np.zeros_like(st), where=st > 0)
 
@@ -123,9 +121,8 @@ def pdf(table, d):
     d = np.asarray(d, dtype=np.float64)
     rows, w = table.dist.func.shape
     h = rows - 1
-    uu = np.arctan2(d[:, 0], -d[:, 2]) * (0.5 / np.pi)
-    uu = uu - np.floor(uu)
-    v = np.arccos(np.clip(d[:, 1], -1.0, 1.0)) / np.pi
+    uv = latlong_dir_to_uv(d)
+    uu, v = uv[:, 0], uv[:, 1]
     x = uu * w - 0.5
     fx = np.floor(x)
     i = np.mod(fx.astype(np.int64), w)

@@ -33,6 +33,8 @@ only the rows the horizon crosses are summed cell by cell (:func:`irradiance_qua
 """
 import numpy as np
 
+from .envmap import latlong_uv_to_dir
+
 
 def latlong_cell_moments(height, width):
     """Vector solid angles ``int_cell w dw`` of an ``height x width`` lat-long grid, in separable form.
@@ -61,13 +63,8 @@ def latlong_cell_centres(height, width, row_lo=0, row_hi=None):
     row_hi = height if row_hi is None else row_hi
     v = (np.arange(row_lo, row_hi) + 0.5) / height
     u = (np.arange(width) + 0.5) / width
-    st, ct = np.sin(np.pi * v), np.cos(np.pi * v)
-    sp, cp = np.sin(2.0 * np.pi * u), np.cos(2.0 * np.pi * u)
-    out = np.empty((v.size, width, 3))
-    out[..., 0] = st[:, None] * sp[None, :]
-    out[..., 1] = ct[:, None]
-    out[..., 2] = -st[:, None] * cp[None, :]
-    return out
+    uv = np.stack(np.broadcast_arrays(u[None, :], v[:, None]), axis=-1).reshape(-1, 2)
+    return latlong_uv_to_dir(uv).reshape(v.size, width, 3)
 
 
 def block_average(values, row_solid_angle, sub):

@@ -166,13 +166,14 @@ def floored_errors(film, err, shape):
     return np.maximum(a, NEIGHBOURHOOD * box_smooth(a.reshape(shape), SMOOTH_RADIUS).ravel()), ok
 
 
-def estimated_error(film, err, shape):
+def estimated_error(film, err, shape, floored=None):
     """The image's estimated relMSE from the per-pixel estimates ``err`` (:func:`pixel_errors`): the mean over the
     pixels with samples of ``max(a_p, NEIGHBOURHOOD box(a)_p) / n_p``, ``a_p = err_p n_p`` the per-sample error
     and ``box`` its mean over the (2 SMOOTH_RADIUS + 1)^2 pixels around (:func:`box_smooth`, the allocation's
     smoothing): a pixel whose halves agree by chance is counted at 0.6 of its neighbourhood's error (module notes,
-    step 2). ``inf`` when no pixel has an estimate."""
-    a, ok = floored_errors(film, err, shape)
+    step 2); ``floored``: :func:`floored_errors` of the same arguments if at hand. ``inf`` when no pixel has an
+    estimate."""
+    a, ok = floored if floored is not None else floored_errors(film, err, shape)
     if not ok.any():
         return math.inf
     return float(np.mean(a[ok] / film.weight[ok]))
@@ -341,7 +342,8 @@ def _passes(cam, ps, pool, t_start, target_error, time_budget, max_spp, min_spp,
         run_pass(counts, 0, timed=False)
         while True:
             err = pixel_errors(film, half)
-            est = estimated_error(film, err, (H, W))
+            floored = floored_errors(film, err, (H, W))
+            est = estimated_error(film, err, (H, W), floored)
             samples = int(film.weight.sum())
             bar.set_postfix_str(f"spp {samples / n_pix:.1f}, relMSE~{est:.3g}")
             if on_pass is not None:
@@ -360,7 +362,7 @@ def _passes(cam, ps, pool, t_start, target_error, time_budget, max_spp, min_spp,
             if target_error is not None and np.isfinite(est):
                 # the samples the estimate asks for (the same floored errors: a prediction from the raw ones stopped
                 # short of what the estimate then wanted, and the passes came in many small steps)
-                need = np.sqrt(floored_errors(film, err, (H, W))[0]).sum() ** 2 / (n_pix * target_error)
+                need = np.sqrt(floored[0]).sum() ** 2 / (n_pix * target_error)
                 total_new = min(total_new, max(1.1 * need - samples, MIN_GROWTH * samples))
             if math.isfinite(deadline):
                 rate = totals["render_s"] / max(samples, 1)
