@@ -13,6 +13,7 @@ import warnings as _warnings
 import numpy as np
 
 from pyrt.shaders import color as _color
+from pyrt.shaders.vec import dot
 
 from pyrt.core.camera import Camera
 from pyrt.core.transforms import apply_matrix
@@ -182,7 +183,7 @@ class PreviewScene:
         sel = culls[geo.face_material[face]]
         if not sel.any():
             return 0.0, 0
-        back = np.einsum("ij,ij->i", geo.face_normals[face[sel]], d[h[sel]]) > 0
+        back = dot(geo.face_normals[face[sel]], d[h[sel]]) > 0
         return float(back.mean()), int(sel.sum())
 
     def model_mask(self, camera=None):
