@@ -190,3 +190,22 @@ def test_obj_maps_of_one_file_decoded_once(tmp_path):
     ka, kb, ke = m["a"].map_Kd, m["b"].map_Kd, m["b"].map_Ke
     assert kb._image is ka._image and ke._image is ka._image and kb._pyramid is ka._pyramid
     assert kb.scale == (2.0, 2.0) and ka.scale == (1.0, 1.0)
+
+
+@pytest.mark.parametrize("shape", [(64, 64, 3), (6, 9, 1), (5, 8, 3), (2, 1, 3), (1, 7), (10, 3)])
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_coded_reduction_is_bit_identical_to_decode_then_reduce(shape, dtype, rng):
+    codes = rng.integers(0, 256, size=shape).astype(np.uint8)
+    table = ((np.arange(256) / 255.0) ** 2.2).astype(dtype)
+    want = M.reduce_level(table[codes])
+    got = M.reduce_coded_level(codes, table)
+    assert got.dtype == want.dtype and got.shape == want.shape
+    np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(M.reduce_coded_level(codes, table, M.pair_table(table)), want)
+
+
+def test_coded_reduction_refuses_what_it_cannot_pair():
+    with pytest.raises(ValueError, match="uint8"):
+        M.reduce_coded_level(np.zeros((4, 4), np.uint16), np.zeros(256, np.float32))
+    with pytest.raises(ValueError, match="256"):
+        M.pair_table(np.zeros(65536, np.float32))
