@@ -198,8 +198,8 @@ class SurfaceBatch:
         A slice (contiguous rows, e.g. the hits of one material once they are ordered by material) makes
         every field of the view a NumPy view of the batch's (no copy); an index array gathers each field on
         first read. Fields of a view are read-only by convention (nothing writes into a batch's fields).
-        The view remembers this batch and ``idx`` (:func:`parent_value`): values computed per hit on this
-        batch (the materials' texture lookups) are gathered for the view instead of computed again.
+        Views of one batch share its per-row memo (:func:`pyrt.geometry.memo.row_memo`): what a per-hit kernel
+        computed on one view (the materials' texture lookups) is gathered for another instead of computed again.
         """
         if isinstance(idx, slice):
             lo, hi, step = idx.indices(self.n_hits)
@@ -210,9 +210,7 @@ class SurfaceBatch:
             idx = np.asarray(idx)
             if idx.dtype == bool:
                 idx = np.flatnonzero(idx)
-        sub = _SurfaceSubset(self, idx)
-        sub.__dict__["_parent"] = (self, idx)
-        return sub
+        return _SurfaceSubset(self, idx)
 
     def uv_set(self, k):
         """``(uv, duvdx, duvdy)`` of UV set ``k`` at the hits, each (N, 2) float64: set 0 is the fields ``uv``,
@@ -336,29 +334,6 @@ class _SurfaceSubset(SurfaceBatch):
     def n_hits(self):
         idx = self._idx
         return idx.stop - idx.start if isinstance(idx, slice) else idx.shape[0]
-
-
-def parent_value(ctx, cache, key):
-    """``value[idx]`` from the nearest batch the view ``ctx`` was cut from (:meth:`SurfaceBatch.subset`, through
-    any number of views) whose per-batch dict attribute ``cache`` (e.g. ``"_param_cache"``) holds ``key``; None
-    when none does, or when ``ctx`` is not a :class:`SurfaceBatch`. The rows are the same hits, so the gathered
-    value is the one the view would compute with a per-hit kernel (each row depends only on its own hit)."""
-    if not isinstance(ctx, SurfaceBatch):
-        return None
-    chain = []
-    node = ctx
-    while True:
-        parent = node.__dict__.get("_parent")
-        if parent is None:
-            return None
-        node, idx = parent
-        chain.append(idx)
-        val = node.__dict__.get(cache, {}).get(key)
-        if val is not None:
-            rows = chain[0]
-            for i in chain[1:]:     # compose the views' indices: rows of ``node`` for the rows of ``ctx``
-                rows = compose_rows(i, rows)
-            return take_view_rows(val, rows)
 
 
 def _solve_bary_derivative(e1, e2, dp):

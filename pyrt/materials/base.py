@@ -58,7 +58,7 @@ import numpy as np
 from pyrt.core import checks
 from pyrt.core.errors import Error
 from pyrt.core.registry import Registry
-from pyrt.geometry.surface import parent_value, take_view_rows
+from pyrt.geometry.memo import row_memo
 from pyrt.shaders import sampling
 from pyrt.shaders.vec import dot
 from pyrt.textures import is_texture
@@ -332,35 +332,18 @@ class Material:
         """Resolve a constant or a texture to an ``(N, channels)`` array (``(N,)`` if channels == 1).
 
         Texture lookups are cached on ``ctx`` (keyed by the texture object), so a material evaluated
-        for several lights on the same hits reads its textures once; a view cut from a batch that has the
-        lookup (:func:`pyrt.geometry.surface.parent_value`, e.g. the hits a BSDF sample is drawn at, cut from
-        the material's group that evaluated ``f_cos``) gathers it instead of reading the texture again. A view
-        with at least as many rows as the batch it was cut from (all its hits, or hits repeated: several BSDF
-        samples per hit) reads the texture at that batch, once per hit, caches it there for later views, and
-        gathers (the same rows: each depends only on its hit).
+        for several lights on the same hits reads its textures once; and every view of one batch of hits
+        (:meth:`pyrt.geometry.SurfaceBatch.subset`: the hits of a material, of a light's samples, of the glossy
+        rays, hits repeated for several BSDF samples) shares one per-row memo of them
+        (:func:`pyrt.geometry.memo.row_memo`): each hit is looked up once per batch, the other views gather.
         """
         n = ctx.n_hits
         if is_texture(value):
             cache = ctx.__dict__.setdefault("_param_cache", {})
             key = (id(value), channels)
-            if key in cache:
-                return cache[key]
-            out = parent_value(ctx, "_param_cache", key)
-            if out is not None:
-                cache[key] = out
-                return out
-            parent = ctx.__dict__.get("_parent")
-            if parent is not None and parent[0].n_hits <= n:
-                cache[key] = out = take_view_rows(self.param(value, parent[0], channels), parent[1])
-                return out
-            out = np.asarray(value.evaluate(ctx), dtype=np.float64)
-            if channels == 1:
-                out = out.reshape(n, -1)[:, 0]
-            elif out.ndim == 1 or out.shape[1] == 1:
-                out = np.repeat(out.reshape(n, 1), 3, axis=1)
-            else:
-                out = out[:, :3]
-            cache[key] = out
+            out = cache.get(key)
+            if out is None:
+                out = cache[key] = row_memo(ctx, ("param",) + key, lambda c: _texture_values(value, c, channels))
             return out
         arr = np.asarray(value, dtype=np.float64)
         if channels == 1:
@@ -447,3 +430,14 @@ class IsotropicMaterial(Material):
 MATERIALS = Registry("material", Material)
 #: ``register(cls)`` or ``@register("name")``: add a material type to :data:`MATERIALS`
 register = MATERIALS.register
+
+
+def _texture_values(value, ctx, channels):
+    """``value.evaluate(ctx)`` as float64 ``(N, channels)`` (``(N,)`` for one channel; grey repeated to RGB)."""
+    n = ctx.n_hits
+    out = np.asarray(value.evaluate(ctx), dtype=np.float64)
+    if channels == 1:
+        return out.reshape(n, -1)[:, 0]
+    if out.ndim == 1 or out.shape[1] == 1:
+        return np.repeat(out.reshape(n, 1), 3, axis=1)
+    return out[:, :3]

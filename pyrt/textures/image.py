@@ -30,6 +30,7 @@ import threading
 import numpy as np
 
 from pyrt.core.image_io import ImageFileError, read_image
+from pyrt.geometry.memo import row_memo
 from pyrt.shaders import color as _color
 from pyrt.shaders import ewa as _ewa
 from pyrt.shaders import mip as _mip
@@ -468,9 +469,15 @@ class ImageTexture(Texture):
                 self.rotation_deg, self.footprint_scale)
 
     def evaluate(self, ctx):
-        """The filtered lookup at the hits of ``ctx``; trilinear lookups reuse the batch's plan for this texture's
-        :attr:`plan_key` (``ctx._plan_cache``): the MIP levels, taps and weights are computed once for all the
-        same-sized maps a material reads at the same UVs (the same numbers as :meth:`lookup`)."""
+        """The filtered lookup at the hits of ``ctx``, each hit of a batch looked up once
+        (:func:`pyrt.geometry.memo.row_memo`, keyed by :attr:`sampling_key`: the views of one batch of hits that
+        a material's BSDF, light samples, glossy rays and preview lobes are evaluated on gather what another view
+        already read). Trilinear lookups reuse the batch's plan for this texture's :attr:`plan_key`
+        (``ctx._plan_cache``): the MIP levels, taps and weights are computed once for all the same-sized maps a
+        material reads at the same UVs (the same numbers as :meth:`lookup`)."""
+        return row_memo(ctx, ("image", type(self), self.sampling_key), self._evaluate)
+
+    def _evaluate(self, ctx):
         if self.filter != "trilinear":
             return self.lookup(*texcoords(ctx, self.texcoord))
         cache = ctx.__dict__.setdefault("_plan_cache", {})
