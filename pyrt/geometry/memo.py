@@ -22,7 +22,8 @@ def row_memo(ctx, key, compute):
     base batch's memo: a dict ``key -> (values, done)`` of per-row results and a mask of the rows computed. A view
     gets the rows already computed gathered, and only the missing ones computed, each once (on the view itself
     when all of its rows are missing and distinct, so that caches kept on the view, e.g. a texture's lookup plan,
-    serve the other kernels evaluated on it; otherwise on a view of the missing rows). Valid only for kernels
+    serve the other kernels evaluated on it; otherwise on a view of the missing rows, one view object for all the
+    kernels that ask for the same rows). Valid only for kernels
     whose row ``i`` depends on the hit of row ``i`` alone (the texture lookups: UVs and footprints). A view whose
     rows repeat hits (several BSDF samples per hit) thus computes each hit once; views cut from one batch in
     different ways (the hits of a material, of a light's samples, of the glossy rays) share what they computed.
@@ -59,7 +60,7 @@ def row_memo(ctx, key, compute):
             memo[key] = (values, done)
             return out
         missing = np.flatnonzero(done)
-        out = compute(root.subset(missing))
+        out = compute(_missing_view(ctx, root, missing))
         values = np.empty((n_root,) + out.shape[1:], dtype=out.dtype)
         values[missing] = out
         memo[key] = (values, done)
@@ -73,7 +74,19 @@ def row_memo(ctx, key, compute):
         else:
             mark[rows[need]] = True
         missing = np.flatnonzero(mark)
-        values[missing] = compute(root.subset(missing))
+        values[missing] = compute(_missing_view(ctx, root, missing))
         done[missing] = True
     out = take_view_rows(values, rows)
     return out.copy() if isinstance(rows, slice) else out
+
+
+def _missing_view(ctx, root, missing):
+    """The view of ``root``'s rows ``missing`` that ``ctx`` computes on: the same view object for every kernel that
+    ``ctx`` needs on the same missing rows (kept on ``ctx``), so that what those kernels cache on their batch (the
+    trilinear plan that a material's same-sized maps share) is shared as it is on ``ctx`` itself."""
+    cached = ctx.__dict__.get("_memo_missing")
+    if cached is not None and cached[0].shape == missing.shape and np.array_equal(cached[0], missing):
+        return cached[1]
+    view = root.subset(missing)
+    ctx.__dict__["_memo_missing"] = (missing, view)
+    return view
