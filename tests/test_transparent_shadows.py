@@ -70,6 +70,35 @@ def test_absorbing_tinted_slab_adds_beer_lambert_over_the_straight_path_and_the_
         np.testing.assert_allclose(img[..., c] / bare[..., c], expect * tint[c] ** 2, rtol=2e-6)
 
 
+def test_two_slabs_of_different_glasses_multiply_whichever_path_each_material_takes():
+    """Constant-parameter dielectrics are crossed together, the others (a textured tint) one material at a time
+    (shadows._cross): two stacked absorbing slabs of different ior, tint and absorption, one of them with a
+    constant texture as its tint, give the product of the two closed forms."""
+    g1 = pyrt.Glass(ior=1.5, absorption=np.array([0.5, 2.0, 8.0]), tint=np.array([1.0, 0.9, 0.7]))
+    tint2 = np.array([0.8, 1.0, 0.6])
+    g2 = pyrt.Glass(ior=1.33, absorption=np.array([3.0, 1.0, 0.2]),
+                    tint=pyrt.ImageTexture(np.broadcast_to(tint2, (2, 2, 3)).copy(), srgb=False, filter="nearest"))
+    lo = 0.5
+
+    def add(scene):
+        _slab(g1)(scene)
+        scene.add_plane((0, lo, 0), 20.0, g2, normal=(0, -1, 0), name="low slab bottom")
+        scene.add_plane((0, lo + H, 0), 20.0, g2, normal=(0, 1, 0), name="low slab top")
+    cam = pyrt.Camera(position=(0, 0.3, 0), target=(0, 0, 0), up=(0, 0, -1), fov=120.0, width=24, height=24,
+                      spp=1, jitter=False)
+    scene = _scene(add)
+    scene.camera = cam
+    bare_scene = _scene()
+    bare_scene.camera = cam
+    bare = pyrt.render(bare_scene, transparent_shadows=True)
+    img = pyrt.render(scene, transparent_shadows=True)
+    for c in range(3):
+        e1, _ = _expected(cam, 1.5, g1.absorption[c])
+        e2, _ = _expected(cam, 1.33, g2.absorption[c])
+        np.testing.assert_allclose(img[..., c] / bare[..., c], e1 * g1.tint[c] ** 2 * e2 * tint2[c] ** 2,
+                                   rtol=2e-6)
+
+
 def test_opaque_box_still_casts_zero_and_glass_with_the_switch_off_too():
     box = _scene(lambda s: s.add_box((0.3, 1.0, -0.2), (0.15, 0.1, 0.15), pyrt.Lambert(albedo=0.5)))
     img = pyrt.render(box, transparent_shadows=True)
