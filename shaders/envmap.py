@@ -562,11 +562,14 @@ def roughness_map_lookup(maps, alphas, d, alpha):
     k = np.clip(np.searchsorted(alphas, a, side="right") - 1, 0, len(alphas) - 2)
     f = (a - alphas[k]) / (alphas[k + 1] - alphas[k])
     out = np.zeros((d.shape[0], maps[0].shape[2]))
+    uv = _env_uv_to_tex_uv(latlong_dir_to_uv(d))    # once per direction: both levels read at the same uv
+    wrap = ("repeat", "clamp")
     for j in range(len(alphas) - 1):
         m = k == j
         if not np.any(m):
             continue
-        lo = latlong_lookup(maps[j], d[m], "bilinear").astype(np.float64)
-        hi = latlong_lookup(maps[j + 1], d[m], "bilinear").astype(np.float64)
+        uv_m = uv[m]
+        lo = _tex.lookup_bilinear(maps[j], uv_m, wrap).astype(np.float64)
+        hi = _tex.lookup_bilinear(maps[j + 1], uv_m, wrap).astype(np.float64)
         out[m] = (1.0 - f[m, None]) * lo + f[m, None] * hi
     return out
