@@ -23,10 +23,11 @@ def row_memo(ctx, key, compute):
     gets the rows already computed gathered, and only the missing ones computed, each once (on the view itself
     when all of its rows are missing and distinct, so that caches kept on the view, e.g. a texture's lookup plan,
     serve the other kernels evaluated on it; otherwise on a view of the missing rows, one view object for all the
-    kernels that ask for the same rows). Valid only for kernels
-    whose row ``i`` depends on the hit of row ``i`` alone (the texture lookups: UVs and footprints). A view whose
-    rows repeat hits (several BSDF samples per hit) thus computes each hit once; views cut from one batch in
-    different ways (the hits of a material, of a light's samples, of the glossy rays) share what they computed.
+    kernels that ask for the same rows). Valid only for kernels whose row ``i`` depends on the hit of row ``i``
+    alone and not on fields changed after the batch was built (the texture lookups: UVs and footprints; the
+    shading normals that normal maps replace are not read by them). A view whose rows repeat hits (several BSDF
+    samples per hit) thus computes each hit once; views cut from one batch in different ways (the hits of a
+    material, of a light's samples, of the glossy rays) share what they computed.
 
     Parameters
     ----------
