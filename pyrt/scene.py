@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import math
 import numbers
+import sys
 
 import numpy as np
-import trimesh
 
 from pyrt.core import checks
 from pyrt.core.camera import Camera
@@ -18,7 +18,7 @@ from pyrt.geometry.surface import GeometryError, GeometryTable, MeshData, valida
 from pyrt.lights.base import Light
 from pyrt.lights.mesh import EmissiveMeshLight
 from pyrt.materials import Material
-from pyrt.core.transforms import SceneError, apply_matrix, transform_matrix  # noqa: F401 (public here too)
+from pyrt.core.transforms import SceneError, align_vectors, apply_matrix, transform_matrix  # noqa: F401 (public here too)
 
 
 def _rgb(owner, name, v):
@@ -108,12 +108,14 @@ class Scene:
         return light
 
     def add_mesh(self, mesh, material, *, transform=None, smooth="auto", crease_angle=30.0, name=None, normals=None,
-                 shading=None, uv_sets=None):
+                 shading=None, uv_sets=None, uv=None):
         """Add a trimesh mesh (or a ``(vertices, faces)`` pair) with a material.
 
         Parameters
         ----------
         mesh : trimesh.Trimesh or (vertices, faces)
+            A pair of arrays needs no trimesh (pyrt imports it only where it needs it: OBJ / PLY / STL files,
+            spheres, boxes).
         material : Material
         transform : (4, 4) array, optional
             ``world_from_object``; normals use its inverse transpose. A mirroring transform (negative
@@ -133,6 +135,9 @@ class Scene:
         uv_sets : dict, optional
             ``{k: (V, 2)}``: UV sets k >= 1 beside the mesh's own UVs (set 0), read by textures with
             ``texcoord=k`` (glTF ``TEXCOORD_k``; :mod:`pyrt.geometry.uvsets`).
+        uv : (V, 2) array, optional
+            The texture coordinates (UV set 0) of a ``(vertices, faces)`` pair (a Trimesh's own are
+            ``mesh.visual.uv``, used when this is None).
         """
         name = name or f"mesh{len(self.meshes)}"
         if shading not in (None, "flat", "phong", "gouraud"):
@@ -140,22 +145,23 @@ class Scene:
         if shading == "flat":
             smooth = False
         if isinstance(mesh, (tuple, list)):
-            v, f = mesh
-            mesh = trimesh.Trimesh(vertices=np.asarray(v, dtype=np.float64), faces=np.asarray(f), process=False)
-        if not isinstance(mesh, trimesh.Trimesh):
-            raise SceneError(f"mesh {name!r}: expected trimesh.Trimesh, got {type(mesh).__name__}")
+            v_in, f_in = mesh
+            v_in, f_in, vis_uv = np.asarray(v_in, dtype=np.float64), np.asarray(f_in), uv
+        else:
+            tm = sys.modules.get("trimesh")     # a Trimesh was made by a program that imported trimesh
+            if tm is None or not isinstance(mesh, tm.Trimesh):
+                raise SceneError(f"mesh {name!r}: expected trimesh.Trimesh, got {type(mesh).__name__}")
+            v_in, f_in = mesh.vertices, mesh.faces
+            vis_uv = getattr(mesh.visual, "uv", None) if uv is None else uv
         if smooth not in ("auto", True, False):
             raise SceneError(f"mesh {name!r}: smooth must be 'auto', True or False, got {smooth!r}")
-        v_obj, faces = validate_mesh(mesh.vertices, mesh.faces, name)
+        v_obj, faces = validate_mesh(v_in, f_in, name)
         uv = None
-        vis_uv = getattr(mesh.visual, "uv", None)
-        if vis_uv is not None and len(vis_uv) == len(mesh.vertices):
+        if vis_uv is not None and len(vis_uv) == len(v_in):
             uv = np.asarray(vis_uv, dtype=np.float64)
             if not np.all(np.isfinite(uv)):
                 raise GeometryError(f"mesh {name!r}: texture coordinates are not finite")
-        uv_sets = _checked_uv_sets(uv_sets, len(mesh.vertices), name)
-        if faces.shape[0] != len(mesh.faces):
-            mesh = trimesh.Trimesh(vertices=v_obj, faces=faces, process=False)
+        uv_sets = _checked_uv_sets(uv_sets, len(v_in), name)
         given = normals
         normals = None
         if given is not None:
@@ -168,6 +174,7 @@ class Scene:
             v_obj, uv = np.take(v_obj, src, axis=0), (None if uv is None else np.take(uv, src, axis=0))
             uv_sets = uv_sets and {k: np.take(a, src, axis=0) for k, a in uv_sets.items()}
         elif smooth:
+            import trimesh      # its area-weighted vertex normals
             src = trimesh.Trimesh(vertices=v_obj, faces=faces, process=False)
             normals = np.asarray(src.vertex_normals, dtype=np.float64)
         m = np.eye(4) if transform is None else transform_matrix(matrix=transform)
@@ -226,6 +233,7 @@ class Scene:
         if (not isinstance(subdivisions, numbers.Integral) or isinstance(subdivisions, bool)
                 or not 0 <= subdivisions <= MAX_SUBDIVISIONS):
             raise SceneError(f"{who}: subdivisions must be an integer in 0..{MAX_SUBDIVISIONS}, got {subdivisions!r}")
+        import trimesh
         m = trimesh.creation.icosphere(subdivisions=int(subdivisions), radius=radius)
         return self.add_mesh(m, material, transform=transform_matrix(translate=center), smooth=smooth, name=name)
 
@@ -233,6 +241,7 @@ class Scene:
         """An axis-aligned box of ``extents`` (3 finite numbers > 0, or one for a cube) centred at ``center``
         (flat shaded); returns the mesh index."""
         extents = _positive_sizes(_who("box", name), "extents", extents, 3)
+        import trimesh
         m = trimesh.creation.box(extents=extents)
         return self.add_mesh(m, material, transform=transform_matrix(translate=center), smooth=False, name=name)
 
@@ -242,14 +251,13 @@ class Scene:
         sx, sz = _positive_sizes(_who("plane", name), "size", size, 2)
         v = np.array([[-sx / 2, 0, sz / 2], [sx / 2, 0, sz / 2], [sx / 2, 0, -sz / 2], [-sx / 2, 0, -sz / 2]])
         f = np.array([[0, 1, 2], [0, 2, 3]])
-        mesh = trimesh.Trimesh(vertices=v, faces=f, process=False)
-        mesh.visual = trimesh.visual.TextureVisuals(uv=np.array([[0, 0], [1, 0], [1, 1], [0, 1.0]]))
         nrm = checks.numbers_array(_who("plane", name), "normal", normal, SceneError)
         if nrm.shape != (3,) or not np.all(np.isfinite(nrm)) or np.linalg.norm(nrm) == 0:
             raise SceneError(f"{_who('plane', name)}: normal must be a finite non-zero 3-vector, got {normal!r}")
-        rot = trimesh.geometry.align_vectors([0, 1, 0], nrm / np.linalg.norm(nrm))
+        rot = align_vectors([0, 1, 0], nrm / np.linalg.norm(nrm))
         m = transform_matrix(translate=center) @ rot
-        return self.add_mesh(mesh, material, transform=m, smooth=False, name=name)
+        return self.add_mesh((v, f), material, transform=m, smooth=False, name=name,
+                             uv=np.array([[0, 0], [1, 0], [1, 1], [0, 1.0]]))
 
     # -- checks ----------------------------------------------------------------------------------
     def validate(self):

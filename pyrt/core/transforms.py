@@ -1,10 +1,14 @@
-"""Transforms: the 4x4 ``world_from_object`` matrix from translate / rotate / scale."""
+"""Transforms: the 4x4 ``world_from_object`` matrix from translate / rotate / scale, and the rotation, translation,
+quaternion and vector-alignment matrices pyrt builds (:func:`rotation_matrix`, :func:`translation_matrix`,
+:func:`quaternion_matrix`, :func:`align_vectors`). They are the same NumPy operations as the trimesh functions of
+those names (Gohlke's ``transformations``, trimesh's ``geometry.align_vectors``), so the matrices are bit-identical
+to the ones pyrt used to take from trimesh, without importing trimesh (~0.2 s and its scipy / networkx imports: a
+glTF preview never needs it)."""
 from __future__ import annotations
 
 import math
 
 import numpy as np
-import trimesh
 
 from pyrt.core.checks import numbers_array
 from pyrt.core.errors import Error
@@ -62,12 +66,70 @@ def transform_matrix(*, translate=None, rotate=None, scale=None, matrix=None):
             if not math.isfinite(angle) or ax.shape != (3,) or not np.all(np.isfinite(ax)) or np.linalg.norm(ax) == 0:
                 raise SceneError(f"rotation must be a finite angle (degrees) and a finite non-zero 3-vector axis, "
                                  f"got {angle!r}, {ax.tolist()!r}")
-            m = trimesh.transformations.rotation_matrix(math.radians(angle), ax) @ m
+            m = rotation_matrix(math.radians(angle), ax) @ m
     if translate is not None:
         t = numbers_array("transform", "translate", translate, SceneError)
         if t.shape != (3,) or not np.all(np.isfinite(t)):
             raise SceneError(f"translate must be 3 finite numbers, got {translate!r}")
-        m = trimesh.transformations.translation_matrix(t) @ m
+        m = translation_matrix(t) @ m
+    return m
+
+
+#: quaternions of squared norm below this give the identity (Gohlke's ``_EPS``)
+_QUAT_EPS = np.finfo(float).eps * 4.0
+
+
+def rotation_matrix(angle, direction):
+    """4x4 rotation by ``angle`` radians about the axis ``direction`` (3,) through the origin (right-handed)."""
+    sina = np.sin(angle)
+    cosa = np.cos(angle)
+    direction = np.array(direction[:3], dtype=np.float64)
+    direction /= np.sqrt(np.dot(direction, direction))
+    m = np.diag([cosa, cosa, cosa, 1.0])
+    m[:3, :3] += np.outer(direction, direction) * (1.0 - cosa)
+    direction = direction * sina
+    m[:3, :3] += np.array([[0.0, -direction[2], direction[1]],
+                           [direction[2], 0.0, -direction[0]],
+                           [-direction[1], direction[0], 0.0]])
+    return m
+
+
+def translation_matrix(offset):
+    """4x4 translation by ``offset`` (3,)."""
+    m = np.eye(4)
+    m[:3, 3] = np.asarray(offset)[:3]
+    return m
+
+
+def quaternion_matrix(quaternion):
+    """4x4 rotation of the quaternion ``(w, x, y, z)`` (normalised here; the identity for a zero quaternion)."""
+    q = np.array(quaternion, dtype=np.float64).reshape(4)
+    n = np.dot(q * q, [1.0] * 4)
+    if n < _QUAT_EPS:
+        return np.eye(4)
+    q *= np.sqrt(2.0 / n)
+    q = np.outer(q, q)
+    return np.array([[1.0 - q[2, 2] - q[3, 3], q[1, 2] - q[3, 0], q[1, 3] + q[2, 0], 0.0],
+                     [q[1, 2] + q[3, 0], 1.0 - q[1, 1] - q[3, 3], q[2, 3] - q[1, 0], 0.0],
+                     [q[1, 3] - q[2, 0], q[2, 3] + q[1, 0], 1.0 - q[1, 1] - q[2, 2], 0.0],
+                     [0.0, 0.0, 0.0, 1.0]])
+
+
+def align_vectors(a, b):
+    """4x4 rotation taking the direction of ``a`` (3,) to that of ``b`` (3,) (an orthonormal basis of each from the
+    SVD of the vector, turned right-handed; the rotation maps one basis onto the other)."""
+    a = np.array(a, dtype=np.float64)
+    b = np.array(b, dtype=np.float64)
+    if a.shape != (3,) or b.shape != (3,):
+        raise ValueError("align_vectors: vectors must be (3,)")
+    au = np.linalg.svd(a.reshape((-1, 1)))[0]
+    bu = np.linalg.svd(b.reshape((-1, 1)))[0]
+    if np.linalg.det(au) < 0:
+        au[:, -1] *= -1.0
+    if np.linalg.det(bu) < 0:
+        bu[:, -1] *= -1.0
+    m = np.eye(4)
+    m[:3, :3] = bu.dot(au.T)
     return m
 
 

@@ -22,7 +22,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import trimesh
 
 from pyrt.shaders.vec import cross, divide_rows, norm, scale_rows
 
@@ -247,6 +246,7 @@ def _pairwise_normals(corners, cpos, fn, ang, crease_angle):
 
 
 def _crease_by_edges(vertices, faces, crease_angle):
+    import trimesh  # deferred (pyrt.core.transforms)
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces, dtype=np.int64)
     mesh = trimesh.Trimesh(vertices=v, faces=f, process=False)

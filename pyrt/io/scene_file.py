@@ -51,7 +51,6 @@ import os
 import tomllib
 
 import numpy as np
-import trimesh
 
 from pyrt.core.camera import Camera
 from pyrt.core.errors import Error
@@ -121,6 +120,7 @@ def _construct(cls, kwargs, where, path):
 
 
 def _primitive(kind, params, where, path):
+    import trimesh  # deferred (pyrt.core.transforms)
     if kind == "sphere":
         return trimesh.creation.icosphere(subdivisions=int(params.get("subdivisions", 4)),
                                           radius=float(params.get("radius", 1.0))), True
@@ -247,6 +247,7 @@ def load_dict(spec, *, base_dir=None):
 
 def _load(data, base, path):
     """:func:`load_dict` with the label ``path`` that starts every error message."""
+    import trimesh  # deferred (pyrt.core.transforms)
     _check_keys("the top level", data, _TOP_KEYS, path)
     cam_t = data.get("camera", {})
     _check_keys("[camera]", cam_t, _CAMERA_KEYS, path)

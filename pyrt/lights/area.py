@@ -26,7 +26,6 @@ import math
 import numbers
 
 import numpy as np
-import trimesh
 
 from pyrt.shaders import sampling
 from pyrt.shaders.vec import coordinate_frame, max_component
@@ -244,6 +243,7 @@ class RectLight(AreaLight):
         return _planar_distance(p, wi, self.center, self.normal, inside)
 
     def mesh(self):
+        import trimesh  # deferred (pyrt.core.transforms)
         hx, hy = 0.5 * self.size
         t, b = self.tangent, self.bitangent
         v = np.array([self.center - hx * t - hy * b, self.center + hx * t - hy * b,
@@ -297,6 +297,7 @@ class DiskLight(AreaLight):
         return _planar_distance(p, wi, self.center, self.normal, inside)
 
     def mesh(self):
+        import trimesh  # deferred (pyrt.core.transforms)
         a = 2.0 * np.pi * np.arange(self.segments) / self.segments
         ring = (self.center + self.radius * (np.cos(a)[:, None] * self.tangent + np.sin(a)[:, None] * self.bitangent))
         v = np.vstack([self.center, ring])
@@ -377,6 +378,7 @@ class SphereLight(AreaLight):
         return np.where((disc >= 0) & (c > 0) & (t > 0), t, np.inf)
 
     def mesh(self):
+        import trimesh  # deferred (pyrt.core.transforms)
         m = trimesh.creation.icosphere(subdivisions=self.subdivisions, radius=self.radius)
         m.apply_translation(self.center)
         return m

@@ -7,13 +7,12 @@ import os
 import re
 
 import numpy as np
-import trimesh
 from scipy.spatial import ConvexHull, QhullError, cKDTree
 
 from pyrt.shaders import color as _color
 
 from pyrt.core.camera import Camera
-from pyrt.core.transforms import apply_matrix
+from pyrt.core.transforms import apply_matrix, rotation_matrix
 from pyrt.lights import DirectionalLight
 from pyrt.apps.preview.options import AXES, PreviewError, PreviewOptions
 
@@ -43,9 +42,9 @@ def up_transform(axis):
     if axis == "+y":
         return np.eye(4)
     if axis == "-y":
-        m = trimesh.transformations.rotation_matrix(math.pi, [1, 0, 0])
+        m = rotation_matrix(math.pi, [1, 0, 0])
     else:
-        m = trimesh.transformations.rotation_matrix(math.pi / 2, np.cross(a, [0.0, 1.0, 0.0]))
+        m = rotation_matrix(math.pi / 2, np.cross(a, [0.0, 1.0, 0.0]))
     # exact: the entries are 0 and +-1 (cos(pi / 2) is 6.1e-17 in floating point), so the turn moves coordinates
     # without rounding them (pyrt.core.transforms.apply_matrix)
     return np.round(m) + 0.0

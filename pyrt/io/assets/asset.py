@@ -9,7 +9,6 @@ import math
 import time
 
 import numpy as np
-import trimesh
 
 from pyrt.core.camera import Camera
 from pyrt.core.transforms import apply_matrix
@@ -154,7 +153,7 @@ class Asset:
                 t0 = time.perf_counter()
                 prepared[inst.mesh] = _prepare_mesh(self.meshes[inst.mesh], crease_angle)
                 t_normals += time.perf_counter() - t0
-            tm, normals, colors, alpha, uv_sets = prepared[inst.mesh]
+            geometry, normals, colors, alpha, uv_sets, uv = prepared[inst.mesh]
             am = self.meshes[inst.mesh]
             if alpha is not None and not uses_alpha(self._params(am)):
                 alpha = None
@@ -168,7 +167,7 @@ class Asset:
                 self.warnings.append(f"instance {inst.node or k} of mesh {am.name!r} has a singular transform "
                                      "(zero scale): skipped")
                 continue
-            mid = scene.add_mesh(tm, material, transform=m, normals=normals, uv_sets=uv_sets,
+            mid = scene.add_mesh(geometry, material, transform=m, normals=normals, uv_sets=uv_sets, uv=uv,
                                  name=f"{name_prefix}{inst.node or am.name}#{k}")
             if vc_tex is not None:
                 vc_tex.bind(mid, scene.meshes[mid].faces, colors)
@@ -237,8 +236,8 @@ def _transform_light(light, m):
 # ============================================================================ meshes for the scene
 
 def _prepare_mesh(am, crease_angle):
-    """(trimesh in object space with UVs, object-space normals, linear colours or None, vertex alpha or None, further
-    UV sets or None) for add_mesh.
+    """((vertices, faces) in object space, object-space normals, linear colours or None, vertex alpha or None, further
+    UV sets or None, UVs or None) for add_mesh (no trimesh: a glTF preview never imports it).
 
     The colours are per vertex, or, for a mesh with face colours only, per face of the faces
     :meth:`pyrt.Scene.add_mesh` keeps (its degenerate triangles, which it skips, are left out here too).
@@ -251,7 +250,4 @@ def _prepare_mesh(am, crease_angle):
         uv_sets = None if uv_sets is None else {k: np.take(a, src, axis=0) for k, a in uv_sets.items()}
     if col is None and am.face_colors is not None:     # faces keep their order; add_mesh's test on the same arrays
         col = am.face_colors[~degenerate_faces(v, f)]
-    tm = trimesh.Trimesh(vertices=v, faces=f, process=False)
-    if uv is not None:
-        tm.visual = trimesh.visual.TextureVisuals(uv=uv)
-    return tm, nrm, col, alpha, uv_sets
+    return (v, f), nrm, col, alpha, uv_sets, uv

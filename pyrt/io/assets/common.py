@@ -7,7 +7,6 @@ from dataclasses import dataclass, field
 import struct
 
 import numpy as np
-import trimesh
 
 from pyrt.shaders import color as _color
 
@@ -166,6 +165,7 @@ def colour_texels(img):
 def trimesh_load(path, fmt, *, label=None, **kw):
     """``trimesh.load(path, process=False)`` (vertices as in the file: NaN is kept, to be refused by the caller);
     any failure is an :class:`AssetError` naming the file (``label``, default ``path``)."""
+    import trimesh  # deferred (pyrt.core.transforms)
     try:
         return trimesh.load(path, process=False, **kw)
     except Exception as exc:  # trimesh raises many exception types for malformed files
@@ -174,6 +174,7 @@ def trimesh_load(path, fmt, *, label=None, **kw):
 
 def vertex_colors(mesh):
     """Linear RGB vertex colours (8-bit sRGB in the file) or None."""
+    import trimesh  # deferred (pyrt.core.transforms)
     vis = mesh.visual     # ColorVisuals / TextureVisuals: both declare ``kind`` (None when no colours)
     if not isinstance(vis, trimesh.visual.ColorVisuals) or vis.kind != "vertex":
         return None
@@ -186,6 +187,7 @@ def vertex_colors(mesh):
 
 def face_colors(mesh):
     """Linear RGB face colours ``(F, 3)`` (8-bit sRGB in the file, e.g. PLY ``face`` ``red green blue``) or None."""
+    import trimesh  # deferred (pyrt.core.transforms)
     vis = mesh.visual
     if not isinstance(vis, trimesh.visual.ColorVisuals) or vis.kind != "face":
         return None

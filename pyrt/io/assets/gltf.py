@@ -10,8 +10,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import trimesh
 
+from pyrt.core.transforms import quaternion_matrix, translation_matrix
 from pyrt.textures import ChannelTexture, ImageTexture, NormalMap, TextureError
 from pyrt.io.assets.common import AssetError, PBRParams, TextureSlot, malformed_is_asset_error
 from pyrt.io.assets.alpha import ALPHA_MODES, alpha_texture
@@ -164,9 +164,9 @@ def _node_local(node):
         m = np.diag([*np.asarray(node["scale"], dtype=np.float64), 1.0]) @ m
     if "rotation" in node:
         x, y, z, w = (float(q) for q in node["rotation"])
-        m = trimesh.transformations.quaternion_matrix([w, x, y, z]) @ m
+        m = quaternion_matrix([w, x, y, z]) @ m
     if "translation" in node:
-        m = trimesh.transformations.translation_matrix(np.asarray(node["translation"], dtype=np.float64)) @ m
+        m = translation_matrix(np.asarray(node["translation"], dtype=np.float64)) @ m
     return m
 
 

@@ -30,7 +30,6 @@ import os
 import re
 
 import numpy as np
-import trimesh
 
 from pyrt.textures import ImageTexture, NormalMap, TextureError, load_image
 from pyrt.io.assets.common import AssetError, MTLParams, colour_texels, trimesh_load, vertex_colors
@@ -196,6 +195,7 @@ def parse_mtl(path, warnings=None, textures=None, substitutions=None):
 
 def load_obj(path):
     """Load an OBJ (+ MTL) file into an :class:`Asset` (MTL mapping: see the module docstring)."""
+    import trimesh  # deferred (pyrt.core.transforms)
     asset = Asset(path=path, format="obj")
     W = asset.warnings
     with open(path, "rb") as fh:

@@ -13,7 +13,6 @@ import os
 import re
 
 import numpy as np
-import trimesh
 
 from pyrt.io.assets.common import AssetError, face_colors, trimesh_load, vertex_colors
 from pyrt.io.assets.asset import Asset, AssetInstance, AssetMesh
@@ -34,6 +33,7 @@ def load_ply_stl(path, fmt):
     Asset
         One mesh (``material = -1``: the default clay) with one identity instance.
     """
+    import trimesh  # deferred (pyrt.core.transforms)
     asset = Asset(path=path, format=fmt)
     if fmt == "stl":
         _check_binary_stl_size(path)
@@ -245,6 +245,7 @@ def tristrip_faces(strips):
 
 def _strip_mesh(path, vertex, strips):
     """A trimesh of :func:`read_ply_tristrips`'s output (x y z, the normals and 8-bit colours when present)."""
+    import trimesh  # deferred (pyrt.core.transforms)
     if not all(k in vertex for k in "xyz"):
         raise AssetError(f"{path}: the PLY vertex element has no x, y, z properties")
     v = np.stack([np.asarray(vertex[k], dtype=np.float64) for k in "xyz"], axis=1)
