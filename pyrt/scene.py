@@ -147,6 +147,8 @@ class Scene:
         if isinstance(mesh, (tuple, list)):
             v_in, f_in = mesh
             v_in, f_in, vis_uv = np.asarray(v_in, dtype=np.float64), np.asarray(f_in), uv
+            if f_in.dtype.kind == "f" and np.all(f_in == np.round(f_in)):   # 0.0, 1.0, 2.0: indices (as trimesh took)
+                f_in = f_in.astype(np.int64)
         else:
             tm = sys.modules.get("trimesh")     # a Trimesh was made by a program that imported trimesh
             if tm is None or not isinstance(mesh, tm.Trimesh):

@@ -68,3 +68,8 @@ def test_trimesh_input_still_works_and_a_pair_takes_its_uvs():
     np.testing.assert_array_equal(scene.meshes[k].uv, uv)
     with pytest.raises(pyrt.SceneError, match="expected trimesh.Trimesh"):
         scene.add_mesh(object(), pyrt.Lambert(0.5))
+    # whole-number float indices are indices (a Trimesh took them so); fractional ones are refused
+    k = scene.add_mesh((v, np.array([[0.0, 1.0, 2.0]])), pyrt.Lambert(0.5), smooth=False)
+    np.testing.assert_array_equal(scene.meshes[k].faces, [[0, 1, 2]])
+    with pytest.raises(pyrt.GeometryError, match="integer"):
+        scene.add_mesh((v, np.array([[0.0, 1.5, 2.0]])), pyrt.Lambert(0.5), smooth=False)
