@@ -470,32 +470,40 @@ class Integrator:
                 keep = np.flatnonzero(alive)
                 if keep.size == 0:
                     continue
-                c = ctx.subset(keep)
-                w = normalize_rows(take_rows(w_all, keep))
-                origins = self.offset(c, w)
-                new_d = None
-                if dsub is not None:
-                    gsel = sel[keep]
-                    rx_d, ry_d = take_rows(dsub[1], gsel), take_rows(dsub[3], gsel)
-                    if lobe.kind == "refract":
-                        new_d = refract_differentials(c, rx_d, ry_d, w, lobe.eta[keep])
-                    else:
-                        new_d = reflect_differentials(c, rx_d, ry_d, w)
-                parts.append((origins, w, t_new[keep], s_idx[sel[keep]], new_d, sel[keep], lobe.kind == "refract"))
+                refract = lobe.kind == "refract"
+                parts.append((sel[keep], normalize_rows(take_rows(w_all, keep)), t_new[keep], refract,
+                              lobe.eta[keep] if refract else None))
         if not parts:
             return None
-        o = np.concatenate([p[0] for p in parts])
+        # every material's rays at once: origins and differentials are per-row formulas (the same numbers as
+        # material by material), in the order the parts were made (the next bounce's rays keep their order)
+        src = np.concatenate([p[0] for p in parts])
         d = np.concatenate([p[1] for p in parts])
         thr = np.concatenate([p[2] for p in parts])
-        sample = np.concatenate([p[3] for p in parts])
+        refr = np.concatenate([np.full(p[0].size, p[3]) for p in parts])
+        c = surf.subset(src)
+        o = self.offset(c, d)
         diffs = None
         if dsub is not None:
-            diffs = tuple(np.concatenate([p[4][i] for p in parts]) for i in range(4))
+            rx_d, ry_d = take_rows(dsub[1], src), take_rows(dsub[3], src)
+            eta = np.concatenate([p[4] for p in parts if p[3]]) if refr.any() else None
+            if eta is None:                       # reflections only (mirrors, glass past split_depth...)
+                diffs = reflect_differentials(c, rx_d, ry_d, d)
+            elif eta.size == src.size:            # refractions only
+                diffs = refract_differentials(c, rx_d, ry_d, d, eta)
+            else:
+                diffs = tuple(np.empty_like(rx_d) for _ in range(4))
+                for rows, fn in ((np.flatnonzero(~refr), reflect_differentials),
+                                 (np.flatnonzero(refr), refract_differentials)):
+                    args = (c.subset(rows), take_rows(rx_d, rows), take_rows(ry_d, rows), take_rows(d, rows))
+                    part = fn(*args) if fn is reflect_differentials else fn(*args, eta)
+                    for out, val in zip(diffs, part):
+                        put_rows(out, rows, val)
+            diffs = tuple(diffs)
         stack = None
         if media is not None:  # the spawned rays' interface stacks (refraction crosses the interface)
-            src = np.concatenate([p[5] for p in parts])
-            refr = np.concatenate([np.full(p[5].size, p[6]) for p in parts])
             stack = media.spawn_stacks(stack_h, mids, surf.front, src, refr)
+        sample = np.take(s_idx, src)
         return RayBatch(o, d, sample=sample, throughput=thr, differentials=diffs, stack=stack)
 
 
