@@ -29,6 +29,14 @@ def _rgb(owner, name, v):
 MAX_SUBDIVISIONS = 9
 
 
+def plane_quad(sx, sz):
+    """The square of :meth:`Scene.add_plane` and the scene files' ``plane`` primitive before it is turned to its
+    normal: ``(vertices (4, 3), faces (2, 3), uv (4, 2))``, side ``sx`` along x and ``sz`` along z, centred at the
+    origin in the plane y = 0, facing +y, uv (0, 0) at (-x, +z)."""
+    v = np.array([[-sx / 2, 0, sz / 2], [sx / 2, 0, sz / 2], [sx / 2, 0, -sz / 2], [-sx / 2, 0, -sz / 2]])
+    return v, np.array([[0, 1, 2], [0, 2, 3]]), np.array([[0, 0], [1, 0], [1, 1], [0, 1.0]])
+
+
 def _who(kind, name):
     """A primitive as messages name it: ``sphere 'ball'`` (or just ``sphere``)."""
     return f"{kind} {name!r}" if name else kind
@@ -251,15 +259,13 @@ class Scene:
         """Square of side ``size`` (or (sx, sz); finite, > 0) centred at ``center`` facing ``normal``
         (default +y), with UVs."""
         sx, sz = _positive_sizes(_who("plane", name), "size", size, 2)
-        v = np.array([[-sx / 2, 0, sz / 2], [sx / 2, 0, sz / 2], [sx / 2, 0, -sz / 2], [-sx / 2, 0, -sz / 2]])
-        f = np.array([[0, 1, 2], [0, 2, 3]])
+        v, f, uv = plane_quad(sx, sz)
         nrm = checks.numbers_array(_who("plane", name), "normal", normal, SceneError)
         if nrm.shape != (3,) or not np.all(np.isfinite(nrm)) or np.linalg.norm(nrm) == 0:
             raise SceneError(f"{_who('plane', name)}: normal must be a finite non-zero 3-vector, got {normal!r}")
         rot = align_vectors([0, 1, 0], nrm / np.linalg.norm(nrm))
         m = transform_matrix(translate=center) @ rot
-        return self.add_mesh((v, f), material, transform=m, smooth=False, name=name,
-                             uv=np.array([[0, 0], [1, 0], [1, 1], [0, 1.0]]))
+        return self.add_mesh((v, f), material, transform=m, smooth=False, name=name, uv=uv)
 
     # -- checks ----------------------------------------------------------------------------------
     def validate(self):

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pyrt.geometry.surface import SurfaceBatch, _SurfaceSubset, take_view_rows
+from pyrt.geometry.surface import SurfaceBatch, take_view_rows
 
 __all__ = ["row_memo"]
 
@@ -43,10 +43,7 @@ def row_memo(ctx, key, compute):
     """
     if not isinstance(ctx, SurfaceBatch):
         return compute(ctx)
-    if isinstance(ctx, _SurfaceSubset):
-        root, rows = ctx._base, ctx._idx
-    else:
-        root, rows = ctx, slice(0, ctx.n_hits)
+    root, rows = ctx.base_rows()
     memo = root.__dict__.setdefault("_row_memo", {})
     entry = memo.get(key)
     n_root = root.n_hits

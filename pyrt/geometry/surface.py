@@ -192,6 +192,12 @@ class SurfaceBatch:
     def n_hits(self):
         return self.p.shape[0]
 
+    def base_rows(self):
+        """``(batch, rows)``: the batch this one's fields come from and their rows in it (a view of a view is a
+        view of the first batch): ``(self, slice(0, n_hits))`` for a batch, its base and indices for a view
+        (:meth:`subset`). What per-row caches shared by all views key on (:func:`pyrt.geometry.memo.row_memo`)."""
+        return self, slice(0, self.n_hits)
+
     def subset(self, idx):
         """The batch restricted to ``idx`` (an index array, a boolean mask or a ``slice(lo, hi)``), as a lazy view.
 
@@ -325,6 +331,9 @@ class _SurfaceSubset(SurfaceBatch):
             self.__dict__[name] = val
             return val
         raise AttributeError(name)
+
+    def base_rows(self):
+        return self._base, self._idx
 
     def _compute_uv_set(self, k, what):
         # the base's set gathered (as every field of a view)

@@ -37,10 +37,10 @@ import numpy as np
 
 from pyrt.geometry.accel import Hits
 from pyrt.geometry.surface import surface_from_hits
-from pyrt.materials.base import is_texture
 from pyrt.integrators.media import beer_lambert
 from pyrt.shaders import fresnel
 from pyrt.shaders.vec import dot, put_rows, take_rows
+from pyrt.textures import is_texture
 
 #: dielectric interfaces a shadow ray may cross before it counts as blocked
 MAX_INTERFACES = 16

@@ -59,7 +59,8 @@ from pyrt.lights import environment as _env
 from pyrt.lights.environment_light import set_environment
 from pyrt.materials import REGISTRY as MATERIALS
 from pyrt.render import INTEGRATORS
-from pyrt.scene import Scene, transform_matrix
+from pyrt.core.transforms import align_vectors
+from pyrt.scene import Scene, plane_quad, transform_matrix
 from pyrt.textures import TextureError, texture_from_dict
 
 
@@ -128,13 +129,13 @@ def _primitive(kind, params, where, path):
         return trimesh.creation.box(extents=params.get("extents", (1.0, 1.0, 1.0))), False
     if kind == "plane":
         sx, sz = np.broadcast_to(np.asarray(params.get("size", 1.0), dtype=np.float64), (2,))
-        v = np.array([[-sx / 2, 0, sz / 2], [sx / 2, 0, sz / 2], [sx / 2, 0, -sz / 2], [-sx / 2, 0, -sz / 2]])
-        m = trimesh.Trimesh(vertices=v, faces=[[0, 1, 2], [0, 2, 3]], process=False)
-        m.visual = trimesh.visual.TextureVisuals(uv=np.array([[0, 0], [1, 0], [1, 1], [0, 1.0]]))
+        v, f, uv = plane_quad(sx, sz)
+        m = trimesh.Trimesh(vertices=v, faces=f, process=False)
+        m.visual = trimesh.visual.TextureVisuals(uv=uv)
         nrm = np.asarray(params.get("normal", (0, 1, 0)), dtype=np.float64)
         if nrm.shape != (3,) or np.linalg.norm(nrm) == 0:
             raise SceneFileError(f"{path}: {where}: plane normal must be a non-zero 3-vector")
-        m.apply_transform(trimesh.geometry.align_vectors([0, 1, 0], nrm / np.linalg.norm(nrm)))
+        m.apply_transform(align_vectors([0, 1, 0], nrm / np.linalg.norm(nrm)))
         return m, False
     if kind == "cylinder":
         return trimesh.creation.cylinder(radius=float(params.get("radius", 0.5)),
