@@ -159,6 +159,23 @@ file (or a decompression bomb claiming 100000 x 100000) is an :class:`ImageFileE
 _PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 _EXR_MAGIC = b"\x76\x2f\x31\x01"
 _OTHER_MAGIC = ((b"\xff\xd8\xff", "JPEG"), (b"II*\0", "TIFF"), (b"MM\0*", "TIFF"), (b"BM", "BMP"), (b"GIF8", "GIF"))
+_AVIF_BRANDS = (b"avif", b"avis")
+
+
+def image_kind(head):
+    """The type of an 8/16-bit image file whose first bytes are ``head`` (16 bytes suffice): ``"PNG"``, ``"JPEG"``,
+    ``"TIFF"``, ``"BMP"``, ``"GIF"``, ``"WebP"`` (a RIFF container of type ``WEBP``) or ``"AVIF"`` (an ISO-BMFF
+    ``ftyp`` box of brand ``avif`` / ``avis``), or None (EXR and .hdr are not asked here)."""
+    if head[:8] == _PNG_MAGIC:
+        return "PNG"
+    kind = next((k for m, k in _OTHER_MAGIC if head[:len(m)] == m), None)
+    if kind is None and head[:4] == b"RIFF" and head[8:12] == b"WEBP":
+        kind = "WebP"
+    elif kind is None and head[4:8] == b"ftyp" and head[8:12] in _AVIF_BRANDS:
+        kind = "AVIF"
+    return kind
+
+
 # EXR scanlines per chunk by compression (OpenEXR's ImfCompression.h: NONE, RLE, ZIPS, ZIP, PIZ, PXR24, B44, B44A,
 # DWAA, DWAB)
 _EXR_LINES_PER_CHUNK = {0: 1, 1: 1, 2: 1, 3: 16, 4: 32, 5: 16, 6: 32, 7: 32, 8: 32, 9: 256}
@@ -410,7 +427,8 @@ def read_image(path):
     ----------
     path : str or os.PathLike
         EXR (:func:`read_exr` with ``layout="stored"``), Radiance ``.hdr`` (:func:`read_hdr`, needs OpenCV); PNG,
-        JPEG, TIFF, BMP, GIF through ``skimage.io``, except 16-bit colour PNGs, which Pillow (behind ``skimage.io``)
+        JPEG, TIFF, BMP, GIF, WebP and AVIF (Pillow's own codecs; AVIF decoded to 8 bits) through ``skimage.io``,
+        except 16-bit colour PNGs, which Pillow (behind ``skimage.io``)
         truncates to 8 bits: those are read exactly with pypng (pure Python, ~1 s per megapixel).
 
     Returns
@@ -439,11 +457,12 @@ def read_image(path):
             kind = "PNG"
             png16 = _png_header(path, data)[2:] in ((16, 2), (16, 4), (16, 6))
         else:
-            kind = next((k for m, k in _OTHER_MAGIC if data[:len(m)] == m), None)
+            kind = image_kind(bytes(data[:16]))
             if kind is None:
                 raise ImageFileError(f"{path}: not a readable image (the file is empty)" if not size else
                                      f"{path}: not a readable image: the first bytes {bytes(data[:8])!r} are not "
-                                     "those of a PNG, JPEG, TIFF, BMP, GIF, OpenEXR or Radiance .hdr file")
+                                     "those of a PNG, JPEG, TIFF, BMP, GIF, WebP, AVIF, OpenEXR or Radiance .hdr "
+                                     "file")
     finally:
         if isinstance(data, mmap.mmap):
             data.close()

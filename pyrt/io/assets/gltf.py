@@ -17,7 +17,7 @@ from pyrt.io.assets.common import AssetError, PBRParams, TextureSlot, malformed_
 from pyrt.io.assets.alpha import ALPHA_MODES, alpha_texture
 from pyrt.io.assets.asset import Asset, AssetCamera, AssetInstance, AssetLight, AssetMesh
 from pyrt.io.assets.gltf_file import SUPPORTED_EXTENSIONS, GltfFile, pack_glb, read_gltf
-from pyrt.io.assets.gltf_khr import METADATA_EXTENSIONS, read_material_extensions
+from pyrt.io.assets.gltf_khr import METADATA_EXTENSIONS, read_material_extensions, read_spec_gloss, texture_source
 
 __all__ = ["load_gltf", "gltf_node_transforms", "gltf_uv_transform", "pack_glb", "read_gltf"]
 _WRAP = {10497: "repeat", 33071: "clamp", 33648: "mirror"}
@@ -48,7 +48,7 @@ def _gltf_texture(g, info, what, *, srgb, cache, kind="image", warnings=None, **
     """
     ti = info.get("index")
     tex = g.get("textures", ti)
-    src = tex.get("source")
+    src = texture_source(tex)
     if src is None:
         raise AssetError(f"{g.path}: {what}: texture {ti} has no image source in a supported format "
                          f"(extensions {sorted(tex.get('extensions', {}))})")
@@ -109,6 +109,9 @@ def _gltf_material(g, mi, warnings, cache):
                              "channel(s); need RGB (G = roughness, B = metallic)")
         P.metallic_texture = _channel(slot, 2, f"{slot.source} B (metallic)", cache)
         P.roughness_texture = _channel(slot, 1, f"{slot.source} G (roughness)", cache)
+    read_spec_gloss(m, P, what, warnings,
+                    lambda info, label, srgb: _gltf_texture(g, info, label, srgb=srgb, channels=3, cache=cache),
+                    lambda i: g.image_array(i)[0])
     if "normalTexture" in m:
         P.normal_scale = float(m["normalTexture"].get("scale", 1.0))
         slot = _gltf_texture(g, m["normalTexture"], f"{what} normalTexture", srgb=False, kind="normal", cache=cache)
@@ -319,8 +322,12 @@ def _load_gltf(path):
         if "skin" in node:
             W.append(f"node {ni} ({nname}): skinning ignored (bind pose rendered)")
         if "mesh" in node:
+            gpu = node.get("extensions", {}).get("EXT_mesh_gpu_instancing")
+            mats = [M] if gpu is None else [M @ T for T in _gpu_instances(g, gpu, f"node {ni} ({nname})")]
             for am in decode_mesh(node["mesh"]):
-                asset.instances.append(AssetInstance(mesh=am, world_from_object=M, node=nname))
+                for j, Mj in enumerate(mats):
+                    asset.instances.append(AssetInstance(mesh=am, world_from_object=Mj,
+                                                         node=nname if gpu is None else f"{nname}[{j}]"))
         if "camera" in node:
             cam = g.get("cameras", node["camera"])
             if cam.get("type") == "perspective" and "perspective" in cam:
@@ -340,6 +347,43 @@ def _load_gltf(path):
     if not asset.instances:
         raise AssetError(f"{path}: the default scene has no triangle meshes")
     return asset
+
+
+def _gpu_instances(g, ext, what):
+    """The object-from-instance matrices (list of (4, 4)) of a node's ``EXT_mesh_gpu_instancing``: per instance
+    ``T R S`` from its TRANSLATION (VEC3), ROTATION (VEC4 quaternion x, y, z, w; float or normalised integers)
+    and SCALE (VEC3) accessors, each optional; all of one count. The node's mesh is drawn once per instance, its
+    world matrix applied after the instance's (the extension's order)."""
+    attrs = ext.get("attributes", {}) if isinstance(ext, dict) else None
+    if not isinstance(attrs, dict) or not attrs:
+        raise AssetError(f"{g.path}: {what}: EXT_mesh_gpu_instancing needs attributes (TRANSLATION, ROTATION, "
+                         f"SCALE), got {attrs!r}")
+    shapes = {"TRANSLATION": 3, "ROTATION": 4, "SCALE": 3}
+    cols = {}
+    for name, ai in attrs.items():
+        if name not in shapes:
+            continue           # custom per-instance attributes (_ID, _COLOR...): a shader's business, not read
+        a = g.accessor(ai)
+        if a.shape[1] != shapes[name]:
+            raise AssetError(f"{g.path}: {what}: EXT_mesh_gpu_instancing {name} must have {shapes[name]} "
+                             f"components, accessor {ai} has {a.shape[1]}")
+        cols[name] = a
+    counts = {k: v.shape[0] for k, v in cols.items()}
+    if len(set(counts.values())) != 1:
+        raise AssetError(f"{g.path}: {what}: EXT_mesh_gpu_instancing attributes have different counts {counts}")
+    n = next(iter(counts.values()))
+    out = []
+    for j in range(n):
+        m = np.eye(4)
+        if "SCALE" in cols:
+            m = np.diag([*cols["SCALE"][j], 1.0])
+        if "ROTATION" in cols:
+            x, y, z, w = cols["ROTATION"][j]
+            m = quaternion_matrix([w, x, y, z]) @ m
+        if "TRANSLATION" in cols:
+            m = translation_matrix(cols["TRANSLATION"][j]) @ m
+        out.append(m)
+    return out
 
 
 def _unit(v):

@@ -28,15 +28,18 @@ import urllib.parse
 
 import numpy as np
 
+from pyrt.core.image_io import image_kind
 from pyrt.textures import TextureError, load_image
 from pyrt.io.assets.common import AssetError, colour_texels, malformed_is_asset_error
-from pyrt.io.assets.gltf_khr import MATERIAL_EXTENSIONS, required_extension_error
+from pyrt.io.assets.gltf_khr import IMAGE_EXTENSIONS, MATERIAL_EXTENSIONS, required_extension_error
 
 _COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
 _NCOMP = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
 _GLB_MAGIC = 0x46546C67
 _CHUNK_JSON = 0x4E4F534A
 _CHUNK_BIN = 0x004E4942
+#: image types glTF embeds (the core spec's PNG and JPEG, EXT_texture_webp, EXT_texture_avif), by their suffix
+_EMBEDDED_SUFFIX = {"PNG": ".png", "JPEG": ".jpg", "WebP": ".webp", "AVIF": ".avif"}
 _SCHEME = re.compile(r"^[A-Za-z][A-Za-z0-9+.\-]*:")
 
 MAX_ZERO_ACCESSOR_COUNT = 1 << 24
@@ -45,7 +48,7 @@ MAX_ZERO_ACCESSOR_COUNT = 1 << 24
 do not bound, so a hostile ``count`` would otherwise allocate unbounded memory."""
 
 SUPPORTED_EXTENSIONS = {"KHR_lights_punctual", "KHR_texture_transform", "KHR_materials_emissive_strength",
-                        "KHR_mesh_quantization"} | MATERIAL_EXTENSIONS
+                        "KHR_mesh_quantization", "EXT_mesh_gpu_instancing"} | MATERIAL_EXTENSIONS | set(IMAGE_EXTENSIONS)
 
 
 def _int(value, what, path, *, lo=0):
@@ -325,13 +328,12 @@ def _load_image_file(path, label):
 
 
 def _decode_image_bytes(blob, label):
-    """Decode PNG/JPEG bytes with pyrt's image reader (16-bit PNGs stay 16-bit) via a temporary file."""
-    if blob[:8] == b"\x89PNG\r\n\x1a\n":
-        ext = ".png"
-    elif blob[:3] == b"\xff\xd8\xff":
-        ext = ".jpg"
-    else:
-        raise AssetError(f"{label}: not a PNG or JPEG image (first bytes {blob[:8]!r})")
+    """Decode embedded image bytes (PNG, JPEG; WebP and AVIF for ``EXT_texture_webp`` / ``EXT_texture_avif``) with
+    pyrt's image reader (16-bit PNGs stay 16-bit) via a temporary file."""
+    kind = image_kind(bytes(blob[:16]))
+    if kind not in _EMBEDDED_SUFFIX:
+        raise AssetError(f"{label}: not a PNG, JPEG, WebP or AVIF image (first bytes {bytes(blob[:8])!r})")
+    ext = _EMBEDDED_SUFFIX[kind]
     fd, tmp = tempfile.mkstemp(suffix=ext)
     try:
         with os.fdopen(fd, "wb") as fh:

@@ -15,7 +15,11 @@ What each extension becomes (the materials: :mod:`pyrt.materials.gltf_pbr`; the 
 - ``KHR_materials_clearcoat`` (clearcoatFactor x clearcoatTexture R, clearcoatRoughnessFactor x
   clearcoatRoughnessTexture G, clearcoatNormalTexture perturbing the normal before the base's normal map):
   :class:`pyrt.materials.Clearcoat` over the material;
-- ``KHR_materials_unlit``: :class:`pyrt.materials.Unlit` of the base colour (x texture x vertex colour).
+- ``KHR_materials_unlit``: :class:`pyrt.materials.Unlit` of the base colour (x texture x vertex colour);
+- ``KHR_materials_pbrSpecularGlossiness`` (archived, still common in older exports): converted on load as
+  glTF-Transform's ``metalRough()`` does (:func:`read_spec_gloss`): the diffuse colour becomes the base colour
+  (``metallic = 0``), the specular colour the ``KHR_materials_specular`` F0 tint of a dielectric, ``roughness =
+  1 - glossiness``.
 """
 from __future__ import annotations
 
@@ -28,7 +32,15 @@ from pyrt.textures import ImageTexture
 
 #: material extensions this module reads
 MATERIAL_EXTENSIONS = {"KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
-                       "KHR_materials_clearcoat", "KHR_materials_specular", "KHR_materials_unlit"}
+                       "KHR_materials_clearcoat", "KHR_materials_specular", "KHR_materials_unlit",
+                       "KHR_materials_pbrSpecularGlossiness"}
+#: the index of refraction a converted specular-glossiness material gets: its F0 comes from the specular colour
+#: (``specular_color_factor = specular / f0(SPEC_GLOSS_IOR)``, so ``F0 = specular`` exactly below 1), and a
+#: dielectric of this index reflects ~all light at normal incidence (glTF-Transform's ``metalRough()`` uses 1000)
+SPEC_GLOSS_IOR = 1000.0
+#: texture extensions whose image (``textures[i].extensions[name].source``) pyrt decodes (Pillow's WebP and AVIF
+#: codecs), in the order they are preferred over the texture's own ``source`` (a PNG / JPEG fallback, if any)
+IMAGE_EXTENSIONS = ("EXT_texture_webp", "EXT_texture_avif")
 #: extensions that carry metadata only (no effect on the image): ignored without a warning about the picture
 METADATA_EXTENSIONS = {"KHR_xmp", "KHR_xmp_json_ld"}
 #: why pyrt cannot render a file that *requires* these (the message of the refusal)
@@ -37,11 +49,71 @@ REQUIRED_REASONS = {
     "EXT_meshopt_compression": "meshopt-compressed buffers, which pyrt cannot decode",
     "KHR_meshopt_compression": "meshopt-compressed buffers, which pyrt cannot decode",
     "KHR_texture_basisu": "KTX2 / Basis Universal textures, which pyrt cannot decode",
-    "EXT_texture_webp": "WebP textures, which pyrt cannot decode",
-    "EXT_texture_avif": "AVIF textures, which pyrt cannot decode",
-    "KHR_materials_pbrSpecularGlossiness": "the archived specular-glossiness material model, not implemented",
-    "EXT_mesh_gpu_instancing": "GPU instancing attributes, not implemented",
 }
+
+
+def texture_source(tex):
+    """The image index a glTF texture ``tex`` (a dict) is read from: the source of the first of
+    :data:`IMAGE_EXTENSIONS` it has, else its core ``source`` (None when it has neither, e.g. KTX2 only)."""
+    ext = tex.get("extensions", {})
+    for name in IMAGE_EXTENSIONS:
+        src = ext.get(name, {}).get("source") if isinstance(ext.get(name), dict) else None
+        if src is not None:
+            return src
+    return tex.get("source")
+
+
+def read_spec_gloss(m, P, what, warnings, texture, image_array):
+    """Convert material ``m``'s ``KHR_materials_pbrSpecularGlossiness`` into ``P`` (:class:`PBRParams`), replacing
+    its ``pbrMetallicRoughness`` (the fallback such files carry); no-op without the extension.
+
+    The specular-glossiness model (the archived extension's Appendix) reflects ``F0 = specular`` with GGX of
+    ``alpha = (1 - glossiness)^2`` over a Lambert diffuse of ``diffuse``. As glTF-Transform's ``metalRough()``:
+    ``baseColor = diffuseFactor x diffuseTexture`` (its alpha the coverage), ``metallic = 0``, ``roughness = 1 -
+    glossinessFactor x specularGlossinessTexture.A``, and the dielectric's F0 tint ``KHR_materials_specular``
+    ``specularColor = specularFactor x specularGlossinessTexture.RGB / f0(ior)`` with ``ior =``
+    :data:`SPEC_GLOSS_IOR`, so that ``F0 = specular`` (clamped to 1). The diffuse weight is then glTF's
+    ``1 - F`` rather than the archived model's ``1 - max(specular)``: a documented difference of the conversion.
+
+    ``texture(info, label, srgb)`` builds a :class:`TextureSlot` of the RGB channels (None for a missing file: the
+    factor alone);
+    ``image_array(i)`` gives image ``i``'s decoded codes with their alpha.
+    """
+    sg = m.get("extensions", {}).get("KHR_materials_pbrSpecularGlossiness") if isinstance(
+        m.get("extensions"), dict) else None
+    if sg is None:
+        return
+    w = f"{what} KHR_materials_pbrSpecularGlossiness"
+    diffuse = np.asarray(sg.get("diffuseFactor", [1.0, 1.0, 1.0, 1.0]), dtype=np.float64)
+    if diffuse.shape != (4,) or not np.all(np.isfinite(diffuse)):
+        raise AssetError(f"{w}: diffuseFactor must be 4 numbers, got {diffuse.tolist()}")
+    specular = np.clip(_color3(sg, "specularFactor", w), 0.0, 1.0)
+    gloss = min(_number(sg, "glossinessFactor", 1.0, w, warnings, lo=0.0), 1.0)
+    P.base_color_factor = np.clip(diffuse, 0.0, 1.0)
+    P.base_color_texture = texture(sg["diffuseTexture"], f"{w} diffuseTexture", True) \
+        if "diffuseTexture" in sg else None
+    P.metallic_factor, P.metallic_texture, P.metallic_roughness_texture = 0.0, None, None
+    P.roughness_factor, P.roughness_texture = 1.0 - gloss, None
+    P.ior = SPEC_GLOSS_IOR
+    P.specular_factor = 1.0
+    P.specular_color_factor = specular / ((SPEC_GLOSS_IOR - 1.0) / (SPEC_GLOSS_IOR + 1.0)) ** 2
+    if "specularGlossinessTexture" in sg:
+        slot = texture(sg["specularGlossinessTexture"], f"{w} specularGlossinessTexture", True)
+        if slot is not None:
+            P.ext_slots.append(slot)
+            P.specular_color_texture = slot
+            arr = image_array(slot.image)
+            if arr.ndim == 3 and arr.shape[2] in (2, 4):     # glossiness in A (none: A = 1, roughness 1 - factor)
+                a = arr[:, :, -1]
+                if a.dtype == np.uint8 and gloss == 1.0:     # 255 - A: the same codes, exact
+                    rough = np.ascontiguousarray(np.uint8(255) - a)
+                else:
+                    rough = (1.0 - gloss * a.astype(np.float32) / np.float32(np.iinfo(a.dtype).max)).astype(np.float32)
+                t = slot.texture
+                P.roughness_factor = 1.0
+                P.roughness_texture = ImageTexture(rough, srgb=False, wrap=t.wrap, filter=t.filter, scale=t.scale,
+                                                   offset=t.offset, rotation_deg=t.rotation_deg,
+                                                   name=f"{slot.source} 1 - A (glossiness)", texcoord=t.texcoord)
 
 
 def required_extension_error(path, names):
