@@ -134,6 +134,16 @@ class MTLParams:
     map_Ke: ImageTexture | None = None
     norm: NormalMap | None = None
     map_d: ImageTexture | None = None     # 1 channel: the dissolve (opacity) map, times d
+    # the exporters' PBR extension of MTL (Clara.io / Blender "PBR extensions"): roughness, metallic
+    Pr: float | None = None
+    Pm: float | None = None
+    map_Pr: ImageTexture | None = None    # 1 channel
+    map_Pm: ImageTexture | None = None    # 1 channel
+
+    @property
+    def pbr(self):
+        """True when the block uses the PBR extension (``Pr``, ``Pm``, ``map_Pr`` or ``map_Pm``)."""
+        return any(v is not None for v in (self.Pr, self.Pm, self.map_Pr, self.map_Pm))
 
 
 @dataclass

@@ -293,8 +293,14 @@ def _mtl_material(p, vertex_colors=None):
         emission = ScaledTexture(p.map_Ke, ke if p.Ke is not None else np.ones(3))
     elif np.any(ke > 0):
         emission = ke
-    exponent = float(p.Ns) if p.Ns is not None else 10.0
-    mat = ObjMaterial(kd_param, ks, max(exponent, 0.0), emission=emission, normal_map=p.norm, name=p.name)
+    if p.pbr:          # the exporters' PBR extension: glTF's metallic-roughness model; a map replaces its scalar
+        metallic = p.map_Pm if p.map_Pm is not None else (0.0 if p.Pm is None else p.Pm)
+        roughness = p.map_Pr if p.map_Pr is not None else (0.5 if p.Pr is None else p.Pr)
+        mat = make_metallic_roughness(base_color=kd_param, metallic=metallic, roughness=roughness, emission=emission,
+                                      normal_map=p.norm, name=p.name)
+    else:
+        exponent = float(p.Ns) if p.Ns is not None else 10.0
+        mat = ObjMaterial(kd_param, ks, max(exponent, 0.0), emission=emission, normal_map=p.norm, name=p.name)
     opacity = mtl_opacity(p)
     if opacity is not None:     # dissolve: straight-through coverage (blend), shadows included
         mat.set_coverage(opacity=opacity, alpha_mode="blend")

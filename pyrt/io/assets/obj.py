@@ -21,7 +21,15 @@ OBJ + MTL mapping (documented choice; the MTL "illum 2" model *is* Blinn-Phong)
   or absolute paths (exporters write them). They are read as an MTL or decoded as an image, nothing else.
 - A vertex with a NaN or infinite coordinate is an error naming its line (trimesh would drop its faces).
 - ``map_Kd`` options ``-s`` and ``-o`` become the texture's UV scale and offset; ``norm`` is used as
-  a normal map; ``bump``/``map_Bump`` (height maps) and other maps are ignored with a warning.
+  a normal map. ``bump`` / ``map_Bump`` name a height map in the MTL spec, but exporters (Blender's among them)
+  write tangent-space normal maps there: an RGB image that looks like one (mean blue >= 0.6, mean red and green
+  within 0.5 +- 0.15) is read as the normal map (``-bm`` its strength), with a warning saying so, unless ``norm``
+  gives one; a height map is ignored with a warning, as are other maps.
+- The exporters' PBR extension (``Pr`` roughness, ``Pm`` metallic, ``map_Pr``, ``map_Pm``; Blender writes it with
+  "PBR extensions" on): a block using it becomes the glTF metallic-roughness material (base colour ``Kd x
+  map_Kd``, metallic ``map_Pm`` else ``Pm`` (default 0), roughness ``map_Pr`` else ``Pr`` (default 0.5): a map
+  replaces its scalar, as Blender's importer reads them; ``Ke``, the normal map), not Blinn-Phong; ``Ks`` and
+  ``Ns`` are then not used.
 """
 from __future__ import annotations
 
@@ -80,7 +88,9 @@ def _mtl_map(tokens, base, what, *, srgb, warnings, normal=False, alpha=False, c
     if "-o" in opts:
         o = [float(x) for x in opts["-o"][:2]] + [0.0] * (2 - len(opts["-o"][:2]))
         kw["offset"] = tuple(o)
-    ignored = set(opts) - {"-s", "-o"} - ({"-imfchan"} if alpha else set())
+    if normal and "-bm" in opts:        # a normal map's strength (Blender writes it so)
+        kw["strength"] = float(opts["-bm"][0])
+    ignored = set(opts) - {"-s", "-o"} - ({"-imfchan"} if alpha else set()) - ({"-bm"} if normal else set())
     if ignored:
         warnings.append(f"{what}: map options {sorted(ignored)} ignored")
     if alpha:
@@ -119,7 +129,8 @@ def _mtl_scalar_map(fpath, what, imfchan, kw):
             k = c - 1 if c in (2, 4) else 0
         else:
             raise AssetError(f"{what}: -imfchan must be one of r, g, b, m, l, z, got {want!r}")
-        return ImageTexture(np.ascontiguousarray(img[:, :, k]), srgb=False, name=f"{fpath} (dissolve)", **kw)
+        return ImageTexture(np.ascontiguousarray(img[:, :, k]), srgb=False, name=f"{fpath} ({what.rsplit(': ', 1)[-1]})",
+                            **kw)
     except TextureError as exc:
         raise AssetError(f"{what}: {exc}") from None
 
@@ -135,6 +146,7 @@ def parse_mtl(path, warnings=None, textures=None, substitutions=None):
     textures = {} if textures is None else textures
     base = os.path.dirname(os.path.abspath(path))
     out, cur = {}, None
+    bumps = []          # (block, map_Bump arguments, where): normal maps or height maps, decided after the parse
     with open(path, "r", encoding="utf-8", errors="replace") as fh:
         for lineno, line in enumerate(fh, 1):
             line = line.strip()
@@ -179,9 +191,16 @@ def parse_mtl(path, warnings=None, textures=None, substitutions=None):
                 elif key in ("norm", "map_Kn"):
                     cur.norm = _mtl_map(args, base, f"{where}: {key}", srgb=False, warnings=warnings, normal=True,
                                         cache=textures, substitutions=substitutions)
-                elif key.startswith("map_") or key in ("bump", "disp", "decal", "refl"):
+                elif key in ("Pr", "Pm"):
+                    setattr(cur, key, float(np.clip(float(args[0]), 0.0, 1.0)))
+                elif key in ("map_Pr", "map_Pm"):
+                    setattr(cur, key, _mtl_map(args, base, f"{where}: {key}", srgb=False, warnings=warnings,
+                                               alpha=True, cache=textures, substitutions=substitutions))
+                elif key in ("bump", "map_Bump", "map_bump"):
+                    bumps.append((cur, args, f"{where}: {key}"))
+                elif key.startswith("map_") or key in ("disp", "decal", "refl"):
                     warnings.append(f"{where}: {key} not supported; ignored")
-                elif key in ("Ka", "Pr", "Pm", "Ps", "Pc", "Pcr", "aniso", "anisor", "sharpness"):
+                elif key in ("Ka", "Ps", "Pc", "Pcr", "aniso", "anisor", "sharpness"):
                     pass  # not used by the mapping (see the module docstring)
                 else:
                     shown = repr(key) if re.fullmatch(r"[A-Za-z_]\w{0,15}", key) else "(not shown)"
@@ -190,7 +209,38 @@ def parse_mtl(path, warnings=None, textures=None, substitutions=None):
                 raise
             except (ValueError, IndexError) as exc:
                 raise AssetError(f"{where}: cannot parse {line!r}: {exc}") from None
+    for cur, args, where in bumps:
+        _bump_map(cur, args, base, where, warnings, textures, substitutions)
     return out
+
+
+def looks_like_normal_map(texels):
+    """True for an image whose mean colour is that of a tangent-space normal map (mostly +z: mean blue >= 0.6,
+    mean red and green within 0.5 +- 0.15, as fractions of the code range); a grey height map is not."""
+    a = np.asarray(texels)
+    if a.ndim != 3 or a.shape[2] < 3:
+        return False
+    top = float(np.iinfo(a.dtype).max) if a.dtype.kind in "ui" else 1.0
+    r, g, b = (float(a[:, :, c].mean()) / top for c in range(3))
+    return b >= 0.6 and abs(r - 0.5) <= 0.15 and abs(g - 0.5) <= 0.15
+
+
+def _bump_map(cur, args, base, where, warnings, textures, substitutions):
+    """``bump`` / ``map_Bump`` of MTL block ``cur``: its normal map when the image looks like one
+    (:func:`looks_like_normal_map`) and ``norm`` gave none, else ignored (a height map), with a warning either way."""
+    if cur.norm is not None:
+        warnings.append(f"{where}: ignored (norm gives the material's normal map)")
+        return
+    t = _mtl_map(args, base, where, srgb=False, warnings=warnings, normal=True, cache=textures,
+                 substitutions=substitutions)
+    if t is None:
+        return
+    if looks_like_normal_map(t.texels[::4, ::4]):
+        cur.norm = t
+        warnings.append(f"{where}: {t.name} looks like a tangent-space normal map (as exporters write there): "
+                        "used as the material's normal map")
+    else:
+        warnings.append(f"{where}: height (bump) maps are not supported; ignored")
 
 
 def load_obj(path):
@@ -250,7 +300,7 @@ def load_obj(path):
     for p in asset.materials:
         if mtl_is_transparent(p) and not (p.Ni is not None and p.Ni > 1.0):
             W.append(f"material {p.name!r}: transparent with Ni {p.Ni}; glass with ior 1.5 used")
-        if not mtl_is_transparent(p):
+        if not mtl_is_transparent(p) and not p.pbr:
             s = mtl_kd_ks(p)[2]
             if s < 1.0:
                 W.append(f"material {p.name!r}: Kd + Ks > 1; Ks scaled by {s:.3f} to conserve energy")
