@@ -12,7 +12,8 @@ from PIL import Image, features
 
 from material_helpers import LocalCtx
 from test_gltf_materials import _materials, _quad, write_gltf
-from pyrt.core.image_io import image_kind, read_image
+from pyrt.core.image_io import read_image
+from pyrt.core.image_types import image_kind
 from pyrt.io.assets import AssetError, load_asset
 from pyrt.io.assets.gltf_khr import SPEC_GLOSS_IOR
 

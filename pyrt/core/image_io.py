@@ -19,6 +19,8 @@ from pyrt.shaders import tonemap
 
 from pyrt.core.errors import Error
 from pyrt.core.image_modes import CONVERTED_MODES as _CONVERTED_MODES, converted as _converted
+from pyrt.core.image_types import EXR_MAGIC as _EXR_MAGIC, HDR_MAGIC as _HDR_MAGIC, PNG_MAGIC as _PNG_MAGIC
+from pyrt.core.image_types import image_kind
 
 
 def atomic_write(path, write):
@@ -155,26 +157,6 @@ MAX_IMAGE_PIXELS = 1 << 27
 largest lat-long environment maps in use). Checked from the header before any pixel memory is allocated: a bigger
 file (or a decompression bomb claiming 100000 x 100000) is an :class:`ImageFileError`. Pillow's own bomb limit is
 178,956,970 pixels, so Pillow never sees a larger image."""
-
-_PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
-_EXR_MAGIC = b"\x76\x2f\x31\x01"
-_OTHER_MAGIC = ((b"\xff\xd8\xff", "JPEG"), (b"II*\0", "TIFF"), (b"MM\0*", "TIFF"), (b"BM", "BMP"), (b"GIF8", "GIF"))
-_AVIF_BRANDS = (b"avif", b"avis")
-
-
-def image_kind(head):
-    """The type of an 8/16-bit image file whose first bytes are ``head`` (16 bytes suffice): ``"PNG"``, ``"JPEG"``,
-    ``"TIFF"``, ``"BMP"``, ``"GIF"``, ``"WebP"`` (a RIFF container of type ``WEBP``) or ``"AVIF"`` (an ISO-BMFF
-    ``ftyp`` box of brand ``avif`` / ``avis``), or None (EXR and .hdr are not asked here)."""
-    if head[:8] == _PNG_MAGIC:
-        return "PNG"
-    kind = next((k for m, k in _OTHER_MAGIC if head[:len(m)] == m), None)
-    if kind is None and head[:4] == b"RIFF" and head[8:12] == b"WEBP":
-        kind = "WebP"
-    elif kind is None and head[4:8] == b"ftyp" and head[8:12] in _AVIF_BRANDS:
-        kind = "AVIF"
-    return kind
-
 
 # EXR scanlines per chunk by compression (OpenEXR's ImfCompression.h: NONE, RLE, ZIPS, ZIP, PIZ, PXR24, B44, B44A,
 # DWAA, DWAB)
@@ -352,7 +334,6 @@ def read_exr(path, *, layout="rgb"):
     raise ImageFileError(f"{path}: no R, G, B (or Y) channels; found {sorted(chans)}")
 
 
-_HDR_MAGIC = (b"#?RADIANCE", b"#?RGBE")
 HDR_EXTRA = "pip install 'pyrt-embree[hdr]' (OpenCV: opencv-python-headless)"
 
 

@@ -16,6 +16,7 @@ from pyrt.textures import ChannelTexture, ImageTexture, NormalMap, TextureError
 from pyrt.io.assets.common import AssetError, PBRParams, TextureSlot, malformed_is_asset_error
 from pyrt.io.assets.alpha import ALPHA_MODES, alpha_texture
 from pyrt.io.assets.asset import Asset, AssetCamera, AssetInstance, AssetLight, AssetMesh
+from pyrt.io.assets.gltf_draco import DRACO, INSTALL_HINT, decode_draco_primitive, dracopy
 from pyrt.io.assets.gltf_file import SUPPORTED_EXTENSIONS, GltfFile, pack_glb, read_gltf
 from pyrt.io.assets.gltf_khr import METADATA_EXTENSIONS, read_material_extensions, read_spec_gloss, texture_source
 
@@ -234,6 +235,9 @@ def _load_gltf(path):
     for ext in sorted(set(h.get("extensionsUsed", [])) - SUPPORTED_EXTENSIONS):
         W.append(f"extension {ext} is used by the file but not supported: ignored"
                  + (" (metadata only, no effect on the image)" if ext in METADATA_EXTENSIONS else ""))
+    if DRACO in h.get("extensionsUsed", []) and dracopy() is None:    # (a file requiring it was refused)
+        W.append(f"extension {DRACO} is used by the file but the DracoPy package is not installed: the "
+                 f"uncompressed fallback is read ({INSTALL_HINT} to decode the Draco data)")
     try:
         world = gltf_node_transforms(h)
     except AssetError as exc:
@@ -262,11 +266,19 @@ def _load_gltf(path):
                 raise AssetError(f"{path}: {where}: no POSITION attribute")
             if "targets" in p:
                 W.append(f"{where}: morph targets ignored (rest pose rendered)")
-            pos = g.accessor(attrs["POSITION"])
+            idx, decoded = None, {}        # Draco-decoded indices and attributes (None: DracoPy missing, fallback)
+            if DRACO in p.get("extensions", {}):
+                idx, decoded = decode_draco_primitive(g, p, where) or (None, {})
+
+            def attribute(name):           # the Draco-decoded values first, else the accessor's
+                return decoded[name] if name in decoded else g.accessor(attrs[name])
+
+            pos = attribute("POSITION")
             if pos.shape[1] != 3:
                 raise AssetError(f"{path}: {where}: POSITION must be VEC3")
             nv = pos.shape[0]
-            idx = g.accessor(p["indices"]).astype(np.int64).ravel() if "indices" in p else np.arange(nv)
+            if idx is None:
+                idx = g.accessor(p["indices"]).astype(np.int64).ravel() if "indices" in p else np.arange(nv)
             if idx.size and (idx.min() < 0 or idx.max() >= nv):
                 raise AssetError(f"{path}: {where}: index {int(idx.max())} out of range for {nv} vertices")
             if mode == 4:
@@ -280,7 +292,7 @@ def _load_gltf(path):
                 continue
             normals = None
             if "NORMAL" in attrs:
-                normals = g.accessor(attrs["NORMAL"])[:, :3]
+                normals = attribute("NORMAL")[:, :3]
                 ln = np.linalg.norm(normals, axis=1, keepdims=True)
                 normals = np.divide(normals, ln, out=np.zeros_like(normals), where=ln > 0)
             mat = p.get("material", -1)
@@ -290,7 +302,7 @@ def _load_gltf(path):
             uv_sets = {}
             for tc in sorted({0} | set(asset.materials[mat].texcoords if mat >= 0 else ())):
                 if f"TEXCOORD_{tc}" in attrs:
-                    uv_sets[tc] = g.accessor(attrs[f"TEXCOORD_{tc}"])[:, :2].copy()
+                    uv_sets[tc] = attribute(f"TEXCOORD_{tc}")[:, :2].copy()
                     uv_sets[tc][:, 1] = 1.0 - uv_sets[tc][:, 1]          # glTF top-left -> pyrt bottom-left
                 elif mat >= 0 and tc in asset.materials[mat].texcoords:
                     W.append(f"{where}: material {asset.materials[mat].name!r} has textures reading TEXCOORD_{tc} "
@@ -298,7 +310,7 @@ def _load_gltf(path):
             uv = uv_sets.pop(0, None)
             colors = alpha = None
             if "COLOR_0" in attrs:
-                col4 = g.accessor(attrs["COLOR_0"])
+                col4 = attribute("COLOR_0")
                 colors = np.clip(col4[:, :3], 0.0, None)
                 if col4.shape[1] == 4:     # coverage alpha (used by MASK / BLEND materials only)
                     alpha = np.clip(col4[:, 3], 0.0, 1.0)

@@ -28,9 +28,10 @@ import urllib.parse
 
 import numpy as np
 
-from pyrt.core.image_io import image_kind
+from pyrt.core.image_types import image_kind
 from pyrt.textures import TextureError, load_image
 from pyrt.io.assets.common import AssetError, colour_texels, malformed_is_asset_error
+from pyrt.io.assets.gltf_draco import DRACO, dracopy
 from pyrt.io.assets.gltf_khr import IMAGE_EXTENSIONS, MATERIAL_EXTENSIONS, required_extension_error
 
 _COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
@@ -48,7 +49,10 @@ MAX_ZERO_ACCESSOR_COUNT = 1 << 24
 do not bound, so a hostile ``count`` would otherwise allocate unbounded memory."""
 
 SUPPORTED_EXTENSIONS = {"KHR_lights_punctual", "KHR_texture_transform", "KHR_materials_emissive_strength",
-                        "KHR_mesh_quantization", "EXT_mesh_gpu_instancing"} | MATERIAL_EXTENSIONS | set(IMAGE_EXTENSIONS)
+                        "KHR_mesh_quantization", "EXT_mesh_gpu_instancing", DRACO} | MATERIAL_EXTENSIONS \
+    | set(IMAGE_EXTENSIONS)
+"""The extensions pyrt reads. ``KHR_draco_mesh_compression`` needs the optional DracoPy package: a file that
+requires it is refused without it, with the install hint (:class:`GltfFile`)."""
 
 
 def _int(value, what, path, *, lo=0):
@@ -96,9 +100,12 @@ class GltfFile:
         ver = str(self.header["asset"].get("version", ""))
         if not ver.startswith("2"):
             raise AssetError(f"{path}: glTF version {ver!r} is not supported (need 2.x)")
-        required = set(self.header.get("extensionsRequired", [])) - SUPPORTED_EXTENSIONS
-        if required:
-            raise required_extension_error(path, required)
+        required = set(self.header.get("extensionsRequired", []))
+        refused = required - SUPPORTED_EXTENSIONS
+        if DRACO in required and dracopy() is None:        # supported with the [draco] extra only
+            refused.add(DRACO)
+        if refused:
+            raise required_extension_error(path, refused)
         self.buffers = []
         for i, b in enumerate(self.header.get("buffers", [])):
             if not isinstance(b, dict):
@@ -209,11 +216,7 @@ class GltfFile:
         if ai in self._acc_cache:
             return self._acc_cache[ai]
         a = self.get("accessors", ai)
-        try:
-            dt = np.dtype(_COMPONENT[a["componentType"]]).newbyteorder("<")
-            nc = _NCOMP[a["type"]]
-        except (KeyError, TypeError) as exc:
-            raise AssetError(f"{self.path}: accessor {ai}: missing or invalid componentType/type {exc}") from None
+        dt, nc = self._layout(ai, a)
         count = _int(a.get("count"), f"accessor {ai} count", self.path)
         if "bufferView" in a:
             raw, stride = self.view_bytes(a["bufferView"])
@@ -245,6 +248,50 @@ class GltfFile:
         if not np.all(np.isfinite(out)):
             raise AssetError(f"{self.path}: accessor {ai} holds NaN or Inf values")
         self._acc_cache[ai] = out
+        return out
+
+    def _layout(self, ai, a):
+        """(little-endian component dtype, components per element) of accessor ``ai`` (its dict ``a``)."""
+        try:
+            return np.dtype(_COMPONENT[a["componentType"]]).newbyteorder("<"), _NCOMP[a["type"]]
+        except (KeyError, TypeError) as exc:
+            raise AssetError(f"{self.path}: accessor {ai}: missing or invalid componentType/type {exc}") from None
+
+    def accessor_values(self, ai, data, what):
+        """Values decoded elsewhere (a Draco buffer: :mod:`pyrt.io.assets.gltf_draco`) read as accessor ``ai``
+        describes them, in place of its bufferView: float64 (n, ncomp) like :meth:`accessor`.
+
+        ``data`` must have as many components per element as the accessor's ``type``; float values are taken as
+        they are (Draco returns its quantized attributes dequantized), integer values as integers of the
+        accessor's componentType, normalised when the accessor says ``normalized``. The element count is the
+        caller's to check. ``what`` names the values in errors.
+
+        Raises
+        ------
+        AssetError
+            For a component count that differs from the accessor's type, integer values for a float accessor
+            or outside its componentType's range, NaN or Inf.
+        """
+        a = self.get("accessors", ai)
+        dt, nc = self._layout(ai, a)
+        data = np.asarray(data)
+        if data.ndim == 1:
+            data = data.reshape(-1, 1)
+        if data.ndim != 2 or data.shape[1] != nc:
+            raise AssetError(f"{self.path}: {what}: decoded values of shape {data.shape}, accessor {ai} is "
+                             f"{a['type']} ({nc} components)")
+        if np.issubdtype(data.dtype, np.integer):
+            if not np.issubdtype(dt, np.integer):
+                raise AssetError(f"{self.path}: {what}: {data.dtype} values for accessor {ai}, whose "
+                                 f"componentType is float")
+            info = np.iinfo(dt)
+            if data.size and (data.min() < info.min or data.max() > info.max):
+                raise AssetError(f"{self.path}: {what}: values outside the range of accessor {ai}'s "
+                                 f"componentType ({dt})")
+            data = data.astype(dt)
+        out = self._normalise(data, a.get("normalized", False))
+        if not np.all(np.isfinite(out)):
+            raise AssetError(f"{self.path}: {what}: NaN or Inf values")
         return out
 
     def _sparse(self, ai, sp, out, dt, nc, count, normalized):

@@ -20,6 +20,10 @@ What each extension becomes (the materials: :mod:`pyrt.materials.gltf_pbr`; the 
   glTF-Transform's ``metalRough()`` does (:func:`read_spec_gloss`): the diffuse colour becomes the base colour
   (``metallic = 0``), the specular colour the ``KHR_materials_specular`` F0 tint of a dielectric, ``roughness =
   1 - glossiness``.
+
+A file that requires an extension of :data:`REQUIRED_REASONS` (or one pyrt does not know) is refused with the
+reason; ``KHR_draco_mesh_compression`` (geometry, :mod:`pyrt.io.assets.gltf_draco`) only when DracoPy, the
+``[draco]`` extra, is not installed (:data:`MISSING_PACKAGE_REASONS`: the message says what to install).
 """
 from __future__ import annotations
 
@@ -28,6 +32,7 @@ import math
 import numpy as np
 
 from pyrt.io.assets.common import AssetError
+from pyrt.io.assets.gltf_draco import DRACO, DRACO_MISSING
 from pyrt.textures import ImageTexture
 
 #: material extensions this module reads
@@ -45,11 +50,13 @@ IMAGE_EXTENSIONS = ("EXT_texture_webp", "EXT_texture_avif")
 METADATA_EXTENSIONS = {"KHR_xmp", "KHR_xmp_json_ld"}
 #: why pyrt cannot render a file that *requires* these (the message of the refusal)
 REQUIRED_REASONS = {
-    "KHR_draco_mesh_compression": "Draco-compressed geometry, which pyrt cannot decode",
     "EXT_meshopt_compression": "meshopt-compressed buffers, which pyrt cannot decode",
     "KHR_meshopt_compression": "meshopt-compressed buffers, which pyrt cannot decode",
     "KHR_texture_basisu": "KTX2 / Basis Universal textures, which pyrt cannot decode",
 }
+
+#: why a file that *requires* these is refused when the optional package that decodes them is not installed
+MISSING_PACKAGE_REASONS = {DRACO: DRACO_MISSING}
 
 
 def texture_source(tex):
@@ -117,8 +124,10 @@ def read_spec_gloss(m, P, what, warnings, texture, image_array):
 
 
 def required_extension_error(path, names):
-    """The :class:`AssetError` for a file that requires extensions pyrt does not support, with the reason for each."""
-    parts = [f"{n} ({REQUIRED_REASONS.get(n, 'not implemented')})" for n in sorted(names)]
+    """The :class:`AssetError` for a file that requires extensions pyrt does not support (or cannot read without
+    an optional package that is not installed), with the reason for each."""
+    reasons = REQUIRED_REASONS | MISSING_PACKAGE_REASONS
+    parts = [f"{n} ({reasons.get(n, 'not implemented')})" for n in sorted(names)]
     return AssetError(f"{path}: requires unsupported glTF extension(s): {'; '.join(parts)}; the file declares "
                       "that it cannot be displayed correctly without them (extensionsRequired)")
 
