@@ -34,14 +34,18 @@ class RayBatch:
         For rays spawned by sampling a non-delta lobe (:mod:`pyrt.integrators.glossy`): ``n_samples * pdf``
         of that sample (solid angle), what the emitters and the environment they reach are MIS-weighted
         against; 0 for delta-lobe rays, None when no ray of the batch was sampled so.
+    strata : tuple of three (N,) int64 ndarrays, optional
+        Camera rays only: ``(index, n, key)``, each ray's sample index in its pixel's set, the set's size and the
+        pixel's seed: the light and BSDF samples at their hits are padded over the pixel's samples
+        (:class:`pyrt.core.sampler.PaddedStream`); None: independent random numbers.
     """
 
     __slots__ = ("origins", "directions", "sample", "throughput", "depth", "differentials", "stack", "pixel",
-                 "tmax", "bsdf_pdf")
+                 "tmax", "bsdf_pdf", "strata")
 
     def __init__(self, origins, directions, *, sample=None, throughput=None, depth=0, differentials=None,
                  stack=None, pixel=None, tmax=None,
-                 bsdf_pdf=None):
+                 bsdf_pdf=None, strata=None):
         n = origins.shape[0]
         self.origins = origins
         self.directions = directions
@@ -53,6 +57,7 @@ class RayBatch:
         self.pixel = pixel
         self.tmax = tmax
         self.bsdf_pdf = bsdf_pdf
+        self.strata = strata
 
     @property
     def size(self):
@@ -73,7 +78,8 @@ class RayBatch:
                         throughput=self.throughput[lo:hi], depth=self.depth,
                         differentials=None if self.differentials is None else tuple(x[lo:hi] for x in
                                                                                     self.differentials),
-                        stack=cut(self.stack), pixel=cut(self.pixel), tmax=cut(self.tmax), bsdf_pdf=cut(self.bsdf_pdf))
+                        stack=cut(self.stack), pixel=cut(self.pixel), tmax=cut(self.tmax), bsdf_pdf=cut(self.bsdf_pdf),
+                        strata=None if self.strata is None else tuple(x[lo:hi] for x in self.strata))
 
     @staticmethod
     def concatenate(batches):
@@ -92,6 +98,9 @@ class RayBatch:
         diffs = None
         if all(b.differentials is not None for b in batches):
             diffs = tuple(np.concatenate([b.differentials[k] for b in batches]) for k in range(4))
+        strata = None
+        if all(b.strata is not None for b in batches):
+            strata = tuple(np.concatenate([b.strata[k] for b in batches]) for k in range(3))
         return RayBatch(cat("origins"), cat("directions"), sample=cat("sample"), throughput=cat("throughput"),
                         depth=batches[0].depth, differentials=diffs, stack=cat("stack"), pixel=cat("pixel"),
-                        tmax=cat("tmax"), bsdf_pdf=bsdf_pdf)
+                        tmax=cat("tmax"), bsdf_pdf=bsdf_pdf, strata=strata)

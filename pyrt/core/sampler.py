@@ -150,3 +150,113 @@ def sobol_owen_2d(index, seed):
     u[:, 0] = sx.astype(np.float64) * 2.0 ** -32
     u[:, 1] = sy.astype(np.float64) * 2.0 ** -32
     return u
+
+
+# --- padded dimensions: a pixel's samples stratified in every dimension pair -----------------------------------
+# The camera rays' pixel positions are one stratified set per pixel; the random numbers their hits draw for light
+# and BSDF samples were independent, so a pixel's spp light samples were i.i.d. Padding (Kollig & Keller 2002;
+# pbrt's padded samplers) gives every dimension pair its own stratified set over the pixel's samples, the sample
+# index shuffled by a per-pixel, per-dimension permutation so that the pairs are not correlated with each other:
+# sample j of the pixel reads point pi_d(j) of an Owen-scrambled Sobol' (0,2)-sequence of its own. Each point is
+# uniform on the square (unbiased); the spp points of one pixel and dimension are one stratified set.
+
+def _u32(x):
+    return np.asarray(x).astype(np.uint64) & _M32
+
+
+def permutation_element(i, n, seed):
+    """Element ``i`` of a pseudo-random permutation of ``[0, n)`` chosen by ``seed`` (arrays broadcast; int64).
+
+    Kensler's hash-based permutation ("Correlated Multi-Jittered Sampling", Pixar 2013): a bijection of the
+    next power of two above ``n`` made of invertible 32-bit steps, walked until it lands below ``n``, then
+    rotated by the seed. Computed per element, so a pixel's samples need not be drawn together.
+    """
+    i, n, p = np.broadcast_arrays(_u32(i), _u32(n), _u32(seed))
+    i, n, p = i.copy(), n, p
+    w = n - np.uint64(1)
+    for s in (1, 2, 4, 8, 16):
+        w |= w >> np.uint64(s)
+    out = np.empty_like(i)
+    todo = np.arange(i.size)
+    x, ww, pp, nn = i.ravel(), w.ravel(), p.ravel(), n.ravel()
+    res = out.ravel()
+    while todo.size:
+        v, wk, pk = x[todo], ww[todo], pp[todo]
+
+        def mul(a, c):
+            return (a * np.uint64(c)) & _M32
+        v = v ^ pk
+        v = mul(v, 0xE170893D)
+        v = v ^ (pk >> np.uint64(16))
+        v = v ^ ((v & wk) >> np.uint64(4))
+        v = v ^ (pk >> np.uint64(8))
+        v = mul(v, 0x0929EB3F)
+        v = v ^ (pk >> np.uint64(23))
+        v = v ^ ((v & wk) >> np.uint64(1))
+        v = (v * (np.uint64(1) | (pk >> np.uint64(27)))) & _M32
+        v = mul(v, 0x6935FA69)
+        v = v ^ ((v & wk) >> np.uint64(11))
+        v = mul(v, 0x74DCB303)
+        v = v ^ ((v & wk) >> np.uint64(2))
+        v = mul(v, 0x9E501CC3)
+        v = v ^ ((v & wk) >> np.uint64(2))
+        v = mul(v, 0xC860A3DF)
+        v = v & wk
+        v = v ^ (v >> np.uint64(5))
+        done = v < nn[todo]
+        res[todo[done]] = (v[done] + pk[done]) % nn[todo[done]]
+        x[todo[~done]] = v[~done]
+        todo = todo[~done]
+    return out.reshape(i.shape).astype(np.int64)
+
+
+def padded_sobol_2d(index, n, key, dim):
+    """The points of dimension pair ``dim`` (an int) for samples ``index`` (N,) of pixels whose sets have ``n``
+    samples (N,) or a number, ``key`` (N,) a per-pixel seed: (N, 2) in [0, 1).
+
+    Sample ``j`` reads point ``pi(j)`` of the Owen-scrambled Sobol' sequence of ``hash(key, dim)``, ``pi`` the
+    permutation :func:`permutation_element` of ``[0, n)`` of that seed: the ``n`` samples of a pixel are one
+    stratified set in every pair (exactly one point per elementary interval when ``n`` is a power of two), each
+    pair shuffled independently of the others and of the pixel position.
+    """
+    k = hash32(key, dim)
+    return sobol_owen_2d(permutation_element(index, n, hash32(k, 0x2545F491)), k)
+
+
+class PaddedStream:
+    """Stands in for the ``numpy.random.Generator`` of a chunk at the hits of camera rays: ``random((..., N, 2))``
+    (N = the hits) returns :func:`padded_sobol_2d` points, a new dimension pair for each call and for each
+    leading index, in call order; every other draw goes to the generator. ``index``, ``n``, ``key`` (N,) are each
+    hit's sample index in its pixel's set, the set's size and the pixel's seed."""
+
+    def __init__(self, rng, index, n, key, _dims=None):
+        self._rng = rng
+        self.index, self.n, self.key = index, n, key
+        self._dims = [0] if _dims is None else _dims     # shared with the streams of its rows (:meth:`rows`)
+
+    def rows(self, idx):
+        """The stream of the hits ``idx`` (an index array): the same pixels' sets, and the dimension pairs counted
+        on from this stream's (draws for a subset never reuse a pair another draw of the bounce used)."""
+        return PaddedStream(self._rng, np.take(self.index, idx), np.take(self.n, idx), np.take(self.key, idx),
+                            self._dims)
+
+    def random(self, size=None, *args, **kwargs):
+        shape = (size,) if isinstance(size, (int, np.integer)) else tuple(size) if size is not None else ()
+        m = self.index.shape[0]
+        if args or kwargs or len(shape) < 2 or shape[-2:] != (m, 2):
+            return self._rng.random(size, *args, **kwargs)
+        lead = int(np.prod(shape[:-2], dtype=np.int64))
+        out = np.empty((lead, m, 2))
+        for r in range(lead):
+            out[r] = padded_sobol_2d(self.index, self.n, self.key, self._dims[0])
+            self._dims[0] += 1
+        return out.reshape(shape)
+
+    def __getattr__(self, name):
+        return getattr(self._rng, name)
+
+
+def stream_rows(rng, idx):
+    """The random numbers for the hits ``idx`` of a batch whose draws come from ``rng``: a :class:`PaddedStream`'s
+    :meth:`~PaddedStream.rows`, a ``numpy.random.Generator`` itself (its draws are not tied to rows)."""
+    return rng.rows(idx) if isinstance(rng, PaddedStream) else rng

@@ -40,7 +40,7 @@ import numpy as np
 from pyrt.core import checks
 from pyrt.core.errors import RenderError
 from pyrt.core.rays import RayBatch
-from pyrt.core.sampler import stratified_samples
+from pyrt.core.sampler import stratified_samples, stream_rows
 from pyrt.geometry.surface import reflect_differentials
 from pyrt.integrators import direct
 from pyrt.integrators import light_choice
@@ -224,7 +224,7 @@ class GlossyIntegrator(Integrator):
         nb = self.n_glossy(depth)
         src = np.repeat(gidx, nb)
         sub = surf.subset(src)
-        u = stratified_samples(rng, gidx.size, nb).transpose(1, 0, 2).reshape(-1, 2)
+        u = stratified_samples(stream_rows(rng, gidx), gidx.size, nb).transpose(1, 0, 2).reshape(-1, 2)
         wi, weight, pdf = BSDFBatch(sub, self.scene.materials).sample(np.arange(src.size), u)
         t_new = take_rows(thr_h, src) * weight / nb
         # below the geometric surface a reflected ray would enter the object (dropped, as for mirrors); for a

@@ -30,6 +30,7 @@ import numpy as np
 from pyrt.core import checks
 from pyrt.core.errors import RenderError
 from pyrt.core.rays import RayBatch
+from pyrt.core.sampler import PaddedStream, stream_rows
 from pyrt.geometry import offsets
 from pyrt.geometry.accel import T_INFINITE, Hits
 from pyrt.geometry.surface import refract_differentials, reflect_differentials, surface_from_hits
@@ -46,6 +47,8 @@ from pyrt.shaders.vec import dot, max_component, put_rows, take_rows
 
 
 #: the bounce from which a dielectric hit follows one of its reflection and refraction instead of both (the
+#: what ``sampler=`` may be (:func:`pyrt.render_full`)
+SAMPLERS = ("padded", "independent")
 #: ``split_depth`` default of every render; :class:`Integrator` documents the measurement behind it)
 DEFAULT_SPLIT_DEPTH = 3
 
@@ -98,7 +101,7 @@ class Integrator:
 
     def __init__(self, prepared, *, max_depth=8, throughput_cutoff=1e-4, offset=None, record_rays=False,
                  transparent_shadows=False, split_depth=DEFAULT_SPLIT_DEPTH,
-                 light_select_depth=None, batch_rays=None):
+                 light_select_depth=None, batch_rays=None, sampler="padded"):
         self.max_depth = checks.integer("render", "max_depth", max_depth, RenderError, lo=0)
         self.throughput_cutoff = checks.finite_number("render", "throughput_cutoff", throughput_cutoff, RenderError,
                                                       lo=0.0)
@@ -122,6 +125,10 @@ class Integrator:
         #: shade a bounce in slices of at most this many rays (:meth:`render_samples`); None: all at once
         self.batch_rays = None if batch_rays is None else checks.integer("render", "batch_rays", batch_rays,
                                                                           RenderError, lo=1)
+        if sampler not in SAMPLERS:
+            raise RenderError(f"render: sampler must be one of {SAMPLERS}, got {sampler!r}")
+        #: "padded": camera hits draw light and BSDF samples padded over their pixels' samples (RayBatch.strata)
+        self.sampler = sampler
         self.stats = RenderStats()
 
     # -- Embree calls with bookkeeping -------------------------------------------------------
@@ -222,6 +229,7 @@ class Integrator:
         1``), or None."""
         o, d, thr, sample, diffs = batch.origins, batch.directions, batch.throughput, batch.sample, batch.differentials
         stack = batch.stack
+        strata = batch.strata      # camera rays: padded light / BSDF samples at their hits (None: independent)
         bpdf = batch.bsdf_pdf      # MIS state of BSDF-sampled rays (None: none in the batch)
         materials = self.scene.materials
         lights = self.scene.lights
@@ -248,6 +256,7 @@ class Integrator:
                     diffs = None if diffs is None else tuple(take_rows(x, parent) for x in diffs)
                     stack = None if stack is None else stack[parent]
                     bpdf = None if bpdf is None else np.take(bpdf, parent)
+                    strata = None if strata is None else tuple(np.take(x, parent) for x in strata)
                 if np.any(w != 1.0):
                     thr = thr * w[:, None]
             if media is not None:  # nested dielectrics: continue through false hits; Beer-Lambert absorption
@@ -279,6 +288,8 @@ class Integrator:
         if self.ps.has_normal_maps:
             apply_normal_maps(surf, materials)
         s_idx, thr_h = sample[h], take_rows(thr, h)
+        # camera hits draw their light and BSDF samples padded over their pixels' samples (pyrt.core.sampler)
+        rng_h = rng if strata is None else PaddedStream(rng, *(np.take(x, h) for x in strata))
         aov_rows = None
         if aovs is not None and depth == 0:   # the nearest surface a camera ray keeps (not blend records)
             aov_rows = np.flatnonzero(h < n_rays)
@@ -335,14 +346,14 @@ class Integrator:
                 choose = (np.ones(diffuse_idx.size, dtype=bool) if depth == 0 else
                           np.take(bpdf, h[diffuse_idx]) > 0 if bpdf is not None else None)
                 choose = choose if choose is not None and choose.any() else None
-            Ld = self._direct_light(dsurf, bsdf, visible, rng, sampled, depth, choose)
+            Ld = self._direct_light(dsurf, bsdf, visible, stream_rows(rng_h, diffuse_idx), sampled, depth, choose)
             put_rows(Lh, diffuse_idx, take_rows(Lh, diffuse_idx) + Ld)
         _scatter_add(L, s_idx, thr_h * Lh, unique=one_per_sample)   # camera rays: one per sample
         if depth == self.max_depth:
             return None
         # specular continuation
         new = self._spawn(surf, thr_h, s_idx, dsub, None if media is None else stack[h], diffuse_idx, sampled,
-                          depth, rng)
+                          depth, rng_h)
         if new is not None:
             new.depth = depth + 1
         return new

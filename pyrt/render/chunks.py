@@ -49,6 +49,12 @@ class ChunkLayout:
         return lo, min(lo + self.px_per_chunk, self.n_pix)
 
 
+def _strata(seed, pixel, index, n):
+    """:attr:`pyrt.core.rays.RayBatch.strata` of camera rays: sample ``index`` of its pixel's set of ``n``, the
+    pixel's seed a hash of the render's seed and the pixel (the same whatever the chunks)."""
+    return index, np.broadcast_to(np.int64(n), index.shape), hash32(seed, pixel).astype(np.int64)
+
+
 def shade_fixed_chunk(ps, cam, make, seed, ci, layout, film, film_lo, aovs, nonfinite):
     """Shade chunk ``ci`` of a fixed-spp render with the stream ``default_rng([seed, ci])``.
 
@@ -60,12 +66,17 @@ def shade_fixed_chunk(ps, cam, make, seed, ci, layout, film, film_lo, aovs, nonf
     rng = np.random.default_rng([seed, ci])
     if not layout.split:
         rays = cam.generate_rays(lo, hi, rng, differentials=ps.needs_differentials)
+        if integ.sampler == "padded":
+            rays.strata = _strata(seed, rays.pixel, np.tile(np.arange(layout.spp, dtype=np.int64), hi - lo),
+                                  layout.spp)
         L, a = integ.render_samples(rays, want_aovs=aovs, rng=rng)
         integ.stats.nonfinite_samples += film.add_block(lo - film_lo, hi - film_lo, L, a)
         return integ.stats, None
     # piece p of the pixel: its samples p, p + pieces, p + 2 pieces, ... of the pixel's stratified set
     samples = np.arange(ci % layout.pieces, layout.spp, layout.pieces, dtype=np.int64)
     rays = cam.generate_rays(lo, hi, rng, differentials=ps.needs_differentials, samples=samples)
+    if integ.sampler == "padded":
+        rays.strata = _strata(seed, rays.pixel, samples, layout.spp)
     L, a = integ.render_samples(rays, want_aovs=aovs, rng=rng)
     part = Film(1, 1, aovs=aovs, nonfinite=nonfinite)
     integ.stats.nonfinite_samples += part.add_block(0, 1, L, a)
@@ -87,7 +98,10 @@ def shade_adaptive_chunk(ps, cam, make, seed, index, key, P, C, base, spp_after,
     pix = P[which]
     u = sobol_owen_2d(base[which] + j - is_b * hh, hash32(seed, pix, is_b))
     rays = cam.rays_at(pix, u, differentials=ps.needs_differentials, spp=spp_after[which])
+    # the light and BSDF samples of a pass's new samples of each half are one padded set (of its size)
     integ = make()
+    if integ.sampler == "padded":
+        rays.strata = (j - is_b * hh, hh, hash32(seed, pix, is_b, index + 1).astype(np.int64))
     L, a = integ.render_samples(rays, want_aovs=aovs, rng=rng)
     both = pixel_sums(L, C, a, nonfinite=nonfinite)
     integ.stats.nonfinite_samples += both.nonfinite

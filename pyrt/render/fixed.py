@@ -40,7 +40,8 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
                 nonfinite="zero", cancel=None, fill=False, fill_budget=2.0, transparent_shadows=False,
                 integrator="whitted", glossy_samples=4, glossy_depth=2, glossy_threshold=0.4,
                 target_error=None, time_budget=None, max_spp=None, min_spp=4, on_pass=None, dask=None,
-                dask_workers=2, split_depth=DEFAULT_SPLIT_DEPTH, light_select_depth=None, parallel="auto", batch_rays=None):
+                dask_workers=2, split_depth=DEFAULT_SPLIT_DEPTH, light_select_depth=None, parallel="auto", batch_rays=None,
+                sampler="padded"):
     """Render ``scene`` and return a :class:`RenderResult` with the image, AOVs and statistics.
 
     Parameters are those of :func:`render`, plus:
@@ -90,6 +91,12 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         first bounce: ``glossy_samples`` rays per hit), at the cost of more per-batch work where it cuts (the
         previewer: docs/preview.md). Default None: a bounce at once. The estimate is the same; the noise differs
         (other random draws).
+    sampler : {"padded", "independent"}
+        The random numbers of the light and BSDF samples at the camera rays' hits: ``"padded"`` (default) makes
+        a pixel's samples one stratified set in every dimension pair, shuffled per pair
+        (:class:`pyrt.core.sampler.PaddedStream`); ``"independent"`` draws them independently (the sampler before
+        2026-12-02). Both are unbiased; padding lowers the noise of area, environment and glossy samples (the
+        pixel positions are stratified either way).
     parallel : {"auto", "threads", "processes"}
         What the ``threads`` workers are (:mod:`pyrt.render.pool`): worker processes forked once the scene is
         prepared (no shared GIL: the shading's small-array NumPy calls run in parallel), or threads of this
@@ -119,14 +126,15 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
                                transparent_shadows=transparent_shadows, glossy_samples=glossy_samples,
                                glossy_depth=glossy_depth, glossy_threshold=glossy_threshold, dask=dask,
                                dask_workers=dask_workers, split_depth=split_depth,
-                               light_select_depth=light_select_depth, parallel=parallel, batch_rays=batch_rays)
+                               light_select_depth=light_select_depth, parallel=parallel, batch_rays=batch_rays,
+                               sampler=sampler)
     t_start = time.perf_counter()
     if integrator not in INTEGRATORS:
         raise RenderError(f"render: integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
     integ = dict(integrator=integrator, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
                  transparent_shadows=transparent_shadows, glossy_samples=glossy_samples, glossy_depth=glossy_depth,
                  glossy_threshold=glossy_threshold, split_depth=split_depth,
-                 light_select_depth=light_select_depth, batch_rays=batch_rays)
+                 light_select_depth=light_select_depth, batch_rays=batch_rays, sampler=sampler)
     cam = scene.camera
     if spp is not None:
         cam = copy(cam)

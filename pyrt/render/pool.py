@@ -219,7 +219,7 @@ class ChunkPool:
 
 def integrator_factory(ps, integrator, *, max_depth, throughput_cutoff, offset, record_rays=False,
                        transparent_shadows=False, glossy_samples=4, glossy_depth=2, glossy_threshold=0.4,
-                       split_depth=DEFAULT_SPLIT_DEPTH, light_select_depth=None, batch_rays=None):
+                       split_depth=DEFAULT_SPLIT_DEPTH, light_select_depth=None, batch_rays=None, sampler="padded"):
     """A function of no argument returning a fresh integrator for one chunk (``"whitted"`` or ``"glossy"``)
     over the prepared scene ``ps``; :class:`RenderError` for another name."""
     if integrator not in INTEGRATORS:
@@ -232,5 +232,5 @@ def integrator_factory(ps, integrator, *, max_depth, throughput_cutoff, offset, 
     def make():
         return cls(ps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
                    record_rays=record_rays, transparent_shadows=transparent_shadows, split_depth=split_depth,
-                   light_select_depth=light_select_depth, batch_rays=batch_rays, **extra)
+                   light_select_depth=light_select_depth, batch_rays=batch_rays, sampler=sampler, **extra)
     return make

@@ -129,6 +129,9 @@ class PreviewOptions:
     #: of 3.9 s, the same image, no render-time change measurable), smaller ones at Embree's default "medium"
     #: (their render dominates, and "low" traces up to ~1.5x slower)
     bvh_quality: str = "auto"
+    #: pyrt.render_full's sampler: "padded" (a pixel's light and BSDF samples stratified over its samples) or
+    #: "independent"
+    sampler: str = "padded"
 
     def validate(self):
         if self.emissive_lights not in ("auto", "off"):
