@@ -92,13 +92,28 @@ for _ in range(31):
     _SOBOL1.append(_SOBOL1[-1] ^ (_SOBOL1[-1] >> 1))
 
 
+def _byte_tables():
+    """(256,) uint64: each byte bit-reversed."""
+    b = np.arange(256, dtype=np.uint64)
+    rev = np.zeros(256, dtype=np.uint64)
+    for k in range(8):
+        rev |= ((b >> np.uint64(k)) & np.uint64(1)) << np.uint64(7 - k)
+    return rev
+
+
+_REV8 = _byte_tables()
+_REV16 = (_REV8[np.arange(65536) & 0xFF] << np.uint64(8)) | _REV8[np.arange(65536) >> 8]
+_SOBOL1_BYTES = []     # per byte position p of the index: (256,) the XOR of _SOBOL1[8p + k] over its set bits k
+for _p in range(4):
+    _t = np.zeros(256, dtype=np.uint64)
+    for _k in range(8):
+        _t ^= np.where((np.arange(256) >> _k) & 1, np.uint64(_SOBOL1[8 * _p + _k]), np.uint64(0))
+    _SOBOL1_BYTES.append(_t)
+
+
 def _reverse_bits32(x):
-    """Bit reversal of uint32 values held in a uint64 array."""
-    x = ((x >> np.uint64(1)) & np.uint64(0x55555555)) | ((x & np.uint64(0x55555555)) << np.uint64(1))
-    x = ((x >> np.uint64(2)) & np.uint64(0x33333333)) | ((x & np.uint64(0x33333333)) << np.uint64(2))
-    x = ((x >> np.uint64(4)) & np.uint64(0x0F0F0F0F)) | ((x & np.uint64(0x0F0F0F0F)) << np.uint64(4))
-    x = ((x >> np.uint64(8)) & np.uint64(0x00FF00FF)) | ((x & np.uint64(0x00FF00FF)) << np.uint64(8))
-    return ((x >> np.uint64(16)) | (x << np.uint64(16))) & _M32
+    """Bit reversal of uint32 values held in a uint64 array (two lookups in a 16-bit table)."""
+    return (_REV16[x & np.uint64(0xFFFF)] << np.uint64(16)) | _REV16[(x >> np.uint64(16)) & np.uint64(0xFFFF)]
 
 
 def hash32(*keys):
@@ -118,13 +133,16 @@ def hash32(*keys):
 def _owen(x, seed):
     """Nested uniform (Owen) scramble of 32-bit fixed-point values ``x`` with per-value ``seed`` (Burley's
     Laine-Karras-style hash applied to the bit-reversed value: each bit flipped by a hash of the bits above)."""
-    x = _reverse_bits32(x)
+    return _reverse_bits32(_laine_karras(_reverse_bits32(x), seed))
+
+
+def _laine_karras(x, seed):
+    """Burley's Laine-Karras-style permutation of 32-bit values (each bit flipped by a hash of the bits below)."""
     x = x ^ ((x * np.uint64(0x3D20ADEA)) & _M32)
     x = (x + seed) & _M32
     x = (x * ((seed >> np.uint64(16)) | np.uint64(1))) & _M32
     x = x ^ ((x * np.uint64(0x05526C56)) & _M32)
-    x = x ^ ((x * np.uint64(0x53A22864)) & _M32)
-    return _reverse_bits32(x)
+    return x ^ ((x * np.uint64(0x53A22864)) & _M32)
 
 
 def sobol_owen_2d(index, seed):
@@ -136,15 +154,13 @@ def sobol_owen_2d(index, seed):
     """
     i = np.asarray(index).astype(np.uint64)
     seed = np.asarray(seed).astype(np.uint64) & _M32
-    x = _reverse_bits32(i)
-    y = np.zeros_like(i)
-    b = 0
-    rest = i.copy()
-    while b < 32 and rest.any():
-        y ^= np.where(rest & np.uint64(1), np.uint64(_SOBOL1[b]), np.uint64(0))
-        rest >>= np.uint64(1)
-        b += 1
-    sx = _owen(x, hash32(seed, 0x68E31DA4))
+    m = np.uint64(0xFF)
+    y = _SOBOL1_BYTES[0][i & m]       # the XOR of the direction numbers of the index's set bits, a byte at a time
+    for p in (1, 2, 3):
+        hi = i >> np.uint64(8 * p)
+        if hi.any():
+            y = y ^ _SOBOL1_BYTES[p][hi & m]
+    sx = _reverse_bits32(_laine_karras(i, hash32(seed, 0x68E31DA4)))    # _owen(x): x is i bit-reversed
     sy = _owen(y, hash32(seed, 0xB5297A4D))
     u = np.empty((i.shape[0], 2))
     u[:, 0] = sx.astype(np.float64) * 2.0 ** -32
