@@ -98,3 +98,16 @@ def test_sampler_option_is_checked():
     scene = bench_kinds.make_scene("diffuse", 8, 6, 1)
     with pytest.raises(pyrt.RenderError, match="sampler must be one of"):
         pyrt.render_full(scene, sampler="sobol", progress=False)
+
+
+def test_progressive_sets_are_stratified_in_every_aligned_block():
+    """n = None (adaptive passes): the first 2^m samples of a pixel, and the next 2^m, each fill every elementary
+    interval of area 2^-m once, whatever pass boundaries split them."""
+    m = 4
+    for key in (5, 999):
+        u = padded_sobol_2d(np.arange(2 << m), None, np.full(2 << m, key), 2)
+        for block in (u[:1 << m], u[1 << m:]):
+            for a in range(m + 1):
+                cx = np.floor(block[:, 0] * (1 << a)).astype(int)
+                cy = np.floor(block[:, 1] * (1 << (m - a))).astype(int)
+                assert len(set(zip(cx.tolist(), cy.tolist()))) == 1 << m

@@ -35,8 +35,8 @@ class RayBatch:
         of that sample (solid angle), what the emitters and the environment they reach are MIS-weighted
         against; 0 for delta-lobe rays, None when no ray of the batch was sampled so.
     strata : tuple of three (N,) int64 ndarrays, optional
-        Camera rays only: ``(index, n, key)``, each ray's sample index in its pixel's set, the set's size and the
-        pixel's seed: the light and BSDF samples at their hits are padded over the pixel's samples
+        Camera rays only: ``(index, n, key)``, each ray's sample index in its pixel's set, the set's size (None:
+        progressive sets, adaptive passes) and the pixel's seed: the light and BSDF samples at their hits are padded over the pixel's samples
         (:class:`pyrt.core.sampler.PaddedStream`); None: independent random numbers.
     """
 
@@ -79,7 +79,8 @@ class RayBatch:
                         differentials=None if self.differentials is None else tuple(x[lo:hi] for x in
                                                                                     self.differentials),
                         stack=cut(self.stack), pixel=cut(self.pixel), tmax=cut(self.tmax), bsdf_pdf=cut(self.bsdf_pdf),
-                        strata=None if self.strata is None else tuple(x[lo:hi] for x in self.strata))
+                        strata=None if self.strata is None else tuple(None if x is None else x[lo:hi]
+                                                                      for x in self.strata))
 
     @staticmethod
     def concatenate(batches):
@@ -100,7 +101,8 @@ class RayBatch:
             diffs = tuple(np.concatenate([b.differentials[k] for b in batches]) for k in range(4))
         strata = None
         if all(b.strata is not None for b in batches):
-            strata = tuple(np.concatenate([b.strata[k] for b in batches]) for k in range(3))
+            strata = tuple(None if batches[0].strata[k] is None else np.concatenate([b.strata[k] for b in batches])
+                           for k in range(3))
         return RayBatch(cat("origins"), cat("directions"), sample=cat("sample"), throughput=cat("throughput"),
                         depth=batches[0].depth, differentials=diffs, stack=cat("stack"), pixel=cat("pixel"),
                         tmax=cat("tmax"), bsdf_pdf=bsdf_pdf, strata=strata)

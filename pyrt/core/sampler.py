@@ -234,16 +234,24 @@ def padded_sobol_2d(index, n, key, dim):
     permutation :func:`permutation_element` of ``[0, n)`` of that seed: the ``n`` samples of a pixel are one
     stratified set in every pair (exactly one point per elementary interval when ``n`` is a power of two), each
     pair shuffled independently of the others and of the pixel position.
+
+    ``n = None``: a progressive set (adaptive passes, whose final count is not known): ``pi`` is a nested uniform
+    scramble of the index bits (Burley 2020, "shuffling"), which maps every aligned block of ``2^m`` indices onto
+    an aligned block of the sequence, itself an elementary net: the first ``2^m`` samples of a pixel, and every
+    aligned block of ``2^m`` after them, are stratified, however the passes split them.
     """
     k = hash32(key, dim)
-    return sobol_owen_2d(permutation_element(index, n, hash32(k, 0x2545F491)), k)
+    shuffle = hash32(k, 0x2545F491)
+    if n is None:
+        return sobol_owen_2d(_owen(_u32(index), shuffle), k)
+    return sobol_owen_2d(permutation_element(index, n, shuffle), k)
 
 
 class PaddedStream:
     """Stands in for the ``numpy.random.Generator`` of a chunk at the hits of camera rays: ``random((..., N, 2))``
     (N = the hits) returns :func:`padded_sobol_2d` points, a new dimension pair for each call and for each
     leading index, in call order; every other draw goes to the generator. ``index``, ``n``, ``key`` (N,) are each
-    hit's sample index in its pixel's set, the set's size and the pixel's seed."""
+    hit's sample index in its pixel's set, the set's size (None: progressive sets) and the pixel's seed."""
 
     def __init__(self, rng, index, n, key, _dims=None):
         self._rng = rng
@@ -253,8 +261,8 @@ class PaddedStream:
     def rows(self, idx):
         """The stream of the hits ``idx`` (an index array): the same pixels' sets, and the dimension pairs counted
         on from this stream's (draws for a subset never reuse a pair another draw of the bounce used)."""
-        return PaddedStream(self._rng, np.take(self.index, idx), np.take(self.n, idx), np.take(self.key, idx),
-                            self._dims)
+        return PaddedStream(self._rng, np.take(self.index, idx), None if self.n is None else np.take(self.n, idx),
+                            np.take(self.key, idx), self._dims)
 
     def random(self, size=None, *args, **kwargs):
         shape = (size,) if isinstance(size, (int, np.integer)) else tuple(size) if size is not None else ()

@@ -256,7 +256,8 @@ class Integrator:
                     diffs = None if diffs is None else tuple(take_rows(x, parent) for x in diffs)
                     stack = None if stack is None else stack[parent]
                     bpdf = None if bpdf is None else np.take(bpdf, parent)
-                    strata = None if strata is None else tuple(np.take(x, parent) for x in strata)
+                    strata = None if strata is None else tuple(None if x is None else np.take(x, parent)
+                                                               for x in strata)
                 if np.any(w != 1.0):
                     thr = thr * w[:, None]
             if media is not None:  # nested dielectrics: continue through false hits; Beer-Lambert absorption
@@ -289,7 +290,7 @@ class Integrator:
             apply_normal_maps(surf, materials)
         s_idx, thr_h = sample[h], take_rows(thr, h)
         # camera hits draw their light and BSDF samples padded over their pixels' samples (pyrt.core.sampler)
-        rng_h = rng if strata is None else PaddedStream(rng, *(np.take(x, h) for x in strata))
+        rng_h = rng if strata is None else PaddedStream(rng, *(None if x is None else np.take(x, h) for x in strata))
         aov_rows = None
         if aovs is not None and depth == 0:   # the nearest surface a camera ray keeps (not blend records)
             aov_rows = np.flatnonzero(h < n_rays)

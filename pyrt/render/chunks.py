@@ -100,8 +100,8 @@ def shade_adaptive_chunk(ps, cam, make, seed, index, key, P, C, base, spp_after,
     rays = cam.rays_at(pix, u, differentials=ps.needs_differentials, spp=spp_after[which])
     # the light and BSDF samples of a pass's new samples of each half are one padded set (of its size)
     integ = make()
-    if integ.sampler == "padded":
-        rays.strata = (j - is_b * hh, hh, hash32(seed, pix, is_b, index + 1).astype(np.int64))
+    if integ.sampler == "padded":    # each half's light and BSDF samples continue a progressive padded set
+        rays.strata = (base[which] + j - is_b * hh, None, hash32(seed, pix, is_b, 0x9AD).astype(np.int64))
     L, a = integ.render_samples(rays, want_aovs=aovs, rng=rng)
     both = pixel_sums(L, C, a, nonfinite=nonfinite)
     integ.stats.nonfinite_samples += both.nonfinite
