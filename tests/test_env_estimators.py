@@ -156,14 +156,14 @@ def test_compensated_needs_the_bsdf_samples(glossy_reference, monkeypatch):
 
 def test_equal_counts_take_the_one_sum_path():
     """bsdf_samples = n_samples renders exactly what bsdf_samples=None (the default) renders, with or without
-    compensation; the defaults are 4 + 4 samples, compensated."""
+    compensation; the defaults are 2 + 2 samples, compensated (padded camera-hit samples, 2026-12-02)."""
     env = LatLongEnvironment(_sky(), filter="bilinear")
     for comp in (False, True):
         a = _pixels(_glossy_plane(env, n_samples=2, compensate=comp), 7)
         b = _pixels(_glossy_plane(env, n_samples=2, bsdf_samples=2, compensate=comp), 7)
         np.testing.assert_array_equal(a, b)
     lt = EnvironmentLight(env)
-    assert (lt.n_samples, lt.bsdf_samples, lt.compensate, lt.heuristic) == (4, 4, True, "power")
+    assert (lt.n_samples, lt.bsdf_samples, lt.compensate, lt.heuristic) == (2, 2, True, "power")
 
 
 # ----------------------------------------------------------------------------- parameters

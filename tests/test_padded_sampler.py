@@ -111,3 +111,12 @@ def test_progressive_sets_are_stratified_in_every_aligned_block():
                 cx = np.floor(block[:, 0] * (1 << a)).astype(int)
                 cy = np.floor(block[:, 1] * (1 << (m - a))).astype(int)
                 assert len(set(zip(cx.tolist(), cy.tolist()))) == 1 << m
+
+
+def test_defaults_picked_with_padded_samples():
+    """tools/estimator_chart.py with padded camera-hit samples picked 2 + 2 environment samples (compensated) and
+    4 area-light shadow rays per hit (README, "Light/BSDF sample splitting")."""
+    assert pyrt.RectLight((0, 2, 0), size=1.0, power=10.0).n_samples == 4
+    assert pyrt.DiskLight((0, 2, 0), radius=0.5, power=10.0).n_samples == 4
+    lt = pyrt.EnvironmentLight(pyrt.ConstantEnvironment(1.0))
+    assert (lt.n_samples, lt.bsdf_samples, lt.compensate) == (2, 2, True)

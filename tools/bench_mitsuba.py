@@ -22,10 +22,11 @@ high-spp render against Mitsuba's reference, compared with the relMSE the two re
 Outputs: ``OUT/bench_mitsuba.json`` (every run), the chart (relMSE vs seconds, log-log, one panel per scene;
 matplotlib, the ``[charts]`` extra) and a markdown table (time to reach Mitsuba llvm's error at 16/64/256 spp as
 a ratio pyrt / Mitsuba, samples per second at equal spp, reference agreement, first-run costs, machine and load).
-``--quick``: pyrt and scalar at 4/16/64 spp, llvm up to 256, 2 repeats, a 2048-spp reference (22 minutes for
-the five scenes on 2 cores shared at load 11-13, where pyrt's 64-spp times were 4-10x those of issue 13's
-table for similar scenes); the default adds 256 spp for pyrt and scalar, 1024 for llvm, 3 repeats, an 8192-spp
-reference and a 512-spp pyrt check (not run here yet). ``--scenes`` picks scenes, ``--repeats`` overrides.
+``--quick``: pyrt at 1/4/16/64 spp (1 spp: its error crossings are measured, not extrapolated), scalar at
+4/16/64, llvm up to 256, 2 repeats, a 2048-spp reference (22 minutes for the five scenes on 2 cores shared at
+load 11-13, where pyrt's 64-spp times were 4-10x those of issue 13's table for similar scenes); the default adds
+256 spp for pyrt and scalar, 1024 for llvm, 3 repeats, an 8192-spp reference and a 512-spp pyrt check (not run
+here yet). ``--scenes`` picks scenes, ``--repeats`` overrides.
 
 Installing Mitsuba (never a test dependency): ``pip install 'pyrt-embree[bench]'`` (= ``pip install mitsuba``).
 ``scalar_rgb`` works as installed. ``llvm_ad_rgb`` needs an LLVM that handles this CPU: with the system's
@@ -98,9 +99,9 @@ INSTALL = {"mitsuba": "pip install 'pyrt-embree[bench]' (or pip install mitsuba)
            "llvm_ad_rgb": "apt-get install -y libllvm19 and DRJIT_LIBLLVM_PATH=$(dpkg -L libllvm19 | grep 'libLLVM-19.so$')",
            "scalar_rgb": "pip install mitsuba (scalar_rgb ships with the wheel)"}
 MODES = {  # spp levels per series, repeats, reference spp (Mitsuba llvm) and pyrt's own reference spp
-    "quick": {"pyrt": [4, 16, 64], "llvm_ad_rgb": [4, 16, 64, 256], "scalar_rgb": [4, 16, 64], "repeats": 2,
+    "quick": {"pyrt": [1, 4, 16, 64], "llvm_ad_rgb": [4, 16, 64, 256], "scalar_rgb": [4, 16, 64], "repeats": 2,
               "ref_spp": 2048, "pyrt_ref_spp": 128},
-    "full": {"pyrt": [4, 16, 64, 256], "llvm_ad_rgb": [4, 16, 64, 256, 1024], "scalar_rgb": [4, 16, 64, 256],
+    "full": {"pyrt": [1, 4, 16, 64, 256], "llvm_ad_rgb": [4, 16, 64, 256, 1024], "scalar_rgb": [4, 16, 64, 256],
              "repeats": 3, "ref_spp": 8192, "pyrt_ref_spp": 512},
 }
 AGREE_FACTOR = 2.0                 # converged pyrt vs the reference: relMSE <= this x the noise-only expectation

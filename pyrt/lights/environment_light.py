@@ -71,9 +71,11 @@ from pyrt.lights.base import Light, LightSample
 from pyrt.lights.environment import HEURISTICS, STRATEGIES, Environment, EnvironmentMapError
 
 #: samples per hit of each technique by default (``n_samples``; ``bsdf_samples`` follows it), with
-#: ``compensate=True``: measured by ``tools/estimator_chart.py`` (docs/environment.md), 1.5-2.4x (sun sky) and
-#: 1.6-1.7x (studio map) less relMSE x time than one light + one BSDF sample without compensation
-DEFAULT_SAMPLES = 4
+#: ``compensate=True``: measured by ``tools/estimator_chart.py`` (docs/environment.md). With padded camera-hit
+#: samples (``sampler="padded"``, 2026-12-02) 2 + 2 has 0.63x (sun sky) and 0.85x (studio map) the relMSE x time of
+#: one light + one BSDF sample without compensation, and 4 + 4 0.99x and 1.02x: a pixel's samples are stratified
+#: over its spp now, so more samples per hit buy less (with independent draws 4 + 4 had been 1.5-2.4x better)
+DEFAULT_SAMPLES = 2
 #: the values of ``EnvironmentLight(preview_method=...)``
 PREVIEW_METHODS = ("split_sum", "samples")
 
@@ -88,7 +90,7 @@ class EnvironmentLight(Light):
         One of :data:`STRATEGIES` (see :mod:`pyrt.lights.environment`). Default ``"mis"``.
     n_samples : int
         Light (or, for ``uniform``, ``cosine``, ``bsdf``, the strategy's) samples per hit. Default
-        :data:`DEFAULT_SAMPLES` = 4.
+        :data:`DEFAULT_SAMPLES` = 2.
     bsdf_samples : int or None
         BSDF samples per hit of ``strategy="mis"`` (None: ``n_samples``). Each sample of either kind traces
         one shadow ray.
