@@ -46,9 +46,9 @@ from pyrt.textures import apply_normal_maps
 from pyrt.shaders.vec import dot, max_component, put_rows, take_rows
 
 
-#: the bounce from which a dielectric hit follows one of its reflection and refraction instead of both (the
 #: what ``sampler=`` may be (:func:`pyrt.render_full`)
 SAMPLERS = ("padded", "independent")
+#: the bounce from which a dielectric hit follows one of its reflection and refraction instead of both (the
 #: ``split_depth`` default of every render; :class:`Integrator` documents the measurement behind it)
 DEFAULT_SPLIT_DEPTH = 3
 
@@ -97,6 +97,13 @@ class Integrator:
         unbiased, noisier), at camera hits and hits of BSDF-sampled rays (not at hits reached by a delta ray:
         what mirrors and glass show keeps all lights). None (default): every light at every hit; the previewer
         uses 1 (the hits of glossy rays).
+    batch_rays : int or None
+        Shade a bounce in slices of at most this many rays (:meth:`render_samples`); None: all at once.
+    sampler : {"padded", "independent"}
+        Where the camera rays carry :attr:`pyrt.core.rays.RayBatch.strata` (the chunk functions set them for
+        ``"padded"``), their hits' light and BSDF samples come from a :class:`pyrt.core.sampler.PaddedStream`:
+        stratified over each pixel's samples in every dimension pair. Deeper bounces draw from the chunk's
+        generator either way.
     """
 
     def __init__(self, prepared, *, max_depth=8, throughput_cutoff=1e-4, offset=None, record_rays=False,
