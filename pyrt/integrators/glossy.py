@@ -196,6 +196,11 @@ class GlossyIntegrator(Integrator):
         w = mis_weights(1, p_l, 1, bsdf_pdf)[1]
         return np.where(bsdf_pdf > 0, w, 1.0)
 
+    @property
+    def pads_camera_hits(self):
+        """As :attr:`Integrator.pads_camera_hits`, and the glossy rays sampled at camera hits draw too."""
+        return self.sampler == "padded" and (self.glossy_depth > 0 or super().pads_camera_hits)
+
     def _spawn(self, surf, thr_h, s_idx, dsub, stack_h, idx, sampled, depth, rng):
         """The delta-lobe rays of :meth:`_spawn_specular` and the glossy rays of :meth:`_spawn_glossy`."""
         spec = self._spawn_specular(surf, thr_h, s_idx, dsub, stack_h, depth, rng)

@@ -138,6 +138,13 @@ class Integrator:
         self.sampler = sampler
         self.stats = RenderStats()
 
+    @property
+    def pads_camera_hits(self):
+        """True when the camera rays should carry :attr:`pyrt.core.rays.RayBatch.strata`: ``sampler="padded"`` and
+        the camera hits draw light or BSDF samples (a light that is not a delta light; the glossy integrator's
+        rays). Scenes lit by delta lights alone draw none there: no strata to build."""
+        return self.sampler == "padded" and any(not lt.delta for lt in self.scene.lights)
+
     # -- Embree calls with bookkeeping -------------------------------------------------------
     def _intersect(self, o, d, kind, hits_only=False):
         """Closest hits (:meth:`Accel.intersect`), or with ``hits_only`` ``(idx, hits restricted to idx)``

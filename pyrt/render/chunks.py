@@ -66,7 +66,7 @@ def shade_fixed_chunk(ps, cam, make, seed, ci, layout, film, film_lo, aovs, nonf
     rng = np.random.default_rng([seed, ci])
     if not layout.split:
         rays = cam.generate_rays(lo, hi, rng, differentials=ps.needs_differentials)
-        if integ.sampler == "padded":
+        if integ.pads_camera_hits:
             rays.strata = _strata(seed, rays.pixel, np.tile(np.arange(layout.spp, dtype=np.int64), hi - lo),
                                   layout.spp)
         L, a = integ.render_samples(rays, want_aovs=aovs, rng=rng)
@@ -75,7 +75,7 @@ def shade_fixed_chunk(ps, cam, make, seed, ci, layout, film, film_lo, aovs, nonf
     # piece p of the pixel: its samples p, p + pieces, p + 2 pieces, ... of the pixel's stratified set
     samples = np.arange(ci % layout.pieces, layout.spp, layout.pieces, dtype=np.int64)
     rays = cam.generate_rays(lo, hi, rng, differentials=ps.needs_differentials, samples=samples)
-    if integ.sampler == "padded":
+    if integ.pads_camera_hits:
         rays.strata = _strata(seed, rays.pixel, samples, layout.spp)
     L, a = integ.render_samples(rays, want_aovs=aovs, rng=rng)
     part = Film(1, 1, aovs=aovs, nonfinite=nonfinite)
@@ -100,7 +100,7 @@ def shade_adaptive_chunk(ps, cam, make, seed, index, key, P, C, base, spp_after,
     rays = cam.rays_at(pix, u, differentials=ps.needs_differentials, spp=spp_after[which])
     # the light and BSDF samples of a pass's new samples of each half are one padded set (of its size)
     integ = make()
-    if integ.sampler == "padded":    # each half's light and BSDF samples continue a progressive padded set
+    if integ.pads_camera_hits:      # each half's light and BSDF samples continue a progressive padded set
         rays.strata = (base[which] + j - is_b * hh, None, hash32(seed, pix, is_b, 0x9AD).astype(np.int64))
     L, a = integ.render_samples(rays, want_aovs=aovs, rng=rng)
     both = pixel_sums(L, C, a, nonfinite=nonfinite)
