@@ -27,6 +27,11 @@ from pyrt.apps.preview.batch import collect_inputs, format_summary, preview_batc
 
 # ============================================================================ command line
 
+def _max_texture(text):
+    """argparse type of ``--max-texture``: ``auto`` or an integer >= 0."""
+    return text if text == "auto" else nonnegative_int(text)
+
+
 def _parser():
     ap = ArgumentParser(prog="pyrt-preview", description="Preview 3D models (glTF/GLB, OBJ, PLY, STL) "
                                  "with a studio rig, auto-framing and auto-exposure.")
@@ -80,6 +85,9 @@ def _parser():
     ap.add_argument("--double-sided", action="store_true",
                     help="render both sides of every face (default: as the file says; back faces of single-sided "
                          "glTF materials are culled)")
+    ap.add_argument("--max-texture", type=_max_texture, default="auto", metavar="N",
+                    help="reduce glTF images longer than N texels by a power of two as they are decoded (auto: "
+                         "the power of two at or above 3x the longer output side; 0: keep every image whole)")
     ap.add_argument("--bvh-quality", default="auto", choices=["auto", "low", "medium", "high"],
                     help="Embree's BVH build quality (auto: low from 1 M triangles, else medium)")
     ap.add_argument("--dask", nargs="?", const="local", default=None, metavar="SCHEDULER",
@@ -117,7 +125,7 @@ def _run(args, cancel):
                           exposure=args.exposure,
                           tonemap=args.tonemap, turntable=args.turntable, formats=formats, aovs=args.aovs,
                           seed=args.seed, time_budget=args.budget, threads=args.threads, parallel=args.parallel,
-                          bvh_quality=args.bvh_quality, double_sided=args.double_sided, target_error=args.target_error,
+                          bvh_quality=args.bvh_quality, max_texture=args.max_texture, double_sided=args.double_sided, target_error=args.target_error,
                           max_spp=args.max_spp,
                           min_spp=args.min_spp).validate()
     paths = collect_inputs(args.models)

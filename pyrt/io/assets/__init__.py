@@ -85,13 +85,17 @@ __all__ = [
 ]
 
 
-def load_asset(path):
+def load_asset(path, *, max_texture=None):
     """Load any supported file (by extension: .gltf .glb .obj .ply .stl) into an :class:`Asset`.
 
     Parameters
     ----------
     path : str or os.PathLike
         The model file.
+    max_texture : int, optional
+        glTF images whose longer side exceeds this many texels are reduced by a power of two as they are decoded
+        (:mod:`pyrt.io.assets.texture_budget`: the box filter of pyrt's MIP levels, named in the warnings). None
+        (default): every image whole.
 
     Returns
     -------
@@ -113,7 +117,7 @@ def load_asset(path):
     t0 = time.perf_counter()
     with malformed_is_asset_error(path, fmt.upper() if fmt != "gltf" else "glTF"):
         if fmt == "gltf":
-            asset = load_gltf(path)
+            asset = load_gltf(path, max_texture)
         elif fmt == "obj":
             asset = load_obj(path)
         else:

@@ -214,8 +214,9 @@ def _strip_faces(idx, mode):
     return np.stack([np.full(n - 2, idx[0]), idx[k + 1], idx[k + 2]], axis=1)  # fan
 
 
-def load_gltf(path):
-    """Load a glTF 2.0 (.gltf + files / data URIs) or GLB file into an :class:`Asset`.
+def load_gltf(path, max_texture=None):
+    """Load a glTF 2.0 (.gltf + files / data URIs) or GLB file into an :class:`Asset`; images longer than
+    ``max_texture`` texels are reduced as they are decoded (:mod:`pyrt.io.assets.texture_budget`; None: none).
 
     Raises
     ------
@@ -224,11 +225,11 @@ def load_gltf(path):
         :mod:`pyrt.io.assets.gltf_file`).
     """
     with malformed_is_asset_error(path, "glTF"):
-        return _load_gltf(path)
+        return _load_gltf(path, max_texture)
 
 
-def _load_gltf(path):
-    g = GltfFile(path)
+def _load_gltf(path, max_texture=None):
+    g = GltfFile(path, max_texture=max_texture)
     h = g.header
     asset = Asset(path=path, format="gltf", up_axis="+y")
     W = asset.warnings
@@ -247,6 +248,7 @@ def _load_gltf(path):
     asset.materials = [_gltf_material(g, i, W, textures) for i in range(len(h.get("materials", [])))]
     for msg in g.substitutions:            # missing texture files: each slot rendered with its factor alone
         asset.substitute(msg)
+    W.extend(g.reductions)                 # the texture budget's reductions
     # meshes: glTF mesh index -> list of AssetMesh indices (one per triangle primitive)
     mesh_prims = {}
 

@@ -32,7 +32,8 @@ from pyrt.core.image_types import image_kind
 from pyrt.textures import TextureError, load_image
 from pyrt.io.assets.common import AssetError, colour_texels, malformed_is_asset_error
 from pyrt.io.assets.gltf_draco import DRACO, dracopy
-from pyrt.io.assets.gltf_khr import IMAGE_EXTENSIONS, MATERIAL_EXTENSIONS, required_extension_error
+from pyrt.io.assets.gltf_khr import IMAGE_EXTENSIONS, MATERIAL_EXTENSIONS, required_extension_error, texture_source
+from pyrt.io.assets.texture_budget import reduce_texels, reduction_factor
 
 _COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
 _NCOMP = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
@@ -77,8 +78,10 @@ class GltfFile:
         shorter than its ``byteLength``, a refused URI (see the module docstring).
     """
 
-    def __init__(self, path):
+    def __init__(self, path, max_texture=None):
         self.path = path
+        #: images whose longer side exceeds this are reduced as they are decoded (:mod:`.texture_budget`); None: none
+        self.max_texture = max_texture
         self.base = os.path.dirname(os.path.abspath(path))
         with open(path, "rb") as fh:
             data = fh.read()
@@ -126,6 +129,9 @@ class GltfFile:
         self._img_cache = {}
         #: what the loader replaced to load the file anyway (missing texture files), for :attr:`Asset.substitutions`
         self.substitutions = []
+        #: what the texture budget reduced (one message per image), for the asset's warnings
+        self.reductions = []
+        self._srgb = None     # the images colour slots read (_srgb_images), found on first need
 
     def _glb_chunks(self, data):
         """(JSON chunk, binary chunk or None) of GLB bytes; every length checked against the file."""
@@ -363,8 +369,41 @@ class GltfFile:
                 raise AssetError(f"{self.path}: image {ii} has neither uri nor bufferView")
             arr = _decode_image_bytes(blob, f"{self.path}: {label}")
         arr = colour_texels(arr)            # grey / grey + alpha -> RGB(A): every slot reads colour channels
+        f = reduction_factor(arr.shape, self.max_texture)
+        if f > 1:
+            srgb = min(3, arr.shape[2]) if ii in self._srgb_images() else 0
+            full = arr.shape
+            arr = reduce_texels(arr, f, srgb)
+            what = label if label.startswith(f"image {ii}") else f"image {ii} ({label})"
+            self.reductions.append(f"{self.path}: {what} {full[1]}x{full[0]} read at {arr.shape[1]}x"
+                                   f"{arr.shape[0]} (the texture budget, max_texture={self.max_texture}: its MIP "
+                                   f"level {f.bit_length() - 1})")
         self._img_cache[ii] = (arr, label)
         return arr, label
+
+
+    def _srgb_images(self):
+        """The images colour slots read (base colour, emissive, specular colour, specular-glossiness diffuse and
+        specular): their reduction averages in linear light."""
+        if self._srgb is None:
+            found = set()
+            for m in self.header.get("materials", []) or []:
+                if not isinstance(m, dict):
+                    continue
+                ext = m.get("extensions", {}) if isinstance(m.get("extensions"), dict) else {}
+                infos = [(m.get("pbrMetallicRoughness") or {}).get("baseColorTexture"), m.get("emissiveTexture"),
+                         (ext.get("KHR_materials_specular") or {}).get("specularColorTexture"),
+                         (ext.get("KHR_materials_pbrSpecularGlossiness") or {}).get("diffuseTexture"),
+                         (ext.get("KHR_materials_pbrSpecularGlossiness") or {}).get("specularGlossinessTexture")]
+                for info in infos:
+                    ti = info.get("index") if isinstance(info, dict) else None
+                    textures = self.header.get("textures", [])
+                    if isinstance(ti, int) and 0 <= ti < len(textures) and isinstance(textures[ti], dict):
+                        src = texture_source(textures[ti])
+                        if isinstance(src, int):
+                            found.add(src)
+            self._srgb = found
+        return self._srgb
 
 
 def _load_image_file(path, label):
