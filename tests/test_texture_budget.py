@@ -65,3 +65,16 @@ def test_preview_budget_follows_the_output_size():
     assert PreviewOptions(max_texture=1000).texture_budget() == 1000
     with pytest.raises(PreviewError, match="max_texture"):
         PreviewOptions(max_texture=-1).validate()
+
+
+def test_obj_colour_maps_are_reduced_in_linear_light(tmp_path):
+    from PIL import Image
+    chk = ((np.indices((64, 64)).sum(axis=0) % 2) * 255).astype(np.uint8)
+    Image.fromarray(np.repeat(chk[:, :, None], 3, axis=2)).save(tmp_path / "c.png")
+    (tmp_path / "m.mtl").write_text("newmtl m\nKd 1 1 1\nmap_Kd c.png\n")
+    (tmp_path / "m.obj").write_text("mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nusemtl m\n"
+                                    "f 1/1 2/2 3/3\n")
+    a = load_asset(str(tmp_path / "m.obj"), max_texture=32)
+    tex = a.materials[0].map_Kd
+    assert tex.texels.shape[:2] == (32, 32) and np.all(tex.texels == 188)
+    assert any("map_Kd" in w and "64x64 read at 32x32" in w for w in a.warnings)

@@ -93,9 +93,9 @@ def load_asset(path, *, max_texture=None):
     path : str or os.PathLike
         The model file.
     max_texture : int, optional
-        glTF images whose longer side exceeds this many texels are reduced by a power of two as they are decoded
-        (:mod:`pyrt.io.assets.texture_budget`: the box filter of pyrt's MIP levels, named in the warnings). None
-        (default): every image whole.
+        glTF images and OBJ colour / normal maps whose longer side exceeds this many texels are reduced by a power of
+        two as they are decoded (:mod:`pyrt.io.assets.texture_budget`: the box filter of pyrt's MIP levels, named in
+        the warnings). None (default): every image whole.
 
     Returns
     -------
@@ -119,7 +119,7 @@ def load_asset(path, *, max_texture=None):
         if fmt == "gltf":
             asset = load_gltf(path, max_texture)
         elif fmt == "obj":
-            asset = load_obj(path)
+            asset = load_obj(path, max_texture)
         else:
             asset = load_ply_stl(path, fmt)
     asset.load_time = time.perf_counter() - t0

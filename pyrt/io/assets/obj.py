@@ -33,6 +33,7 @@ OBJ + MTL mapping (documented choice; the MTL "illum 2" model *is* Blinn-Phong)
 """
 from __future__ import annotations
 
+import functools
 import io
 import os
 import re
@@ -41,6 +42,7 @@ import numpy as np
 
 from pyrt.textures import ImageTexture, NormalMap, TextureError, load_image
 from pyrt.io.assets.common import AssetError, MTLParams, colour_texels, trimesh_load, vertex_colors
+from pyrt.io.assets.texture_budget import reduce_texels, reduction_factor
 from pyrt.io.assets.asset import Asset, AssetInstance, AssetMesh
 from pyrt.io.assets.materials import mtl_is_transparent, mtl_kd_ks
 
@@ -49,13 +51,15 @@ _MTL_OPTS = {"-blendu": 1, "-blendv": 1, "-bm": 1, "-boost": 1, "-cc": 1, "-clam
              "-mm": 2, "-texres": 1, "-type": 1, "-o": 3, "-s": 3, "-t": 3}
 
 
-def _mtl_map(tokens, base, what, *, srgb, warnings, normal=False, alpha=False, cache=None, substitutions=None):
+def _mtl_map(tokens, base, what, *, srgb, warnings, normal=False, alpha=False, cache=None, substitutions=None,
+             max_texture=None):
     """Parse ``map_* [options] file`` -> texture; a missing file is an AssetError, or, when a ``substitutions``
     list is given, a message appended to it and None (the map is left out: its factor alone is used).
 
     ``cache`` (a dict, one per load) maps ``(real path, decoding)`` to the first texture read from that
     file: later maps of the same file share its decoded texels and lazy MIP pyramid. Grey and grey + alpha
-    images are read as RGB(A) (:func:`~pyrt.io.assets.common.colour_texels`).
+    images are read as RGB(A) (:func:`~pyrt.io.assets.common.colour_texels`). Colour and normal maps longer than
+    ``max_texture`` are reduced as they are decoded (:mod:`pyrt.io.assets.texture_budget`, a warning each).
     """
     opts, i = {}, 0
     while i < len(tokens) and tokens[i] in _MTL_OPTS:
@@ -101,6 +105,12 @@ def _mtl_map(tokens, base, what, *, srgb, warnings, normal=False, alpha=False, c
     try:
         if src is None:
             src = colour_texels(load_image(fpath, integers=True)[0])
+            f = reduction_factor(src.shape, max_texture) if src.dtype != np.float32 else 1
+            if f > 1:
+                full = src.shape
+                src = reduce_texels(src, f, 3 if srgb and not normal else 0)
+                warnings.append(f"{what}: {fpath} {full[1]}x{full[0]} read at {src.shape[1]}x{src.shape[0]} (the "
+                                f"texture budget, max_texture={max_texture}: its MIP level {f.bit_length() - 1})")
             kw["name"] = fpath
         t = NormalMap(src, **kw) if normal else ImageTexture(src, srgb=srgb, channels=3, **kw)
     except TextureError as exc:
@@ -135,7 +145,7 @@ def _mtl_scalar_map(fpath, what, imfchan, kw):
         raise AssetError(f"{what}: {exc}") from None
 
 
-def parse_mtl(path, warnings=None, textures=None, substitutions=None):
+def parse_mtl(path, warnings=None, textures=None, substitutions=None, max_texture=None):
     """Parse an MTL file into {name: :class:`MTLParams`}; texture files are loaded (missing -> AssetError, or with
     a ``substitutions`` list a message there and the map left out).
 
@@ -146,6 +156,7 @@ def parse_mtl(path, warnings=None, textures=None, substitutions=None):
     textures = {} if textures is None else textures
     base = os.path.dirname(os.path.abspath(path))
     out, cur = {}, None
+    mtl_map = functools.partial(_mtl_map, max_texture=max_texture)
     bumps = []          # (block, map_Bump arguments, where): normal maps or height maps, decided after the parse
     with open(path, "r", encoding="utf-8", errors="replace") as fh:
         for lineno, line in enumerate(fh, 1):
@@ -180,21 +191,21 @@ def parse_mtl(path, warnings=None, textures=None, substitutions=None):
                 elif key == "illum":
                     cur.illum = int(args[0])
                 elif key == "map_Kd":
-                    cur.map_Kd = _mtl_map(args, base, f"{where}: map_Kd", srgb=True, warnings=warnings,
+                    cur.map_Kd = mtl_map(args, base, f"{where}: map_Kd", srgb=True, warnings=warnings,
                                           cache=textures, substitutions=substitutions)
                 elif key == "map_Ke":
-                    cur.map_Ke = _mtl_map(args, base, f"{where}: map_Ke", srgb=True, warnings=warnings,
+                    cur.map_Ke = mtl_map(args, base, f"{where}: map_Ke", srgb=True, warnings=warnings,
                                           cache=textures, substitutions=substitutions)
                 elif key == "map_d":
-                    cur.map_d = _mtl_map(args, base, f"{where}: map_d", srgb=False, warnings=warnings, alpha=True,
+                    cur.map_d = mtl_map(args, base, f"{where}: map_d", srgb=False, warnings=warnings, alpha=True,
                                          cache=textures, substitutions=substitutions)
                 elif key in ("norm", "map_Kn"):
-                    cur.norm = _mtl_map(args, base, f"{where}: {key}", srgb=False, warnings=warnings, normal=True,
+                    cur.norm = mtl_map(args, base, f"{where}: {key}", srgb=False, warnings=warnings, normal=True,
                                         cache=textures, substitutions=substitutions)
                 elif key in ("Pr", "Pm"):
                     setattr(cur, key, float(np.clip(float(args[0]), 0.0, 1.0)))
                 elif key in ("map_Pr", "map_Pm"):
-                    setattr(cur, key, _mtl_map(args, base, f"{where}: {key}", srgb=False, warnings=warnings,
+                    setattr(cur, key, mtl_map(args, base, f"{where}: {key}", srgb=False, warnings=warnings,
                                                alpha=True, cache=textures, substitutions=substitutions))
                 elif key in ("bump", "map_Bump", "map_bump"):
                     bumps.append((cur, args, f"{where}: {key}"))
@@ -210,7 +221,7 @@ def parse_mtl(path, warnings=None, textures=None, substitutions=None):
             except (ValueError, IndexError) as exc:
                 raise AssetError(f"{where}: cannot parse {line!r}: {exc}") from None
     for cur, args, where in bumps:
-        _bump_map(cur, args, base, where, warnings, textures, substitutions)
+        _bump_map(cur, args, base, where, warnings, textures, substitutions, max_texture)
     return out
 
 
@@ -225,14 +236,14 @@ def looks_like_normal_map(texels):
     return b >= 0.6 and abs(r - 0.5) <= 0.15 and abs(g - 0.5) <= 0.15
 
 
-def _bump_map(cur, args, base, where, warnings, textures, substitutions):
+def _bump_map(cur, args, base, where, warnings, textures, substitutions, max_texture=None):
     """``bump`` / ``map_Bump`` of MTL block ``cur``: its normal map when the image looks like one
     (:func:`looks_like_normal_map`) and ``norm`` gave none, else ignored (a height map), with a warning either way."""
     if cur.norm is not None:
         warnings.append(f"{where}: ignored (norm gives the material's normal map)")
         return
     t = _mtl_map(args, base, where, srgb=False, warnings=warnings, normal=True, cache=textures,
-                 substitutions=substitutions)
+                 substitutions=substitutions, max_texture=max_texture)
     if t is None:
         return
     if looks_like_normal_map(t.texels[::4, ::4]):
@@ -243,8 +254,9 @@ def _bump_map(cur, args, base, where, warnings, textures, substitutions):
         warnings.append(f"{where}: height (bump) maps are not supported; ignored")
 
 
-def load_obj(path):
-    """Load an OBJ (+ MTL) file into an :class:`Asset` (MTL mapping: see the module docstring)."""
+def load_obj(path, max_texture=None):
+    """Load an OBJ (+ MTL) file into an :class:`Asset` (MTL mapping: see the module docstring); colour and normal
+    maps longer than ``max_texture`` texels are reduced as they are decoded (:mod:`pyrt.io.assets.texture_budget`)."""
     import trimesh  # deferred (pyrt.core.transforms)
     asset = Asset(path=path, format="obj")
     W = asset.warnings
@@ -264,7 +276,7 @@ def load_obj(path):
             subst.append(f"{path}: material library not found: {mpath}; the default material is used")
             lib_missing = True
             continue
-        mtls.update(parse_mtl(mpath, W, textures, substitutions=subst))
+        mtls.update(parse_mtl(mpath, W, textures, substitutions=subst, max_texture=max_texture))
     used = set(re.findall(r"^\s*usemtl\s+(.+?)\s*$", text, flags=re.M))
     missing = used - set(mtls)
     if missing and not lib_missing:
