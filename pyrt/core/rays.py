@@ -36,8 +36,9 @@ class RayBatch:
         against; 0 for delta-lobe rays, None when no ray of the batch was sampled so.
     strata : tuple of three (N,) int64 ndarrays, optional
         Camera rays only: ``(index, n, key)``, each ray's sample index in its pixel's set, the set's size (None:
-        progressive sets, adaptive passes) and the pixel's seed: the light and BSDF samples at their hits are padded over the pixel's samples
-        (:class:`pyrt.core.sampler.PaddedStream`); None: independent random numbers.
+        progressive sets, adaptive passes) and the pixel's seed: the light and BSDF samples at their hits are
+        padded over the pixel's samples (:class:`pyrt.core.sampler.PaddedStream`); None: independent random
+        numbers.
     """
 
     __slots__ = ("origins", "directions", "sample", "throughput", "depth", "differentials", "stack", "pixel",

@@ -125,8 +125,8 @@ def _run(args, cancel):
                           exposure=args.exposure,
                           tonemap=args.tonemap, turntable=args.turntable, formats=formats, aovs=args.aovs,
                           seed=args.seed, time_budget=args.budget, threads=args.threads, parallel=args.parallel,
-                          bvh_quality=args.bvh_quality, max_texture=args.max_texture, double_sided=args.double_sided, target_error=args.target_error,
-                          max_spp=args.max_spp,
+                          bvh_quality=args.bvh_quality, double_sided=args.double_sided, target_error=args.target_error,
+                          max_spp=args.max_spp, max_texture=args.max_texture,
                           min_spp=args.min_spp).validate()
     paths = collect_inputs(args.models)
     if not paths:

@@ -129,9 +129,9 @@ class PreviewOptions:
     #: of 3.9 s, the same image, no render-time change measurable), smaller ones at Embree's default "medium"
     #: (their render dominates, and "low" traces up to ~1.5x slower)
     bvh_quality: str = "auto"
-    #: the texture budget (pyrt.io.assets.texture_budget): glTF images longer than this many texels are reduced by a
-    #: power of two as they are decoded; "auto": the power of two at or above 3 x the longer output side (2048 at
-    #: 640 x 480: a helmet-like model with 8192² maps 10.4 s / 2.25 GB -> docs/preview.md), None or 0: every image whole
+    #: the texture budget (pyrt.io.assets.texture_budget): glTF images and OBJ colour / normal maps longer than this
+    #: many texels are reduced by a power of two as they are decoded; "auto": the power of two at or above 3 x the
+    #: longer output side (2048 at 640 x 480; docs/preview.md, "texture budget"); None or 0: every image whole
     max_texture: int | str | None = "auto"
     #: pyrt.render_full's sampler: "padded" (a pixel's light and BSDF samples stratified over its samples) or
     #: "independent"
@@ -203,8 +203,8 @@ class PreviewOptions:
             raise PreviewError(f"bvh_quality must be 'auto', 'low', 'medium' or 'high', got {self.bvh_quality!r}")
         if self.time_budget is not None and not self.time_budget > 0:
             raise PreviewError(f"time_budget must be > 0 seconds, got {self.time_budget}")
-        if not (self.max_texture in ("auto", None) or (not isinstance(self.max_texture, bool)
-                                                        and isinstance(self.max_texture, int) and self.max_texture >= 0)):
+        mt = self.max_texture
+        if not (mt in ("auto", None) or (isinstance(mt, int) and not isinstance(mt, bool) and mt >= 0)):
             raise PreviewError(f"max_texture must be 'auto', None or an integer >= 0, got {self.max_texture!r}")
         return self
 

@@ -222,7 +222,8 @@ class PreviewScene:
                               glossy_depth=o.glossy_depth, glossy_threshold=o.glossy_threshold,
                               target_error=o.target_error,
                               max_spp=(o.max_spp or ADAPTIVE_MAX_SPP) if o.target_error is not None else None,
-                              min_spp=o.min_spp, sampler=o.sampler, **{"chunk_samples": o.chunk_samples, "batch_rays": o.batch_rays, **glass_kw})
+                              min_spp=o.min_spp, sampler=o.sampler,
+                              **{"chunk_samples": o.chunk_samples, "batch_rays": o.batch_rays, **glass_kw})
         self.warnings += [str(w.message) for w in caught]
         if self.exposure is None:
             self.exposure, self.white = auto_exposure(res.image, self.model_mask())
