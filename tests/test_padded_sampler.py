@@ -120,3 +120,21 @@ def test_defaults_picked_with_padded_samples():
     assert pyrt.DiskLight((0, 2, 0), radius=0.5, power=10.0).n_samples == 4
     lt = pyrt.EnvironmentLight(pyrt.ConstantEnvironment(1.0))
     assert (lt.n_samples, lt.bsdf_samples, lt.compensate) == (2, 2, True)
+
+
+def test_sampler_reaches_the_command_line_and_scene_files(tmp_path):
+    """``pyrt render --sampler independent`` and a scene file's ``[render] sampler`` pick the sampler; a bad value
+    in a scene file names the key."""
+    from pyrt.apps.cli import main
+    from pyrt.io.scene_file import SceneFileError
+    scene = tmp_path / "s.toml"
+    scene.write_text('[camera]\nposition = [0, 1, 3]\ntarget = [0, 0.5, 0]\nwidth = 8\nheight = 6\nspp = 4\n'
+                     '[render]\nsampler = "independent"\n[materials.m]\ntype = "lambert"\n'
+                     '[[meshes]]\nprimitive = "sphere"\nradius = 0.5\nmaterial = "m"\n'
+                     '[[lights]]\ntype = "point"\nposition = [1, 2, 2]\nintensity = 5.0\n')
+    assert pyrt.load_scene(str(scene))[1]["sampler"] == "independent"
+    assert main(["render", str(scene), "-o", str(tmp_path / "a.exr"), "--sampler", "padded"]) in (0, None)
+    assert (tmp_path / "a.exr").exists()
+    scene.write_text(scene.read_text().replace('"independent"', '"sobol"'))
+    with pytest.raises(SceneFileError, match=r"\[render\] sampler must be one of"):
+        pyrt.load_scene(str(scene))

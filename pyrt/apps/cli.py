@@ -17,7 +17,7 @@ import traceback
 import pyrt
 from pyrt.core.image_io import TONEMAPS
 from pyrt.geometry.offsets import STRATEGIES
-from pyrt.render import INTEGRATORS
+from pyrt.render import INTEGRATORS, SAMPLERS
 from pyrt.render.pool import PARALLEL
 from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, ArgumentParser, check_outputs, finite_float, interrupts,
                               nonnegative_int, positive_float, positive_int, run_console)
@@ -59,6 +59,9 @@ def _parser():
     r.add_argument("--offset", choices=sorted(STRATEGIES), help="ray-origin offset strategy (default: robust)")
     r.add_argument("--integrator", choices=list(INTEGRATORS),
                    help="whitted: only mirrors and glass spawn rays (default); glossy: glossy lobes too")
+    r.add_argument("--sampler", choices=list(SAMPLERS),
+                   help="the camera hits' light and BSDF samples: padded over each pixel's samples (default) or "
+                        "independent")
     r.add_argument("--transparent-shadows", action=argparse.BooleanOptionalAction, default=None,
                    help="shadow rays pass through glass, Fresnel- and absorption-attenuated (overrides the scene; "
                         "default off)")
@@ -116,7 +119,7 @@ def _render(args, cancel):
     if args.height is not None:
         scene.camera.height = args.height
     for key in ("seed", "max_depth", "offset", "transparent_shadows", "integrator", "target_error", "time_budget",
-                "max_spp", "min_spp", "threads", "parallel"):
+                "max_spp", "min_spp", "threads", "parallel", "sampler"):
         if getattr(args, key) is not None:
             opts[key] = getattr(args, key)
     if args.spp is not None:      # the command line's --spp wins over a scene file's adaptive keys

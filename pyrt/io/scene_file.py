@@ -7,7 +7,8 @@ Format (every key optional unless marked; unknown keys are errors naming the tab
                         # shading_normal_fallback (bool, default true: see the README's conventions),
                         # throughput_cutoff, offset (strategy name), transparent_shadows (bool),
                         # integrator ("whitted" | "glossy"), glossy_samples, glossy_depth, glossy_threshold,
-                        # target_error, time_budget (s), max_spp, min_spp (adaptive rendering: pyrt.render)
+                        # target_error, time_budget (s), max_spp, min_spp (adaptive rendering: pyrt.render),
+                        # sampler ("padded" | "independent": the camera hits' light and BSDF samples)
     [materials.NAME]    # type = "lambert" | "blinn_phong" | "mirror" | "glass" | ... ; the rest are the
                         # material constructor's keyword arguments (validated by it); a parameter
                         # may be a texture table, e.g. albedo = {type = "image", path = "wood.png"}
@@ -58,7 +59,7 @@ from pyrt.lights import LIGHTS, PATH_ARGUMENTS as LIGHT_PATH_ARGUMENTS
 from pyrt.lights import environment as _env
 from pyrt.lights.environment_light import set_environment
 from pyrt.materials import REGISTRY as MATERIALS
-from pyrt.render import INTEGRATORS
+from pyrt.render import INTEGRATORS, SAMPLERS
 from pyrt.core.transforms import align_vectors
 from pyrt.scene import Scene, plane_quad, transform_matrix
 from pyrt.textures import TextureError, texture_from_dict
@@ -74,7 +75,7 @@ class SceneFileNotFoundError(SceneFileError, FileNotFoundError):
 
 _CAMERA_KEYS = {"position", "target", "up", "fov", "width", "height", "spp", "jitter"}
 _RENDER_OPTIONS = ("max_depth", "seed", "throughput_cutoff", "offset", "transparent_shadows", "integrator",
-                   "glossy_samples", "glossy_depth", "glossy_threshold",
+                   "glossy_samples", "glossy_depth", "glossy_threshold", "sampler",
                    "target_error", "time_budget", "max_spp", "min_spp")
 _RENDER_KEYS = {"background", "ambient", "shading_normal_fallback", *_RENDER_OPTIONS}
 _MESH_COMMON = {"file", "primitive", "material", "translate", "rotate", "scale", "matrix", "smooth", "name",
@@ -262,6 +263,8 @@ def _load(data, base, path):
     if "integrator" in options and options["integrator"] not in INTEGRATORS:
         raise SceneFileError(f"{path}: [render] integrator must be one of {list(INTEGRATORS)}, "
                              f"got {options['integrator']!r}")
+    if "sampler" in options and options["sampler"] not in SAMPLERS:
+        raise SceneFileError(f"{path}: [render] sampler must be one of {list(SAMPLERS)}, got {options['sampler']!r}")
 
     materials = {}
     mats_t = data.get("materials", {})

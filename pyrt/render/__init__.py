@@ -7,6 +7,7 @@
 - :mod:`~pyrt.render.result`: :class:`RenderResult`.
 """
 from pyrt.render.fixed import INTEGRATORS, render, render_full
+from pyrt.render.pool import SAMPLERS
 from pyrt.render.result import RenderResult
 
-__all__ = ["INTEGRATORS", "RenderResult", "render", "render_full"]
+__all__ = ["INTEGRATORS", "SAMPLERS", "RenderResult", "render", "render_full"]
