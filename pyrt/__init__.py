@@ -18,7 +18,7 @@ from pyrt.lights import DirectionalLight, Light, LightError, PointLight, SpotLig
 from pyrt.lights import GoniometricLight, IESLight, ProjectorLight
 from pyrt.materials import Material, MaterialError, REGISTRY as MATERIALS, Lambert, BlinnPhong, Mirror, Glass, register
 from pyrt.materials import (BlinnPhongClassic, CookTorrance, MetallicRoughness, Phong, PhongClassic,  # material library
-                        Ward, RoughDielectric, Clearcoat, GltfPBR, Unlit)
+                        Ward, RoughDielectric, Clearcoat, GltfPBR, Unlit, Sheen)
 from pyrt.materials import Conductor, LearnOpenGLPBR, OrenNayar  # issue 16
 from pyrt.scene import Scene, SceneError, transform_matrix
 from pyrt.lights import (ConstantEnvironment, CubeMapEnvironment, EnvironmentLight, EnvironmentMapError,
@@ -35,7 +35,7 @@ from pyrt.textures import (CheckerTexture, ConstantTexture, FbmTexture, ImageTex
 __all__ = [
     "Error", "Camera", "CameraError", "GeometryError", "RenderResult", "RenderStats", "PreparedScene", "render", "render_full",
     "DirectionalLight", "Light", "LightError", "PointLight", "SpotLight", "ProjectorLight", "GoniometricLight", "IESLight", "Material", "MaterialError", "MATERIALS",
-    "Lambert", "BlinnPhong", "Mirror", "Glass", "register", "Phong", "PhongClassic", "BlinnPhongClassic", "Ward", "RoughDielectric", "Clearcoat", "GltfPBR", "Unlit",
+    "Lambert", "BlinnPhong", "Mirror", "Glass", "register", "Phong", "PhongClassic", "BlinnPhongClassic", "Ward", "RoughDielectric", "Clearcoat", "GltfPBR", "Unlit", "Sheen",
     "CookTorrance", "MetallicRoughness", "Conductor", "LearnOpenGLPBR", "OrenNayar", "Scene", "SceneError", "transform_matrix",
     "atomic_write", "read_exr", "write_exr", "write_png", "tonemap_to_display", "SceneFileError", "load_scene",
     "ConstantEnvironment", "CubeMapEnvironment", "EnvironmentLight", "EnvironmentMapError", "LatLongEnvironment",

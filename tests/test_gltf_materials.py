@@ -140,12 +140,12 @@ def test_specular_colour_scales_f0_only_and_the_specular_factor_both():
 
 
 def test_unknown_extensions_warn_and_unsupported_required_ones_say_why(tmp_path):
-    mats = [{"name": "m", "extensions": {"KHR_materials_sheen": {"sheenColorFactor": [1, 1, 1]}}}]
-    path = write_gltf(tmp_path / "u.gltf", [_quad()], mats, extensions_used=["KHR_materials_sheen", "KHR_xmp"])
+    mats = [{"name": "m", "extensions": {"KHR_materials_iridescence": {"iridescenceFactor": 1.0}}}]
+    path = write_gltf(tmp_path / "u.gltf", [_quad()], mats, extensions_used=["KHR_materials_iridescence", "KHR_xmp"])
     w = load_asset(path).warnings
-    assert any("KHR_materials_sheen" in x and "not supported" in x for x in w)
+    assert any("KHR_materials_iridescence" in x and "not supported" in x for x in w)
     assert any("KHR_xmp" in x and "metadata" in x for x in w)
-    assert any("material 0 (m)" in x and "KHR_materials_sheen" in x for x in w)
+    assert any("material 0 (m)" in x and "KHR_materials_iridescence" in x for x in w)
     path = write_gltf(tmp_path / "r.gltf", [_quad()], [{}], extensions_used=["EXT_meshopt_compression"],
                       extensions_required=["EXT_meshopt_compression"])
     with pytest.raises(AssetError, match=r"EXT_meshopt_compression \(meshopt-compressed buffers"):

@@ -9,6 +9,7 @@
 - :mod:`pyrt.materials.rough_dielectric`: frosted glass (GGX reflection and transmission, Walter 2007);
 - :mod:`pyrt.materials.gltf_pbr`: glTF's material extensions (specular / ior / transmission / volume, clear coat,
   unlit);
+- :mod:`pyrt.materials.sheen`: sheen over a base (``KHR_materials_sheen``);
 - :mod:`pyrt.materials.dispatch`: :class:`BSDFBatch`, the per-material-type dispatch of a batch of hits.
 """
 from pyrt.materials.base import (MATERIALS, CosineQuery, DeltaLobe, IsotropicMaterial, LocalCosineQuery, Material,
@@ -18,6 +19,7 @@ from pyrt.materials.library import BlinnPhongClassic, CookTorrance, MetallicRoug
 from pyrt.materials.extra import Conductor, LearnOpenGLPBR, OrenNayar
 from pyrt.materials.rough_dielectric import RoughDielectric
 from pyrt.materials.gltf_pbr import Clearcoat, GltfPBR, Unlit
+from pyrt.materials.sheen import Sheen
 
 #: the material registry under its older name
 REGISTRY = MATERIALS
@@ -25,4 +27,4 @@ REGISTRY = MATERIALS
 __all__ = ["MATERIALS", "REGISTRY", "CosineQuery", "DeltaLobe", "IsotropicMaterial", "LocalCosineQuery", "Material",
            "MaterialError", "check_color", "check_scalar", "is_texture", "register", "BlinnPhong", "Glass", "Lambert",
            "Mirror", "BlinnPhongClassic", "CookTorrance", "MetallicRoughness", "Phong", "PhongClassic", "Ward",
-           "Conductor", "LearnOpenGLPBR", "OrenNayar", "RoughDielectric", "Clearcoat", "GltfPBR", "Unlit"]
+           "Conductor", "LearnOpenGLPBR", "OrenNayar", "RoughDielectric", "Clearcoat", "GltfPBR", "Unlit", "Sheen"]

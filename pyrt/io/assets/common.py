@@ -91,6 +91,10 @@ class PBRParams:
     clearcoat_roughness_factor: float = 0.0
     clearcoat_roughness_texture: ImageTexture | None = None  # G
     clearcoat_normal_texture: NormalMap | None = None
+    sheen_color_factor: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    sheen_color_texture: TextureSlot | None = None          # RGB, sRGB
+    sheen_roughness_factor: float = 0.0
+    sheen_roughness_texture: ImageTexture | None = None     # A
     ext_slots: list = field(default_factory=list)           # the extensions' TextureSlots (UV sets)
 
     def uv_sets_read(self):
@@ -110,6 +114,11 @@ class PBRParams:
         return (self.transmission_factor > 0 or self.transmission_texture is not None or self.ior != 1.5
                 or self.specular_factor != 1.0 or self.specular_texture is not None
                 or np.any(self.specular_color_factor != 1.0) or self.specular_color_texture is not None)
+
+    @property
+    def sheened(self):
+        """``KHR_materials_sheen`` with a sheen colour that is not black."""
+        return bool(np.any(self.sheen_color_factor > 0))
 
     @property
     def coated(self):

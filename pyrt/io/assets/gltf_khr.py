@@ -16,6 +16,8 @@ What each extension becomes (the materials: :mod:`pyrt.materials.gltf_pbr`; the 
   clearcoatRoughnessTexture G, clearcoatNormalTexture perturbing the normal before the base's normal map):
   :class:`pyrt.materials.Clearcoat` over the material;
 - ``KHR_materials_unlit``: :class:`pyrt.materials.Unlit` of the base colour (x texture x vertex colour);
+- ``KHR_materials_sheen`` (sheenColorFactor x sheenColorTexture RGB, sRGB; sheenRoughnessFactor x
+  sheenRoughnessTexture A): :class:`pyrt.materials.Sheen` over the material, under a clear coat;
 - ``KHR_materials_pbrSpecularGlossiness`` (archived, still common in older exports): converted on load as
   glTF-Transform's ``metalRough()`` does (:func:`read_spec_gloss`): the diffuse colour becomes the base colour
   (``metallic = 0``), the specular colour the ``KHR_materials_specular`` F0 tint of a dielectric, ``roughness =
@@ -38,7 +40,7 @@ from pyrt.textures import ImageTexture
 #: material extensions this module reads
 MATERIAL_EXTENSIONS = {"KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
                        "KHR_materials_clearcoat", "KHR_materials_specular", "KHR_materials_unlit",
-                       "KHR_materials_pbrSpecularGlossiness"}
+                       "KHR_materials_pbrSpecularGlossiness", "KHR_materials_sheen"}
 #: the index of refraction a converted specular-glossiness material gets: its F0 comes from the specular colour
 #: (``specular_color_factor = specular / f0(SPEC_GLOSS_IOR)``, so ``F0 = specular`` exactly below 1), and a
 #: dielectric of this index reflects ~all light at normal incidence (glTF-Transform's ``metalRough()`` uses 1000)
@@ -219,6 +221,17 @@ def read_material_extensions(m, P, what, warnings, texture, channel, image_array
             if slot is not None:
                 P.ext_slots.append(slot)
                 P.specular_color_texture = slot
+    sh = ext.get("KHR_materials_sheen")
+    if sh is not None:
+        w = f"{what} KHR_materials_sheen"
+        P.sheen_color_factor = np.clip(_color3({"c": sh.get("sheenColorFactor", [0.0, 0.0, 0.0])}, "c", w), 0.0, 1.0)
+        P.sheen_roughness_factor = min(_number(sh, "sheenRoughnessFactor", 0.0, w, warnings, lo=0.0), 1.0)
+        if "sheenColorTexture" in sh:
+            slot = texture(sh["sheenColorTexture"], f"{w} sheenColorTexture", True)
+            if slot is not None:
+                P.ext_slots.append(slot)
+                P.sheen_color_texture = slot
+        P.sheen_roughness_texture = scalar_tex(sh, "sheenRoughnessTexture", 3, "A")
     cc = ext.get("KHR_materials_clearcoat")
     if cc is not None:
         w = f"{what} KHR_materials_clearcoat"

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from pyrt.materials import BlinnPhong, Clearcoat, Glass, GltfPBR, MetallicRoughness, Unlit
+from pyrt.materials import BlinnPhong, Clearcoat, Glass, GltfPBR, MetallicRoughness, Sheen, Unlit
 from pyrt.textures import Texture
 from pyrt.io.assets.common import AssetError, DefaultParams, MTLParams, PBRParams
 
@@ -190,6 +190,10 @@ def gltf_extension_material(params, base, *, base_color, metallic, roughness, em
                               absorption=sigma, emission=emission, occlusion=P.occlusion_texture,
                               occlusion_strength=P.occlusion_strength, normal_map=P.normal_texture,
                               double_sided=P.double_sided, name=P.name)
+    if P.sheened:        # the sheen lies on the material, under a clear coat (KHR_materials_sheen)
+        sc_tex = _slot_tex(P.sheen_color_texture)
+        mat = Sheen(mat, color=_factor_tex(P.sheen_color_factor, sc_tex),
+                    roughness=_factor_tex(P.sheen_roughness_factor, P.sheen_roughness_texture), name=P.name)
     if P.coated:
         mat = Clearcoat(mat, clearcoat=_factor_tex(P.clearcoat_factor, P.clearcoat_texture),
                         roughness=_factor_tex(P.clearcoat_roughness_factor, P.clearcoat_roughness_texture),

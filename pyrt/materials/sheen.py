@@ -1,0 +1,205 @@
+"""Sheen over a base material (``KHR_materials_sheen``): the back-scattering fibres of cloth and velvet.
+
+The extension's layering, as its specification writes it::
+
+    f = f_sheen + f_base (1 - max(sheenColor) E(n.v))
+    f_sheen = sheenColor D_charlie(h) V(l, v)        D_charlie = (2 + 1/a) sin(theta_h)^(1/a) / (2 pi),  a = r^2
+
+``r`` the sheen roughness, ``E(mu)`` the directional albedo of ``D_charlie V`` (white sheen) at ``mu = n.v``. The
+visibility is Neubelt & Pettineo's ``V = 1 / (4 (n.l + n.v - n.l n.v))`` (the specification's cheaper alternative
+to the Charlie visibility of Estevez & Kulla: a documented choice). With that scaling a white sheen over a white
+Lambertian base reflects exactly all light at every view (``E + (1 - E) = 1``; tested). ``E`` is tabulated over
+``(mu, r)`` by quadrature on first use (:func:`sheen_albedo`).
+"""
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+
+from pyrt.materials.base import DeltaLobe, Material, MaterialError, check_color, check_scalar, is_texture, register
+from pyrt.materials.gltf_pbr import _finish_sample, _split_u
+from pyrt.materials.library import MetallicRoughness
+from pyrt.shaders import sampling
+from pyrt.shaders.vec import half_vector
+
+#: the sheen roughness's floor (``a = r^2`` >= 1e-4 keeps ``sin^(1/a)`` finite)
+MIN_ROUGHNESS = 0.01
+#: the (mu, r) grid of the directional-albedo table and its quadrature (midpoint in cos theta_i and phi)
+TABLE_MU, TABLE_R, QUAD_T, QUAD_P = 32, 32, 96, 96
+
+
+def charlie_d(cos_h, alpha):
+    """The Charlie sheen distribution ``(2 + 1/a) sin(theta_h)^(1/a) / (2 pi)`` (Estevez & Kulla 2017) at ``cos_h``
+    (N,), ``alpha`` (N,) or a number; normalised: ``int D cos_h d omega_h = 1`` (tested)."""
+    inv = 1.0 / np.asarray(alpha, dtype=np.float64)
+    sin2 = np.clip(1.0 - np.asarray(cos_h, dtype=np.float64) ** 2, 0.0, 1.0)
+    return (2.0 + inv) * np.power(sin2, 0.5 * inv) / (2.0 * math.pi)
+
+
+def neubelt_v(cos_o, cos_i):
+    """Neubelt & Pettineo's sheen visibility ``1 / (4 (cos_i + cos_o - cos_i cos_o))`` (both > 0)."""
+    return 1.0 / (4.0 * (cos_i + cos_o - cos_i * cos_o))
+
+
+def sheen_f_cos(wo, wi, alpha):
+    """``D_charlie V cos_i`` (N,) for local directions (white sheen); 0 where either is below the surface."""
+    co, ci = wo[:, 2], wi[:, 2]
+    ok = (co > 0) & (ci > 0)
+    h, _ = half_vector(wo, wi)
+    f = charlie_d(h[:, 2], alpha) * neubelt_v(np.where(ok, co, 1.0), np.where(ok, ci, 1.0)) * ci
+    return np.where(ok, f, 0.0)
+
+
+@functools.lru_cache(maxsize=1)
+def _albedo_table():
+    """(TABLE_MU, TABLE_R) directional albedo of the white sheen lobe on a grid of ``mu`` in [0.001, 1] and ``r`` in
+    [MIN_ROUGHNESS, 1], endpoints included (``mu = 1``, normal view, is a common query)."""
+    c = (np.arange(QUAD_T) + 0.5) / QUAD_T
+    ph = (np.arange(QUAD_P) + 0.5) / QUAD_P * 2 * math.pi
+    C, P = np.meshgrid(c, ph, indexing="ij")
+    s = np.sqrt(1 - C * C)
+    wi = np.stack([s * np.cos(P), s * np.sin(P), C], -1).reshape(-1, 3)
+    table = np.empty((TABLE_MU, TABLE_R))
+    mus = np.linspace(1e-3, 1.0, TABLE_MU)
+    rs = np.linspace(MIN_ROUGHNESS, 1.0, TABLE_R)
+    for i, mu in enumerate(mus):
+        wo = np.tile([math.sqrt(1 - mu * mu), 0.0, mu], (wi.shape[0], 1))
+        for j, r in enumerate(rs):
+            table[i, j] = sheen_f_cos(wo, wi, r * r).sum() * (2 * math.pi / wi.shape[0])
+    return mus, rs, table
+
+
+def sheen_albedo(mu, r):
+    """Directional albedo ``E(mu, r)`` (N,) of the white sheen lobe at ``mu = n.v`` and roughness ``r``: bilinear in
+    the table of :func:`_albedo_table` (midpoint quadrature, 96 x 96 directions per grid point)."""
+    mus, rs, table = _albedo_table()
+    mu = np.clip(np.asarray(mu, dtype=np.float64), mus[0], mus[-1])
+    r = np.clip(np.broadcast_to(np.asarray(r, dtype=np.float64), mu.shape), rs[0], rs[-1])
+    x = (mu - mus[0]) / (mus[1] - mus[0])
+    y = (r - rs[0]) / (rs[1] - rs[0])
+    i0 = np.minimum(np.floor(x).astype(np.int64), TABLE_MU - 2)
+    j0 = np.minimum(np.floor(y).astype(np.int64), TABLE_R - 2)
+    fx, fy = x - i0, y - j0
+    return ((1 - fx) * (1 - fy) * table[i0, j0] + fx * (1 - fy) * table[i0 + 1, j0]
+            + (1 - fx) * fy * table[i0, j0 + 1] + fx * fy * table[i0 + 1, j0 + 1])
+
+
+@register("sheen")
+class Sheen(Material):
+    """Sheen over a base material [sheen] (``KHR_materials_sheen``; the module docstring has the model).
+
+    Sampling: the sheen lobe (cosine-weighted; it is broad) with probability ``max(sheen_color) E(n.v)`` (at most
+    0.9), else the base's own sampling; the density is the mixture's. The base's delta lobes are weighted
+    ``1 - max(sheen_color) E(n.v)``; its emission and its own normal map are the surface's.
+
+    Parameters
+    ----------
+    base : Material, optional
+        The material under the sheen (default :class:`pyrt.materials.MetallicRoughness` ()).
+    color : RGB or colour texture in [0, 1] (keyword-only, default 1): ``sheenColorFactor`` x texture
+    roughness : float or scalar texture in [0, 1] (keyword-only, default 0.5), floored at :data:`MIN_ROUGHNESS`
+    """
+
+    ranges = {"color": ("color", 0.0, 1.0, False), "roughness": ("scalar", 0.0, 1.0, False)}
+    reciprocal = False      # the base's weight depends on the viewer (as the specification's layering)
+
+    def __init__(self, base=None, *, color=1.0, roughness=0.5, name=None):
+        self.name = name
+        owner = self.label
+        base = MetallicRoughness() if base is None else base
+        if not isinstance(base, Material):
+            raise MaterialError(f"{owner}: base must be a pyrt Material, got {type(base).__name__}")
+        self.base = base
+        self.color = check_color("color", color, owner, lo=0.0, hi=1.0)
+        self.roughness = check_scalar("roughness", roughness, owner, lo=0.0, hi=1.0)
+        for attr in ("has_delta", "is_dielectric", "ior", "priority", "absorption", "tint", "emits", "normal_map",
+                     "transmits", "thin_walled"):
+            setattr(self, attr, getattr(base, attr))
+        self.validate()
+
+    @classmethod
+    def example(cls):
+        """A velvet-like sheen over a dark red base."""
+        return cls(MetallicRoughness(base_color=(0.3, 0.02, 0.05), roughness=0.8), color=(0.9, 0.4, 0.5),
+                   roughness=0.4)
+
+    def validate(self):
+        """The sheen's ranges, then the base's."""
+        super().validate()
+        self.base.validate()
+
+    @property
+    def uses_textures(self):
+        return self.base.uses_textures or is_texture(self.color) or is_texture(self.roughness)
+
+    def _alpha(self, ctx):
+        r = np.maximum(np.broadcast_to(self.param(self.roughness, ctx, 1), (ctx.n_hits,)), MIN_ROUGHNESS)
+        return r * r
+
+    def _color(self, ctx):
+        return np.broadcast_to(self.param(self.color, ctx), (ctx.n_hits, 3))
+
+    def _scaling(self, wo, ctx):
+        """``max(sheen_color) E(n.v)`` (N,): what the sheen takes from the base."""
+        r = np.sqrt(self._alpha(ctx))
+        return self._color(ctx).max(axis=1) * sheen_albedo(np.abs(wo[:, 2]), r)
+
+    def f_cos(self, wo, wi, ctx):
+        """``f_sheen cos + f_base cos (1 - max(sheen_color) E(n.v))``."""
+        s = self._scaling(wo, ctx)
+        return (self.base.f_cos(wo, wi, ctx) * (1.0 - s)[:, None]
+                + self._color(ctx) * sheen_f_cos(wo, wi, self._alpha(ctx))[:, None])
+
+    def _sheen_prob(self, wo, ctx):
+        return np.clip(self._scaling(wo, ctx), 0.0, 0.9)
+
+    def pdf(self, wo, wi, ctx):
+        """``p`` cosine-hemisphere density plus ``1 - p`` the base's."""
+        p = self._sheen_prob(wo, ctx)
+        ok = (wo[:, 2] > 0) & (wi[:, 2] > 0)
+        return p * np.where(ok, sampling.cosine_hemisphere_pdf(wi), 0.0) + (1.0 - p) * self.base.pdf(wo, wi, ctx)
+
+    def sample(self, wo, u, ctx):
+        """Cosine-weighted directions with probability ``p``, else the base's own sampling."""
+        take, uu = _split_u(u, self._sheen_prob(wo, ctx))
+        wb = self.base.sample_direction(wo, uu, ctx)
+        ws = sampling.square_to_cosine_hemisphere(uu)
+        wi = np.where(take[:, None], ws, wb)
+        valid = np.where(take, True, np.any(wb != 0, axis=1)) & (wo[:, 2] > 0)
+        return _finish_sample(self, wo, wi, valid, ctx)
+
+    def delta_lobes(self, wo, ctx, *, eta=None):
+        """The base's delta lobes weighted ``1 - max(sheen_color) E(n.v)``."""
+        kw = {} if eta is None else {"eta": eta}
+        lobes = self.base.delta_lobes(wo, ctx, **kw)
+        if not lobes:
+            return lobes
+        keep = (1.0 - self._scaling(wo, ctx))[:, None]
+        return [DeltaLobe(lb.wi, lb.weight * keep, lb.kind, lb.eta) for lb in lobes]
+
+    def glossy_alpha(self, ctx):
+        """The base's (the sheen lobe is broad: diffuse-like for the glossy integrator)."""
+        return self.base.glossy_alpha(ctx)
+
+    def preview_lobes(self, ctx):
+        """The base's lobes times ``1 - max(sheen_color) E(n.v)``, plus the sheen as a Lambertian part of albedo
+        ``sheen_color E(n.v)`` (lit by the irradiance: an approximation of the preview, as its split sum is)."""
+        lobes = self.base.preview_lobes(ctx)
+        if lobes is None:
+            return None
+        wo = ctx.to_local(ctx.wo)
+        s = self._scaling(wo, ctx)
+        out = lobes.scaled(1.0 - s)
+        r = np.sqrt(self._alpha(ctx))
+        out.diffuse = out.diffuse + self._color(ctx) * sheen_albedo(np.abs(wo[:, 2]), r)[:, None]
+        return out
+
+    def albedo(self, ctx):
+        """The base's albedo (the ambient term and the albedo AOV)."""
+        return self.base.albedo(ctx)
+
+    def emission(self, ctx):
+        """The base's emission (not attenuated by the sheen)."""
+        return self.base.emission(ctx)
