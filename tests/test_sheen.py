@@ -12,13 +12,18 @@ from test_gltf_materials import _materials, _quad, write_gltf
 from pyrt.materials.sheen import charlie_d, sheen_albedo, sheen_f_cos
 
 
-def _albedo(mat, theta_o, n_t=200, n_p=128):
-    """Directional albedo (3,) by midpoint quadrature in (cos theta, phi)."""
+def _hemisphere(n_t, n_p):
+    """Midpoint-rule directions in (cos theta, phi) over the upper hemisphere, each of solid angle 2 pi / count."""
     c = (np.arange(n_t) + 0.5) / n_t
     ph = (np.arange(n_p) + 0.5) / n_p * 2 * np.pi
     C, P = np.meshgrid(c, ph, indexing="ij")
     s = np.sqrt(1 - C * C)
-    wi = np.stack([s * np.cos(P), s * np.sin(P), C], -1).reshape(-1, 3)
+    return np.stack([s * np.cos(P), s * np.sin(P), C], -1).reshape(-1, 3)
+
+
+def _albedo(mat, theta_o, n_t=200, n_p=128):
+    """Directional albedo (3,) by midpoint quadrature in (cos theta, phi)."""
+    wi = _hemisphere(n_t, n_p)
     wo = np.tile(direction(theta_o), (wi.shape[0], 1))
     return mat.f_cos(wo, wi, LocalCtx(wi.shape[0])).sum(0) * (2 * np.pi / (n_t * n_p))
 
@@ -35,12 +40,7 @@ def test_charlie_distribution_is_normalised(alpha):
 @pytest.mark.parametrize("r", [0.2, 0.6, 1.0])
 def test_albedo_table_matches_direct_quadrature(theta, r):
     """The bilinear table against a finer direct quadrature of the white lobe (within 1 %: interpolation)."""
-    n_t, n_p = 300, 200
-    c = (np.arange(n_t) + 0.5) / n_t
-    ph = (np.arange(n_p) + 0.5) / n_p * 2 * np.pi
-    C, P = np.meshgrid(c, ph, indexing="ij")
-    s = np.sqrt(1 - C * C)
-    wi = np.stack([s * np.cos(P), s * np.sin(P), C], -1).reshape(-1, 3)
+    wi = _hemisphere(300, 200)
     wo = np.tile(direction(theta), (wi.shape[0], 1))
     direct = sheen_f_cos(wo, wi, r * r).sum() * (2 * np.pi / wi.shape[0])
     assert sheen_albedo(np.array([math.cos(math.radians(theta))]), r)[0] == pytest.approx(direct, rel=0.01, abs=2e-3)

@@ -58,6 +58,29 @@ class _TransmittedTint(Texture):
         return np.asarray(m.param(m.base_color, ctx)) * w[:, None]
 
 
+def _adopt_base(layer, base):
+    """``layer.base = base`` (default :class:`MetallicRoughness` ()), checked, and the attributes the integrators
+    read copied from it (declared on :class:`Material`; a coat or a sheen on top changes none of them)."""
+    base = MetallicRoughness() if base is None else base
+    if not isinstance(base, Material):
+        raise MaterialError(f"{layer.label}: base must be a pyrt Material, got {type(base).__name__}")
+    layer.base = base
+    for attr in ("has_delta", "is_dielectric", "ior", "priority", "absorption", "tint", "emits", "normal_map",
+                 "transmits", "thin_walled"):
+        setattr(layer, attr, getattr(base, attr))
+    return base
+
+
+def _weighted_delta_lobes(base, wo, ctx, eta, weight):
+    """``base``'s delta lobes at local ``wo``, each weight times ``weight(wo, ctx)`` (N,), computed only when there are
+    lobes: what a layer on top (a clear coat, a sheen) leaves of the base's mirror and glass lobes."""
+    lobes = base.delta_lobes(wo, ctx, **({} if eta is None else {"eta": eta}))
+    if not lobes:
+        return lobes
+    keep = weight(wo, ctx)[:, None]
+    return [DeltaLobe(lb.wi, lb.weight * keep, lb.kind, lb.eta) for lb in lobes]
+
+
 def _finish_sample(mat, wo, wi, valid, ctx):
     """``(wi, f_cos / pdf, pdf)`` for sampled directions, zero where ``valid`` is False or the pdf is 0."""
     wi = np.where(valid[:, None], wi, 0.0)
@@ -351,10 +374,7 @@ class Clearcoat(Material):
                  name=None):
         self.name = name
         owner = self.label
-        base = MetallicRoughness() if base is None else base
-        if not isinstance(base, Material):
-            raise MaterialError(f"{owner}: base must be a pyrt Material, got {type(base).__name__}")
-        self.base = base
+        base = _adopt_base(self, base)
         self.clearcoat = check_scalar("clearcoat", clearcoat, owner, lo=0.0, hi=1.0)
         self.roughness = check_scalar("roughness", roughness, owner, lo=0.0, hi=1.0)
         self.coat_ior = check_scalar("ior", ior, owner, lo=0.0, lo_open=True)
@@ -362,10 +382,6 @@ class Clearcoat(Material):
         #: the coat's own normal map (None: the coat uses the shading normal)
         self.coat_normal_map = normal_map
         self.reciprocal = self.fresnel == "half" and base.reciprocal
-        # what the integrators read is the base's (declared on Material, copied here)
-        for attr in ("has_delta", "is_dielectric", "ior", "priority", "absorption", "tint", "emits", "normal_map",
-                     "transmits", "thin_walled"):
-            setattr(self, attr, getattr(base, attr))
         self.validate()
 
     #: the default ``fresnel="view"`` is not reciprocal (see the class docstring)
@@ -468,12 +484,7 @@ class Clearcoat(Material):
 
     def delta_lobes(self, wo, ctx, *, eta=None):
         """The base's delta lobes weighted ``1 - c F_c(n.v)``."""
-        kw = {} if eta is None else {"eta": eta}
-        lobes = self.base.delta_lobes(wo, ctx, **kw)
-        if not lobes:
-            return lobes
-        keep = (1.0 - self.coat_weight(wo, ctx))[:, None]
-        return [DeltaLobe(lb.wi, lb.weight * keep, lb.kind, lb.eta) for lb in lobes]
+        return _weighted_delta_lobes(self.base, wo, ctx, eta, lambda w, c: 1.0 - self.coat_weight(w, c))
 
     def glossy_alpha(self, ctx):
         """The coat's alpha where it coats (``c > 0``), else the base's."""

@@ -18,8 +18,8 @@ import math
 
 import numpy as np
 
-from pyrt.materials.base import DeltaLobe, Material, MaterialError, check_color, check_scalar, is_texture, register
-from pyrt.materials.gltf_pbr import _finish_sample, _split_u
+from pyrt.materials.base import Material, check_color, check_scalar, is_texture, register
+from pyrt.materials.gltf_pbr import _adopt_base, _finish_sample, _split_u, _weighted_delta_lobes
 from pyrt.materials.library import MetallicRoughness
 from pyrt.shaders import sampling
 from pyrt.shaders.vec import half_vector
@@ -108,15 +108,9 @@ class Sheen(Material):
     def __init__(self, base=None, *, color=1.0, roughness=0.5, name=None):
         self.name = name
         owner = self.label
-        base = MetallicRoughness() if base is None else base
-        if not isinstance(base, Material):
-            raise MaterialError(f"{owner}: base must be a pyrt Material, got {type(base).__name__}")
-        self.base = base
+        _adopt_base(self, base)
         self.color = check_color("color", color, owner, lo=0.0, hi=1.0)
         self.roughness = check_scalar("roughness", roughness, owner, lo=0.0, hi=1.0)
-        for attr in ("has_delta", "is_dielectric", "ior", "priority", "absorption", "tint", "emits", "normal_map",
-                     "transmits", "thin_walled"):
-            setattr(self, attr, getattr(base, attr))
         self.validate()
 
     @classmethod
@@ -172,12 +166,7 @@ class Sheen(Material):
 
     def delta_lobes(self, wo, ctx, *, eta=None):
         """The base's delta lobes weighted ``1 - max(sheen_color) E(n.v)``."""
-        kw = {} if eta is None else {"eta": eta}
-        lobes = self.base.delta_lobes(wo, ctx, **kw)
-        if not lobes:
-            return lobes
-        keep = (1.0 - self._scaling(wo, ctx))[:, None]
-        return [DeltaLobe(lb.wi, lb.weight * keep, lb.kind, lb.eta) for lb in lobes]
+        return _weighted_delta_lobes(self.base, wo, ctx, eta, lambda w, c: 1.0 - self._scaling(w, c))
 
     def glossy_alpha(self, ctx):
         """The base's (the sheen lobe is broad: diffuse-like for the glossy integrator)."""
