@@ -9,7 +9,7 @@ import pytest
 import pyrt
 from material_helpers import LocalCtx, direction
 from test_gltf_materials import _materials, _quad, write_gltf
-from pyrt.materials.sheen import charlie_d, sheen_albedo, sheen_f_cos
+from pyrt.shaders.sheen import charlie_d, sheen_albedo, sheen_f_cos
 
 
 def _hemisphere(n_t, n_p):

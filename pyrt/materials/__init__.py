@@ -9,7 +9,8 @@
 - :mod:`pyrt.materials.rough_dielectric`: frosted glass (GGX reflection and transmission, Walter 2007);
 - :mod:`pyrt.materials.gltf_pbr`: glTF's material extensions (specular / ior / transmission / volume, clear coat,
   unlit);
-- :mod:`pyrt.materials.sheen`: sheen over a base (``KHR_materials_sheen``);
+- :mod:`pyrt.materials.sheen`: sheen over a base (``KHR_materials_sheen``; its kernels: :mod:`pyrt.shaders.sheen`);
+- :mod:`pyrt.materials.layering`: what a layer over a base material (clear coat, sheen) shares;
 - :mod:`pyrt.materials.dispatch`: :class:`BSDFBatch`, the per-material-type dispatch of a batch of hits.
 """
 from pyrt.materials.base import (MATERIALS, CosineQuery, DeltaLobe, IsotropicMaterial, LocalCosineQuery, Material,

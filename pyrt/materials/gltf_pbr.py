@@ -18,6 +18,7 @@ import numpy as np
 
 from pyrt.materials import preview as _preview
 from pyrt.materials.base import DeltaLobe, Material, MaterialError, check_color, check_scalar, is_texture, register
+from pyrt.materials.layering import adopt_base, finish_sample, split_u, weighted_delta_lobes
 from pyrt.materials.library import MetallicRoughness, _check_choice
 from pyrt.shaders import brdfs
 from pyrt.shaders import fresnel
@@ -31,14 +32,6 @@ SMOOTH_ROUGHNESS = 0.03
 #: normal-incidence reflectance of glTF's clear coat (ior 1.5)
 CLEARCOAT_IOR = 1.5
 _FLIP_Z = np.array([1.0, 1.0, -1.0])
-
-
-def _split_u(u, p):
-    """``(choose, uu)``: lanes with ``u0 < p`` choose the first strategy; ``uu`` is ``u`` with ``u0`` rescaled to
-    [0, 1) inside each branch (as :class:`pyrt.materials.library.CookTorrance` does)."""
-    choose = u[:, 0] < p
-    u0 = np.where(choose, u[:, 0] / np.where(p > 0, p, 1.0), (u[:, 0] - p) / np.where(p < 1, 1.0 - p, 1.0))
-    return choose, np.stack([np.clip(u0, 0.0, 1.0 - 1e-12), u[:, 1]], axis=1)
 
 
 class _TransmittedTint(Texture):
@@ -56,39 +49,6 @@ class _TransmittedTint(Texture):
         m = self._material
         w = (1.0 - m.param(m.metallic, ctx, 1)) * m.param(m.transmission, ctx, 1)
         return np.asarray(m.param(m.base_color, ctx)) * w[:, None]
-
-
-def _adopt_base(layer, base):
-    """``layer.base = base`` (default :class:`MetallicRoughness` ()), checked, and the attributes the integrators
-    read copied from it (declared on :class:`Material`; a coat or a sheen on top changes none of them)."""
-    base = MetallicRoughness() if base is None else base
-    if not isinstance(base, Material):
-        raise MaterialError(f"{layer.label}: base must be a pyrt Material, got {type(base).__name__}")
-    layer.base = base
-    for attr in ("has_delta", "is_dielectric", "ior", "priority", "absorption", "tint", "emits", "normal_map",
-                 "transmits", "thin_walled"):
-        setattr(layer, attr, getattr(base, attr))
-    return base
-
-
-def _weighted_delta_lobes(base, wo, ctx, eta, weight):
-    """``base``'s delta lobes at local ``wo``, each weight times ``weight(wo, ctx)`` (N,), computed only when there are
-    lobes: what a layer on top (a clear coat, a sheen) leaves of the base's mirror and glass lobes."""
-    lobes = base.delta_lobes(wo, ctx, **({} if eta is None else {"eta": eta}))
-    if not lobes:
-        return lobes
-    keep = weight(wo, ctx)[:, None]
-    return [DeltaLobe(lb.wi, lb.weight * keep, lb.kind, lb.eta) for lb in lobes]
-
-
-def _finish_sample(mat, wo, wi, valid, ctx):
-    """``(wi, f_cos / pdf, pdf)`` for sampled directions, zero where ``valid`` is False or the pdf is 0."""
-    wi = np.where(valid[:, None], wi, 0.0)
-    pdf = np.where(valid, mat.pdf(wo, wi, ctx), 0.0)
-    f = mat.f_cos(wo, wi, ctx)
-    ok = pdf > 0
-    weight = np.where(ok[:, None], f / np.where(ok, pdf, 1.0)[:, None], 0.0)
-    return wi, weight, np.where(ok, pdf, 0.0)
 
 
 @register("gltf_pbr")
@@ -246,7 +206,7 @@ class GltfPBR(MetallicRoughness):
         if not np.any(w_rough > 0):
             return super().sample(wo, u, ctx)
         wi, valid = self._mixture_direction(wo, u, ctx, w_rough)
-        return _finish_sample(self, wo, wi, valid, ctx)
+        return finish_sample(self, wo, wi, valid, ctx)
 
     def sample_direction(self, wo, u, ctx):
         """The direction :meth:`sample` draws (zero where it is invalid, as there), without its weight and pdf."""
@@ -259,7 +219,7 @@ class GltfPBR(MetallicRoughness):
     def _mixture_direction(self, wo, u, ctx, w_rough):
         """``(wi, valid)``: the reflection strategies' direction, or with probability ``w_rough`` the transmission
         lobe's."""
-        take, uu = _split_u(u, w_rough)
+        take, uu = split_u(u, w_rough)
         wi = super().sample_direction(wo, uu, ctx)
         alpha = self._alpha(ctx)
         if self.thin:
@@ -374,7 +334,7 @@ class Clearcoat(Material):
                  name=None):
         self.name = name
         owner = self.label
-        base = _adopt_base(self, base)
+        base = adopt_base(self, base)
         self.clearcoat = check_scalar("clearcoat", clearcoat, owner, lo=0.0, hi=1.0)
         self.roughness = check_scalar("roughness", roughness, owner, lo=0.0, hi=1.0)
         self.coat_ior = check_scalar("ior", ior, owner, lo=0.0, lo_open=True)
@@ -470,7 +430,7 @@ class Clearcoat(Material):
 
     def sample(self, wo, u, ctx):
         """The coat's GGX visible normals with probability ``p_coat``, else the base's own sampling."""
-        take, uu = _split_u(u, self._coat_prob(wo, ctx))
+        take, uu = split_u(u, self._coat_prob(wo, ctx))
         wb = self.base.sample_direction(wo, uu, ctx)
         wo_c = self._to_coat(wo, ctx)
         wc = reflect(wo_c, _mf.sample_ggx_vndf(wo_c, uu, self._alpha(ctx)))
@@ -480,11 +440,11 @@ class Clearcoat(Material):
             wc = to_world(wc, *frame)
         wi = np.where(take[:, None], wc, wb)
         valid = np.where(take, valid_c & (wo_c[:, 2] > 0), np.any(wb != 0, axis=1)) & (wo[:, 2] > 0)
-        return _finish_sample(self, wo, wi, valid, ctx)
+        return finish_sample(self, wo, wi, valid, ctx)
 
     def delta_lobes(self, wo, ctx, *, eta=None):
         """The base's delta lobes weighted ``1 - c F_c(n.v)``."""
-        return _weighted_delta_lobes(self.base, wo, ctx, eta, lambda w, c: 1.0 - self.coat_weight(w, c))
+        return weighted_delta_lobes(self.base, wo, ctx, eta, lambda w, c: 1.0 - self.coat_weight(w, c))
 
     def glossy_alpha(self, ctx):
         """The coat's alpha where it coats (``c > 0``), else the base's."""
