@@ -41,21 +41,23 @@ def test_reduced_codes_are_the_mip_level_within_half_a_code(dtype, f):
 
 
 def test_loader_reduces_colour_images_in_linear_light_and_names_them(tmp_path):
-    """A black/white checker of 1-texel squares averages to linear 0.5 (sRGB code 188) as a base colour, to code
-    127.5 (rounded 128) as a data map (the metallic-roughness image)."""
+    """A black/white checker of 1-texel squares averages to linear 0.5 (sRGB code 188) as a base colour or any other
+    colour slot (an extension's: the sheen colour), to code 127.5 (rounded 128) as a data map (metallic-roughness)."""
     chk = ((np.indices((64, 64)).sum(axis=0) % 2) * 255).astype(np.uint8)
     img = np.repeat(chk[:, :, None], 3, axis=2)
-    mats = [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicRoughnessTexture": {"index": 1}}}]
-    path = write_gltf(tmp_path / "t.gltf", [_quad()], mats, images=[img, img.copy()])
+    mats = [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicRoughnessTexture": {"index": 1}},
+             "extensions": {"KHR_materials_sheen": {"sheenColorFactor": [1, 1, 1], "sheenColorTexture": {"index": 2}}}}]
+    path = write_gltf(tmp_path / "t.gltf", [_quad()], mats, images=[img, img.copy(), img.copy()])
     full = load_asset(path)
     assert not any("texture budget" in w for w in full.warnings)
     a = load_asset(path, max_texture=16)
     notes = [w for w in a.warnings if "texture budget" in w]
-    assert len(notes) == 2 and "64x64 read at 16x16" in notes[0] and "MIP level 2" in notes[0]
+    assert len(notes) == 3 and "64x64 read at 16x16" in notes[0] and "MIP level 2" in notes[0]
     base = a.materials[0].base_color_texture.texture.texels
     mr = a.materials[0].metallic_roughness_texture.texture.texels
     assert base.shape[:2] == (16, 16) and np.all(base[..., :3] == 188)
     assert mr.shape[:2] == (16, 16) and np.all(mr[..., :3] == 128)
+    assert np.all(a.materials[0].sheen_color_texture.texture.texels[..., :3] == 188)
 
 
 def test_preview_budget_follows_the_output_size():

@@ -58,7 +58,7 @@ def _gltf_texture(g, info, what, *, srgb, cache, kind="image", warnings=None, **
         g.substitutions.append(f"{g.path}: {what}: image {src} file not found: {g.missing_image(src)}; rendered "
                                "with the factor alone")
         return None
-    arr, label = (cache[key], cache[key].name) if key in cache else g.image_array(src)
+    arr, label = (cache[key], cache[key].name) if key in cache else g.image_array(src, srgb=srgb)
     sampler = g.get("samplers", tex["sampler"]) if "sampler" in tex else {}
     wrap = (_WRAP.get(sampler.get("wrapS", 10497), "repeat"), _WRAP.get(sampler.get("wrapT", 10497), "repeat"))
     filt = "nearest" if sampler.get("magFilter") == 9728 and sampler.get("minFilter") in (9728, None) else "trilinear"
@@ -112,7 +112,7 @@ def _gltf_material(g, mi, warnings, cache):
         P.roughness_texture = _channel(slot, 1, f"{slot.source} G (roughness)", cache)
     read_spec_gloss(m, P, what, warnings,
                     lambda info, label, srgb: _gltf_texture(g, info, label, srgb=srgb, channels=3, cache=cache),
-                    lambda i: g.image_array(i)[0])
+                    lambda i, srgb=False: g.image_array(i, srgb)[0])
     if "normalTexture" in m:
         P.normal_scale = float(m["normalTexture"].get("scale", 1.0))
         slot = _gltf_texture(g, m["normalTexture"], f"{what} normalTexture", srgb=False, kind="normal", cache=cache)
@@ -138,7 +138,7 @@ def _gltf_material(g, mi, warnings, cache):
         P.alpha_mode = "OPAQUE"
     if P.alpha_mode != "OPAQUE" and P.base_color_texture is not None:   # coverage: pyrt.io.assets.alpha
         slot = P.base_color_texture
-        P.alpha_texture = alpha_texture(*g.image_array(slot.image), slot, cache)
+        P.alpha_texture = alpha_texture(*g.image_array(slot.image, srgb=True), slot, cache)   # base colour's image
     read_material_extensions(
         m, P, what, warnings,
         lambda info, label, srgb, kind="image": _gltf_texture(g, info, label, srgb=srgb, cache=cache, kind=kind),

@@ -32,7 +32,7 @@ from pyrt.core.image_types import image_kind
 from pyrt.textures import TextureError, load_image
 from pyrt.io.assets.common import AssetError, colour_texels, malformed_is_asset_error
 from pyrt.io.assets.gltf_draco import DRACO, dracopy
-from pyrt.io.assets.gltf_khr import IMAGE_EXTENSIONS, MATERIAL_EXTENSIONS, required_extension_error, texture_source
+from pyrt.io.assets.gltf_khr import IMAGE_EXTENSIONS, MATERIAL_EXTENSIONS, required_extension_error
 from pyrt.io.assets.texture_budget import reduce_texels, reduction_factor
 
 _COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
@@ -131,7 +131,6 @@ class GltfFile:
         self.substitutions = []
         #: what the texture budget reduced (one message per image), for the asset's warnings
         self.reductions = []
-        self._srgb = None     # the images colour slots read (_srgb_images), found on first need
 
     def _glb_chunks(self, data):
         """(JSON chunk, binary chunk or None) of GLB bytes; every length checked against the file."""
@@ -348,12 +347,17 @@ class GltfFile:
         fpath = os.path.join(self.base, rel)
         return None if os.path.isfile(fpath) else fpath
 
-    def image_array(self, ii):
+    def image_array(self, ii, srgb=False):
         """Image ``ii`` decoded by :func:`pyrt.textures.load_image`: ``((H, W, C) uint8 / uint16 codes (8/16-bit
-        PNG and JPEG; :class:`pyrt.textures.ImageTexture` keeps them as they are), label)``, cached; grey and grey + alpha images as RGB(A) (:func:`colour_texels`). Embedded
-        images go through a temporary file of their type."""
-        if ii in self._img_cache:
-            return self._img_cache[ii]
+        PNG and JPEG; :class:`pyrt.textures.ImageTexture` keeps them as they are), label)``, cached; grey and grey +
+        alpha images as RGB(A) (:func:`colour_texels`). Embedded images go through a temporary file of their type.
+
+        An image longer than :attr:`max_texture` is reduced as it is decoded (:mod:`.texture_budget`), its colour
+        channels in linear light when the slot reading it is a colour slot (``srgb``: what the caller decodes them
+        as), its alpha always as values; the reduced image is cached per ``srgb``, a whole one once."""
+        for key in ((ii, None), (ii, bool(srgb))):
+            if key in self._img_cache:
+                return self._img_cache[key]
         im = self.get("images", ii)
         uri = im.get("uri")
         if uri is not None and not (isinstance(uri, str) and uri.startswith("data:")):
@@ -371,39 +375,15 @@ class GltfFile:
         arr = colour_texels(arr)            # grey / grey + alpha -> RGB(A): every slot reads colour channels
         f = reduction_factor(arr.shape, self.max_texture)
         if f > 1:
-            srgb = min(3, arr.shape[2]) if ii in self._srgb_images() else 0
             full = arr.shape
-            arr = reduce_texels(arr, f, srgb)
+            arr = reduce_texels(arr, f, min(3, arr.shape[2]) if srgb else 0)
             what = label if label.startswith(f"image {ii}") else f"image {ii} ({label})"
             self.reductions.append(f"{self.path}: {what} {full[1]}x{full[0]} read at {arr.shape[1]}x"
                                    f"{arr.shape[0]} (the texture budget, max_texture={self.max_texture}: its MIP "
-                                   f"level {f.bit_length() - 1})")
-        self._img_cache[ii] = (arr, label)
+                                   f"level {f.bit_length() - 1}{', in linear light' if srgb else ''})")
+        self._img_cache[(ii, bool(srgb) if f > 1 else None)] = (arr, label)
         return arr, label
 
-
-    def _srgb_images(self):
-        """The images colour slots read (base colour, emissive, specular colour, specular-glossiness diffuse and
-        specular): their reduction averages in linear light."""
-        if self._srgb is None:
-            found = set()
-            for m in self.header.get("materials", []) or []:
-                if not isinstance(m, dict):
-                    continue
-                ext = m.get("extensions", {}) if isinstance(m.get("extensions"), dict) else {}
-                infos = [(m.get("pbrMetallicRoughness") or {}).get("baseColorTexture"), m.get("emissiveTexture"),
-                         (ext.get("KHR_materials_specular") or {}).get("specularColorTexture"),
-                         (ext.get("KHR_materials_pbrSpecularGlossiness") or {}).get("diffuseTexture"),
-                         (ext.get("KHR_materials_pbrSpecularGlossiness") or {}).get("specularGlossinessTexture")]
-                for info in infos:
-                    ti = info.get("index") if isinstance(info, dict) else None
-                    textures = self.header.get("textures", [])
-                    if isinstance(ti, int) and 0 <= ti < len(textures) and isinstance(textures[ti], dict):
-                        src = texture_source(textures[ti])
-                        if isinstance(src, int):
-                            found.add(src)
-            self._srgb = found
-        return self._srgb
 
 
 def _load_image_file(path, label):

@@ -86,7 +86,7 @@ def read_spec_gloss(m, P, what, warnings, texture, image_array):
 
     ``texture(info, label, srgb)`` builds a :class:`TextureSlot` of the RGB channels (None for a missing file: the
     factor alone);
-    ``image_array(i)`` gives image ``i``'s decoded codes with their alpha.
+    ``image_array(i, srgb)`` gives image ``i``'s decoded codes with their alpha (``srgb``: read by a colour slot).
     """
     sg = m.get("extensions", {}).get("KHR_materials_pbrSpecularGlossiness") if isinstance(
         m.get("extensions"), dict) else None
@@ -111,7 +111,7 @@ def read_spec_gloss(m, P, what, warnings, texture, image_array):
         if slot is not None:
             P.ext_slots.append(slot)
             P.specular_color_texture = slot
-            arr = image_array(slot.image)
+            arr = image_array(slot.image, srgb=True)         # the colour slot's image (its A reduced as values)
             if arr.ndim == 3 and arr.shape[2] in (2, 4):     # glossiness in A (none: A = 1, roughness 1 - factor)
                 a = arr[:, :, -1]
                 if a.dtype == np.uint8 and gloss == 1.0:     # 255 - A: the same codes, exact
@@ -145,8 +145,8 @@ def _number(d, key, default, what, warnings, *, lo=None):
     return v
 
 
-def _color3(d, key, what):
-    v = np.asarray(d.get(key, [1.0, 1.0, 1.0]), dtype=np.float64)
+def _color3(d, key, what, default=(1.0, 1.0, 1.0)):
+    v = np.asarray(d.get(key, default), dtype=np.float64)
     if v.shape != (3,) or not np.all(np.isfinite(v)) or np.any(v < 0):
         raise AssetError(f"{what}: {key} must be 3 numbers >= 0, got {v.tolist()}")
     return v
@@ -224,7 +224,7 @@ def read_material_extensions(m, P, what, warnings, texture, channel, image_array
     sh = ext.get("KHR_materials_sheen")
     if sh is not None:
         w = f"{what} KHR_materials_sheen"
-        P.sheen_color_factor = np.clip(_color3({"c": sh.get("sheenColorFactor", [0.0, 0.0, 0.0])}, "c", w), 0.0, 1.0)
+        P.sheen_color_factor = np.clip(_color3(sh, "sheenColorFactor", w, default=(0.0, 0.0, 0.0)), 0.0, 1.0)
         P.sheen_roughness_factor = min(_number(sh, "sheenRoughnessFactor", 0.0, w, warnings, lo=0.0), 1.0)
         if "sheenColorTexture" in sh:
             slot = texture(sh["sheenColorTexture"], f"{w} sheenColorTexture", True)
