@@ -1,8 +1,9 @@
 """A texture budget for loading models: images larger than a render can read are reduced when they are decoded.
 
-A 640 x 480 preview of a model with 8192² maps reads their MIP levels 2 and up (a pixel covers several texels), but
-level 0 must be decoded and kept, and level 1 is built from it: five such maps took 2.25 GB and 10.4 s, against
-0.44 GB and ~4 s for the same model with 2048² maps. ``max_texture`` (:func:`pyrt.io.assets.load_asset`, the
+At 640 x 480 a pixel usually covers several texels of an 8192² map, yet its level 0 is decoded and kept, and level 1
+is built from it: the helmet-like model of ``tools/make_textured_model.py`` with five 8192² maps took 19.3 s and
+2.3 GB for the whole preview, 12.1 s and 0.83 GB with the budget (docs/preview.md, "texture budget": interleaved
+medians). ``max_texture`` (:func:`pyrt.io.assets.load_asset`, the
 previewer's ``--max-texture``) reduces an image whose longer side exceeds it by the power of two ``f`` that brings it
 within, as it is decoded: each ``f x f`` block of texels becomes their mean, in linear light for colour images
 (sRGB codes decoded, averaged, encoded again and rounded to the image's own codes), in code values for data maps and
