@@ -250,8 +250,9 @@ def padded_sobol_2d(index, n, key, dim):
 class PaddedStream:
     """Stands in for the ``numpy.random.Generator`` of a chunk at the hits of camera rays: ``random((..., N, 2))``
     (N = the hits) returns :func:`padded_sobol_2d` points, a new dimension pair for each call and for each
-    leading index, in call order; every other draw goes to the generator. ``index``, ``n``, ``key`` (N,) are each
-    hit's sample index in its pixel's set, the set's size (None: progressive sets) and the pixel's seed."""
+    leading index, in call order; the other draws the integrators make (``random`` of other shapes, ``permuted``) go
+    to the generator. ``index``, ``n``, ``key`` (N,) are each hit's sample index in its pixel's set, the set's size
+    (None: progressive sets) and the pixel's seed."""
 
     def __init__(self, rng, index, n, key, _dims=None):
         self._rng = rng
@@ -276,8 +277,10 @@ class PaddedStream:
             self._dims[0] += 1
         return out.reshape(shape)
 
-    def __getattr__(self, name):
-        return getattr(self._rng, name)
+    def permuted(self, *args, **kwargs):
+        """The generator's :meth:`numpy.random.Generator.permuted` (the Latin-hypercube pairing of
+        :func:`stratified_samples`): not padded."""
+        return self._rng.permuted(*args, **kwargs)
 
 
 def stream_rows(rng, idx):
