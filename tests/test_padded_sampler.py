@@ -122,9 +122,9 @@ def test_defaults_picked_with_padded_samples():
     assert (lt.n_samples, lt.bsdf_samples, lt.compensate) == (2, 2, True)
 
 
-def test_sampler_reaches_the_command_line_and_scene_files(tmp_path):
-    """``pyrt render --sampler independent`` and a scene file's ``[render] sampler`` pick the sampler; a bad value
-    in a scene file names the key."""
+def test_sampler_reaches_the_command_line_and_scene_files(tmp_path, monkeypatch):
+    """``pyrt render --sampler padded`` overrides a scene file's ``[render] sampler = "independent"`` (the render
+    call receives it); a bad value in a scene file names the key."""
     from pyrt.apps.cli import main
     from pyrt.io.scene_file import SceneFileError
     scene = tmp_path / "s.toml"
@@ -133,8 +133,16 @@ def test_sampler_reaches_the_command_line_and_scene_files(tmp_path):
                      '[[meshes]]\nprimitive = "sphere"\nradius = 0.5\nmaterial = "m"\n'
                      '[[lights]]\ntype = "point"\nposition = [1, 2, 2]\nintensity = 5.0\n')
     assert pyrt.load_scene(str(scene))[1]["sampler"] == "independent"
-    assert main(["render", str(scene), "-o", str(tmp_path / "a.exr"), "--sampler", "padded"]) in (0, None)
-    assert (tmp_path / "a.exr").exists()
+    seen = []
+    real = pyrt.render_full
+
+    def spy(*args, **kwargs):
+        seen.append(kwargs.get("sampler"))
+        return real(*args, **kwargs)
+    monkeypatch.setattr(pyrt, "render_full", spy)
+    assert main(["render", str(scene), "-o", str(tmp_path / "a.exr")]) in (0, None)
+    assert main(["render", str(scene), "-o", str(tmp_path / "b.exr"), "--sampler", "padded"]) in (0, None)
+    assert seen == ["independent", "padded"] and (tmp_path / "b.exr").exists()
     scene.write_text(scene.read_text().replace('"independent"', '"sobol"'))
     with pytest.raises(SceneFileError, match=r"\[render\] sampler must be one of"):
         pyrt.load_scene(str(scene))

@@ -31,12 +31,10 @@ import warnings
 from pyrt.core.errors import RenderError
 from pyrt.core.memory import release_free_memory
 from pyrt.integrators.glossy import GlossyIntegrator
-from pyrt.integrators.whitted import DEFAULT_SPLIT_DEPTH, SAMPLERS as WHITTED_SAMPLERS, Integrator
+from pyrt.integrators.whitted import DEFAULT_SPLIT_DEPTH, SAMPLERS, Integrator
 
 #: ``integrator=`` names: strict Whitted (delta lobes only, the default) and glossy reflection rays
 INTEGRATORS = ("whitted", "glossy")
-#: what ``sampler=`` may be (the camera hits' light and BSDF samples; :class:`pyrt.integrators.whitted.Integrator`)
-SAMPLERS = WHITTED_SAMPLERS
 #: ``parallel=`` choices: "auto" (processes on Linux for renders of at least PROCESS_MIN_CHUNKS chunks, see
 #: :func:`use_processes`; threads otherwise)
 PARALLEL = ("auto", "threads", "processes")
