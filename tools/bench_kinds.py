@@ -106,14 +106,8 @@ def measure(kind, spp, repeats, width=320, height=240, embree=False):
         sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
         import bench
         rec = pyrt.render_full(scene, seed=0, prepared=ps, progress=False, record_rays=True).stats.recorded
-        merged = bench._replay_batches(rec)
-        emb = []
-        for _ in range(repeats):
-            t0 = time.perf_counter()
-            for q, (o, d, tm) in merged.items():
-                ps.accel.replay(q, o, d, tm)
-            emb.append(time.perf_counter() - t0)
-        out["embree_s"] = statistics.median(emb)
+        merged = bench.replay_batches(rec)
+        out["embree_s"] = statistics.median(bench.replay_seconds(ps.accel, merged) for _ in range(repeats))
     ps.close()
     return out
 

@@ -89,8 +89,10 @@ import numpy as np
 
 import pyrt
 from pyrt.core.metrics import relmse
+from pyrt.render.adaptive import render_adaptive
 
 import _mitsuba_scenes as ms  # noqa: E402  (tools/_mitsuba_scenes.py)
+from bench import replay_batches, replay_seconds  # noqa: E402  (tools/bench.py: Embree alone on recorded rays)
 from _charts import pyplot  # noqa: E402  (tools/_charts.py: matplotlib behind the 'charts' extra)
 
 LLVM_DEFAULT = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so"
@@ -171,6 +173,21 @@ class PyrtRunner:
         img = pyrt.render(self.scene, target_error=target_error, time_budget=time_budget, max_spp=max_spp,
                           seed=seed, prepared=self.prepared, progress=False, **ms.PYRT_OPTIONS)
         return img, time.perf_counter() - t
+
+    def embree_floor(self, seed, spp=None, target_error=None, repeats=3):
+        """Embree alone on the rays of one pyrt render (fixed ``spp``, or adaptive to ``target_error``), recorded
+        and replayed through the same binding and thread pool (tools/bench.py): ``(median seconds over
+        ``repeats`` replays, rays, relMSE-free info)``. No shading, no film, no Python between queries: what the
+        render would cost if everything but the ray queries were free."""
+        kw = dict(seed=seed, prepared=self.prepared, progress=False, record_rays=True, **ms.PYRT_OPTIONS)
+        if target_error is None:
+            res = pyrt.render_full(self.scene, spp=spp, **kw)
+        else:
+            res = render_adaptive(self.scene, target_error=target_error, time_budget=600.0, max_spp=4096, **kw)
+        merged = replay_batches(res.stats.recorded)
+        res.stats.recorded = []
+        rays = int(sum(o.shape[0] for o, _d, _t in merged.values()))
+        return statistics.median(replay_seconds(self.prepared.accel, merged) for _ in range(repeats)), rays
 
     def close(self):
         """Free the BVH."""
@@ -257,6 +274,12 @@ def bench_scene(name, mode, mi, dr, usable, args, log):
                 res["runs"].append({"series": k, "spp": spp, "seconds": s, "relmse": relmse(img, ref), "seed": seed})
         log(f"  {name}: repeat {rep + 1} done (load {os.getloadavg()[0]:.1f})")
     res["ref_noise"] = reference_noise(res["runs"], res["reference"])
+    # the Embree floor: Embree alone on the rays of pyrt's renders (what pyrt would take with free shading)
+    res["embree_floor"] = {}
+    for spp in cfg["pyrt"]:
+        s, rays = runners["pyrt"].embree_floor(seed=1 + spp, spp=spp)
+        res["embree_floor"][str(spp)] = {"seconds": s, "rays": rays}
+    log(f"  {name}: Embree floor " + ", ".join(f"{k} spp {v['seconds']:.3f} s" for k, v in res["embree_floor"].items()))
     # the validation: pyrt's own converged render against the (Mitsuba) reference
     if ref_by != "pyrt":
         own, own_s = reference_image(runners["pyrt"], cfg["pyrt_ref_spp"], chunk=256)
@@ -332,8 +355,10 @@ def run_adaptive(runner, res, ref, log):
             res["notes"].append(note)
             log("  " + note)
             return []
+        floor_s, rays = runner.embree_floor(seed=4242 + spp, target_error=err)
         out.append({"target": err, "at_llvm_spp": spp, "seconds": s,
-                    "relmse": max(relmse(img, ref) - res.get("ref_noise", 0.0), 0.0)})
+                    "relmse": max(relmse(img, ref) - res.get("ref_noise", 0.0), 0.0),
+                    "embree_floor_s": floor_s, "embree_floor_rays": rays})
     return out
 
 
@@ -412,6 +437,7 @@ def write_table(data, path):
         row.append(f"{got['scalar_rgb'][0] / got['pyrt'][0]:.2f}" if got.get("scalar_rgb") and got.get("pyrt") else "—")
         row += [f"{got[k][1]:.2e}" if got.get(k) else "—" for k in ("pyrt", "llvm_ad_rgb", "scalar_rgb")]
         lines.append("| " + " | ".join(row) + " |")
+    lines += floor_table(data)
     lines += ["", "## Do the renderers agree? (pyrt's converged render against the Mitsuba reference)", "",
               f"Tolerance: the relMSE between the two converged images is at most {AGREE_FACTOR:g}x what their "
               "noise alone explains (each image's relMSE scaled from its measured curve as 1/spp); above it the "
@@ -458,6 +484,61 @@ def write_table(data, path):
               "explains.", ""]
     with open(path, "w") as fh:
         fh.write("\n".join(lines))
+
+
+def floor_curve(sc):
+    """pyrt's fixed-spp curve with Embree-alone seconds in place of pyrt's: {spp: (floor seconds, relMSE)}."""
+    pyrt_curve = curves_of(sc)["pyrt"]
+    return {int(k): (v["seconds"], pyrt_curve[int(k)][1]) for k, v in sc.get("embree_floor", {}).items()
+            if int(k) in pyrt_curve}
+
+
+def floor_table(data):
+    """Lines of the "Embree floor" section: what pyrt's rays alone cost in Embree, against Mitsuba's times."""
+    scenes = [sc for sc in data["scenes"] if sc.get("embree_floor") and "llvm_ad_rgb" in curves_of(sc)]
+    if not scenes:
+        return []
+    px = ms.WIDTH * ms.HEIGHT
+    lines = ["", "## The Embree floor: Embree alone on pyrt's own rays", "",
+             "pyrt's renders at each spp (and its adaptive renders at each target) are repeated with their rays "
+             "recorded; the rays are replayed through the binding alone (`tools/bench.py`'s replay: every query "
+             "kind as one batch over both cores, no shading, no film, no Python in between). That is what pyrt "
+             "would take if everything but the ray queries were free. Where the floor is above half of "
+             "Mitsuba llvm's time, issue 13's \"time to llvm's error <= 0.5x llvm's\" cannot be met by cheaper "
+             "shading with these estimators: only fewer rays (better estimators) or faster ray queries than "
+             "embreex's could. Where the floor's samples/s are below scalar's, neither can \"samples/s >= "
+             "scalar_rgb\" at pyrt's rays per sample.", "",
+             "| scene | E@64 | llvm s | pyrt fixed s | floor s | floor / llvm | pyrt adaptive s | floor s | "
+             "floor / llvm | rays per sample @64 | floor Msamples/s @64 | scalar Msamples/s | floor / scalar |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for sc in scenes:
+        curves = curves_of(sc)
+        _base, levels = error_levels(curves)
+        err = levels.get(64)
+        if err is None:
+            continue
+        t_llvm = time_to_error(curves["llvm_ad_rgb"], err)[0]
+        t_pyrt = time_to_error(curves["pyrt"], err)[0]
+        t_floor = time_to_error(floor_curve(sc), err)[0]
+        ad = {a["at_llvm_spp"]: a for a in sc.get("adaptive", [])}.get(64)
+        fl64 = sc["embree_floor"].get("64")
+        scalar = curves.get("scalar_rgb", {}).get(64)
+        row = [sc["name"], f"{err:.2e}", f"{t_llvm:.3f}", f"{t_pyrt:.3f}", f"{t_floor:.3f}", f"{t_floor / t_llvm:.2f}"]
+        if ad and "embree_floor_s" in ad:
+            row += [f"{ad['seconds']:.3f}", f"{ad['embree_floor_s']:.3f}", f"{ad['embree_floor_s'] / t_llvm:.2f}"]
+        else:
+            row += ["—"] * 3
+        if fl64:
+            floor_rate = px * 64 / fl64["seconds"] / 1e6
+            row += [f"{fl64['rays'] / (px * 64):.2f}", f"{floor_rate:.2f}"]
+            row += [f"{px * 64 / scalar[0] / 1e6:.2f}", f"{floor_rate / (px * 64 / scalar[0] / 1e6):.2f}"] if scalar \
+                else ["—", "—"]
+        else:
+            row += ["—"] * 4
+        lines.append("| " + " | ".join(row) + " |")
+    lines += ["", "Fixed floor: pyrt's error curve with Embree-alone seconds in place of pyrt's, read at E@64 "
+              "(log-log interpolation, as the first table). Adaptive floor: the rays of the adaptive render to E@64."]
+    return lines
 
 
 def write_chart(data, path):
