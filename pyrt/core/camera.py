@@ -134,16 +134,14 @@ class Camera:
             u = pixel_strata(rng, spp, samples)
             row, col = divmod(int(pixel_lo), self.width)
             return col + u[:, 0], row + u[:, 1], np.full(u.shape[0], pixel_lo, dtype=np.int64)
-        pix = np.repeat(np.arange(pixel_lo, pixel_hi, dtype=np.int64), spp)
-        row, col = np.divmod(pix, self.width)
-        n = pix.shape[0]
+        pixels = np.arange(pixel_lo, pixel_hi, dtype=np.int64)
+        row, col = np.divmod(pixels, self.width)          # per pixel, then broadcast over its samples
+        pix = np.repeat(pixels, spp)
         if spp == 1 and not self.jitter:
-            ox = oy = np.full(n, 0.5)
-        else:
-            u = stratified_samples(rng, pixel_hi - pixel_lo, spp)   # (spp, pixels, 2)
-            u = u[0] if spp == 1 else u.transpose(1, 0, 2).reshape(n, 2)   # samples of a pixel contiguous
-            ox, oy = u[:, 0], u[:, 1]
-        return col + ox, row + oy, pix
+            return col + 0.5, row + 0.5, pix
+        u = stratified_samples(rng, pixel_hi - pixel_lo, spp)   # (spp, pixels, 2)
+        # (pixels, spp) sums, flattened: the samples of a pixel contiguous (the same sums as gathering u first)
+        return ((col[:, None] + u[:, :, 0].T).reshape(-1), (row[:, None] + u[:, :, 1].T).reshape(-1), pix)
 
     def generate_rays(self, pixel_lo, pixel_hi, rng, *, differentials=True, samples=None):
         """Primary rays for the pixels ``[pixel_lo, pixel_hi)`` (row-major), ``spp`` per pixel, contiguous.
