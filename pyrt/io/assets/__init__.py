@@ -43,6 +43,10 @@ Conventions
   point along the node's local -Z.
 - **Cameras**: perspective cameras look along local -Z with +Y up; orthographic cameras are not
   supported (warning).
+- **Pose** (:mod:`pyrt.io.assets.gltf_pose`): the file's pose without animations. Morph targets are summed at
+  the node's ``weights``, else the mesh's, else 0. Skinned meshes are posed by their joints' node transforms
+  times the inverse bind matrices (linear blend skinning); the skinned node's own transform is ignored, as glTF
+  requires.
 - **Instancing**: a glTF mesh used by several nodes is decoded once; its object-space arrays,
   smooth normals, UVs and materials are shared by the instances. The Embree scene holds one
   world-space copy per instance (:mod:`pyrt.geometry.accel` has no instancing).

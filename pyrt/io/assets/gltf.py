@@ -19,6 +19,7 @@ from pyrt.io.assets.asset import Asset, AssetCamera, AssetInstance, AssetLight, 
 from pyrt.io.assets.gltf_draco import DRACO, INSTALL_HINT, decode_draco_primitive, dracopy
 from pyrt.io.assets.gltf_file import SUPPORTED_EXTENSIONS, GltfFile, pack_glb, read_gltf
 from pyrt.io.assets.gltf_khr import METADATA_EXTENSIONS, read_material_extensions, read_spec_gloss, texture_source
+from pyrt.io.assets import gltf_pose
 
 __all__ = ["load_gltf", "gltf_node_transforms", "gltf_uv_transform", "pack_glb", "read_gltf"]
 _WRAP = {10497: "repeat", 33071: "clamp", 33648: "mirror"}
@@ -249,15 +250,20 @@ def _load_gltf(path, max_texture=None):
     for msg in g.substitutions:            # missing texture files: each slot rendered with its factor alone
         asset.substitute(msg)
     W.extend(g.reductions)                 # the texture budget's reductions
-    # meshes: glTF mesh index -> list of AssetMesh indices (one per triangle primitive)
+    # meshes: (glTF mesh index, morph weights) -> list of AssetMesh indices (one per triangle primitive)
     mesh_prims = {}
+    skin_attrs = {}     # AssetMesh index -> (JOINTS (V, K), WEIGHTS (V, K)) of its primitive, when it has them
 
-    def decode_mesh(mi):
-        if mi in mesh_prims:
-            return mesh_prims[mi]
+    def decode_mesh(mi, node):
         m = g.get("meshes", mi)
+        prims = m.get("primitives", [])
+        n_targets = max((len(p.get("targets", [])) for p in prims), default=0)
+        weights = gltf_pose.default_weights(node, m, n_targets, f"mesh {mi} ({m.get('name', '')})", path)
+        key = (mi, tuple(weights))
+        if key in mesh_prims:
+            return mesh_prims[key]
         ids = []
-        for pi, p in enumerate(m.get("primitives", [])):
+        for pi, p in enumerate(prims):
             where = f"mesh {mi} ({m.get('name', '')}) primitive {pi}"
             mode = p.get("mode", 4)
             if mode not in (4, 5, 6):
@@ -266,8 +272,6 @@ def _load_gltf(path, max_texture=None):
             attrs = p.get("attributes", {})
             if "POSITION" not in attrs:
                 raise AssetError(f"{path}: {where}: no POSITION attribute")
-            if "targets" in p:
-                W.append(f"{where}: morph targets ignored (rest pose rendered)")
             idx, decoded = None, {}        # Draco-decoded indices and attributes (None: DracoPy missing, fallback)
             if DRACO in p.get("extensions", {}):
                 idx, decoded = decode_draco_primitive(g, p, where) or (None, {})
@@ -297,6 +301,9 @@ def _load_gltf(path, max_texture=None):
                 normals = attribute("NORMAL")[:, :3]
                 ln = np.linalg.norm(normals, axis=1, keepdims=True)
                 normals = np.divide(normals, ln, out=np.zeros_like(normals), where=ln > 0)
+            targets = p.get("targets", [])
+            if targets:                    # the default pose: the targets at the node's / mesh's weights
+                pos, normals = gltf_pose.morph(g, targets, weights[:len(targets)], pos, normals, where)
             mat = p.get("material", -1)
             if mat >= len(asset.materials):
                 raise AssetError(f"{path}: {where}: material {mat} does not exist")
@@ -324,8 +331,41 @@ def _load_gltf(path, max_texture=None):
                                           normals=normals, uv=uv, colors=colors, material=mat,
                                           alpha=alpha, uv_sets=uv_sets or None))
             ids.append(len(asset.meshes) - 1)
-        mesh_prims[mi] = ids
+            sets = sorted(int(k[7:]) for k in attrs if k.startswith("JOINTS_") and k[7:].isdigit()
+                          and f"WEIGHTS_{k[7:]}" in attrs)
+            if sets:
+                skin_attrs[ids[-1]] = (np.concatenate([attribute(f"JOINTS_{k}") for k in sets], axis=1),
+                                       np.concatenate([attribute(f"WEIGHTS_{k}") for k in sets], axis=1))
+        mesh_prims[key] = ids
         return ids
+
+    skinned = {}        # (AssetMesh index, skin index) -> the AssetMesh posed by the skin's joints
+    all_world = None
+
+    def skinned_mesh(am, si, where):
+        nonlocal all_world
+        if (am, si) in skinned:
+            return skinned[(am, si)]
+        if am not in skin_attrs:
+            W.append(f"{where}: the node has a skin but primitive {asset.meshes[am].name!r} has no JOINTS_0 / "
+                     "WEIGHTS_0: drawn with the node's transform")
+            skinned[(am, si)] = None
+            return None
+        if all_world is None:
+            try:
+                all_world = gltf_pose.all_node_transforms(h, _node_local)
+            except AssetError as exc:
+                raise AssetError(f"{path}: {exc}") from None
+        src = asset.meshes[am]
+        joints, weights = skin_attrs[am]
+        jm = gltf_pose.joint_matrices(g, si, all_world, where)
+        pos, nrm, faces = gltf_pose.skin(src.vertices, src.normals, src.faces, joints, weights, jm,
+                                         f"{path}: {where}", W)
+        asset.meshes.append(AssetMesh(name=f"{src.name}.skin{si}", vertices=pos, faces=faces, normals=nrm,
+                                      uv=src.uv, colors=src.colors, material=src.material, alpha=src.alpha,
+                                      face_colors=src.face_colors, uv_sets=src.uv_sets))
+        skinned[(am, si)] = len(asset.meshes) - 1
+        return skinned[(am, si)]
 
     lights_def = h.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
     nodes = h.get("nodes", [])
@@ -333,12 +373,15 @@ def _load_gltf(path, max_texture=None):
         node = nodes[ni]
         M = world[ni]
         nname = node.get("name", f"node{ni}")
-        if "skin" in node:
-            W.append(f"node {ni} ({nname}): skinning ignored (bind pose rendered)")
         if "mesh" in node:
             gpu = node.get("extensions", {}).get("EXT_mesh_gpu_instancing")
             mats = [M] if gpu is None else [M @ T for T in _gpu_instances(g, gpu, f"node {ni} ({nname})")]
-            for am in decode_mesh(node["mesh"]):
+            for am in decode_mesh(node["mesh"], node):
+                if "skin" in node:         # posed by its joints; the node's own transform is ignored (glTF)
+                    posed = skinned_mesh(am, node["skin"], f"node {ni} ({nname})")
+                    if posed is not None:
+                        asset.instances.append(AssetInstance(mesh=posed, world_from_object=np.eye(4), node=nname))
+                        continue
                 for j, Mj in enumerate(mats):
                     asset.instances.append(AssetInstance(mesh=am, world_from_object=Mj,
                                                          node=nname if gpu is None else f"{nname}[{j}]"))
