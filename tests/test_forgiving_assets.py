@@ -281,3 +281,53 @@ def test_missing_extension_texture_is_a_substitution_too(tmp_path):
     P = a.materials[0]
     assert P.clearcoat_texture is None and P.clearcoat_normal_texture is None and P.clearcoat_factor == 0.5
     assert len(a.substitutions) == 3 and all("tex.png" in s for s in a.substitutions)
+
+
+# ----------------------------------------------------------------------------- files named as the exporter had them
+
+def _red_png(path):
+    path.parent.mkdir(parents=True, exist_ok=True)
+    Image.fromarray(np.full((2, 2, 3), (200, 10, 10), np.uint8)).save(path)
+
+
+@pytest.mark.parametrize("named, where", [
+    (r"C:\Users\someone\Desktop\car\textures\Paint.JPG.png", "textures/paint.jpg.png"),   # Windows absolute path
+    (r"textures\PAINT.jpg.png", "textures/paint.jpg.png"),                                  # backslashes, other case
+    ("/home/other/models/paint.jpg.png", "paint.jpg.png"),                                 # foreign absolute path
+    ("paint.jpg.png", "sub/deeper/paint.jpg.png"),                                          # moved two folders down
+])
+def test_textures_are_found_where_the_exporter_did_not_put_them(tmp_path, named, where):
+    _red_png(tmp_path / where)
+    (tmp_path / "M.MTL").write_text(f"newmtl a\nKd 1 1 1\nmap_Kd {named}\n")
+    (tmp_path / "m.obj").write_text("mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n"
+                                    "usemtl a\nf 1/1 2/2 3/3\n")
+    a = load_asset(str(tmp_path / "m.obj"))
+    notes = "\n".join(a.substitutions)
+    assert "material library 'm.mtl' not found as named; using" in notes and "M.MTL (found by its name in another " \
+        "case)" in notes
+    assert f"texture {named!r} not found as named; using {tmp_path / where}" in notes
+    (mat,) = a.materials
+    assert "texture file not found" not in notes
+    np.testing.assert_array_equal(mat.map_Kd.texels[..., :3], np.full((2, 2, 3), (200, 10, 10), np.uint8))
+
+
+def test_texture_found_as_named_is_not_a_substitution_and_nothing_found_still_is(tmp_path):
+    _red_png(tmp_path / "t.png")
+    (tmp_path / "m.mtl").write_text("newmtl a\nmap_Kd t.png\nnewmtl b\nmap_Kd C:\\nowhere\\gone.png\n")
+    (tmp_path / "m.obj").write_text("mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n")
+    a = load_asset(str(tmp_path / "m.obj"))
+    assert len(a.substitutions) == 1 and "gone.png; rendered with the factor alone" in a.substitutions[0]
+
+
+def test_find_file_prefers_the_shortest_path_and_bounds_the_search(tmp_path, monkeypatch):
+    from pyrt.io.assets import find_file as F
+    for p in ("a/b/x.png", "z/x.png", "a/b/c/d/x.png"):
+        _red_png(tmp_path / p)
+    path, how = F.find_file(str(tmp_path), "x.png")
+    assert path == str(tmp_path / "z" / "x.png") and how == "found by its file name"
+    (tmp_path / "only_deep").mkdir()
+    _red_png(tmp_path / "only_deep/1/2/3/deep.png")
+    assert F.find_file(str(tmp_path), "deep.png") == (None, None)          # below SEARCH_DEPTH
+    assert F.find_file(str(tmp_path), "X.PNG")[0] == str(tmp_path / "z" / "x.png")
+    monkeypatch.setattr(F, "SEARCH_ENTRIES", 2)        # the model's own folder already has 3 entries: stop there
+    assert F.find_file(str(tmp_path), "x.png") == (None, None)

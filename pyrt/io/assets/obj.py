@@ -44,6 +44,7 @@ from pyrt.textures import ImageTexture, NormalMap, TextureError, load_image
 from pyrt.io.assets.common import AssetError, MTLParams, colour_texels, trimesh_load, vertex_colors
 from pyrt.io.assets.texture_budget import reduce_texels, reduction_factor
 from pyrt.io.assets.asset import Asset, AssetInstance, AssetMesh
+from pyrt.io.assets.find_file import find_file
 from pyrt.io.assets.materials import mtl_is_transparent, mtl_kd_ks
 
 
@@ -79,12 +80,16 @@ def _mtl_map(tokens, base, what, *, srgb, warnings, normal=False, alpha=False, c
     fname = " ".join(tokens[i:])
     if not fname:
         raise AssetError(f"{what}: no file name")
-    fpath = fname if os.path.isabs(fname) else os.path.join(base, fname.replace("\\", "/"))
-    if not os.path.isfile(fpath):
+    fpath, how = find_file(base, fname)
+    if fpath is None:
+        named = fname if os.path.isabs(fname) else os.path.join(base, fname.replace("\\", "/"))
         if substitutions is None:
-            raise AssetError(f"{what}: texture file not found: {fpath}")
-        substitutions.append(f"{what}: texture file not found: {fpath}; rendered with the factor alone")
+            raise AssetError(f"{what}: texture file not found: {named}")
+        substitutions.append(f"{what}: texture file not found: {named}; rendered with the factor alone")
         return None
+    if how is not None:       # a Windows path, another case, another folder: say which file was used
+        (substitutions if substitutions is not None else warnings).append(
+            f"{what}: texture {fname!r} not found as named; using {fpath} ({how})")
     kw = {}
     if "-s" in opts:
         s = [float(x) for x in opts["-s"][:2]] + [1.0] * (2 - len(opts["-s"][:2]))
@@ -271,11 +276,14 @@ def load_obj(path, max_texture=None):
     base = os.path.dirname(os.path.abspath(path))
     subst, lib_missing = [], False
     for m in re.finditer(r"^\s*mtllib\s+(.+?)\s*$", text, flags=re.M):
-        mpath = os.path.join(base, m.group(1).replace("\\", "/"))
-        if not os.path.isfile(mpath):      # trimesh reads the geometry without it: render with the default material
-            subst.append(f"{path}: material library not found: {mpath}; the default material is used")
+        mpath, how = find_file(base, m.group(1))
+        if mpath is None:      # trimesh reads the geometry without it: render with the default material
+            subst.append(f"{path}: material library not found: {os.path.join(base, m.group(1).replace(chr(92), '/'))}"
+                         "; the default material is used")
             lib_missing = True
             continue
+        if how is not None:
+            subst.append(f"{path}: material library {m.group(1)!r} not found as named; using {mpath} ({how})")
         mtls.update(parse_mtl(mpath, W, textures, substitutions=subst, max_texture=max_texture))
     used = set(re.findall(r"^\s*usemtl\s+(.+?)\s*$", text, flags=re.M))
     missing = used - set(mtls)
