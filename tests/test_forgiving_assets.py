@@ -331,3 +331,20 @@ def test_find_file_prefers_the_shortest_path_and_bounds_the_search(tmp_path, mon
     assert F.find_file(str(tmp_path), "X.PNG")[0] == str(tmp_path / "z" / "x.png")
     monkeypatch.setattr(F, "SEARCH_ENTRIES", 2)        # the model's own folder already has 3 entries: stop there
     assert F.find_file(str(tmp_path), "x.png") == (None, None)
+
+
+def test_gltf_image_and_buffer_in_another_case_are_found_and_named(tmp_path):
+    g = np.array([[10, 200], [90, 255]], np.uint8)
+    path = _textured_gltf(tmp_path, Image.fromarray(np.dstack([g, g, g]), "RGB"))
+    header = json.loads(open(path).read())
+    header["images"] = [{"uri": "TEX.png"}]                 # the file is tex.png
+    buf = header["buffers"][0]
+    os.rename(tmp_path / buf["uri"], tmp_path / buf["uri"].upper())
+    with open(path, "w") as fh:
+        json.dump(header, fh)
+    a = load_asset(path)
+    tex = a.materials[0].base_color_texture.texture
+    np.testing.assert_allclose(tex.image[..., 0], C.srgb_decode(g / 255.0), rtol=1e-6)
+    notes = "\n".join(a.substitutions)
+    assert "'TEX.png' not found as named; using " in notes and "tex.png (found by its name in another case)" in notes
+    assert f"{buf['uri']!r} not found as named; using " in notes and len(a.substitutions) == 2, notes

@@ -29,6 +29,7 @@ import urllib.parse
 import numpy as np
 
 from pyrt.core.image_types import image_kind
+from pyrt.io.assets.find_file import find_file
 from pyrt.textures import TextureError, load_image
 from pyrt.io.assets.common import AssetError, colour_texels, malformed_is_asset_error
 from pyrt.io.assets.gltf_draco import DRACO, dracopy
@@ -109,6 +110,10 @@ class GltfFile:
             refused.add(DRACO)
         if refused:
             raise required_extension_error(path, refused)
+        #: what the loader replaced to load the file anyway (missing texture files, files found in another case or
+        #: folder than named), for :attr:`Asset.substitutions`
+        self.substitutions = []
+        self._relocated = set()      # files found in another case or folder than their URI names (find_file)
         self.buffers = []
         for i, b in enumerate(self.header.get("buffers", [])):
             if not isinstance(b, dict):
@@ -127,8 +132,6 @@ class GltfFile:
             self.buffers.append(blob)
         self._acc_cache = {}
         self._img_cache = {}
-        #: what the loader replaced to load the file anyway (missing texture files), for :attr:`Asset.substitutions`
-        self.substitutions = []
         #: what the texture budget reduced (one message per image), for the asset's warnings
         self.reductions = []
 
@@ -172,9 +175,12 @@ class GltfFile:
         if os.path.isabs(rel) or rel.startswith(("/", "\\")):
             raise AssetError(f"{self.path}: {what}: uri {uri[:80]!r} is an absolute path; glTF URIs must be "
                              "relative to the file's folder")
-        fpath = os.path.join(self.base, rel)
-        if not os.path.isfile(fpath):
-            raise AssetError(f"{self.path}: {what}: file not found: {fpath}")
+        fpath, how = find_file(self.base, rel)
+        if fpath is None:
+            raise AssetError(f"{self.path}: {what}: file not found: {os.path.join(self.base, rel)}")
+        if how is not None and fpath not in self._relocated:   # another case or folder: say which file was read
+            self._relocated.add(fpath)
+            self.substitutions.append(f"{self.path}: {what}: {rel!r} not found as named; using {fpath} ({how})")
         return fpath
 
     def read_uri(self, uri, what):
@@ -344,8 +350,7 @@ class GltfFile:
         rel = urllib.parse.unquote(uri)
         if os.path.isabs(rel) or rel.startswith(("/", "\\")):
             return None
-        fpath = os.path.join(self.base, rel)
-        return None if os.path.isfile(fpath) else fpath
+        return None if find_file(self.base, rel)[0] is not None else os.path.join(self.base, rel)
 
     def image_array(self, ii, srgb=False):
         """Image ``ii`` decoded by :func:`pyrt.textures.load_image`: ``((H, W, C) uint8 / uint16 codes (8/16-bit
