@@ -157,7 +157,10 @@ class Asset:
             am = self.meshes[inst.mesh]
             if alpha is not None and not uses_alpha(self._params(am)):
                 alpha = None
-            key = am.material if colors is None and alpha is None else ("vc", inst.mesh)
+            # meshes with vertex colours or alpha share their material's pyrt material too: one colour texture
+            # bound to each of them (a model of many coloured parts is then one material, not one per part)
+            key = am.material if colors is None and alpha is None else (
+                "vc", am.material, colors is not None and am.colors is None, colors is None, alpha is None)
             per_face = colors is not None and am.colors is None     # face colours, one row per kept face
             if key not in mats:
                 mats[key] = self._material(am, colors, alpha, per_face=per_face)

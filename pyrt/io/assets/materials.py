@@ -46,6 +46,11 @@ class VertexColorTexture(Texture):
     faces, colors)``, with the mesh's final faces so that ``ctx.prim_id`` indexes them). Hits on
     meshes that were not bound get white (1, 1, 1). ``channels=1``: one value per vertex (bound as
     (V, 1), e.g. COLOR_0's alpha).
+
+    One texture may serve many meshes (every part of a model that shares a material): the bound meshes'
+    faces and colours are joined into one table on the first lookup after a :meth:`bind`, so a lookup is
+    a few gathers whatever the number of meshes (a loop over the meshes of every batch cost ~2000 NumPy
+    calls per lookup on a 2000-part model). A single bound mesh's arrays are used as they are.
     """
 
     channels = 3
@@ -53,21 +58,58 @@ class VertexColorTexture(Texture):
     def __init__(self, channels=3):
         self.channels = int(channels)
         self._bound = {}
+        self._table = None
 
     def bind(self, mesh_id, faces, colors):
         self._bound[int(mesh_id)] = (np.asarray(faces, dtype=np.int64), np.asarray(colors, dtype=np.float64))
+        self._table = None
+
+    def _tables(self):
+        """``(face offset per mesh id (-1: unbound), faces (F, 3) into colours, colours (V, C))`` of every bound
+        mesh, joined (face and vertex indices offset)."""
+        if self._table is None:
+            mids = sorted(self._bound)
+            foff = np.full(mids[-1] + 1, -1, dtype=np.int64)
+            if len(mids) == 1:
+                foff[mids[0]] = 0
+                faces, colors = self._bound[mids[0]]
+            else:
+                fparts, cparts, nf, nv = [], [], 0, 0
+                for mid in mids:
+                    f, c = self._bound[mid]
+                    foff[mid] = nf
+                    fparts.append(f + nv)
+                    cparts.append(c)
+                    nf, nv = nf + f.shape[0], nv + c.shape[0]
+                faces, colors = np.concatenate(fparts), np.concatenate(cparts)
+            self._table = (foff, faces, colors)
+        return self._table
+
+    def _rows(self, ctx):
+        """``(sel, rows)``: the hits on bound meshes (None: all of them) and their rows of the joined faces."""
+        foff = self._tables()[0]
+        mid = np.asarray(ctx.mesh_id, dtype=np.int64)
+        base = np.full(mid.shape[0], -1, dtype=np.int64)
+        inside = mid < foff.shape[0]
+        base[inside] = foff[mid[inside]]
+        ok = base >= 0
+        if ok.all():
+            return None, base + ctx.prim_id
+        sel = np.flatnonzero(ok)
+        return sel, base[sel] + np.asarray(ctx.prim_id)[sel]
 
     def evaluate(self, ctx):
         out = np.ones((ctx.n_hits, self.channels))
-        for mid in np.unique(ctx.mesh_id):
-            if int(mid) not in self._bound:
-                continue
-            faces, colors = self._bound[int(mid)]
-            sel = np.flatnonzero(ctx.mesh_id == mid)
-            tri = faces[ctx.prim_id[sel]]
-            b = ctx.bary[sel]
-            out[sel] = (b[:, 0:1] * colors[tri[:, 0]] + b[:, 1:2] * colors[tri[:, 1]]
-                        + b[:, 2:3] * colors[tri[:, 2]])
+        if not self._bound or ctx.n_hits == 0:
+            return out
+        _, faces, colors = self._tables()
+        sel, rows = self._rows(ctx)
+        tri = faces[rows]
+        b = ctx.bary if sel is None else ctx.bary[sel]
+        val = (b[:, 0:1] * colors[tri[:, 0]] + b[:, 1:2] * colors[tri[:, 1]] + b[:, 2:3] * colors[tri[:, 2]])
+        if sel is None:
+            return val
+        out[sel] = val
         return out
 
 
@@ -78,13 +120,28 @@ class FaceColorTexture(VertexColorTexture):
     indexes them); hits on meshes that were not bound get white (1, 1, 1).
     """
 
+    def _tables(self):
+        if self._table is None:
+            mids = sorted(self._bound)
+            foff = np.full(mids[-1] + 1, -1, dtype=np.int64)
+            parts, nf = [], 0
+            for mid in mids:
+                c = self._bound[mid][1]
+                foff[mid] = nf
+                parts.append(c)
+                nf += c.shape[0]
+            self._table = (foff, None, parts[0] if len(parts) == 1 else np.concatenate(parts))
+        return self._table
+
     def evaluate(self, ctx):
         out = np.ones((ctx.n_hits, 3))
-        for mid in np.unique(ctx.mesh_id):
-            if int(mid) not in self._bound:
-                continue
-            sel = np.flatnonzero(ctx.mesh_id == mid)
-            out[sel] = self._bound[int(mid)][1][ctx.prim_id[sel]]
+        if not self._bound or ctx.n_hits == 0:
+            return out
+        colors = self._tables()[2]
+        sel, rows = self._rows(ctx)
+        if sel is None:
+            return colors[rows]
+        out[sel] = colors[rows]
         return out
 
 
