@@ -18,6 +18,7 @@ from pyrt.io.assets.common import DEFAULT_CREASE_ANGLE, AssetError, DefaultParam
 from pyrt.geometry.surface import degenerate_faces
 from pyrt.io.assets.alpha import apply_coverage, uses_alpha
 from pyrt.io.assets.materials import FaceColorTexture, VertexColorTexture, to_pyrt_material
+from pyrt.io.assets.merge import merge_plan
 
 
 # ============================================================================ data model
@@ -109,6 +110,9 @@ class Asset:
     #: what was replaced so that the model loads anyway (a missing or unreadable texture -> its factor alone, a
     #: missing MTL -> the default material, ...), one message each; every one is also in :attr:`warnings`
     substitutions: list[str] = field(default_factory=list)
+    #: glTF materials that differ only in their base colour factor are added as one material, the factors moved
+    #: into the vertex colours (:mod:`pyrt.io.assets.merge`: the same image, far fewer materials to shade)
+    merge_materials: bool = True
 
     def substitute(self, message):
         """Record a substitution: ``message`` goes to :attr:`substitutions` and :attr:`warnings`."""
@@ -148,6 +152,9 @@ class Asset:
         prepared = {}
         mats = {}
         added = []
+        # glTF materials that differ only in their base colour factor become one (pyrt.io.assets.merge)
+        used = {self.meshes[i.mesh].material for i in self.instances} - {-1}
+        plan = merge_plan(self.materials, used) if self.format == "gltf" and self.merge_materials else {}
         for k, inst in enumerate(self.instances):
             if inst.mesh not in prepared:
                 t0 = time.perf_counter()
@@ -155,15 +162,21 @@ class Asset:
                 t_normals += time.perf_counter() - t0
             geometry, normals, colors, alpha, uv_sets, uv = prepared[inst.mesh]
             am = self.meshes[inst.mesh]
-            if alpha is not None and not uses_alpha(self._params(am)):
+            params = self._params(am)
+            if alpha is not None and not uses_alpha(params):
                 alpha = None
-            # meshes with vertex colours or alpha share their material's pyrt material too: one colour texture
-            # bound to each of them (a model of many coloured parts is then one material, not one per part)
-            key = am.material if colors is None and alpha is None else (
-                "vc", am.material, colors is not None and am.colors is None, colors is None, alpha is None)
             per_face = colors is not None and am.colors is None     # face colours, one row per kept face
+            group = am.material
+            if am.material in plan:        # the factor moves into the (vertex or face) colours
+                params, gid, factor = plan[am.material]
+                group = ("merged", gid)
+                colors = np.tile(factor, (geometry[0].shape[0], 1)) if colors is None else colors * factor
+            # meshes with colours or alpha share their material's pyrt material too: one colour texture bound to
+            # each of them (a model of many coloured parts is then one material, not one per part)
+            key = group if colors is None and alpha is None else ("vc", group, per_face, colors is None,
+                                                                    alpha is None)
             if key not in mats:
-                mats[key] = self._material(am, colors, alpha, per_face=per_face)
+                mats[key] = self._material(params, colors, alpha, per_face=per_face)
             material, vc_tex, va_tex = mats[key]
             m = pre @ inst.world_from_object
             if abs(np.linalg.det(m[:3, :3])) < 1e-300:
@@ -193,10 +206,11 @@ class Asset:
         return self.materials[am.material] if am.material >= 0 else (
             PBRParams(name="gltf-default") if self.format == "gltf" else DefaultParams())
 
-    def _material(self, am, colors, alpha=None, *, per_face=False):
-        """(pyrt material, vertex- or face-colour texture or None, vertex-alpha texture or None) for a mesh; the
-        coverage (alpha mode, doubleSided) is set by :func:`pyrt.io.assets.alpha.apply_coverage`."""
-        params = self._params(am)
+    @staticmethod
+    def _material(params, colors, alpha=None, *, per_face=False):
+        """(pyrt material, vertex- or face-colour texture or None, vertex-alpha texture or None) for the material
+        parameters ``params`` of a mesh with ``colors`` / ``alpha`` (or None); the coverage (alpha mode,
+        doubleSided) is set by :func:`pyrt.io.assets.alpha.apply_coverage`."""
         vc = None if colors is None else (FaceColorTexture() if per_face else VertexColorTexture())
         va = VertexColorTexture(channels=1) if alpha is not None else None
         return apply_coverage(to_pyrt_material(params, vertex_colors=vc), params, va), vc, va
