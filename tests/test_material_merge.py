@@ -75,3 +75,43 @@ def test_merged_render_equals_the_unmerged_one(tmp_path):
     assert n_b - n_a == 2                  # three part materials became one
     assert a.mean() > 0.01
     np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-15)
+
+
+def _obj_parts(tmp_path, kds, ks=0.1):
+    lines, mtl = ["mtllib parts.mtl"], []
+    for i, kd in enumerate(kds):
+        x = 0.6 * i - 0.6
+        mtl += [f"newmtl part{i}", "Kd " + " ".join(map(str, kd)), f"Ks {ks} {ks} {ks}", "Ns 40"]
+        b = trimesh.creation.box(extents=(0.4, 0.4, 0.4))
+        base = len(lines) and sum(1 for ln in lines if ln.startswith("v "))
+        lines += [f"v {v[0] + x} {v[1] + 0.2} {v[2]}" for v in b.vertices]
+        lines += [f"usemtl part{i}"] + [f"f {a + 1 + base} {c + 1 + base} {d + 1 + base}" for a, c, d in b.faces]
+    (tmp_path / "parts.mtl").write_text("\n".join(mtl) + "\n")
+    (tmp_path / "parts.obj").write_text("\n".join(lines) + "\n")
+    return str(tmp_path / "parts.obj")
+
+
+def test_obj_materials_that_differ_in_kd_merge_and_render_the_same(tmp_path):
+    path = _obj_parts(tmp_path, [(0.7, 0.1, 0.1), (0.1, 0.6, 0.1), (0.2, 0.2, 0.8)])
+    merged = load_asset(path)
+    assert len(merge_plan(merged.materials, range(3))) == 3
+    separate = load_asset(path)
+    separate.merge_materials = False
+    a, n_a = _render(merged)
+    b, n_b = _render(separate)
+    assert n_b - n_a == 2 and a.mean() > 0.01
+    np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-15)
+
+
+def test_obj_materials_whose_ks_pyrt_scales_are_not_merged(tmp_path):
+    # Kd 0.95 + Ks 0.2 > 1: pyrt scales that Ks down, by a factor the merged material would not share
+    mats = load_asset(_obj_parts(tmp_path, [(0.95, 0.1, 0.1), (0.1, 0.6, 0.1)], ks=0.2)).materials
+    assert merge_plan(mats, range(2)) == {}
+    # the scaled member stays apart, the unscaled ones merge
+    mats = load_asset(_obj_parts(tmp_path, [(0.7, 0.1, 0.1), (0.1, 0.6, 0.1), (0.1, 0.1, 0.9)], ks=0.2)).materials
+    assert sorted(merge_plan(mats, range(3))) == [0, 1]
+    # two members scaled by the same factor (the same scaled Ks) still do not merge: the factor depends on Kd
+    mats = load_asset(_obj_parts(tmp_path, [(0.9, 0.1, 0.1), (0.1, 0.9, 0.1)], ks=0.2)).materials
+    assert merge_plan(mats, range(2)) == {}
+    mats = load_asset(_obj_parts(tmp_path, [(0.75, 0.1, 0.1), (0.1, 0.75, 0.1)], ks=0.2)).materials
+    assert len(merge_plan(mats, range(2))) == 2

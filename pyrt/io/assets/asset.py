@@ -152,9 +152,9 @@ class Asset:
         prepared = {}
         mats = {}
         added = []
-        # glTF materials that differ only in their base colour factor become one (pyrt.io.assets.merge)
+        # materials that differ only in their base colour become one (pyrt.io.assets.merge)
         used = {self.meshes[i.mesh].material for i in self.instances} - {-1}
-        plan = merge_plan(self.materials, used) if self.format == "gltf" and self.merge_materials else {}
+        plan = merge_plan(self.materials, used) if self.merge_materials else {}
         for k, inst in enumerate(self.instances):
             if inst.mesh not in prepared:
                 t0 = time.perf_counter()
