@@ -4,7 +4,7 @@ Ground truth: the normalisation of D by a midpoint rule whose error is estimated
 extrapolation); the isotropic kernels for strength 0 and for equal widths; the chi-square test of the visible-normal
 sampler against its pdf (test_microfacet's harness) and of the material's sampling against its pdf
 (test_material_contracts' harness); the exact bound ``f cos / pdf = F G2 / G1 <= 1`` of visible-normal sampling of a
-white metal; the symmetry of the lobe under a quarter turn of its direction.
+white metal; the symmetry of the lobe under a quarter turn of its direction; the glTF extension's parameters.
 """
 import math
 
@@ -13,6 +13,7 @@ import pytest
 
 import pyrt
 from material_helpers import LocalCtx, direction
+from test_gltf_materials import _materials, _quad, write_gltf
 from test_material_contracts import QUAD_DW, QUAD_W, _chi_square_p
 from test_microfacet import _chi2_pvalue, hemisphere_integral
 from pyrt.shaders import brdfs
@@ -226,3 +227,34 @@ def test_preview_and_glossy_alpha_stand_ins():
     np.testing.assert_allclose(m.glossy_alpha(ctx), a)
     lobes = m.preview_lobes(ctx)
     np.testing.assert_allclose(lobes.glossy[0].alpha, math.sqrt((a + (1 - a) * 0.25) * a))
+
+
+def test_gltf_anisotropy_extension(tmp_path):
+    """The reader: anisotropyStrength, anisotropyRotation and anisotropyTexture (linear RGB) reach GltfPBR; no
+    'ignored' warning; a strength above 1 is clamped with a warning; under a clear coat the base is anisotropic."""
+    img = np.zeros((2, 2, 3), np.uint8)
+    img[...] = (255, 128, 204)
+    ext = {"anisotropyStrength": 0.6, "anisotropyRotation": 0.5, "anisotropyTexture": {"index": 0}}
+    mats = [{"name": "brushed", "pbrMetallicRoughness": {"metallicFactor": 1.0, "roughnessFactor": 0.3},
+             "extensions": {"KHR_materials_anisotropy": ext}},
+            {"name": "plain", "extensions": {"KHR_materials_anisotropy": {}}},
+            {"name": "strong", "extensions": {"KHR_materials_anisotropy": {"anisotropyStrength": 2.0}}}]
+    path = write_gltf(tmp_path / "a.gltf", [_quad(material=i) for i in range(3)], mats, images=[img],
+                      extensions_used=["KHR_materials_anisotropy"])
+    asset, (m, plain, strong) = _materials(path)
+    assert isinstance(m, pyrt.GltfPBR) and m.anisotropic
+    assert not any("ignored" in w or "not supported" in w for w in asset.warnings), asset.warnings
+    assert m.anisotropy == 0.6 and m.anisotropy_rotation == 0.5
+    rgb = m.param(m.anisotropy_texture, LocalCtx(1))[0]
+    np.testing.assert_allclose(rgb, [1.0, 128 / 255, 204 / 255], atol=1e-6)        # linear: no sRGB decoding
+    t, s = m._anisotropy(LocalCtx(1))
+    x, y = 1.0, 2 * 128 / 255 - 1
+    d = np.array([math.cos(0.5) * x - math.sin(0.5) * y, math.sin(0.5) * x + math.cos(0.5) * y])
+    np.testing.assert_allclose(t[0], d / np.linalg.norm(d), atol=1e-6)
+    assert s[0] == pytest.approx(0.6 * 204 / 255, abs=1e-6)
+    assert not getattr(plain, "anisotropic", False)                         # default strength 0: isotropic
+    assert strong.anisotropy == 1.0 and any("anisotropyStrength 2.0 > 1" in w for w in asset.warnings)
+    mats[0]["extensions"]["KHR_materials_clearcoat"] = {"clearcoatFactor": 1.0}
+    _, (c, _, _) = _materials(write_gltf(tmp_path / "c.gltf", [_quad(material=i) for i in range(3)], mats,
+                                         images=[img]))
+    assert isinstance(c, pyrt.Clearcoat) and c.base.anisotropic
