@@ -1,6 +1,6 @@
 """glTF's material extensions as pyrt materials: the extended metallic-roughness BSDF (``KHR_materials_specular``,
-``_ior``, ``_transmission``, ``_volume``, ``_anisotropy``), the clear coat layer (``KHR_materials_clearcoat``) and unlit surfaces
-(``KHR_materials_unlit``). Scene-file ``type`` names in brackets; the glTF loader
+``_ior``, ``_transmission``, ``_volume``, ``_anisotropy``), the clear coat layer (``KHR_materials_clearcoat``) and
+unlit surfaces (``KHR_materials_unlit``). Scene-file ``type`` names in brackets; the glTF loader
 (:mod:`pyrt.io.assets.gltf`) builds them from the files' parameters.
 
 - :class:`GltfPBR` [gltf_pbr]: :class:`pyrt.materials.MetallicRoughness` with the dielectric F0 from ``ior`` times
