@@ -91,7 +91,8 @@ class GltfPBR(MetallicRoughness):
     (:func:`pyrt.shaders.textures.tangent_frame` of ``dpdu``, ``dpdv`` of the texture's UV set, around the shading
     normal), ``r = anisotropy_rotation`` (radians, counter-clockwise from ``T`` toward ``B``), ``(x, y) = 2 RG - 1``
     of ``anisotropy_texture`` (``(1, 0)`` without one, or where it is ``(0, 0)``), and the strength is
-    ``anisotropy x`` its B. Approximations: the transmission lobe and the smooth transmissive share stay isotropic
+    ``anisotropy x`` its B. The frame comes from the UVs: glTF ``TANGENT`` attributes are not read (as for normal
+    maps). Approximations: the transmission lobe and the smooth transmissive share stay isotropic
     (the extension's lobe is the specular BRDF); :meth:`glossy_alpha` is ``alpha_b = alpha``, the smaller width (a
     lobe that is sharp across ``t`` shows sharp reflections, so the glossy integrator traces them as it would for
     the isotropic lobe of that roughness); the preview's split sum lights one isotropic lobe of the geometric mean
