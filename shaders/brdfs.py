@@ -240,12 +240,16 @@ def ward_f_cos(wo, wi, kd, ks, alpha_x, alpha_y, tangent=None, *, variant="ward"
     return (f * cos_i[:, None]).astype(dt, copy=False)
 
 
-def microfacet_spec_cos(wo, wi, alpha, *, distribution="ggx", geometry="smith_correlated"):
+def microfacet_spec_cos(wo, wi, alpha, *, alpha_y=None, distribution="ggx", geometry="smith_correlated"):
     """The Fresnel-free microfacet reflection lobe times cos: ``D(h) G / (4 cos_o)``.
 
     ``f_spec cos_i = F(wo.h) * D G / (4 cos_o cos_i) * cos_i``; the caller multiplies by F
     (Walter et al. 2007, eq. 20; Cook & Torrance's 1982 paper writes pi instead of 4 with a
     Beckmann D lacking its 1/pi, which over-counts by 4/pi).
+
+    With ``alpha_y`` (float or (N,)) the lobe is anisotropic GGX of widths ``alpha`` along the frame's x axis and
+    ``alpha_y`` along y (:func:`shaders.microfacet.ggx_d_aniso`, :func:`shaders.microfacet.ggx_g2_aniso`; ``wo``,
+    ``wi`` given in that frame); ``distribution`` must then be "ggx" and ``geometry`` a Smith term.
 
     Returns
     -------
@@ -260,8 +264,14 @@ def microfacet_spec_cos(wo, wi, alpha, *, distribution="ggx", geometry="smith_co
     h, _ = _vec.half_vector(wo, wi)
     cos_h = h[:, 2]
     cos_oh = np.clip(np.einsum("ij,ij->i", wo, h), 0.0, 1.0)
-    d = _mf.ndf(cos_h, alpha, distribution)
-    g = _mf.g2(cos_o, cos_i, cos_h, cos_oh, alpha, distribution, geometry)
+    if alpha_y is None:
+        d = _mf.ndf(cos_h, alpha, distribution)
+        g = _mf.g2(cos_o, cos_i, cos_h, cos_oh, alpha, distribution, geometry)
+    else:
+        if distribution != "ggx":
+            raise ValueError(f"anisotropic microfacet lobes are GGX only, got {distribution!r}")
+        d = _mf.ggx_d_aniso(h, alpha, alpha_y)
+        g = _mf.ggx_g2_aniso(wo, wi, alpha, alpha_y, geometry)
     spec = np.divide(d * g, 4.0 * cos_o, out=np.zeros_like(cos_o), where=active)
     return spec.astype(wi.dtype, copy=False), cos_oh.astype(wi.dtype, copy=False)
 
@@ -339,7 +349,7 @@ def gltf_metallic_roughness_f_cos(wo, wi, base_color, metallic, roughness, *,
 
 
 def gltf_pbr_f_cos(wo, wi, base_color, metallic, roughness, *, f0_dielectric, specular=1.0, transmission=0.0,
-                   specular_share=1.0, geometry="smith_separable"):
+                   specular_share=1.0, geometry="smith_separable", anisotropy=0.0):
     """glTF metallic-roughness reflection with the ``KHR_materials_specular`` / ``_ior`` / ``_transmission``
     parameters, times cos (the reflection half of the extended glTF BSDF; transmission lobes are separate).
 
@@ -356,6 +366,11 @@ def gltf_pbr_f_cos(wo, wi, base_color, metallic, roughness, *, f0_dielectric, sp
     (``KHR_materials_transmission``: ``mix(diffuse, btdf, transmission)`` under the same specular layer);
     ``specular_share`` (1 by default) scales the dielectric's specular lobe, for a caller that gives part of it as a
     delta lobe (a smooth transmitting surface: ``1 - transmission`` there).
+    ``anisotropy`` (``KHR_materials_anisotropy``'s strength, float or (N,) in [0, 1]) makes ``D G`` anisotropic GGX of
+    widths ``alpha_t = mix(alpha, 1, anisotropy^2)`` along the frame's x axis and ``alpha_b = alpha`` along y: the
+    caller gives ``wo``, ``wi`` in the frame whose x is the anisotropy direction
+    (:func:`shaders.vec.to_azimuth_frame`; the other terms do not depend on the azimuth). The constant 0 (default)
+    is the isotropic lobe, bit for bit; an array of zeros agrees with it to rounding.
     Reciprocal (F at ``v.h``). With ``f0_dielectric = 0.04``, ``specular = 1``, ``transmission = 0`` this
     differs from :func:`gltf_metallic_roughness_f_cos` only by the diffuse weight of partly metallic texels
     (``(1 - m)(1 - F_d)`` here, ``(1 - F_mixed)(1 - m)`` there); at metallic 0 or 1 they agree.
@@ -364,7 +379,7 @@ def gltf_pbr_f_cos(wo, wi, base_color, metallic, roughness, *, f0_dielectric, sp
     ----------
     wo, wi : (N, 3) float ndarray
     base_color, f0_dielectric : (3,) or (N, 3)
-    metallic, roughness, specular, transmission, specular_share : float or (N,)
+    metallic, roughness, specular, transmission, specular_share, anisotropy : float or (N,)
     """
     n = wo.shape[0]
     dt = wi.dtype
@@ -374,7 +389,11 @@ def gltf_pbr_f_cos(wo, wi, base_color, metallic, roughness, *, f0_dielectric, sp
     tr = _lane(transmission, n, dt)[:, None]
     share = _lane(specular_share, n, dt)[:, None]
     alpha = _mf.roughness_to_alpha(_lane(roughness, n, dt))
-    spec, cos_oh = microfacet_spec_cos(wo, wi, alpha, distribution="ggx", geometry=geometry)
+    if np.ndim(anisotropy) == 0 and anisotropy == 0:
+        spec, cos_oh = microfacet_spec_cos(wo, wi, alpha, distribution="ggx", geometry=geometry)
+    else:
+        alpha_t = _mf.gltf_anisotropic_alpha(alpha, _lane(anisotropy, n, dt))
+        spec, cos_oh = microfacet_spec_cos(wo, wi, alpha_t, alpha_y=alpha, distribution="ggx", geometry=geometry)
     f_d = _fresnel.fr_schlick(cos_oh, _col(f0_dielectric, n, dt))
     f_m = _fresnel.fr_schlick(cos_oh, base)
     cos_i = _same_hemisphere_cos(wo, wi)

@@ -25,7 +25,11 @@ Terms provided
   Smith-GGX) or :func:`schlick_k_ue4_direct` (k = (roughness + 1)^2 / 8, UE4's "direct lighting"
   remap of roughness to (roughness + 1) / 2 before squaring, meant to reduce hotness of
   rough surfaces under analytic lights; it is *not* a better fit to Smith).
-- Sampling: :func:`sample_ggx_vndf` (visible normals, Heitz 2018 JCGT 7(4)) with
+- Anisotropic GGX (``alpha_x`` along the frame's x axis, ``alpha_y`` along y; directions given in that frame):
+  :func:`ggx_d_aniso`, :func:`ggx_lambda_aniso` (the isotropic Lambda of the projected width, Heitz 2014 sec. 5.3),
+  :func:`ggx_g2_aniso`; :func:`sample_ggx_vndf` and :func:`ggx_vndf_pdf` take ``alpha_y`` too.
+  :func:`gltf_anisotropic_alpha` is ``KHR_materials_anisotropy``'s ``alpha_t = mix(alpha, 1, strength^2)``.
+- Sampling: :func:`sample_ggx_vndf` (visible normals, Heitz 2018 JCGT 7(4), isotropic or anisotropic) with
   :func:`ggx_vndf_pdf`; :func:`sample_ggx_ndf` / :func:`sample_beckmann_ndf` (density D(h) (n.h)),
   and :func:`reflect_pdf` to turn a half-vector density into a density of ``wi``
   (``wi = shaders.vec.reflect(wo, h)``).
@@ -81,6 +85,28 @@ def ggx_d(cos_h, alpha):
     den = (1.0 - cos_h) * (1.0 + cos_h) + a2 * c2
     d = a2 / (np.pi * den * den)
     return np.where(cos_h > 0, d, 0.0).astype(cos_h.dtype, copy=False)
+
+
+def ggx_d_aniso(h, alpha_x, alpha_y):
+    """Anisotropic GGX NDF ``1 / (pi ax ay ((h.x/ax)^2 + (h.y/ay)^2 + (h.z)^2)^2)``; 0 for h.z <= 0.
+
+    Walter et al. 2007 / Heitz 2014 (eq. 85); the ``D`` of ``KHR_materials_anisotropy`` with ``x = t`` (``alpha_t``)
+    and ``y = b`` (``alpha_b``). Normalised (``integral D(h) (n.h) dw_h = 1``, tested); ``ax = ay = alpha`` is
+    :func:`ggx_d` (to rounding).
+
+    Parameters
+    ----------
+    h : (N, 3) float ndarray
+        Unit half vectors in the anisotropy frame (x along ``alpha_x``, z the macro normal).
+    alpha_x, alpha_y : float or (N,)
+        Widths along x and y (each clamped to :data:`ALPHA_MIN`).
+    """
+    ax = _alpha(alpha_x, h.dtype)
+    ay = _alpha(alpha_y, h.dtype)
+    cz = h[:, 2]
+    den = (h[:, 0] / ax) ** 2 + (h[:, 1] / ay) ** 2 + cz * cz
+    d = np.divide(1.0, np.pi * ax * ay * den * den, out=np.zeros_like(cz), where=den > 0)
+    return np.where(cz > 0, d, 0.0).astype(h.dtype, copy=False)
 
 
 def beckmann_d(cos_h, alpha):
@@ -142,6 +168,49 @@ def ggx_lambda(cos_v, alpha):
     root = np.sqrt(a2 + (1.0 - a2) * c * c)  # = cos * sqrt(1 + a^2 tan^2)
     lam = np.divide(root - c, 2.0 * c, out=np.full_like(c, np.inf), where=c > 0)
     return lam.astype(cos_v.dtype, copy=False)
+
+
+def projected_alpha(w, alpha_x, alpha_y):
+    """The width an anisotropic distribution has in the plane of ``w`` and the normal:
+    ``sqrt((ax^2 w.x^2 + ay^2 w.y^2) / (w.x^2 + w.y^2))`` (Heitz 2014, sec. 5.3); ``alpha_x`` at normal incidence
+    (where Lambda is 0 whatever the width). (N,) in the dtype of ``w``."""
+    ax = _alpha(alpha_x, w.dtype)
+    ay = _alpha(alpha_y, w.dtype)
+    s2 = w[:, 0] ** 2 + w[:, 1] ** 2
+    a2 = np.divide(ax * ax * w[:, 0] ** 2 + ay * ay * w[:, 1] ** 2, s2, out=np.broadcast_to(ax * ax, s2.shape).copy(),
+                   where=s2 > 0)
+    return np.sqrt(a2).astype(w.dtype, copy=False)
+
+
+def ggx_lambda_aniso(w, alpha_x, alpha_y):
+    """Smith Lambda of anisotropic GGX: :func:`ggx_lambda` of the projected width (:func:`projected_alpha`), i.e.
+    ``(sqrt(1 + (ax^2 w.x^2 + ay^2 w.y^2) / w.z^2) - 1) / 2`` (Heitz 2014, eq. 86); +inf at/below the horizon.
+
+    ``w`` (N, 3) unit directions in the anisotropy frame.
+    """
+    return ggx_lambda(w[:, 2], projected_alpha(w, alpha_x, alpha_y))
+
+
+def ggx_g2_aniso(wo, wi, alpha_x, alpha_y, geometry="smith_correlated"):
+    """Smith masking-shadowing of anisotropic GGX for ``wo``, ``wi`` (N, 3) in the anisotropy frame:
+    ``1 / (1 + Lambda(wo) + Lambda(wi))`` (``"smith_correlated"``, height-correlated: ``KHR_materials_anisotropy``'s
+    ``V = G2 / (4 n.l n.v)``) or ``G1(wo) G1(wi)`` (``"smith_separable"``); 0 where either is below the horizon."""
+    lo = ggx_lambda_aniso(wo, alpha_x, alpha_y)
+    li = ggx_lambda_aniso(wi, alpha_x, alpha_y)
+    if geometry == "smith_correlated":
+        g = 1.0 / (1.0 + lo + li)
+    elif geometry == "smith_separable":
+        g = 1.0 / ((1.0 + lo) * (1.0 + li))
+    else:
+        raise ValueError(f"anisotropic GGX takes geometry 'smith_correlated' or 'smith_separable', got {geometry!r}")
+    return g.astype(wo.dtype, copy=False)
+
+
+def gltf_anisotropic_alpha(alpha, strength):
+    """``KHR_materials_anisotropy``'s width along the anisotropy direction: ``alpha_t = mix(alpha, 1, strength^2)``
+    (the width across it, ``alpha_b``, stays ``alpha``); ``strength`` 0 gives ``alpha`` exactly."""
+    s2 = np.asarray(strength) ** 2
+    return alpha + (1.0 - alpha) * s2
 
 
 def beckmann_lambda(cos_v, alpha):
@@ -270,27 +339,32 @@ def ndf_pdf(h, alpha, distribution):
     return ndf(h[:, 2], alpha, distribution) * np.maximum(h[:, 2], 0.0)
 
 
-def sample_ggx_vndf(wo, u, alpha):
+def sample_ggx_vndf(wo, u, alpha, alpha_y=None):
     """Sample GGX visible normals from ``wo`` (Heitz 2018, "Sampling the GGX Distribution of Visible
-    Normals", JCGT 7(4), listing 1), isotropic alpha.
+    Normals", JCGT 7(4), listing 1), isotropic or anisotropic.
 
     Parameters
     ----------
     wo : (N, 3) float ndarray
         Unit direction toward the viewer, local frame, ``wo.z > 0`` (other lanes give garbage-free
-        but meaningless upper-hemisphere normals; their pdf is 0).
+        but meaningless upper-hemisphere normals; their pdf is 0). With ``alpha_y``, the frame's x axis is
+        the direction of width ``alpha``.
     u : (N, 2) float ndarray in [0, 1)^2
     alpha : float or (N,)
+        The width (isotropic), or the width along x when ``alpha_y`` is given.
+    alpha_y : float or (N,), optional
+        The width along y (default: ``alpha``, the isotropic sampler, bit for bit).
 
     Returns
     -------
     (N, 3) ndarray
-        Unit microfacet normals h with density :func:`ggx_vndf_pdf`.
+        Unit microfacet normals h with density :func:`ggx_vndf_pdf` (of the same widths).
     """
     al = _alpha(alpha, wo.dtype)
     al = np.broadcast_to(al, wo.shape[:1])
+    ay = al if alpha_y is None else np.broadcast_to(_alpha(alpha_y, wo.dtype), wo.shape[:1])
     wz = np.maximum(wo[:, 2], 0.0)
-    vh = np.stack([al * wo[:, 0], al * wo[:, 1], wz], axis=1)
+    vh = np.stack([al * wo[:, 0], ay * wo[:, 1], wz], axis=1)
     vh_len = np.sqrt(np.einsum("ij,ij->i", vh, vh))
     vh = vh / np.where(vh_len > 0, vh_len, 1.0)[:, None]
     vh[vh_len == 0] = (0.0, 0.0, 1.0)
@@ -307,19 +381,25 @@ def sample_ggx_vndf(wo, u, alpha):
     p2 = (1.0 - s) * np.sqrt(np.maximum(0.0, 1.0 - p1 * p1)) + s * p2
     p3 = np.sqrt(np.maximum(0.0, 1.0 - p1 * p1 - p2 * p2))
     nh = p1[:, None] * t1 + p2[:, None] * t2 + p3[:, None] * vh
-    ne = np.stack([al * nh[:, 0], al * nh[:, 1], np.maximum(nh[:, 2], 0.0)], axis=1)
+    ne = np.stack([al * nh[:, 0], ay * nh[:, 1], np.maximum(nh[:, 2], 0.0)], axis=1)
     n_len = np.sqrt(np.einsum("ij,ij->i", ne, ne))
     ne = ne / np.where(n_len > 0, n_len, 1.0)[:, None]
     ne[n_len == 0] = (0.0, 0.0, 1.0)
     return ne.astype(wo.dtype, copy=False)
 
 
-def ggx_vndf_pdf(wo, h, alpha):
-    """Density of :func:`sample_ggx_vndf`: ``G1(wo) max(0, wo.h) D(h) / wo.z`` (0 where wo.z <= 0)."""
+def ggx_vndf_pdf(wo, h, alpha, alpha_y=None):
+    """Density of :func:`sample_ggx_vndf`: ``G1(wo) max(0, wo.h) D(h) / wo.z`` (0 where wo.z <= 0); with
+    ``alpha_y`` the anisotropic ``D`` and ``G1`` (:func:`ggx_d_aniso`, :func:`ggx_lambda_aniso`)."""
     co = wo[:, 2]
     coh = np.maximum(np.einsum("ij,ij->i", wo, h), 0.0)
-    g1 = 1.0 / (1.0 + ggx_lambda(co, alpha))
-    val = np.divide(g1 * coh * ggx_d(h[:, 2], alpha), co, out=np.zeros_like(co), where=co > 0)
+    if alpha_y is None:
+        g1 = 1.0 / (1.0 + ggx_lambda(co, alpha))
+        d = ggx_d(h[:, 2], alpha)
+    else:
+        g1 = 1.0 / (1.0 + ggx_lambda_aniso(wo, alpha, alpha_y))
+        d = ggx_d_aniso(h, alpha, alpha_y)
+    val = np.divide(g1 * coh * d, co, out=np.zeros_like(co), where=co > 0)
     return val.astype(wo.dtype, copy=False)
 
 

@@ -295,3 +295,17 @@ def to_local(v, s, t, n):
 def to_world(v, s, t, n):
     """Inverse of :func:`to_local`."""
     return v[:, 0:1] * s + v[:, 1:2] * t + v[:, 2:3] * n
+
+
+def to_azimuth_frame(v, t):
+    """Express local-frame vectors ``v`` (N, 3) in the frame turned about z whose x axis is ``t``: ``(v.t, v.b, v.z)``
+    with ``t = (t_x, t_y, 0)`` a unit direction in the tangent plane given as ``(N, 2)`` ``(t_x, t_y)`` and
+    ``b = z x t = (-t_y, t_x, 0)`` (an anisotropic lobe's frame: x along its ``alpha_x``)."""
+    tx, ty = t[:, 0], t[:, 1]
+    return np.stack([v[:, 0] * tx + v[:, 1] * ty, v[:, 1] * tx - v[:, 0] * ty, v[:, 2]], axis=1)
+
+
+def from_azimuth_frame(v, t):
+    """Inverse of :func:`to_azimuth_frame`: ``v.x t + v.y b + v.z z``."""
+    tx, ty = t[:, 0], t[:, 1]
+    return np.stack([v[:, 0] * tx - v[:, 1] * ty, v[:, 0] * ty + v[:, 1] * tx, v[:, 2]], axis=1)

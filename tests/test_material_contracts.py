@@ -187,8 +187,8 @@ def test_sampled_directions_follow_pdf_chi_square(name, theta_o):
 def test_chi_square_harness_rejects_a_wrong_pdf():
     """The harness can fail: a Cook-Torrance whose pdf() claims a 20 % wider lobe than it samples."""
     class Wrong(pyrt.CookTorrance):
-        def _spec_pdf(self, wo, wi, alpha):
-            return super()._spec_pdf(wo, wi, alpha * 1.2)
+        def _spec_pdf(self, wo, wi, alpha, aniso=None):
+            return super()._spec_pdf(wo, wi, alpha * 1.2, aniso)
 
     assert _chi_square_p(Wrong(kd=0.0, ks=1.0, roughness=0.4), 30.0) < 1e-6
 

@@ -1,6 +1,6 @@
 """glTF's material extensions as pyrt materials: the extended metallic-roughness BSDF (``KHR_materials_specular``,
-``_ior``, ``_transmission``, ``_volume``), the clear coat layer (``KHR_materials_clearcoat``) and unlit surfaces
-(``KHR_materials_unlit``). Scene-file ``type`` names in brackets; the glTF loader
+``_ior``, ``_transmission``, ``_volume``, ``_anisotropy``), the clear coat layer (``KHR_materials_clearcoat``) and
+unlit surfaces (``KHR_materials_unlit``). Scene-file ``type`` names in brackets; the glTF loader
 (:mod:`pyrt.io.assets.gltf`) builds them from the files' parameters.
 
 - :class:`GltfPBR` [gltf_pbr]: :class:`pyrt.materials.MetallicRoughness` with the dielectric F0 from ``ior`` times
@@ -8,7 +8,8 @@
   transmission lobe of weight ``(1 - metallic) transmission``: a thin wall (straight through,
   :func:`pyrt.shaders.brdfs.thin_transmission_spec_cos` when rough) or the surface of a volume (refraction by
   ``ior``, :class:`pyrt.Glass` when smooth, :class:`pyrt.RoughDielectric`'s GGX BTDF when rough) with
-  Beer-Lambert ``absorption`` inside.
+  Beer-Lambert ``absorption`` inside; ``anisotropy`` stretches the reflection's GGX lobe along a tangent direction
+  (``KHR_materials_anisotropy``).
 - :class:`Clearcoat` [clearcoat]: ``base (1 - c F_c) + c F_c D G / (4 |n.l| |n.v|)`` over any base material.
 - :class:`Unlit` [unlit]: emits its colour, reflects nothing.
 """
@@ -23,7 +24,8 @@ from pyrt.materials.library import MetallicRoughness, _check_choice
 from pyrt.shaders import brdfs
 from pyrt.shaders import fresnel
 from pyrt.shaders import microfacet as _mf
-from pyrt.shaders.vec import coordinate_frame, half_vector, reflect, refract, to_local, to_world
+from pyrt.shaders.textures import tangent_frame
+from pyrt.shaders.vec import coordinate_frame, half_vector, reflect, refract, to_azimuth_frame, to_local, to_world
 from pyrt.textures import Texture, perturb_normal
 
 #: roughness at or below which a transmission lobe is perfectly specular (delta lobes, traced to ``max_depth`` by
@@ -80,6 +82,23 @@ class GltfPBR(MetallicRoughness):
     lobe. Not modelled: ``specular`` on the transmitted weight of a volume, total internal reflection of a
     rough volume beyond its BTDF's.
 
+    Anisotropy (``KHR_materials_anisotropy``): with ``anisotropy`` (the strength) > 0 the reflection's GGX lobe (metal
+    and dielectric) has the width ``alpha_t = mix(alpha, 1, strength^2)`` along the direction ``t`` and ``alpha_b =
+    alpha`` across it, ``b = n x t`` (the extension's ``D``, and its height-correlated visibility with
+    ``geometry="smith_correlated"``; the separable product of the same anisotropic ``G1`` with the default
+    ``"smith_separable"``), sampled by anisotropic visible normals (Heitz 2018). ``t`` is
+    ``normalize((cos r, sin r) rotated (x, y))`` in the tangent frame ``(T, B)`` of the normal maps
+    (:func:`pyrt.shaders.textures.tangent_frame` of ``dpdu``, ``dpdv`` of the texture's UV set, around the shading
+    normal), ``r = anisotropy_rotation`` (radians, counter-clockwise from ``T`` toward ``B``), ``(x, y) = 2 RG - 1``
+    of ``anisotropy_texture`` (``(1, 0)`` without one, or where it is ``(0, 0)``), and the strength is
+    ``anisotropy x`` its B. The frame comes from the UVs: glTF ``TANGENT`` attributes are not read (as for normal
+    maps). Approximations: the transmission lobe and the smooth transmissive share stay isotropic
+    (the extension's lobe is the specular BRDF); :meth:`glossy_alpha` is ``alpha_b = alpha``, the smaller width (a
+    lobe that is sharp across ``t`` shows sharp reflections, so the glossy integrator traces them as it would for
+    the isotropic lobe of that roughness); the preview's split sum lights one isotropic lobe of the geometric mean
+    ``sqrt(alpha_t alpha_b)`` (the width whose lobe covers about the same solid angle), so its highlight is not
+    stretched.
+
     Parameters (keyword-only)
     -------------------------
     base_color, metallic, roughness, geometry : as :class:`pyrt.materials.MetallicRoughness`
@@ -88,16 +107,28 @@ class GltfPBR(MetallicRoughness):
     ior : float >= 1 (default 1.5): the dielectric F0 and, with transmission, the refraction index
     transmission : float or scalar texture in [0, 1] (default 0: opaque)
     thin : bool (default True), absorption : constant RGB >= 0 per scene unit (volumes only)
+    anisotropy : float in [0, 1] (default 0: isotropic): ``anisotropyStrength``
+    anisotropy_rotation : float (radians, default 0): ``anisotropyRotation``
+    anisotropy_texture : 3-channel texture, optional: ``anisotropyTexture`` (linear; RG the direction, B the strength)
     """
 
     ranges = {**MetallicRoughness.ranges, "specular": ("scalar", 0.0, 1.0, False),
               "specular_color": ("color", 0.0, None, False), "ior_value": ("scalar", 1.0, None, False),
-              "transmission": ("scalar", 0.0, 1.0, False)}
+              "transmission": ("scalar", 0.0, 1.0, False), "anisotropy": ("scalar", 0.0, 1.0, False)}
 
     def __init__(self, *, base_color=0.8, metallic=0.0, roughness=0.5, specular=1.0, specular_color=1.0, ior=1.5,
-                 transmission=0.0, thin=True, absorption=0.0, geometry="smith_separable", name=None):
+                 transmission=0.0, thin=True, absorption=0.0, geometry="smith_separable", anisotropy=0.0,
+                 anisotropy_rotation=0.0, anisotropy_texture=None, name=None):
         super().__init__(base_color=base_color, metallic=metallic, roughness=roughness, geometry=geometry, name=name)
         owner = self.label
+        self.anisotropy = check_scalar("anisotropy", anisotropy, owner, lo=0.0, hi=1.0)
+        self.anisotropy_rotation = check_scalar("anisotropy_rotation", anisotropy_rotation, owner)
+        if is_texture(self.anisotropy) or is_texture(self.anisotropy_rotation):
+            raise MaterialError(f"{owner}: anisotropy and anisotropy_rotation must be constants "
+                                "(the strength and direction vary through anisotropy_texture)")
+        if anisotropy_texture is not None and (not is_texture(anisotropy_texture) or anisotropy_texture.channels != 3):
+            raise MaterialError(f"{owner}: anisotropy_texture must be a 3-channel texture (RG direction, B strength)")
+        self.anisotropy_texture = anisotropy_texture
         self.specular = check_scalar("specular", specular, owner, lo=0.0, hi=1.0)
         self.specular_color = check_color("specular_color", specular_color, owner, lo=0.0)
         #: the index of refraction of the dielectric part (``ior`` proper is set only when the material transmits)
@@ -133,6 +164,50 @@ class GltfPBR(MetallicRoughness):
         return cls(base_color=(0.8, 0.5, 0.3), roughness=0.4, specular=0.7, specular_color=(1.0, 0.8, 0.6), ior=1.7)
 
     # -- per-hit parameters ------------------------------------------------------------------
+    @property
+    def anisotropic(self):
+        """The reflection lobe is anisotropic (``anisotropy > 0``)."""
+        return self.anisotropy > 0
+
+    def _anisotropy(self, ctx):
+        """``(t, strength)``: the anisotropy direction ``t`` (N, 2), a unit vector in the local tangent plane (the
+        local frame's x, y), and the strength (N,) (the class docstring); None when :attr:`anisotropic` is False.
+        Cached on ``ctx``."""
+        if not self.anisotropic:
+            return None
+        cache = ctx.__dict__.setdefault("_param_cache", {})
+        key = (id(self), "anisotropy")
+        if key not in cache:
+            n = ctx.n_hits
+            c, s = np.cos(self.anisotropy_rotation), np.sin(self.anisotropy_rotation)
+            strength = np.full(n, float(self.anisotropy))
+            tex = self.anisotropy_texture
+            d = np.tile([c, s], (n, 1))
+            if tex is not None:
+                rgb = np.asarray(self.param(tex, ctx), dtype=np.float64)
+                strength = strength * rgb[:, 2]
+                x, y = 2.0 * rgb[:, 0] - 1.0, 2.0 * rgb[:, 1] - 1.0
+                given = (x != 0) | (y != 0)          # (0, 0) has no direction: the rotated T, as without a texture
+                d = np.where(given[:, None], np.stack([c * x - s * y, s * x + c * y], axis=1), d)
+            k = 0 if tex is None else tex.texcoord
+            dpdu, dpdv = ctx.uv_tangents(k) if k else (ctx.dpdu, ctx.dpdv)
+            ns = np.asarray(ctx.ns, dtype=np.float64)
+            tw, bw = tangent_frame(ns, np.asarray(dpdu, dtype=np.float64), np.asarray(dpdv, dtype=np.float64))
+            t = np.asarray(ctx.to_local(d[:, :1] * tw + d[:, 1:2] * bw), dtype=np.float64)[:, :2]
+            length = np.hypot(t[:, 0], t[:, 1])
+            ok = length > 0
+            t = np.where(ok[:, None], t / np.where(ok, length, 1.0)[:, None], np.array([1.0, 0.0]))
+            cache[key] = (t, strength)
+        return cache[key]
+
+    def _preview_alpha(self, ctx):
+        """The isotropic width (N,) the preview lights: ``alpha``, or ``sqrt(alpha_t alpha_b)`` when anisotropic."""
+        alpha = np.broadcast_to(self._alpha(ctx), (ctx.n_hits,))
+        aniso = self._anisotropy(ctx)
+        if aniso is None:
+            return alpha
+        return np.sqrt(_mf.gltf_anisotropic_alpha(alpha, aniso[1]) * alpha)
+
     def _f0_dielectric(self, ctx):
         """``min(f0(ior) * specular_color, 1)``: (3,) or (N, 3)."""
         sc = self.param(self.specular_color, ctx) if is_texture(self.specular_color) else self.specular_color
@@ -158,10 +233,14 @@ class GltfPBR(MetallicRoughness):
         if self.transmits:
             tr = self.param(self.transmission, ctx, 1)
             share = np.where(self.param(self.roughness, ctx, 1) <= SMOOTH_ROUGHNESS, 1.0 - tr, 1.0)
+        aniso = self._anisotropy(ctx)
+        strength = 0.0
+        if aniso is not None:     # the lobe's frame: x along the anisotropy direction (the rest is azimuth-free)
+            wo, wi, strength = to_azimuth_frame(wo, aniso[0]), to_azimuth_frame(wi, aniso[0]), aniso[1]
         return brdfs.gltf_pbr_f_cos(wo, wi, self.param(self.base_color, ctx), self.param(self.metallic, ctx, 1),
                                     self.param(self.roughness, ctx, 1), f0_dielectric=self._f0_dielectric(ctx),
                                     specular=self.param(self.specular, ctx, 1), transmission=tr,
-                                    specular_share=share, geometry=self.geometry)
+                                    specular_share=share, geometry=self.geometry, anisotropy=strength)
 
     def _btdf(self, wo, wi, ctx):
         """The transmission lobe without its weight (N,): thin (mirrored GGX times ``1 - specular max F``) or
@@ -262,7 +341,8 @@ class GltfPBR(MetallicRoughness):
         it): diffuse ``(1 - m)(1 - t) base (1 - s (F0m + (1 - F0m) E5))`` (``F0m`` the largest channel of the
         dielectric F0, as the BRDF's ``max(F)``; ``t`` the transmission), one GGX lobe of albedo
         ``(1 - m) s k (F0_d A + B) + m (base A + B)`` with ``k = 1 - t`` on smooth transmitting hits, whose
-        mirror share is a delta lobe traced as a ray (:meth:`delta_lobes`), else 1."""
+        mirror share is a delta lobe traced as a ray (:meth:`delta_lobes`), else 1; an anisotropic lobe is lit as the
+        isotropic one of width ``sqrt(alpha_t alpha_b)`` (the class docstring)."""
         tr = share = 0.0
         if self.transmits:
             w_rough, _ = self._transmission_weights(ctx)
@@ -273,7 +353,7 @@ class GltfPBR(MetallicRoughness):
         base = np.asarray(self.param(self.base_color, ctx))
         m = self.param(self.metallic, ctx, 1)[:, None]
         s = self.param(self.specular, ctx, 1)[:, None]
-        alpha = np.broadcast_to(self._alpha(ctx), (ctx.n_hits,))
+        alpha = self._preview_alpha(ctx)
         mu = _preview.view_cosine(ctx)
         f0d = np.broadcast_to(self._f0_dielectric(ctx), base.shape)
         f0m = f0d.max(axis=1, keepdims=True)

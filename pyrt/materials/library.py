@@ -19,7 +19,7 @@ from pyrt.shaders import metals as _metals
 from pyrt.shaders import microfacet as _mf
 from pyrt.shaders import sampling
 from pyrt.shaders.color import luminance as _luminance
-from pyrt.shaders.vec import half_vector, reflect
+from pyrt.shaders.vec import from_azimuth_frame, half_vector, reflect, to_azimuth_frame
 
 
 def _constant(v):
@@ -78,17 +78,29 @@ class _MicrofacetSampling:
     """Mixture sampling shared by the microfacet materials: cosine lobe for the diffuse part,
     GGX visible normals (or the NDF for Beckmann / Blinn) for the specular part.
 
-    Subclasses provide ``_alpha(ctx)``, ``distribution`` and ``_spec_prob(wo, ctx)`` (N,) in [0, 1].
-    ``glossy_alpha`` is ``_alpha``.
+    Subclasses provide ``_alpha(ctx)``, ``distribution`` and ``_spec_prob(wo, ctx)`` (N,) in [0, 1], and may
+    provide ``_anisotropy(ctx)`` (default None: isotropic): ``(t, strength)``, the anisotropy direction (N, 2) in
+    the local tangent plane and the ``KHR_materials_anisotropy`` strength (N,), which make the GGX lobe anisotropic
+    (widths ``mix(alpha, 1, strength^2)`` along ``t``, ``alpha`` across it; sampled by anisotropic visible normals).
+    ``glossy_alpha`` is ``_alpha`` (for an anisotropic lobe the smaller width: see :class:`pyrt.materials.GltfPBR`).
     """
 
     def glossy_alpha(self, ctx):
         """The microfacet ``alpha`` (N,) (see :meth:`pyrt.materials.Material.glossy_alpha`)."""
         return _glossy_alpha(self._alpha(ctx), ctx)
 
-    def _spec_pdf(self, wo, wi, alpha):
+    def _anisotropy(self, ctx):
+        """None: the lobe is isotropic (subclasses with anisotropy return ``(t (N, 2), strength (N,))``)."""
+        return None
+
+    def _spec_pdf(self, wo, wi, alpha, aniso=None):
+        if aniso is not None:
+            t, strength = aniso
+            wo, wi = to_azimuth_frame(wo, t), to_azimuth_frame(wi, t)
         h, hl = half_vector(wo, wi)
-        if self.distribution == "ggx":
+        if aniso is not None:
+            pdf_h = _mf.ggx_vndf_pdf(wo, h, _mf.gltf_anisotropic_alpha(alpha, strength), alpha)
+        elif self.distribution == "ggx":
             pdf_h = _mf.ggx_vndf_pdf(wo, h, alpha)
         else:  # Beckmann NDF sampling serves Beckmann and Blinn
             pdf_h = _mf.ndf_pdf(h, alpha, "beckmann")
@@ -98,25 +110,27 @@ class _MicrofacetSampling:
     def pdf(self, wo, wi, ctx):
         alpha = self._alpha(ctx)
         ps = self._spec_prob(wo, ctx)
-        return ps * self._spec_pdf(wo, wi, alpha) + (1.0 - ps) * sampling.cosine_hemisphere_pdf(wi)
+        return (ps * self._spec_pdf(wo, wi, alpha, self._anisotropy(ctx))
+                + (1.0 - ps) * sampling.cosine_hemisphere_pdf(wi))
 
     def sample_direction(self, wo, u, ctx):
         """The direction :meth:`sample` draws for ``u``, without its weight and pdf."""
         return self._sample_wi(wo, u, ctx)[0]
 
     def sample(self, wo, u, ctx):
-        wi, alpha, ps = self._sample_wi(wo, u, ctx)
+        wi, alpha, ps, aniso = self._sample_wi(wo, u, ctx)
         # self.pdf(wo, wi, ctx) with the alpha and strategy probability already at hand (the same numbers)
-        pdf = ps * self._spec_pdf(wo, wi, alpha) + (1.0 - ps) * sampling.cosine_hemisphere_pdf(wi)
+        pdf = ps * self._spec_pdf(wo, wi, alpha, aniso) + (1.0 - ps) * sampling.cosine_hemisphere_pdf(wi)
         f = self.f_cos(wo, wi, ctx)
         ok = (pdf > 0) & (wi[:, 2] > 0) & (wo[:, 2] > 0)
         weight = np.where(ok[:, None], f / np.where(ok, pdf, 1.0)[:, None], 0.0)
         return wi, weight, np.where(ok, pdf, 0.0)
 
     def _sample_wi(self, wo, u, ctx):
-        """``(wi, alpha, p_spec)``: the sampled local directions, the lobe's alpha and the probability of the
-        specular strategy."""
+        """``(wi, alpha, p_spec, aniso)``: the sampled local directions, the lobe's alpha, the probability of the
+        specular strategy and :meth:`_anisotropy`."""
         alpha = self._alpha(ctx)
+        aniso = self._anisotropy(ctx)
         ps = self._spec_prob(wo, ctx)
         spec = u[:, 0] < ps
         # reuse u[:, 0] for the chosen strategy (stays uniform on [0, 1) within each branch)
@@ -127,12 +141,16 @@ class _MicrofacetSampling:
         if np.any(spec):
             s = np.flatnonzero(spec)
             a_s = alpha[s] if np.ndim(alpha) else alpha
-            if self.distribution == "ggx":
+            if aniso is not None:
+                t = aniso[0][s]
+                a_t = _mf.gltf_anisotropic_alpha(a_s, aniso[1][s])
+                h = from_azimuth_frame(_mf.sample_ggx_vndf(to_azimuth_frame(wo[s], t), uu[s], a_t, a_s), t)
+            elif self.distribution == "ggx":
                 h = _mf.sample_ggx_vndf(wo[s], uu[s], a_s)
             else:
                 h = _mf.sample_beckmann_ndf(uu[s], a_s)
             wi[s] = reflect(wo[s], h)
-        return wi, alpha, ps
+        return wi, alpha, ps, aniso
 
 
 @register

@@ -95,6 +95,9 @@ class PBRParams:
     sheen_color_texture: TextureSlot | None = None          # RGB, sRGB
     sheen_roughness_factor: float = 0.0
     sheen_roughness_texture: ImageTexture | None = None     # A
+    anisotropy_strength: float = 0.0
+    anisotropy_rotation: float = 0.0                         # radians, counter-clockwise from the tangent
+    anisotropy_texture: ImageTexture | None = None           # RGB, linear: RG direction, B strength
     ext_slots: list = field(default_factory=list)           # the extensions' TextureSlots (UV sets)
 
     def uv_sets_read(self):
@@ -110,10 +113,11 @@ class PBRParams:
     @property
     def uses_pbr_extensions(self):
         """The material needs :class:`pyrt.materials.GltfPBR` (specular, ior or transmission differ from the
-        core model's)."""
+        core model's, or ``KHR_materials_anisotropy`` has a strength)."""
         return (self.transmission_factor > 0 or self.transmission_texture is not None or self.ior != 1.5
                 or self.specular_factor != 1.0 or self.specular_texture is not None
-                or np.any(self.specular_color_factor != 1.0) or self.specular_color_texture is not None)
+                or np.any(self.specular_color_factor != 1.0) or self.specular_color_texture is not None
+                or self.anisotropy_strength > 0)
 
     @property
     def sheened(self):

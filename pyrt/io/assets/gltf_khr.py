@@ -18,6 +18,10 @@ What each extension becomes (the materials: :mod:`pyrt.materials.gltf_pbr`; the 
 - ``KHR_materials_unlit``: :class:`pyrt.materials.Unlit` of the base colour (x texture x vertex colour);
 - ``KHR_materials_sheen`` (sheenColorFactor x sheenColorTexture RGB, sRGB; sheenRoughnessFactor x
   sheenRoughnessTexture A): :class:`pyrt.materials.Sheen` over the material, under a clear coat;
+- ``KHR_materials_anisotropy`` (anisotropyStrength x anisotropyTexture B, anisotropyRotation radians, the direction
+  ``2 anisotropyTexture.RG - 1`` rotated by it in the tangent frame, linear data): the anisotropic GGX reflection
+  of :class:`pyrt.materials.GltfPBR` (``alpha_t = mix(alpha, 1, strength^2)`` along the direction, ``alpha`` across
+  it); a material with a strength is a :class:`~pyrt.materials.GltfPBR` even without the other extensions;
 - ``KHR_materials_pbrSpecularGlossiness`` (archived, still common in older exports): converted on load as
   glTF-Transform's ``metalRough()`` does (:func:`read_spec_gloss`): the diffuse colour becomes the base colour
   (``metallic = 0``), the specular colour the ``KHR_materials_specular`` F0 tint of a dielectric, ``roughness =
@@ -40,7 +44,7 @@ from pyrt.textures import ImageTexture
 #: material extensions this module reads
 MATERIAL_EXTENSIONS = {"KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
                        "KHR_materials_clearcoat", "KHR_materials_specular", "KHR_materials_unlit",
-                       "KHR_materials_pbrSpecularGlossiness", "KHR_materials_sheen"}
+                       "KHR_materials_pbrSpecularGlossiness", "KHR_materials_sheen", "KHR_materials_anisotropy"}
 #: the index of refraction a converted specular-glossiness material gets: its F0 comes from the specular colour
 #: (``specular_color_factor = specular / f0(SPEC_GLOSS_IOR)``, so ``F0 = specular`` exactly below 1), and a
 #: dielectric of this index reflects ~all light at normal incidence (glTF-Transform's ``metalRough()`` uses 1000)
@@ -232,6 +236,24 @@ def read_material_extensions(m, P, what, warnings, texture, channel, image_array
                 P.ext_slots.append(slot)
                 P.sheen_color_texture = slot
         P.sheen_roughness_texture = scalar_tex(sh, "sheenRoughnessTexture", 3, "A")
+    an = ext.get("KHR_materials_anisotropy")
+    if an is not None:
+        w = f"{what} KHR_materials_anisotropy"
+        P.anisotropy_strength = _number(an, "anisotropyStrength", 0.0, w, warnings, lo=0.0)
+        if P.anisotropy_strength > 1.0:
+            warnings.append(f"{w}: anisotropyStrength {P.anisotropy_strength} > 1: clamped to 1")
+            P.anisotropy_strength = 1.0
+        P.anisotropy_rotation = _number(an, "anisotropyRotation", 0.0, w, warnings)
+        if not math.isfinite(P.anisotropy_rotation):
+            raise AssetError(f"{w}: anisotropyRotation must be finite, got {P.anisotropy_rotation}")
+        if "anisotropyTexture" in an:
+            slot = texture(an["anisotropyTexture"], f"{w} anisotropyTexture", False)
+            if slot is not None:
+                if slot.texture.channels < 3:
+                    raise AssetError(f"{w}: anisotropyTexture {slot.source} has {slot.texture.channels} channel(s); "
+                                     "the extension reads RGB")
+                P.ext_slots.append(slot)
+                P.anisotropy_texture = slot.texture
     cc = ext.get("KHR_materials_clearcoat")
     if cc is not None:
         w = f"{what} KHR_materials_clearcoat"

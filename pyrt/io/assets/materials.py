@@ -209,7 +209,7 @@ class GltfMaterial(SurfaceExtras, MetallicRoughness):
 
 
 class GltfPBRMaterial(SurfaceExtras, GltfPBR):
-    """A glTF material with ``KHR_materials_specular`` / ``_ior`` / ``_transmission`` / ``_volume``:
+    """A glTF material with ``KHR_materials_specular`` / ``_ior`` / ``_transmission`` / ``_volume`` / ``_anisotropy``:
     :class:`pyrt.materials.GltfPBR` plus emission, occlusion, normal map."""
 
     type_name = None
@@ -244,7 +244,9 @@ def gltf_extension_material(params, base, *, base_color, metallic, roughness, em
                               specular=_factor_tex(P.specular_factor, P.specular_texture),
                               specular_color=_factor_tex(P.specular_color_factor, sc_tex), ior=P.ior,
                               transmission=_factor_tex(P.transmission_factor, P.transmission_texture), thin=not thick,
-                              absorption=sigma, emission=emission, occlusion=P.occlusion_texture,
+                              absorption=sigma, anisotropy=P.anisotropy_strength,
+                              anisotropy_rotation=P.anisotropy_rotation, anisotropy_texture=P.anisotropy_texture,
+                              emission=emission, occlusion=P.occlusion_texture,
                               occlusion_strength=P.occlusion_strength, normal_map=P.normal_texture,
                               double_sided=P.double_sided, name=P.name)
     if P.sheened:        # the sheen lies on the material, under a clear coat (KHR_materials_sheen)
