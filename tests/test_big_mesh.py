@@ -207,3 +207,37 @@ def test_vec_divide_rows_is_bitwise_the_broadcast_divide():
     ref = np.divide(a, s, out=np.zeros_like(a), where=s > 0)
     assert np.array_equal(divide_rows(a, norm(a)).view(np.int64), ref.view(np.int64))
     assert np.array_equal(norm(a), s[:, 0])
+
+
+def test_crease_normals_of_many_meshes_in_one_call_equal_one_call_each():
+    """Asset.add_to_scene computes the crease normals of every mesh without normals in one call (groups): the
+    same vertices, faces and normals, bit for bit, as a call per mesh, and nothing welds across meshes even
+    where two meshes share positions (two boxes touching along a face, a sphere)."""
+    import trimesh
+    from pyrt.io.assets.asset import AssetMesh, _prepare_mesh, _prepare_meshes
+    a = trimesh.creation.box(extents=(1, 1, 1))
+    b = trimesh.creation.box(extents=(1, 1, 1))
+    b.apply_translation((1, 0, 0))                   # shares the face x = 0.5 with a
+    c = trimesh.creation.icosphere(subdivisions=2)
+    meshes = {k: AssetMesh(name=str(k), vertices=np.asarray(m.vertices, float), faces=np.asarray(m.faces, np.int64),
+                           uv=np.asarray(m.vertices[:, :2], float))
+              for k, m in enumerate((a, b, c))}
+    meshes[3] = AssetMesh(name="has normals", vertices=meshes[0].vertices, faces=meshes[0].faces,
+                          normals=np.asarray(a.vertex_normals, float))
+    # two single-triangle meshes sharing an edge at 10 degrees: welded they would be smoothed, alone each is flat
+    t = np.radians(10.0)
+    meshes[4] = AssetMesh(name="flat", vertices=np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]), faces=np.array([[0, 1, 2]]))
+    meshes[5] = AssetMesh(name="tilted", vertices=np.array([[1.0, 0, 0], [0, 1, 0], [1, 1, np.sin(t)]]),
+                          faces=np.array([[0, 2, 1]]))
+    batched = _prepare_meshes(meshes, 30.0)
+    for k, am in meshes.items():
+        one = _prepare_mesh(am, 30.0)
+        (v1, f1), n1, *_r1, uv1 = one
+        (v2, f2), n2, *_r2, uv2 = batched[k]
+        np.testing.assert_array_equal(v1, v2)
+        np.testing.assert_array_equal(f1, f2)
+        np.testing.assert_array_equal(n1, n2)
+        np.testing.assert_array_equal(uv1, uv2)
+    # a box's corners keep three normals each (flat faces at 90 degrees), the shared face's corners too
+    assert batched[1][1].shape == (24, 3)
+    np.testing.assert_allclose(batched[4][1], np.tile([0, 0, 1], (3, 1)), atol=1e-12)   # not bent toward mesh 5

@@ -31,7 +31,7 @@ DEFAULT_CREASE_ANGLE = 30.0
 WELDS = ("position", "edges")
 
 
-def crease_normals(vertices, faces, crease_angle=DEFAULT_CREASE_ANGLE, *, weld="position"):
+def crease_normals(vertices, faces, crease_angle=DEFAULT_CREASE_ANGLE, *, weld="position", groups=None):
     """Smooth vertex normals that keep edges sharper than ``crease_angle`` (degrees).
 
     Parameters
@@ -44,6 +44,10 @@ def crease_normals(vertices, faces, crease_angle=DEFAULT_CREASE_ANGLE, *, weld="
         What is smoothed together (see the module docstring). ``"position"``: corners at the same
         exact position, each against its own face's normal. ``"edges"``: patches of faces connected
         by shared edges below the crease angle (trimesh's ``smooth_shade``).
+    groups : (V,) int, optional (``"position"`` only)
+        Vertices of different groups are never welded: several meshes in one call, each vertex labelled by its
+        mesh, get the normals each would get alone, in the same order (output vertices follow their source
+        vertices, so each mesh's are one contiguous run), at the cost of one call instead of one per mesh.
 
     Returns
     -------
@@ -59,13 +63,15 @@ def crease_normals(vertices, faces, crease_angle=DEFAULT_CREASE_ANGLE, *, weld="
     if not 0.0 <= crease_angle <= 180.0:
         raise ValueError(f"crease_angle must be in [0, 180] degrees, got {crease_angle}")
     if weld == "position":
-        return _crease_by_position(vertices, faces, crease_angle)
+        return _crease_by_position(vertices, faces, crease_angle, groups)
+    if groups is not None:
+        raise ValueError("crease_normals: groups are supported with weld='position' only")
     if weld == "edges":
         return _crease_by_edges(vertices, faces, crease_angle)
     raise ValueError(f"weld must be one of {WELDS}, got {weld!r}")
 
 
-def _crease_by_position(vertices, faces, crease_angle):
+def _crease_by_position(vertices, faces, crease_angle, groups=None):
     """Position-welded crease normals (see :func:`crease_normals`), in two passes.
 
     Pass 1 (every corner): the corners of each position are summed into one angle-weighted normal (``bincount``
@@ -82,7 +88,7 @@ def _crease_by_position(vertices, faces, crease_angle):
     nf = f.shape[0]
     fn, ang = _face_normals_and_angles(v, f)
     corner_vertex = f.ravel()                                  # (3F,), corner 3 i + k is corner k of face i
-    pos_of_vertex, n_pos = _position_ids(v)
+    pos_of_vertex, n_pos = _position_ids(v, groups)
     if n_pos == v.shape[0]:          # every vertex at its own position (indexed meshes): label positions by vertex
         pos_of_vertex = np.arange(n_pos)
         cpos = corner_vertex
@@ -168,17 +174,20 @@ def _face_normals_and_angles(v, f):
     return fn, ang
 
 
-def _position_ids(v):
+def _position_ids(v, groups=None):
     """Weld by exact position: ``(group id of each vertex (V,), number of groups)``; -0.0 and 0.0 are one position.
+    With ``groups`` (V,) the label is a fourth key: equal positions of different groups stay apart.
 
     Sorted by one 64-bit hash of the three coordinates' bits (one argsort instead of a three-key lexsort); if two
     different positions share a hash (never seen, but possible), by the three keys instead. When every hash is
     distinct (one sort of the hashes, ~0.4x the argsort's time) every vertex is its own position: ``arange(V)``.
     """
     bits = (v + 0.0).view(np.int64)                            # + 0.0 turns -0.0 into 0.0; no NaN here (validated)
+    if groups is not None:
+        bits = np.concatenate([bits, np.asarray(groups, dtype=np.int64).reshape(-1, 1)], axis=1)
     ub = bits.view(np.uint64)
     h = _mix64(ub[:, 0])
-    for k in (1, 2):
+    for k in range(1, bits.shape[1]):
         h = _mix64(h ^ ub[:, k])
     h = h.view(np.int64)
     sh = np.sort(h)
@@ -190,7 +199,7 @@ def _position_ids(v):
     new[1:] = np.any(sb[1:] != sb[:-1], axis=1)
     sh = h[order]
     if np.any(new[1:] & (sh[1:] == sh[:-1])):                 # a hash collision: group by the coordinates
-        order = np.lexsort((bits[:, 2], bits[:, 1], bits[:, 0]))
+        order = np.lexsort(tuple(bits[:, k] for k in reversed(range(bits.shape[1]))))
         sb = np.take(bits, order, axis=0)
         new[1:] = np.any(sb[1:] != sb[:-1], axis=1)
     gid = np.empty(order.size, dtype=np.int64)

@@ -155,11 +155,10 @@ class Asset:
         # materials that differ only in their base colour become one (pyrt.io.assets.merge)
         used = {self.meshes[i.mesh].material for i in self.instances} - {-1}
         plan = merge_plan(self.materials, used) if self.merge_materials else {}
+        t0 = time.perf_counter()       # meshes without normals: their crease normals in one call
+        prepared.update(_prepare_meshes({i.mesh: self.meshes[i.mesh] for i in self.instances}, crease_angle))
+        t_normals += time.perf_counter() - t0
         for k, inst in enumerate(self.instances):
-            if inst.mesh not in prepared:
-                t0 = time.perf_counter()
-                prepared[inst.mesh] = _prepare_mesh(self.meshes[inst.mesh], crease_angle)
-                t_normals += time.perf_counter() - t0
             geometry, normals, colors, alpha, uv_sets, uv = prepared[inst.mesh]
             am = self.meshes[inst.mesh]
             params = self._params(am)
@@ -252,16 +251,45 @@ def _transform_light(light, m):
 
 # ============================================================================ meshes for the scene
 
-def _prepare_mesh(am, crease_angle):
+def _prepare_meshes(meshes, crease_angle):
+    """:func:`_prepare_mesh` of every mesh of ``meshes`` ({index: AssetMesh}): ``{index: prepared}``.
+
+    The meshes without normals get their crease normals from one :func:`crease_normals` call over all of them (each
+    mesh's vertices a group of their own, so nothing welds across meshes): the same normals, vertices and faces as
+    one call per mesh, whose fixed cost (~0.4 ms) made the normals of a 10,000-part model take 4 s.
+    """
+    bare = [i for i, am in meshes.items() if am.normals is None]
+    out = {i: _prepare_mesh(am, crease_angle) for i, am in meshes.items() if am.normals is not None}
+    if len(bare) < 2:
+        out.update({i: _prepare_mesh(meshes[i], crease_angle) for i in bare})
+        return out
+    nv = np.array([meshes[i].vertices.shape[0] for i in bare])
+    nf = np.array([meshes[i].faces.shape[0] for i in bare])
+    vo = np.concatenate([[0], np.cumsum(nv)])
+    fo = np.concatenate([[0], np.cumsum(nf)])
+    v = np.concatenate([np.asarray(meshes[i].vertices, dtype=np.float64) for i in bare])
+    f = np.concatenate([np.asarray(meshes[i].faces, dtype=np.int64) + vo[g] for g, i in enumerate(bare)])
+    src, faces, normals = crease_normals(v, f, crease_angle, groups=np.repeat(np.arange(len(bare)), nv))
+    # output vertices follow their source vertices: each mesh's are one run, starting where its sources start
+    ro = np.searchsorted(src, vo)
+    for g, i in enumerate(bare):
+        lo, hi = ro[g], ro[g + 1]
+        out[i] = _prepare_mesh(meshes[i], crease_angle, creased=(src[lo:hi] - vo[g], faces[fo[g]:fo[g + 1]] - lo,
+                                                                  normals[lo:hi]))
+    return out
+
+
+def _prepare_mesh(am, crease_angle, creased=None):
     """((vertices, faces) in object space, object-space normals, linear colours or None, vertex alpha or None, further
     UV sets or None, UVs or None) for add_mesh (no trimesh: a glTF preview never imports it).
 
     The colours are per vertex, or, for a mesh with face colours only, per face of the faces
     :meth:`pyrt.Scene.add_mesh` keeps (its degenerate triangles, which it skips, are left out here too).
+    ``creased``: the mesh's ``crease_normals`` result when the caller computed it (:func:`_prepare_meshes`).
     """
     v, f, uv, col, nrm, alpha, uv_sets = am.vertices, am.faces, am.uv, am.colors, am.normals, am.alpha, am.uv_sets
     if nrm is None:
-        src, f, nrm = crease_normals(v, f, crease_angle)
+        src, f, nrm = crease_normals(v, f, crease_angle) if creased is None else creased
         # np.take: the rows of fancy indexing at ~0.1x its time (2.6 M vertices: 0.02 s against 0.18 s of CPU)
         v, uv, col, alpha = (None if a is None else np.take(a, src, axis=0) for a in (v, uv, col, alpha))
         uv_sets = None if uv_sets is None else {k: np.take(a, src, axis=0) for k, a in uv_sets.items()}
