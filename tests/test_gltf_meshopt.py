@@ -272,6 +272,13 @@ def test_malformed_stream_names_the_file_and_the_bufferview(tmp_path, name, view
         load_asset(path)
 
 
+def test_plain_view_in_a_fallback_buffer_names_the_bufferview(tmp_path):
+    path = _patched(tmp_path, "sphere_ext", lambda h, b: h["bufferViews"][2].pop("extensions"), "bad.glb")
+    with pytest.raises(AssetError, match=r"bad\.glb: bufferView 2 has no meshopt-compressed data but its buffer 1 "
+                                         r"is a meshopt fallback buffer, which is not read"):
+        load_asset(path)
+
+
 # ---------------------------------------------------------------------------------------------------------------
 # hand-made streams (the specification's examples) and the COLOR filter
 

@@ -238,6 +238,9 @@ class GltfFile:
         stride = bv.get("byteStride")
         if stride is not None:
             _int(stride, f"bufferView {vi} byteStride", self.path, lo=1)
+        if buf_i in self.placeholders:
+            raise AssetError(f"{self.path}: bufferView {vi} has no meshopt-compressed data but its buffer {buf_i} is a "
+                             "meshopt fallback buffer, which is not read")
         buf = self.buffers[buf_i]
         if off + length > len(buf):
             raise AssetError(f"{self.path}: bufferView {vi} (bytes {off}..{off + length}) runs past the end of "

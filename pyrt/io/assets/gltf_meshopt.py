@@ -19,7 +19,7 @@ The modes and filters:
   group headers to find where each group starts (one step per 16 bytes of output), NumPy unpacks the groups and
   accumulates the deltas;
 - ``TRIANGLES`` (:func:`decode_index_buffer`): the triangle codec (headers ``0xE0`` / ``0xE1``): an edge FIFO and
-  a vertex FIFO, one code byte per triangle. Sequential by nature: a Python loop per triangle (about half a
+  a vertex FIFO, one code byte per triangle. Sequential by nature: a Python loop per triangle (about a
   million triangles a second on one core);
 - ``INDICES`` (:func:`decode_index_sequence`): the index sequence codec (``0xD0`` / ``0xD1``): LEB128 zigzag
   deltas against one of two baselines; vectorised;
