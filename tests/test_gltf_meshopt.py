@@ -15,9 +15,12 @@ The fixtures cover vertex codec versions 0 (sphere_ext, sphere_used) and 1 at le
 control modes 0-3 and channel modes 0, 1 and 2, checked below), the triangle codec versions 1 (uint32) and 0
 (uint16), the index sequence codec (uint16), every filter the encoder has (OCTAHEDRAL 8 and 16-bit, QUATERNION,
 EXPONENTIAL) and a placeholder and a real fallback buffer. The COLOR filter (KHR only) has no encoder in that
-package: it is checked on hand-computed elements, as are small hand-made streams of each codec (the specification's
-own examples).
+package: ``color_khr.json`` holds colours encoded and decoded by meshoptimizer's npm package 1.3.0 (its official
+JavaScript/WebAssembly build; tools/make_meshopt_color_fixture.mjs), and the filter is also checked on
+hand-computed elements, as are small hand-made streams of each codec (the specification's own examples).
 """
+import base64
+import json
 import os
 import shutil
 
@@ -49,10 +52,10 @@ def _ext(bv):
 
 
 def _patched(tmp_path, name, edit, fname=None):
-    """A copy of fixture ``name`` with ``edit(header, bin)`` applied (it may return new bin bytes)."""
+    """A copy of fixture ``name`` with ``edit(header, bin)`` applied (in place: the JSON dict, a bytearray)."""
     header, buffers = read_gltf(_path(name))
     binary = bytearray(buffers[0])
-    binary = edit(header, binary) or binary
+    edit(header, binary)
     out = tmp_path / (fname or f"{name}.glb")
     out.write_bytes(pack_glb(header, bytes(binary)))
     return str(out)
@@ -218,6 +221,56 @@ def test_both_extensions_are_supported():
     assert set(M.MESHOPT_EXTENSIONS) <= SUPPORTED_EXTENSIONS
 
 
+def _color_source(count):
+    """The colours tools/make_meshopt_color_fixture.mjs encodes (its formula, float32)."""
+    t = np.arange(count) / (count - 1)
+    return np.stack([0.5 + 0.5 * np.sin(6.2831853 * t), 0.5 + 0.5 * np.sin(6.2831853 * t + 2.0944),
+                     0.5 + 0.5 * np.sin(6.2831853 * t + 4.1888), 0.25 + 0.75 * t], 1).astype(np.float32)
+
+
+@pytest.fixture(scope="module")
+def color():
+    with open(os.path.join(DATA, "color_khr.json")) as fh:
+        return json.load(fh)
+
+
+def test_color_filter_decodes_as_the_js_decoder_and_within_the_quantisation(color):
+    """8-bit (K = 8, 6) and 16-bit (K = 12) YCoCg colours: pyrt's decoding is the npm decoder's within one unit
+    in the last place (Appendix B), and the source colour within 2^-(K-1) (two steps of the K-bit grid)."""
+    src = _color_source(color["count"])
+    for s in color["streams"]:
+        stream = base64.b64decode(s["compressed"])
+        assert stream[0] == 0xA1
+        mine = M.decode(stream, color["count"], s["stride"], "ATTRIBUTES", "COLOR", M.KHR_MESHOPT)
+        dt = "<u1" if s["stride"] == 4 else "<u2"
+        a = np.frombuffer(mine, dt).astype(int)
+        b = np.frombuffer(base64.b64decode(s["decoded"]), dt).astype(int)
+        assert np.abs(a - b).max() <= 1
+        err = np.abs(a.reshape(-1, 4) / np.iinfo(dt).max - src).max()
+        assert 0 < err <= 2.0 ** -(s["bits"] - 1)
+
+
+def test_color_filtered_vertex_colours_load(tmp_path, color):
+    """sphere_khr.glb with a COLOR_0 (uint8 normalized RGBA) whose view holds the 8-bit, K = 8 stream."""
+    s = color["streams"][0]
+    stream = base64.b64decode(s["compressed"])
+
+    def add(h, binary):
+        off = len(binary)
+        binary.extend(stream + b"\0" * (-len(stream) % 4))
+        h["bufferViews"].append({"buffer": 1, "byteLength": 4 * color["count"], "byteStride": 4, "extensions": {
+            "KHR_meshopt_compression": {"buffer": 0, "byteOffset": off, "byteLength": len(stream), "byteStride": 4,
+                                        "count": color["count"], "mode": "ATTRIBUTES", "filter": "COLOR"}}})
+        h["accessors"].append({"bufferView": len(h["bufferViews"]) - 1, "componentType": 5121, "type": "VEC4",
+                               "count": color["count"], "normalized": True})
+        h["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"] = len(h["accessors"]) - 1
+        h["buffers"][0]["byteLength"] = len(binary)
+    mesh, = load_asset(_patched(tmp_path, "sphere_khr", add)).meshes
+    ref = np.frombuffer(base64.b64decode(s["decoded"]), np.uint8).reshape(-1, 4) / 255.0
+    np.testing.assert_array_equal(mesh.colors, ref[:, :3])
+    np.testing.assert_array_equal(mesh.alpha, ref[:, 3])
+
+
 # ---------------------------------------------------------------------------------------------------------------
 # malformed data: AssetError naming the file and the bufferView
 
@@ -273,7 +326,9 @@ def test_malformed_stream_names_the_file_and_the_bufferview(tmp_path, name, view
 
 
 def test_plain_view_in_a_fallback_buffer_names_the_bufferview(tmp_path):
-    path = _patched(tmp_path, "sphere_ext", lambda h, b: h["bufferViews"][2].pop("extensions"), "bad.glb")
+    def plain(h, binary):
+        del h["bufferViews"][2]["extensions"]
+    path = _patched(tmp_path, "sphere_ext", plain, "bad.glb")
     with pytest.raises(AssetError, match=r"bad\.glb: bufferView 2 has no meshopt-compressed data but its buffer 1 "
                                          r"is a meshopt fallback buffer, which is not read"):
         load_asset(path)
