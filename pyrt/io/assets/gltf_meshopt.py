@@ -38,6 +38,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from pyrt.io.assets.common import AssetError
+
 EXT_MESHOPT = "EXT_meshopt_compression"
 KHR_MESHOPT = "KHR_meshopt_compression"
 #: the two extension names (the KHR one is the ratified successor: vertex codec version 1, the COLOR filter)
@@ -46,8 +48,9 @@ MODES = ("ATTRIBUTES", "TRIANGLES", "INDICES")
 FILTERS = ("NONE", "OCTAHEDRAL", "QUATERNION", "EXPONENTIAL", "COLOR")
 
 
-class MeshoptError(ValueError):
-    """A compressed stream or extension object this decoder cannot decode (the message says why)."""
+class MeshoptError(AssetError):
+    """A compressed stream or extension object this decoder cannot decode (the message says why; it names neither
+    the file nor the bufferView: :class:`GltfFile` re-raises it as an :class:`AssetError` that does)."""
 
 
 def meshopt_extension(obj):
