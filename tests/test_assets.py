@@ -441,7 +441,7 @@ def test_missing_map_kd_texture(tmp_path):
 
 def test_unsupported_required_extension(tmp_path):
     path = _patched_glb(tmp_path, trimesh.Scene(trimesh.creation.box()),
-                        lambda h: h.update(extensionsRequired=["EXT_meshopt_compression"]))
+                        lambda h: h.update(extensionsRequired=["KHR_texture_basisu"]))
     with pytest.raises(AssetError, match="requires unsupported glTF extension"):
         load_asset(path)
 

@@ -34,6 +34,8 @@ from pyrt.textures import TextureError, load_image
 from pyrt.io.assets.common import AssetError, colour_texels, malformed_is_asset_error
 from pyrt.io.assets.gltf_draco import DRACO, dracopy
 from pyrt.io.assets.gltf_khr import IMAGE_EXTENSIONS, MATERIAL_EXTENSIONS, required_extension_error
+from pyrt.io.assets.gltf_meshopt import MESHOPT_EXTENSIONS, MeshoptError, is_fallback_buffer, meshopt_extension
+from pyrt.io.assets import gltf_meshopt
 from pyrt.io.assets.texture_budget import reduce_texels, reduction_factor
 
 _COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
@@ -52,9 +54,10 @@ do not bound, so a hostile ``count`` would otherwise allocate unbounded memory."
 
 SUPPORTED_EXTENSIONS = {"KHR_lights_punctual", "KHR_texture_transform", "KHR_materials_emissive_strength",
                         "KHR_mesh_quantization", "EXT_mesh_gpu_instancing", DRACO} | MATERIAL_EXTENSIONS \
-    | set(IMAGE_EXTENSIONS)
+    | set(IMAGE_EXTENSIONS) | set(MESHOPT_EXTENSIONS)
 """The extensions pyrt reads. ``KHR_draco_mesh_compression`` needs the optional DracoPy package: a file that
-requires it is refused without it, with the install hint (:class:`GltfFile`)."""
+requires it is refused without it, with the install hint (:class:`GltfFile`). ``EXT_meshopt_compression`` and
+``KHR_meshopt_compression`` are decoded by :mod:`pyrt.io.assets.gltf_meshopt` (pure NumPy)."""
 
 
 def _int(value, what, path, *, lo=0):
@@ -115,11 +118,19 @@ class GltfFile:
         self.substitutions = []
         self._relocated = set()      # files found in another case or folder than their URI names (find_file)
         self.buffers = []
+        #: meshopt fallback buffers (``extensions.<meshopt>.fallback = true``) or placeholders without data: not
+        #: read, only bufferViews that have compressed data refer to them (:meth:`view_bytes`)
+        self.placeholders = set()
+        uses_meshopt = bool(set(self.header.get("extensionsUsed", [])) & set(MESHOPT_EXTENSIONS))
         for i, b in enumerate(self.header.get("buffers", [])):
             if not isinstance(b, dict):
                 raise AssetError(f"{path}: buffer {i} must be an object, got {b!r}")
             claimed = _int(b.get("byteLength", 0), f"buffer {i} byteLength", path)
             uri = b.get("uri")
+            if is_fallback_buffer(b) or (uri is None and uses_meshopt and (glb_bin is None or i > 0)):
+                self.placeholders.add(i)     # a meshopt fallback: the compressed views are decoded instead
+                self.buffers.append(b"")
+                continue
             if uri is None:
                 if glb_bin is None:
                     raise AssetError(f"{path}: buffer {i} has no uri and there is no GLB binary chunk")
@@ -132,6 +143,7 @@ class GltfFile:
             self.buffers.append(blob)
         self._acc_cache = {}
         self._img_cache = {}
+        self._view_cache = {}        # decoded meshopt bufferViews
         #: what the texture budget reduced (one message per image), for the asset's warnings
         self.reductions = []
 
@@ -206,8 +218,18 @@ class GltfFile:
         return arr[i]
 
     def view_bytes(self, vi):
-        """The bytes of bufferView ``vi`` and its ``byteStride`` (None if absent), checked against its buffer."""
+        """The bytes of bufferView ``vi`` and its ``byteStride`` (None if absent), checked against its buffer.
+
+        A view with ``EXT_meshopt_compression`` / ``KHR_meshopt_compression`` data is decoded (once: cached) by
+        :meth:`meshopt_view_bytes` and its own ``buffer`` (a fallback or a placeholder) is not read.
+        """
         bv = self.get("bufferViews", vi)
+        name, ext = meshopt_extension(bv)
+        if name is not None:
+            stride = bv.get("byteStride")
+            if stride is not None:
+                _int(stride, f"bufferView {vi} byteStride", self.path, lo=1)
+            return self.meshopt_view_bytes(vi, bv, name, ext), stride
         buf_i = bv.get("buffer")
         if isinstance(buf_i, bool) or not isinstance(buf_i, int) or not 0 <= buf_i < len(self.buffers):
             raise AssetError(f"{self.path}: bufferView {vi} refers to missing buffer {buf_i!r}")
@@ -216,11 +238,60 @@ class GltfFile:
         stride = bv.get("byteStride")
         if stride is not None:
             _int(stride, f"bufferView {vi} byteStride", self.path, lo=1)
+        if buf_i in self.placeholders:
+            raise AssetError(f"{self.path}: bufferView {vi} has no meshopt-compressed data but its buffer {buf_i} is a "
+                             "meshopt fallback buffer, which is not read")
         buf = self.buffers[buf_i]
         if off + length > len(buf):
             raise AssetError(f"{self.path}: bufferView {vi} (bytes {off}..{off + length}) runs past the end of "
                              f"buffer {buf_i} ({len(buf)} bytes)")
         return buf[off: off + length], stride
+
+    def meshopt_view_bytes(self, vi, bv, name, ext):
+        """The decoded bytes of bufferView ``vi`` (dict ``bv``) from its meshopt extension ``name`` (object
+        ``ext``): :func:`pyrt.io.assets.gltf_meshopt.decode` of the compressed range, cached per bufferView; the
+        view's ``byteLength`` first bytes of the ``count * byteStride`` decoded ones.
+
+        Raises
+        ------
+        AssetError
+            Naming the file and the bufferView: a malformed extension object, a compressed range outside its
+            buffer or in a placeholder buffer, a ``byteLength`` larger than ``count * byteStride``, a malformed
+            stream (the decoder's reason).
+        """
+        if vi in self._view_cache:
+            return self._view_cache[vi]
+        what = f"{self.path}: bufferView {vi} ({name})"
+        if not isinstance(ext, dict):
+            raise AssetError(f"{what}: must be an object, got {ext!r}")
+        try:
+            buf_i = _int(ext.get("buffer"), "buffer", what)
+            off = _int(ext.get("byteOffset", 0), "byteOffset", what)
+            length = _int(ext.get("byteLength"), "byteLength", what)
+            stride = _int(ext.get("byteStride"), "byteStride", what, lo=1)
+            count = _int(ext.get("count"), "count", what)
+        except AssetError as exc:
+            raise AssetError(str(exc).replace(f"{what}: ", f"{what}: extension ")) from None
+        view_len = _int(bv.get("byteLength", 0), f"bufferView {vi} byteLength", self.path)
+        if buf_i >= len(self.buffers):
+            raise AssetError(f"{what}: compressed data in missing buffer {buf_i}")
+        if buf_i in self.placeholders:
+            raise AssetError(f"{what}: compressed data in buffer {buf_i}, a fallback buffer without data")
+        buf = self.buffers[buf_i]
+        if off + length > len(buf):
+            raise AssetError(f"{what}: compressed bytes {off}..{off + length} run past the end of buffer {buf_i} "
+                             f"({len(buf)} bytes)")
+        if view_len > count * stride:
+            raise AssetError(f"{what}: byteLength {view_len} is more than the {count} x {stride} bytes the "
+                             "compressed data decodes to")
+        try:
+            out = gltf_meshopt.decode(buf[off: off + length], count, stride, ext.get("mode"),
+                                      ext.get("filter", "NONE"), name)
+        except MeshoptError as exc:
+            raise AssetError(f"{what}: cannot decode the compressed data: {exc}") from None
+        out = out[:view_len]
+        self._view_cache[vi] = out
+        return out
 
     def accessor(self, ai):
         """Accessor ``ai`` as float64 (count, ncomp) (normalised integers mapped to [0, 1] / [-1, 1])."""

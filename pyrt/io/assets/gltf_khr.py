@@ -56,8 +56,6 @@ IMAGE_EXTENSIONS = ("EXT_texture_webp", "EXT_texture_avif")
 METADATA_EXTENSIONS = {"KHR_xmp", "KHR_xmp_json_ld"}
 #: why pyrt cannot render a file that *requires* these (the message of the refusal)
 REQUIRED_REASONS = {
-    "EXT_meshopt_compression": "meshopt-compressed buffers, which pyrt cannot decode",
-    "KHR_meshopt_compression": "meshopt-compressed buffers, which pyrt cannot decode",
     "KHR_texture_basisu": "KTX2 / Basis Universal textures, which pyrt cannot decode",
 }
 
