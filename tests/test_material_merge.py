@@ -115,3 +115,33 @@ def test_obj_materials_whose_ks_pyrt_scales_are_not_merged(tmp_path):
     assert merge_plan(mats, range(2)) == {}
     mats = load_asset(_obj_parts(tmp_path, [(0.75, 0.1, 0.1), (0.1, 0.75, 0.1)], ks=0.2)).materials
     assert len(merge_plan(mats, range(2))) == 2
+
+
+def test_many_instances_are_joined_per_material_and_render_the_same(tmp_path, monkeypatch):
+    """Models of at least FLATTEN_MIN_INSTANCES instances add one world-space mesh per material (and attribute set):
+    the same image as one scene mesh per instance, mirrored instances (negative scale) included."""
+    from pyrt.io.assets import asset as A
+    rng = np.random.default_rng(1)
+    s = trimesh.Scene()
+    for i in range(70):
+        b = trimesh.creation.icosphere(subdivisions=1, radius=0.08) if i % 2 else trimesh.creation.box(extents=(0.1,) * 3)
+        b.visual = trimesh.visual.TextureVisuals(material=PBRMaterial(
+            baseColorFactor=rng.integers(0, 255, 3).tolist() + [255], metallicFactor=0.0,
+            roughnessFactor=0.7 if i % 3 else 0.5, name=f"m{i}"))
+        t = trimesh.transformations.translation_matrix(rng.uniform(-1, 1, 3) * (1, 0.3, 1) + (0, 0.4, 0))
+        if i % 5 == 0:
+            t = t @ np.diag([-1.0, 1.0, 1.0, 1.0])        # a mirrored instance: its winding must be reversed
+        s.add_geometry(b, node_name=f"n{i}", geom_name=f"g{i}", transform=t)
+    path = str(tmp_path / "many.glb")
+    s.export(path)
+    joined, n_joined = _render(load_asset(path))
+    monkeypatch.setattr(A, "FLATTEN_MIN_INSTANCES", 10 ** 9)
+    separate, n_sep = _render(load_asset(path))
+    assert joined.mean() > 0.01
+    np.testing.assert_allclose(joined, separate, rtol=1e-6, atol=1e-9)     # float32 images: a few ulps (normals)
+    cam = pyrt.Camera(position=(0, 1, 3), target=(0, 0.3, 0), width=8, height=8)
+    scene = pyrt.Scene(cam)
+    monkeypatch.setattr(A, "FLATTEN_MIN_INSTANCES", 64)
+    added = load_asset(path).add_to_scene(scene)
+    assert len(added) == 2                     # two roughnesses, each one joined mesh of its merged material
+    assert "joined" in scene.meshes[added[0]].name
