@@ -34,3 +34,41 @@ class CancelAfter(threading.Event):
     def is_set(self):
         self.checks += 1
         return self.checks > self.k or super().is_set()
+
+
+class CtrlC:
+    """Ctrl-C for a render in the main thread: ``with CtrlC(after): render(...)`` interrupts the main thread after
+    ``after`` seconds and again every ``again`` seconds until the block ends, as a user would press it again.
+
+    One interrupt is what the render must react to. The repeats make the tests that use it independent of when the
+    first one lands: twice in CI's first run of a fresh clone (a machine busy with other work), a single
+    interrupt at 0.3 / 0.5 s was not seen and the render ran to its end; it could not be reproduced in later
+    runs or under load. Python's own SIGINT handler is installed for the block (the previous one restored after).
+    """
+
+    def __init__(self, after, again=0.25):
+        self.after, self.again = after, again
+        self._done = threading.Event()
+        self.sent = 0
+
+    def _run(self):
+        import _thread
+        wait = self.after
+        while not self._done.wait(wait):
+            self.sent += 1
+            _thread.interrupt_main()
+            wait = self.again
+
+    def __enter__(self):
+        import signal
+        self._previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        import signal
+        self._done.set()
+        self._thread.join()
+        signal.signal(signal.SIGINT, self._previous)
+        return False

@@ -348,3 +348,57 @@ def test_gltf_image_and_buffer_in_another_case_are_found_and_named(tmp_path):
     notes = "\n".join(a.substitutions)
     assert "'TEX.png' not found as named; using " in notes and "tex.png (found by its name in another case)" in notes
     assert f"{buf['uri']!r} not found as named; using " in notes and len(a.substitutions) == 2, notes
+
+
+_PLY_HEAD = """ply
+format ascii 1.0
+comment TextureFile {tex}
+element vertex 4
+property float x
+property float y
+property float z
+{vprops}element face 2
+property list uchar int vertex_indices
+{fprops}end_header
+"""
+
+
+@pytest.mark.parametrize("layout", ["vertex_st", "face_texcoord"])
+def test_ply_texture_file_becomes_the_diffuse_colour(tmp_path, layout):
+    """A PLY scan's ``comment TextureFile`` (MeshLab, photogrammetry tools) is its colour, read as an OBJ scan's map_Kd,
+    with the UVs of vertex s t or face texcoord lists; the file is found in another case too."""
+    quad = np.array([[[200, 10, 10], [10, 200, 10]], [[10, 10, 200], [200, 200, 10]]], np.uint8)
+    Image.fromarray(quad).save(tmp_path / "Scan_Texture.png")
+    if layout == "vertex_st":
+        head = _PLY_HEAD.format(tex="scan_texture.png", vprops="property float s\nproperty float t\n", fprops="")
+        body = "0 0 0 0 0\n1 0 0 1 0\n1 1 0 1 1\n0 1 0 0 1\n3 0 1 2\n3 0 2 3\n"
+    else:
+        head = _PLY_HEAD.format(tex="scan_texture.png", vprops="", fprops="property list uchar float texcoord\n")
+        body = "0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2 6 0 0 1 0 1 1\n3 0 2 3 6 0 0 1 1 0 1\n"
+    (tmp_path / "scan.ply").write_text(head + body)
+    a = load_asset(str(tmp_path / "scan.ply"))
+    (m,) = a.meshes
+    assert m.material == 0 and m.uv is not None and m.uv.shape == (4, 2)
+    np.testing.assert_array_equal(a.materials[0].map_Kd.texels[..., :3], quad)
+    np.testing.assert_array_equal(a.materials[0].Kd, [1, 1, 1])
+    assert len(a.substitutions) == 1 and "found by its name in another case" in a.substitutions[0]
+    # rendered, the quad shows its texture's red corner (u, v) = (0, 1): image row 0, column 0
+    cam = pyrt.Camera(position=(0.5, 0.5, 2), target=(0.5, 0.5, 0), fov=40, width=16, height=16, spp=1, jitter=False)
+    scene = pyrt.Scene(cam)
+    a.add_to_scene(scene)
+    scene.add_light(pyrt.DirectionalLight((0, 0, -1), irradiance=3.0))
+    img = pyrt.render(scene, seed=0, progress=False)
+    assert img[4, 4, 0] > 5 * img[4, 4, 1] and img[11, 11, 1] > 5 * img[11, 11, 2]     # red top left, yellow bottom right
+
+
+def test_ply_texture_file_missing_or_without_uvs(tmp_path):
+    head = _PLY_HEAD.format(tex="gone.png", vprops="property float s\nproperty float t\n", fprops="")
+    (tmp_path / "a.ply").write_text(head + "0 0 0 0 0\n1 0 0 1 0\n1 1 0 1 1\n0 1 0 0 1\n3 0 1 2\n3 0 2 3\n")
+    a = load_asset(str(tmp_path / "a.ply"))
+    assert a.meshes[0].material == -1 and a.materials == []
+    assert len(a.substitutions) == 1 and "gone.png; rendered with the clay material" in a.substitutions[0]
+    head = _PLY_HEAD.format(tex="t.png", vprops="", fprops="")
+    Image.fromarray(np.zeros((2, 2, 3), np.uint8)).save(tmp_path / "t.png")
+    (tmp_path / "b.ply").write_text(head + "0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n")
+    b = load_asset(str(tmp_path / "b.ply"))
+    assert b.meshes[0].material == -1 and any("no texture coordinates" in w for w in b.warnings)

@@ -1,6 +1,5 @@
 """Cancelling a render: the ``cancel`` event keeps the finished chunks, a KeyboardInterrupt shuts the thread
 pool down and propagates, and an uninterrupted render is unchanged."""
-import _thread
 import importlib
 import pathlib
 import threading
@@ -10,7 +9,7 @@ import numpy as np
 import pytest
 
 import pyrt
-from render_helpers import CancelAfter
+from render_helpers import CancelAfter, CtrlC
 
 R = importlib.import_module("pyrt.render.pool")   # where the chunks get their integrator class
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -78,14 +77,11 @@ def _pool_threads():
 
 def test_keyboard_interrupt_cancels_pending_chunks_and_shuts_the_pool_down(scene):
     before = len(_pool_threads())
-    timer = threading.Timer(0.3, _thread.interrupt_main)
     sc, _ = pyrt.load_scene(ROOT / "assets/default_scene.toml")   # 640x480: ~100 chunks at 8 spp
     t0 = time.perf_counter()
-    timer.start()
-    with pytest.raises(KeyboardInterrupt):
+    with pytest.raises(KeyboardInterrupt), CtrlC(0.3):
         pyrt.render_full(sc, spp=8, threads=2, progress=False)
     elapsed = time.perf_counter() - t0
-    timer.join()
     assert elapsed < 3.0                                  # not the whole render
     assert len(_pool_threads()) == before                 # no worker left running
 

@@ -1,6 +1,5 @@
 """Renders on forked worker processes (``parallel="processes"``, the default on Linux) give the images of
 threads bit for bit, propagate a worker's error, and leave no process behind (:mod:`pyrt.render.pool`)."""
-import _thread
 import copy
 import multiprocessing
 import os
@@ -15,6 +14,7 @@ import pytest
 import pyrt
 from pyrt.core.errors import RenderError
 from pyrt.render import pool as P
+from render_helpers import CtrlC
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 pytestmark = pytest.mark.skipif("fork" not in multiprocessing.get_all_start_methods(), reason="needs fork")
@@ -131,12 +131,9 @@ def test_cancel_before_the_start_renders_nothing_on_processes(scene):
 
 def test_keyboard_interrupt_leaves_no_worker_process():
     sc, _ = pyrt.load_scene(ROOT / "assets/default_scene.toml")   # 640x480: ~100 chunks at 8 spp
-    timer = threading.Timer(0.5, _thread.interrupt_main)
     t0 = time.perf_counter()
-    timer.start()
-    with pytest.raises(KeyboardInterrupt):
+    with pytest.raises(KeyboardInterrupt), CtrlC(0.5):
         pyrt.render_full(sc, spp=8, threads=2, parallel="processes", progress=False)
-    timer.join()
     assert time.perf_counter() - t0 < 4.0 and _no_children()
 
 

@@ -97,8 +97,8 @@ def load_asset(path, *, max_texture=None):
     path : str or os.PathLike
         The model file.
     max_texture : int, optional
-        glTF images and OBJ colour / normal maps whose longer side exceeds this many texels are reduced by a power of
-        two as they are decoded (:mod:`pyrt.io.assets.texture_budget`: the box filter of pyrt's MIP levels, named in
+        glTF images, OBJ colour / normal maps and PLY textures whose longer side exceeds this many texels are reduced
+        by a power of two as they are decoded (:mod:`pyrt.io.assets.texture_budget`: the box filter of pyrt's MIP levels, named in
         the warnings). None (default): every image whole.
 
     Returns
@@ -125,6 +125,6 @@ def load_asset(path, *, max_texture=None):
         elif fmt == "obj":
             asset = load_obj(path, max_texture)
         else:
-            asset = load_ply_stl(path, fmt)
+            asset = load_ply_stl(path, fmt, max_texture)
     asset.load_time = time.perf_counter() - t0
     return asset

@@ -52,6 +52,15 @@ _MTL_OPTS = {"-blendu": 1, "-blendv": 1, "-bm": 1, "-boost": 1, "-cc": 1, "-clam
              "-mm": 2, "-texres": 1, "-type": 1, "-o": 3, "-s": 3, "-t": 3}
 
 
+def colour_map(fname, base, what, *, warnings, substitutions=None, max_texture=None):
+    """A colour (sRGB) texture read from the file a model names ``fname`` as MTL's ``map_Kd`` is: found by
+    :func:`~pyrt.io.assets.find_file.find_file` from ``base``, reduced to ``max_texture``, grey images as RGB; None
+    when the file does not exist and ``substitutions`` (a list) is given (a message is appended to it), else an
+    :class:`AssetError`. Other formats' texture references (a PLY's ``comment TextureFile``) read it this way."""
+    return _mtl_map([fname], base, what, srgb=True, warnings=warnings, substitutions=substitutions,
+                    max_texture=max_texture)
+
+
 def _mtl_map(tokens, base, what, *, srgb, warnings, normal=False, alpha=False, cache=None, substitutions=None,
              max_texture=None):
     """Parse ``map_* [options] file`` -> texture; a missing file is an AssetError, or, when a ``substitutions``

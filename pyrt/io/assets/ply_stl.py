@@ -6,7 +6,13 @@ PLY triangle strips: a ``tristrips`` element (a list property of vertex indices 
 strip, as the Stanford scanning repository writes them), which trimesh does not read, is read here
 (:func:`read_ply_tristrips`) into triangles when the file has no ``face`` element: triangle ``k`` of a run is
 ``(s_k, s_k+1, s_k+2)`` for even ``k`` and ``(s_k+1, s_k, s_k+2)`` for odd ``k`` (the winding kept, as in OpenGL and
-glTF strips); triangles with a repeated index (strip stitching) are dropped."""
+glTF strips); triangles with a repeated index (strip stitching) are dropped.
+
+PLY textures: a ``comment TextureFile NAME`` header line (what MeshLab and photogrammetry tools write beside
+per-vertex ``s t`` / ``texture_u texture_v`` or per-face ``texcoord`` coordinates, which trimesh reads) names the
+colour image. The mesh then gets the material an OBJ scan gets from ``Kd 1 1 1`` and ``map_Kd NAME``: the image
+as its diffuse colour (sRGB), found and reduced as MTL maps are (:func:`pyrt.io.assets.obj.colour_map`). A missing
+image is a substitution (the clay material); a TextureFile without texture coordinates is a warning."""
 from __future__ import annotations
 
 import os
@@ -14,11 +20,12 @@ import re
 
 import numpy as np
 
-from pyrt.io.assets.common import AssetError, face_colors, trimesh_load, vertex_colors
+from pyrt.io.assets.common import AssetError, MTLParams, face_colors, trimesh_load, vertex_colors
 from pyrt.io.assets.asset import Asset, AssetInstance, AssetMesh
+from pyrt.io.assets.obj import colour_map
 
 
-def load_ply_stl(path, fmt):
+def load_ply_stl(path, fmt, max_texture=None):
     """Load a PLY or STL file (``fmt`` "ply" or "stl") into an :class:`Asset` with one mesh.
 
     Parameters
@@ -27,6 +34,8 @@ def load_ply_stl(path, fmt):
         The model file.
     fmt : {"ply", "stl"}
         Its format (names the format in error messages; PLY normals are read when present).
+    max_texture : int, optional
+        A PLY's texture image longer than this is reduced as it is decoded (:func:`pyrt.io.assets.load_asset`).
 
     Returns
     -------
@@ -42,7 +51,9 @@ def load_ply_stl(path, fmt):
         tm = _strip_mesh(path, *strips)
         asset.warnings.append(f"{path}: triangle strips read ({len(strips[1])} strip(s), {len(tm.faces)} triangles)")
     else:
-        tm = trimesh_load(path, fmt.upper())
+        # skip_materials: trimesh would decode a PLY's TextureFile image itself (a second decode of what is read
+        # here, and a logged traceback when the file is not where the header names it); the UVs are still read
+        tm = trimesh_load(path, fmt.upper(), skip_materials=True)
     if isinstance(tm, trimesh.Scene):
         meshes = [g for g in tm.dump() if isinstance(g, trimesh.Trimesh)] if hasattr(tm, "dump") else []
         tm = trimesh.util.concatenate(meshes) if meshes else None
@@ -62,10 +73,40 @@ def load_ply_stl(path, fmt):
     if f.min() < 0 or f.max() >= len(v):
         raise AssetError(f"{path}: face {int(np.flatnonzero((f < 0).any(1) | (f >= len(v)).any(1))[0])} refers to a "
                          f"vertex that does not exist (indices must be in [0, {len(v)}))")
+    material = -1
+    texture_name = ply_texture_file(path) if fmt == "ply" else None
+    if texture_name is not None and uv is None:
+        asset.warnings.append(f"{path}: comment TextureFile {texture_name!r} but no texture coordinates: the "
+                              "texture is not used")
+    elif texture_name is not None:
+        subst = []
+        tex = colour_map(texture_name, os.path.dirname(os.path.abspath(path)), f"{path}: comment TextureFile",
+                         warnings=asset.warnings, substitutions=subst, max_texture=max_texture)
+        for msg in subst:
+            asset.substitute(msg.replace("rendered with the factor alone", "rendered with the clay material")
+                             if tex is None else msg)
+        if tex is not None:
+            asset.materials = [MTLParams(name=os.path.basename(texture_name), Kd=np.ones(3), map_Kd=tex)]
+            material = 0
     asset.meshes.append(AssetMesh(name=os.path.basename(path), vertices=v, faces=np.asarray(tm.faces, dtype=np.int64),
-                                  normals=normals, uv=uv, colors=colors, face_colors=fcolors, material=-1))
+                                  normals=normals, uv=uv, colors=colors, face_colors=fcolors, material=material))
     asset.instances.append(AssetInstance(mesh=0, world_from_object=np.eye(4), node=os.path.basename(path)))
     return asset
+
+
+def ply_texture_file(path):
+    """The image a PLY header names in its first ``comment TextureFile NAME`` line, or None (no such line, or not a
+    PLY header)."""
+    with open(path, "rb") as fh:
+        head = fh.read(1 << 16)
+    end = head.find(b"end_header")
+    if not head.startswith(b"ply") or end < 0:
+        return None
+    for line in head[:end].decode("latin-1").splitlines():
+        parts = line.strip().split(None, 2)
+        if len(parts) == 3 and parts[0] == "comment" and parts[1].lower() == "texturefile":
+            return parts[2].strip()
+    return None
 
 
 def _check_binary_stl_size(path):
