@@ -1,7 +1,6 @@
 """glTF's pose without animations (pyrt.io.assets.gltf_pose): morph targets at their default weights, skins at their
 joints' transforms. Exact values on generated files: positions are sums of known vectors, joint matrices products of
 known rotations and translations."""
-import json
 import math
 
 import numpy as np
