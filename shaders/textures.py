@@ -444,6 +444,11 @@ def trilinear_plan(shape, n_levels, uv, duvdx, duvdy, wrap="repeat", footprint_s
     the lookups ``idx`` (k,) that read it with weight ``w`` (k, 1) and their bilinear taps on that level
     (:func:`bilinear_taps`).
     """
+    if len(uv) and not np.any(duvdx) and not np.any(duvdy):
+        # no footprint anywhere (shadow-ray crossings, coverage tests, hits without differentials): every lookup is
+        # level 0 with weight 1, the plan the general path builds for it (the same arrays), without its sort
+        n = len(uv)
+        return n, [(0, np.arange(n), np.ones((n, 1))) + bilinear_taps(shape, np.asarray(uv)[np.arange(n)], wrap)]
     lam = mip_level_isotropic(duvdx, duvdy, shape, footprint_scale)
     l0, l1, w1 = trilinear_levels(lam, n_levels)
     order = np.argsort(l0.astype(np.int16), kind="stable")     # levels < 64: a radix sort

@@ -667,3 +667,32 @@ def test_shaders_do_not_import_pyrt():
         with open(os.path.join(root, name)) as f:
             src = f.read()
         assert "import pyrt" not in src and "from pyrt" not in src and "embreex" not in src
+
+
+def test_trilinear_plan_without_footprints_is_level_0_bilinear_bit_for_bit(monkeypatch):
+    """Zero footprints everywhere take trilinear_plan's shortcut (no level selection, no sort): the same values, bit
+    for bit, as the general path gives for footprints far below one texel (level 0 with weight 1), and as a plain
+    bilinear lookup of level 0; coded (uint8) texels through the decode table too."""
+    rng = np.random.default_rng(7)
+    img = rng.random((32, 16, 3)).astype(np.float32)
+    levels = [img] + [K.build_mip_level(img, k) for k in range(1, K.n_mip_levels(img.shape))]
+    uv = rng.uniform(-1.0, 2.0, (500, 2))
+    zero = np.zeros((500, 2))
+    tiny = np.full((500, 2), 1e-9)                      # a footprint of ~3e-8 texels: level 0, general path
+    for wrap in ("repeat", "clamp", "mirror"):
+        fast = K.lookup_trilinear(levels, uv, zero, zero, wrap)
+        general = K.lookup_trilinear(levels, uv, tiny, tiny, wrap)
+        np.testing.assert_array_equal(fast, general)
+        np.testing.assert_array_equal(fast, K.lookup_bilinear(img, uv, wrap))
+    codes = rng.integers(0, 256, (16, 16, 3), dtype=np.uint8)
+    table = np.linspace(0.0, 1.0, 256).astype(np.float32) ** 2
+    lv = [codes] + [K.build_mip_level(table[codes], k) for k in range(1, K.n_mip_levels(codes.shape))]
+    np.testing.assert_array_equal(K.lookup_trilinear(lv, uv, zero, zero, table=table),
+                                  K.lookup_trilinear(lv, uv, tiny, tiny, table=table))
+    n, steps = K.trilinear_plan(img.shape, len(levels), uv[:0], zero[:0], zero[:0])
+    assert n == 0 and steps == []
+
+    def no_level_selection(*a, **k):
+        raise AssertionError("the shortcut selects no level")
+    monkeypatch.setattr(K, "mip_level_isotropic", no_level_selection)
+    np.testing.assert_array_equal(K.lookup_trilinear(levels, uv, zero, zero), K.lookup_bilinear(img, uv))
