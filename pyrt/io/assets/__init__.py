@@ -49,7 +49,11 @@ Conventions
   requires.
 - **Instancing**: a glTF mesh used by several nodes is decoded once; its object-space arrays,
   smooth normals, UVs and materials are shared by the instances. The Embree scene holds one
-  world-space copy per instance (:mod:`pyrt.geometry.accel` has no instancing).
+  world-space copy per instance (:mod:`pyrt.geometry.accel` has no instancing). A model of at least
+  :data:`pyrt.io.assets.asset.FLATTEN_MIN_INSTANCES` (64) instances adds the instances of one material as one
+  world-space scene mesh (the same triangles, fewer scene meshes and Embree geometries).
+- **Materials that differ only in their base colour** (glTF ``baseColorFactor``, MTL ``Kd``) are added as one
+  material, the colour moved into the vertex colours (:mod:`pyrt.io.assets.merge`; ``Asset.merge_materials``).
 - **Normals**: file normals are used as given; meshes without normals get crease-angle smooth
   normals (:func:`crease_normals`, default 30 degrees), welded by position so UV seams and STL
   triangle soups are smoothed too. Meshes without UVs render (UV = 0; textures read one texel).
