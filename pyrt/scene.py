@@ -13,12 +13,12 @@ import numpy as np
 from pyrt.core import checks
 from pyrt.core.camera import Camera
 from pyrt.geometry.normals import crease_normals
-from pyrt.shaders.vec import divide_rows, norm
 from pyrt.geometry.surface import GeometryError, GeometryTable, MeshData, validate_mesh
 from pyrt.lights.base import Light
 from pyrt.lights.mesh import EmissiveMeshLight
 from pyrt.materials import Material
-from pyrt.core.transforms import SceneError, align_vectors, apply_matrix, transform_matrix  # noqa: F401 (public here too)
+from pyrt.core.transforms import (SceneError, align_vectors, apply_matrix,  # noqa: F401 (public here too)
+                                  rewound, transform_matrix, transform_normals)
 
 
 def _rgb(owner, name, v):
@@ -198,11 +198,8 @@ class Scene:
                                 "Embree traces in")
         v_world = v_world.astype(np.float32).astype(np.float64)
         if normals is not None:
-            nm = np.linalg.inv(m[:3, :3]).T
-            normals = apply_matrix(normals, nm)
-            normals = divide_rows(normals, norm(normals))       # bitwise the broadcast np.divide by the norm
-        if np.linalg.det(m[:3, :3]) < 0:
-            faces = faces[:, [0, 2, 1]]    # a mirror turns counter-clockwise into clockwise: keep the front side
+            normals = transform_normals(normals, m)
+        faces = rewound(faces, m)          # a mirror turns counter-clockwise into clockwise: keep the front side
         mat_id = self.add_material(material)
         self.meshes.append(MeshData(vertices=v_world, faces=faces, normals=normals, uv=uv, vertices_object=v_obj,
                                     material_id=mat_id, smooth=normals is not None, name=name, uv_sets=uv_sets or None))

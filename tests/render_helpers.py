@@ -1,4 +1,6 @@
-"""Small helpers shared by the render tests: exact camera rays and ray-plane hits."""
+"""Small helpers shared by the render tests: exact camera rays and ray-plane hits, cancellation, Ctrl-C."""
+import _thread
+import signal
 import threading
 
 import numpy as np
@@ -52,7 +54,6 @@ class CtrlC:
         self.sent = 0
 
     def _run(self):
-        import _thread
         wait = self.after
         while not self._done.wait(wait):
             self.sent += 1
@@ -60,14 +61,12 @@ class CtrlC:
             wait = self.again
 
     def __enter__(self):
-        import signal
         self._previous = signal.signal(signal.SIGINT, signal.default_int_handler)
         self._thread = threading.Thread(target=self._run, daemon=True)
         self._thread.start()
         return self
 
     def __exit__(self, *exc):
-        import signal
         self._done.set()
         self._thread.join()
         signal.signal(signal.SIGINT, self._previous)

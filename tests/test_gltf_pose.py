@@ -151,7 +151,7 @@ def test_skin_mirrors_flip_the_winding_and_normals_follow_the_inverse_transpose(
     p, n_out, f = skin(pos, nrm, faces, np.ones((3, 1)), np.ones((3, 1)), jm, "test", [])
     np.testing.assert_allclose(p, pos * [-1, 1, 1], atol=0)
     np.testing.assert_allclose(n_out, nrm, atol=0)       # a mirror in x keeps the z normal
-    np.testing.assert_array_equal(f, [[2, 1, 0]])        # and reverses the winding
+    np.testing.assert_array_equal(f, [[0, 2, 1]])        # and reverses the winding
 
 
 def test_unweighted_vertices_stay_and_are_named():

@@ -176,9 +176,9 @@ class PyrtRunner:
 
     def embree_floor(self, seed, spp=None, target_error=None, repeats=3):
         """Embree alone on the rays of one pyrt render (fixed ``spp``, or adaptive to ``target_error``), recorded
-        and replayed through the same binding and thread pool (tools/bench.py): ``(median seconds over
-        ``repeats`` replays, rays, relMSE-free info)``. No shading, no film, no Python between queries: what the
-        render would cost if everything but the ray queries were free."""
+        and replayed through the same binding and thread pool (tools/bench.py): ``(median seconds of ``repeats``
+        replays, number of rays)``. No shading, no film, no Python between queries: what the render would cost if
+        everything but the ray queries were free."""
         kw = dict(seed=seed, prepared=self.prepared, progress=False, record_rays=True, **ms.PYRT_OPTIONS)
         if target_error is None:
             res = pyrt.render_full(self.scene, spp=spp, **kw)

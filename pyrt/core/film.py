@@ -76,7 +76,8 @@ class Film:
             bad = int(rows.sum())
             L[rows] = 0.0
             self.nonfinite_samples += bad
-        # a pixel's S samples summed in order: einsum gives the same bits as .sum(axis=1) at 1/4 of the time
+        # a pixel's S samples summed in order: einsum gives the same bits as .sum(axis=1) (a one-off timing of
+        # 512 pixels x 64 samples: 0.14 ms against 0.56 ms)
         block = L if S == 1 else np.einsum("psc->pc", L.reshape(n, S, 3))
         self.sum[lo:hi] += block
         self.weight[lo:hi] += S

@@ -12,6 +12,7 @@ import numpy as np
 
 from pyrt.core.checks import numbers_array
 from pyrt.core.errors import Error
+from pyrt.shaders.vec import divide_rows, norm
 
 
 class SceneError(Error, ValueError):
@@ -158,3 +159,19 @@ def apply_matrix(points, matrix):
             np.subtract(0.0, v[:, j], out=out[:, k])
         out[:, k] += t[k]
     return out
+
+
+def transform_normals(normals, matrix):
+    """Unit normals (N, 3) carried by ``matrix`` ((4, 4) or (3, 3)): the inverse transpose of its linear part, then
+    renormalised (zero rows stay zero; bitwise ``np.divide`` by the length). How :meth:`pyrt.Scene.add_mesh` moves a
+    mesh's vertex normals to the world."""
+    m = np.asarray(matrix, dtype=np.float64)
+    out = apply_matrix(normals, np.linalg.inv(m[:3, :3]).T)
+    return divide_rows(out, norm(out))
+
+
+def rewound(faces, matrix):
+    """``faces`` (F, 3), re-wound ``[0, 2, 1]`` when ``matrix`` mirrors (negative determinant of its linear part), so
+    that a face keeps facing the side its normals do (glTF's rule; :meth:`pyrt.Scene.add_mesh`)."""
+    m = np.asarray(matrix, dtype=np.float64)
+    return faces[:, [0, 2, 1]] if np.linalg.det(m[:3, :3]) < 0 else faces

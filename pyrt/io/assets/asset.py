@@ -11,7 +11,7 @@ import time
 import numpy as np
 
 from pyrt.core.camera import Camera
-from pyrt.core.transforms import apply_matrix
+from pyrt.core.transforms import apply_matrix, rewound, transform_normals
 from pyrt.geometry.normals import crease_normals
 from pyrt.lights import DirectionalLight, PointLight, SpotLight
 from pyrt.io.assets.common import DEFAULT_CREASE_ANGLE, AssetError, DefaultParams, PBRParams
@@ -297,15 +297,11 @@ def _flattened(parts):
             out += members
             continue
         verts, faces, normals, n = [], [], [], 0
-        for _key, p in members:
+        for _key, p in members:        # each part moved to the world as Scene.add_mesh would move it
             v, f = p.geometry
-            lin = p.matrix[:3, :3]
             verts.append(apply_matrix(v, p.matrix))
-            nw = apply_matrix(p.normals, np.linalg.inv(lin).T)
-            ln = np.linalg.norm(nw, axis=1, keepdims=True)
-            normals.append(np.divide(nw, ln, out=np.zeros_like(nw), where=ln > 0))
-            f = np.asarray(f, dtype=np.int64)
-            faces.append((f[:, ::-1] if np.linalg.det(lin) < 0 else f) + n)
+            normals.append(transform_normals(p.normals, p.matrix))
+            faces.append(rewound(np.asarray(f, dtype=np.int64), p.matrix) + n)
             n += v.shape[0]
 
         def cat(get):

@@ -31,6 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from pyrt.io.assets.common import AssetError
+from pyrt.shaders.vec import divide_rows, norm
 
 __all__ = ["default_weights", "morph", "all_node_transforms", "joint_matrices", "skin"]
 
@@ -71,8 +72,7 @@ def morph(g, targets, weights, pos, normals, where):
                                  f"{out.shape[0]} vertices")
             out += w * d
     if nrm is not None:
-        ln = np.linalg.norm(nrm, axis=1, keepdims=True)
-        nrm = np.divide(nrm, ln, out=np.zeros_like(nrm), where=ln > 0)
+        nrm = divide_rows(nrm, norm(nrm))
     return pos, nrm
 
 
@@ -157,10 +157,9 @@ def skin(pos, normals, faces, joints, weights, jm, where, warnings):
         cof = np.stack([np.cross(A[:, :, 1], A[:, :, 2]), np.cross(A[:, :, 2], A[:, :, 0]),
                         np.cross(A[:, :, 0], A[:, :, 1])], axis=2)
         nrm = np.einsum("vij,vj->vi", cof, normals) * np.where(det < 0, -1.0, 1.0)[:, None]
-        ln = np.linalg.norm(nrm, axis=1, keepdims=True)
-        nrm = np.divide(nrm, ln, out=np.zeros_like(nrm), where=ln > 0)
+        nrm = divide_rows(nrm, norm(nrm))
     flip = det[faces[:, 0]] < 0
     if np.any(flip):
         faces = faces.copy()
-        faces[flip] = faces[flip][:, ::-1]
+        faces[flip] = faces[flip][:, [0, 2, 1]]         # as pyrt.core.transforms.rewound
     return out, nrm, faces
