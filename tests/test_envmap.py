@@ -416,3 +416,48 @@ def test_bilinear_map_samples_follow_its_bilinear_luminance():
     u = np.column_stack([np.full(500, 0.3), np.sort(rng.random(500))])
     rows = KB.distribution2d_sample_cells(table.dist, u)[0]
     assert np.all(np.diff(rows) >= 0)
+
+
+def _binary_search_cells(cdf, shifted, rows, u):
+    """The search the guide tables replace: one binary search of the shifted CDF rows (the reference)."""
+    n_cells = cdf.shape[1] - 1
+    pos = np.searchsorted(shifted, u + rows, side="right") - 1
+    return np.clip(pos - rows * (n_cells + 1), 0, n_cells - 1)
+
+
+@pytest.mark.parametrize("kind", ["sun", "plateaus", "sparse", "one_cell", "one_column"])
+def test_guide_table_search_finds_the_binary_search_cells(kind):
+    """shaders.distribution's guide tables (Chen & Asau cutpoints, then a few steps, then a binary search for the
+    lanes left) pick exactly the cells of a binary search of the CDF, bucket edges, CDF values and 1 - ulp included."""
+    from pyrt.shaders import distribution as D
+    rng = np.random.default_rng(7)
+    shape = {"one_cell": (1, 1), "one_column": (5, 1)}.get(kind, (96, 200))
+    f = rng.random(shape)
+    if kind == "sun":                       # one row holds the mass, its other cells a bucket of many dim ones
+        f *= 0.01
+        f[40, 100] = 1e6
+    elif kind == "plateaus":
+        f[10:20] = 0.0
+        f[:, 5:9] = 0.0
+    elif kind == "sparse":
+        f *= rng.random(shape) < 0.05
+    dist = D.distribution2d_build(f)
+    h, w = f.shape
+    n = 40000
+    u = rng.random((n, 2))
+    u[:500] = np.nextafter(1.0, 0.0)
+    u[500:1000] = 0.0
+    u[1000:2000, 0] = rng.integers(0, w, 1000) / w                              # bucket edges
+    u[2000:3000, 0] = np.nextafter(rng.integers(1, w + 1, 1000) / w, 0.0)       # just below them
+    u[3000:4000, 1] = np.nextafter(rng.integers(1, h + 1, 1000) / h, 0.0)
+    rows_ref = _binary_search_cells(dist.cdf_marg[None, :], dist.cdf_marg, np.zeros(n, dtype=np.int64), u[:, 1])
+    row, _ = D._sample_cdf_rows(dist.cdf_marg[None, :], np.zeros(n, dtype=np.int64), u[:, 1], dist.cdf_marg,
+                                dist.guide_marg)
+    np.testing.assert_array_equal(row, rows_ref)
+    col, _ = D._sample_cdf_rows(dist.cdf_cond, row, u[:, 0], dist.cdf_shifted, dist.guide_cond)
+    np.testing.assert_array_equal(col, _binary_search_cells(dist.cdf_cond, dist.cdf_shifted, row, u[:, 0]))
+    # u exactly at CDF values (plateaus: the last of equal values)
+    r = rng.integers(0, h, n)
+    uc = np.minimum(dist.cdf_cond[r, rng.integers(0, w + 1, n)], np.nextafter(1.0, 0.0))
+    np.testing.assert_array_equal(D._sample_cdf_rows(dist.cdf_cond, r, uc, dist.cdf_shifted, dist.guide_cond)[0],
+                                  _binary_search_cells(dist.cdf_cond, dist.cdf_shifted, r, uc))

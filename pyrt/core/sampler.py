@@ -85,49 +85,62 @@ def strata_points(rng, n, s):
 # into passes. Hash-based nested uniform scrambling after Burley, "Practical Hash-based Owen Scrambling"
 # (JCGT 2020): written here from the paper's description.
 
-_M32 = np.uint64(0xFFFFFFFF)
+_U32 = np.uint32
 #: direction numbers of Sobol's second dimension (the Pascal matrix mod 2): v_0 = 2^31, v_k+1 = v_k ^ (v_k >> 1)
 _SOBOL1 = [1 << 31]
 for _ in range(31):
     _SOBOL1.append(_SOBOL1[-1] ^ (_SOBOL1[-1] >> 1))
 
+# The hashes below are 32-bit arithmetic on uint32 arrays: NumPy's array operations wrap modulo 2^32 as the
+# algorithms ask (products, sums), so no masking is needed and the arrays are half as wide as uint64 ones. Scalar
+# operands are np.uint32 (a Python int would promote the array). Every caller passes arrays, never 0-d values:
+# NumPy warns about wrapping scalar arithmetic.
+
 
 def _byte_tables():
-    """(256,) uint64: each byte bit-reversed."""
-    b = np.arange(256, dtype=np.uint64)
-    rev = np.zeros(256, dtype=np.uint64)
+    """(256,) uint32: each byte bit-reversed."""
+    b = np.arange(256, dtype=_U32)
+    rev = np.zeros(256, dtype=_U32)
     for k in range(8):
-        rev |= ((b >> np.uint64(k)) & np.uint64(1)) << np.uint64(7 - k)
+        rev |= ((b >> _U32(k)) & _U32(1)) << _U32(7 - k)
     return rev
 
 
 _REV8 = _byte_tables()
-_REV16 = (_REV8[np.arange(65536) & 0xFF] << np.uint64(8)) | _REV8[np.arange(65536) >> 8]
+_REV16 = (_REV8[np.arange(65536) & 0xFF] << _U32(8)) | _REV8[np.arange(65536) >> 8]
 _SOBOL1_BYTES = []     # per byte position p of the index: (256,) the XOR of _SOBOL1[8p + k] over its set bits k
 for _p in range(4):
-    _t = np.zeros(256, dtype=np.uint64)
+    _t = np.zeros(256, dtype=_U32)
     for _k in range(8):
-        _t ^= np.where((np.arange(256) >> _k) & 1, np.uint64(_SOBOL1[8 * _p + _k]), np.uint64(0))
+        _t ^= np.where((np.arange(256) >> _k) & 1, _U32(_SOBOL1[8 * _p + _k]), _U32(0))
     _SOBOL1_BYTES.append(_t)
 
 
 def _reverse_bits32(x):
-    """Bit reversal of uint32 values held in a uint64 array (two lookups in a 16-bit table)."""
-    return (_REV16[x & np.uint64(0xFFFF)] << np.uint64(16)) | _REV16[(x >> np.uint64(16)) & np.uint64(0xFFFF)]
+    """Bit reversal of uint32 values (two lookups in a 16-bit table)."""
+    return (_REV16[x & _U32(0xFFFF)] << _U32(16)) | _REV16[x >> _U32(16)]
+
+
+def _u32(x):
+    """Integers (any integer dtype, negative ones too) as uint32 arrays: their value modulo 2^32."""
+    return np.asarray(x).astype(_U32)
 
 
 def hash32(*keys):
-    """A 32-bit hash of integer arrays (broadcast; uint64 array of values < 2^32): combines the keys with a
-    murmur3-style finaliser, for per-pixel scrambling seeds."""
-    h = np.uint64(0x9E3779B9)
-    for k in keys:
-        h = (np.asarray(k).astype(np.uint64) & _M32) ^ ((h * np.uint64(0x85EBCA6B)) & _M32)
-        h = h ^ (h >> np.uint64(16))
-        h = (h * np.uint64(0x7FEB352D)) & _M32
-        h = h ^ (h >> np.uint64(15))
-        h = (h * np.uint64(0x846CA68B)) & _M32
-        h = h ^ (h >> np.uint64(16))
-    return h
+    """A 32-bit hash of integer arrays (broadcast; a uint32 array of their broadcast shape): combines the keys (each
+    taken modulo 2^32) with a murmur3-style finaliser, for per-pixel scrambling seeds."""
+    shape = np.broadcast_shapes(*(np.shape(k) for k in keys))
+    h = np.full(max(1, math.prod(shape)), (0x9E3779B9 * 0x85EBCA6B) & 0xFFFFFFFF, dtype=_U32)  # state x multiplier
+    for j, k in enumerate(keys):
+        if j:
+            h = h * _U32(0x85EBCA6B)
+        h = np.broadcast_to(_u32(k), shape).reshape(-1) ^ h
+        h = h ^ (h >> _U32(16))
+        h = h * _U32(0x7FEB352D)
+        h = h ^ (h >> _U32(15))
+        h = h * _U32(0x846CA68B)
+        h = h ^ (h >> _U32(16))
+    return h.reshape(shape)
 
 
 def _owen(x, seed):
@@ -138,11 +151,11 @@ def _owen(x, seed):
 
 def _laine_karras(x, seed):
     """Burley's Laine-Karras-style permutation of 32-bit values (each bit flipped by a hash of the bits below)."""
-    x = x ^ ((x * np.uint64(0x3D20ADEA)) & _M32)
-    x = (x + seed) & _M32
-    x = (x * ((seed >> np.uint64(16)) | np.uint64(1))) & _M32
-    x = x ^ ((x * np.uint64(0x05526C56)) & _M32)
-    return x ^ ((x * np.uint64(0x53A22864)) & _M32)
+    x = x ^ (x * _U32(0x3D20ADEA))
+    x = x + seed
+    x = x * ((seed >> _U32(16)) | _U32(1))
+    x = x ^ (x * _U32(0x05526C56))
+    return x ^ (x * _U32(0x53A22864))
 
 
 def sobol_owen_2d(index, seed):
@@ -152,19 +165,20 @@ def sobol_owen_2d(index, seed):
     Each point is uniform on the square; the points ``0 .. 2^m - 1`` (and any aligned block of ``2^m``) of one
     sequence have exactly one point in each of the ``2^m`` elementary intervals ``2^-a x 2^-(m-a)``.
     """
-    i = np.asarray(index).astype(np.uint64)
-    seed = np.asarray(seed).astype(np.uint64) & _M32
-    m = np.uint64(0xFF)
+    i = _u32(index)
+    seed = _u32(seed)
+    m = _U32(0xFF)
     y = _SOBOL1_BYTES[0][i & m]       # the XOR of the direction numbers of the index's set bits, a byte at a time
     for p in (1, 2, 3):
-        hi = i >> np.uint64(8 * p)
+        hi = i >> _U32(8 * p)
         if hi.any():
             y = y ^ _SOBOL1_BYTES[p][hi & m]
     sx = _reverse_bits32(_laine_karras(i, hash32(seed, 0x68E31DA4)))    # _owen(x): x is i bit-reversed
     sy = _owen(y, hash32(seed, 0xB5297A4D))
     u = np.empty((i.shape[0], 2))
-    u[:, 0] = sx.astype(np.float64) * 2.0 ** -32
-    u[:, 1] = sy.astype(np.float64) * 2.0 ** -32
+    u[:, 0] = sx
+    u[:, 1] = sy
+    u *= 2.0 ** -32
     return u
 
 
@@ -176,9 +190,6 @@ def sobol_owen_2d(index, seed):
 # sample j of the pixel reads point pi_d(j) of an Owen-scrambled Sobol' (0,2)-sequence of its own. Each point is
 # uniform on the square (unbiased); the spp points of one pixel and dimension are one stratified set.
 
-def _u32(x):
-    return np.asarray(x).astype(np.uint64) & _M32
-
 
 def permutation_element(i, n, seed):
     """Element ``i`` of a pseudo-random permutation of ``[0, n)`` chosen by ``seed`` (arrays broadcast; int64).
@@ -188,42 +199,41 @@ def permutation_element(i, n, seed):
     rotated by the seed. Computed per element, so a pixel's samples need not be drawn together.
     """
     i, n, p = np.broadcast_arrays(_u32(i), _u32(n), _u32(seed))
-    i, n, p = i.copy(), n, p
-    w = n - np.uint64(1)
+    w = n - _U32(1)
     for s in (1, 2, 4, 8, 16):
-        w |= w >> np.uint64(s)
-    out = np.empty_like(i)
+        w = w | (w >> _U32(s))
+    out = np.empty(i.shape, dtype=np.int64)
     todo = np.arange(i.size)
-    x, ww, pp, nn = i.ravel(), w.ravel(), p.ravel(), n.ravel()
+    x, ww, pp, nn = i.ravel().copy(), w.ravel(), p.ravel(), n.ravel()
     res = out.ravel()
     while todo.size:
         v, wk, pk = x[todo], ww[todo], pp[todo]
-
-        def mul(a, c):
-            return (a * np.uint64(c)) & _M32
         v = v ^ pk
-        v = mul(v, 0xE170893D)
-        v = v ^ (pk >> np.uint64(16))
-        v = v ^ ((v & wk) >> np.uint64(4))
-        v = v ^ (pk >> np.uint64(8))
-        v = mul(v, 0x0929EB3F)
-        v = v ^ (pk >> np.uint64(23))
-        v = v ^ ((v & wk) >> np.uint64(1))
-        v = (v * (np.uint64(1) | (pk >> np.uint64(27)))) & _M32
-        v = mul(v, 0x6935FA69)
-        v = v ^ ((v & wk) >> np.uint64(11))
-        v = mul(v, 0x74DCB303)
-        v = v ^ ((v & wk) >> np.uint64(2))
-        v = mul(v, 0x9E501CC3)
-        v = v ^ ((v & wk) >> np.uint64(2))
-        v = mul(v, 0xC860A3DF)
+        v = v * _U32(0xE170893D)
+        v = v ^ (pk >> _U32(16))
+        v = v ^ ((v & wk) >> _U32(4))
+        v = v ^ (pk >> _U32(8))
+        v = v * _U32(0x0929EB3F)
+        v = v ^ (pk >> _U32(23))
+        v = v ^ ((v & wk) >> _U32(1))
+        v = v * (_U32(1) | (pk >> _U32(27)))
+        v = v * _U32(0x6935FA69)
+        v = v ^ ((v & wk) >> _U32(11))
+        v = v * _U32(0x74DCB303)
+        v = v ^ ((v & wk) >> _U32(2))
+        v = v * _U32(0x9E501CC3)
+        v = v ^ ((v & wk) >> _U32(2))
+        v = v * _U32(0xC860A3DF)
         v = v & wk
-        v = v ^ (v >> np.uint64(5))
-        done = v < nn[todo]
-        res[todo[done]] = (v[done] + pk[done]) % nn[todo[done]]
+        v = v ^ (v >> _U32(5))
+        nk = nn[todo]
+        done = v < nk
+        dn = todo[done]
+        # the rotation by the seed in 64 bits: v + p may pass 2^32
+        res[dn] = (v[done].astype(np.int64) + pk[done].astype(np.int64)) % nk[done].astype(np.int64)
         x[todo[~done]] = v[~done]
         todo = todo[~done]
-    return out.reshape(i.shape).astype(np.int64)
+    return out
 
 
 def padded_sobol_2d(index, n, key, dim):
