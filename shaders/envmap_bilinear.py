@@ -76,23 +76,26 @@ def sample_linear(u, a, b):
     return np.clip(x, 0.0, np.nextafter(1.0, 0.0))
 
 
-def _bilinear(table, k, i, s, t):
-    """The corner luminances of cells ``(k, i)`` blended at ``(s, t)`` (u along s, v along t)."""
-    return ((1.0 - s) * (1.0 - t) * table.a[k, i] + s * (1.0 - t) * table.b[k, i]
-            + (1.0 - s) * t * table.c[k, i] + s * t * table.d[k, i])
+def _corners(table, k, i):
+    """The corner luminances ``(a, b, c, d)`` (each (N,)) of cells ``(k, i)``, gathered once (flat indices)."""
+    f = k * table.a.shape[1] + i
+    return f, np.take(table.a, f), np.take(table.b, f), np.take(table.c, f), np.take(table.d, f)
 
 
-def _density_uv(table, k, i, s, t):
+def _density_uv(table, k, i, s, t, corners=None):
     """Density (N,) per unit area of ``[0, 1)^2`` at ``(s, t)`` of cells ``(k, i)``: the cell's probability over its
-    area, times the bilinear luminance over the cell's mean (1 for the uniform fallback of an all-zero map)."""
+    area, times the bilinear luminance over the cell's mean (1 for the uniform fallback of an all-zero map).
+    ``corners``: :func:`_corners` of the cells, if at hand."""
     dist = table.dist
     rows = dist.func.shape[0]
     area_scale = rows * (table.v1[k] - table.v0[k])
     if dist.integral <= 0:
         return 1.0 / area_scale
-    mean = 0.25 * (table.a[k, i] + table.b[k, i] + table.c[k, i] + table.d[k, i])
-    ratio = np.divide(_bilinear(table, k, i, s, t), mean, out=np.zeros_like(mean), where=mean > 0)
-    return dist.func[k, i] / dist.integral / area_scale * ratio
+    f, a, b, c, d = corners if corners is not None else _corners(table, k, i)
+    mean = 0.25 * (a + b + c + d)
+    bilinear = (1.0 - s) * (1.0 - t) * a + s * (1.0 - t) * b + (1.0 - s) * t * c + s * t * d
+    ratio = np.divide(bilinear, mean, out=np.zeros_like(mean), where=mean > 0)
+    return np.take(dist.func, f) / dist.integral / area_scale * ratio
 
 
 def sample(table, u):
@@ -100,10 +103,12 @@ def sample(table, u):
     ``u[:, 1]`` picks the row (stratifying it stratifies latitude), ``u[:, 0]`` the column; the in-cell offsets
     are warped to the bilinear density."""
     k, i, fu, fv, _ = distribution2d_sample_cells(table.dist, u)
+    corners = None
     if table.dist.integral > 0:
-        t = sample_linear(fv, table.a[k, i] + table.b[k, i], table.c[k, i] + table.d[k, i])
-        s = sample_linear(fu, (1.0 - t) * table.a[k, i] + t * table.c[k, i],
-                          (1.0 - t) * table.b[k, i] + t * table.d[k, i])
+        corners = _corners(table, k, i)
+        _, a, b, c, d = corners
+        t = sample_linear(fv, a + b, c + d)
+        s = sample_linear(fu, (1.0 - t) * a + t * c, (1.0 - t) * b + t * d)
     else:
         s, t = fu, fv
     w = table.dist.func.shape[1]
@@ -112,7 +117,7 @@ def sample(table, u):
     v = table.v0[k] + t * (table.v1[k] - table.v0[k])
     d = latlong_uv_to_dir(np.stack([uu, v], axis=1))
     st = np.sin(np.pi * v)
-    p = _density_uv(table, k, i, s, t)
+    p = _density_uv(table, k, i, s, t, corners)
     return d, np.divide(p * _INV_2PI2, st, out=np.zeros_like(st), where=st > 0)
 
 

@@ -97,17 +97,6 @@ for _ in range(31):
 # NumPy warns about wrapping scalar arithmetic.
 
 
-def _byte_tables():
-    """(256,) uint32: each byte bit-reversed."""
-    b = np.arange(256, dtype=_U32)
-    rev = np.zeros(256, dtype=_U32)
-    for k in range(8):
-        rev |= ((b >> _U32(k)) & _U32(1)) << _U32(7 - k)
-    return rev
-
-
-_REV8 = _byte_tables()
-_REV16 = (_REV8[np.arange(65536) & 0xFF] << _U32(8)) | _REV8[np.arange(65536) >> 8]
 _SOBOL1_BYTES = []     # per byte position p of the index: (256,) the XOR of _SOBOL1[8p + k] over its set bits k
 for _p in range(4):
     _t = np.zeros(256, dtype=_U32)
@@ -117,8 +106,13 @@ for _p in range(4):
 
 
 def _reverse_bits32(x):
-    """Bit reversal of uint32 values (two lookups in a 16-bit table)."""
-    return (_REV16[x & _U32(0xFFFF)] << _U32(16)) | _REV16[x >> _U32(16)]
+    """Bit reversal of uint32 values: adjacent bits, pairs, nibbles, bytes and halves swapped (~1.5x faster than
+    two lookups in a 16-bit table, which miss the cache)."""
+    x = ((x >> _U32(1)) & _U32(0x55555555)) | ((x & _U32(0x55555555)) << _U32(1))
+    x = ((x >> _U32(2)) & _U32(0x33333333)) | ((x & _U32(0x33333333)) << _U32(2))
+    x = ((x >> _U32(4)) & _U32(0x0F0F0F0F)) | ((x & _U32(0x0F0F0F0F)) << _U32(4))
+    x = ((x >> _U32(8)) & _U32(0x00FF00FF)) | ((x & _U32(0x00FF00FF)) << _U32(8))
+    return (x >> _U32(16)) | (x << _U32(16))
 
 
 def _u32(x):
