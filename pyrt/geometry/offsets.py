@@ -404,8 +404,9 @@ class Strategy:
     def shadow(self, surf, wi, dist, end=None):
         """Shadow rays toward a light at distance ``dist`` (N,) (``inf``: directional) along unit ``wi``.
 
-        ``end`` (3,), optional: the light's position when all the rays end at one point (punctual lights);
-        otherwise the end points are ``p + wi dist``.
+        ``end`` (3,), optional: the light's position when all the rays end at one point (punctual lights), or
+        (N, 3) each ray's end point (the rays of several lights in one query); otherwise the end points are
+        ``p + wi dist``.
         Returns ``(origins (N, 3) float64 or float32, tmax (N,) float64)``, tmax in units of |wi| from the
         origin (float32 origins are exactly the float32 rays Embree will trace).
 
@@ -448,7 +449,9 @@ class Strategy:
             if end is None:
                 end = surf.p[f] + wi[f] * dist[f, None]       # the light's point (float64)
             else:
-                end = np.asarray(end, dtype=np.float64)           # (3,): one point for every ray
+                end = np.asarray(end, dtype=np.float64)           # (3,): one point for every ray, or (N, 3)
+                if end.ndim == 2:
+                    end = end[f]
             o, w = origins[f], wi[f]
             if self.tmax == "robust":
                 tmax[f] = robust_tmax(o, w, end, None if o_mag is None else o_mag[f])

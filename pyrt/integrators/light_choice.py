@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pyrt.integrators import direct
 from pyrt.shaders.vec import max_component, put_rows, take_rows
 
 
@@ -35,9 +36,9 @@ def one_light_estimate(lights, surf, bsdf, visible, rng, choose=None):
     elsewhere.
 
     The directions, distances and irradiances (divided by the choice's probability) are gathered into
-    batches of distinct hits: the chosen hits and the first light of the others in one BSDF query and one
-    shadow-ray query, then one more per further light for the others only (the cost of light sampling is
-    mostly per query, not per ray).
+    batches of distinct hits: the chosen hits and the first light of the others in one BSDF query, then one more
+    per further light for the others only; the shadow rays of all batches go in one query
+    (:func:`pyrt.integrators.direct.shadow_queries`; the cost of light sampling is mostly per query, not per ray).
 
     Parameters
     ----------
@@ -72,6 +73,7 @@ def one_light_estimate(lights, surf, bsdf, visible, rng, choose=None):
     chosen = np.flatnonzero(choose & (total > 0))
     chosen = chosen[w[pick[chosen], chosen] > 0]
     others = np.flatnonzero(~choose)
+    parts, queries = [], []
     for r in range(len(lights)):
         rest = others[w[r, others] > 0]
         rows = np.concatenate([chosen, rest]) if r == 0 else rest
@@ -96,8 +98,10 @@ def one_light_estimate(lights, surf, bsdf, visible, rng, choose=None):
         if keep.size == 0:
             continue
         idx, wi, dist, f, E = rows[keep], take_rows(wi, keep), dist[keep], take_rows(f, keep), take_rows(E, keep)
-        vis = visible(idx, wi, dist)                     # end points p + wi dist (lights of several positions)
-        val = f * E
+        parts.append((idx, f * E))
+        queries.append((idx, wi, dist, None))            # end points p + wi dist (lights of several positions)
+    # every batch's shadow rays in one query (direct.shadow_queries), added in batch order as before
+    for (idx, val), vis in zip(parts, direct.shadow_queries(visible, surf, queries) if queries else []):
         if vis.ndim == 1:
             val[~vis] = 0.0
         else:
