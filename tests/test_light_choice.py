@@ -87,3 +87,45 @@ def test_preview_options_check_the_speed_switches(field, bad):
     PreviewOptions(**{field: None if field != "dielectric_chunk_samples" else 4096}).validate()
     with pytest.raises(PreviewError, match=field):
         PreviewOptions(**{field: bad}).validate()
+
+
+def _light_by_light(lights, surf, bsdf, visible, rng):
+    """direct.estimate as it was before the delta lights shared a shadow query: one query per light."""
+    from pyrt.integrators import direct
+    L = np.zeros((surf.n_hits, 3))
+    for light in lights:
+        if light.environment is None and light.n_samples == 1 and not light.bsdf_samples:
+            direct.light_sampling_estimate(light, surf, bsdf, visible, rng, out=L)
+        else:
+            L += direct.estimate_light(light, surf, bsdf, visible, rng)
+    return L
+
+
+@pytest.mark.parametrize("transparent", [False, True])
+@pytest.mark.parametrize("select", [None, 0])
+def test_delta_lights_in_one_shadow_query_give_the_light_by_light_image(monkeypatch, transparent, select):
+    """direct.shadow_queries: the delta lights' shadow rays traced in one query (and, with light selection, the
+    per-light batches of the hits that keep every light) give bit for bit what one query per light gives, through
+    glass with transparent shadows too (per-ray end points of the point and spot lights, infinite directional ones)."""
+    from pyrt.integrators import direct
+    scene = _scene()
+    scene.add_sphere((-0.2, 1.2, 0.6), 0.25, pyrt.Glass(ior=1.5), name="glass")   # shadows through glass
+    o, d = _rays(scene)
+    ps = PreparedScene(scene)
+    kw = dict(transparent_shadows=transparent, light_select_depth=select)
+    try:
+        fused, _ = _render(ps, GlossyIntegrator, o, d, 50, **kw)
+        monkeypatch.setattr(direct, "estimate", _light_by_light)
+        calls = []
+        real = direct.shadow_queries
+
+        def one_by_one(visible, surf, queries):
+            calls.append(len(queries))
+            return [real(visible, surf, [q])[0] for q in queries]
+        monkeypatch.setattr(direct, "shadow_queries", one_by_one)
+        single, _ = _render(ps, GlossyIntegrator, o, d, 50, **kw)
+    finally:
+        ps.close()
+    assert np.array_equal(fused, single) and fused.max() > 0
+    if select is not None:
+        assert max(calls) > 1     # the per-light batches were really several queries
