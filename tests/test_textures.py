@@ -696,3 +696,35 @@ def test_trilinear_plan_without_footprints_is_level_0_bilinear_bit_for_bit(monke
         raise AssertionError("the shortcut selects no level")
     monkeypatch.setattr(K, "mip_level_isotropic", no_level_selection)
     np.testing.assert_array_equal(K.lookup_trilinear(levels, uv, zero, zero), K.lookup_bilinear(img, uv))
+
+
+@pytest.mark.parametrize("filt", ["nearest", "bilinear", "bicubic", "trilinear", "anisotropic"])
+def test_constant_channels_skip_the_lookup_and_give_its_value(filt):
+    """A channel that is the same in every texel (MipPyramid.constant_channels) is returned without a lookup, with
+    the value every filter gives there (a weighted mean of equal texels: equal up to the weights' rounding); a
+    varying channel of the same image is still looked up."""
+    from pyrt.textures.image import ChannelTexture
+    rng = np.random.default_rng(3)
+    img = np.empty((64, 32, 3), dtype=np.uint8)
+    img[..., 0] = 200                                   # constant
+    img[..., 1] = rng.integers(0, 256, (64, 32))        # varies
+    img[..., 2] = 7
+    tex = T.ImageTexture(img, srgb=False, filter=filt)
+    const = tex._pyramid.constant_channels()
+    np.testing.assert_array_equal(np.isnan(const), [False, True, False])
+    assert const[0] == np.float32(200 / 255) and const[2] == np.float32(7 / 255)
+    n = 500
+    uv = rng.random((n, 2)) * 3 - 1
+    d = rng.normal(scale=0.05, size=(n, 2))
+    ctx = ctx_of(uv, d, d[:, ::-1])
+    looked_up = tex.lookup(uv, d, d[:, ::-1])
+    for c in (0, 2):
+        got = ChannelTexture(tex, c).evaluate(ctx)
+        assert got.shape == (n, 1) and np.all(got == const[c])
+        np.testing.assert_allclose(got[:, 0], looked_up[:, c], rtol=1e-6)
+    assert ChannelTexture(tex, 1).evaluate(ctx_of(uv, d, d[:, ::-1])).std() > 0
+    # an image whose every channel is constant: no lookup at all (no MIP level is built)
+    flat = T.ImageTexture(np.full((64, 64, 3), (10, 128, 250), dtype=np.uint8), filter=filt)
+    v = flat.evaluate(ctx_of(uv, d, d[:, ::-1]))
+    assert flat.mip_levels_built == [] and v.shape == (n, 3)
+    np.testing.assert_allclose(v, flat.lookup(uv, d, d[:, ::-1]), rtol=1e-6)

@@ -201,6 +201,19 @@ class MipPyramid:
         self._levels = [base] + [None] * (_tex.n_mip_levels(base.shape) - 1)
         self.table = table
         self._lock = threading.Lock()  # the renderer shades chunks on several threads
+        self._constant = None
+
+    def constant_channels(self):
+        """(C,) float64: each channel's value where it is the same in every texel of level 0 (then in every level
+        and every filtered lookup: every filter is a weighted mean of texels), NaN where it varies. Computed once
+        (a min and a max over level 0) and kept: e.g. the unused channels of packed occlusion-roughness-metallic
+        maps, the white RGB of an image that only carries alpha."""
+        if self._constant is None:
+            base = self._levels[0]
+            lo, hi = base.min(axis=(0, 1)), base.max(axis=(0, 1))
+            vals = (self.table[lo] if self.table is not None else lo).astype(np.float64)
+            self._constant = np.where(lo == hi, vals, np.nan)
+        return self._constant
 
     def __len__(self):
         return len(self._levels)
@@ -478,6 +491,9 @@ class ImageTexture(Texture):
         return row_memo(ctx, ("image", type(self), self.sampling_key), self._evaluate)
 
     def _evaluate(self, ctx):
+        const = self._pyramid.constant_channels()
+        if not np.isnan(const).any():     # every texel the same: the lookup's value, without the lookup
+            return np.repeat(const[None, :], ctx.n_hits, axis=0)
         if self.filter != "trilinear":
             return self.lookup(*texcoords(ctx, self.texcoord))
         cache = ctx.__dict__.setdefault("_plan_cache", {})
@@ -535,6 +551,9 @@ class ChannelTexture(Texture):
         return self.source.lookup(uv, duvdx, duvdy)[:, self.channel:self.channel + 1]
 
     def evaluate(self, ctx):
+        const = self.source._pyramid.constant_channels()[self.channel]
+        if not np.isnan(const):           # the channel is the same in every texel: no lookup
+            return np.full((ctx.n_hits, 1), const)
         cache = ctx.__dict__.setdefault("_texture_cache", {})
         key = self.source.sampling_key
         values = cache.get(key)
