@@ -19,7 +19,7 @@ from pyrt.shaders import metals as _metals
 from pyrt.shaders import microfacet as _mf
 from pyrt.shaders import sampling
 from pyrt.shaders.color import luminance as _luminance
-from pyrt.shaders.vec import from_azimuth_frame, half_vector, reflect, to_azimuth_frame
+from pyrt.shaders.vec import from_azimuth_frame, half_vector, put_rows, reflect, take_rows, to_azimuth_frame
 
 
 def _constant(v):
@@ -137,19 +137,25 @@ class _MicrofacetSampling:
         u0 = np.where(spec, u[:, 0] / np.where(ps > 0, ps, 1.0),
                       (u[:, 0] - ps) / np.where(ps < 1, 1.0 - ps, 1.0))
         uu = np.stack([np.clip(u0, 0.0, 1.0 - 1e-12), u[:, 1]], axis=1)
-        wi = sampling.square_to_cosine_hemisphere(uu)
-        if np.any(spec):
-            s = np.flatnonzero(spec)
-            a_s = alpha[s] if np.ndim(alpha) else alpha
-            if aniso is not None:
-                t = aniso[0][s]
-                a_t = _mf.gltf_anisotropic_alpha(a_s, aniso[1][s])
-                h = from_azimuth_frame(_mf.sample_ggx_vndf(to_azimuth_frame(wo[s], t), uu[s], a_t, a_s), t)
-            elif self.distribution == "ggx":
-                h = _mf.sample_ggx_vndf(wo[s], uu[s], a_s)
-            else:
-                h = _mf.sample_beckmann_ndf(uu[s], a_s)
-            wi[s] = reflect(wo[s], h)
+        # each lane's direction from its own strategy only (metals: nearly all specular; every kernel is per lane)
+        s = np.flatnonzero(spec)
+        if s.size == 0:
+            return sampling.square_to_cosine_hemisphere(uu), alpha, ps, aniso
+        wi = np.empty_like(wo, dtype=np.float64)
+        if s.size < spec.size:
+            d = np.flatnonzero(~spec)
+            put_rows(wi, d, sampling.square_to_cosine_hemisphere(take_rows(uu, d)))
+        a_s = np.take(alpha, s) if np.ndim(alpha) else alpha
+        wo_s, uu_s = take_rows(wo, s), take_rows(uu, s)
+        if aniso is not None:
+            t = take_rows(aniso[0], s)
+            a_t = _mf.gltf_anisotropic_alpha(a_s, np.take(aniso[1], s))
+            h = from_azimuth_frame(_mf.sample_ggx_vndf(to_azimuth_frame(wo_s, t), uu_s, a_t, a_s), t)
+        elif self.distribution == "ggx":
+            h = _mf.sample_ggx_vndf(wo_s, uu_s, a_s)
+        else:
+            h = _mf.sample_beckmann_ndf(uu_s, a_s)
+        put_rows(wi, s, reflect(wo_s, h))
         return wi, alpha, ps, aniso
 
 
