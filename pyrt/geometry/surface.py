@@ -542,12 +542,10 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
     return surf
 
 
-def reflect_differentials(surf, rx_d, ry_d, wr):
-    """Offset rays of a mirror reflection (pbrt's specular-reflection differentials).
-
-    ``wr = -wo + 2 (wo.n) n``  =>  ``dwr = -dwo + 2 (d(wo.n) n + (wo.n) dn)``.
-    Returns ``(rx_o, rx_d, ry_o, ry_d)`` for the reflected ray.
-    """
+def reflect_differential_terms(surf, rx_d, ry_d):
+    """The parts of :func:`reflect_differentials` that do not depend on the reflected direction:
+    ``(p + dpdx, dwr_x, p + dpdy, dwr_y)``, the offset rays' origins and direction changes (a direction change does
+    not involve ``wr``). Several rays leaving one hit (glossy rays) share them."""
     n = surf.ns
     wo = surf.wo
     cos_o = dot(wo, n)
@@ -555,9 +553,22 @@ def reflect_differentials(surf, rx_d, ry_d, wr):
     for dp, d_in, dn in ((surf.dpdx, rx_d, surf.dndx), (surf.dpdy, ry_d, surf.dndy)):
         dwo = -d_in - wo
         dcos = dot(dwo, n) + dot(wo, dn)
-        dwr = -dwo + 2.0 * (dcos[:, None] * n + cos_o[:, None] * dn)
-        out += [surf.p + dp, wr + dwr]
+        inner = scale_rows(n, dcos)
+        inner += scale_rows(dn, cos_o)
+        dwr = 2.0 * inner
+        dwr -= dwo
+        out += [surf.p + dp, dwr]
     return tuple(out)
+
+
+def reflect_differentials(surf, rx_d, ry_d, wr):
+    """Offset rays of a mirror reflection (pbrt's specular-reflection differentials).
+
+    ``wr = -wo + 2 (wo.n) n``  =>  ``dwr = -dwo + 2 (d(wo.n) n + (wo.n) dn)``.
+    Returns ``(rx_o, rx_d, ry_o, ry_d)`` for the reflected ray.
+    """
+    ox, dx, oy, dy = reflect_differential_terms(surf, rx_d, ry_d)
+    return ox, wr + dx, oy, wr + dy
 
 
 def refract_differentials(surf, rx_d, ry_d, wt, eta):

@@ -41,7 +41,7 @@ from pyrt.core import checks
 from pyrt.core.errors import RenderError
 from pyrt.core.rays import RayBatch
 from pyrt.core.sampler import stratified_samples, stream_rows
-from pyrt.geometry.surface import reflect_differentials
+from pyrt.geometry.surface import reflect_differential_terms
 from pyrt.integrators import direct
 from pyrt.integrators import light_choice
 from pyrt.integrators.whitted import Integrator, normalize_rows
@@ -244,9 +244,12 @@ class GlossyIntegrator(Integrator):
         c = sub.subset(keep)
         w = normalize_rows(take_rows(wi, keep))
         diffs = None
-        if dsub is not None:
-            s = src[keep]
-            diffs = reflect_differentials(c, dsub[1][s], dsub[3][s], w)
+        if dsub is not None:   # the differentials' terms once per hit (nb rays share them), then per ray
+            terms = reflect_differential_terms(surf.subset(gidx), take_rows(dsub[1], gidx), take_rows(dsub[3], gidx))
+            ox, dx, oy, dy = (take_rows(t, keep // nb) for t in terms)     # src = repeat(gidx, nb)
+            dx += w
+            dy += w
+            diffs = (ox, dx, oy, dy)
         stack = None
         if stack_h is not None:
             stack = self.ps.media.spawn_stacks(stack_h, surf.material_id, surf.front, src[keep], refr_all[keep])
