@@ -99,29 +99,12 @@ def delta_lights_estimate(lights, surf, bsdf, visible, out):
     parts, queries = [], []
     for light in lights:
         ls = light.sample_li(surf.p, u)
-        wi, dist = ls.wi, ls.dist
-        if ls.factored:
-            if not np.max(ls.rgb) > 0:
-                continue
-            active = surf.light_side(wi)
-            if ls.scale is not None:
-                active &= ls.scale > 0
-        else:
-            active = surf.light_side(wi) & (max_component(ls.E) > 0)
-        idx = np.flatnonzero(active)
-        if idx.size == 0:
+        lit = _lit_lanes(ls, surf, bsdf)
+        if lit is None:
             continue
-        wi_a = take_rows(wi, idx)
-        f = bsdf.f_cos(idx, wi_a)
-        nonzero = max_component(f) > 0
-        if not nonzero.all():
-            keep = np.flatnonzero(nonzero)
-            if keep.size == 0:
-                continue
-            idx, f, wi_a = idx[keep], take_rows(f, keep), take_rows(wi_a, keep)
+        idx, wi_a, f = lit
         parts.append((ls, idx, f))
-        queries.append((idx, wi_a, np.take(np.broadcast_to(np.asarray(dist, dtype=np.float64), (n,)), idx),
-                        light.position if light.fixed_position else None))
+        queries.append((idx, wi_a, np.take(ls.dist, idx), light.position if light.fixed_position else None))
     if not parts:
         return out
     for (ls, idx, f), vis in zip(parts, shadow_queries(visible, surf, queries)):
@@ -201,28 +184,11 @@ def light_sampling_estimate(light, surf, bsdf, visible, rng, weight=None, out=No
     for s in range(ns):
         u = us[s]
         ls = light.sample_li(surf.p, u)
-        wi, dist = ls.wi, ls.dist
-        if ls.factored:          # E = scale * rgb: no (N, 3) irradiance array
-            if not np.max(ls.rgb) > 0:
-                continue
-            active = surf.light_side(wi)
-            if ls.scale is not None:
-                active &= ls.scale > 0
-        else:
-            active = surf.light_side(wi) & (max_component(ls.E) > 0)
-        # ng . wi > 0, or the interpolated vertex normal faces the light (shadow terminator, pyrt.geometry.offsets)
-        idx = np.flatnonzero(active)
-        if idx.size == 0:
+        lit = _lit_lanes(ls, surf, bsdf)
+        if lit is None:
             continue
-        wi_a = take_rows(wi, idx)
-        f = bsdf.f_cos(idx, wi_a)
-        nonzero = max_component(f) > 0
-        if not nonzero.all():                  # (np.flatnonzero keeps the GIL: only when needed)
-            keep = np.flatnonzero(nonzero)
-            if keep.size == 0:
-                continue
-            idx, f, wi_a = idx[keep], take_rows(f, keep), take_rows(wi_a, keep)
-        vis = visible(idx, wi_a, np.take(dist, idx), light.position if light.fixed_position else None)
+        idx, wi_a, f = lit
+        vis = visible(idx, wi_a, np.take(ls.dist, idx), light.position if light.fixed_position else None)
         if weight is not None:    # MIS against the glossy integrator's BSDF rays: the weight of each lit lane
             lit = np.flatnonzero(vis if vis.ndim == 1 else max_component(vis) > 0)
             pdf_lit = None if ls.pdf is None else np.take(ls.pdf, idx[lit])
@@ -233,6 +199,33 @@ def light_sampling_estimate(light, surf, bsdf, visible, rng, weight=None, out=No
         ls.weight(f, idx)
         put_rows(L, idx, take_rows(L, idx) + f)
     return L if out is not None else L / ns
+
+
+def _lit_lanes(ls, surf, bsdf):
+    """``(idx, wi (k, 3), f_cos (k, 3))`` of the hits the light sample ``ls`` can light before shadowing: on the
+    light's side (``ng . wi > 0``, or the interpolated vertex normal faces the light: the shadow terminator,
+    :mod:`pyrt.geometry.offsets`), ``E > 0`` and a non-zero BSDF; None where there is none."""
+    wi = ls.wi
+    if ls.factored:          # E = scale * rgb: no (N, 3) irradiance array
+        if not np.max(ls.rgb) > 0:
+            return None
+        active = surf.light_side(wi)
+        if ls.scale is not None:
+            active &= ls.scale > 0
+    else:
+        active = surf.light_side(wi) & (max_component(ls.E) > 0)
+    idx = np.flatnonzero(active)
+    if idx.size == 0:
+        return None
+    wi_a = take_rows(wi, idx)
+    f = bsdf.f_cos(idx, wi_a)
+    nonzero = max_component(f) > 0
+    if not nonzero.all():                  # (np.flatnonzero keeps the GIL: only when needed)
+        keep = np.flatnonzero(nonzero)
+        if keep.size == 0:
+            return None
+        idx, f, wi_a = idx[keep], take_rows(f, keep), take_rows(wi_a, keep)
+    return idx, wi_a, f
 
 
 def _shadowed(vis, idx, f):
