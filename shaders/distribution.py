@@ -57,9 +57,8 @@ def distribution2d_build(weights):
         raise ValueError("weights must be finite and >= 0")
     cdf_cond = _cdf(f, -1)
     cdf_marg = _cdf(f.sum(axis=1), -1)
-    shifted = _shifted(cdf_cond)
-    return Distribution2D(f, cdf_cond, cdf_marg, float(f.mean()), shifted, _guide(shifted, cdf_cond.shape),
-                          _guide(cdf_marg, (1, cdf_marg.shape[0])))
+    return Distribution2D(f, cdf_cond, cdf_marg, float(f.mean()), _shifted(cdf_cond), _guide(cdf_cond),
+                          _guide(cdf_marg[None, :]))
 
 
 def _shifted(cdf):
@@ -72,17 +71,17 @@ def _shifted(cdf):
 _GUIDE_STEPS = 2
 
 
-def _guide(shifted, shape):
-    """Guide table (Chen & Asau 1974's cutpoints) of the CDF rows :func:`_shifted` ``shifted`` (rows of ``shape``
-    ``(R, K + 1)``, flattened): ``(R, G)`` int32, ``G = K``, entry ``(r, j)`` the cell of row ``r`` that holds
-    ``r + j / G`` (the largest ``k`` with ``shifted[r, k] <= r + j / G``, as the search finds it). Rounding is
-    monotone, so every ``u >= j / G`` has ``u + r >= r + j / G`` and its cell is at or after the entry: the
-    search starts there and walks on (:func:`_sample_cdf_rows`)."""
-    n_rows, width = shape
+def _guide(cdf):
+    """Guide table (Chen & Asau 1974's cutpoints) of the CDF rows ``cdf`` (R, K + 1): ``(R, K)`` int32, entry
+    ``(r, j)`` the last cell of row ``r`` that starts at or below ``j / K`` (the number of CDF values
+    ``cdf[r, :K] <= j / K``, less one), counted in one pass. A search for a ``u`` in bucket ``j`` starts there
+    (:func:`_sample_cdf_rows`, which corrects a start that rounding put one cell too far): any start gives the
+    same cells, a good one only makes the search short."""
+    n_rows, width = cdf.shape
     g = width - 1
-    keys = (np.arange(n_rows, dtype=np.float64)[:, None] + np.arange(g) / g).ravel()
-    pos = np.searchsorted(shifted, keys, side="right") - 1
-    k = pos.reshape(n_rows, g) - (np.arange(n_rows) * width)[:, None]
+    first = np.clip(np.ceil(cdf[:, :g] * g), 0, g).astype(np.int64)    # the first bucket each cell starts in
+    counts = np.bincount((np.arange(n_rows)[:, None] * (g + 1) + first).ravel(), minlength=n_rows * (g + 1))
+    k = np.cumsum(counts.reshape(n_rows, g + 1)[:, :g], axis=1) - 1
     return np.clip(k, 0, g - 1).astype(np.int32)
 
 
@@ -100,7 +99,7 @@ def _sample_cdf_rows(cdf, rows, u, shifted=None, guide=None):
     if shifted is None:
         shifted = _shifted(cdf)
     if guide is None:
-        guide = _guide(shifted, cdf.shape)
+        guide = _guide(cdf)
     key = u + rows
     width = n_cells + 1
     j = np.minimum((u * n_cells).astype(np.int64), n_cells - 1)
