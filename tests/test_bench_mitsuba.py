@@ -19,6 +19,7 @@ from pyrt.shaders import microfacet
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "tools"))
 import _mitsuba_scenes as ms  # noqa: E402
+import _mitsuba_report as rep  # noqa: E402
 
 
 def _small(scene, w=32, h=24, spp=1):
@@ -233,22 +234,20 @@ def test_whitted_bench_integrator_matches_pyrt_on_mirror_and_glass(mi, tmp_path)
 # ----------------------------------------------------------------------------- the tool's bookkeeping
 
 def test_time_to_error_interpolates_log_log_and_marks_extrapolation():
-    import bench_mitsuba as bm
     curve = {4: (1.0, 1e-2), 16: (4.0, 2.5e-3), 64: (16.0, 6.25e-4)}       # relMSE ~ 1/time
-    t, extra = bm.time_to_error(curve, 1.25e-3)
+    t, extra = rep.time_to_error(curve, 1.25e-3)
     assert t == pytest.approx(8.0) and not extra
-    t, extra = bm.time_to_error(curve, 1e-4)                                  # below the range: 1/time
+    t, extra = rep.time_to_error(curve, 1e-4)                                  # below the range: 1/time
     assert t == pytest.approx(100.0) and extra
-    t, extra = bm.time_to_error(curve, 1e-1)
+    t, extra = rep.time_to_error(curve, 1e-1)
     assert t == pytest.approx(0.1) and extra
 
 
 def test_reference_noise_is_subtracted_from_the_curves():
-    import bench_mitsuba as bm
     runs = [{"series": "llvm_ad_rgb", "spp": n, "seconds": 0.1 * n, "relmse": 1e-2 / n} for n in (4, 16, 64)]
-    noise = bm.reference_noise(runs, {"by": "llvm_ad_rgb", "spp": 1024})
+    noise = rep.reference_noise(runs, {"by": "llvm_ad_rgb", "spp": 1024})
     assert noise == pytest.approx(1e-2 / 1024)
-    c = bm.summarize(runs, noise)["llvm_ad_rgb"]
+    c = rep.summarize(runs, noise)["llvm_ad_rgb"]
     assert c[64][1] == pytest.approx(1e-2 / 64 - 1e-2 / 1024) and c[16][0] == pytest.approx(1.6)
 
 
