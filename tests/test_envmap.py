@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from pyrt.shaders import distribution as D
 from pyrt.shaders import envmap as K
 from pyrt.shaders import sampling
 from pyrt.shaders.color import luminance
@@ -429,7 +430,6 @@ def _binary_search_cells(cdf, shifted, rows, u):
 def test_guide_table_search_finds_the_binary_search_cells(kind):
     """shaders.distribution's guide tables (Chen & Asau cutpoints, then a few steps, then a binary search for the
     lanes left) pick exactly the cells of a binary search of the CDF, bucket edges, CDF values and 1 - ulp included."""
-    from pyrt.shaders import distribution as D
     rng = np.random.default_rng(7)
     shape = {"one_cell": (1, 1), "one_column": (5, 1)}.get(kind, (96, 200))
     f = rng.random(shape)

@@ -8,6 +8,7 @@ import pyrt
 from pyrt.apps.preview import PreviewError, PreviewOptions
 from pyrt.core.rays import RayBatch
 from pyrt.integrators import GlossyIntegrator, Integrator, PreparedScene
+from pyrt.integrators import direct
 
 COPIES = 4000
 
@@ -91,7 +92,6 @@ def test_preview_options_check_the_speed_switches(field, bad):
 
 def _light_by_light(lights, surf, bsdf, visible, rng):
     """direct.estimate as it was before the delta lights shared a shadow query: one query per light."""
-    from pyrt.integrators import direct
     L = np.zeros((surf.n_hits, 3))
     for light in lights:
         if light.environment is None and light.n_samples == 1 and not light.bsdf_samples:
@@ -107,7 +107,6 @@ def test_delta_lights_in_one_shadow_query_give_the_light_by_light_image(monkeypa
     """direct.shadow_queries: the delta lights' shadow rays traced in one query (and, with light selection, the
     per-light batches of the hits that keep every light) give bit for bit what one query per light gives, through
     glass with transparent shadows too (per-ray end points of the point and spot lights, infinite directional ones)."""
-    from pyrt.integrators import direct
     scene = _scene()
     scene.add_sphere((-0.2, 1.2, 0.6), 0.25, pyrt.Glass(ior=1.5), name="glass")   # shadows through glass
     o, d = _rays(scene)

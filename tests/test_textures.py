@@ -15,6 +15,7 @@ from pyrt.shaders import color
 from pyrt.shaders import ewa as E
 from pyrt.shaders import textures as K
 from pyrt import textures as T
+from pyrt.textures.image import ChannelTexture
 
 
 @pytest.fixture
@@ -703,7 +704,6 @@ def test_constant_channels_skip_the_lookup_and_give_its_value(filt):
     """A channel that is the same in every texel (MipPyramid.constant_channels) is returned without a lookup, with
     the value every filter gives there (a weighted mean of equal texels: equal up to the weights' rounding); a
     varying channel of the same image is still looked up."""
-    from pyrt.textures.image import ChannelTexture
     rng = np.random.default_rng(3)
     img = np.empty((64, 32, 3), dtype=np.uint8)
     img[..., 0] = 200                                   # constant
