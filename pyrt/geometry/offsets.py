@@ -405,8 +405,8 @@ class Strategy:
         """Shadow rays toward a light at distance ``dist`` (N,) (``inf``: directional) along unit ``wi``.
 
         ``end`` (3,), optional: the light's position when all the rays end at one point (punctual lights), or
-        (N, 3) each ray's end point (the rays of several lights in one query); otherwise the end points are
-        ``p + wi dist``.
+        (N, 3) each ray's end point (the rays of several lights in one query; a NaN row: ``p + wi dist`` for that
+        ray); otherwise the end points are ``p + wi dist``.
         Returns ``(origins (N, 3) float64 or float32, tmax (N,) float64)``, tmax in units of |wi| from the
         origin (float32 origins are exactly the float32 rays Embree will trace).
 
@@ -451,7 +451,12 @@ class Strategy:
             else:
                 end = np.asarray(end, dtype=np.float64)           # (3,): one point for every ray, or (N, 3)
                 if end.ndim == 2:
-                    end = end[f]
+                    end = end[f]                                  # (a copy: fancy or slice of a fresh array)
+                    own = np.flatnonzero(np.isnan(end[:, 0]))     # NaN rows: the light's point p + wi dist
+                    if own.size:
+                        end = end.copy() if isinstance(f, slice) else end
+                        rows = own if isinstance(f, slice) else f[own]
+                        end[own] = surf.p[rows] + wi[rows] * dist[rows, None]
             o, w = origins[f], wi[f]
             if self.tmax == "robust":
                 tmax[f] = robust_tmax(o, w, end, None if o_mag is None else o_mag[f])

@@ -75,15 +75,12 @@ def shadow_queries(visible, surf, queries):
     wi = np.concatenate([q[1] for q in queries])
     dist = np.concatenate([np.asarray(q[2], dtype=np.float64) for q in queries])
     end = None
-    if any(q[3] is not None for q in queries):
-        end = np.zeros((idx.size, 3))
+    if any(q[3] is not None for q in queries):    # per-ray end points; NaN: p + wi dist (Strategy.shadow)
+        end = np.full((idx.size, 3), np.nan)
         lo = 0
-        for (q_idx, q_wi, q_dist, q_end), k in zip(queries, sizes):
-            if q_end is not None:
-                end[lo:lo + k] = q_end
-            else:                # p + wi dist where it is finite, as Strategy.shadow computes it
-                f = np.flatnonzero(np.isfinite(q_dist))
-                put_rows(end, lo + f, take_rows(surf.p, q_idx[f]) + take_rows(q_wi, f) * q_dist[f, None])
+        for q, k in zip(queries, sizes):
+            if q[3] is not None:
+                end[lo:lo + k] = q[3]
             lo += k
     vis = visible(idx, wi, dist, end)
     cuts = np.cumsum(sizes)[:-1]
