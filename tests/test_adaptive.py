@@ -250,3 +250,48 @@ def test_estimate_is_calibrated_where_only_edges_are_noisy():
             assert r.stop_reason == "target_error"
             ratios.append(relmse(r.image, reference) / r.estimated_error)
     assert 0.5 <= min(ratios) and max(ratios) <= 2.0, ratios
+
+
+def test_max_filter_matches_brute_force():
+    a = np.random.default_rng(3).random((7, 9))
+    for radius in (1, 2):
+        m = A.max_filter(a, radius)
+        for i in range(7):
+            for j in range(9):
+                assert m[i, j] == a[max(0, i - radius):i + radius + 1, max(0, j - radius):j + radius + 1].max()
+
+
+def test_allocation_reaches_edge_pixels_whose_estimate_is_zero():
+    """Along an edge a run of five pixels had halves that agreed by chance (estimate 0). Box smoothing alone gives
+    the middle column nothing (its 5 x 5 boxes hold no detected pixel); the dilation gives it part of a detected
+    neighbour's share, so it is sampled and found at the next pass."""
+    H, W = 61, 40
+    film = pyrt.core.film.Film(W, H)
+    film.weight[:] = 4
+    err = np.zeros((H, W))
+    err[30] = 0.05                                      # the edge
+    err[30, 10:15] = 0.0                                # missed by chance
+    counts = A.allocate(film, err.ravel(), film.weight.sum() / 4, 1 << 16, 1 << 15,
+                        np.random.default_rng(0), (H, W)).reshape(H, W)
+    assert abs(counts.sum() - film.weight.sum() / 4) <= 0.02 * film.weight.sum() / 4    # the pass's total
+    detected = counts[30, 20:28].mean()
+    assert detected > 0
+    assert counts[27:34, 12].mean() >= 0.15 * detected  # without the dilation: 0.3 / 12
+    assert counts[:20].mean() < 0.05 * detected         # far from the edge: the defensive share only
+
+
+def test_water_fill_fills_every_uncapped_pixel_to_one_level():
+    """Pixels that want more than their cap take their cap; the others are all brought towards the same multiple of
+    their share, and the pass adds up to its total (rescaling only the uncapped pixels gave them 0 once the capped
+    ones had taken the total)."""
+    share = np.array([10.0, 10.0, 1.0, 1.0, 2.0, 0.5])
+    share /= share.sum()
+    have = np.full(6, 4.0)
+    room = np.full(6, 12.0)
+    new = A._water_fill(share, have, room, 40.0)
+    assert new.sum() == pytest.approx(40.0, rel=0.01)
+    assert np.all(new[:2] == 12.0)
+    level = (have + new)[2:] / share[2:]
+    filled = new[2:] > 0
+    assert filled.sum() >= 2 and np.allclose(level[filled], level[filled][0])
+    assert np.all(A._water_fill(share, have, room, 1000.0) == room)     # more asked than room: all of it
