@@ -76,7 +76,7 @@ from tqdm.auto import tqdm
 from pyrt.core import checks
 from pyrt.core.errors import RenderError
 from pyrt.core.film import Film
-from pyrt.core.metrics import relmse_per_pixel
+from pyrt.core.metrics import RELMSE_EPS, relmse_per_pixel
 from pyrt.integrators.prepared import PreparedScene, RenderStats
 from pyrt.integrators.whitted import DEFAULT_SPLIT_DEPTH
 from pyrt.render.chunks import shade_adaptive_chunk
@@ -160,7 +160,8 @@ def box_smooth(a, radius):
 
 def pixel_errors(film, half):
     """Per-pixel estimated relMSE of the film's mean (H*W,) from the half-buffers (``half`` holds half B);
-    NaN where a pixel has no sample."""
+    NaN where a pixel has no sample. The relMSE of :func:`pyrt.core.metrics.relmse_per_pixel` with the variance
+    ``(mean_A - mean_B)^2 / 4``, computed on every pixel at once (masked rows cost more than the arithmetic)."""
     wb = half.weight
     w = film.weight
     wa = w - wb
@@ -168,13 +169,19 @@ def pixel_errors(film, half):
     out = np.full(w.shape[0], np.nan)
     if not ok.any():
         return out
-    sb = half.sum[ok]
-    sa = film.sum[ok] - sb
-    ma = sa / wa[ok, None]
-    mb = sb / wb[ok, None]
-    m = film.sum[ok] / w[ok, None]
-    var = (ma - mb) ** 2 / 4.0
-    out[ok] = relmse_per_pixel(var, m)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sb = half.sum
+        d = (film.sum - sb) / wa[:, None]                # mean_A
+        d -= sb / wb[:, None]                            # - mean_B
+        m = film.sum / w[:, None]
+        d *= d
+        d /= 4.0
+        m *= m
+        m += RELMSE_EPS
+        d /= m
+        acc = d[:, 0] + d[:, 1]
+        acc += d[:, 2]
+    out[ok] = acc[ok] / 3.0
     return out
 
 
