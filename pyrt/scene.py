@@ -18,7 +18,7 @@ from pyrt.lights.base import Light
 from pyrt.lights.mesh import EmissiveMeshLight
 from pyrt.materials import Material
 from pyrt.core.transforms import (SceneError, align_vectors, apply_matrix,  # noqa: F401 (public here too)
-                                  rewound, transform_matrix, transform_normals)
+                                  rewound, transform_matrix, transform_normals, transform_tangents)
 
 
 def _rgb(owner, name, v):
@@ -52,6 +52,20 @@ def _positive_sizes(who, name, value, n):
         raise SceneError(f"{who}: {name} must be {'a finite number' if n == 1 else f'{n} finite numbers'} > 0, "
                          f"got {value!r}")
     return a
+
+
+def _checked_tangents(tangents, n_vertices, name):
+    """``tangents`` of :meth:`Scene.add_mesh` as (V, 4) float64 with ``w`` = +-1 (None when None); rows whose
+    ``xyz`` is zero are kept (zero: no tangent there); a :class:`GeometryError` naming the mesh for a bad shape or a
+    non-finite value."""
+    if tangents is None:
+        return None
+    t = np.asarray(tangents, dtype=np.float64)
+    if t.shape != (n_vertices, 4) or not np.all(np.isfinite(t)):
+        raise GeometryError(f"mesh {name!r}: tangents must be finite with shape ({n_vertices}, 4), got {t.shape}")
+    t = t.copy()
+    t[:, 3] = np.where(t[:, 3] < 0, -1.0, 1.0)
+    return t
 
 
 def _checked_uv_sets(uv_sets, n_vertices, name):
@@ -116,7 +130,7 @@ class Scene:
         return light
 
     def add_mesh(self, mesh, material, *, transform=None, smooth="auto", crease_angle=30.0, name=None, normals=None,
-                 shading=None, uv_sets=None, uv=None):
+                 shading=None, uv_sets=None, uv=None, tangents=None):
         """Add a trimesh mesh (or a ``(vertices, faces)`` pair) with a material.
 
         Parameters
@@ -146,6 +160,13 @@ class Scene:
         uv : (V, 2) array, optional
             The texture coordinates (UV set 0) of a ``(vertices, faces)`` pair (a Trimesh's own are
             ``mesh.visual.uv``, used when this is None).
+        tangents : (V, 4) array, optional
+            Object-space vertex tangents ``(x, y, z, w)`` as glTF's ``TANGENT``: a unit tangent and the bitangent's
+            sign, bitangent = ``w (normal x tangent)``. Normal maps and anisotropic lobes then use them,
+            interpolated across each triangle, instead of the tangents of the UV parameterisation
+            (:meth:`pyrt.geometry.SurfaceBatch.shading_tangents`). Used only with vertex normals (``normals``
+            given, or smooth shading that keeps the vertices as they are); dropped where ``smooth="auto"``
+            re-indexes the vertices; a vertex whose tangent is zero has none (the UV tangents are used there).
         """
         name = name or f"mesh{len(self.meshes)}"
         if shading not in (None, "flat", "phong", "gouraud"):
@@ -179,11 +200,13 @@ class Scene:
             if normals.shape != v_obj.shape or not np.all(np.isfinite(normals)):
                 raise GeometryError(f"mesh {name!r}: normals must be finite with shape {v_obj.shape}, "
                                     f"got {normals.shape}")
-        elif smooth == "auto":
+        # vertex tangents stay with vertex normals on the vertices as given (crease normals re-index them)
+        tangents = _checked_tangents(tangents, len(v_obj), name) if given is not None or smooth is True else None
+        if given is None and smooth == "auto":
             src, faces, normals = crease_normals(v_obj, faces, crease_angle, weld="edges")
             v_obj, uv = np.take(v_obj, src, axis=0), (None if uv is None else np.take(uv, src, axis=0))
             uv_sets = uv_sets and {k: np.take(a, src, axis=0) for k, a in uv_sets.items()}
-        elif smooth:
+        elif given is None and smooth:
             import trimesh      # its area-weighted vertex normals
             src = trimesh.Trimesh(vertices=v_obj, faces=faces, process=False)
             normals = np.asarray(src.vertex_normals, dtype=np.float64)
@@ -199,10 +222,13 @@ class Scene:
         v_world = v_world.astype(np.float32).astype(np.float64)
         if normals is not None:
             normals = transform_normals(normals, m)
+        if tangents is not None:
+            tangents = transform_tangents(tangents, m)
         faces = rewound(faces, m)          # a mirror turns counter-clockwise into clockwise: keep the front side
         mat_id = self.add_material(material)
         self.meshes.append(MeshData(vertices=v_world, faces=faces, normals=normals, uv=uv, vertices_object=v_obj,
-                                    material_id=mat_id, smooth=normals is not None, name=name, uv_sets=uv_sets or None))
+                                    material_id=mat_id, smooth=normals is not None, name=name, uv_sets=uv_sets or None,
+                                    tangents=tangents if normals is not None else None))
         if shading == "gouraud":
             self.gouraud_meshes.add(len(self.meshes) - 1)
         return len(self.meshes) - 1

@@ -21,6 +21,9 @@ class LocalCtx:
         self.ns_unmapped = None
         self.duvdx = self.duvdy = self.dpdx = self.dpdy = None
 
+    def shading_tangents(self, k):
+        return self.dpdu, self.dpdv
+
     def to_local(self, w):
         return np.asarray(w, dtype=np.float64)
 

@@ -373,9 +373,10 @@ def test_dielectric_cutoff_only_for_models_with_a_dielectric(monkeypatch):
 
 def test_adaptive_preview_spends_samples_where_the_image_needs_them(tmp_path, capsys):
     """``target_error`` renders adaptively (base pass ``min_spp``, at most ``max_spp``): edges of the model get more
-    samples than the flat background; bad combinations are refused with a one-line CLI error (exit 2)."""
+    samples than the flat background; bad combinations are refused with a one-line CLI error (exit 2). (A target
+    the render cannot reach within max_spp, 1e-4 here, ends with every pixel at max_spp: no edge is left.)"""
     from pyrt.io.assets import load_asset
-    o = P.PreviewOptions(width=48, height=36, target_error=1e-4, max_spp=8, min_spp=2, threads=1)
+    o = P.PreviewOptions(width=48, height=36, target_error=2.5e-3, max_spp=8, min_spp=2, threads=1)
     ps = P.PreviewScene(load_asset(BLOB), o)
     try:
         res = ps.render_view(ps.azimuth)
@@ -383,7 +384,7 @@ def test_adaptive_preview_spends_samples_where_the_image_needs_them(tmp_path, ca
         mask = ps.model_mask()
     finally:
         ps.close()
-    assert np.isfinite(res.image).all() and res.stop_reason in ("target_error", "max_spp")
+    assert np.isfinite(res.image).all() and res.stop_reason == "target_error"
     assert spp.min() >= 2 and spp.max() <= 8
     assert spp[mask].mean() > spp[~mask].mean()           # the blob's shading and edges, not the backdrop
     for kw, what in ((dict(target_error=-1.0), "target_error"), (dict(max_spp=8), "max_spp needs target_error"),

@@ -170,6 +170,19 @@ def transform_normals(normals, matrix):
     return divide_rows(out, norm(out))
 
 
+def transform_tangents(tangents, matrix):
+    """Vertex tangents (N, 4) carried by ``matrix`` ((4, 4) or (3, 3)): ``xyz`` by its linear part, then renormalised
+    (zero rows stay zero), ``w`` (the bitangent's sign, glTF ``TANGENT``) times the sign of its determinant, so
+    that ``w (n x t)`` in the world is the image of the object's bitangent (a mirror reverses the cross product)."""
+    m = np.asarray(matrix, dtype=np.float64)
+    t = np.asarray(tangents, dtype=np.float64)
+    xyz = apply_matrix(t[:, :3], m[:3, :3])
+    out = np.empty_like(t)
+    out[:, :3] = divide_rows(xyz, norm(xyz))
+    out[:, 3] = t[:, 3] * (-1.0 if np.linalg.det(m[:3, :3]) < 0 else 1.0)
+    return out
+
+
 def rewound(faces, matrix):
     """``faces`` (F, 3), re-wound ``[0, 2, 1]`` when ``matrix`` mirrors (negative determinant of its linear part), so
     that a face keeps facing the side its normals do (glTF's rule; :meth:`pyrt.Scene.add_mesh`)."""

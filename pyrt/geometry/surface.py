@@ -44,6 +44,7 @@ class MeshData:
     smooth: bool
     name: str
     uv_sets: dict | None = None   # {k: (V, 2)} UV sets k >= 1 a material reads (pyrt.geometry.uvsets)
+    tangents: np.ndarray | None = None   # (V, 4) unit world-space vertex tangents + bitangent sign (glTF TANGENT)
 
 
 def validate_mesh(vertices, faces, name):
@@ -91,6 +92,18 @@ def degenerate_faces(vertices, faces):
     return area2 <= (np.finfo(np.float32).eps * max(scale, 1e-30)) ** 2
 
 
+def _vertex_tangent_frames(m):
+    """(V, 6) ``[t, w (n x t)]`` of a :class:`MeshData`'s vertex tangents (zeros without tangents or normals, and
+    where the tangent is zero)."""
+    out = np.zeros((m.vertices.shape[0], 6))
+    if m.tangents is None or m.normals is None:
+        return out
+    t = m.tangents[:, :3]
+    out[:, :3] = t
+    out[:, 3:] = scale_rows(cross(m.normals, t), m.tangents[:, 3])
+    return out
+
+
 class GeometryTable:
     """All meshes of a scene concatenated (float64), indexed by (mesh id, triangle id).
 
@@ -120,6 +133,11 @@ class GeometryTable:
         self.uv = np.concatenate([m.uv if m.uv is not None else np.zeros((m.vertices.shape[0], 2))
                                   for m in self.meshes])
         self._uv_tables = {}
+        #: (V, 6) per vertex: the unit world tangent and the bitangent ``w (n x t)`` of meshes with vertex tangents
+        #: (:meth:`SurfaceBatch.shading_tangents`), zeros elsewhere; None when no mesh has them
+        self.tangent_frames = None
+        if any(m.tangents is not None for m in self.meshes):
+            self.tangent_frames = np.concatenate([_vertex_tangent_frames(m) for m in self.meshes])
         self.any_smooth = bool(np.any(smooth))
         self.any_uv = bool(np.any(self.face_has_uv))
         # per-face bounds for ray offsets (pyrt.geometry.offsets.local_bound): the largest extent of the triangle's
@@ -153,9 +171,11 @@ class SurfaceBatch:
     FIELDS = ("p", "p_object", "ng", "ns", "front", "wo", "uv", "dpdu", "dpdv", "duvdx", "duvdy", "dpdx", "dpdy",
               "dndx", "dndy", "mesh_id", "prim_id", "face", "material_id", "bary", "t", "p_error",
               "frame_s", "frame_t", "tri_v", "tri_n", "smooth", "tri_extent", "tri_absmax", "n_vertex", "p_lift",
-              "ns_unmapped", "dbary")
+              "ns_unmapped", "dbary", "vtangent")
     #: ``ns_unmapped``: the shading normals before :func:`pyrt.textures.apply_normal_maps` perturbed them (None
     #: when no normal map was applied; a clear coat's own frame starts from it)
+    #: ``vtangent``: (N, 6) the interpolated vertex tangent and bitangent (``[t, b]``, not unit) of meshes with vertex
+    #: tangents, zeros on faces without; None when no mesh of the scene has them (:meth:`shading_tangents`)
     #: ``dbary``: (N, 4) barycentric derivatives (db1/dx, db2/dx, db1/dy, db2/dy) from the ray differentials
     #: (zeros without them): the footprints of every UV set (:meth:`uv_set`)
 
@@ -229,6 +249,23 @@ class SurfaceBatch:
         """``(dpdu, dpdv)`` (N, 3) of UV set ``k`` (normal maps read in that set): set 0 is the fields ``dpdu``,
         ``dpdv``; otherwise as :meth:`uv_set`."""
         return (self.dpdu, self.dpdv) if k == 0 else self._uv_set_values(k, "tangents")
+
+    def shading_tangents(self, k):
+        """``(t, b)`` (N, 3): the tangent frame a normal map or an anisotropic lobe read in UV set ``k`` is built
+        from (:func:`pyrt.shaders.textures.tangent_frame`: ``t`` made orthogonal to the shading normal, the
+        bitangent's side from ``b``). On meshes with vertex tangents (glTF ``TANGENT``) their interpolation, as glTF
+        asks (smooth across triangles, the file's handedness); elsewhere :meth:`uv_tangents` (the triangle's
+        ``dpdu``, ``dpdv``: constant per triangle)."""
+        t, b = self.uv_tangents(k)
+        vt = self.vtangent
+        if vt is None:
+            return t, b
+        has = np.any(vt[:, :3] != 0.0, axis=1)
+        if not has.any():
+            return t, b
+        if has.all():
+            return vt[:, :3], vt[:, 3:]
+        return np.where(has[:, None], vt[:, :3], t), np.where(has[:, None], vt[:, 3:], b)
 
     def _uv_set_values(self, k, what):
         cache = self.__dict__.setdefault("_uv_sets", {})
@@ -345,14 +382,9 @@ class _SurfaceSubset(SurfaceBatch):
         return idx.stop - idx.start if isinstance(idx, slice) else idx.shape[0]
 
 
-def _solve_bary_derivative(e1, e2, dp):
-    """Least-squares (a, b) with a e1 + b e2 ~= dp, rows of (N, 3); zero where singular."""
-    return _bary_solver(e1, e2)(dp)
-
-
 def _bary_solver(e1, e2):
-    """``solve(dp) -> (a, b)`` of :func:`_solve_bary_derivative` with the 2x2 normal matrix of ``e1, e2`` built
-    once (the x and y differentials share it)."""
+    """``solve(dp) -> (a, b)``: the least-squares ``(a, b)`` with ``a e1 + b e2 ~= dp`` (rows of (N, 3); zero where
+    singular), with the 2x2 normal matrix of ``e1, e2`` built once (the x and y differentials share it)."""
     a11 = dot(e1, e1)
     a12 = dot(e1, e2)
     a22 = dot(e2, e2)
@@ -518,7 +550,16 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
         put_rows(out, s, lifted)
         return {"p_lift": out}
 
-    lazy = {"uv": uv_group}
+    def vtangent_group():
+        fr = geo.tangent_frames
+        if fr is None:
+            return {"vtangent": None}
+        out = scale_rows(take_rows(fr, tri[:, 0]), b0)
+        out += scale_rows(take_rows(fr, tri[:, 1]), b1)
+        out += scale_rows(take_rows(fr, tri[:, 2]), b2)
+        return {"vtangent": out}
+
+    lazy = {"uv": uv_group, "vtangent": vtangent_group}
     lazy.update({k: tangent_group for k in ("dpdu", "dpdv")})
     lazy["p_lift"] = lift_group
     lazy.update({k: triangle_group for k in ("tri_v", "tri_n")})
@@ -540,54 +581,3 @@ def surface_from_hits(geo: GeometryTable, hits, origins, dirs, differentials=Non
     # UV sets k >= 1 on request (SurfaceBatch.uv_set; a function of the batch, not a closure over it: no cycle)
     surf.__dict__["_uv_set_fn"] = lambda k, what, batch: uv_set_at_hits(geo.uv_table(k), tri, batch, what)
     return surf
-
-
-def reflect_differential_terms(surf, rx_d, ry_d):
-    """The parts of :func:`reflect_differentials` that do not depend on the reflected direction:
-    ``(p + dpdx, dwr_x, p + dpdy, dwr_y)``, the offset rays' origins and direction changes (a direction change does
-    not involve ``wr``). Several rays leaving one hit (glossy rays) share them."""
-    n = surf.ns
-    wo = surf.wo
-    cos_o = dot(wo, n)
-    out = []
-    for dp, d_in, dn in ((surf.dpdx, rx_d, surf.dndx), (surf.dpdy, ry_d, surf.dndy)):
-        dwo = -d_in - wo
-        dcos = dot(dwo, n) + dot(wo, dn)
-        inner = scale_rows(n, dcos)
-        inner += scale_rows(dn, cos_o)
-        dwr = 2.0 * inner
-        dwr -= dwo
-        out += [surf.p + dp, dwr]
-    return tuple(out)
-
-
-def reflect_differentials(surf, rx_d, ry_d, wr):
-    """Offset rays of a mirror reflection (pbrt's specular-reflection differentials).
-
-    ``wr = -wo + 2 (wo.n) n``  =>  ``dwr = -dwo + 2 (d(wo.n) n + (wo.n) dn)``.
-    Returns ``(rx_o, rx_d, ry_o, ry_d)`` for the reflected ray.
-    """
-    ox, dx, oy, dy = reflect_differential_terms(surf, rx_d, ry_d)
-    return ox, wr + dx, oy, wr + dy
-
-
-def refract_differentials(surf, rx_d, ry_d, wt, eta):
-    """Offset rays of a refraction; ``eta = eta_t / eta_i``.
-
-    ``wt = -wo/eta + mu n`` with ``mu = cos_o/eta - cos_t``, ``cos_t = -(wt.n)``; differentiating,
-    ``dwt = -dwo/eta + mu dn + dmu n`` and ``dmu = (1/eta - cos_o / (eta^2 cos_t)) d(cos_o)``.
-    """
-    n = surf.ns
-    wo = surf.wo
-    cos_o = dot(wo, n)
-    cos_t = -dot(wt, n)
-    mu = cos_o / eta - cos_t
-    safe_ct = np.where(np.abs(cos_t) > 1e-12, cos_t, 1e-12)
-    out = []
-    for dp, d_in, dn in ((surf.dpdx, rx_d, surf.dndx), (surf.dpdy, ry_d, surf.dndy)):
-        dwo = -d_in - wo
-        dcos = dot(dwo, n) + dot(wo, dn)
-        dmu = (1.0 / eta - cos_o / (eta * eta * safe_ct)) * dcos
-        dwt = -dwo / eta[:, None] + mu[:, None] * dn + dmu[:, None] * n
-        out += [surf.p + dp, wt + dwt]
-    return tuple(out)

@@ -41,7 +41,7 @@ from pyrt.core import checks
 from pyrt.core.errors import RenderError
 from pyrt.core.rays import RayBatch
 from pyrt.core.sampler import stratified_samples, stream_rows
-from pyrt.geometry.surface import reflect_differential_terms
+from pyrt.geometry.differentials import reflect_differential_terms
 from pyrt.integrators import direct
 from pyrt.integrators import light_choice
 from pyrt.integrators.whitted import Integrator, normalize_rows

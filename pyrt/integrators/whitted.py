@@ -33,7 +33,8 @@ from pyrt.core.rays import RayBatch
 from pyrt.core.sampler import PaddedStream, stream_rows
 from pyrt.geometry import offsets
 from pyrt.geometry.accel import T_INFINITE, Hits
-from pyrt.geometry.surface import refract_differentials, reflect_differentials, surface_from_hits
+from pyrt.geometry.differentials import refract_differentials, reflect_differentials
+from pyrt.geometry.surface import surface_from_hits
 from pyrt.integrators import coverage
 from pyrt.integrators import direct
 from pyrt.integrators import gouraud

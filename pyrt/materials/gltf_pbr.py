@@ -88,11 +88,11 @@ class GltfPBR(MetallicRoughness):
     ``geometry="smith_correlated"``; the separable product of the same anisotropic ``G1`` with the default
     ``"smith_separable"``), sampled by anisotropic visible normals (Heitz 2018). ``t`` is
     ``normalize((cos r, sin r) rotated (x, y))`` in the tangent frame ``(T, B)`` of the normal maps
-    (:func:`pyrt.shaders.textures.tangent_frame` of ``dpdu``, ``dpdv`` of the texture's UV set, around the shading
-    normal), ``r = anisotropy_rotation`` (radians, counter-clockwise from ``T`` toward ``B``), ``(x, y) = 2 RG - 1``
-    of ``anisotropy_texture`` (``(1, 0)`` without one, or where it is ``(0, 0)``), and the strength is
-    ``anisotropy x`` its B. The frame comes from the UVs: glTF ``TANGENT`` attributes are not read (as for normal
-    maps). Approximations: the transmission lobe and the smooth transmissive share stay isotropic
+    (:func:`pyrt.shaders.textures.tangent_frame` of :meth:`pyrt.geometry.SurfaceBatch.shading_tangents`: the mesh's
+    vertex tangents, glTF ``TANGENT``, else ``dpdu``, ``dpdv`` of the texture's UV set; around the shading normal),
+    ``r = anisotropy_rotation`` (radians, counter-clockwise from ``T`` toward ``B``), ``(x, y) = 2 RG - 1`` of
+    ``anisotropy_texture`` (``(1, 0)`` without one, or where it is ``(0, 0)``), and the strength is ``anisotropy x``
+    its B. Approximations: the transmission lobe and the smooth transmissive share stay isotropic
     (the extension's lobe is the specular BRDF); :meth:`glossy_alpha` is ``alpha_b = alpha``, the smaller width (a
     lobe that is sharp across ``t`` shows sharp reflections, so the glossy integrator traces them as it would for
     the isotropic lobe of that roughness); the preview's split sum lights one isotropic lobe of the geometric mean
@@ -190,7 +190,7 @@ class GltfPBR(MetallicRoughness):
                 given = (x != 0) | (y != 0)          # (0, 0) has no direction: the rotated T, as without a texture
                 d = np.where(given[:, None], np.stack([c * x - s * y, s * x + c * y], axis=1), d)
             k = 0 if tex is None else tex.texcoord
-            dpdu, dpdv = ctx.uv_tangents(k) if k else (ctx.dpdu, ctx.dpdv)
+            dpdu, dpdv = ctx.shading_tangents(k)
             ns = np.asarray(ctx.ns, dtype=np.float64)
             tw, bw = tangent_frame(ns, np.asarray(dpdu, dtype=np.float64), np.asarray(dpdv, dtype=np.float64))
             t = np.asarray(ctx.to_local(d[:, :1] * tw + d[:, 1:2] * bw), dtype=np.float64)[:, :2]

@@ -79,8 +79,9 @@ def perturb_normal(ctx, normal_map, *, ns=None):
     Parameters
     ----------
     ctx : SurfaceBatch
-        Uses ``ns`` (unit shading normal, turned toward the viewer), ``dpdu``, ``dpdv`` (of the map's UV set,
-        :meth:`~pyrt.geometry.SurfaceBatch.uv_tangents`), ``wo`` (or None),
+        Uses ``ns`` (unit shading normal, turned toward the viewer), the tangents of
+        :meth:`~pyrt.geometry.SurfaceBatch.shading_tangents` (the mesh's vertex tangents, else ``dpdu``, ``dpdv`` of
+        the map's UV set), ``wo`` (or None),
         ``front`` (or None: all front faces; on back faces the perturbation is mirrored with the surface) and what
         the texture reads (``uv``, footprints).
     normal_map : Texture
@@ -112,8 +113,8 @@ def perturb_normal(ctx, normal_map, *, ns=None):
         # seen from its other side, so the whole perturbed normal is mirrored, -(x t + y b + z n_front), as the
         # glTF Sample Viewer flips t, b and n on back faces (not only n)
         n_ts = np.where(np.asarray(ctx.front)[:, None], n_ts, n_ts * np.array([-1.0, -1.0, 1.0]))
-    # the tangents of the UV set the map is read in (its texcoord; set 0: ctx.dpdu, ctx.dpdv)
-    dpdu, dpdv = ctx.uv_tangents(normal_map.texcoord) if normal_map.texcoord else (ctx.dpdu, ctx.dpdv)
+    # the mesh's vertex tangents where it has them (glTF TANGENT), else the tangents of the UV set the map is read in
+    dpdu, dpdv = ctx.shading_tangents(normal_map.texcoord)
     t, b = _tex.tangent_frame(ns, np.asarray(dpdu, dtype=np.float64), np.asarray(dpdv, dtype=np.float64))
     n = _tex.apply_tangent_normal(n_ts, ns, t, b)
     wo = ctx.wo

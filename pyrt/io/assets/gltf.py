@@ -301,9 +301,16 @@ def _load_gltf(path, max_texture=None):
                 normals = attribute("NORMAL")[:, :3]
                 ln = np.linalg.norm(normals, axis=1, keepdims=True)
                 normals = np.divide(normals, ln, out=np.zeros_like(normals), where=ln > 0)
+            tangents = None
+            if "TANGENT" in attrs and normals is not None:
+                tangents = attribute("TANGENT")
+                if tangents.ndim != 2 or tangents.shape[1] != 4:
+                    raise AssetError(f"{path}: {where}: TANGENT must be VEC4, got {tangents.shape[1:]} components")
             targets = p.get("targets", [])
             if targets:                    # the default pose: the targets at the node's / mesh's weights
                 pos, normals = gltf_pose.morph(g, targets, weights[:len(targets)], pos, normals, where)
+                if any("TANGENT" in t and w != 0 for t, w in zip(targets, weights)):
+                    tangents = None        # morphed tangents are not applied: the UV tangents instead
             mat = p.get("material", -1)
             if mat >= len(asset.materials):
                 raise AssetError(f"{path}: {where}: material {mat} does not exist")
@@ -324,12 +331,12 @@ def _load_gltf(path, max_texture=None):
                 if col4.shape[1] == 4:     # coverage alpha (used by MASK / BLEND materials only)
                     alpha = np.clip(col4[:, 3], 0.0, 1.0)
             for arr, nm in ((normals, "NORMAL"), (uv, "TEXCOORD_0"), *((a, f"TEXCOORD_{k}") for k, a in uv_sets.items()),
-                            (colors, "COLOR_0")):
+                            (colors, "COLOR_0"), (tangents, "TANGENT")):
                 if arr is not None and arr.shape[0] != nv:
                     raise AssetError(f"{path}: {where}: {nm} has {arr.shape[0]} entries for {nv} vertices")
             asset.meshes.append(AssetMesh(name=f"{m.get('name', f'mesh{mi}')}.{pi}", vertices=pos, faces=faces,
                                           normals=normals, uv=uv, colors=colors, material=mat,
-                                          alpha=alpha, uv_sets=uv_sets or None))
+                                          alpha=alpha, uv_sets=uv_sets or None, tangents=tangents))
             ids.append(len(asset.meshes) - 1)
             sets = sorted(int(k[7:]) for k in attrs if k.startswith("JOINTS_") and k[7:].isdigit()
                           and f"WEIGHTS_{k[7:]}" in attrs)

@@ -1,0 +1,204 @@
+"""Vertex tangents (glTF ``TANGENT``, :meth:`pyrt.Scene.add_mesh`'s ``tangents``): normal maps and anisotropic lobes
+use the mesh's interpolated tangents and their handedness where it has them, the UV tangents elsewhere.
+
+Ground truth: the interpolated frame is the barycentric sum of the vertex frames (exact); end to end, a glTF plane
+whose ``TANGENT`` is the UV tangent renders as the file without it, and a file whose ``TANGENT`` is turned by 90 deg
+(or mirrored, w = -1) renders as the file without it whose UVs are turned (mirrored) the same way, so that their
+``dpdu``, ``dpdv`` are that frame; a wrong frame gives another image (the checks can fail).
+"""
+import base64
+import io
+import json
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import pyrt
+from pyrt.core.transforms import transform_tangents
+from pyrt.geometry.surface import GeometryError, surface_from_hits
+from pyrt.integrators import PreparedScene
+from pyrt.io.assets import load_asset
+
+
+def _grid(n=6):
+    """A (2 n^2 triangles) square in z = 0, [-1, 1]^2."""
+    x, y = np.meshgrid(np.linspace(-1, 1, n + 1), np.linspace(-1, 1, n + 1))
+    v = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])
+    i = np.arange(n * (n + 1)).reshape(n, n + 1)[:, :n].ravel()
+    f = np.concatenate([np.column_stack([i, i + 1, i + n + 2]), np.column_stack([i, i + n + 2, i + n + 1])])
+    return v, f
+
+
+def test_transform_tangents_turns_xyz_and_flips_w_under_a_mirror():
+    t = np.array([[1.0, 0, 0, 1], [0, 0, 0, -1], [0, 2.0, 0, -1]])
+    rot = np.array([[0.0, -1, 0], [1, 0, 0], [0, 0, 1]])                # 90 deg about z
+    out = transform_tangents(t, rot)
+    np.testing.assert_allclose(out, [[0, 1, 0, 1], [0, 0, 0, -1], [-1, 0, 0, -1]], atol=1e-15)
+    out = transform_tangents(t, np.diag([-3.0, 1.0, 1.0]))             # a mirror with a scale
+    np.testing.assert_allclose(out, [[-1, 0, 0, -1], [0, 0, 0, 1], [0, 1, 0, 1]], atol=1e-15)
+
+
+def test_add_mesh_checks_tangents():
+    v, f = _grid(2)
+    scene = pyrt.Scene(pyrt.Camera(width=4, height=4))
+    n = np.tile([0.0, 0, 1], (len(v), 1))
+    with pytest.raises(GeometryError, match="tangents must be finite with shape"):
+        scene.add_mesh((v, f), pyrt.Lambert(0.5), normals=n, tangents=np.zeros((len(v), 3)))
+    bad = np.tile([1.0, 0, 0, 1], (len(v), 1))
+    bad[2, 0] = np.nan
+    with pytest.raises(GeometryError, match="mesh 'grid'"):
+        scene.add_mesh((v, f), pyrt.Lambert(0.5), normals=n, tangents=bad, name="grid")
+    # crease normals re-index the vertices: the tangents are dropped (the UV tangents are used)
+    scene.add_mesh((v, f), pyrt.Lambert(0.5), tangents=np.tile([1.0, 0, 0, 1], (len(v), 1)))
+    assert scene.meshes[-1].tangents is None
+
+
+def _hits(scene):
+    cam = scene.camera
+    ps = PreparedScene(scene)
+    rays = cam.generate_rays(0, cam.width * cam.height, np.random.default_rng(0))
+    idx, hits = ps.accel.intersect_hits(rays.origins, rays.directions)
+    return ps, hits, surface_from_hits(ps.geo, hits, rays.origins[idx], rays.directions[idx])
+
+
+def test_shading_tangents_are_the_interpolated_vertex_frames_and_the_uv_tangents_elsewhere():
+    v, f = _grid()
+    uv = (v[:, :2] + 1) / 2
+    theta = 0.7 * v[:, 0] + 0.3 * v[:, 1]                               # a tangent field turning across the mesh
+    tan = np.column_stack([np.cos(theta), np.sin(theta), np.zeros(len(v)), np.where(v[:, 0] < 0, -1.0, 1.0)])
+    cam = pyrt.Camera(position=(0.1, -0.2, 3), target=(0, 0, 0), fov=45, width=24, height=20)
+    scene = pyrt.Scene(cam)
+    scene.add_mesh((v, f), pyrt.Lambert(0.5), normals=np.tile([0.0, 0, 1], (len(v), 1)), uv=uv, tangents=tan)
+    # a second mesh without tangents, in front of part of the first
+    scene.add_mesh((v * [0.3, 0.3, 1] + [-0.5, 0, 0.5], f), pyrt.Lambert(0.5), smooth=False, uv=uv)
+    ps, hits, surf = _hits(scene)
+    t, b = surf.shading_tangents(0)
+    first = hits.mesh_id == 0
+    assert first.sum() > 50 and (~first).sum() > 20
+    tri = ps.geo.faces[ps.geo.face_offset[hits.mesh_id] + hits.prim_id][first]     # mesh 0's vertices come first
+    bary = np.column_stack([1 - hits.u - hits.v, hits.u, hits.v])[first]
+    bit = tan[:, 3:] * np.cross([0.0, 0, 1], tan[:, :3])
+    np.testing.assert_allclose(t[first], np.einsum("nk,nkc->nc", bary, tan[tri, :3]), atol=1e-12)
+    np.testing.assert_allclose(b[first], np.einsum("nk,nkc->nc", bary, bit[tri]), atol=1e-12)
+    du, dv = surf.uv_tangents(0)
+    np.testing.assert_array_equal(t[~first], du[~first])
+    np.testing.assert_array_equal(b[~first], dv[~first])
+    # a view of the batch gathers the same rows
+    sub = surf.subset(np.flatnonzero(first)[::3])
+    np.testing.assert_array_equal(sub.shading_tangents(0)[0], t[np.flatnonzero(first)[::3]])
+
+
+# ------------------------------------------------------------------------------------------- glTF end to end
+
+def _png_uri(arr):
+    buf = io.BytesIO()
+    Image.fromarray(np.asarray(arr, dtype=np.uint8)).save(buf, format="PNG")
+    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode()
+
+
+def _write(path, uv, tangent=None):
+    """A .gltf of the grid square (normal +z) with glTF UVs ``uv``, an optional constant ``TANGENT`` and a normal
+    map tilted toward tangent-space +x and -y (so that both the tangent and the bitangent's side matter)."""
+    v, f = _grid()
+    blob = bytearray()
+    views, accessors = [], []
+
+    def add(arr, comp, typ):
+        a = np.ascontiguousarray(arr)
+        views.append({"buffer": 0, "byteOffset": len(blob), "byteLength": a.nbytes})
+        blob.extend(a.tobytes())
+        blob.extend(b"\0" * (-len(blob) % 4))
+        acc = {"bufferView": len(views) - 1, "componentType": comp, "count": int(a.shape[0]), "type": typ}
+        if typ == "VEC3":
+            acc["min"], acc["max"] = a.min(0).tolist(), a.max(0).tolist()
+        accessors.append(acc)
+        return len(accessors) - 1
+
+    attrs = {"POSITION": add(v.astype(np.float32), 5126, "VEC3"),
+             "NORMAL": add(np.tile(np.float32([0, 0, 1]), (len(v), 1)), 5126, "VEC3"),
+             "TEXCOORD_0": add(np.asarray(uv, np.float32), 5126, "VEC2")}
+    if tangent is not None:
+        attrs["TANGENT"] = add(np.tile(np.float32(tangent), (len(v), 1)), 5126, "VEC4")
+    idx = add(f.astype(np.uint32).ravel(), 5125, "SCALAR")
+    nmap = np.tile(np.uint8([205, 80, 200]), (8, 8, 1))
+    material = {"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0,
+                                         "roughnessFactor": 0.6},
+                "normalTexture": {"index": 0}}
+    h = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+         "meshes": [{"primitives": [{"attributes": attrs, "indices": idx, "material": 0}]}],
+         "materials": [material], "accessors": accessors, "bufferViews": views,
+         "buffers": [{"byteLength": len(blob), "uri": "data:application/octet-stream;base64,"
+                      + base64.b64encode(bytes(blob)).decode()}],
+         "images": [{"uri": _png_uri(nmap)}], "textures": [{"source": 0}]}
+    path.write_text(json.dumps(h))
+    return str(path)
+
+
+def _render(path):
+    cam = pyrt.Camera(position=(0.2, -0.3, 3), target=(0, 0, 0), fov=40, width=32, height=24, spp=2)
+    scene = pyrt.Scene(cam, background=(0, 0, 0))
+    asset = load_asset(path)
+    asset.add_to_scene(scene, lights=False)
+    scene.add_light(pyrt.DirectionalLight((0.5, 0.4, -1.0), irradiance=3.0))
+    return asset, pyrt.render(scene, seed=3)
+
+
+@pytest.fixture(scope="module")
+def uv_frames():
+    """glTF UVs (top-left origin) whose dpdu, dpdv are (+x, +y), (+y, -x) and (+y, +x) in pyrt's bottom-left UVs."""
+    v, _ = _grid()
+    x, y = v[:, 0], v[:, 1]
+    gl = lambda u, vv: np.column_stack([u, 1.0 - vv])                 # noqa: E731 - pyrt (u, v) -> glTF
+    return {"x": gl((x + 1) / 2, (y + 1) / 2), "turned": gl((y + 1) / 2, (1 - x) / 2),
+            "mirrored": gl((y + 1) / 2, (x + 1) / 2)}
+
+
+def test_gltf_tangent_equal_to_the_uv_tangent_renders_as_without_it(tmp_path, uv_frames):
+    asset, with_t = _render(_write(tmp_path / "t.gltf", uv_frames["x"], tangent=[1, 0, 0, 1]))
+    assert asset.meshes[0].tangents is not None and asset.warnings == []
+    _, without = _render(_write(tmp_path / "n.gltf", uv_frames["x"]))
+    np.testing.assert_allclose(with_t, without, rtol=1e-5, atol=1e-7)
+
+
+@pytest.mark.parametrize("tangent, frame", [([0, 1, 0, 1], "turned"), ([0, 1, 0, -1], "mirrored")])
+def test_gltf_tangent_sets_the_normal_maps_frame(tmp_path, uv_frames, tangent, frame):
+    """TANGENT (0, 1, 0) with w = 1 is the frame (t, b) = (+y, -x), with w = -1 (+y, +x): the same image as the
+    file without TANGENT whose UVs have that dpdu, dpdv; not the image of its own UVs' frame."""
+    _, with_t = _render(_write(tmp_path / "t.gltf", uv_frames["x"], tangent=tangent))
+    _, same_frame = _render(_write(tmp_path / "f.gltf", uv_frames[frame]))
+    _, uv_frame = _render(_write(tmp_path / "x.gltf", uv_frames["x"]))
+    np.testing.assert_allclose(with_t, same_frame, rtol=1e-5, atol=1e-7)
+    assert np.abs(with_t - uv_frame).mean() > 0.02 * uv_frame.mean()
+
+
+def test_joined_instances_carry_their_tangents_to_the_world(monkeypatch):
+    """A model of many instances is joined into world-space meshes (pyrt.io.assets.asset._flattened): the joined
+    mesh's tangents are each instance's, moved as Scene.add_mesh moves them (mirrored instances' w flipped)."""
+    from pyrt.io.assets import asset as A
+    v, f = _grid(2)
+    rng = np.random.default_rng(4)
+    theta = rng.uniform(0, 2 * np.pi, len(v))
+    tan = np.column_stack([np.cos(theta), np.sin(theta), np.zeros(len(v)), np.where(theta > 3, -1.0, 1.0)])
+    mesh = A.AssetMesh(name="tile", vertices=v, faces=f, normals=np.tile([0.0, 0, 1], (len(v), 1)),
+                       uv=(v[:, :2] + 1) / 2, tangents=tan)
+    insts = []
+    for i in range(70):
+        m = np.eye(4)
+        m[:3, :3] = np.linalg.qr(rng.normal(size=(3, 3)))[0] * rng.uniform(0.5, 2)   # rotations and scales
+        if i % 2:
+            m[:3, :3] = m[:3, :3] @ np.diag([-1.0, 1.0, 1.0])                      # half of them mirrored
+        m[:3, 3] = rng.uniform(-3, 3, 3)
+        insts.append(A.AssetInstance(mesh=0, world_from_object=m, node=f"n{i}"))
+
+    def world_tangents(min_instances):
+        monkeypatch.setattr(A, "FLATTEN_MIN_INSTANCES", min_instances)
+        scene = pyrt.Scene(pyrt.Camera(width=4, height=4))
+        A.Asset(path="tiles", format="gltf", meshes=[mesh], instances=insts).add_to_scene(scene, lights=False)
+        return len(scene.meshes), np.concatenate([m.tangents for m in scene.meshes])
+
+    n_joined, joined = world_tangents(64)
+    n_sep, separate = world_tangents(10 ** 9)
+    assert n_joined == 1 and n_sep == 70
+    np.testing.assert_allclose(joined, separate, atol=1e-12)
+    assert (separate[:, 3] != np.tile(tan[:, 3], 70)).any()        # the mirrors flipped some w: the check can fail
