@@ -202,3 +202,133 @@ def test_joined_instances_carry_their_tangents_to_the_world(monkeypatch):
     assert n_joined == 1 and n_sep == 70
     np.testing.assert_allclose(joined, separate, atol=1e-12)
     assert (separate[:, 3] != np.tile(tan[:, 3], 70)).any()        # the mirrors flipped some w: the check can fail
+
+
+# ------------------------------------------------------------------------------------------- generated tangents
+
+def _cylinder(segments=8, distort=0.0):
+    """An open cylinder (radius 1, height 1) with outward normals, u around it (optionally distorted: u = s +
+    distort s^2, v = y + distort sin(2 pi s)), v up."""
+    s = np.linspace(0.0, 1.0, segments + 1)
+    a = 2 * np.pi * s
+    ring = np.column_stack([np.cos(a), np.zeros_like(a), -np.sin(a)])
+    v = np.concatenate([ring, ring + [0, 1, 0]])
+    n = np.concatenate([ring, ring])
+    uv = np.concatenate([np.column_stack([s + distort * s * s, distort * np.sin(a)]),
+                         np.column_stack([s + distort * s * s, 1 + distort * np.sin(a)])])
+    k = segments + 1
+    i = np.arange(segments)
+    f = np.concatenate([np.column_stack([i, i + 1, i + 1 + k]), np.column_stack([i, i + 1 + k, i + k])])
+    return v, f, n, uv
+
+
+def test_generated_tangents_of_a_cylinder_are_its_circles_tangents():
+    from pyrt.geometry.tangents import vertex_tangents
+    v, f, n, uv = _cylinder()
+    t = vertex_tangents(v, f, n, uv)
+    a = np.linspace(0.0, 2 * np.pi, 9)
+    want = np.column_stack([-np.sin(a), np.zeros_like(a), -np.cos(a)])     # d ring / d u, normalised
+    np.testing.assert_allclose(t[:9, :3], want, atol=1e-12)
+    np.testing.assert_allclose(t[9:, :3], want, atol=1e-12)
+    bitangent = t[:, 3:] * np.cross(n, t[:, :3])
+    np.testing.assert_allclose(bitangent, np.tile([0.0, 1.0, 0.0], (18, 1)), atol=1e-12)   # +v is up
+
+
+def test_generated_tangents_match_a_brute_force_mikktspace_sum():
+    """Each vertex: the angle-weighted sum of its triangles' dpdu projected onto its normal's plane, normalised;
+    zero where its triangles disagree on the handedness (the shared seam of a mirrored UV map)."""
+    from pyrt.geometry.tangents import vertex_tangents
+    v, f, n, uv = _cylinder(segments=12, distort=0.4)
+    rng = np.random.default_rng(2)
+    n = n + rng.normal(0, 0.05, n.shape)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    uv = uv.copy()
+    uv[:, 0] = np.abs(uv[:, 0] - 0.7)            # mirrored about u = 0.7: a vertex column of mixed handedness
+    got = vertex_tangents(v, f, n, uv)
+    sums = {}
+    for tri in f:
+        p, q = v[tri], uv[tri]
+        e1, e2, d1, d2 = p[1] - p[0], p[2] - p[0], q[1] - q[0], q[2] - q[0]
+        det = d1[0] * d2[1] - d1[1] * d2[0]
+        dpdu, dpdv = (d2[1] * e1 - d1[1] * e2) / det, (d1[0] * e2 - d2[0] * e1) / det
+        for c in range(3):
+            a, b = p[(c + 1) % 3] - p[c], p[(c + 2) % 3] - p[c]
+            ang = np.arctan2(np.linalg.norm(np.cross(a, b)), a @ b)
+            nv = n[tri[c]]
+            t = dpdu - nv * (nv @ dpdu)
+            hand = 1.0 if np.cross(nv, dpdu) @ dpdv >= 0 else -1.0
+            sums.setdefault(tri[c], {}).setdefault(hand, np.zeros(3))
+            sums[tri[c]][hand] += ang * t / np.linalg.norm(t)
+    mixed = 0
+    for vi, by_hand in sums.items():
+        if len(by_hand) == 2:
+            mixed += 1
+            np.testing.assert_array_equal(got[vi], 0.0)
+            continue
+        (hand, t), = by_hand.items()
+        t = t - n[vi] * (n[vi] @ t)
+        np.testing.assert_allclose(got[vi, :3], t / np.linalg.norm(t), atol=1e-12)
+        assert got[vi, 3] == hand
+    assert mixed >= 2                            # the seam is in the mesh: the zero rule was exercised
+
+
+def test_gltf_without_tangent_uses_generated_ones_and_the_switch_turns_them_off(tmp_path):
+    """A normal-mapped glTF without TANGENT renders as the same file carrying the generated tangents; with
+    load_asset(generate_tangents=False) its normal map uses each triangle's UV tangents: another image on a mesh
+    whose UV map is distorted (the check can fail)."""
+    from pyrt.geometry.tangents import vertex_tangents
+    v, f, n, uv = _cylinder(segments=10, distort=0.5)
+    gl_uv = np.column_stack([uv[:, 0], 1.0 - uv[:, 1]])                # glTF's top-left UVs
+    asset = load_asset(_write_mesh(tmp_path / "gen.gltf", v, f, n, gl_uv))
+    np.testing.assert_allclose(asset.meshes[0].tangents, vertex_tangents(v, f, n, uv), atol=1e-6)
+    generated = _render_mesh(asset)
+    given = _render_mesh(load_asset(_write_mesh(tmp_path / "tan.gltf", v, f, n, gl_uv,
+                                                tangents=vertex_tangents(v, f, n, uv))))
+    np.testing.assert_allclose(generated, given, rtol=1e-5, atol=1e-7)
+    off = load_asset(str(tmp_path / "gen.gltf"), generate_tangents=False)
+    assert off.meshes[0].tangents is None
+    per_triangle = _render_mesh(off)
+    assert np.abs(per_triangle - generated).mean() > 0.01 * generated.mean()
+
+
+def _write_mesh(path, v, f, n, uv, tangents=None):
+    """A .gltf of one normal-mapped primitive (float32 attributes)."""
+    blob = bytearray()
+    views, accessors = [], []
+
+    def add(arr, comp, typ):
+        a = np.ascontiguousarray(arr)
+        views.append({"buffer": 0, "byteOffset": len(blob), "byteLength": a.nbytes})
+        blob.extend(a.tobytes())
+        blob.extend(b"\0" * (-len(blob) % 4))
+        acc = {"bufferView": len(views) - 1, "componentType": comp, "count": int(a.shape[0]), "type": typ}
+        if typ == "VEC3":
+            acc["min"], acc["max"] = a.min(0).tolist(), a.max(0).tolist()
+        accessors.append(acc)
+        return len(accessors) - 1
+
+    attrs = {"POSITION": add(v.astype(np.float32), 5126, "VEC3"), "NORMAL": add(n.astype(np.float32), 5126, "VEC3"),
+             "TEXCOORD_0": add(uv.astype(np.float32), 5126, "VEC2")}
+    if tangents is not None:
+        attrs["TANGENT"] = add(tangents.astype(np.float32), 5126, "VEC4")
+    idx = add(f.astype(np.uint32).ravel(), 5125, "SCALAR")
+    nmap = np.tile(np.uint8([215, 70, 190]), (8, 8, 1))
+    material = {"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0,
+                                         "roughnessFactor": 0.7},
+                "normalTexture": {"index": 0}, "doubleSided": True}
+    h = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+         "meshes": [{"primitives": [{"attributes": attrs, "indices": idx, "material": 0}]}],
+         "materials": [material], "accessors": accessors, "bufferViews": views,
+         "buffers": [{"byteLength": len(blob), "uri": "data:application/octet-stream;base64,"
+                      + base64.b64encode(bytes(blob)).decode()}],
+         "images": [{"uri": _png_uri(nmap)}], "textures": [{"source": 0}]}
+    path.write_text(json.dumps(h))
+    return str(path)
+
+
+def _render_mesh(asset):
+    cam = pyrt.Camera(position=(2.2, 1.6, 2.6), target=(0, 0.5, 0), fov=45, width=40, height=32, spp=2)
+    scene = pyrt.Scene(cam, background=(0, 0, 0))
+    asset.add_to_scene(scene, lights=False)
+    scene.add_light(pyrt.DirectionalLight((-0.6, -0.5, -0.7), irradiance=3.0))
+    return pyrt.render(scene, seed=5)

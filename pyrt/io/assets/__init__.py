@@ -93,7 +93,7 @@ __all__ = [
 ]
 
 
-def load_asset(path, *, max_texture=None):
+def load_asset(path, *, max_texture=None, generate_tangents=True):
     """Load any supported file (by extension: .gltf .glb .obj .ply .stl) into an :class:`Asset`.
 
     Parameters
@@ -104,6 +104,10 @@ def load_asset(path, *, max_texture=None):
         glTF images, OBJ colour / normal maps and PLY textures whose longer side exceeds this many texels are reduced
         by a power of two as they are decoded (:mod:`pyrt.io.assets.texture_budget`: the box filter of pyrt's MIP levels, named in
         the warnings). None (default): every image whole.
+    generate_tangents : bool
+        glTF primitives with a normal map (or anisotropy) and no ``TANGENT`` get smooth vertex tangents from their UVs
+        (:mod:`pyrt.geometry.tangents`, MikkTSpace's rules, as glTF asks of viewers; default); False: the normal maps
+        use each triangle's own UV tangents (constant per triangle).
 
     Returns
     -------
@@ -125,7 +129,7 @@ def load_asset(path, *, max_texture=None):
     t0 = time.perf_counter()
     with malformed_is_asset_error(path, fmt.upper() if fmt != "gltf" else "glTF"):
         if fmt == "gltf":
-            asset = load_gltf(path, max_texture)
+            asset = load_gltf(path, max_texture, generate_tangents)
         elif fmt == "obj":
             asset = load_obj(path, max_texture)
         else:
