@@ -4,7 +4,6 @@ A :class:`Scene` only holds validated parameters; rendering lives in :mod:`pyrt.
 """
 from __future__ import annotations
 
-import math
 import numbers
 import sys
 

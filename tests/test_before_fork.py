@@ -1,7 +1,6 @@
 """Before render workers are forked, the scene's MIP pyramids are built once (PreparedScene.before_fork), so the
 workers share them: every image texture of the materials is found, whatever holds it, and built whole."""
 import numpy as np
-import pytest
 
 import pyrt
 from pyrt.integrators.prepared import image_textures

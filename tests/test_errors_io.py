@@ -1,7 +1,6 @@
 """Bad input gets clear errors; outputs are written and read back; the CLI works (import rules: test_architecture.py)."""
 import importlib
 import math
-import os
 import pathlib
 import subprocess
 import sys

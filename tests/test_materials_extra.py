@@ -12,7 +12,6 @@ import pyrt
 from pyrt.shaders import brdfs, fresnel, metals
 
 from material_helpers import LocalCtx, direction
-from test_material_contracts import QUAD_DW, QUAD_W, _albedo
 
 
 def _f0_conductor(eta, k):

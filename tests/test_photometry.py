@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import pyrt
-from pyrt.integrators import Integrator, PreparedScene
+from pyrt.integrators import PreparedScene
 from pyrt.shaders import lights as K
 from pyrt.shaders.color import LUMINANCE_WEIGHTS
 from render_helpers import pixel_centre_hits_on_plane_y0, top_down_scene

@@ -27,7 +27,6 @@ import numpy as np
 
 from pyrt.shaders import brdfs
 from pyrt.shaders import metals
-from pyrt.shaders import microfacet as mf
 from pyrt.shaders.vec import reflect
 from _charts import pyplot  # noqa: E402  (tools/_charts.py)
 

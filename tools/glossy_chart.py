@@ -16,7 +16,6 @@ import argparse
 import os
 import time
 
-import numpy as np
 
 import pyrt
 from pyrt.lights import ConstantEnvironment, set_environment

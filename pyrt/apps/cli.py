@@ -157,7 +157,7 @@ def _render(args, cancel):
                   + ("; pixels without any sample got 2" if res.pixels_filled else ""), file=sys.stderr)
             return EXIT_INTERRUPTED
     if not res.complete:
-        rest = (f"the other pixels got 1 sample each (noisier)" if res.pixels_filled
+        rest = ("the other pixels got 1 sample each (noisier)" if res.pixels_filled
                 else "the rest is black")
         spp = scene.camera.spp if args.spp is None else args.spp
         if res.samples_done > res.pixels_done * spp:   # above 32768 spp a pixel's samples span several chunks

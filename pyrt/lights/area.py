@@ -28,7 +28,7 @@ import numbers
 import numpy as np
 
 from pyrt.shaders import sampling
-from pyrt.shaders.vec import coordinate_frame, max_component
+from pyrt.shaders.vec import coordinate_frame
 
 from pyrt.lights.base import LIGHTS, Light, LightError, _color, _nonneg, _vec3
 from pyrt.materials import Material, check_color, register

@@ -17,11 +17,10 @@ import math
 import numpy as np
 
 from pyrt.materials.base import DeltaLobe, IsotropicMaterial, Material, MaterialError, check_color, check_scalar, \
-    is_texture, register
+    register
 from pyrt.materials.library import MetallicRoughness, conductor_eta_k
 from pyrt.shaders import brdfs
 from pyrt.shaders import fresnel
-from pyrt.shaders import metals as _metals
 from pyrt.shaders.vec import reflect
 
 

@@ -76,7 +76,7 @@ from tqdm.auto import tqdm
 from pyrt.core import checks
 from pyrt.core.errors import RenderError
 from pyrt.core.film import Film
-from pyrt.core.metrics import RELMSE_EPS, relmse_per_pixel
+from pyrt.core.metrics import RELMSE_EPS
 from pyrt.integrators.prepared import PreparedScene, RenderStats
 from pyrt.integrators.whitted import DEFAULT_SPLIT_DEPTH
 from pyrt.render.chunks import shade_adaptive_chunk
