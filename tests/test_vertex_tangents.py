@@ -280,13 +280,18 @@ def test_gltf_without_tangent_uses_generated_ones_and_the_switch_turns_them_off(
     v, f, n, uv = _cylinder(segments=10, distort=0.5)
     gl_uv = np.column_stack([uv[:, 0], 1.0 - uv[:, 1]])                # glTF's top-left UVs
     asset = load_asset(_write_mesh(tmp_path / "gen.gltf", v, f, n, gl_uv))
-    np.testing.assert_allclose(asset.meshes[0].tangents, vertex_tangents(v, f, n, uv), atol=1e-6)
+    assert asset.generate_tangents and asset.meshes[0].tangents is None     # generated as the mesh is added
+    scene = pyrt.Scene(pyrt.Camera(width=4, height=4))
+    asset.add_to_scene(scene, lights=False)
+    np.testing.assert_allclose(scene.meshes[0].tangents, vertex_tangents(v, f, n, uv), atol=1e-6)
     generated = _render_mesh(asset)
     given = _render_mesh(load_asset(_write_mesh(tmp_path / "tan.gltf", v, f, n, gl_uv,
                                                 tangents=vertex_tangents(v, f, n, uv))))
     np.testing.assert_allclose(generated, given, rtol=1e-5, atol=1e-7)
     off = load_asset(str(tmp_path / "gen.gltf"), generate_tangents=False)
-    assert off.meshes[0].tangents is None
+    scene = pyrt.Scene(pyrt.Camera(width=4, height=4))
+    off.add_to_scene(scene, lights=False)
+    assert scene.meshes[0].tangents is None
     per_triangle = _render_mesh(off)
     assert np.abs(per_triangle - generated).mean() > 0.01 * generated.mean()
 
@@ -332,3 +337,24 @@ def _render_mesh(asset):
     asset.add_to_scene(scene, lights=False)
     scene.add_light(pyrt.DirectionalLight((-0.6, -0.5, -0.7), irradiance=3.0))
     return pyrt.render(scene, seed=5)
+
+
+def test_obj_normal_map_gets_generated_tangents(tmp_path):
+    """An OBJ whose MTL names a normal map (``norm``): its mesh gets vertex tangents as it is added to a scene (the
+    same rule as glTF files without TANGENT), none without the map or with generate_tangents=False."""
+    v, f, n, uv = _cylinder(segments=6, distort=0.3)
+    Image.fromarray(np.tile(np.uint8([200, 128, 230]), (4, 4, 1))).save(tmp_path / "n.png")
+    lines = ["mtllib m.mtl", "usemtl bumpy"] + [f"v {x} {y} {z}" for x, y, z in v] + \
+        [f"vt {a} {b}" for a, b in uv] + [f"vn {x} {y} {z}" for x, y, z in n] + \
+        [f"f {a + 1}/{a + 1}/{a + 1} {b + 1}/{b + 1}/{b + 1} {c + 1}/{c + 1}/{c + 1}" for a, b, c in f]
+    (tmp_path / "c.obj").write_text("\n".join(lines) + "\n")
+    for mtl, generate, has in (("newmtl bumpy\nKd 0.8 0.8 0.8\nnorm n.png\n", True, True),
+                               ("newmtl bumpy\nKd 0.8 0.8 0.8\nnorm n.png\n", False, False),
+                               ("newmtl bumpy\nKd 0.8 0.8 0.8\n", True, False)):
+        (tmp_path / "m.mtl").write_text(mtl)
+        scene = pyrt.Scene(pyrt.Camera(width=4, height=4))
+        load_asset(str(tmp_path / "c.obj"), generate_tangents=generate).add_to_scene(scene, lights=False)
+        assert (scene.meshes[0].tangents is not None) == has
+        if has:
+            t = scene.meshes[0].tangents
+            assert np.all(np.abs(np.linalg.norm(t[:, :3], axis=1) - 1) < 1e-9) and np.all(np.abs(t[:, 3]) == 1)

@@ -340,7 +340,7 @@ class Material:
         n = ctx.n_hits
         if is_texture(value):
             cache = ctx.__dict__.setdefault("_param_cache", {})
-            key = (id(value), channels)
+            key = (value, channels)        # the texture itself (hashed by identity): kept alive, its id not reused
             out = cache.get(key)
             if out is None:
                 out = cache[key] = row_memo(ctx, ("param",) + key, lambda c: _texture_values(value, c, channels))

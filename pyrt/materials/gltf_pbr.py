@@ -176,7 +176,7 @@ class GltfPBR(MetallicRoughness):
         if not self.anisotropic:
             return None
         cache = ctx.__dict__.setdefault("_param_cache", {})
-        key = (id(self), "anisotropy")
+        key = (self, "anisotropy")
         if key not in cache:
             n = ctx.n_hits
             c, s = np.cos(self.anisotropy_rotation), np.sin(self.anisotropy_rotation)
@@ -449,7 +449,7 @@ class Clearcoat(Material):
         if self.coat_normal_map is None and self.base.normal_map is None:
             return None
         cache = ctx.__dict__.setdefault("_param_cache", {})
-        key = (id(self), "coat_frame")
+        key = (self, "coat_frame")
         if key not in cache:
             n0 = ctx.ns
             if self.base.normal_map is not None and ctx.ns_unmapped is not None:

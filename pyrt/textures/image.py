@@ -427,8 +427,10 @@ class ImageTexture(Texture):
     @property
     def sampling_key(self):
         """What decides this texture's lookups: its texels and pyramid (with their decoding), its UV set, its
-        sampler and UV transform. Textures with equal keys return the same values at the same hits."""
-        return (id(self._pyramid), self.texcoord, self.wrap, self.filter, self.scale, self.offset,
+        sampler and UV transform. Textures with equal keys return the same values at the same hits. The pyramid
+        itself is in the key (hashed by identity), not its ``id``: a memo keyed by it keeps it alive, so a texture
+        freed while a batch's memo remains cannot hand its address, and its cached lookups, to a new one."""
+        return (self._pyramid, self.texcoord, self.wrap, self.filter, self.scale, self.offset,
                 self.rotation_deg, self.footprint_scale, self.max_anisotropy)
 
     def build_mip_levels(self):

@@ -105,9 +105,10 @@ def load_asset(path, *, max_texture=None, generate_tangents=True):
         by a power of two as they are decoded (:mod:`pyrt.io.assets.texture_budget`: the box filter of pyrt's MIP levels, named in
         the warnings). None (default): every image whole.
     generate_tangents : bool
-        glTF primitives with a normal map (or anisotropy) and no ``TANGENT`` get smooth vertex tangents from their UVs
-        (:mod:`pyrt.geometry.tangents`, MikkTSpace's rules, as glTF asks of viewers; default); False: the normal maps
-        use each triangle's own UV tangents (constant per triangle).
+        Sets :attr:`Asset.generate_tangents`: meshes with a normal map (or anisotropy) and no tangents of their own (glTF
+        ``TANGENT``) get smooth vertex tangents from their UVs when added to a scene (:mod:`pyrt.geometry.tangents`,
+        MikkTSpace's main rules, as glTF asks of viewers; default); False: the normal maps use each triangle's own UV
+        tangents (constant per triangle).
 
     Returns
     -------
@@ -129,10 +130,11 @@ def load_asset(path, *, max_texture=None, generate_tangents=True):
     t0 = time.perf_counter()
     with malformed_is_asset_error(path, fmt.upper() if fmt != "gltf" else "glTF"):
         if fmt == "gltf":
-            asset = load_gltf(path, max_texture, generate_tangents)
+            asset = load_gltf(path, max_texture)
         elif fmt == "obj":
             asset = load_obj(path, max_texture)
         else:
             asset = load_ply_stl(path, fmt, max_texture)
     asset.load_time = time.perf_counter() - t0
+    asset.generate_tangents = bool(generate_tangents)
     return asset

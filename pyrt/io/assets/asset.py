@@ -12,6 +12,7 @@ import numpy as np
 
 from pyrt.core.camera import Camera
 from pyrt.core.transforms import apply_matrix, rewound, transform_normals, transform_tangents
+from pyrt.geometry.tangents import vertex_tangents
 from pyrt.geometry.normals import crease_normals
 from pyrt.lights import DirectionalLight, PointLight, SpotLight
 from pyrt.io.assets.common import DEFAULT_CREASE_ANGLE, AssetError, DefaultParams, PBRParams
@@ -114,6 +115,9 @@ class Asset:
     #: glTF materials that differ only in their base colour factor are added as one material, the factors moved
     #: into the vertex colours (:mod:`pyrt.io.assets.merge`: the same image, far fewer materials to shade)
     merge_materials: bool = True
+    #: meshes whose material has a normal map (or anisotropy) and that carry no tangents get vertex tangents generated
+    #: from their UVs as they are added to a scene (:mod:`pyrt.geometry.tangents`); False: each triangle's UV tangents
+    generate_tangents: bool = True
 
     def substitute(self, message):
         """Record a substitution: ``message`` goes to :attr:`substitutions` and :attr:`warnings`."""
@@ -144,7 +148,7 @@ class Asset:
 
         ``transform`` (4, 4) is applied on top of every instance's world transform (e.g. an up-axis
         change). ``timings`` (a dict, optional) gets the seconds spent added to its ``"normals"`` (welding
-        and crease-angle normals of meshes without normals) and ``"scene"`` (everything else: materials,
+        and crease-angle normals of meshes without normals, generated tangents: :attr:`generate_tangents`) and ``"scene"`` (everything else: materials,
         :meth:`pyrt.Scene.add_mesh` checks and transforms). Returns the list of scene mesh indices added.
         """
         t_start = time.perf_counter()
@@ -158,6 +162,8 @@ class Asset:
         plan = merge_plan(self.materials, used) if self.merge_materials else {}
         t0 = time.perf_counter()       # meshes without normals: their crease normals in one call
         prepared.update(_prepare_meshes({i.mesh: self.meshes[i.mesh] for i in self.instances}, crease_angle))
+        if self.generate_tangents:
+            prepared = {i: self._with_tangents(self.meshes[i], p) for i, p in prepared.items()}
         t_normals += time.perf_counter() - t0
         parts = []                     # (material key, record) per instance, in instance order
         for k, inst in enumerate(self.instances):
@@ -204,6 +210,19 @@ class Asset:
             timings["normals"] = timings.get("normals", 0.0) + t_normals
             timings["scene"] = timings.get("scene", 0.0) + (time.perf_counter() - t_start - t_normals)
         return added
+
+    def _with_tangents(self, am, prepared):
+        """``prepared`` (:func:`_prepare_mesh`'s tuple) with vertex tangents generated from the UV set the mesh's
+        material reads its tangent frame in (:func:`pyrt.geometry.tangents.vertex_tangents`), where it needs one and
+        has none."""
+        (v, f), normals, colors, alpha, uv_sets, uv, tangents = prepared
+        k = self._params(am).tangent_texcoord
+        if tangents is not None or k is None or normals is None:
+            return prepared
+        uvk = uv if k == 0 else (uv_sets or {}).get(k)
+        if uvk is None:
+            return prepared
+        return (v, f), normals, colors, alpha, uv_sets, uv, vertex_tangents(v, f, normals, uvk)
 
     def _params(self, am):
         """The loaded material parameters of a mesh (the format's default for ``material = -1``)."""

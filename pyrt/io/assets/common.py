@@ -120,6 +120,15 @@ class PBRParams:
                 or self.anisotropy_strength > 0)
 
     @property
+    def tangent_texcoord(self):
+        """The UV set whose vertex tangents the material's normal maps and anisotropy use (the normal map's, else the
+        clear coat's normal map's; set 0 for anisotropy alone), or None when it needs no tangent frame."""
+        for t in (self.normal_texture, self.clearcoat_normal_texture):
+            if t is not None:
+                return t.texcoord
+        return 0 if self.anisotropy_strength > 0 else None
+
+    @property
     def sheened(self):
         """``KHR_materials_sheen`` with a sheen colour that is not black."""
         return bool(np.any(self.sheen_color_factor > 0))
@@ -154,6 +163,11 @@ class MTLParams:
     map_Pm: ImageTexture | None = None    # 1 channel
 
     @property
+    def tangent_texcoord(self):
+        """0 when the block has a normal map (its tangent frame's UV set), else None."""
+        return None if self.norm is None else 0
+
+    @property
     def pbr(self):
         """True when the block uses the PBR extension (``Pr``, ``Pm``, ``map_Pr`` or ``map_Pm``)."""
         return any(v is not None for v in (self.Pr, self.Pm, self.map_Pr, self.map_Pm))
@@ -167,6 +181,8 @@ class DefaultParams:
     base_color: tuple = (0.8, 0.8, 0.8)
     metallic: float = 0.0
     roughness: float = 0.5
+    #: no normal map: no tangent frame
+    tangent_texcoord = None
 
 
 def colour_texels(img):

@@ -12,7 +12,6 @@ import math
 import numpy as np
 
 from pyrt.core.transforms import quaternion_matrix, translation_matrix
-from pyrt.geometry.tangents import vertex_tangents
 from pyrt.textures import ChannelTexture, ImageTexture, NormalMap, TextureError
 from pyrt.io.assets.common import AssetError, PBRParams, TextureSlot, malformed_is_asset_error
 from pyrt.io.assets.alpha import ALPHA_MODES, alpha_texture
@@ -216,23 +215,9 @@ def _strip_faces(idx, mode):
     return np.stack([np.full(n - 2, idx[0]), idx[k + 1], idx[k + 2]], axis=1)  # fan
 
 
-def _generated_tangents(P, pos, faces, normals, uv, uv_sets):
-    """Vertex tangents (:func:`pyrt.geometry.tangents.vertex_tangents`) of a primitive without ``TANGENT`` whose material
-    ``P`` has a normal map or anisotropy, from the UV set its normal map reads (set 0 for anisotropy alone); None when
-    it needs none or lacks that set."""
-    nt = P.normal_texture
-    if nt is None and not P.anisotropy_strength > 0:
-        return None
-    k = 0 if nt is None else nt.texcoord
-    uvk = uv if k == 0 else uv_sets.get(k)
-    return None if uvk is None else vertex_tangents(pos, faces, normals, uvk)
-
-
-def load_gltf(path, max_texture=None, generate_tangents=True):
+def load_gltf(path, max_texture=None):
     """Load a glTF 2.0 (.gltf + files / data URIs) or GLB file into an :class:`Asset`; images longer than
     ``max_texture`` texels are reduced as they are decoded (:mod:`pyrt.io.assets.texture_budget`; None: none).
-    ``generate_tangents``: primitives with a normal map (or anisotropy) and no ``TANGENT`` get smooth vertex tangents
-    from their UVs (:mod:`pyrt.geometry.tangents`, as glTF asks of viewers); False: each triangle's own UV tangents.
 
     Raises
     ------
@@ -241,10 +226,10 @@ def load_gltf(path, max_texture=None, generate_tangents=True):
         :mod:`pyrt.io.assets.gltf_file`).
     """
     with malformed_is_asset_error(path, "glTF"):
-        return _load_gltf(path, max_texture, generate_tangents)
+        return _load_gltf(path, max_texture)
 
 
-def _load_gltf(path, max_texture=None, generate_tangents=True):
+def _load_gltf(path, max_texture=None):
     g = GltfFile(path, max_texture=max_texture)
     h = g.header
     asset = Asset(path=path, format="gltf", up_axis="+y")
@@ -339,8 +324,6 @@ def _load_gltf(path, max_texture=None, generate_tangents=True):
                     W.append(f"{where}: material {asset.materials[mat].name!r} has textures reading TEXCOORD_{tc} "
                              f"but the primitive has none (they read UV (0, 0))")
             uv = uv_sets.pop(0, None)
-            if tangents is None and normals is not None and generate_tangents and mat >= 0:
-                tangents = _generated_tangents(asset.materials[mat], pos, faces, normals, uv, uv_sets)
             colors = alpha = None
             if "COLOR_0" in attrs:
                 col4 = attribute("COLOR_0")
