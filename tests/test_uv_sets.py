@@ -6,21 +6,19 @@ tangents follow from set 0's by that map exactly (``duv1 = A duv0``, ``[dpdu1 dp
 end to end, a glTF whose slot reads TEXCOORD_1 renders bit-identically to the same file with that set moved to
 TEXCOORD_0 (the one-set path), and differently from the file read with the wrong set (so the check can fail).
 """
-import base64
 import gc
-import io
 import json
 import weakref
 
 import numpy as np
 import pytest
 import trimesh
-from PIL import Image
 
 import pyrt
 from pyrt.geometry.surface import GeometryError, surface_from_hits
 from pyrt.integrators import PreparedScene
 from pyrt.io.assets import load_asset
+from pyrt.io.assets.gltf_write import embedded_gltf
 
 A_MAP = np.array([[0.0, 3.0], [-2.0, 0.5]])      # set 1 = A_MAP @ set 0 + B_MAP: rotated, sheared, tiled
 B_MAP = np.array([0.25, 0.5])
@@ -132,42 +130,13 @@ def test_image_texture_refuses_a_bad_texcoord():
 
 # ------------------------------------------------------------------------------------------- glTF end to end
 
-def _png_uri(arr):
-    buf = io.BytesIO()
-    Image.fromarray(np.asarray(arr, dtype=np.uint8)).save(buf, format="PNG")
-    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode()
-
-
 def _write(path, uv_sets, material, images):
     """A .gltf of the grid square with the given TEXCOORD_k arrays (glTF top-left UVs), one material, the images
     as textures (no sampler: trilinear, repeat)."""
     v, f, _ = _grid_mesh()
-    blob = bytearray()
-    views, accessors = [], []
-
-    def add(arr, comp, typ):
-        a = np.ascontiguousarray(arr)
-        views.append({"buffer": 0, "byteOffset": len(blob), "byteLength": a.nbytes})
-        blob.extend(a.tobytes())
-        blob.extend(b"\0" * (-len(blob) % 4))
-        acc = {"bufferView": len(views) - 1, "componentType": comp, "count": int(a.shape[0]), "type": typ}
-        if typ == "VEC3":
-            acc["min"], acc["max"] = a.min(0).tolist(), a.max(0).tolist()
-        accessors.append(acc)
-        return len(accessors) - 1
-
-    attrs = {"POSITION": add(v.astype(np.float32), 5126, "VEC3"),
-             "NORMAL": add(np.tile(np.float32([0, 0, 1]), (len(v), 1)), 5126, "VEC3")}
-    for k, uv in uv_sets.items():
-        attrs[f"TEXCOORD_{k}"] = add(np.asarray(uv, np.float32), 5126, "VEC2")
-    idx = add(f.astype(np.uint32).ravel(), 5125, "SCALAR")
-    h = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
-         "meshes": [{"primitives": [{"attributes": attrs, "indices": idx, "material": 0}]}],
-         "materials": [material], "accessors": accessors, "bufferViews": views,
-         "buffers": [{"byteLength": len(blob), "uri": "data:application/octet-stream;base64,"
-                      + base64.b64encode(bytes(blob)).decode()}],
-         "images": [{"uri": _png_uri(im)} for im in images], "textures": [{"source": i} for i in range(len(images))]}
-    path.write_text(json.dumps(h))
+    attrs = {"POSITION": v.astype(np.float32), "NORMAL": np.tile(np.float32([0, 0, 1]), (len(v), 1))}
+    attrs.update({f"TEXCOORD_{k}": np.asarray(uv, np.float32) for k, uv in uv_sets.items()})
+    path.write_text(json.dumps(embedded_gltf(attrs, f, material, images)))
     return str(path)
 
 

@@ -6,8 +6,6 @@ whose ``TANGENT`` is the UV tangent renders as the file without it, and a file w
 (or mirrored, w = -1) renders as the file without it whose UVs are turned (mirrored) the same way, so that their
 ``dpdu``, ``dpdv`` are that frame; a wrong frame gives another image (the checks can fail).
 """
-import base64
-import io
 import json
 
 import numpy as np
@@ -19,6 +17,7 @@ from pyrt.core.transforms import transform_tangents
 from pyrt.geometry.surface import GeometryError, surface_from_hits
 from pyrt.integrators import PreparedScene
 from pyrt.io.assets import load_asset
+from pyrt.io.assets.gltf_write import embedded_gltf
 
 
 def _grid(n=6):
@@ -91,47 +90,18 @@ def test_shading_tangents_are_the_interpolated_vertex_frames_and_the_uv_tangents
 
 # ------------------------------------------------------------------------------------------- glTF end to end
 
-def _png_uri(arr):
-    buf = io.BytesIO()
-    Image.fromarray(np.asarray(arr, dtype=np.uint8)).save(buf, format="PNG")
-    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode()
-
-
 def _write(path, uv, tangent=None):
     """A .gltf of the grid square (normal +z) with glTF UVs ``uv``, an optional constant ``TANGENT`` and a normal
     map tilted toward tangent-space +x and -y (so that both the tangent and the bitangent's side matter)."""
     v, f = _grid()
-    blob = bytearray()
-    views, accessors = [], []
-
-    def add(arr, comp, typ):
-        a = np.ascontiguousarray(arr)
-        views.append({"buffer": 0, "byteOffset": len(blob), "byteLength": a.nbytes})
-        blob.extend(a.tobytes())
-        blob.extend(b"\0" * (-len(blob) % 4))
-        acc = {"bufferView": len(views) - 1, "componentType": comp, "count": int(a.shape[0]), "type": typ}
-        if typ == "VEC3":
-            acc["min"], acc["max"] = a.min(0).tolist(), a.max(0).tolist()
-        accessors.append(acc)
-        return len(accessors) - 1
-
-    attrs = {"POSITION": add(v.astype(np.float32), 5126, "VEC3"),
-             "NORMAL": add(np.tile(np.float32([0, 0, 1]), (len(v), 1)), 5126, "VEC3"),
-             "TEXCOORD_0": add(np.asarray(uv, np.float32), 5126, "VEC2")}
+    attrs = {"POSITION": v.astype(np.float32), "NORMAL": np.tile(np.float32([0, 0, 1]), (len(v), 1)),
+             "TEXCOORD_0": np.asarray(uv, np.float32)}
     if tangent is not None:
-        attrs["TANGENT"] = add(np.tile(np.float32(tangent), (len(v), 1)), 5126, "VEC4")
-    idx = add(f.astype(np.uint32).ravel(), 5125, "SCALAR")
-    nmap = np.tile(np.uint8([205, 80, 200]), (8, 8, 1))
+        attrs["TANGENT"] = np.tile(np.float32(tangent), (len(v), 1))
     material = {"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0,
                                          "roughnessFactor": 0.6},
                 "normalTexture": {"index": 0}}
-    h = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
-         "meshes": [{"primitives": [{"attributes": attrs, "indices": idx, "material": 0}]}],
-         "materials": [material], "accessors": accessors, "bufferViews": views,
-         "buffers": [{"byteLength": len(blob), "uri": "data:application/octet-stream;base64,"
-                      + base64.b64encode(bytes(blob)).decode()}],
-         "images": [{"uri": _png_uri(nmap)}], "textures": [{"source": 0}]}
-    path.write_text(json.dumps(h))
+    path.write_text(json.dumps(embedded_gltf(attrs, f, material, [np.tile(np.uint8([205, 80, 200]), (8, 8, 1))])))
     return str(path)
 
 
@@ -297,37 +267,14 @@ def test_gltf_without_tangent_uses_generated_ones_and_the_switch_turns_them_off(
 
 
 def _write_mesh(path, v, f, n, uv, tangents=None):
-    """A .gltf of one normal-mapped primitive (float32 attributes)."""
-    blob = bytearray()
-    views, accessors = [], []
-
-    def add(arr, comp, typ):
-        a = np.ascontiguousarray(arr)
-        views.append({"buffer": 0, "byteOffset": len(blob), "byteLength": a.nbytes})
-        blob.extend(a.tobytes())
-        blob.extend(b"\0" * (-len(blob) % 4))
-        acc = {"bufferView": len(views) - 1, "componentType": comp, "count": int(a.shape[0]), "type": typ}
-        if typ == "VEC3":
-            acc["min"], acc["max"] = a.min(0).tolist(), a.max(0).tolist()
-        accessors.append(acc)
-        return len(accessors) - 1
-
-    attrs = {"POSITION": add(v.astype(np.float32), 5126, "VEC3"), "NORMAL": add(n.astype(np.float32), 5126, "VEC3"),
-             "TEXCOORD_0": add(uv.astype(np.float32), 5126, "VEC2")}
+    """A .gltf of one normal-mapped, double-sided primitive (float32 attributes)."""
+    attrs = {"POSITION": v.astype(np.float32), "NORMAL": n.astype(np.float32), "TEXCOORD_0": uv.astype(np.float32)}
     if tangents is not None:
-        attrs["TANGENT"] = add(tangents.astype(np.float32), 5126, "VEC4")
-    idx = add(f.astype(np.uint32).ravel(), 5125, "SCALAR")
-    nmap = np.tile(np.uint8([215, 70, 190]), (8, 8, 1))
+        attrs["TANGENT"] = tangents.astype(np.float32)
     material = {"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0,
                                          "roughnessFactor": 0.7},
                 "normalTexture": {"index": 0}, "doubleSided": True}
-    h = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
-         "meshes": [{"primitives": [{"attributes": attrs, "indices": idx, "material": 0}]}],
-         "materials": [material], "accessors": accessors, "bufferViews": views,
-         "buffers": [{"byteLength": len(blob), "uri": "data:application/octet-stream;base64,"
-                      + base64.b64encode(bytes(blob)).decode()}],
-         "images": [{"uri": _png_uri(nmap)}], "textures": [{"source": 0}]}
-    path.write_text(json.dumps(h))
+    path.write_text(json.dumps(embedded_gltf(attrs, f, material, [np.tile(np.uint8([215, 70, 190]), (8, 8, 1))])))
     return str(path)
 
 

@@ -14,17 +14,15 @@ Usage: python tools/tangent_picture.py [-o docs/tangents.png]
 from __future__ import annotations
 
 import argparse
-import base64
-import io
 import json
 import os
 import tempfile
 
 import numpy as np
-from PIL import Image
 
 import pyrt
 from pyrt.io.assets import load_asset
+from pyrt.io.assets.gltf_write import embedded_gltf
 
 
 def cylinder(segments=8, distort=1.0):
@@ -52,38 +50,13 @@ def tilted(size=8, tilt=(0.8, 0.4)):
 
 def write_gltf(path, v, f, n, uv, nmap):
     """One normal-mapped primitive, no TANGENT (glTF's top-left UVs)."""
-    blob = bytearray()
-    views, accessors = [], []
-
-    def add(arr, comp, typ):
-        a = np.ascontiguousarray(arr)
-        views.append({"buffer": 0, "byteOffset": len(blob), "byteLength": a.nbytes})
-        blob.extend(a.tobytes())
-        blob.extend(b"\0" * (-len(blob) % 4))
-        acc = {"bufferView": len(views) - 1, "componentType": comp, "count": int(a.shape[0]), "type": typ}
-        if typ == "VEC3":
-            acc["min"], acc["max"] = a.min(0).tolist(), a.max(0).tolist()
-        accessors.append(acc)
-        return len(accessors) - 1
-
     gl_uv = np.column_stack([uv[:, 0], 1.0 - uv[:, 1]])
-    attrs = {"POSITION": add(v.astype(np.float32), 5126, "VEC3"), "NORMAL": add(n.astype(np.float32), 5126, "VEC3"),
-             "TEXCOORD_0": add(gl_uv.astype(np.float32), 5126, "VEC2")}
-    idx = add(f.astype(np.uint32).ravel(), 5125, "SCALAR")
-    buf = io.BytesIO()
-    Image.fromarray(nmap).save(buf, format="PNG")
+    attrs = {"POSITION": v.astype(np.float32), "NORMAL": n.astype(np.float32), "TEXCOORD_0": gl_uv.astype(np.float32)}
     material = {"pbrMetallicRoughness": {"baseColorFactor": [0.75, 0.75, 0.75, 1], "metallicFactor": 0.0,
                                          "roughnessFactor": 0.5},
                 "normalTexture": {"index": 0}}
-    h = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
-         "meshes": [{"primitives": [{"attributes": attrs, "indices": idx, "material": 0}]}],
-         "materials": [material], "accessors": accessors, "bufferViews": views,
-         "buffers": [{"byteLength": len(blob), "uri": "data:application/octet-stream;base64,"
-                      + base64.b64encode(bytes(blob)).decode()}],
-         "images": [{"uri": "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode()}],
-         "textures": [{"source": 0}]}
     with open(path, "w") as fh:
-        json.dump(h, fh)
+        json.dump(embedded_gltf(attrs, f, material, [nmap]), fh)
 
 
 def render(path, generate):
