@@ -305,3 +305,11 @@ def test_obj_normal_map_gets_generated_tangents(tmp_path):
         if has:
             t = scene.meshes[0].tangents
             assert np.all(np.abs(np.linalg.norm(t[:, :3], axis=1) - 1) < 1e-9) and np.all(np.abs(t[:, 3]) == 1)
+
+
+def test_generated_tangents_do_not_depend_on_the_face_chunks(monkeypatch):
+    from pyrt.geometry import tangents as T
+    v, f, n, uv = _cylinder(segments=12, distort=0.4)
+    whole = T.vertex_tangents(v, f, n, uv)
+    monkeypatch.setattr(T, "FACE_CHUNK", 7)
+    np.testing.assert_allclose(T.vertex_tangents(v, f, n, uv), whole, atol=1e-14)

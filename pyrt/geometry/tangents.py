@@ -27,14 +27,14 @@ def _corner_angles(e01, e02, e12):
     return np.column_stack([angle(e01, e02), angle(-e01, e12), angle(-e02, -e12)])
 
 
-def vertex_tangents(vertices, faces, normals, uv):
-    """(V, 4) per-vertex tangents ``(x, y, z, w)`` of a mesh (object space, ``w`` = +-1 the bitangent's sign,
-    bitangent = ``w (n x t)`` as glTF's ``TANGENT``) from its UVs ``uv`` (V, 2) and unit vertex ``normals``
-    (V, 3); rows of zeros where a vertex gets none (module docstring)."""
-    v = np.asarray(vertices, dtype=np.float64)
-    f = np.asarray(faces, dtype=np.int64)
-    n = np.asarray(normals, dtype=np.float64)
-    uv = np.asarray(uv, dtype=np.float64)
+#: faces per accumulation step of :func:`vertex_tangents`: its temporaries are ~20 (chunk, 3) float64 arrays (~0.5 GB
+#: at once for a 5 M-triangle mesh without chunks, ~100 MB with)
+FACE_CHUNK = 1 << 18
+
+
+def _accumulate(v, f, n, uv, acc, weight):
+    """Add the triangles ``f``'s projected, angle-weighted unit ``dpdu`` to their corners' sums ``acc`` (3, 2V) and
+    weights ``weight`` (2V,) (:func:`vertex_tangents`)."""
     n_v = v.shape[0]
     p0, p1, p2 = (take_rows(v, f[:, k]) for k in range(3))
     t0, t1, t2 = (take_rows(uv, f[:, k]) for k in range(3))
@@ -46,9 +46,6 @@ def vertex_tangents(vertices, faces, normals, uv):
     dpdu = scale_rows(e1, du2[:, 1] * inv) - scale_rows(e2, du1[:, 1] * inv)
     dpdv = scale_rows(e2, du1[:, 0] * inv) - scale_rows(e1, du2[:, 0] * inv)
     ang = _corner_angles(e1, e2, p2 - p1)
-    # per component, the tangent sums of the right-handed (rows 0 .. V-1) and left-handed (V .. 2V-1) triangles
-    acc = np.zeros((3, 2 * n_v))
-    weight = np.zeros(2 * n_v)
     for k in range(3):
         idx = f[:, k]
         nk = take_rows(n, idx)
@@ -62,6 +59,22 @@ def vertex_tangents(vertices, faces, normals, uv):
         for c in range(3):
             acc[c] += np.bincount(flat, weights=t[:, c] * w, minlength=2 * n_v)
         weight += np.bincount(flat, weights=w, minlength=2 * n_v)
+
+
+def vertex_tangents(vertices, faces, normals, uv):
+    """(V, 4) per-vertex tangents ``(x, y, z, w)`` of a mesh (object space, ``w`` = +-1 the bitangent's sign,
+    bitangent = ``w (n x t)`` as glTF's ``TANGENT``) from its UVs ``uv`` (V, 2) and unit vertex ``normals``
+    (V, 3); rows of zeros where a vertex gets none (module docstring)."""
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    n = np.asarray(normals, dtype=np.float64)
+    uv = np.asarray(uv, dtype=np.float64)
+    n_v = v.shape[0]
+    # per component, the tangent sums of the right-handed (rows 0 .. V-1) and left-handed (V .. 2V-1) triangles
+    acc = np.zeros((3, 2 * n_v))
+    weight = np.zeros(2 * n_v)
+    for lo in range(0, f.shape[0], FACE_CHUNK):      # a few (chunk, 3) temporaries at a time, whatever the mesh
+        _accumulate(v, f[lo:lo + FACE_CHUNK], n, uv, acc, weight)
     out = np.zeros((n_v, 4))
     right = weight[:n_v] > 0
     left = weight[n_v:] > 0
