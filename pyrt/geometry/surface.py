@@ -256,15 +256,15 @@ class SurfaceBatch:
         bitangent's side from ``b``). On meshes with vertex tangents (glTF ``TANGENT``) their interpolation, as glTF
         asks (smooth across triangles, the file's handedness); elsewhere :meth:`uv_tangents` (the triangle's
         ``dpdu``, ``dpdv``: constant per triangle)."""
-        t, b = self.uv_tangents(k)
         vt = self.vtangent
         if vt is None:
-            return t, b
+            return self.uv_tangents(k)
         has = np.any(vt[:, :3] != 0.0, axis=1)
+        if has.all():                   # the UV tangents are not needed (nor computed)
+            return vt[:, :3], vt[:, 3:]
+        t, b = self.uv_tangents(k)
         if not has.any():
             return t, b
-        if has.all():
-            return vt[:, :3], vt[:, 3:]
         return np.where(has[:, None], vt[:, :3], t), np.where(has[:, None], vt[:, 3:], b)
 
     def _uv_set_values(self, k, what):
