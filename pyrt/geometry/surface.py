@@ -253,8 +253,9 @@ class SurfaceBatch:
     def shading_tangents(self, k):
         """``(t, b)`` (N, 3): the tangent frame a normal map or an anisotropic lobe read in UV set ``k`` is built
         from (:func:`pyrt.shaders.textures.tangent_frame`: ``t`` made orthogonal to the shading normal, the
-        bitangent's side from ``b``). On meshes with vertex tangents (glTF ``TANGENT``) their interpolation, as glTF
-        asks (smooth across triangles, the file's handedness); elsewhere :meth:`uv_tangents` (the triangle's
+        bitangent's side from ``b``). On meshes with vertex tangents (glTF ``TANGENT``, or generated from the UVs by
+        :mod:`pyrt.geometry.tangents`) their interpolation, as glTF asks (smooth across triangles, their
+        handedness); elsewhere :meth:`uv_tangents` (the triangle's
         ``dpdu``, ``dpdv``: constant per triangle)."""
         vt = self.vtangent
         if vt is None:
