@@ -227,7 +227,7 @@ class Scene:
         mat_id = self.add_material(material)
         self.meshes.append(MeshData(vertices=v_world, faces=faces, normals=normals, uv=uv, vertices_object=v_obj,
                                     material_id=mat_id, smooth=normals is not None, name=name, uv_sets=uv_sets or None,
-                                    tangents=tangents if normals is not None else None))
+                                    tangents=tangents))
         if shading == "gouraud":
             self.gouraud_meshes.add(len(self.meshes) - 1)
         return len(self.meshes) - 1

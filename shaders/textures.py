@@ -53,7 +53,7 @@ done in float64.
 """
 import numpy as np
 
-from .vec import coordinate_frame, cross, dot, normalize
+from .vec import coordinate_frame, cross, dot, normalize, reject
 
 #: Accepted wrap-mode names.
 WRAP_MODES = ("repeat", "mirror", "clamp")
@@ -491,8 +491,7 @@ def tangent_frame(ns, dpdu, dpdv):
     parallel to ``ns`` (no UVs, degenerate triangles) the frame of
     :func:`shaders.vec.coordinate_frame` is used. ``(N, 3)`` arrays, dtype of ``ns``.
     """
-    t = dpdu - dot(ns, dpdu)[:, None] * ns
-    t = normalize(t)
+    t = normalize(reject(dpdu, ns))
     bad = dot(t, t) < 0.5
     if np.any(bad):
         s_fb, _ = coordinate_frame(ns)

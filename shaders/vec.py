@@ -138,6 +138,11 @@ def put_rows(a, idx, values):
         a[idx] = values
 
 
+def reject(a, n):
+    """``a - (n . a) n``: the part of rows ``a`` (N, 3) orthogonal to the unit rows ``n`` (Gram-Schmidt)."""
+    return a - scale_rows(n, dot(n, a))
+
+
 def max_component(a):
     """Row-wise maximum of the last axis: ``(N, C) -> (N,)``.
 

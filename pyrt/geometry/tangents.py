@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from pyrt.shaders.vec import cross, divide_rows, dot, norm, scale_rows, take_rows
+from pyrt.geometry.uvsets import uv_derivatives
+from pyrt.shaders.vec import cross, divide_rows, dot, norm, reject, take_rows
 
 
 def _corner_angles(e01, e02, e12):
@@ -39,17 +40,12 @@ def _accumulate(v, f, n, uv, acc, weight):
     p0, p1, p2 = (take_rows(v, f[:, k]) for k in range(3))
     t0, t1, t2 = (take_rows(uv, f[:, k]) for k in range(3))
     e1, e2 = p1 - p0, p2 - p0
-    du1, du2 = t1 - t0, t2 - t0
-    det = du1[:, 0] * du2[:, 1] - du1[:, 1] * du2[:, 0]
-    ok = np.abs(det) > 1e-20
-    inv = np.divide(1.0, det, out=np.zeros_like(det), where=ok)
-    dpdu = scale_rows(e1, du2[:, 1] * inv) - scale_rows(e2, du1[:, 1] * inv)
-    dpdv = scale_rows(e2, du1[:, 0] * inv) - scale_rows(e1, du2[:, 0] * inv)
+    dpdu, dpdv, ok = uv_derivatives(e1, e2, t1 - t0, t2 - t0)
     ang = _corner_angles(e1, e2, p2 - p1)
     for k in range(3):
         idx = f[:, k]
         nk = take_rows(n, idx)
-        t = dpdu - scale_rows(nk, dot(nk, dpdu))            # projected onto the vertex normal's plane
+        t = reject(dpdu, nk)                                # projected onto the vertex normal's plane
         length = norm(t)
         good = ok & (length > 0) & (ang[:, k] > 0)
         t = divide_rows(t, np.where(good, length, 1.0))
@@ -80,7 +76,7 @@ def vertex_tangents(vertices, faces, normals, uv):
     left = weight[n_v:] > 0
     for sel, s, sign in ((right & ~left, 0, 1.0), (left & ~right, 1, -1.0)):
         t = acc[:, s * n_v:(s + 1) * n_v].T[sel]
-        t = t - scale_rows(n[sel], dot(n[sel], t))
+        t = reject(t, n[sel])
         length = norm(t)
         keep = length > 1e-12
         rows = np.flatnonzero(sel)[keep]

@@ -38,14 +38,21 @@ def interpolate_uv(uv0, uv1, uv2, b0, b1, b2):
     return uv
 
 
-def uv_tangents(e1, e2, du1, du2, ng):
-    """``(dpdu, dpdv)`` (N, 3) of a triangle with edges ``e1, e2`` (N, 3) and UV edges ``du1, du2`` (N, 2);
-    where the UV map is degenerate (``|det| <= 1e-20``) a frame around ``ng`` (N, 3) instead."""
+def uv_derivatives(e1, e2, du1, du2):
+    """``(dpdu, dpdv, ok)`` of triangles with edges ``e1, e2`` (N, 3) and UV edges ``du1, du2`` (N, 2): the position's
+    derivatives along u and v (N, 3), zero where the UV map is degenerate (``|det| <= 1e-20``, ``ok`` False)."""
     det = du1[:, 0] * du2[:, 1] - du1[:, 1] * du2[:, 0]
     ok = np.abs(det) > 1e-20
     inv = np.divide(1.0, det, out=np.zeros_like(det), where=ok)
     dpdu = (du2[:, 1:2] * e1 - du1[:, 1:2] * e2) * inv[:, None]
     dpdv = (du1[:, 0:1] * e2 - du2[:, 0:1] * e1) * inv[:, None]
+    return dpdu, dpdv, ok
+
+
+def uv_tangents(e1, e2, du1, du2, ng):
+    """``(dpdu, dpdv)`` (N, 3) of a triangle with edges ``e1, e2`` (N, 3) and UV edges ``du1, du2`` (N, 2)
+    (:func:`uv_derivatives`); where the UV map is degenerate a frame around ``ng`` (N, 3) instead."""
+    dpdu, dpdv, ok = uv_derivatives(e1, e2, du1, du2)
     if not np.all(ok):
         s_, t_ = coordinate_frame(ng[~ok])
         dpdu[~ok], dpdv[~ok] = s_, t_

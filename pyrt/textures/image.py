@@ -433,6 +433,11 @@ class ImageTexture(Texture):
         return (self._pyramid, self.texcoord, self.wrap, self.filter, self.scale, self.offset,
                 self.rotation_deg, self.footprint_scale, self.max_anisotropy)
 
+    def constant_channels(self):
+        """(C,) float64: each channel's value where it is the same in every texel, NaN where it varies
+        (:meth:`MipPyramid.constant_channels`: a lookup of such a channel is that value, whatever the filter)."""
+        return self._pyramid.constant_channels()
+
     def build_mip_levels(self):
         """Build the whole MIP pyramid now if this texture's filter reads one (trilinear, EWA); see
         :meth:`MipPyramid.build_all`."""
@@ -498,7 +503,7 @@ class ImageTexture(Texture):
         return row_memo(ctx, ("image", type(self), self.sampling_key), self._evaluate)
 
     def _evaluate(self, ctx):
-        const = self._pyramid.constant_channels()
+        const = self.constant_channels()
         if not np.isnan(const).any():     # every texel the same: the lookup's value, without the lookup
             return np.repeat(const[None, :], ctx.n_hits, axis=0)
         if self.filter != "trilinear":
@@ -558,7 +563,7 @@ class ChannelTexture(Texture):
         return self.source.lookup(uv, duvdx, duvdy)[:, self.channel:self.channel + 1]
 
     def evaluate(self, ctx):
-        const = self.source._pyramid.constant_channels()[self.channel]
+        const = self.source.constant_channels()[self.channel]
         if not np.isnan(const):           # the channel is the same in every texel: no lookup
             return np.full((ctx.n_hits, 1), const)
         cache = ctx.__dict__.setdefault("_texture_cache", {})

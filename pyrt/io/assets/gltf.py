@@ -310,7 +310,7 @@ def _load_gltf(path, max_texture=None):
             if targets:                    # the default pose: the targets at the node's / mesh's weights
                 pos, normals = gltf_pose.morph(g, targets, weights[:len(targets)], pos, normals, where)
                 if any("TANGENT" in t and w != 0 for t, w in zip(targets, weights)):
-                    tangents = None        # morphed tangents are not applied: the UV tangents instead
+                    tangents = None        # morphed tangents are not applied: generated from the posed mesh instead
             mat = p.get("material", -1)
             if mat >= len(asset.materials):
                 raise AssetError(f"{path}: {where}: material {mat} does not exist")
