@@ -71,7 +71,6 @@ import time
 import warnings
 
 import numpy as np
-from tqdm.auto import tqdm
 
 from pyrt.core import checks
 from pyrt.core.errors import RenderError
@@ -81,7 +80,7 @@ from pyrt.integrators.prepared import PreparedScene, RenderStats
 from pyrt.integrators.whitted import DEFAULT_SPLIT_DEPTH
 from pyrt.render.chunks import shade_adaptive_chunk
 from pyrt.render.distributed import DaskRunner, adaptive_group
-from pyrt.render.pool import ChunkPool, integrator_factory, merge_stats, use_processes
+from pyrt.render.pool import ChunkPool, integrator_factory, merge_stats, progress_bar, use_processes
 from pyrt.render.result import RenderResult
 
 #: samples per pixel cap when ``max_spp`` is not given
@@ -351,8 +350,7 @@ def _passes(cam, ps, pool, t_start, target_error, time_budget, max_spp, min_spp,
     half = Film(W, H, nonfinite=nonfinite)           # half B; half A is film - half
     deadline = t_start + time_budget if time_budget is not None else math.inf
     stats = RenderStats()
-    bar = tqdm(desc="pass 0", unit="sample", unit_scale=True, leave=False,
-               disable=(not progress) if progress is not None else None)
+    bar = progress_bar(progress, desc="pass 0", unit="sample", unit_scale=True, leave=False)
     totals = {"chunks": 0, "chunks_total": 0, "render_s": 0.0}
 
     def run_pass(counts, index, timed=True, honour_cancel=True):

@@ -20,7 +20,6 @@ import time
 import warnings
 
 import numpy as np
-from tqdm.auto import tqdm
 
 from pyrt.core import checks
 from pyrt.core.errors import RenderError
@@ -30,7 +29,7 @@ from pyrt.integrators.whitted import DEFAULT_SPLIT_DEPTH
 from pyrt.render.adaptive import render_adaptive
 from pyrt.render.chunks import ChunkLayout, shade_fixed_chunk
 from pyrt.render.distributed import DaskRunner, fixed_group
-from pyrt.render.pool import INTEGRATORS, ChunkPool, integrator_factory, merge_stats, use_processes
+from pyrt.render.pool import INTEGRATORS, ChunkPool, integrator_factory, merge_stats, progress_bar, use_processes
 from pyrt.render.result import RenderResult
 
 
@@ -179,8 +178,7 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         done["samples"] += int(part.weight[0]) if split else (hi - lo) * S
         merge_stats(stats, st)
 
-    bar = tqdm(total=n_chunks, desc="render", unit="chunk", leave=False,
-               disable=(not progress) if progress is not None else None)
+    bar = progress_bar(progress, total=n_chunks, desc="render", unit="chunk", leave=False)
     try:
         if runner is not None:
             spec = dict(threads=1, layout=layout, seed=seed, aovs=aovs, nonfinite=nonfinite,
@@ -220,8 +218,7 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
                 integ.stats.nonfinite_samples += film.add_block(lo, hi, L, a)
                 return integ.stats
 
-            fill_bar = tqdm(total=len(jobs), desc="fill", unit="chunk", leave=False,
-                            disable=(not progress) if progress is not None else None)
+            fill_bar = progress_bar(progress, total=len(jobs), desc="fill", unit="chunk", leave=False)
             try:
                 with ChunkPool(fill_chunk, workers) as pool:     # threads: the chunks write into ``film``
                     pool.map([(k,) for k in range(len(jobs))], fill_bar, lambda k, st: merge_stats(stats, st))

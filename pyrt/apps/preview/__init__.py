@@ -67,8 +67,8 @@ framing, studio rig, ground, exposure), :mod:`~pyrt.apps.preview.render` (the pr
 """
 from pyrt.apps.preview.options import AXES, BudgetExceeded, PreviewError, PreviewInterrupted, PreviewOptions
 from pyrt.apps.preview.rig import (RIG, auto_exposure, bounding_sphere, detect_up_axis, frame_camera, frame_points,
-                                   ground_radiance, guess_up_axis, hull_points, metadata_up_axis, studio_rig,
-                                   up_transform)
+                                   framing_points, ground_radiance, guess_up_axis, hull_points, metadata_up_axis,
+                                   studio_rig, up_transform)
 from pyrt.apps.preview.render import PreviewResult, PreviewScene, contact_sheet, render_preview, write_files
 from pyrt.apps.preview.batch import (AssetReport, collect_inputs, format_summary, output_name, preview_asset,
                                      preview_batch, summary_rows, write_summary)
@@ -76,7 +76,7 @@ from pyrt.apps.preview.cli import main
 
 __all__ = [
     "AXES", "BudgetExceeded", "PreviewError", "PreviewInterrupted", "PreviewOptions", "RIG", "auto_exposure", "bounding_sphere",
-    "detect_up_axis", "frame_camera", "frame_points", "ground_radiance", "guess_up_axis", "hull_points",
+    "detect_up_axis", "frame_camera", "frame_points", "framing_points", "ground_radiance", "guess_up_axis", "hull_points",
     "metadata_up_axis", "studio_rig", "up_transform", "PreviewResult", "PreviewScene",
     "contact_sheet", "render_preview", "write_files", "AssetReport", "collect_inputs", "format_summary",
     "output_name", "preview_asset", "preview_batch", "summary_rows", "write_summary", "main",

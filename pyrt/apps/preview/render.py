@@ -29,7 +29,7 @@ from pyrt.apps.preview.options import (ADAPTIVE_MAX_SPP, BACK_FACE_GRID, BACK_FA
                                        PreviewError, PreviewInterrupted, PreviewOptions)
 from pyrt.apps.preview.studio import STUDIO_PREVIEW_SAMPLES, StudioEnvironment, camera_rotation
 from pyrt.apps.preview.rig import (auto_exposure, bounding_sphere, detect_up_axis, frame_camera, frame_points,
-                                   ground_radiance, hull_points, studio_rig, up_transform)
+                                   framing_points, ground_radiance, hull_points, studio_rig, up_transform)
 
 
 # ============================================================================ the preview scene
@@ -55,7 +55,7 @@ class PreviewScene:
         self.center, self.radius = bounding_sphere(v)
         if not self.radius > 0:
             raise PreviewError(f"{asset.path}: the model has zero size")
-        self.hull = hull_points(v)              # what the framing fits (the model's projection lies inside)
+        self.hull = framing_points(v)           # what the framing fits (the model's projection lies inside)
         ext = v.max(axis=0) - v.min(axis=0)
         #: True for a thin "board" (z extent <= BOARD_DEPTH_RATIO x extent): viewed face-on when azimuth is automatic
         self.board = bool(ext[2] <= BOARD_DEPTH_RATIO * ext[0])
