@@ -728,3 +728,46 @@ def test_constant_channels_skip_the_lookup_and_give_its_value(filt):
     v = flat.evaluate(ctx_of(uv, d, d[:, ::-1]))
     assert flat.mip_levels_built == [] and v.shape == (n, 3)
     np.testing.assert_allclose(v, flat.lookup(uv, d, d[:, ::-1]), rtol=1e-6)
+
+
+@pytest.mark.parametrize("case", ["L", "RGB", "RGBA", "1", "I;16", "jpeg_rgb", "jpeg_grey", "jpeg_progressive"])
+def test_still_png_and_jpeg_read_as_skimage_reads_them(tmp_path, rng, case):
+    """Still PNGs and JPEGs are read with Pillow alone (no skimage / scipy import at start-up): the array (dtype,
+    shape, values) is the one ``skimage.io.imread`` returns, which read_image used to return."""
+    from PIL import Image
+    from skimage import io as skio
+
+    from pyrt.core.image_io import read_image
+
+    shapes = {"L": (5, 7), "RGB": (5, 7, 3), "RGBA": (5, 7, 4), "1": (5, 7), "I;16": (5, 7),
+              "jpeg_rgb": (16, 24, 3), "jpeg_grey": (16, 24), "jpeg_progressive": (16, 24, 3)}
+    hi = 65536 if case == "I;16" else 2 if case == "1" else 256
+    arr = rng.integers(0, hi, shapes[case]).astype(np.uint16 if case == "I;16" else np.uint8)
+    if case == "1":
+        im = Image.fromarray(arr.astype(bool))
+    else:
+        im = Image.fromarray(arr)
+    path = tmp_path / ("a.jpg" if case.startswith("jpeg") else "a.png")
+    im.save(path, **({"progressive": True} if case == "jpeg_progressive" else {}))
+    got, want = read_image(path), np.asarray(skio.imread(path))
+    assert got.dtype == want.dtype and got.shape == want.shape
+    np.testing.assert_array_equal(got, want)
+    assert got.flags.writeable
+    if not case.startswith("jpeg"):
+        np.testing.assert_array_equal(got, arr.astype(bool) if case == "1" else arr)
+
+
+def test_reading_a_png_does_not_import_skimage(tmp_path):
+    """The previewer's start-up: decoding a glTF's PNG / JPEG textures imports neither skimage nor scipy (~0.3 s)."""
+    import subprocess
+    import sys
+
+    from PIL import Image
+
+    Image.fromarray(np.zeros((4, 4, 3), np.uint8)).save(tmp_path / "a.png")
+    Image.fromarray(np.zeros((4, 4, 3), np.uint8)).save(tmp_path / "a.jpg")
+    code = ("import sys; from pyrt.core.image_io import read_image; "
+            f"read_image({str(tmp_path / 'a.png')!r}); read_image({str(tmp_path / 'a.jpg')!r}); "
+            "print(sorted({m.split('.')[0] for m in sys.modules} & {'skimage', 'scipy'}))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
