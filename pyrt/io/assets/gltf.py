@@ -84,6 +84,30 @@ def _gltf_texture(g, info, what, *, srgb, cache, kind="image", warnings=None, **
     return TextureSlot(texture=t, texcoord=texcoord, source=label, image=int(src))
 
 
+def _material_images(h):
+    """The image indices the materials of glTF header ``h`` read, in order: the sources of every textureInfo (a dict
+    with an ``index`` under a key ending in ``Texture``, core or extension) of every material. Malformed entries
+    are skipped (reading the material reports them)."""
+    out = []
+    textures = h.get("textures", [])
+
+    def walk(node):
+        if isinstance(node, dict):
+            for key, val in node.items():
+                if key.endswith("Texture") and isinstance(val, dict) and isinstance(val.get("index"), int) \
+                        and 0 <= val["index"] < len(textures) and isinstance(textures[val["index"]], dict):
+                    src = texture_source(textures[val["index"]])
+                    if isinstance(src, int) and not isinstance(src, bool):
+                        out.append(src)
+                else:
+                    walk(val)
+        elif isinstance(node, list):
+            for val in node:
+                walk(val)
+    walk(h.get("materials", []))
+    return [i for i in out if 0 <= i < len(h.get("images", []))]
+
+
 def _gltf_material(g, mi, warnings, cache):
     m = g.get("materials", mi)
     name = m.get("name", f"material{mi}")
@@ -245,6 +269,7 @@ def _load_gltf(path, max_texture=None):
     except AssetError as exc:
         raise AssetError(f"{path}: {exc}") from None
     # materials
+    g.prefetch_images(_material_images(h))       # decoded on all cores, before the slots read them in order
     textures = {}  # (image, decoding, channel) -> first texture of those texels: each image decoded once
     asset.materials = [_gltf_material(g, i, W, textures) for i in range(len(h.get("materials", [])))]
     for msg in g.substitutions:            # missing texture files: each slot rendered with its factor alone
