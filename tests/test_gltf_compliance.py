@@ -188,3 +188,19 @@ def test_shared_set_is_found_with_licences():
         c = G.credits(m)
         assert m.path.endswith((".glb", ".gltf")) and c["licenses"], m.name
     assert sum(m.screenshot is not None for m in models) >= len(models) - 1     # CesiumMilkTruck ships none
+
+
+def test_repeated_runs_keep_the_median_run_and_show_the_range():
+    runs = [G.Result("Duck", "d", status="ok", total=t, process=t + 0.5, rss_mb=200 + t) for t in (5.4, 4.6, 4.9)]
+    m = G.median_run(runs)
+    assert m.total == 4.9 and m.process == 5.4 and m.rss_mb == 204.9      # one run's columns together
+    assert m.runs == [5.4, 4.6, 4.9]
+    cells = [c.strip() for c in G.build_table([m], {}).splitlines()[2].strip("|").split(" | ")]
+    assert cells[6] == "4.90 (4.60–5.40)"
+    failed = [G.Result("X", "x", status="failed", error="E"), G.Result("X", "x", status="ok", total=2.0)]
+    assert G.median_run(failed).status == "ok"                             # a failed run does not hide a good one
+    two = [G.Result("Y", "y", status="ok", total=t) for t in (3.0, 1.0)]
+    assert G.median_run(two).total == 1.0                                  # even count: the lower middle run
+    assert "ran 2 times" in G.build_markdown([G.median_run(two)], {}, [], sheet=None)
+    single = G.median_run([G.Result("Z", "z", status="ok", total=1.5)])
+    assert G.build_table([single], {}).splitlines()[2].split(" | ")[6].strip() == "1.50"

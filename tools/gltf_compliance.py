@@ -229,6 +229,17 @@ class Result:
     loadavg: float | None = None    # 1-minute load average when the model started
     render_png: str | None = None
     screenshot: str | None = None
+    runs: list = field(default_factory=list)   # every run's total (--repeats); the row is the median run's
+
+
+def median_run(runs):
+    """The run (a :class:`Result`) whose total is the median of ``runs`` (the lower middle one for an even count;
+    failed runs sort last): the row keeps one run's columns together, with every run's total in ``runs``."""
+    order = sorted(runs, key=lambda r: (r.status != "ok", r.total if r.total is not None else float("inf")))
+    ok = [r for r in order if r.status == "ok"]
+    best = ok[(len(ok) - 1) // 2] if ok else order[0]
+    best.runs = [r.total for r in runs]
+    return best
 
 
 #: the preview phases that make up "prepare" (:attr:`pyrt.apps.preview.batch.AssetReport.prepare_time`)
@@ -339,6 +350,12 @@ def _md(s):
     return str(s).replace("|", "\\|").replace("\n", " ")
 
 
+def _total_cell(r):
+    """The total (the median run's) and, over several runs, their range."""
+    times = [t for t in r.runs if t is not None]
+    return _cell(r.total) + (f" ({min(times):.2f}–{max(times):.2f})" if len(times) > 1 else "")
+
+
 def build_table(results, notes):
     """The markdown table, one row per :class:`Result` (missing measurements are blank cells)."""
     rows = ["| model | extensions | triangles | load s | prepare s | render s | total s | process s | peak MB "
@@ -349,7 +366,7 @@ def build_table(results, notes):
         ext = ", ".join(e.removeprefix("KHR_") for e in r.extensions)
         rows.append("| " + " | ".join([
             _md(r.name), _md(ext), _cell(r.triangles, "{:d}"), _cell(r.load), _cell(r.prepare), _cell(r.render),
-            _cell(r.total), _cell(r.process), _cell(r.rss_mb, "{:.0f}"), str(len(r.warnings)), _md(status),
+            _total_cell(r), _cell(r.process), _cell(r.rss_mb, "{:.0f}"), str(len(r.warnings)), _md(status),
             _md(why)]) + " |")
     return "\n".join(rows)
 
@@ -376,6 +393,10 @@ def build_markdown(results, notes, creds, *, sheet=None, command="", machine="")
              "sampled every 30 ms: shared pages counted once), Python and the imports included. The status and the \"what differs\" notes come from "
              "`tools/gltf_compliance_notes.toml`, written by a person looking at the sheet; edit it and run the tool "
              "with `--rebuild` to update this page.", ""]
+    repeats = max((len(r.runs) for r in results), default=1)
+    if repeats > 1:
+        parts += [f"Each model ran {repeats} times, in rounds over all models; a row is the run of median total "
+                  "(its phases, process time and memory), the range of the totals in brackets.", ""]
     if machine:
         parts += [machine, ""]
     if sheet:
@@ -511,6 +532,10 @@ def main(argv=None):
     ap.add_argument("--timeout", type=float, default=600.0, help="seconds per model before it is killed")
     ap.add_argument("--rebuild", action="store_true", help="no rendering: rebuild from OUT/results.json")
     ap.add_argument("--cols", type=int, default=4, help="pairs per row of the sheet")
+    ap.add_argument("--repeats", type=int, default=1,
+                    help="runs per model, in rounds over all models; a row is the run of median total, with the "
+                         "range of the totals (the 5 s target is judged on it: one run on a shared 2-core machine "
+                         "varies by 10-30 %%)")
     args = ap.parse_args(argv)
     results_path = os.path.join(args.out, "results.json")
     if args.rebuild:
@@ -532,14 +557,17 @@ def main(argv=None):
         os.makedirs(args.out, exist_ok=True)
         command = "python tools/gltf_compliance.py " + " ".join(argv if argv is not None else sys.argv[1:])
         revision = _revision()
-        results, creds = [], []
-        for k, m in enumerate(models):
-            r = run_model(m, args.out, args.timeout)
-            results.append(r)
-            creds.append(credits(m))
-            print(f"[{k + 1}/{len(models)}] {m.name}: {r.status} load {_cell(r.load)} prepare {_cell(r.prepare)} "
-                  f"render {_cell(r.render)} total {_cell(r.total)} s, {_cell(r.rss_mb, '{:.0f}')} MB, "
-                  f"load avg {r.loadavg:.1f}" + (f" — {r.error}" if r.error else ""), flush=True)
+        runs = [[] for _ in models]
+        creds = [credits(m) for m in models]
+        for rnd in range(max(1, args.repeats)):
+            for k, m in enumerate(models):
+                r = run_model(m, args.out, args.timeout)
+                runs[k].append(r)
+                print(f"[{k + 1}/{len(models)}{f', round {rnd + 1}' if args.repeats > 1 else ''}] {m.name}: "
+                      f"{r.status} load {_cell(r.load)} prepare {_cell(r.prepare)} "
+                      f"render {_cell(r.render)} total {_cell(r.total)} s, {_cell(r.rss_mb, '{:.0f}')} MB, "
+                      f"load avg {r.loadavg:.1f}" + (f" — {r.error}" if r.error else ""), flush=True)
+        results = [median_run(rs) for rs in runs]
         with open(results_path, "w") as fh:
             json.dump({"command": command, "revision": revision, "results": [asdict(r) for r in results],
                        "credits": creds}, fh, indent=1)
