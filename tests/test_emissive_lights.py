@@ -569,3 +569,44 @@ def test_power_of_a_uniform_one_sided_emitter():
         sc.add_mesh(quad_mesh(), pyrt.AreaEmitter(3.0), smooth=False, name="panel")
         got = sc.add_emissive_lights(min_power=min_power)
         assert (got is not None) is added and (len(sc.lights) == 1) is added
+
+
+def test_glTF_and_OBJ_materials_emit_only_with_an_emission():
+    """SurfaceExtras (glTF, OBJ materials) declares when it emits: a constant zero emission does not, a colour or a
+    texture does. (Before, every such material counted as an emitter: the previewer probed all their triangles for an
+    emissive-mesh light, 12-15 s of a 5.24 M-triangle PLY, and evaluated their zero emission at every hit.)"""
+    from pyrt.io.assets.materials import GltfMaterial, ObjMaterial
+    from pyrt.materials import Clearcoat, Material
+
+    kw = dict(base_color=(0.8, 0.8, 0.8), metallic=0.0, roughness=0.5)
+    assert not GltfMaterial(**kw).emits and not GltfMaterial(**kw, emission=(0.0, 0.0, 0.0)).emits
+    assert GltfMaterial(**kw, emission=(0.0, 0.0, 2.0)).emits
+    assert GltfMaterial(**kw, emission=ImageTexture(np.zeros((2, 2, 3), np.float32))).emits   # a map may emit
+    assert not ObjMaterial((0.5, 0.5, 0.5), (0.0, 0.0, 0.0), 10.0).emits
+    assert ObjMaterial((0.5, 0.5, 0.5), (0.0, 0.0, 0.0), 10.0, emission=(1.0, 1.0, 1.0)).emits
+    assert not Clearcoat(GltfMaterial(**kw)).emits and Clearcoat(GltfMaterial(**kw, emission=(1, 1, 1))).emits
+
+    class Glows(Material):            # overrides emission() and says nothing: may emit
+        def emission(self, ctx):
+            return np.ones((ctx.n_hits, 3))
+
+    class Quiet(GltfMaterial):        # a subclass of a class that declares it keeps the declaration
+        pass
+    assert Glows.emits is True and not Quiet(**kw).emits and Quiet(**kw, emission=(1, 0, 0)).emits
+
+
+def test_previewer_probes_no_emitters_for_a_model_that_does_not_emit(tmp_path, monkeypatch):
+    """A PLY (the clay material) and a glTF without emission: no emissive-mesh light is built at all."""
+    import trimesh
+
+    from pyrt.io.assets import load_asset
+    from pyrt.lights import mesh as light_mesh
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("EmissiveMeshLight built for a model that does not emit")
+    monkeypatch.setattr(light_mesh.EmissiveMeshLight, "__init__", refuse)
+    m = trimesh.creation.icosphere(2)
+    for name in ("s.ply", "s.glb"):
+        m.export(tmp_path / name)
+        ps = PreviewScene(load_asset(str(tmp_path / name)), PreviewOptions(width=16, height=12))
+        assert ps.emissive_light is None

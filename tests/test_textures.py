@@ -771,3 +771,17 @@ def test_reading_a_png_does_not_import_skimage(tmp_path):
             "print(sorted({m.split('.')[0] for m in sys.modules} & {'skimage', 'scipy'}))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+def test_animated_png_still_reads_as_skimage_reads_it(tmp_path, rng):
+    """An animated PNG is left to skimage.io (imageio stacks its frames), as before."""
+    from PIL import Image
+    from skimage import io as skio
+
+    from pyrt.core.image_io import read_image
+
+    frames = [Image.fromarray(rng.integers(0, 256, (4, 5, 3), dtype=np.uint8)) for _ in range(2)]
+    frames[0].save(tmp_path / "a.png", save_all=True, append_images=frames[1:])
+    got, want = read_image(tmp_path / "a.png"), np.asarray(skio.imread(tmp_path / "a.png"))
+    assert got.shape == want.shape == (2, 4, 5, 3)
+    np.testing.assert_array_equal(got, want)

@@ -9,7 +9,6 @@ import mmap
 import os
 import secrets
 import struct
-import sys
 import warnings
 
 import numpy as np
@@ -19,7 +18,7 @@ from pyrt.shaders import color
 from pyrt.shaders import tonemap
 
 from pyrt.core.errors import Error
-from pyrt.core.image_modes import CONVERTED_MODES as _CONVERTED_MODES, converted as _converted
+from pyrt.core.image_modes import CONVERTED_MODES as _CONVERTED_MODES, converted as _converted, still_array, still_frame
 from pyrt.core.image_types import EXR_MAGIC as _EXR_MAGIC, HDR_MAGIC as _HDR_MAGIC, PNG_MAGIC as _PNG_MAGIC
 from pyrt.core.image_types import image_kind
 
@@ -465,8 +464,8 @@ def read_image(path):
                     _check_pixel_count(path, kind, *im.size)
                 if im.mode in _CONVERTED_MODES:
                     return _converted(im)
-                if _single_frame(im, kind):
-                    return _pillow_array(im)
+                if still_frame(im):
+                    return still_array(im)
             from skimage import io as skio     # ~0.3 s to import (scipy): animated and other files only
 
             return np.asarray(skio.imread(path))
@@ -476,22 +475,6 @@ def read_image(path):
         msg = str(exc).split("\n")[0]  # imageio appends "pip install imageio[pyav]" hints on further lines
         raise ImageFileError(f"{path}: not a readable {kind} file (corrupt or truncated image data; the file has "
                              f"{size} bytes): {type(exc).__name__}: {msg}") from None
-
-
-def _single_frame(im, kind):
-    """True for a still PNG or JPEG, which :func:`_pillow_array` reads as ``skimage.io.imread`` does (imageio's
-    Pillow plugin: frame 0, no EXIF rotation, no gamma); animated PNGs (all frames), GIFs and the other formats
-    still go through ``skimage.io``."""
-    return kind in ("PNG", "JPEG") and getattr(im, "custom_mimetype", None) != "image/apng" \
-        and getattr(im, "n_frames", 1) == 1
-
-
-def _pillow_array(im):
-    """A still Pillow image as a writeable array, the array ``skimage.io.imread`` returns for it (16-bit grey PNGs,
-    Pillow's mode ``"I"``, as uint16 like imageio's plugin)."""
-    if im.format == "PNG" and im.mode == "I":
-        im = im.convert("I;16" if sys.byteorder == "little" else "I;16B")
-    return np.array(im)
 
 
 def _read_png16(path):

@@ -321,7 +321,12 @@ class Material:
         if "lambertian" not in cls.__dict__:
             cls.lambertian = False
         if "emits" not in cls.__dict__ and cls.emission is not Material.emission:
-            cls.emits = True     # overrides emission() without saying when it is zero: assume it may emit
+            # overrides emission() without saying when it is zero (no class from the one defining emission() on
+            # declares emits, e.g. a mixin's property beside its emission()): assume it may emit
+            mro = cls.__mro__
+            owner = {name: next(i for i, c in enumerate(mro) if name in c.__dict__) for name in ("emits", "emission")}
+            if owner["emits"] > owner["emission"]:
+                cls.emits = True
 
     @property
     def uses_textures(self):

@@ -9,6 +9,7 @@ import numpy as np
 
 from pyrt.materials import BlinnPhong, Clearcoat, Glass, GltfPBR, MetallicRoughness, Sheen, Unlit
 from pyrt.textures import Texture
+from pyrt.textures.base import is_texture
 from pyrt.io.assets.common import AssetError, DefaultParams, MTLParams, PBRParams
 
 class ScaledTexture(Texture):
@@ -157,6 +158,15 @@ class SurfaceExtras:
       (:func:`pyrt.textures.apply_normal_maps` perturbs the shading normal of every material with a
       ``normal_map`` attribute before shading).
     """
+
+    @property
+    def emits(self):
+        """True unless the emission is a constant zero (a texture may emit). Without it every glTF / OBJ material
+        would count as an emitter, and the previewer probed each of their triangles for an emissive-mesh light
+        (12-15 s of a 5.24 M-triangle PLY's preparation, to find nothing) and evaluated their zero emission at
+        every hit."""
+        e = self.emission_value
+        return is_texture(e) or bool(np.any(np.asarray(e) > 0))
 
     def _init_extras(self, emission=None, occlusion=None, occlusion_strength=1.0, normal_map=None):
         self.emission_value = 0.0 if emission is None else emission
