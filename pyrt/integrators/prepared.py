@@ -87,7 +87,7 @@ class PreparedScene:
         self.media = NestedMedia.for_scene(mats)
         # faces shaded per vertex (pyrt.integrators.gouraud), None when no mesh asks for it
         self.face_gouraud = gouraud.face_mask(self.geo, scene.gouraud_meshes)
-        self.needs_differentials = any(m.uses_textures for m in mats)
+        self.needs_differentials = any(m.uses_footprints for m in mats)
         #: materials whose emission() can be non-zero (the rest skip the emission pass)
         self.emits = np.array([m.emits for m in mats], dtype=bool)
         #: alpha masks, blending and back-face culling (pyrt.integrators.coverage), None when every material is

@@ -61,7 +61,7 @@ from pyrt.core.registry import Registry
 from pyrt.geometry.memo import row_memo
 from pyrt.shaders import sampling
 from pyrt.shaders.vec import dot
-from pyrt.textures import is_texture
+from pyrt.textures import footprinted, is_texture
 
 
 class MaterialError(Error, ValueError):
@@ -330,8 +330,16 @@ class Material:
 
     @property
     def uses_textures(self):
-        """True when a parameter (or the normal map) is a texture: the integrators then carry ray differentials."""
+        """True when a parameter (or the normal map) is a texture."""
         return any(is_texture(v) for v in vars(self).values())
+
+    @property
+    def uses_footprints(self):
+        """True when a parameter (or the normal map) is a texture that reads the hits' footprints
+        (:attr:`pyrt.textures.Texture.needs_footprint`): the integrators then carry ray differentials. Vertex colours
+        (the colours of merged materials included) and unfiltered image lookups do not; without such a texture
+        the camera rays, glossy and delta rays are traced without differentials and the same values result."""
+        return footprinted(*vars(self).values())
 
     def param(self, value, ctx, channels=3):
         """Resolve a constant or a texture to an ``(N, channels)`` array (``(N,)`` if channels == 1).

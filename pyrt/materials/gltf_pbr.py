@@ -6,9 +6,9 @@ unlit surfaces (``KHR_materials_unlit``). Scene-file ``type`` names in brackets;
 - :class:`GltfPBR` [gltf_pbr]: :class:`pyrt.materials.MetallicRoughness` with the dielectric F0 from ``ior`` times
   ``specular_color``, the specular weight ``specular`` (kernel :func:`pyrt.shaders.brdfs.gltf_pbr_f_cos`) and a
   transmission lobe of weight ``(1 - metallic) transmission``: a thin wall (straight through,
-  :func:`pyrt.shaders.brdfs.thin_transmission_spec_cos` when rough) or the surface of a volume (refraction by
-  ``ior``, :class:`pyrt.Glass` when smooth, :class:`pyrt.RoughDielectric`'s GGX BTDF when rough) with
-  Beer-Lambert ``absorption`` inside; ``anisotropy`` stretches the reflection's GGX lobe along a tangent direction
+  :func:`pyrt.shaders.brdfs.thin_transmission_spec_cos` when rough) or the surface of a volume (refraction by ``ior``,
+  :class:`pyrt.Glass` when smooth, :class:`pyrt.RoughDielectric`'s GGX BTDF when rough) with Beer-Lambert
+  ``absorption`` inside; ``anisotropy`` stretches the reflection's GGX lobe along a tangent direction
   (``KHR_materials_anisotropy``).
 - :class:`Clearcoat` [clearcoat]: ``base (1 - c F_c) + c F_c D G / (4 |n.l| |n.v|)`` over any base material.
 - :class:`Unlit` [unlit]: emits its colour, reflects nothing.
@@ -21,12 +21,11 @@ from pyrt.materials import preview as _preview
 from pyrt.materials.base import DeltaLobe, Material, MaterialError, check_color, check_scalar, is_texture, register
 from pyrt.materials.layering import adopt_base, finish_sample, split_u, weighted_delta_lobes
 from pyrt.materials.library import MetallicRoughness, _check_choice
-from pyrt.shaders import brdfs
-from pyrt.shaders import fresnel
+from pyrt.shaders import brdfs, fresnel
 from pyrt.shaders import microfacet as _mf
 from pyrt.shaders.textures import tangent_frame
 from pyrt.shaders.vec import coordinate_frame, half_vector, reflect, refract, to_azimuth_frame, to_local, to_world
-from pyrt.textures import Texture, perturb_normal
+from pyrt.textures import Texture, footprinted, perturb_normal
 
 #: roughness at or below which a transmission lobe is perfectly specular (delta lobes, traced to ``max_depth`` by
 #: every integrator); above it the lobe is a GGX BTDF sampled by the glossy integrator
@@ -45,6 +44,10 @@ class _TransmittedTint(Texture):
 
     def __init__(self, material):
         self._material = material       # private: the texture's repr does not print the material (a cycle)
+
+    @property
+    def needs_footprint(self):
+        return footprinted(self._material.metallic, self._material.transmission, self._material.base_color)
 
     def evaluate(self, ctx):
         """The tint (N, 3)."""
@@ -442,6 +445,10 @@ class Clearcoat(Material):
         """The coat's or the base's parameters (or the coat's normal map) are textures."""
         return (self.base.uses_textures or is_texture(self.clearcoat) or is_texture(self.roughness)
                 or self.coat_normal_map is not None)
+
+    @property
+    def uses_footprints(self):
+        return self.base.uses_footprints or footprinted(self.clearcoat, self.roughness, self.coat_normal_map)
 
     def _coat_frame(self, ctx):
         """``(s, t, n)`` (N, 3) each: the coat's frame in the local shading frame, or None (the coat uses it:

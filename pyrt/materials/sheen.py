@@ -18,6 +18,7 @@ import numpy as np
 from pyrt.materials.base import Material, check_color, check_scalar, is_texture, register
 from pyrt.materials.layering import adopt_base, finish_sample, split_u, weighted_delta_lobes
 from pyrt.materials.library import MetallicRoughness
+from pyrt.textures import footprinted
 from pyrt.shaders import sampling
 from pyrt.shaders.sheen import MIN_ROUGHNESS, sheen_albedo, sheen_f_cos
 
@@ -63,6 +64,10 @@ class Sheen(Material):
     @property
     def uses_textures(self):
         return self.base.uses_textures or is_texture(self.color) or is_texture(self.roughness)
+
+    @property
+    def uses_footprints(self):
+        return self.base.uses_footprints or footprinted(self.color, self.roughness)
 
     def _alpha(self, ctx):
         r = np.maximum(np.broadcast_to(self.param(self.roughness, ctx, 1), (ctx.n_hits,)), MIN_ROUGHNESS)

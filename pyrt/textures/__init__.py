@@ -6,11 +6,13 @@
 - :mod:`pyrt.textures.procedural`: checker, value noise, Perlin, fBm, Voronoi.
 - :mod:`pyrt.textures.normal_map`: :class:`NormalMap`, :func:`perturb_normal`, :func:`apply_normal_maps`.
 """
-from pyrt.textures.base import TEXTURES, ConstantTexture, Texture, TextureError, is_texture, texture_from_dict
+from pyrt.textures.base import (TEXTURES, ConstantTexture, Texture, TextureError, footprinted, is_texture,
+                                texture_from_dict)
 from pyrt.textures.image import FILTERS, ChannelTexture, ImageTexture, MipPyramid, load_image
 from pyrt.textures.normal_map import NormalMap, apply_normal_maps, flat_normal_map, perturb_normal
 from pyrt.textures.procedural import CheckerTexture, FbmTexture, NoiseTexture, PerlinTexture, VoronoiTexture
 
 __all__ = ["FILTERS", "TEXTURES", "ChannelTexture", "CheckerTexture", "ConstantTexture", "FbmTexture", "ImageTexture", "MipPyramid",
            "NoiseTexture", "NormalMap", "PerlinTexture", "Texture", "TextureError", "VoronoiTexture",
-           "apply_normal_maps", "flat_normal_map", "is_texture", "load_image", "perturb_normal", "texture_from_dict"]
+           "apply_normal_maps", "flat_normal_map", "footprinted", "is_texture", "load_image", "perturb_normal",
+           "texture_from_dict"]

@@ -55,6 +55,11 @@ class Texture:
     channels = 3
     #: registry name used by scene files (``{"type": "checker", ...}``); set by :meth:`Registry.register`
     type_name = None
+    #: True when :meth:`evaluate` reads the hits' footprints (``duvdx``, ``dpdx``: ray differentials, for filtering);
+    #: the renderer carries ray differentials only when some material's texture does
+    #: (:attr:`pyrt.materials.Material.uses_footprints`). Unknown textures say True; a texture whose value does not
+    #: depend on them (constants, vertex colours, unfiltered image lookups) says False
+    needs_footprint = True
     #: the UV set the texture reads (0: ``ctx.uv``; k >= 1: glTF ``TEXCOORD_k``, :meth:`SurfaceBatch.uv_set
     #: <pyrt.geometry.SurfaceBatch.uv_set>`); image textures take it as a parameter
     texcoord = 0
@@ -113,6 +118,11 @@ class Texture:
 def is_texture(value):
     """True when ``value`` is a :class:`Texture` (rather than a constant parameter)."""
     return isinstance(value, Texture)
+
+
+def footprinted(*values):
+    """True when one of ``values`` is a texture that reads the hits' footprints (:attr:`Texture.needs_footprint`)."""
+    return any(isinstance(v, Texture) and v.needs_footprint for v in values)
 
 
 #: every scene-file texture type, ``type name -> class``
@@ -195,6 +205,8 @@ class ConstantTexture(Texture):
     value : float or (3,) float
         The value (linear).
     """
+
+    needs_footprint = False
 
     def __init__(self, value):
         self.value = as_value(value, "ConstantTexture", "value")

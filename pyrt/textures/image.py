@@ -487,6 +487,12 @@ class ImageTexture(Texture):
         return out.astype(np.float64)
 
     @property
+    def needs_footprint(self):
+        """True for the filters that read a footprint (trilinear, EWA); nearest, bilinear and bicubic lookups
+        do not."""
+        return self.filter not in _tex.RECONSTRUCT
+
+    @property
     def plan_key(self):
         """What decides where (not what) a trilinear lookup reads: level 0's size, the UV set, the sampler and the
         UV transform. Textures with equal keys share one :func:`pyrt.shaders.textures.trilinear_plan` per batch."""
@@ -552,6 +558,11 @@ class ChannelTexture(Texture):
     def example(cls):
         """The G channel of :meth:`ImageTexture.example`."""
         return cls(ImageTexture.example(), 1, name="example")
+
+    @property
+    def needs_footprint(self):
+        """The source's (:attr:`Texture.needs_footprint`)."""
+        return self.source.needs_footprint
 
     @property
     def image(self):

@@ -63,6 +63,10 @@ class OpacityTexture(Texture):
         self.texture = texture
         self.vertex = vertex
 
+    @property
+    def needs_footprint(self):
+        return any(t is not None and t.needs_footprint for t in (self.texture, self.vertex))
+
     def evaluate(self, ctx):
         """The product (N, 1) at the hits of ``ctx``."""
         out = np.full((ctx.n_hits, 1), self.factor)

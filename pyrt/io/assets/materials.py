@@ -20,6 +20,10 @@ class ScaledTexture(Texture):
         self.factor = np.asarray(factor, dtype=np.float64)
         self.channels = texture.channels
 
+    @property
+    def needs_footprint(self):
+        return self.texture.needs_footprint
+
     def evaluate(self, ctx):
         v = np.asarray(self.texture.evaluate(ctx), dtype=np.float64).reshape(ctx.n_hits, -1)
         return v * self.factor
@@ -31,6 +35,10 @@ class ProductTexture(Texture):
     def __init__(self, a, b):
         self.a, self.b = a, b
         self.channels = 3
+
+    @property
+    def needs_footprint(self):
+        return any(isinstance(x, Texture) and x.needs_footprint for x in (self.a, self.b))
 
     def evaluate(self, ctx):
         def val(x):
@@ -55,6 +63,8 @@ class VertexColorTexture(Texture):
     """
 
     channels = 3
+    #: barycentric interpolation: no footprint
+    needs_footprint = False
 
     def __init__(self, channels=3):
         self.channels = int(channels)
