@@ -47,3 +47,25 @@ def test_a_process_render_builds_them_in_the_parent_and_equals_threads(rng):
     b = pyrt.render(s, seed=1, threads=2, parallel="processes", chunk_samples=2048)
     np.testing.assert_array_equal(a, b)
     assert base.mip_levels_built == list(range(1, 7))    # built before the fork, in this process
+
+
+def test_levels_built_on_threads_equal_levels_built_one_by_one(rng):
+    """before_fork builds the pyramids on a thread per texture: the same levels as building them in turn, a
+    pyramid that two textures share included (it builds under its lock, once)."""
+    coded = (rng.random((64, 48, 3)) * 255).astype(np.uint8)
+    shared = ImageTexture(coded)
+    twin = ImageTexture(shared, wrap="clamp")            # the same texels and lazy pyramid, its own sampler
+    others = [ImageTexture(rng.random((32, 40, 3)).astype(np.float32)) for _ in range(3)]
+    s = pyrt.Scene(pyrt.Camera(width=8, height=6))
+    for k, tex in enumerate([shared, twin] + others):
+        s.add_sphere((3.0 * k, 0.0, 0.0), 1.0, pyrt.Lambert(albedo=tex), subdivisions=1)
+    ps = pyrt.PreparedScene(s)
+    ps.before_fork()
+    for tex in [shared] + others:
+        fresh = ImageTexture(tex.image if tex is not shared else coded)
+        fresh.build_mip_levels()
+        assert tex.mip_levels_built == fresh.mip_levels_built
+        for lev in tex.mip_levels_built:
+            np.testing.assert_array_equal(tex._pyramid[lev], fresh._pyramid[lev])
+    assert twin.mip_levels_built == shared.mip_levels_built
+    ps.close()

@@ -1,7 +1,9 @@
 """What an integrator runs on and what it counts: the prepared scene and the ray statistics."""
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
+import os
 import time
 
 import numpy as np
@@ -106,8 +108,16 @@ class PreparedScene:
         if "mip_levels" in self.timings:
             return
         t0 = time.perf_counter()
-        for tex in image_textures(*self.scene.materials, *self.scene.lights):
-            tex.build_mip_levels()
+        texs = list(image_textures(*self.scene.materials, *self.scene.lights))
+        # one texture per thread: the reductions run in NumPy without the GIL (helmet-like model, five 2048^2
+        # maps: 0.16 -> 0.10 s on two cores); a pyramid two textures share builds under its own lock, once
+        n = min(len(texs), os.cpu_count() or 1)
+        if n > 1:
+            with ThreadPoolExecutor(n) as ex:
+                list(ex.map(lambda tex: tex.build_mip_levels(), texs))
+        else:
+            for tex in texs:
+                tex.build_mip_levels()
         t1 = time.perf_counter()
         self.timings["mip_levels"] = t1 - t0
         if any(m.lambertian for m in self.scene.materials):
