@@ -102,3 +102,17 @@ def test_images_over_the_texture_budget_are_not_prefetched(tmp_path, rng, monkey
     assert sorted(ii for ii, main in seen if not main) == [0, 2, 3]
     assert {ii for ii, main in seen if main} == {1, 4}      # 4: once per decoding (colour and normal slots)
     assert a.materials[4].base_color_texture.texture.image.shape[:2] == (16, 16)
+
+
+def test_a_malformed_image_entry_is_reported_as_without_prefetching(tmp_path, rng, monkeypatch):
+    path, _ = _multi_image_gltf(tmp_path, rng)
+    header = json.loads(open(path).read())
+    header["images"][2] = 5                                   # not an object
+    with open(path, "w") as fh:
+        json.dump(header, fh)
+    with pytest.raises(AssetError) as with_prefetch:
+        load_asset(path)
+    _no_prefetch(monkeypatch)
+    with pytest.raises(AssetError) as without:
+        load_asset(path)
+    assert str(with_prefetch.value) == str(without.value) and "images[2] must be an object" in str(without.value)

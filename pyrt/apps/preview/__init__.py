@@ -76,7 +76,8 @@ from pyrt.apps.preview.cli import main
 
 __all__ = [
     "AXES", "BudgetExceeded", "PreviewError", "PreviewInterrupted", "PreviewOptions", "RIG", "auto_exposure", "bounding_sphere",
-    "detect_up_axis", "frame_camera", "frame_points", "framing_points", "ground_radiance", "guess_up_axis", "hull_points",
+    "detect_up_axis", "frame_camera", "frame_points", "framing_points", "ground_radiance", "guess_up_axis",
+    "hull_points",
     "metadata_up_axis", "studio_rig", "up_transform", "PreviewResult", "PreviewScene",
     "contact_sheet", "render_preview", "write_files", "AssetReport", "collect_inputs", "format_summary",
     "output_name", "preview_asset", "preview_batch", "summary_rows", "write_summary", "main",
