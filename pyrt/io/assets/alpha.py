@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pyrt.textures import ImageTexture, Texture
+from pyrt.textures import ImageTexture, Texture, footprinted
 from pyrt.io.assets.common import PBRParams
 
 #: glTF alphaMode -> pyrt's Material.alpha_mode
@@ -65,7 +65,7 @@ class OpacityTexture(Texture):
 
     @property
     def needs_footprint(self):
-        return any(t is not None and t.needs_footprint for t in (self.texture, self.vertex))
+        return footprinted(self.texture, self.vertex)
 
     def evaluate(self, ctx):
         """The product (N, 1) at the hits of ``ctx``."""

@@ -9,7 +9,7 @@ import numpy as np
 
 from pyrt.materials import BlinnPhong, Clearcoat, Glass, GltfPBR, MetallicRoughness, Sheen, Unlit
 from pyrt.textures import Texture
-from pyrt.textures.base import is_texture
+from pyrt.textures.base import footprinted, is_texture
 from pyrt.io.assets.common import AssetError, DefaultParams, MTLParams, PBRParams
 
 class ScaledTexture(Texture):
@@ -38,7 +38,7 @@ class ProductTexture(Texture):
 
     @property
     def needs_footprint(self):
-        return any(isinstance(x, Texture) and x.needs_footprint for x in (self.a, self.b))
+        return footprinted(self.a, self.b)
 
     def evaluate(self, ctx):
         def val(x):
