@@ -33,7 +33,14 @@ def relmse_per_pixel(variance, mean, eps=RELMSE_EPS):
     """Per-pixel relative error ``mean over channels of variance / (mean^2 + eps)`` ((N, 3) -> (N,))."""
     v = np.asarray(variance, dtype=np.float64)
     m = np.asarray(mean, dtype=np.float64)
-    return np.mean(v / (m * m + eps), axis=-1)
+    r = m * m
+    r += eps
+    np.divide(v, r, out=r)
+    acc = r[..., 0].copy()
+    for c in range(1, r.shape[-1]):                 # channel by channel: the sums np.mean makes, without its
+        acc += r[..., c]                            # strided reduction (the adaptive renderer calls it per pass)
+    acc /= r.shape[-1]
+    return acc
 
 
 def estimated_relmse(variance, mean, eps=RELMSE_EPS):

@@ -75,7 +75,7 @@ import numpy as np
 from pyrt.core import checks
 from pyrt.core.errors import RenderError
 from pyrt.core.film import Film
-from pyrt.core.metrics import RELMSE_EPS
+from pyrt.core.metrics import relmse_per_pixel
 from pyrt.integrators.prepared import PreparedScene, RenderStats
 from pyrt.integrators.whitted import DEFAULT_SPLIT_DEPTH
 from pyrt.render.chunks import shade_adaptive_chunk
@@ -159,7 +159,7 @@ def box_smooth(a, radius):
 
 def pixel_errors(film, half):
     """Per-pixel estimated relMSE of the film's mean (H*W,) from the half-buffers (``half`` holds half B);
-    NaN where a pixel has no sample. The relMSE of :func:`pyrt.core.metrics.relmse_per_pixel` with the variance
+    NaN where a pixel has no sample: :func:`pyrt.core.metrics.relmse_per_pixel` of the variance
     ``(mean_A - mean_B)^2 / 4``, computed on every pixel at once (masked rows cost more than the arithmetic)."""
     wb = half.weight
     w = film.weight
@@ -172,15 +172,10 @@ def pixel_errors(film, half):
         sb = half.sum
         d = (film.sum - sb) / wa[:, None]                # mean_A
         d -= sb / wb[:, None]                            # - mean_B
-        m = film.sum / w[:, None]
         d *= d
-        d /= 4.0
-        m *= m
-        m += RELMSE_EPS
-        d /= m
-        acc = d[:, 0] + d[:, 1]
-        acc += d[:, 2]
-    out[ok] = acc[ok] / 3.0
+        d /= 4.0                                         # the variance of the mean
+        err = relmse_per_pixel(d, film.sum / w[:, None])
+    out[ok] = err[ok]
     return out
 
 
