@@ -30,7 +30,7 @@ import threading
 import numpy as np
 
 from pyrt.core.image_io import ImageFileError, read_image
-from pyrt.geometry.memo import row_memo
+from pyrt.geometry.memo import row_memo, rows_cached
 from pyrt.shaders import color as _color
 from pyrt.shaders import ewa as _ewa
 from pyrt.shaders import mip as _mip
@@ -503,9 +503,10 @@ class ImageTexture(Texture):
         """The filtered lookup at the hits of ``ctx``, each hit of a batch looked up once
         (:func:`pyrt.geometry.memo.row_memo`, keyed by :attr:`sampling_key`: the views of one batch of hits that
         a material's BSDF, light samples, glossy rays and preview lobes are evaluated on gather what another view
-        already read). Trilinear lookups reuse the batch's plan for this texture's :attr:`plan_key`
-        (``ctx._plan_cache``): the MIP levels, taps and weights are computed once for all the same-sized maps a
-        material reads at the same UVs (the same numbers as :meth:`lookup`)."""
+        already read). Trilinear lookups reuse the batch's plan for this texture's :attr:`plan_key` on the same
+        rows (:func:`pyrt.geometry.memo.rows_cached`, whichever view asks): the MIP levels, taps and weights are
+        computed once for all the same-sized maps a material reads at the same UVs (the same numbers as
+        :meth:`lookup`)."""
         return row_memo(ctx, ("image", type(self), self.sampling_key), self._evaluate)
 
     def _evaluate(self, ctx):
@@ -514,14 +515,13 @@ class ImageTexture(Texture):
             return np.repeat(const[None, :], ctx.n_hits, axis=0)
         if self.filter != "trilinear":
             return self.lookup(*texcoords(ctx, self.texcoord))
-        cache = ctx.__dict__.setdefault("_plan_cache", {})
-        key = self.plan_key
-        plan = cache.get(key)
-        if plan is None:
-            uv, duvdx, duvdy = self._transformed(*texcoords(ctx, self.texcoord))
-            plan = cache[key] = _tex.trilinear_plan(self._image.shape, len(self._pyramid), uv, duvdx, duvdy,
-                                                    self.wrap, self.footprint_scale)
+        plan = rows_cached(ctx, ("trilinear plan", self.plan_key), self._plan)
         return _tex.apply_trilinear_plan(self._pyramid, plan, self._table).astype(np.float64)
+
+    def _plan(self, ctx):
+        uv, duvdx, duvdy = self._transformed(*texcoords(ctx, self.texcoord))
+        return _tex.trilinear_plan(self._image.shape, len(self._pyramid), uv, duvdx, duvdy, self.wrap,
+                                   self.footprint_scale)
 
 
 class ChannelTexture(Texture):
