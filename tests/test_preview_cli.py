@@ -21,7 +21,7 @@ TINY = dict(width=24, height=18, spp=1)
 @pytest.mark.parametrize("option, value", [
     ("--width", "0"), ("--width", "-10"), ("--height", "0"), ("--spp", "0"), ("--seed", "-1"),
     ("--exposure", "nan"), ("--turntable", "-1"), ("--budget", "0"), ("--threads", "0"), ("--env-samples", "0"),
-    ("--fov", "nan"),
+    ("--fov", "nan"), ("--glossy-clamp", "0"), ("--glossy-clamp", "-2"), ("--glossy-clamp", "inf"),
 ])
 def test_preview_cli_rejects_bad_option_values(tmp_path, capsys, option, value):
     with pytest.raises(SystemExit) as exc:

@@ -75,12 +75,22 @@ class GlossyIntegrator(Integrator):
         Glossy rays are spawned at bounces ``0 .. glossy_depth - 1`` (and below ``max_depth``).
     glossy_threshold : float
         Lobes with ``glossy_alpha > glossy_threshold`` count as diffuse (direct light only).
+    glossy_clamp : float or None
+        The largest radiance (max channel, times the path's throughput) that the direct light at a hit of a glossy
+        ray may add to its camera sample; larger ones are scaled down to it, the colour kept
+        (:func:`pyrt.integrators.whitted.clamp_sampled`). Biased: it removes the rare, very bright samples of
+        glossy -> sharp lobe -> light paths (a sharp highlight or a small emitter seen in a glossy reflection: the
+        fireflies of a few-sample render) and darkens what they estimate. Hits reached by delta rays and the
+        emission and environment that glossy rays reach are not clamped. None (default): unbiased.
     **kwargs
         Those of :class:`pyrt.integrators.whitted.Integrator`.
     """
 
-    def __init__(self, prepared, *, glossy_samples=4, glossy_depth=2, glossy_threshold=0.4, **kwargs):
+    def __init__(self, prepared, *, glossy_samples=4, glossy_depth=2, glossy_threshold=0.4, glossy_clamp=None,
+                 **kwargs):
         super().__init__(prepared, **kwargs)
+        self.glossy_clamp = None if glossy_clamp is None else checks.finite_number(
+            "render", "glossy_clamp", glossy_clamp, RenderError, lo=0.0)
         self.glossy_samples = checks.integer("render", "glossy_samples", glossy_samples, RenderError, lo=1)
         self.glossy_depth = checks.integer("render", "glossy_depth", glossy_depth, RenderError, lo=0)
         self.glossy_threshold = checks.finite_number("render", "glossy_threshold", glossy_threshold, RenderError,

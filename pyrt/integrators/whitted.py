@@ -107,6 +107,10 @@ class Integrator:
         generator either way.
     """
 
+    #: the largest contribution the direct light at a hit of a BSDF-sampled ray adds to its sample
+    #: (:func:`clamp_sampled`; set by :class:`pyrt.integrators.glossy.GlossyIntegrator`, None: no clamp)
+    glossy_clamp = None
+
     def __init__(self, prepared, *, max_depth=8, throughput_cutoff=1e-4, offset=None, record_rays=False,
                  transparent_shadows=False, split_depth=DEFAULT_SPLIT_DEPTH,
                  light_select_depth=None, batch_rays=None, sampler="padded"):
@@ -363,6 +367,9 @@ class Integrator:
                           np.take(bpdf, h[diffuse_idx]) > 0 if bpdf is not None else None)
                 choose = choose if choose is not None and choose.any() else None
             Ld = self._direct_light(dsurf, bsdf, visible, stream_rows(rng_h, diffuse_idx), sampled, depth, choose)
+            if bpdf is not None and self.glossy_clamp is not None:   # hits of glossy rays (GlossyIntegrator)
+                Ld = clamp_sampled(Ld, take_rows(thr_h, diffuse_idx), np.take(bpdf, h[diffuse_idx]) > 0,
+                                   self.glossy_clamp)
             put_rows(Lh, diffuse_idx, take_rows(Lh, diffuse_idx) + Ld)
         _scatter_add(L, s_idx, thr_h * Lh, unique=one_per_sample)   # camera rays: one per sample
         if depth == self.max_depth:
@@ -532,6 +539,18 @@ class Integrator:
             stack = media.spawn_stacks(stack_h, mids, surf.front, src, refr)
         sample = np.take(s_idx, src)
         return RayBatch(o, d, sample=sample, throughput=thr, differentials=diffs, stack=stack)
+
+
+def clamp_sampled(Ld, thr, sampled, limit):
+    """``Ld`` (N, 3) with the rows ``sampled`` scaled down where their contribution ``thr * Ld`` exceeds ``limit`` in
+    its largest channel (to exactly ``limit`` there, the colour kept): the glossy integrator's ``glossy_clamp``."""
+    m = max_component(thr * Ld)
+    over = np.flatnonzero(sampled & (m > limit))
+    if over.size == 0:
+        return Ld
+    Ld = Ld.copy()
+    put_rows(Ld, over, take_rows(Ld, over) * (limit / np.take(m, over))[:, None])
+    return Ld
 
 
 def choose_one_lobe(lobes, u):

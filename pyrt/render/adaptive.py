@@ -272,9 +272,9 @@ def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None,
                     progress=None, chunk_samples=1 << 15, threads=None, prepared=None, nonfinite="zero",
                     cancel=None, fill=False, fill_budget=2.0, on_pass=None, integrator="whitted", max_depth=8,
                     throughput_cutoff=1e-4, offset=None, record_rays=False, transparent_shadows=False,
-                    glossy_samples=4, glossy_depth=2, glossy_threshold=0.4, dask=None, dask_workers=2,
-                    split_depth=DEFAULT_SPLIT_DEPTH, light_select_depth=None, parallel="auto", batch_rays=None,
-                    sampler="padded"):
+                    glossy_samples=4, glossy_depth=2, glossy_threshold=0.4, glossy_clamp=None, dask=None,
+                    dask_workers=2, split_depth=DEFAULT_SPLIT_DEPTH, light_select_depth=None, parallel="auto",
+                    batch_rays=None, sampler="padded"):
     """Render ``scene`` in adaptive passes until the estimated relMSE is at most ``target_error``, the
     ``time_budget`` (seconds, counted from the call) is spent, or no pixel may take more samples
     (``max_spp``): a :class:`RenderResult` with ``passes``, ``estimated_error``, ``stop_reason`` and the film
@@ -303,7 +303,8 @@ def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None,
     threads = None if threads is None else checks.integer("render", "threads", threads, RenderError)
     integ = dict(integrator=integrator, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
                  record_rays=record_rays, transparent_shadows=transparent_shadows, glossy_samples=glossy_samples,
-                 glossy_depth=glossy_depth, glossy_threshold=glossy_threshold, split_depth=split_depth,
+                 glossy_depth=glossy_depth, glossy_threshold=glossy_threshold,
+                 glossy_clamp=glossy_clamp, split_depth=split_depth,
                  light_select_depth=light_select_depth, batch_rays=batch_rays, sampler=sampler)
     runner = None if dask is None else DaskRunner(dask, scene, dask_workers)
     own = prepared is None and runner is None

@@ -37,7 +37,7 @@ from pyrt.render.result import RenderResult
 def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4, offset=None, aovs=False,
                 progress=None, chunk_samples=1 << 15, threads=None, record_rays=False, prepared=None,
                 nonfinite="zero", cancel=None, fill=False, fill_budget=2.0, transparent_shadows=False,
-                integrator="whitted", glossy_samples=4, glossy_depth=2, glossy_threshold=0.4,
+                integrator="whitted", glossy_samples=4, glossy_depth=2, glossy_threshold=0.4, glossy_clamp=None,
                 target_error=None, time_budget=None, max_spp=None, min_spp=4, on_pass=None, dask=None,
                 dask_workers=2, split_depth=DEFAULT_SPLIT_DEPTH, light_select_depth=None, parallel="auto", batch_rays=None,
                 sampler="padded"):
@@ -82,6 +82,9 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     glossy_samples, glossy_depth, glossy_threshold : int, int, float
         The glossy integrator's rays per hit on the first bounce (1 deeper), the bounces that spawn them
         and the ``glossy_alpha`` above which a lobe counts as diffuse (:class:`GlossyIntegrator`).
+    glossy_clamp : float, optional
+        The glossy integrator's clamp of the direct light at hits of glossy rays (biased, against fireflies;
+        :class:`GlossyIntegrator`); default None: no clamp. The previewer sets one.
 
     batch_rays : int, optional
         Shade every bounce of a chunk in slices of at most this many rays, the rays they spawn gathered into one
@@ -123,7 +126,8 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
                                on_pass=on_pass, integrator=integrator, max_depth=max_depth,
                                throughput_cutoff=throughput_cutoff, offset=offset, record_rays=record_rays,
                                transparent_shadows=transparent_shadows, glossy_samples=glossy_samples,
-                               glossy_depth=glossy_depth, glossy_threshold=glossy_threshold, dask=dask,
+                               glossy_depth=glossy_depth, glossy_threshold=glossy_threshold,
+                               glossy_clamp=glossy_clamp, dask=dask,
                                dask_workers=dask_workers, split_depth=split_depth,
                                light_select_depth=light_select_depth, parallel=parallel, batch_rays=batch_rays,
                                sampler=sampler)
@@ -132,7 +136,7 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         raise RenderError(f"render: integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
     integ = dict(integrator=integrator, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
                  transparent_shadows=transparent_shadows, glossy_samples=glossy_samples, glossy_depth=glossy_depth,
-                 glossy_threshold=glossy_threshold, split_depth=split_depth,
+                 glossy_threshold=glossy_threshold, glossy_clamp=glossy_clamp, split_depth=split_depth,
                  light_select_depth=light_select_depth, batch_rays=batch_rays, sampler=sampler)
     cam = scene.camera
     if spp is not None:

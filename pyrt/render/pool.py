@@ -246,14 +246,16 @@ class ChunkPool:
 
 def integrator_factory(ps, integrator, *, max_depth, throughput_cutoff, offset, record_rays=False,
                        transparent_shadows=False, glossy_samples=4, glossy_depth=2, glossy_threshold=0.4,
-                       split_depth=DEFAULT_SPLIT_DEPTH, light_select_depth=None, batch_rays=None, sampler="padded"):
+                       glossy_clamp=None, split_depth=DEFAULT_SPLIT_DEPTH, light_select_depth=None, batch_rays=None,
+                       sampler="padded"):
     """A function of no argument returning a fresh integrator for one chunk (``"whitted"`` or ``"glossy"``)
     over the prepared scene ``ps``; :class:`RenderError` for another name."""
     if integrator not in INTEGRATORS:
         raise RenderError(f"render: integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
     extra = {}
     if integrator == "glossy":
-        extra = dict(glossy_samples=glossy_samples, glossy_depth=glossy_depth, glossy_threshold=glossy_threshold)
+        extra = dict(glossy_samples=glossy_samples, glossy_depth=glossy_depth, glossy_threshold=glossy_threshold,
+                     glossy_clamp=glossy_clamp)
     cls = GlossyIntegrator if integrator == "glossy" else Integrator
 
     def make():

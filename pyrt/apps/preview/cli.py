@@ -32,6 +32,11 @@ def _max_texture(text):
     return text if text == "auto" else nonnegative_int(text)
 
 
+def _glossy_clamp(text):
+    """argparse type of ``--glossy-clamp``: ``off`` (None) or a positive number."""
+    return None if text == "off" else positive_float(text)
+
+
 def _parser():
     ap = ArgumentParser(prog="pyrt-preview", description="Preview 3D models (glTF/GLB, OBJ, PLY, STL) "
                                  "with a studio rig, auto-framing and auto-exposure.")
@@ -85,6 +90,9 @@ def _parser():
     ap.add_argument("--double-sided", action="store_true",
                     help="render both sides of every face (default: as the file says; back faces of single-sided "
                          "glTF materials are culled)")
+    ap.add_argument("--glossy-clamp", type=_glossy_clamp, default=PreviewOptions.glossy_clamp, metavar="X",
+                    help="limit what the light at a glossy ray's hit adds to a sample to X times the lighting's "
+                         "scale (against fireflies; biased); 'off': unbiased (default %(default)s)")
     ap.add_argument("--max-texture", type=_max_texture, default="auto", metavar="N",
                     help="reduce glTF images longer than N texels by a power of two as they are decoded (auto: "
                          "the power of two at or above 3x the longer output side; 0: keep every image whole)")
@@ -126,7 +134,7 @@ def _run(args, cancel):
                           tonemap=args.tonemap, turntable=args.turntable, formats=formats, aovs=args.aovs,
                           seed=args.seed, time_budget=args.budget, threads=args.threads, parallel=args.parallel,
                           bvh_quality=args.bvh_quality, double_sided=args.double_sided, target_error=args.target_error,
-                          max_spp=args.max_spp, max_texture=args.max_texture,
+                          max_spp=args.max_spp, max_texture=args.max_texture, glossy_clamp=args.glossy_clamp,
                           min_spp=args.min_spp).validate()
     paths = collect_inputs(args.models)
     if not paths:

@@ -91,6 +91,12 @@ class PreviewOptions:
     glossy_samples: int = 4
     glossy_depth: int = 2
     glossy_threshold: float = 0.4
+    #: the clamp of the direct light at hits of glossy rays (pyrt.render_full's glossy_clamp), in units of the
+    #: lighting's radiance scale (rig.lit_white_radiance: what a white Lambertian surface facing every light
+    #: reflects): a glossy ray's sample may add at most this many times it. It removes the fireflies of
+    #: glossy -> sharp -> light paths (a sharp highlight seen in a glossy reflection), a bias (docs/preview.md);
+    #: None: unbiased
+    glossy_clamp: float | None = 4.0
     #: adaptive sampling instead of ``spp`` (pyrt.render's target_error / max_spp / min_spp, docs/preview.md):
     #: passes until the estimated relMSE is at most ``target_error`` or every pixel has ``max_spp``; None: ``spp``
     #: per pixel. Off by default: which target matches 4 spp differs by model (measured 1e-3 to 8e-3)
@@ -156,6 +162,9 @@ class PreviewOptions:
             raise PreviewError(f"glossy_depth must be an integer >= 0, got {self.glossy_depth!r}")
         if not self.glossy_threshold >= 0:
             raise PreviewError(f"glossy_threshold must be >= 0, got {self.glossy_threshold}")
+        if self.glossy_clamp is not None and not (isinstance(self.glossy_clamp, (int, float))
+                                                  and 0 < self.glossy_clamp < float("inf")):
+            raise PreviewError(f"glossy_clamp must be a positive number or None, got {self.glossy_clamp!r}")
         if self.target_error is not None and not (isinstance(self.target_error, (int, float))
                                                   and 0 < self.target_error < float("inf")):
             raise PreviewError(f"target_error must be a number > 0, got {self.target_error!r}")

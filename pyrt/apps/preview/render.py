@@ -29,7 +29,8 @@ from pyrt.apps.preview.options import (ADAPTIVE_MAX_SPP, BACK_FACE_GRID, BACK_FA
                                        PreviewError, PreviewInterrupted, PreviewOptions)
 from pyrt.apps.preview.studio import STUDIO_PREVIEW_SAMPLES, StudioEnvironment, camera_rotation
 from pyrt.apps.preview.rig import (auto_exposure, bounding_sphere, detect_up_axis, frame_camera, frame_points,
-                                   framing_points, ground_radiance, hull_points, studio_rig, up_transform)
+                                   framing_points, ground_radiance, hull_points, lit_white_radiance, studio_rig,
+                                   up_transform)
 
 
 # ============================================================================ the preview scene
@@ -213,6 +214,8 @@ class PreviewScene:
             glass = bool(self.prepared.dielectric.any())
             depth = max(o.max_depth, o.dielectric_depth) if glass else o.max_depth
             cutoff = o.dielectric_cutoff if glass else 1e-4
+            scale = 0.0 if o.glossy_clamp is None else lit_white_radiance(self.scene.lights, self.center)
+            clamp = o.glossy_clamp * scale if scale > 0 else None      # (no light to scale it by: no clamp)
             glass_kw = dict(split_depth=o.split_depth, chunk_samples=o.dielectric_chunk_samples,
                             batch_rays=o.dielectric_batch_rays or o.batch_rays) if glass else {}
             res = render_full(self.scene, seed=o.seed, max_depth=depth, aovs=aovs, progress=False,
@@ -220,6 +223,7 @@ class PreviewScene:
                               transparent_shadows=True, throughput_cutoff=cutoff,
                               light_select_depth=o.light_select_depth, glossy_samples=o.glossy_samples,
                               glossy_depth=o.glossy_depth, glossy_threshold=o.glossy_threshold,
+                              glossy_clamp=clamp,
                               target_error=o.target_error,
                               max_spp=(o.max_spp or ADAPTIVE_MAX_SPP) if o.target_error is not None else None,
                               min_spp=o.min_spp, sampler=o.sampler,

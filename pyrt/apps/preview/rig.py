@@ -374,6 +374,27 @@ def ground_radiance(lights, albedo, ambient, at=(0.0, 0.0, 0.0)):
     return L
 
 
+def lit_white_radiance(lights, at=(0.0, 0.0, 0.0), n_directions=1024):
+    """The radiance scale of a scene's lighting at the point ``at``: the largest channel of what a white Lambertian
+    surface would reflect facing every delta light head-on at once (``sum_i E_i / pi``), plus the mean radiance of
+    every environment light (over ``n_directions`` directions spread evenly over the sphere). A float; the unit of
+    the previewer's ``glossy_clamp``."""
+    p = np.asarray(at, dtype=np.float64).reshape(1, 3)
+    total = np.zeros(3)
+    for lt in lights:
+        if lt.delta:
+            _, _, E = lt.sample(p, np.zeros((1, 2)))
+            total += E[0] / math.pi
+        elif lt.environment is not None:
+            i = np.arange(n_directions) + 0.5           # a Fibonacci sphere: even, deterministic
+            z = 1.0 - 2.0 * i / n_directions
+            phi = math.pi * (3.0 - math.sqrt(5.0)) * i
+            r = np.sqrt(1.0 - z * z)
+            d = np.stack([r * np.cos(phi), z, r * np.sin(phi)], axis=1)
+            total += np.asarray(lt.environment.radiance(d)).mean(axis=0)
+    return float(total.max())
+
+
 def auto_exposure(image, mask=None, *, key=0.18, percentile=99.9):
     """Photographic exposure (Reinhard et al. 2002): ``(exposure_stops, L_white)``.
 
