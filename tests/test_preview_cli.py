@@ -49,6 +49,17 @@ def test_preview_cli_errors_are_one_line(tmp_path, capsys):
     assert sorted(os.listdir(tmp_path)) == ["a_file", "empty"]       # nothing rendered, nothing written
 
 
+def test_preview_cli_errors_after_the_load_name_the_file(tmp_path, capsys):
+    # a mesh that loads but cannot be rendered: the scene's error names the mesh, the CLI adds the file
+    bad = tmp_path / "collinear.obj"
+    bad.write_text("v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n")
+    assert P.main([str(bad), "-o", str(tmp_path / "v.png"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"pyrt-preview: error: {bad}: ") and "degenerate" in err, err
+    assert len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "v.png").exists()
+
+
 def test_preview_batch_cancel_keeps_finished_assets_and_writes_the_summary(tmp_path):
     d = tmp_path / "models"
     d.mkdir()

@@ -171,6 +171,11 @@ def _main_single(path, outputs, opts, quiet, cancel):
     except PreviewInterrupted as exc:
         print(f"pyrt-preview: {exc}; nothing written", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except (Error, ValueError) as exc:
+        # errors raised after the load (a degenerate mesh, a bad material value) name the part, not the file
+        if os.path.basename(path) not in str(exc):
+            raise PreviewError(f"{path}: {exc}") from exc
+        raise
     t_write = time.perf_counter()
     for out in outputs:
         stem, ext = os.path.splitext(out)
