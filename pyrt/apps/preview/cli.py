@@ -38,7 +38,7 @@ def _glossy_clamp(text):
 
 
 def _parser():
-    ap = ArgumentParser(prog="pyrt-preview", description="Preview 3D models (glTF/GLB, OBJ, PLY, STL) "
+    ap = ArgumentParser(prog="pyrt-preview", description="Preview 3D models (glTF/GLB, OBJ, PLY, STL, OFF) "
                                  "with a studio rig, auto-framing and auto-exposure.")
     ap.add_argument("models", nargs="+", help="model files, folders or glob patterns")
     ap.add_argument("-o", "--output", action="append",

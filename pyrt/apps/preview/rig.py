@@ -229,8 +229,10 @@ def guess_up_axis(vertices, faces=None, *, default="+y", candidates=("+y", "+z")
     best = max(candidates, key=lambda a: scores[a])
     rest = max((scores[a] for a in candidates if a != best), default=0.0)
     if scores[best] > 0 and scores[best] > UP_CONFIDENCE * rest:
-        ratio = scores[best] / rest if rest > 0 else math.inf
-        return best, f"stands on its hull along {best} (support score {ratio:.1f}x the other axis)", scores
+        if rest > 0:
+            ratio = scores[best] / rest
+            return best, f"stands on its hull along {best} (support score {ratio:.1f}x the other axis)", scores
+        return best, f"stands on its hull along {best} (no support along the other axis)", scores
     return default, "no clear base", scores
 
 

@@ -1,4 +1,4 @@
-"""Load real assets (glTF 2.0 / GLB, OBJ + MTL, PLY, STL) into a :class:`pyrt.Scene`.
+"""Load real assets (glTF 2.0 / GLB, OBJ + MTL, PLY, STL, OFF) into a :class:`pyrt.Scene`.
 
 ``asset = load_asset(path)`` reads a file into an :class:`Asset` (object-space meshes, instances with
 their world transforms, materials, cameras, lights, warnings); ``asset.add_to_scene(scene)`` adds it
@@ -9,7 +9,8 @@ Forgiving where the model itself is fine (each a *substitution*, :attr:`Asset.su
 per model in ``pyrt-preview``'s batch summary): a missing texture file -> the slot's factor alone (glTF, MTL maps);
 a missing MTL -> the default material. Grey, grey + alpha, palette (with or without transparency), 16-bit and
 CMYK images are converted (to RGB / RGBA, :func:`colour_texels`; CMYK by Pillow's ``255 - ink``); PLY face colours
-are read (:class:`FaceColorTexture`) and PLY ``tristrips`` are read into triangles (:func:`read_ply_tristrips`).
+are read (:class:`FaceColorTexture`) and PLY ``tristrips`` are read into triangles (:func:`read_ply_tristrips`);
+OFF vertex and face colours are read (:mod:`pyrt.io.assets.off`).
 
 Conventions
 -----------
@@ -80,6 +81,7 @@ from pyrt.io.assets.materials import (GltfMaterial, GltfPBRMaterial, ObjMaterial
 from pyrt.io.assets.asset import Asset, AssetCamera, AssetInstance, AssetLight, AssetMesh, light_from_photometric
 from pyrt.io.assets.gltf import gltf_node_transforms, gltf_uv_transform, load_gltf, pack_glb, read_gltf
 from pyrt.io.assets.obj import load_obj, parse_mtl
+from pyrt.io.assets.off import load_off
 from pyrt.io.assets.ply_stl import load_ply_stl, read_ply_tristrips, tristrip_faces
 
 __all__ = [
@@ -94,7 +96,7 @@ __all__ = [
 
 
 def load_asset(path, *, max_texture=None, generate_tangents=True):
-    """Load any supported file (by extension: .gltf .glb .obj .ply .stl) into an :class:`Asset`.
+    """Load any supported file (by extension: .gltf .glb .obj .ply .stl .off) into an :class:`Asset`.
 
     Parameters
     ----------
@@ -133,6 +135,8 @@ def load_asset(path, *, max_texture=None, generate_tangents=True):
             asset = load_gltf(path, max_texture)
         elif fmt == "obj":
             asset = load_obj(path, max_texture)
+        elif fmt == "off":
+            asset = load_off(path)
         else:
             asset = load_ply_stl(path, fmt, max_texture)
     asset.load_time = time.perf_counter() - t0

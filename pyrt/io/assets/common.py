@@ -35,7 +35,7 @@ def malformed_is_asset_error(path, fmt):
         raise AssetError(f"{path}: malformed {fmt} file: {type(exc).__name__}: {exc}") from None
 
 
-FORMATS = {".gltf": "gltf", ".glb": "gltf", ".obj": "obj", ".ply": "ply", ".stl": "stl"}
+FORMATS = {".gltf": "gltf", ".glb": "gltf", ".obj": "obj", ".ply": "ply", ".stl": "stl", ".off": "off"}
 
 
 # ============================================================================ material parameters
@@ -175,7 +175,7 @@ class MTLParams:
 
 @dataclass
 class DefaultParams:
-    """The preview material for files without materials (PLY, STL): a grey dielectric "clay"."""
+    """The preview material for files without materials (PLY, STL, OFF): a grey dielectric "clay"."""
 
     name: str = "default"
     base_color: tuple = (0.8, 0.8, 0.8)

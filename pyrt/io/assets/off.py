@@ -1,0 +1,196 @@
+"""OFF (Geomview's Object File Format; the Princeton Shape Benchmark's and ModelNet's meshes) -> :class:`Asset`.
+
+The ASCII format, read here without trimesh (which drops OFF colours)::
+
+    [ST][C][N]OFF            header keyword (ModelNet glues the counts to it: "OFF490 518 0")
+    NV NF NE                 vertex, face and edge counts (edges are ignored)
+    x y z [nx ny nz] [r g b [a]] [s t]          NV vertex lines (N: normals, used; C: colour; ST: texture
+                                                 coordinates, ignored)
+    n i_1 ... i_n [r g b [a] | colormap index]  NF polygons, indices from 0, an optional colour
+
+``#`` starts a comment; blank lines are skipped. Polygons are split into fans ``(i_1, i_k, i_k+1)``. Colours are
+sRGB, integers 0..255 or, written with a decimal point, floats 0..1 (Geomview's rule), and are linearised like PLY's;
+a face colour applies to all triangles of its polygon. A colormap index (one number) cannot be resolved without
+Geomview's colour map: it is ignored with a warning. Binary OFF, 4D (``4OFF``) and n-dimensional (``nOFF``) files and
+any inconsistency (a count that does not match, an index out of range, a non-number) are errors naming the file and
+the line. Polygons with fewer than 3 vertices are skipped with a warning. No up axis is stored: the previewer guesses.
+"""
+from __future__ import annotations
+
+import os
+import re
+
+import numpy as np
+
+from pyrt.shaders import color as _color
+from pyrt.io.assets.asset import Asset, AssetInstance, AssetMesh
+from pyrt.io.assets.common import AssetError
+
+_HEADER = re.compile(r"^(ST)?(C)?(N)?(4)?(n)?OFF(.*)$")
+
+
+def _lines(path):
+    """The file's non-empty lines without comments, as ``(line number, text)`` pairs."""
+    with open(path, "rb") as fh:
+        raw = fh.read()
+    if b"\0" in raw[:4096]:
+        raise AssetError(f"{path}: binary OFF files are not read (only the ASCII format)")
+    out = []
+    for k, line in enumerate(raw.decode("latin-1").splitlines(), start=1):
+        text = line.split("#", 1)[0].strip()
+        if text:
+            out.append((k, text))
+    return out
+
+
+def _numbers(path, rows, what):
+    """The numbers on ``rows`` (``(line number, text)``) as one float array, or an error naming the first bad line."""
+    try:
+        return np.array(" ".join(t for _, t in rows).split(), dtype=np.float64)
+    except ValueError:
+        for k, t in rows:
+            try:
+                [float(x) for x in t.split()]
+            except ValueError:
+                raise AssetError(f"{path}: line {k}: {what} {t[:60]!r} is not a list of numbers") from None
+        raise
+
+
+def _colour(path, tokens, values, where):
+    """Linear RGB from colour columns ``values`` (M, 3 or 4): 0..1 floats if any token has a decimal point or an
+    exponent, else 0..255 integers."""
+    floats = any(("." in t or "e" in t.lower()) for t in tokens)
+    rgb = values[:, :3] if floats else values[:, :3] / 255.0
+    if not np.all(np.isfinite(rgb)):
+        raise AssetError(f"{path}: {where} colours contain NaN or Inf")
+    return _color.srgb_decode(np.clip(rgb, 0.0, 1.0))
+
+
+def load_off(path):
+    """Load an ASCII OFF file (module docstring) into an :class:`Asset`: one mesh (the default clay material,
+    vertex or face colours when the file has them) with one identity instance.
+
+    Raises
+    ------
+    AssetError
+        Naming the file and, where there is one, the line: not an OFF header, binary / 4D / nD OFF, wrong counts,
+        a vertex that is not finite, an index out of range, no polygon with 3 or more vertices.
+    """
+    lines = _lines(path)
+    if not lines:
+        raise AssetError(f"{path}: empty OFF file")
+    k0, head = lines[0]
+    m = _HEADER.match(head)
+    if m is None:
+        raise AssetError(f"{path}: line {k0}: not an OFF header ({head[:40]!r}; expected OFF, COFF, NOFF, STOFF ...)")
+    st, has_c, has_n, four, ndim, rest = m.groups()
+    if four or ndim:
+        raise AssetError(f"{path}: line {k0}: {head.split()[0]!r}: 4D and n-dimensional OFF files are not read")
+    if rest.strip().upper().startswith("BINARY"):
+        raise AssetError(f"{path}: binary OFF files are not read (only the ASCII format)")
+    body = lines[1:]
+    if rest.strip():                                  # counts glued to the keyword (ModelNet)
+        body = [(k0, rest.strip())] + body
+    if not body:
+        raise AssetError(f"{path}: no vertex / face counts after the header")
+    kc, counts = body[0]
+    try:
+        nv, nf = (int(x) for x in counts.split()[:2])
+    except ValueError:
+        raise AssetError(f"{path}: line {kc}: expected the vertex and face counts, got {counts[:40]!r}") from None
+    if nv <= 0 or nf <= 0:
+        raise AssetError(f"{path}: line {kc}: {nv} vertices and {nf} faces: no triangles")
+    if len(body) < 1 + nv + nf:
+        raise AssetError(f"{path}: the header announces {nv} vertices and {nf} faces but the file has "
+                         f"{len(body) - 1} data lines (truncated?)")
+    warnings = []
+    # ---- vertices: one block of numbers
+    vrows = body[1:1 + nv]
+    vals = _numbers(path, vrows, "vertex")
+    ncol = len(vrows[0][1].split())
+    if ncol < 3 or vals.size != nv * ncol:
+        raise AssetError(f"{path}: vertex lines {vrows[0][0]}-{vrows[-1][0]} do not all have the same number (>= 3) "
+                         "of values")
+    vals = vals.reshape(nv, ncol)
+    v = vals[:, :3]
+    if not np.all(np.isfinite(v)):
+        bad = int(np.flatnonzero(~np.isfinite(v).all(axis=1))[0])
+        raise AssetError(f"{path}: line {vrows[bad][0]}: vertex {bad} is not finite (NaN or Inf coordinates)")
+    col = 3 + (3 if has_n else 0)
+    n_colour = ncol - col - (2 if st else 0)
+    colors = None
+    if has_c and n_colour in (3, 4):
+        colors = _colour(path, vrows[0][1].split()[col:col + n_colour], vals[:, col:col + n_colour], "vertex")
+    elif has_c:
+        warnings.append(f"{path}: COFF vertex lines have {n_colour} colour values (expected 3 or 4): colours ignored")
+    # ---- faces: triangles in one block when every line is "3 a b c [colour]", else polygon by polygon
+    frows = body[1 + nv:1 + nv + nf]
+    widths = {len(t.split()) for _, t in frows}
+    fvals = _numbers(path, frows, "face") if len(widths) == 1 else None
+    if fvals is not None:
+        fvals = fvals.reshape(nf, widths.pop())
+    if fvals is not None and fvals.shape[1] >= 4 and np.all(fvals[:, 0] == 3):
+        faces = fvals[:, 1:4]
+        owner = np.arange(nf)
+        extra = fvals[:, 4:]
+        extra_tokens = frows[0][1].split()[4:]
+    else:
+        faces, owner, extra_rows = [], [], []
+        short = 0
+        for j, (k, t) in enumerate(frows):
+            parts = t.split()
+            try:
+                n = int(parts[0])
+                idx = [int(x) for x in parts[1:1 + n]]
+                rest_vals = [float(x) for x in parts[1 + n:]]
+            except ValueError:
+                raise AssetError(f"{path}: line {k}: face {t[:60]!r} is not 'n i_1 ... i_n [colour]'") from None
+            if len(idx) < n:
+                raise AssetError(f"{path}: line {k}: face announces {n} vertices but lists {len(idx)}")
+            if n < 3:
+                short += 1
+                continue
+            for i in range(1, n - 1):
+                faces.append((idx[0], idx[i], idx[i + 1]))
+                owner.append(j)
+            extra_rows.append(rest_vals)
+        if short:
+            warnings.append(f"{path}: {short} face(s) with fewer than 3 vertices skipped")
+        if not faces:
+            raise AssetError(f"{path}: no faces with 3 or more vertices")
+        faces, owner = np.asarray(faces, dtype=np.float64), np.asarray(owner)
+        widths = {len(r) for r in extra_rows}
+        extra = np.asarray(extra_rows, dtype=np.float64) if len(widths) == 1 else np.zeros((len(extra_rows), 0))
+        if len(widths) > 1:
+            warnings.append(f"{path}: faces carry colours of different lengths: face colours ignored")
+        extra_tokens = next((t.split()[1 + int(t.split()[0]):] for _, t in frows if int(t.split()[0]) >= 3), [])
+        # extra rows are per kept polygon: index them by the polygon's rank among the kept ones
+        kept = np.unique(owner)
+        owner = np.searchsorted(kept, owner)
+    f = faces.astype(np.int64)
+    if np.any(f != faces) or f.min() < 0 or f.max() >= nv:
+        bad = int(np.flatnonzero(((f != faces) | (f < 0) | (f >= nv)).any(axis=1))[0])
+        raise AssetError(f"{path}: face {bad} refers to a vertex that does not exist (indices must be integers in "
+                         f"[0, {nv}))")
+    face_colors = None
+    if extra.shape[1] in (3, 4) and colors is None:
+        face_colors = _colour(path, extra_tokens, extra, "face")[owner]
+    elif extra.shape[1] == 1:
+        warnings.append(f"{path}: faces carry colour-map indices (Geomview's colour map is not known): ignored")
+    elif extra.shape[1] not in (0, 3, 4):
+        warnings.append(f"{path}: faces carry {extra.shape[1]} values after their indices (expected a colour of 3 "
+                        "or 4): ignored")
+    normals = None
+    if has_n:
+        nrm = vals[:, 3:6]
+        if np.all(np.isfinite(nrm)) and np.all(np.einsum("ij,ij->i", nrm, nrm) > 0):
+            normals = nrm / np.linalg.norm(nrm, axis=1, keepdims=True)
+        else:
+            warnings.append(f"{path}: NOFF normals that are zero or not finite: normals computed instead")
+    asset = Asset(path=path, format="off")
+    asset.warnings.extend(warnings)
+    name = os.path.basename(path)
+    asset.meshes.append(AssetMesh(name=name, vertices=np.ascontiguousarray(v), faces=f, normals=normals,
+                                  colors=colors, face_colors=face_colors, material=-1))
+    asset.instances.append(AssetInstance(mesh=0, world_from_object=np.eye(4), node=name))
+    return asset
