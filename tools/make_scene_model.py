@@ -26,8 +26,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from make_textured_model import encode, helmet_mesh, texture_set  # noqa: E402
-from pyrt.io.assets import pack_glb  # noqa: E402
+from make_textured_model import GlbWriter, encode, helmet_mesh, texture_set  # noqa: E402
 
 
 def holes(size, seed):
@@ -45,27 +44,9 @@ def holes(size, seed):
 def make_scene(path, *, parts=25, size=1024, rings=72, segments=72, mask_every=5, seed=7):
     """Write the scene to ``path`` (.glb); returns (triangles, materials, textures)."""
     pos, nrm, uv, tris = helmet_mesh(rings, segments)
-    chunks, views, accessors = [], [], []
-
-    def add_view(data, target=None):
-        off = sum(len(c) for c in chunks)
-        chunks.append(data + b"\0" * (-len(data) % 4))
-        views.append({"buffer": 0, "byteOffset": off, "byteLength": len(data), **({"target": target} if target else {})})
-        return len(views) - 1
-
-    def add_accessor(arr, kind, ctype, target):
-        acc = {"bufferView": add_view(arr.tobytes(), target), "componentType": ctype, "count": int(arr.shape[0]),
-               "type": kind}
-        if kind == "VEC3" and ctype == 5126:
-            acc["min"], acc["max"] = arr.min(0).tolist(), arr.max(0).tolist()
-        accessors.append(acc)
-        return len(accessors) - 1
-
+    glb = GlbWriter()
     # one shared shell (as a scene's parts share their vertex layout); every part a node with its own material
-    a_pos = add_accessor(pos, "VEC3", 5126, 34962)
-    a_nrm = add_accessor(nrm, "VEC3", 5126, 34962)
-    a_uv = add_accessor(uv, "VEC2", 5126, 34962)
-    a_idx = add_accessor(tris.reshape(-1), "SCALAR", 5125, 34963)
+    prim = glb.mesh_attributes(pos, nrm, uv, tris)
     images, materials, meshes, nodes = [], [], [], []
     side = math.ceil(math.sqrt(parts))
     for k in range(parts):
@@ -75,10 +56,10 @@ def make_scene(path, *, parts=25, size=1024, rings=72, segments=72, mask_every=5
         if masked:
             base = np.concatenate([base, holes(size, seed + k)[..., None]], axis=-1)
         first = len(images)
-        images.append({"bufferView": add_view(encode(base, "png" if masked else "jpeg", 90)),
+        images.append({"bufferView": glb.add_view(encode(base, "png" if masked else "jpeg", 90)),
                        "mimeType": "image/png" if masked else "image/jpeg", "name": f"part{k}_baseColor"})
         for name in ("metallicRoughness", "normal"):
-            images.append({"bufferView": add_view(encode(maps[name], "png", 90)), "mimeType": "image/png",
+            images.append({"bufferView": glb.add_view(encode(maps[name], "png", 90)), "mimeType": "image/png",
                            "name": f"part{k}_{name}"})
         mat = {"name": f"part{k}", "pbrMetallicRoughness": {"baseColorTexture": {"index": first},
                                                              "metallicRoughnessTexture": {"index": first + 1}},
@@ -86,8 +67,7 @@ def make_scene(path, *, parts=25, size=1024, rings=72, segments=72, mask_every=5
         if masked:
             mat.update(alphaMode="MASK", alphaCutoff=0.5, doubleSided=True)
         materials.append(mat)
-        meshes.append({"primitives": [{"attributes": {"POSITION": a_pos, "NORMAL": a_nrm, "TEXCOORD_0": a_uv},
-                                       "indices": a_idx, "material": k}]})
+        meshes.append({"primitives": [dict(prim, material=k)]})
         nodes.append({"mesh": k, "name": f"part{k}", "translation": [2.5 * (k % side), 0.0, 2.5 * (k // side)]})
     header = {
         "asset": {"version": "2.0", "generator": "pyrt tools/make_scene_model.py"},
@@ -95,12 +75,9 @@ def make_scene(path, *, parts=25, size=1024, rings=72, segments=72, mask_every=5
         "materials": materials,
         "samplers": [{"magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497}],
         "textures": [{"sampler": 0, "source": i} for i in range(len(images))],
-        "images": images, "accessors": accessors, "bufferViews": views,
-        "buffers": [{"byteLength": sum(len(c) for c in chunks)}],
+        "images": images,
     }
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    with open(path, "wb") as fh:
-        fh.write(pack_glb(header, b"".join(chunks)))
+    glb.write(path, header)
     return parts * len(tris), parts, len(images)
 
 

@@ -152,52 +152,69 @@ def encode(img, fmt, quality):
     return buf.getvalue()
 
 
+class GlbWriter:
+    """The binary chunk of a GLB being written: buffer views and accessors appended to one buffer."""
+
+    def __init__(self):
+        self.chunks, self.views, self.accessors = [], [], []
+
+    def add_view(self, data, target=None):
+        """Append ``data`` (bytes, padded to 4) as a buffer view; returns its index."""
+        off = sum(len(c) for c in self.chunks)
+        self.chunks.append(data + b"\0" * (-len(data) % 4))
+        self.views.append({"buffer": 0, "byteOffset": off, "byteLength": len(data),
+                           **({"target": target} if target else {})})
+        return len(self.views) - 1
+
+    def add_accessor(self, arr, kind, ctype, target):
+        """Append ``arr`` as an accessor (glTF ``type`` ``kind``, ``componentType`` ``ctype``); returns its index."""
+        acc = {"bufferView": self.add_view(arr.tobytes(), target), "componentType": ctype,
+               "count": int(arr.shape[0]), "type": kind}
+        if kind == "VEC3" and ctype == 5126:
+            acc["min"], acc["max"] = arr.min(0).tolist(), arr.max(0).tolist()
+        self.accessors.append(acc)
+        return len(self.accessors) - 1
+
+    def mesh_attributes(self, pos, nrm, uv, tris):
+        """A primitive's ``attributes`` and ``indices`` for float32 positions, normals, UVs and uint32 triangles."""
+        return {"attributes": {"POSITION": self.add_accessor(pos, "VEC3", 5126, 34962),
+                               "NORMAL": self.add_accessor(nrm, "VEC3", 5126, 34962),
+                               "TEXCOORD_0": self.add_accessor(uv, "VEC2", 5126, 34962)},
+                "indices": self.add_accessor(tris.reshape(-1), "SCALAR", 5125, 34963)}
+
+    def write(self, path, header):
+        """Write ``header`` (the glTF JSON without accessors, views and buffers) and the chunk to ``path``."""
+        header = dict(header, accessors=self.accessors, bufferViews=self.views,
+                      buffers=[{"byteLength": sum(len(c) for c in self.chunks)}])
+        os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+        with open(path, "wb") as fh:
+            fh.write(pack_glb(header, b"".join(self.chunks)))
+
+
 def make_model(path, *, size=2048, rings=88, segments=88, fmt="jpeg", quality=90, seed=2024):
     """Write the model to ``path`` (.glb); returns (triangle count, {texture: encoded bytes})."""
     pos, nrm, uv, tris = helmet_mesh(rings, segments)
     texs = texture_set(size, seed)
     blobs = {k: encode(v, fmt, quality) for k, v in texs.items()}
-    chunks, views, accessors = [], [], []
-
-    def add_view(data, target=None):
-        off = sum(len(c) for c in chunks)
-        chunks.append(data + b"\0" * (-len(data) % 4))
-        views.append({"buffer": 0, "byteOffset": off, "byteLength": len(data), **({"target": target} if target else {})})
-        return len(views) - 1
-
-    def add_accessor(arr, kind, ctype, target):
-        view = add_view(arr.tobytes(), target)
-        acc = {"bufferView": view, "componentType": ctype, "count": int(arr.shape[0]), "type": kind}
-        if kind == "VEC3" and ctype == 5126:
-            acc["min"], acc["max"] = arr.min(0).tolist(), arr.max(0).tolist()
-        accessors.append(acc)
-        return len(accessors) - 1
-
-    a_pos = add_accessor(pos, "VEC3", 5126, 34962)
-    a_nrm = add_accessor(nrm, "VEC3", 5126, 34962)
-    a_uv = add_accessor(uv, "VEC2", 5126, 34962)
-    a_idx = add_accessor(tris.reshape(-1), "SCALAR", 5125, 34963)
+    glb = GlbWriter()
+    prim = glb.mesh_attributes(pos, nrm, uv, tris)
     mime = "image/png" if fmt == "png" else "image/jpeg"
     names = ["baseColor", "metallicRoughness", "normal", "occlusion", "emissive"]
-    images = [{"bufferView": add_view(blobs[k]), "mimeType": mime, "name": k} for k in names]
+    images = [{"bufferView": glb.add_view(blobs[k]), "mimeType": mime, "name": k} for k in names]
     tex = {k: {"index": i} for i, k in enumerate(names)}
     header = {
         "asset": {"version": "2.0", "generator": "pyrt tools/make_textured_model.py"},
         "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0, "name": "helmet"}],
-        "meshes": [{"primitives": [{"attributes": {"POSITION": a_pos, "NORMAL": a_nrm, "TEXCOORD_0": a_uv},
-                                    "indices": a_idx, "material": 0}]}],
+        "meshes": [{"primitives": [dict(prim, material=0)]}],
         "materials": [{"name": "helmet", "pbrMetallicRoughness": {
             "baseColorTexture": tex["baseColor"], "metallicRoughnessTexture": tex["metallicRoughness"]},
             "normalTexture": tex["normal"], "occlusionTexture": tex["occlusion"],
             "emissiveTexture": tex["emissive"], "emissiveFactor": [1.0, 1.0, 1.0]}],
         "samplers": [{"magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497}],
         "textures": [{"sampler": 0, "source": i} for i in range(len(names))],
-        "images": images, "accessors": accessors, "bufferViews": views,
-        "buffers": [{"byteLength": sum(len(c) for c in chunks)}],
+        "images": images,
     }
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    with open(path, "wb") as fh:
-        fh.write(pack_glb(header, b"".join(chunks)))
+    glb.write(path, header)
     return len(tris), blobs
 
 
