@@ -3,8 +3,6 @@ radiance and the automatic exposure (see :mod:`pyrt.apps.preview` for the formul
 from __future__ import annotations
 
 import math
-import os
-import re
 
 import numpy as np
 
@@ -12,6 +10,7 @@ from pyrt.shaders import color as _color
 
 from pyrt.core.camera import Camera
 from pyrt.core.transforms import apply_matrix, rotation_matrix
+from pyrt.io.assets.common import metadata_up_axis
 from pyrt.lights import DirectionalLight
 from pyrt.apps.preview.options import AXES, PreviewError, PreviewOptions
 
@@ -66,39 +65,6 @@ SUPPORT_MARGIN = 0.02
 SYMMETRY_TOL = 0.01
 #: the winner's score must beat the other candidate's by this factor, else the format's default is kept
 UP_CONFIDENCE = 1.5
-
-_COMMENT_UP = (re.compile(r"\bup[\s_-]*(?:axis|vector|direction|dir)?\s*[:=]?\s*([+-]?)\s*([xyz])\b", re.I),
-               re.compile(r"\b([+-]?)([xyz])[\s_-]*up\b", re.I))
-
-
-def metadata_up_axis(path, fmt):
-    """The up axis a PLY header comment or an OBJ ``#`` comment states ("+z" etc.), or None.
-
-    Read: the PLY header up to ``end_header`` and the first 64 KiB of an OBJ's comment lines, for phrases
-    such as ``comment up_axis Z``, ``# Z-up``, ``# up: +y`` (case-insensitive). glTF needs none (y-up by
-    specification) and STL has no such convention.
-    """
-    if fmt not in ("ply", "obj") or not path or not os.path.isfile(path):
-        return None
-    with open(path, "rb") as fh:
-        head = fh.read(65536)
-    lines = head.decode("latin-1").splitlines()
-    if fmt == "ply":
-        text = []
-        for ln in lines:
-            if ln.strip() == "end_header":
-                break
-            if ln.startswith(("comment", "obj_info")):
-                text.append(ln)
-    else:
-        text = [ln for ln in lines if ln.lstrip().startswith("#")]
-    for ln in text:
-        for pat in _COMMENT_UP:
-            m = pat.search(ln)
-            if m:
-                return (m.group(1) or "+") + m.group(2).lower()
-    return None
-
 
 def _subsample(p, n, rng):
     return p if p.shape[0] <= n else p[np.sort(rng.choice(p.shape[0], n, replace=False))]
@@ -241,7 +207,7 @@ def detect_up_axis(asset):
     :func:`guess_up_axis` on the instanced geometry (default when unsure: +z for STL, +y for the others)."""
     if asset.up_axis is not None:
         return asset.up_axis, f"{asset.format} defines {asset.up_axis} as up"
-    meta = metadata_up_axis(asset.path, asset.format)
+    meta = asset.stated_up_axis or metadata_up_axis(asset.path, asset.format)
     if meta is not None:
         return meta, f"the {asset.format.upper()} file's comment says {meta} is up"
     v, f = [], []

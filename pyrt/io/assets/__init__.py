@@ -1,4 +1,4 @@
-"""Load real assets (glTF 2.0 / GLB, OBJ + MTL, PLY, STL, OFF) into a :class:`pyrt.Scene`.
+"""Load real assets (glTF 2.0 / GLB, OBJ + MTL, PLY, STL, OFF; also inside a ZIP archive) into a :class:`pyrt.Scene`.
 
 ``asset = load_asset(path)`` reads a file into an :class:`Asset` (object-space meshes, instances with
 their world transforms, materials, cameras, lights, warnings); ``asset.add_to_scene(scene)`` adds it
@@ -74,7 +74,7 @@ import time
 
 from pyrt.geometry.normals import crease_normals
 from pyrt.io.assets.common import (DEFAULT_CREASE_ANGLE, FORMATS, AssetError, DefaultParams, MTLParams, PBRParams,
-                                   TextureSlot, colour_texels, malformed_is_asset_error)
+                                   TextureSlot, colour_texels, malformed_is_asset_error, metadata_up_axis)
 from pyrt.io.assets.materials import (GltfMaterial, GltfPBRMaterial, ObjMaterial, ProductTexture, ScaledTexture, SurfaceExtras,
                                       VertexColorTexture, FaceColorTexture, make_metallic_roughness,
                                       to_pyrt_material)
@@ -82,6 +82,7 @@ from pyrt.io.assets.asset import Asset, AssetCamera, AssetInstance, AssetLight, 
 from pyrt.io.assets.gltf import gltf_node_transforms, gltf_uv_transform, load_gltf, pack_glb, read_gltf
 from pyrt.io.assets.obj import load_obj, parse_mtl
 from pyrt.io.assets.off import load_off
+from pyrt.io.assets.archive import load_zip
 from pyrt.io.assets.ply_stl import load_ply_stl, read_ply_tristrips, tristrip_faces
 
 __all__ = [
@@ -96,7 +97,8 @@ __all__ = [
 
 
 def load_asset(path, *, max_texture=None, generate_tangents=True):
-    """Load any supported file (by extension: .gltf .glb .obj .ply .stl .off) into an :class:`Asset`.
+    """Load any supported file (by extension: .gltf .glb .obj .ply .stl .off, or a .zip
+    archive holding one: :mod:`pyrt.io.assets.archive`) into an :class:`Asset`.
 
     Parameters
     ----------
@@ -130,6 +132,11 @@ def load_asset(path, *, max_texture=None, generate_tangents=True):
     if fmt is None:
         raise AssetError(f"{path}: unsupported file type {ext!r}; supported: {sorted(FORMATS)}")
     t0 = time.perf_counter()
+    if fmt == "zip":       # the model inside, loaded by this function from a temporary folder (archive.py)
+        asset = load_zip(path, lambda inner: load_asset(inner, max_texture=max_texture,
+                                                        generate_tangents=generate_tangents))
+        asset.load_time = time.perf_counter() - t0
+        return asset
     with malformed_is_asset_error(path, fmt.upper() if fmt != "gltf" else "glTF"):
         if fmt == "gltf":
             asset = load_gltf(path, max_texture)
@@ -139,6 +146,7 @@ def load_asset(path, *, max_texture=None, generate_tangents=True):
             asset = load_off(path)
         else:
             asset = load_ply_stl(path, fmt, max_texture)
+    asset.stated_up_axis = metadata_up_axis(path, fmt)
     asset.load_time = time.perf_counter() - t0
     asset.generate_tangents = bool(generate_tangents)
     return asset

@@ -108,6 +108,9 @@ class Asset:
     lights: list[AssetLight] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     up_axis: str | None = None
+    #: the up axis a comment in the file states (a PLY header's ``comment up_axis Z``, an OBJ's ``# Z-up``: read at
+    #: load time by :func:`pyrt.io.assets.common.metadata_up_axis`), or None
+    stated_up_axis: str | None = None
     load_time: float = 0.0
     #: what was replaced so that the model loads anyway (a missing or unreadable texture -> its factor alone, a
     #: missing MTL -> the default material, ...), one message each; every one is also in :attr:`warnings`

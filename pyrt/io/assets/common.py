@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import contextlib
 from dataclasses import dataclass, field
+import os
+import re
 import struct
 
 import numpy as np
@@ -35,7 +37,8 @@ def malformed_is_asset_error(path, fmt):
         raise AssetError(f"{path}: malformed {fmt} file: {type(exc).__name__}: {exc}") from None
 
 
-FORMATS = {".gltf": "gltf", ".glb": "gltf", ".obj": "obj", ".ply": "ply", ".stl": "stl", ".off": "off"}
+FORMATS = {".gltf": "gltf", ".glb": "gltf", ".obj": "obj", ".ply": "ply", ".stl": "stl", ".off": "off",
+           ".zip": "zip"}
 
 
 # ============================================================================ material parameters
@@ -235,3 +238,38 @@ def face_colors(mesh):
         return None
     rgb = c[:, :3].astype(np.float64) / 255.0 if c.dtype == np.uint8 else np.clip(c[:, :3], 0, 1)
     return _color.srgb_decode(rgb)
+
+
+# ============================================================================ up axis stated in a file
+
+_COMMENT_UP = (re.compile(r"\bup[\s_-]*(?:axis|vector|direction|dir)?\s*[:=]?\s*([+-]?)\s*([xyz])\b", re.I),
+               re.compile(r"\b([+-]?)([xyz])[\s_-]*up\b", re.I))
+
+
+def metadata_up_axis(path, fmt):
+    """The up axis a PLY header comment or an OBJ ``#`` comment states ("+z" etc.), or None.
+
+    Read: the PLY header up to ``end_header`` and the first 64 KiB of an OBJ's comment lines, for phrases
+    such as ``comment up_axis Z``, ``# Z-up``, ``# up: +y`` (case-insensitive). glTF needs none (y-up by
+    specification) and STL has no such convention.
+    """
+    if fmt not in ("ply", "obj") or not path or not os.path.isfile(path):
+        return None
+    with open(path, "rb") as fh:
+        head = fh.read(65536)
+    lines = head.decode("latin-1").splitlines()
+    if fmt == "ply":
+        text = []
+        for ln in lines:
+            if ln.strip() == "end_header":
+                break
+            if ln.startswith(("comment", "obj_info")):
+                text.append(ln)
+    else:
+        text = [ln for ln in lines if ln.lstrip().startswith("#")]
+    for ln in text:
+        for pat in _COMMENT_UP:
+            m = pat.search(ln)
+            if m:
+                return (m.group(1) or "+") + m.group(2).lower()
+    return None
