@@ -78,7 +78,7 @@ def test_an_obj_up_comment_is_read_inside_the_archive(tmp_path):
 
 
 @pytest.mark.parametrize("members, message", [
-    ({"a.obj": b"v 0 0 0\n", "b.obj": b"v 0 0 0\n"}, r"holds 2 models \(a.obj, b.obj\)"),
+    ({"a.obj": b"v 0 0 0\n", "b.obj": b"v 0 0 0\n"}, r"holds 2 models \(a.obj, b.obj\): name one as '.*bad.zip!a.obj'"),
     ({"readme.txt": b"no model"}, "holds no model file"),
     ({"../evil.obj": b"v 0 0 0\n", "x.obj": b"v 0 0 0\n"}, "outside its folder"),
     ({"/abs/evil.obj": b"v 0 0 0\n"}, "outside its folder"),
@@ -117,3 +117,20 @@ def test_the_previewer_renders_a_zip_like_the_unpacked_model(tmp_path):
     b = P.render_preview(z, o)
     assert np.array_equal(a.images[0], b.images[0])
     assert P.collect_inputs([str(tmp_path)]) == [z]          # folders' archives are batch inputs too
+
+
+def test_a_member_named_after_the_bang_is_loaded(tmp_path, capsys):
+    from pyrt.apps import preview as P
+    with open(os.path.join(MODELS, "blob.ply"), "rb") as fh:
+        ply = fh.read()
+    members = dict(_crate_members("a/"), **{"b/blob.ply": ply, "b/notes.txt": b"x"})
+    z = _zip(tmp_path / "pack.zip", members)
+    assert load_asset(z).path == f"{z}!a/crate.obj"                     # picked: OBJ before PLY
+    assert load_asset(f"{z}!b/blob.ply").path == f"{z}!b/blob.ply"      # named
+    with pytest.raises(AssetError, match="has no member 'b/nothing.ply'"):
+        load_asset(f"{z}!b/nothing.ply")
+    with pytest.raises(AssetError, match="unsupported file type '.txt'"):
+        load_asset(f"{z}!b/notes.txt")
+    out = tmp_path / "v.png"
+    assert P.main([f"{z}!b/blob.ply", "-o", str(out), "--width", "24", "--height", "18", "--spp", "1", "--quiet"]) == 0
+    assert out.stat().st_size > 0

@@ -17,6 +17,7 @@ import traceback
 from pyrt.core.errors import Error
 from pyrt.core.image_io import TONEMAPS
 from pyrt.io.assets import FORMATS
+from pyrt.io.assets.archive import split_member
 from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, ArgumentParser, check_output_folder, check_outputs,
                               finite_float, interrupts, nonnegative_int, positive_float, positive_int, run_console)
 from pyrt.render.pool import PARALLEL
@@ -143,7 +144,7 @@ def _run(args, cancel):
     if args.output:
         if len(paths) != 1:
             raise PreviewError(f"-o needs exactly one model file, got {len(paths)}; use --out-dir for batches")
-        if not os.path.isfile(paths[0]):
+        if not os.path.isfile(paths[0]) and split_member(paths[0]) is None:
             raise PreviewError(f"no such model file: {paths[0]}")
         check_outputs(args.output)
         return _main_single(paths[0], args.output, opts, args.quiet, cancel)

@@ -82,7 +82,7 @@ from pyrt.io.assets.asset import Asset, AssetCamera, AssetInstance, AssetLight, 
 from pyrt.io.assets.gltf import gltf_node_transforms, gltf_uv_transform, load_gltf, pack_glb, read_gltf
 from pyrt.io.assets.obj import load_obj, parse_mtl
 from pyrt.io.assets.off import load_off
-from pyrt.io.assets.archive import load_zip
+from pyrt.io.assets.archive import load_zip, split_member
 from pyrt.io.assets.ply_stl import load_ply_stl, read_ply_tristrips, tristrip_faces
 
 __all__ = [
@@ -98,7 +98,7 @@ __all__ = [
 
 def load_asset(path, *, max_texture=None, generate_tangents=True):
     """Load any supported file (by extension: .gltf .glb .obj .ply .stl .off, or a .zip
-    archive holding one: :mod:`pyrt.io.assets.archive`) into an :class:`Asset`.
+    archive holding one, ``ARCHIVE.zip!member`` for a given one: :mod:`pyrt.io.assets.archive`) into an :class:`Asset`.
 
     Parameters
     ----------
@@ -125,6 +125,14 @@ def load_asset(path, *, max_texture=None, generate_tangents=True):
         The file is missing, of an unsupported type, or cannot be loaded (the message says why).
     """
     path = os.fspath(path)
+    zip_member = split_member(path)
+    if zip_member is not None:     # "ARCHIVE.zip!member": that model of the archive
+        t0 = time.perf_counter()
+        asset = load_zip(zip_member[0], lambda inner: load_asset(inner, max_texture=max_texture,
+                                                                 generate_tangents=generate_tangents),
+                         member=zip_member[1])
+        asset.load_time = time.perf_counter() - t0
+        return asset
     if not os.path.isfile(path):
         raise AssetError(f"asset file not found: {path}")
     ext = os.path.splitext(path)[1].lower()

@@ -8,8 +8,8 @@ and errors read ``ARCHIVE.zip!member`` instead of the temporary folder.
 
 Which model: the members with a supported extension, macOS resource forks (``__MACOSX/``, ``._*``) left out; glTF /
 GLB first, then OBJ, PLY, STL, OFF (a scan or a CAD export beside a glTF is usually its source); among those the one
-nearest the archive's root. Two or more equally good candidates are an error that lists them (unzip the archive and
-pass the one you mean). The archive must be safe to extract: a member whose path leaves the folder (absolute, ``..``)
+nearest the archive's root. Two or more equally good candidates are an error that lists them; ``ARCHIVE.zip!member``
+(e.g. ``pack.zip!models/chair.obj``) names the model to load instead (:func:`split_member`). The archive must be safe to extract: a member whose path leaves the folder (absolute, ``..``)
 or links elsewhere, more than :data:`MAX_MEMBERS` members or more than :data:`MAX_BYTES` of uncompressed data are
 errors naming the archive, as are a corrupt or encrypted archive and one without a model.
 """
@@ -62,13 +62,22 @@ def model_member(path, names):
     best = [n for r, d, n in found if (r, d) == found[0][:2]]
     if len(best) > 1:
         shown = ", ".join(best[:6]) + (f" and {len(best) - 6} more" if len(best) > 6 else "")
-        raise AssetError(f"{path}: the archive holds {len(best)} models ({shown}): unzip it and pass the one to "
-                         "preview")
+        raise AssetError(f"{path}: the archive holds {len(best)} models ({shown}): name one as "
+                         f"'{path}!{best[0]}'")
     return best[0]
 
 
-def load_zip(path, load):
-    """Load the model in ZIP archive ``path`` with ``load(extracted_path)`` (module docstring); returns its Asset."""
+def split_member(path):
+    """``(archive, member)`` for a path ``ARCHIVE.zip!member`` whose archive is a file, else None."""
+    head, sep, member = path.rpartition("!")
+    if not sep or not head.lower().endswith(".zip") or not member or not os.path.isfile(head):
+        return None
+    return head, member.replace("\\", "/").lstrip("/")
+
+
+def load_zip(path, load, member=None):
+    """Load the model in ZIP archive ``path`` with ``load(extracted_path)`` (module docstring); returns its Asset.
+    ``member``: the archive's member to load (None: the one :func:`model_member` picks)."""
     try:
         zf = zipfile.ZipFile(path)
     except (zipfile.BadZipFile, OSError) as exc:
@@ -88,7 +97,13 @@ def load_zip(path, load):
                 raise AssetError(f"{path}: member {i.filename!r} is a symbolic link: refused")
             if i.flag_bits & 0x1:
                 raise AssetError(f"{path}: member {i.filename!r} is encrypted: pyrt cannot read it")
-        member = model_member(path, [i.filename for i in infos])
+        names = [i.filename for i in infos]
+        if member is None:
+            member = model_member(path, names)
+        elif member not in names:
+            raise AssetError(f"{path}: the archive has no member {member!r}")
+        elif FORMATS.get(posixpath.splitext(member)[1].lower()) not in PREFERENCE:
+            raise AssetError(f"{path}!{member}: unsupported file type {posixpath.splitext(member)[1]!r}")
         tmp = tempfile.mkdtemp(prefix="pyrt-zip-")
         try:
             try:
