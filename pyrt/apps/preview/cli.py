@@ -39,9 +39,10 @@ def _glossy_clamp(text):
 
 
 def _parser():
-    ap = ArgumentParser(prog="pyrt-preview", description="Preview 3D models (glTF/GLB, OBJ, PLY, STL, OFF) "
-                                 "with a studio rig, auto-framing and auto-exposure.")
-    ap.add_argument("models", nargs="+", help="model files, folders or glob patterns")
+    ap = ArgumentParser(prog="pyrt-preview", description="Preview 3D models (glTF/GLB, OBJ, PLY, STL, OFF, or a ZIP "
+                                 "archive holding one) with a studio rig, auto-framing and auto-exposure.")
+    ap.add_argument("models", nargs="+", help="model files (ARCHIVE.zip!member: a model inside an archive), folders or "
+                                              "glob patterns")
     ap.add_argument("-o", "--output", action="append",
                     help="output file for a single model (.png and/or .exr; may be repeated)")
     ap.add_argument("--out-dir", help="output folder (batch mode; default: preview_out)")
