@@ -35,12 +35,10 @@ def _lines(path):
         raw = fh.read()
     if b"\0" in raw[:4096]:
         raise AssetError(f"{path}: binary OFF files are not read (only the ASCII format)")
-    out = []
-    for k, line in enumerate(raw.decode("latin-1").splitlines(), start=1):
-        text = line.split("#", 1)[0].strip()
-        if text:
-            out.append((k, text))
-    return out
+    text = raw.decode("latin-1")
+    if "#" in text:
+        text = re.sub(r"#[^\r\n]*", "", text)      # comments removed, the line structure kept
+    return [(k, line) for k, line in enumerate(map(str.strip, text.splitlines()), start=1) if line]
 
 
 def _numbers(path, rows, what):
@@ -123,50 +121,9 @@ def load_off(path):
         colors = _colour(path, vrows[0][1].split()[col:col + n_colour], vals[:, col:col + n_colour], "vertex")
     elif has_c:
         warnings.append(f"{path}: COFF vertex lines have {n_colour} colour values (expected 3 or 4): colours ignored")
-    # ---- faces: triangles in one block when every line is "3 a b c [colour]", else polygon by polygon
+    # ---- faces: grouped by (tokens per line, polygon size), each group parsed as one block and fanned at once
     frows = body[1 + nv:1 + nv + nf]
-    widths = {len(t.split()) for _, t in frows}
-    fvals = _numbers(path, frows, "face") if len(widths) == 1 else None
-    if fvals is not None:
-        fvals = fvals.reshape(nf, widths.pop())
-    if fvals is not None and fvals.shape[1] >= 4 and np.all(fvals[:, 0] == 3):
-        faces = fvals[:, 1:4]
-        owner = np.arange(nf)
-        extra = fvals[:, 4:]
-        extra_tokens = frows[0][1].split()[4:]
-    else:
-        faces, owner, extra_rows = [], [], []
-        short = 0
-        for j, (k, t) in enumerate(frows):
-            parts = t.split()
-            try:
-                n = int(parts[0])
-                idx = [int(x) for x in parts[1:1 + n]]
-                rest_vals = [float(x) for x in parts[1 + n:]]
-            except ValueError:
-                raise AssetError(f"{path}: line {k}: face {t[:60]!r} is not 'n i_1 ... i_n [colour]'") from None
-            if len(idx) < n:
-                raise AssetError(f"{path}: line {k}: face announces {n} vertices but lists {len(idx)}")
-            if n < 3:
-                short += 1
-                continue
-            for i in range(1, n - 1):
-                faces.append((idx[0], idx[i], idx[i + 1]))
-                owner.append(j)
-            extra_rows.append(rest_vals)
-        if short:
-            warnings.append(f"{path}: {short} face(s) with fewer than 3 vertices skipped")
-        if not faces:
-            raise AssetError(f"{path}: no faces with 3 or more vertices")
-        faces, owner = np.asarray(faces, dtype=np.float64), np.asarray(owner)
-        widths = {len(r) for r in extra_rows}
-        extra = np.asarray(extra_rows, dtype=np.float64) if len(widths) == 1 else np.zeros((len(extra_rows), 0))
-        if len(widths) > 1:
-            warnings.append(f"{path}: faces carry colours of different lengths: face colours ignored")
-        extra_tokens = next((t.split()[1 + int(t.split()[0]):] for _, t in frows if int(t.split()[0]) >= 3), [])
-        # extra rows are per kept polygon: index them by the polygon's rank among the kept ones
-        kept = np.unique(owner)
-        owner = np.searchsorted(kept, owner)
+    faces, owner, extra, extra_tokens = _polygons(path, frows, warnings)
     f = faces.astype(np.int64)
     if np.any(f != faces) or f.min() < 0 or f.max() >= nv:
         bad = int(np.flatnonzero(((f != faces) | (f < 0) | (f >= nv)).any(axis=1))[0])
@@ -194,3 +151,48 @@ def load_off(path):
                                   colors=colors, face_colors=face_colors, material=-1))
     asset.instances.append(AssetInstance(mesh=0, world_from_object=np.eye(4), node=name))
     return asset
+
+
+def _polygons(path, frows, warnings):
+    """The triangles of the face lines ``frows`` (fans), the polygon each comes from (its rank among the polygons
+    kept), the values after each kept polygon's indices (kept polygons x columns; no columns when they differ in
+    number) and the first kept polygon's tokens of them (for the colour scale)."""
+    parts = [t.split() for _, t in frows]
+    try:
+        sizes = np.fromiter((int(p[0]) for p in parts), dtype=np.int64, count=len(parts))
+    except ValueError:
+        k, t = next((k, t) for (k, t), p in zip(frows, parts) if not p[0].lstrip("-").isdigit())
+        raise AssetError(f"{path}: line {k}: face {t[:60]!r} is not 'n i_1 ... i_n [colour]'") from None
+    widths = np.fromiter((len(p) for p in parts), dtype=np.int64, count=len(parts))
+    short = widths < sizes + 1
+    if short.any():
+        j = int(np.flatnonzero(short)[0])
+        raise AssetError(f"{path}: line {frows[j][0]}: face announces {sizes[j]} vertices but lists {widths[j] - 1}")
+    keep = sizes >= 3
+    if not keep.all():
+        warnings.append(f"{path}: {int((~keep).sum())} face(s) with fewer than 3 vertices skipped")
+    if not keep.any():
+        raise AssetError(f"{path}: no faces with 3 or more vertices")
+    rank = np.cumsum(keep) - 1                     # polygon -> its rank among the kept ones
+    n_extra = widths - 1 - sizes
+    same_extra = np.unique(n_extra[keep]).size == 1
+    if not same_extra:
+        warnings.append(f"{path}: faces carry colours of different lengths: face colours ignored")
+    ne = int(n_extra[keep][0]) if same_extra else 0
+    extra = np.zeros((int(keep.sum()), ne))
+    tris, owner, poly, corner = [], [], [], []
+    for w, n in sorted(set(zip(widths[keep].tolist(), sizes[keep].tolist()))):
+        rows = np.flatnonzero(keep & (widths == w) & (sizes == n))
+        block = _numbers(path, [frows[j] for j in rows], "face").reshape(rows.size, w)
+        idx = block[:, 1:1 + n]
+        for i in range(1, n - 1):                  # fan (i_1, i_k, i_k+1), in the polygon's order
+            tris.append(idx[:, [0, i, i + 1]])
+            owner.append(rank[rows])
+            poly.append(rows)
+            corner.append(np.full(rows.size, i))
+        if ne:
+            extra[rank[rows]] = block[:, 1 + n:]
+    sort = np.lexsort((np.concatenate(corner), np.concatenate(poly)))     # polygon by polygon, fan by fan
+    first = int(np.flatnonzero(keep)[0])
+    return (np.concatenate(tris)[sort], np.concatenate(owner)[sort], extra,
+            parts[first][1 + int(sizes[first]):])
