@@ -71,7 +71,7 @@ def test_off_face_colours_follow_their_polygon_into_every_triangle(tmp_path):
     assert np.allclose(m.face_colors, color.srgb_decode(rgb), atol=1e-12)
 
 
-def test_off_triangles_only_with_face_colours_take_the_array_path(tmp_path):
+def test_off_triangles_with_face_colours_keep_their_order_and_colours(tmp_path):
     text = "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 255 0 0\n3 0 2 1 0 0 255\n"
     (m,) = load_asset(_write(tmp_path, "t.off", text)).meshes
     assert m.faces.tolist() == [[0, 1, 2], [0, 2, 1]]
@@ -96,7 +96,8 @@ def test_off_short_polygons_and_colour_map_indices_are_warnings(tmp_path):
 @pytest.mark.parametrize("text, message", [
     ("PLY\n3 1 0\n", "not an OFF header"),
     ("OFF\n3 1 0\n0 0 0\n1 0 0\n", "truncated"),
-    ("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n", "refers to a vertex that does not exist"),
+    ("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n", "line 6: face '3 0 1 3' refers to a vertex that does not exist"),
+    ("OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n4 0 1 2 9\n", "line 8: face '4 0 1 2 9' refers"),
     ("OFF\n3 1 0\n0 0 0\n1 x 0\n0 1 0\n3 0 1 2\n", "line 4: vertex"),
     ("OFF\n3 1 0\n0 0 0\n1 nan 0\n0 1 0\n3 0 1 2\n", "line 4: vertex 1 is not finite"),
     ("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n4 0 1 2\n", "announces 4 vertices but lists 3"),

@@ -125,24 +125,18 @@ def load_asset(path, *, max_texture=None, generate_tangents=True):
         The file is missing, of an unsupported type, or cannot be loaded (the message says why).
     """
     path = os.fspath(path)
-    zip_member = split_member(path)
-    if zip_member is not None:     # "ARCHIVE.zip!member": that model of the archive
-        t0 = time.perf_counter()
-        asset = load_zip(zip_member[0], lambda inner: load_asset(inner, max_texture=max_texture,
-                                                                 generate_tangents=generate_tangents),
-                         member=zip_member[1])
-        asset.load_time = time.perf_counter() - t0
-        return asset
-    if not os.path.isfile(path):
-        raise AssetError(f"asset file not found: {path}")
-    ext = os.path.splitext(path)[1].lower()
-    fmt = FORMATS.get(ext)
-    if fmt is None:
-        raise AssetError(f"{path}: unsupported file type {ext!r}; supported: {sorted(FORMATS)}")
     t0 = time.perf_counter()
-    if fmt == "zip":       # the model inside, loaded by this function from a temporary folder (archive.py)
-        asset = load_zip(path, lambda inner: load_asset(inner, max_texture=max_texture,
-                                                        generate_tangents=generate_tangents))
+    archive, member = split_member(path) or (path, None)     # "ARCHIVE.zip!member": that model of the archive
+    if member is None:
+        if not os.path.isfile(path):
+            raise AssetError(f"asset file not found: {path}")
+        ext = os.path.splitext(path)[1].lower()
+        fmt = FORMATS.get(ext)
+        if fmt is None:
+            raise AssetError(f"{path}: unsupported file type {ext!r}; supported: {sorted(FORMATS)}")
+    if member is not None or fmt == "zip":   # the model inside, loaded by this function from a temporary folder
+        asset = load_zip(archive, lambda inner: load_asset(inner, max_texture=max_texture,
+                                                           generate_tangents=generate_tangents), member=member)
         asset.load_time = time.perf_counter() - t0
         return asset
     with malformed_is_asset_error(path, fmt.upper() if fmt != "gltf" else "glTF"):

@@ -23,6 +23,7 @@ import re
 import numpy as np
 
 from pyrt.shaders import color as _color
+from pyrt.shaders.vec import dot, normalize
 from pyrt.io.assets.asset import Asset, AssetInstance, AssetMesh
 from pyrt.io.assets.common import AssetError
 
@@ -123,12 +124,13 @@ def load_off(path):
         warnings.append(f"{path}: COFF vertex lines have {n_colour} colour values (expected 3 or 4): colours ignored")
     # ---- faces: grouped by (tokens per line, polygon size), each group parsed as one block and fanned at once
     frows = body[1 + nv:1 + nv + nf]
-    faces, owner, extra, extra_tokens = _polygons(path, frows, warnings)
+    faces, owner, line, extra, extra_tokens = _polygons(path, frows, warnings)
     f = faces.astype(np.int64)
     if np.any(f != faces) or f.min() < 0 or f.max() >= nv:
         bad = int(np.flatnonzero(((f != faces) | (f < 0) | (f >= nv)).any(axis=1))[0])
-        raise AssetError(f"{path}: face {bad} refers to a vertex that does not exist (indices must be integers in "
-                         f"[0, {nv}))")
+        k, t = frows[line[bad]]
+        raise AssetError(f"{path}: line {k}: face {t[:60]!r} refers to a vertex that does not exist (indices must "
+                         f"be integers in [0, {nv}))")
     face_colors = None
     if extra.shape[1] in (3, 4) and colors is None:
         face_colors = _colour(path, extra_tokens, extra, "face")[owner]
@@ -140,8 +142,8 @@ def load_off(path):
     normals = None
     if has_n:
         nrm = vals[:, 3:6]
-        if np.all(np.isfinite(nrm)) and np.all(np.einsum("ij,ij->i", nrm, nrm) > 0):
-            normals = nrm / np.linalg.norm(nrm, axis=1, keepdims=True)
+        if np.all(np.isfinite(nrm)) and np.all(dot(nrm, nrm) > 0):
+            normals = normalize(nrm)
         else:
             warnings.append(f"{path}: NOFF normals that are zero or not finite: normals computed instead")
     asset = Asset(path=path, format="off")
@@ -155,8 +157,8 @@ def load_off(path):
 
 def _polygons(path, frows, warnings):
     """The triangles of the face lines ``frows`` (fans), the polygon each comes from (its rank among the polygons
-    kept), the values after each kept polygon's indices (kept polygons x columns; no columns when they differ in
-    number) and the first kept polygon's tokens of them (for the colour scale)."""
+    kept) and its face line (an index into ``frows``), the values after each kept polygon's indices (kept polygons x
+    columns; no columns when they differ in number) and the first kept polygon's tokens of them (the colour scale)."""
     parts = [t.split() for _, t in frows]
     try:
         sizes = np.fromiter((int(p[0]) for p in parts), dtype=np.int64, count=len(parts))
@@ -192,7 +194,8 @@ def _polygons(path, frows, warnings):
             corner.append(np.full(rows.size, i))
         if ne:
             extra[rank[rows]] = block[:, 1 + n:]
-    sort = np.lexsort((np.concatenate(corner), np.concatenate(poly)))     # polygon by polygon, fan by fan
+    poly = np.concatenate(poly)
+    sort = np.lexsort((np.concatenate(corner), poly))     # polygon by polygon, fan by fan
     first = int(np.flatnonzero(keep)[0])
-    return (np.concatenate(tris)[sort], np.concatenate(owner)[sort], extra,
+    return (np.concatenate(tris)[sort], np.concatenate(owner)[sort], poly[sort], extra,
             parts[first][1 + int(sizes[first]):])
