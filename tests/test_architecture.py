@@ -7,7 +7,8 @@ What is checked:
 (c) no pyrt import inside a function, method or class body (module level only; ``if TYPE_CHECKING:`` is
     module level, so it is allowed);
 (d) ``embreex`` is imported only by ``pyrt/geometry/accel.py``;
-(e) ``shaders/`` imports only numpy, math, the standard library and itself (relative imports);
+(e) ``shaders/`` imports only numpy, math, numba (the formulas the compiled kernels share), the standard library
+    and itself (relative imports);
 (f) no module in ``pyrt/`` or ``shaders/`` is longer than :data:`MAX_LINES`;
 (g) pyproject.toml installs exactly the packages under ``pyrt/`` plus ``pyrt.shaders``, never a top-level
     ``shaders``;
@@ -282,11 +283,11 @@ def test_only_accel_imports_embreex():
 
 
 def test_shaders_are_pure_numpy():
-    allowed = {"numpy", "math", "__future__"} | set(sys.stdlib_module_names)
+    allowed = {"numpy", "math", "numba", "__future__"} | set(sys.stdlib_module_names)
     for path in (ROOT / "shaders").rglob("*.py"):
         bad = set(_third_party_imports(path)) - allowed
-        assert not bad, f"{_rel(path)} imports {sorted(bad)}: shaders/ imports only numpy, math, the standard " \
-                        "library and itself (relative imports)"
+        assert not bad, f"{_rel(path)} imports {sorted(bad)}: shaders/ imports only numpy, math, numba, the " \
+                        "standard library and itself (relative imports)"
         assert not {"pyrt", "embreex", "trimesh"} & set(_third_party_imports(path))
 
 

@@ -33,6 +33,11 @@ class RenderStats:
     time_occluded: float = 0.0
     nonfinite_samples: int = 0
     recorded: list = field(default_factory=list)
+    #: the path that rendered: ``"numpy"`` (the wavefront NumPy integrators) or ``"compiled"`` (the Numba tile
+    #: kernel, :mod:`pyrt.integrators.compiled`)
+    backend: str = "numpy"
+    #: why ``backend="auto"`` took the NumPy path (what the compiled one does not cover yet); empty otherwise
+    fallback_reasons: list = field(default_factory=list)
 
     @property
     def rays(self):

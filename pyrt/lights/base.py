@@ -194,6 +194,11 @@ class Light:
         s = self.sample_li(p, u)
         return s.wi, s.dist, s.irradiance()
 
+    def compiled_record(self):
+        """``(tag, record)``: this light as a row of the compiled kernel's light table (:mod:`pyrt.lights.compiled`),
+        or None when the compiled kernel cannot sample it (the render then takes the NumPy path). Default None."""
+        return None
+
     def sample_li(self, p, u):
         """A :class:`LightSample` at shading points ``p`` (N, 3) for random numbers ``u`` (N, 2).
 

@@ -56,7 +56,9 @@ import numpy as np
 
 from pyrt.lights.base import (LIGHTS, LUMINOUS_EFFICACY, Light, LightError, LightSample, _color, _intensity,
                               _nonneg, _resolve_color, _vec3)
+from pyrt.lights import compiled as _compiled
 from pyrt.shaders import color as _colour
+from pyrt.shaders import jit as _jit
 from pyrt.shaders import lights as kernels
 
 
@@ -74,6 +76,10 @@ class _PunctualLight(Light):
         super().__init_subclass__(**kwargs)
         if "sample_li" not in cls.__dict__ and ("sample" in cls.__dict__ or "radiant_intensity" in cls.__dict__):
             cls.sample_li = Light.sample_li
+        # ... and is not compiled unless it says how (the compiled records hold the parents' profiles)
+        if "compiled_record" not in cls.__dict__ and ("sample" in cls.__dict__ or "radiant_intensity" in cls.__dict__
+                                                      or "sample_li" in cls.__dict__):
+            cls.compiled_record = Light.compiled_record
 
     def _init_falloff(self, owner, falloff, epsilon, light_range, clq=None):
         if falloff not in kernels.DISTANCE_FALLOFFS:
@@ -193,6 +199,10 @@ class PointLight(_PunctualLight):
 
     def radiant_intensity(self, w):
         return np.broadcast_to(self.I, (w.shape[0], 3)).copy()
+
+    def compiled_record(self):
+        """:data:`pyrt.lights.compiled.POINT`."""
+        return _compiled.punctual_record(self, _compiled.POINT)
 
     def radiant_power(self):
         return 4 * math.pi * self.I
@@ -316,6 +326,14 @@ class SpotLight(_PunctualLight):
     def radiant_intensity(self, w):
         return self.I[None, :] * self.cone_factor(w)[:, None]
 
+    def compiled_record(self):
+        """:data:`pyrt.lights.compiled.SPOT`."""
+        tag, rec = _compiled.punctual_record(self, _compiled.SPOT)
+        rec[3:6] = self.direction
+        rec[9], rec[10] = self.cos_inner, self.cos_outer
+        rec[11] = _jit.SPOT_KINDS.index(self.spot_falloff)
+        return tag, rec
+
     def radiant_power(self):
         return self.I * self.cone_solid_angle
 
@@ -380,6 +398,15 @@ class DirectionalLight(Light):
         super().__init_subclass__(**kwargs)      # a subclass overriding sample() gets the general sample_li
         if "sample_li" not in cls.__dict__ and "sample" in cls.__dict__:
             cls.sample_li = Light.sample_li
+        if "compiled_record" not in cls.__dict__ and ("sample" in cls.__dict__ or "sample_li" in cls.__dict__):
+            cls.compiled_record = Light.compiled_record
+
+    def compiled_record(self):
+        """:data:`pyrt.lights.compiled.DIRECTIONAL`."""
+        rec = np.zeros(_compiled.RECORD)
+        rec[3:6] = self.direction
+        rec[6:9] = self.E
+        return _compiled.DIRECTIONAL, rec
 
     def sample(self, p, u):
         """``(wi, dist, E)``: ``wi = -direction``, ``dist = inf``, ``E`` the irradiance everywhere."""

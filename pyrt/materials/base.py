@@ -363,6 +363,13 @@ class Material:
             return np.full(n, float(arr))
         return np.broadcast_to(arr, (n, 3))
 
+    def compiled_record(self, pack_texture):
+        """``(tag, record)``: this material as a row of the compiled kernel's material table
+        (:mod:`pyrt.materials.compiled`), or None when the compiled kernel cannot shade it (the render then takes
+        the NumPy path). ``pack_texture(texture)`` adds a texture to the texture table and returns its index, or
+        None when the compiled kernel cannot read it. Default None."""
+        return None
+
     def f_cos(self, wo, wi, ctx):
         """BRDF times cos(theta_i) (N, 3) of the non-delta lobes for local ``wo``, ``wi`` (N, 3)."""
         return np.zeros_like(wi)

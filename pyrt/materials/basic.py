@@ -5,6 +5,7 @@ import numpy as np
 
 from pyrt.materials.base import IsotropicMaterial, Material, MaterialError, DeltaLobe, check_color, check_scalar, \
     is_texture, register
+from pyrt.materials import compiled as _compiled
 from pyrt.shaders import brdfs
 from pyrt.shaders import fresnel
 from pyrt.shaders import microfacet
@@ -43,6 +44,17 @@ class Lambert(IsotropicMaterial):
         """True unless the emission is a constant zero."""
         e = self.emission_value
         return is_texture(e) or bool(np.any(np.asarray(e) > 0))
+
+    def compiled_record(self, pack_texture):
+        """:data:`pyrt.materials.compiled.LAMBERT`: the albedo (constant or a texture the kernel reads), a constant
+        emission."""
+        albedo = _color_slot(self.albedo_value, pack_texture)
+        if albedo is None or is_texture(self.emission_value):
+            return None
+        rec = _compiled.empty_record()
+        rec[0:4] = albedo
+        rec[4:7] = np.broadcast_to(self.emission_value, (3,))
+        return _compiled.LAMBERT, rec
 
     def f_cos_cosines(self, q):
         """``rho / pi * cos(theta_i)`` (:func:`pyrt.shaders.brdfs.lambert_f_cos_cosines`)."""
@@ -86,6 +98,18 @@ class BlinnPhong(IsotropicMaterial):
             raise MaterialError(f"{owner}: kd + ks must be <= 1 per channel, got {(self.kd + self.ks).tolist()}")
         super().validate()
 
+    def compiled_record(self, pack_texture):
+        """:data:`pyrt.materials.compiled.BLINN_PHONG`: kd (constant or a texture the kernel reads), constant ks and
+        exponent."""
+        kd = _color_slot(self.kd, pack_texture)
+        if kd is None or is_texture(self.ks) or is_texture(self.exponent):
+            return None
+        rec = _compiled.empty_record()
+        rec[0:4] = kd
+        rec[4:7] = np.broadcast_to(self.ks, (3,))
+        rec[7] = float(self.exponent)
+        return _compiled.BLINN_PHONG, rec
+
     def f_cos_cosines(self, q):
         """:func:`pyrt.shaders.brdfs.blinn_phong_normalized_f_cos_cosines` (a constant exponent stays a float)."""
         return brdfs.blinn_phong_normalized_f_cos_cosines(q.cos_o, q.cos_i, q.cos_io(), q.param(self, self.kd),
@@ -116,6 +140,14 @@ class Mirror(Material):
         """``reflectance`` in [0, 1]."""
         self.reflectance = check_color("reflectance", self.reflectance, self.label, lo=0.0, hi=1.0)
         super().validate()
+
+    def compiled_record(self, pack_texture):
+        """:data:`pyrt.materials.compiled.MIRROR` with a constant reflectance."""
+        if is_texture(self.reflectance):
+            return None
+        rec = _compiled.empty_record()
+        rec[0:3] = np.broadcast_to(self.reflectance, (3,))
+        return _compiled.MIRROR, rec
 
     def delta_lobes(self, wo, ctx, *, eta=None):
         """The mirror lobe: ``reflect(wo)`` weighted by the reflectance."""
@@ -163,6 +195,16 @@ class Glass(Material):
             raise MaterialError(f"{owner}: priority and absorption must be constants, not textures")
         super().validate()
 
+    def compiled_record(self, pack_texture):
+        """:data:`pyrt.materials.compiled.GLASS` with a constant tint (a scene whose dielectrics need interface
+        stacks, :mod:`pyrt.integrators.media`, is not compiled at all)."""
+        if is_texture(self.tint):
+            return None
+        rec = _compiled.empty_record()
+        rec[0] = float(self.ior)
+        rec[1:4] = np.broadcast_to(self.tint, (3,))
+        return _compiled.GLASS, rec
+
     def delta_lobes(self, wo, ctx, *, eta=None):
         """Reflection and refraction lobes; ``eta`` (N,) = eta_t / eta_i overrides the single-interface
         ``ior`` (front) / ``1 / ior`` (back) when the ray's interface stack decides the indices."""
@@ -181,3 +223,12 @@ class Glass(Material):
         if np.any(T > 0):
             lobes.append(DeltaLobe(wt, tint * (T / (eta * eta))[:, None], "refract", eta))
         return lobes
+
+
+def _color_slot(value, pack_texture):
+    """A colour slot of :mod:`pyrt.materials.compiled` for a constant or a texture; None when the texture cannot be
+    read by the compiled kernel."""
+    if not is_texture(value):
+        return _compiled.constant_slot(value)
+    k = pack_texture(value)
+    return None if k is None else [float(k), 0.0, 0.0, 0.0]

@@ -26,7 +26,9 @@ from pyrt.core.errors import RenderError
 from pyrt.core.film import Film
 from pyrt.integrators.prepared import PreparedScene, RenderStats
 from pyrt.integrators.whitted import DEFAULT_SPLIT_DEPTH
+from pyrt.integrators import compiled
 from pyrt.render.adaptive import render_adaptive
+from pyrt.render.compiled import check_backend, render_compiled
 from pyrt.render.chunks import ChunkLayout, shade_fixed_chunk
 from pyrt.render.distributed import DaskRunner, fixed_group
 from pyrt.render.pool import INTEGRATORS, ChunkPool, integrator_factory, merge_stats, progress_bar, use_processes
@@ -40,7 +42,7 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
                 integrator="whitted", glossy_samples=4, glossy_depth=2, glossy_threshold=0.4, glossy_clamp=None,
                 target_error=None, time_budget=None, max_spp=None, min_spp=4, on_pass=None, dask=None,
                 dask_workers=2, split_depth=DEFAULT_SPLIT_DEPTH, light_select_depth=None, parallel="auto", batch_rays=None,
-                sampler="padded"):
+                sampler="padded", backend="auto"):
     """Render ``scene`` and return a :class:`RenderResult` with the image, AOVs and statistics.
 
     Parameters are those of :func:`render`, plus:
@@ -99,6 +101,14 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         (:class:`pyrt.core.sampler.PaddedStream`); ``"independent"`` draws them independently (the sampler before
         2026-12-02). Both are unbiased; padding lowers the noise of area, environment and glossy samples (the
         pixel positions are stratified either way).
+    backend : {"auto", "compiled", "numpy"}
+        The path that renders (``result.stats.backend`` says which did). ``"compiled"``: the Numba tile kernel
+        (:mod:`pyrt.integrators.compiled`: Embree's packets, compiled shading, all cores by threads), for the
+        scenes and options it covers, else a :class:`RenderError` listing what it does not; ``"numpy"``: the
+        wavefront NumPy integrators (the reference; every feature); ``"auto"`` (default): compiled where covered,
+        NumPy otherwise (``result.stats.fallback_reasons`` says why). The two paths compute the same estimate from
+        different random numbers: images agree to the noise (tests/test_compiled_render.py). The first compiled
+        render of a new pyrt compiles the kernel (seconds; one line on stderr), later ones load it from the cache.
     parallel : {"auto", "threads", "processes"}
         What the ``threads`` workers are (:mod:`pyrt.render.pool`): worker processes forked once the scene is
         prepared (no shared GIL: the shading's small-array NumPy calls run in parallel), or threads of this
@@ -119,6 +129,9 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         if spp is not None:
             raise RenderError("render: spp (fixed samples per pixel) and target_error / time_budget / max_spp "
                               "(adaptive) exclude each other; min_spp sets the adaptive base pass")
+        if check_backend(backend) == "compiled":
+            raise RenderError("render: backend='compiled' does not render adaptive passes yet (target_error, "
+                              "time_budget, max_spp); use backend='auto' or 'numpy'")
         return render_adaptive(scene, target_error=target_error, time_budget=time_budget, max_spp=max_spp,
                                min_spp=min_spp, seed=seed, aovs=aovs, progress=progress,
                                chunk_samples=chunk_samples, threads=threads, prepared=prepared,
@@ -153,6 +166,27 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     layout = ChunkLayout(S, n_pix, chunk_samples)
     split, pieces, n_chunks, chunk_pixels = layout.split, layout.pieces, layout.n_chunks, layout.pixels
 
+    reasons = []
+    if check_backend(backend) != "numpy":
+        reasons = ["Dask"] if ps is None else compiled.unsupported(
+            ps, integrator=integrator, offset=offset, transparent_shadows=transparent_shadows,
+            light_select_depth=light_select_depth, aovs=aovs, record_rays=record_rays)
+        if reasons and backend == "compiled":
+            if own:
+                ps.close()
+            raise RenderError("render: backend='compiled' does not cover " + "; ".join(reasons)
+                              + " (backend='auto' renders them on the NumPy path)")
+        if not reasons:
+            integrator_factory(ps, **integ)       # the same option checks as the NumPy path
+            try:
+                return render_compiled(ps, cam, seed=seed, max_depth=max_depth, throughput_cutoff=throughput_cutoff,
+                                       offset=offset, split_depth=split_depth, threads=threads, cancel=cancel,
+                                       fill=fill, nonfinite=nonfinite, progress=progress, t_start=t_start)
+            finally:
+                if runner is not None:
+                    runner.close()
+                if own:
+                    ps.close()
     make_integrator = None if ps is None else integrator_factory(ps, record_rays=record_rays, **integ)
     workers = 1 if ps is None else max(1, min(ps.accel.threads if threads is None else int(threads), n_chunks))
     processes = use_processes(parallel, workers, n_chunks) and runner is None
@@ -237,6 +271,7 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         warnings.warn(f"render: {stats.nonfinite_samples} samples had non-finite radiance and were "
                       "set to 0 (this is a bug; please report the scene)", RuntimeWarning, stacklevel=2)
     stats.time_total = time.perf_counter() - t_start
+    stats.fallback_reasons = reasons
     return RenderResult(image=film.image(), aovs=film.aovs(), stats=stats, film=film,
                         complete=done["chunks"] == n_chunks, chunks_done=done["chunks"], chunks_total=n_chunks,
                         pixels_done=pixels_done, pixels_filled=pixels_filled, samples_done=done["samples"])
@@ -315,6 +350,10 @@ def render(scene, **kwargs):
         whichever comes first; at least one of ``target_error`` and ``time_budget``. ``min_spp`` (default
         4, even): the base pass; ``on_pass``: called with a :class:`pyrt.render.adaptive.PassInfo` after
         every pass. Exclusive with ``spp``.
+    backend : {"auto", "compiled", "numpy"}
+        Which path renders: the compiled tile kernel where it covers the scene and options (``"auto"``, default),
+        always it (``"compiled"``, an error where it does not), or the NumPy reference (``"numpy"``); see
+        :func:`render_full`.
     dask : distributed.Client, str or True, optional
         Render the chunks (fixed spp) or each pass's chunks (adaptive) as tasks on Dask workers
         (:mod:`pyrt.render.distributed`): a client, a scheduler address, or True for a local cluster of

@@ -64,6 +64,11 @@ class Texture:
     #: <pyrt.geometry.SurfaceBatch.uv_set>`); image textures take it as a parameter
     texcoord = 0
 
+    def compiled_record(self):
+        """``(tag, record)`` of this texture in the compiled kernel's texture table (:mod:`pyrt.textures.compiled`),
+        or None when the compiled kernel cannot read it (the render then takes the NumPy path). Default None."""
+        return None
+
     def evaluate(self, ctx):  # pragma: no cover - interface
         """The texture's values at the hits of ``ctx``.
 

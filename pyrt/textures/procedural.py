@@ -9,8 +9,9 @@ from __future__ import annotations
 import numpy as np
 
 from pyrt.shaders import noise as _noise
-from pyrt.textures.base import (TEXTURES, Texture, TextureError, as_value, dp_dxy, footprints, lerp, resolve,
-                                value_channels)
+from pyrt.textures import compiled as _compiled
+from pyrt.textures.base import (TEXTURES, Texture, TextureError, as_value, dp_dxy, footprints, is_texture, lerp,
+                                resolve, value_channels)
 
 
 def _check_space(space, owner):
@@ -70,6 +71,18 @@ class CheckerTexture(_Procedural):
         self.color1 = as_value(color1, "CheckerTexture", "color1")
         self.filtered = bool(filtered)
         self.channels = max(value_channels(c) for c in (self.color0, self.color1))
+
+    def compiled_record(self):
+        """The unfiltered UV checker with constant colours (:data:`pyrt.textures.compiled.CHECKER_UV`); None for
+        the filtered one (it needs ray differentials), object space or textured colours."""
+        if self.filtered or self.space != "uv" or self.texcoord != 0 \
+                or any(is_texture(c) for c in (self.color0, self.color1)):
+            return None
+        rec = np.zeros(_compiled.RECORD)
+        rec[0:3] = np.broadcast_to(self.color0, (3,))
+        rec[3:6] = np.broadcast_to(self.color1, (3,))
+        rec[6:8] = self.scale
+        return _compiled.CHECKER_UV, rec
 
     def evaluate(self, ctx):
         p = self._point(ctx)

@@ -1,0 +1,234 @@
+"""The compiled render path: which scenes it renders, their flat tables, and the tile loop around the kernel.
+
+:func:`unsupported` says why a render cannot take the compiled path (an empty list: it can); :class:`CompiledScene`
+packs a prepared scene into the kernel's flat tables (geometry as float64 / int64 arrays, one row per material,
+texture and light: a type tag and a parameter record, packed by each object's ``compiled_record``);
+:func:`render_fixed` renders a fixed number of samples per pixel with the kernel of
+:mod:`pyrt.integrators.compiled_kernel` and returns per-pixel sums.
+
+What the compiled path covers (everything else renders through the NumPy path, automatically with
+``backend="auto"``): the Whitted integrator with max depth, throughput cutoff and split depth; Lambert (constant or
+unfiltered-checker albedo, constant emission), normalised Blinn-Phong, Mirror, Glass (one dielectric, no nested
+media); point and spot lights (every spot and distance falloff) and directional lights; a constant background
+and ambient term; smooth and flat shading with or without the back-facing-normal fallback; the ``robust`` and
+``robust_no_terminator`` offsets. Not yet: environments, area and emissive-mesh lights, the other materials,
+image and filtered textures (ray differentials), normal maps, alpha coverage, nested media, transparent shadows,
+the glossy integrator, AOVs, adaptive passes and ray recording.
+"""
+from __future__ import annotations
+
+import sys
+import time
+
+import numba
+import numpy as np
+
+from pyrt.geometry import embree_jit
+from pyrt.integrators import compiled_kernel as K
+from pyrt.integrators import kernel_cache
+from pyrt.lights import compiled as LC
+from pyrt.materials import compiled as MC
+from pyrt.textures import compiled as TC
+
+#: ``backend=`` values of :func:`pyrt.render_full`
+BACKENDS = ("auto", "compiled", "numpy")
+#: offset strategies the kernel implements (None: the default, "robust")
+OFFSETS = (None, "robust", "robust_no_terminator")
+
+_announced = []
+
+
+def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=False, light_select_depth=None,
+                aovs=False, record_rays=False, adaptive=False, dask=None):
+    """The reasons (strings) the compiled kernel cannot render the prepared scene ``ps`` with these options; an
+    empty list when it can. The options are those of :func:`pyrt.render_full`."""
+    reasons = []
+    scene = ps.scene
+    if integrator != "whitted":
+        reasons.append(f"integrator {integrator!r}")
+    if not (offset is None or isinstance(offset, str) and offset in OFFSETS):
+        reasons.append(f"offset strategy {offset!r}")
+    if transparent_shadows and np.any(ps.dielectric):
+        reasons.append("transparent shadows")
+    if light_select_depth is not None:
+        reasons.append("light selection (light_select_depth)")
+    if aovs:
+        reasons.append("AOVs")
+    if record_rays:
+        reasons.append("ray recording")
+    if adaptive:
+        reasons.append("adaptive passes")
+    if dask is not None:
+        reasons.append("Dask")
+    if scene.environment is not None:
+        reasons.append("an environment")
+    if ps.coverage is not None:
+        reasons.append("alpha coverage or back-face culling")
+    if ps.media is not None:
+        reasons.append("nested dielectrics or absorption")
+    if ps.face_gouraud is not None:
+        reasons.append("Gouraud shading")
+    if ps.has_normal_maps:
+        reasons.append("normal maps")
+    if ps.accel.buffers != "shared":
+        reasons.append("no Embree scene handle (the binding's copied buffers)")
+    textures = _TexturePacker()
+    for m in scene.materials:
+        if m.compiled_record(textures.add) is None:
+            reasons.append(f"material {m.label}")
+    for lt in scene.lights:
+        if lt.compiled_record() is None or lt.n_samples != 1 or lt.bsdf_samples or not lt.delta:
+            reasons.append(f"light {lt.label}")
+    return reasons
+
+
+class _TexturePacker:
+    """Collects texture records (each texture once) for the texture table."""
+
+    def __init__(self):
+        self.tags, self.records, self._index = [], [], {}
+
+    def add(self, texture):
+        """The texture's row in the table (added on first sight), or None when the kernel cannot read it."""
+        key = id(texture)
+        if key not in self._index:
+            rec = texture.compiled_record()
+            if rec is None:
+                return None
+            self._index[key] = len(self.tags)
+            self.tags.append(rec[0])
+            self.records.append(np.asarray(rec[1], dtype=np.float64))
+        return self._index[key]
+
+
+def _table(tags, records, width):
+    """``(tags (n,) int64, records (n, width) float64)``, one zero row when empty (Numba needs a shape)."""
+    if not tags:
+        return np.zeros(1, dtype=np.int64), np.zeros((1, width))
+    return np.asarray(tags, dtype=np.int64), np.ascontiguousarray(np.stack(records), dtype=np.float64)
+
+
+class CompiledScene:
+    """A prepared scene as the compiled kernel's flat tables (build it only when :func:`unsupported` is empty).
+
+    Attributes
+    ----------
+    geo_f, geo_i : tuples of 2-D float64 / int64 arrays
+        Vertices, vertex normals, UVs, face normals, per-face absolute-coordinate bounds and extents; faces,
+        per-mesh face offsets, per-face material ids and smooth flags (:class:`pyrt.geometry.GeometryTable`).
+    materials, textures, lights : (tags, records)
+        The family tables (:mod:`pyrt.materials.compiled`, :mod:`pyrt.textures.compiled`,
+        :mod:`pyrt.lights.compiled`).
+    """
+
+    def __init__(self, ps):
+        geo = ps.geo
+        f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)          # noqa: E731
+        i64 = lambda a: np.ascontiguousarray(a, dtype=np.int64)            # noqa: E731
+        self.geo_f = (f64(geo.vertices), f64(geo.normals), f64(geo.uv), f64(geo.face_normals),
+                      f64(geo.face_absmax), f64(geo.face_extent[:, None]))
+        self.geo_i = (i64(geo.faces), i64(geo.face_offset[:, None]), i64(geo.face_material[:, None]),
+                      i64(geo.face_smooth[:, None]))
+        self.fallback = geo.shading_normal_fallback
+        textures = _TexturePacker()
+        mats = [m.compiled_record(textures.add) for m in ps.scene.materials]
+        self.materials = _table([t for t, _ in mats], [r for _, r in mats], MC.RECORD)
+        self.textures = _table(textures.tags, textures.records, TC.RECORD)
+        lights = [lt.compiled_record() for lt in ps.scene.lights]
+        self.lights = _table([t for t, _ in lights], [r for _, r in lights], LC.RECORD)
+        self.n_lights = len(lights)
+        self.background = np.asarray(ps.scene.background, dtype=np.float64)
+        self.ambient = np.asarray(ps.scene.ambient, dtype=np.float64)
+        self.scene = embree_jit.scene_handle(ps.accel)
+
+
+def camera_record(cam):
+    """The kernel's camera record (float64): position, forward, right, up, tan(fov/2), width, height, jitter."""
+    rec = np.zeros(16)
+    rec[K.C_POS:K.C_POS + 3] = cam.position
+    rec[K.C_FWD:K.C_FWD + 3] = cam.forward
+    rec[K.C_RIGHT:K.C_RIGHT + 3] = cam.right
+    rec[K.C_UP:K.C_UP + 3] = cam.up_ortho
+    rec[K.C_TAN] = cam.tan_half
+    rec[K.C_W], rec[K.C_H] = cam.width, cam.height
+    rec[K.C_JITTER] = 1.0 if cam.jitter else 0.0
+    return rec
+
+
+def tile_order(n_tiles):
+    """The tiles in a fixed shuffled order: ``prange`` gives each thread one contiguous block of the list, so each
+    gets tiles from all over the image (a block of raster-order tiles can be all sky). The image does not depend
+    on the order (every pixel's samples are keyed on the pixel)."""
+    return np.random.default_rng(0x71E5).permutation(n_tiles).astype(np.int64)
+
+
+def announce_compile(stream=None):
+    """Say once per process, on stderr, that the kernels are being compiled (a cold cache)."""
+    if not _announced and not kernel_cache.is_warm():
+        _announced.append(True)
+        print("pyrt: compiling render kernels, first run only (cached in "
+              f"{kernel_cache.cache_dir()})", file=stream or sys.stderr, flush=True)
+
+
+def n_tiles(cam):
+    """Tiles of :data:`pyrt.integrators.compiled_kernel.TILE` pixels in the camera's image."""
+    return -(-cam.width // K.TILE) * -(-cam.height // K.TILE)
+
+
+def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_depth, terminator, threads=None,
+                 cancel=None, progress=None, groups=16, tiles=None):
+    """Render ``spp`` samples per pixel of the compiled scene ``cs`` through the camera ``cam``.
+
+    The tiles (``tiles``: a subset, default all in :func:`tile_order`) are rendered in ``groups`` calls of the
+    kernel (a progress step each; ``cancel`` is looked at between them). Returns ``(sums (H*W, 3), squared sums
+    (H*W, 3), counters (4,), tiles_done (n_tiles,) bool)``; counters: primary, secondary, shadow rays, non-finite
+    samples (zeroed)."""
+    W, H = cam.width, cam.height
+    order = tile_order(n_tiles(cam)) if tiles is None else np.asarray(tiles, dtype=np.int64)
+    opts = np.zeros(K.N_OPTS, dtype=np.int64)
+    opts[K.O_SEED] = int(seed) & 0x7FFFFFFFFFFFFFFF
+    opts[K.O_SPP] = spp
+    opts[K.O_MAX_DEPTH] = max_depth
+    opts[K.O_SPLIT] = -1 if split_depth is None else split_depth
+    opts[K.O_TERMINATOR] = 1 if terminator else 0
+    opts[K.O_NLIGHTS] = cs.n_lights
+    opts[K.O_SPP_LO] = 0
+    opts[K.O_FALLBACK] = 1 if cs.fallback else 0
+    optf = np.zeros(8)
+    optf[K.F_CUTOFF] = throughput_cutoff
+    optf[K.F_BG:K.F_BG + 3] = cs.background
+    optf[K.F_AMBIENT:K.F_AMBIENT + 3] = cs.ambient
+    sums = np.zeros((W * H, 3))
+    sqs = np.zeros((W * H, 3))
+    counters = np.zeros((order.size, 4), dtype=np.int64)
+    done = np.zeros(n_tiles(cam), dtype=bool)
+    cam_rec = camera_record(cam)
+    width = packet_width()
+    if threads is not None:
+        numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
+    announce_compile()
+    bounds = np.linspace(0, order.size, max(1, min(groups, order.size)) + 1).astype(np.int64)
+    for g in range(len(bounds) - 1):
+        if cancel is not None and cancel.is_set():
+            break
+        lo, hi = bounds[g], bounds[g + 1]
+        K.render_tiles(cs.scene, order[lo:hi], cam_rec, cs.geo_f, cs.geo_i, cs.materials[0], cs.materials[1],
+                       cs.textures[0], cs.textures[1], cs.lights[0], cs.lights[1], opts, optf, sums, sqs,
+                       counters[lo:hi], width)
+        done[order[lo:hi]] = True
+        if progress is not None:
+            progress.update(hi - lo)
+    return sums, sqs, counters.sum(axis=0), done
+
+
+def packet_width():
+    """The camera and shadow packets' width: 16 (Embree splits a 16-wide query where the CPU's native width is 8;
+    measured in tools/bench.py)."""
+    return 16
+
+
+def pixel_mask(tiles_done, W, H):
+    """(H*W,) bool: the pixels of the finished tiles."""
+    tx = -(-W // K.TILE)
+    ys, xs = np.divmod(np.arange(W * H), W)
+    return tiles_done[(ys // K.TILE) * tx + xs // K.TILE]

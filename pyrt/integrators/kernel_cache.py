@@ -1,0 +1,88 @@
+"""Where the compiled render kernels are cached, and Numba's runtime settings for them.
+
+Numba caches a compiled function next to its source (or in ``NUMBA_CACHE_DIR``) keyed on that one file: a kernel
+that inlines functions of *other* files keeps its stale machine code when only those change (two different
+images from one source tree were seen). So the kernels are cached in a directory of their own whose name is a hash
+of every kernel source file, Numba's and llvmlite's versions and Python's (:func:`cache_dir`): any edit, upgrade or
+other interpreter starts a fresh cache, and a stale one is never read.
+
+The base directory is ``NUMBA_CACHE_DIR`` when set (Numba's own rule), else ``$XDG_CACHE_HOME/pyrt`` (default
+``~/.cache/pyrt``), else a temporary directory when neither is writable. :func:`use_cache_dir` points Numba there
+while the kernel module is imported (its decorators read the setting) and :func:`restore` puts it back, so other
+Numba users in the process keep their own.
+
+Threads: Numba's ``workqueue`` layer unless ``NUMBA_THREADING_LAYER`` says otherwise (GNU OpenMP's spin-waits
+made a render 5.6x slower on a loaded 2-core machine; the workqueue did not).
+"""
+from __future__ import annotations
+
+import getpass
+import hashlib
+import importlib.util
+import os
+import sys
+import tempfile
+
+import llvmlite
+import numba
+
+#: the modules whose source the compiled kernels are built from (their hash names the cache directory)
+KERNEL_SOURCES = ("pyrt.shaders.jit", "pyrt.geometry.embree_jit", "pyrt.textures.compiled", "pyrt.materials.compiled",
+                  "pyrt.lights.compiled", "pyrt.integrators.compiled_kernel")
+
+_saved = []
+
+
+def source_hash():
+    """SHA-256 (hex) of the kernel sources, Numba's, llvmlite's and Python's versions."""
+    h = hashlib.sha256()
+    for name in KERNEL_SOURCES:
+        origin = importlib.util.find_spec(name).origin
+        with open(origin, "rb") as fh:
+            h.update(name.encode() + b"\0" + fh.read() + b"\0")
+    h.update(f"{numba.__version__} {llvmlite.__version__} {sys.version}".encode())
+    return h.hexdigest()
+
+
+def _writable(path):
+    try:
+        os.makedirs(path, exist_ok=True)
+        probe = tempfile.NamedTemporaryFile(dir=path, prefix=".probe")
+        probe.close()
+        return True
+    except OSError:
+        return False
+
+
+def cache_dir():
+    """The directory the compiled kernels of these sources are cached in (created)."""
+    base = os.environ.get("NUMBA_CACHE_DIR") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "pyrt")
+    path = os.path.join(base, "kernels-" + source_hash()[:16])
+    if not _writable(path):
+        path = os.path.join(tempfile.gettempdir(), f"pyrt-{getpass.getuser()}", "kernels-" + source_hash()[:16])
+        os.makedirs(path, exist_ok=True)
+    return path
+
+
+def is_warm(path=None):
+    """True when the render kernel is in the cache (no compilation ahead)."""
+    path = cache_dir() if path is None else path
+    for _root, _dirs, files in os.walk(path):
+        if any(f.startswith("compiled_kernel.render_tiles") and f.endswith(".nbi") for f in files):
+            return True
+    return False
+
+
+def use_cache_dir():
+    """Point Numba's cache at :func:`cache_dir` (until :func:`restore`) and choose the threading layer."""
+    _saved.append(numba.config.CACHE_DIR)
+    numba.config.CACHE_DIR = cache_dir()
+    if not os.environ.get("NUMBA_THREADING_LAYER"):
+        numba.config.THREADING_LAYER = "workqueue"
+
+
+def restore():
+    """Numba's cache setting as it was before :func:`use_cache_dir`."""
+    if _saved:
+        numba.config.CACHE_DIR = _saved.pop()

@@ -1,0 +1,60 @@
+"""The light family's compiled form: type tags, parameter records and the per-hit light sample.
+
+A light the compiled tile kernel can sample packs itself into one row of the light table
+(:meth:`pyrt.lights.Light.compiled_record`): a tag and a float64 record of :data:`RECORD` entries:
+
+=========  =====================================================================================================
+POINT      0-2 position, 6-8 intensity I (W/sr, RGB), 13 distance-falloff kind (:data:`pyrt.shaders.jit.
+           DISTANCE_KINDS`), 14 epsilon, 15 range (inf: none), 16-18 clq (Kc, Kl, Kq)
+SPOT       as POINT, plus 3-5 unit axis, 9 cos inner, 10 cos outer, 11 spot-falloff kind (:data:`pyrt.shaders.
+           jit.SPOT_KINDS`)
+DIRECT     3-5 unit direction the light travels, 6-8 irradiance E (W/m^2, RGB)
+=========  =====================================================================================================
+
+:func:`sample_li` is :meth:`pyrt.lights.PointLight.sample_li` (and the spot's and directional light's) for one
+shading point: ``E = scale * rgb`` toward ``wi`` from ``dist`` away (``inf`` for directional light).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba.extending import register_jitable
+
+from pyrt.shaders import jit as J
+
+#: parameters per light record
+RECORD = 20
+#: type tags
+POINT, SPOT, DIRECTIONAL = 1, 2, 3
+
+
+@register_jitable
+def sample_li(tag, par, px, py, pz, out):
+    """Sample the light ``(tag, par)`` from the point ``p``: writes ``wi`` (unit, toward the light) into
+    ``out[0:3]`` and returns ``(dist, scale)`` with the irradiance ``E = scale * par[6:9]`` (scale 0: no light,
+    and no shadow ray to trace)."""
+    if tag == DIRECTIONAL:
+        out[0], out[1], out[2] = -par[3], -par[4], -par[5]
+        return math.inf, 1.0
+    dx, dy, dz = par[0] - px, par[1] - py, par[2] - pz
+    dist = math.sqrt(dx * dx + dy * dy + dz * dz)
+    inv = 1.0 / dist if dist > 0.0 else 0.0
+    out[0], out[1], out[2] = dx * inv, dy * inv, dz * inv
+    s = J.distance_falloff(int(par[13]), dist, par[14], par[15], par[16], par[17], par[18])
+    if tag == SPOT and s > 0.0:
+        cos_theta = -(out[0] * par[3] + out[1] * par[4] + out[2] * par[5])
+        s *= J.spot_falloff(int(par[11]), cos_theta, par[9], par[10])
+    return dist, s
+
+
+def punctual_record(light, tag):
+    """The record of a point or spot light (position, RGB intensity and the distance falloff)."""
+    rec = np.zeros(RECORD)
+    rec[0:3] = light.position
+    rec[6:9] = light.I
+    rec[13] = J.DISTANCE_KINDS.index(light.falloff)
+    rec[14] = light.epsilon or 0.0
+    rec[15] = np.inf if light.range is None else light.range
+    rec[16:19] = light.clq or (0.0, 0.0, 1.0)
+    return tag, rec

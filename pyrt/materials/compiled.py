@@ -1,0 +1,96 @@
+"""The material family's compiled form: type tags, parameter records and the per-hit switch over them.
+
+A material that the compiled tile kernel (:mod:`pyrt.integrators.compiled`) can shade packs itself into one row
+of the material table (:meth:`pyrt.materials.Material.compiled_record`): a type tag (:data:`LAMBERT`, ...) and a
+float64 parameter record of :data:`RECORD` entries. Colours that may come from a texture are a *colour slot*:
+``[texture index or -1, r, g, b]`` (the constant used when the index is -1; textures are rows of the texture
+table, :mod:`pyrt.textures.compiled`). A material that returns None from ``compiled_record`` renders through the
+NumPy path (the whole render falls back; ``result.stats.backend`` says which path ran).
+
+Record layouts (offsets into the record):
+
+============  ===================================================================================
+LAMBERT       0-3 albedo slot, 4-6 emission (constant RGB)
+BLINN_PHONG   0-3 kd slot, 4-6 ks (constant RGB), 7 exponent
+MIRROR        0-2 reflectance (constant RGB)
+GLASS         0 ior, 1-3 tint (constant RGB)
+============  ===================================================================================
+
+The formulas are the scalar twins in :mod:`pyrt.shaders.jit` of the NumPy kernels the materials use.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba.extending import register_jitable
+
+from pyrt.shaders import jit as J
+from pyrt.textures.compiled import texture_rgb
+
+#: parameters per material record
+RECORD = 8
+#: type tags (0 is no material)
+LAMBERT, BLINN_PHONG, MIRROR, GLASS = 1, 2, 3, 4
+
+
+@register_jitable
+def color_slot(par, k, tex_tag, tex_par, u, v, out):
+    """The colour of the slot at ``par[k:k + 4]`` at uv ``(u, v)`` into ``out`` (3,)."""
+    t = int(par[k])
+    if t < 0:
+        out[0], out[1], out[2] = par[k + 1], par[k + 2], par[k + 3]
+    else:
+        texture_rgb(tex_tag[t], tex_par[t], u, v, out)
+
+
+@register_jitable
+def has_diffuse(tag):
+    """True for materials lit by the lights (a non-delta lobe)."""
+    return tag == LAMBERT or tag == BLINN_PHONG
+
+
+@register_jitable
+def has_delta(tag):
+    """True for materials that spawn specular rays."""
+    return tag == MIRROR or tag == GLASS
+
+
+@register_jitable
+def f_cos(tag, par, albedo, cos_o, cos_i, cos_io, out):
+    """BRDF times cos(theta_i) (3,) into ``out`` for the cosines ``n.wo``, ``n.wi``, ``wo.wi`` (shading normal);
+    ``albedo`` (3,) is the material's diffuse colour at the hit (:func:`albedo_at`). Zero below either horizon.
+
+    LAMBERT: :func:`pyrt.shaders.brdfs.lambert_f_cos_cosines`; BLINN_PHONG:
+    :func:`pyrt.shaders.brdfs.blinn_phong_normalized_f_cos_cosines`."""
+    c = J.upper_cos(cos_o, cos_i)
+    if c == 0.0:
+        out[0] = out[1] = out[2] = 0.0
+        return
+    if tag == LAMBERT:
+        for ch in range(3):
+            out[ch] = albedo[ch] * (c / math.pi)
+    else:
+        spec = J.blinn_phong_spec(cos_o, cos_i, cos_io, par[7])
+        for ch in range(3):
+            out[ch] = (albedo[ch] / math.pi + par[4 + ch] * spec) * c
+
+
+@register_jitable
+def albedo_at(tag, par, tex_tag, tex_par, u, v, out):
+    """The diffuse colour (Lambert albedo, Blinn-Phong kd) at uv ``(u, v)`` into ``out``; zeros otherwise."""
+    if tag == LAMBERT or tag == BLINN_PHONG:
+        color_slot(par, 0, tex_tag, tex_par, u, v, out)
+    else:
+        out[0] = out[1] = out[2] = 0.0
+
+
+def constant_slot(value):
+    """A colour slot ``[-1, r, g, b]`` for a constant colour (a grey number or an RGB triple)."""
+    rgb = np.broadcast_to(np.asarray(value, dtype=np.float64).reshape(-1), (3,))
+    return [-1.0, *rgb.tolist()]
+
+
+def empty_record():
+    """A zero parameter record."""
+    return np.zeros(RECORD)

@@ -1,0 +1,76 @@
+"""A fixed-spp render on the compiled path (:mod:`pyrt.integrators.compiled`), with the NumPy path's result.
+
+:func:`render_compiled` is what :func:`pyrt.render_full` runs when the backend is ``"compiled"``, or ``"auto"`` and
+the scene and options are all covered: the same :class:`RenderResult` (image, film, statistics, cancellation and
+fill) as the chunked NumPy render, ``result.stats.backend == "compiled"``. (:func:`pyrt.render.fixed.warmup` compiles the
+kernel ahead of time: ``python -m pyrt compile``.)
+"""
+from __future__ import annotations
+
+from copy import copy
+import time
+import warnings
+
+import numpy as np
+
+from pyrt.core.errors import RenderError
+from pyrt.core.film import Film, FilmError
+from pyrt.integrators import compiled
+from pyrt.integrators.prepared import RenderStats
+from pyrt.render.pool import progress_bar
+from pyrt.render.result import RenderResult
+
+
+def render_compiled(ps, cam, *, seed, max_depth, throughput_cutoff, offset, split_depth, threads, cancel, fill,
+                    nonfinite, progress, t_start):
+    """Render ``cam.spp`` samples per pixel of the prepared scene ``ps`` with the compiled kernel; a
+    :class:`RenderResult`. After a cancellation with ``fill``, the tiles not rendered get one sample per pixel."""
+    cs = compiled.CompiledScene(ps)
+    W, H, S = cam.width, cam.height, cam.spp
+    kw = dict(seed=seed, max_depth=max_depth, throughput_cutoff=throughput_cutoff, split_depth=split_depth,
+              terminator=offset in (None, "robust"), threads=threads)
+    bar = progress_bar(progress, total=compiled.n_tiles(cam), desc="render", unit="tile", leave=False)
+    try:
+        sums, sqs, counters, done = compiled.render_fixed(cs, cam, spp=S, cancel=cancel, progress=bar, **kw)
+    finally:
+        bar.close()
+    film = Film(W, H, nonfinite=nonfinite)
+    px_done = compiled.pixel_mask(done, W, H)
+    film.sum += sums
+    film.weight += np.where(px_done, float(S), 0.0)
+    stats = RenderStats(primary_rays=int(counters[0]), secondary_rays=int(counters[1]),
+                        shadow_rays=int(counters[2]), nonfinite_samples=int(counters[3]), backend="compiled")
+    pixels_filled = 0
+    if not done.all() and fill:
+        rest = np.flatnonzero(~done)
+        cam1 = _one_sample(cam)
+        s1, _q, c1, d1 = compiled.render_fixed(cs, cam1, spp=1, tiles=rest, **kw)
+        filled = compiled.pixel_mask(d1, W, H)
+        film.sum += s1
+        film.weight += filled
+        pixels_filled = int(filled.sum())
+        stats.nonfinite_samples += int(c1[3])
+    if stats.nonfinite_samples:
+        if nonfinite == "raise":
+            raise FilmError(f"Film: {stats.nonfinite_samples} samples with non-finite radiance")
+        film.nonfinite_samples = stats.nonfinite_samples
+        warnings.warn(f"render: {stats.nonfinite_samples} samples had non-finite radiance and were "
+                      "set to 0 (this is a bug; please report the scene)", RuntimeWarning, stacklevel=3)
+    stats.time_total = time.perf_counter() - t_start
+    n_done = int(px_done.sum())
+    return RenderResult(image=film.image(), aovs=None, stats=stats, film=film, complete=bool(done.all()),
+                        chunks_done=int(done.sum()), chunks_total=int(done.size), pixels_done=n_done,
+                        pixels_filled=pixels_filled, samples_done=n_done * S)
+
+
+def _one_sample(cam):
+    c = copy(cam)
+    c.spp = 1
+    return c
+
+
+def check_backend(backend):
+    """``backend`` if it is one of :data:`pyrt.integrators.compiled.BACKENDS`, else a :class:`RenderError`."""
+    if backend not in compiled.BACKENDS:
+        raise RenderError(f"render: backend must be one of {compiled.BACKENDS}, got {backend!r}")
+    return backend

@@ -1,0 +1,129 @@
+"""The scalar formulas of :mod:`pyrt.shaders.jit` (what the compiled kernel computes) against their NumPy twins.
+
+Each twin is evaluated on random inputs with grazing and degenerate cases added, in float64, and must agree to
+1e-6 relative (absolute below 1e-12): the compiled path and the NumPy reference use one formula each, and this is
+what keeps them one. The scalars run as plain Python here (``register_jitable`` functions are Python functions
+too); tests/test_compiled_render.py checks them compiled, inside whole renders.
+"""
+import math
+
+import numpy as np
+import pytest
+
+from pyrt.shaders import brdfs, fresnel, lights
+from pyrt.shaders import jit as J
+from pyrt.geometry import offsets
+
+# the 64-bit hashes wrap around by design (NumPy scalars warn when run as Python)
+pytestmark = pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarning")
+
+
+def _close(a, b):
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    assert np.all(np.isfinite(a)), a
+    np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-12)
+
+
+def _cosines(rng, n=400):
+    """Cosines in [-1, 1] with the grazing ends and exact 0, +-1 included."""
+    c = rng.uniform(-1, 1, n)
+    c[:12] = [0.0, 1.0, -1.0, 1e-9, -1e-9, 1e-4, 0.9999999, -0.9999999, 0.5, -0.5, 1e-300, 0.7071]
+    return c
+
+
+def test_fr_dielectric_matches_numpy(rng):
+    cos = _cosines(rng)
+    for eta in (1.5, 1 / 1.5, 1.0, 2.4, 1.000001):
+        _close([J.fr_dielectric(c, eta) for c in cos], fresnel.fr_dielectric(cos, eta))
+
+
+def test_fr_dielectric_is_one_under_total_internal_reflection():
+    assert J.fr_dielectric(0.1, 1 / 1.5) == 1.0
+
+
+def _directions(rng, n):
+    """Unit vectors (n, 3), a few at the horizon (z = 0, +-1e-9) and along +-z."""
+    w = rng.normal(size=(n, 3))
+    w[:4, 2] = [0.0, 1e-9, -1e-9, 0.0]
+    w[4] = [0, 0, 1.0]
+    w[5] = [0, 0, -1.0]
+    return w / np.linalg.norm(w, axis=1, keepdims=True)
+
+
+def test_blinn_phong_matches_numpy(rng):
+    n = 400
+    wo, wi = _directions(rng, n), _directions(rng, n)
+    wi[6] = wo[6]                 # the mirror-free half vector along the normal: n.h = 1
+    wi[7] = -wo[7]                # wo + wi = 0: no half vector
+    cos_o, cos_i, cos_io = wo[:, 2], wi[:, 2], np.sum(wo * wi, axis=1)
+    kd, ks = np.array([0.2, 0.3, 0.4]), np.array([0.3, 0.2, 0.1])
+    for e in (0.0, 1.0, 32.0, 120.0, 4000.0):
+        want = brdfs.blinn_phong_normalized_f_cos_cosines(cos_o, cos_i, cos_io, kd, ks, e)
+        got = np.array([[(kd[c] / math.pi + ks[c] * J.blinn_phong_spec(o, i, io, e)) * J.upper_cos(o, i)
+                         for c in range(3)] for o, i, io in zip(cos_o, cos_i, cos_io)])
+        _close(got, want)
+
+
+def test_lambert_matches_numpy(rng):
+    cos_o, cos_i = _cosines(rng), _cosines(rng)[::-1].copy()
+    albedo = np.array([0.7, 0.2, 0.05])
+    want = brdfs.lambert_f_cos_cosines(cos_o, cos_i, albedo)
+    got = np.array([[albedo[c] * J.upper_cos(o, i) / math.pi for c in range(3)] for o, i in zip(cos_o, cos_i)])
+    _close(got, want)
+
+
+@pytest.mark.parametrize("kind", J.SPOT_KINDS)
+def test_spot_falloff_matches_numpy(rng, kind):
+    cos = _cosines(rng)
+    for ci, co in ((0.95, 0.8), (0.9, 0.9), (1.0, -1.0), (0.5, 0.49999)):
+        want = lights.SPOT_FALLOFFS[kind](cos, ci, co)
+        _close([J.spot_falloff(J.SPOT_KINDS.index(kind), c, ci, co) for c in cos], want)
+
+
+@pytest.mark.parametrize("kind", J.DISTANCE_KINDS)
+def test_distance_falloff_matches_numpy(rng, kind):
+    r = np.concatenate([[0.0, 1e-9, 2.9999, 3.0, 3.5], rng.uniform(0, 5, 200)])
+    rng_ = np.inf if kind in ("inverse_square", "inverse_square_eps", "clq") else 3.0
+    args = dict(eps=0.25, light_range=rng_, clq=(0.5, 0.3, 0.2))
+    want = lights.distance_falloff(r, kind, **args)
+    got = [J.distance_falloff(J.DISTANCE_KINDS.index(kind), x, 0.25, rng_, 0.5, 0.3, 0.2) for x in r]
+    _close(got, want)
+
+
+def test_distance_falloff_with_range_cuts_at_the_range():
+    k = J.DISTANCE_KINDS.index("inverse_square")
+    assert J.distance_falloff(k, 2.0, 0, 2.0, 0, 0, 1) == 0.0
+    assert J.distance_falloff(k, 1.9, 0, 2.0, 0, 0, 1) == pytest.approx(1 / 1.9 ** 2)
+
+
+def test_float32_step_is_round_away(rng):
+    x = np.concatenate([rng.normal(0, 10, 300), [0.0, 1e-45, -1e-45, 1e30, 3.0]])
+    d = rng.normal(0, 1, x.size)
+    d[:5] = [1.0, -1.0, 0.0, 1.0, -1.0]
+    want = offsets._round_away(x[:, None] * np.ones((1, 3)), d[:, None] * np.ones((1, 3)))[:, 0]
+    got = [J.float32_step(a, b) for a, b in zip(x, d)]
+    np.testing.assert_array_equal(got, want)
+
+
+def test_gamma_matches_offsets():
+    assert J.gamma(4.0, J.EPS64) == offsets._gamma(4, offsets._EPS64)
+    assert J.gamma(7.0, J.EPS32) == offsets._gamma(7)
+
+
+def test_uniform_is_uniform_and_keyed():
+    """Counter-based numbers: in [0, 1), distinct per key and dimension, uniform (chi-square over 64 bins)."""
+    u = np.array([J.uniform(J.key64(3, p, s), d) for p in range(40) for s in range(16) for d in range(8)])
+    assert u.min() >= 0.0 and u.max() < 1.0
+    assert np.unique(u).size == u.size
+    counts = np.bincount((u * 64).astype(int), minlength=64)
+    expected = u.size / 64
+    chi2 = float(np.sum((counts - expected) ** 2 / expected))
+    assert chi2 < 120.0          # 63 degrees of freedom: P(chi2 > 120) ~ 1e-5
+    assert J.uniform(J.key64(3, 5, 7), 2) == J.uniform(J.key64(3, 5, 7), 2)
+    assert J.uniform(J.key64(4, 5, 7), 2) != J.uniform(J.key64(3, 5, 7), 2)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 7, 16, 17, 100])
+def test_permute_is_a_permutation(n):
+    for seed in (0, 1, 12345, 2 ** 31 - 1):
+        assert sorted(J.permute(i, n, seed) for i in range(n)) == list(range(n))
