@@ -14,6 +14,7 @@ from pyrt.core.camera import Camera, CameraError
 from pyrt.geometry.surface import GeometryError
 from pyrt.integrators import PreparedScene, RenderStats
 from pyrt.render import RenderResult, render, render_full
+from pyrt.render.warmup import compile_kernels
 from pyrt.lights import DirectionalLight, Light, LightError, PointLight, SpotLight
 from pyrt.lights import GoniometricLight, IESLight, ProjectorLight
 from pyrt.materials import Material, MaterialError, REGISTRY as MATERIALS, Lambert, BlinnPhong, Mirror, Glass, register
@@ -33,7 +34,7 @@ from pyrt.textures import (CheckerTexture, ConstantTexture, FbmTexture, ImageTex
                        PerlinTexture, Texture, TextureError, VoronoiTexture, perturb_normal)
 
 __all__ = [
-    "Error", "Camera", "CameraError", "GeometryError", "RenderResult", "RenderStats", "PreparedScene", "render", "render_full",
+    "Error", "Camera", "CameraError", "GeometryError", "RenderResult", "RenderStats", "PreparedScene", "render", "render_full", "compile_kernels",
     "DirectionalLight", "Light", "LightError", "PointLight", "SpotLight", "ProjectorLight", "GoniometricLight", "IESLight", "Material", "MaterialError", "MATERIALS",
     "Lambert", "BlinnPhong", "Mirror", "Glass", "register", "Phong", "PhongClassic", "BlinnPhongClassic", "Ward", "RoughDielectric", "Clearcoat", "GltfPBR", "Unlit", "Sheen",
     "CookTorrance", "MetallicRoughness", "Conductor", "LearnOpenGLPBR", "OrenNayar", "Scene", "SceneError", "transform_matrix",

@@ -26,7 +26,7 @@ INV_PI = 1.0 / math.pi
 
 # ----------------------------------------------------------------------------------------- counter-based RNG
 
-@register_jitable
+@register_jitable(inline="always")
 def mix64(x):
     """SplitMix64's finaliser (Steele et al. 2014): a bijective 64-bit mixer, ``x`` a uint64."""
     x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
@@ -34,7 +34,7 @@ def mix64(x):
     return x ^ (x >> np.uint64(31))
 
 
-@register_jitable
+@register_jitable(inline="always")
 def key64(seed, pixel, sample):
     """The 64-bit key of one camera sample: ``seed``, ``pixel`` (row-major index) and ``sample`` mixed."""
     h = mix64(np.uint64(seed) + np.uint64(0x9E3779B97F4A7C15))
@@ -42,7 +42,7 @@ def key64(seed, pixel, sample):
     return mix64(h ^ (np.uint64(sample) * np.uint64(0xD1B54A32D192ED03)))
 
 
-@register_jitable
+@register_jitable(inline="always")
 def uniform(key, dim):
     """A float64 in [0, 1) for dimension ``dim`` of the sample whose key is ``key`` (:func:`key64`): 53 bits of
     ``mix64(key + (dim + 1) * golden)``."""
@@ -50,7 +50,7 @@ def uniform(key, dim):
     return float(h >> np.uint64(11)) * (1.0 / 9007199254740992.0)
 
 
-@register_jitable
+@register_jitable(inline="always")
 def permute(i, n, seed):
     """Element ``i`` of a random permutation of ``range(n)`` chosen by ``seed`` (Kensler 2013, "Correlated
     Multi-Jittered Sampling", ``permute``): a bijection on [0, n) by cycle-walking a 32-bit hash on the next
@@ -91,7 +91,7 @@ def permute(i, n, seed):
 
 # ----------------------------------------------------------------------------------------- BRDFs and Fresnel
 
-@register_jitable
+@register_jitable(inline="always")
 def fr_dielectric(cos_i, eta):
     """Exact unpolarised Fresnel reflectance (:func:`pyrt.shaders.fresnel.fr_dielectric`): ``cos_i`` < 0 flips
     the interface (``eta -> 1/eta``); 1 under total internal reflection."""
@@ -108,19 +108,19 @@ def fr_dielectric(cos_i, eta):
     return 0.5 * (r_par * r_par + r_perp * r_perp)
 
 
-@register_jitable
+@register_jitable(inline="always")
 def upper_cos(cos_o, cos_i):
     """``cos_i`` where both cosines are positive, else 0 (:func:`pyrt.shaders.brdfs._upper_cos`)."""
     return cos_i if (cos_o > 0.0 and cos_i > 0.0) else 0.0
 
 
-@register_jitable
+@register_jitable(inline="always")
 def blinn_phong_normalization(exponent):
     """``(e + 2)(e + 4) / (8 pi (2^(-e/2) + e))`` (:func:`pyrt.shaders.brdfs.blinn_phong_normalization`)."""
     return (exponent + 2.0) * (exponent + 4.0) / (8.0 * math.pi * (2.0 ** (-exponent / 2.0) + exponent))
 
 
-@register_jitable
+@register_jitable(inline="always")
 def blinn_phong_spec(cos_o, cos_i, cos_io, exponent):
     """The specular factor ``c(n) max(n.h, 0)^n`` of :func:`pyrt.shaders.brdfs.blinn_phong_normalized_f_cos_cosines`
     from the cosines ``n.wo``, ``n.wi``, ``wo.wi`` (the half vector never built)."""
@@ -131,7 +131,7 @@ def blinn_phong_spec(cos_o, cos_i, cos_io, exponent):
 
 # ----------------------------------------------------------------------------------------- lights
 
-@register_jitable
+@register_jitable(inline="always")
 def smoothstep(x, edge0, edge1):
     """Hermite smoothstep (:func:`pyrt.shaders.lights.smoothstep`): 0 below ``edge0``, 1 above ``edge1``."""
     denom = edge1 - edge0
@@ -147,7 +147,7 @@ def smoothstep(x, edge0, edge1):
 SPOT_KINDS = ("smoothstep", "gltf", "linear_angle")
 
 
-@register_jitable
+@register_jitable(inline="always")
 def spot_falloff(kind, cos_theta, cos_inner, cos_outer):
     """The spot cone falloff ``g`` of :data:`pyrt.shaders.lights.SPOT_FALLOFFS`, ``kind`` an index of
     :data:`SPOT_KINDS`: 0 pbrt-v4's smoothstep in cos, 1 glTF's squared linear in cos, 2 Mitsuba's linear in angle."""
@@ -176,7 +176,7 @@ def spot_falloff(kind, cos_theta, cos_inner, cos_outer):
 DISTANCE_KINDS = ("inverse_square", "inverse_square_eps", "smooth_range", "gltf_range", "clq")
 
 
-@register_jitable
+@register_jitable(inline="always")
 def distance_falloff(kind, r, eps, light_range, kc, kl, kq):
     """``f(r)`` (m^-2) of :func:`pyrt.shaders.lights.distance_falloff`, ``kind`` an index of :data:`DISTANCE_KINDS`;
     0 at ``r >= light_range`` (``inf``: no range) and where the inverse-square kinds diverge."""
@@ -201,7 +201,7 @@ def distance_falloff(kind, r, eps, light_range, kc, kl, kq):
 
 # ----------------------------------------------------------------------------------------- ray offsets
 
-@register_jitable
+@register_jitable(inline="always")
 def float32_step(x, direction):
     """The float32 value of ``x`` (a float64) rounded to nearest, then one float32 ulp further toward the sign
     of ``direction`` (none for 0): one component of :func:`pyrt.geometry.offsets._round_away`, returned as a
@@ -214,7 +214,7 @@ def float32_step(x, direction):
     return float(x32)
 
 
-@register_jitable
+@register_jitable(inline="always")
 def gamma(n, eps):
     """pbrt's ``gamma_n = n eps / (1 - n eps)`` for the unit roundoff ``eps``."""
     return n * eps / (1.0 - n * eps)

@@ -31,6 +31,7 @@ def _parser():
     ap = ArgumentParser(prog="pyrt", description="pyrt: Embree + NumPy renderer")
     ap.add_argument("--debug", action="store_true", help="print the traceback of an error")
     sub = ap.add_subparsers(dest="cmd", required=True)
+    sub.add_parser("compile", help="compile the render kernels now (else the first compiled render does, once)")
     r = sub.add_parser("render", help="render a scene file (TOML or JSON)")
     r.add_argument("scene")
     r.add_argument("-o", "--output", action="append", required=True,
@@ -50,6 +51,8 @@ def _parser():
     r.add_argument("--write-every", type=positive_float, metavar="SECONDS",
                    help="adaptive: rewrite the outputs with the current image after a pass, at most every SECONDS")
     r.add_argument("--threads", type=positive_int, help="render workers (default: all cores)")
+    r.add_argument("--backend", choices=["auto", "compiled", "numpy"],
+                   help="compiled tile kernel or NumPy path (default auto: compiled where it covers the scene)")
     r.add_argument("--parallel", choices=list(PARALLEL),
                    help="render workers as forked processes or threads (default auto: processes on Linux for renders of at least 16 chunks)")
     r.add_argument("--width", type=positive_int, help="image width in pixels (overrides the scene)")
@@ -84,6 +87,8 @@ def main(argv=None):
     """Run ``pyrt ...``; returns the exit code (0 done, 2 error, 130 interrupted)."""
     ap = _parser()
     args = ap.parse_args(argv)
+    if args.cmd == "compile":
+        return _compile(args)
     if args.white is not None and args.tonemap != "reinhard":
         ap.error(f"--white applies to --tonemap reinhard only, not {args.tonemap}")
     adaptive = args.target_error is not None or args.time_budget is not None
@@ -109,6 +114,19 @@ def main(argv=None):
         return EXIT_ERROR
 
 
+def _compile(args):
+    """``pyrt compile``: the render kernels compiled (or found in the cache), one line saying which."""
+    try:
+        seconds, cached, where = pyrt.compile_kernels()
+    except (pyrt.Error, OSError, ValueError) as exc:
+        if args.debug:
+            traceback.print_exc()
+        print(f"pyrt: error: {exc}", file=sys.stderr)
+        return EXIT_ERROR
+    print(f"pyrt: render kernels {'loaded from the cache' if cached else 'compiled'} in {seconds:.1f} s ({where})")
+    return 0
+
+
 def _render(args, cancel):
     check_outputs(args.output)
     scene, opts = pyrt.load_scene(args.scene)
@@ -119,7 +137,7 @@ def _render(args, cancel):
     if args.height is not None:
         scene.camera.height = args.height
     for key in ("seed", "max_depth", "offset", "transparent_shadows", "integrator", "target_error", "time_budget",
-                "max_spp", "min_spp", "threads", "parallel", "sampler"):
+                "max_spp", "min_spp", "threads", "parallel", "sampler", "backend"):
         if getattr(args, key) is not None:
             opts[key] = getattr(args, key)
     if args.spp is not None:      # the command line's --spp wins over a scene file's adaptive keys
@@ -146,7 +164,8 @@ def _render(args, cancel):
     _write_outputs(args, res.image, res.aovs)
     s = res.stats
     print(f"{scene.camera.width}x{scene.camera.height}, {dt:.2f} s, {s.rays} rays "
-          f"({s.primary_rays} primary, {s.secondary_rays} secondary, {s.shadow_rays} shadow)")
+          f"({s.primary_rays} primary, {s.secondary_rays} secondary, {s.shadow_rays} shadow), {s.backend} path"
+          + (f" (not compiled: {'; '.join(s.fallback_reasons)})" if s.fallback_reasons else ""))
     if adaptive:
         w = res.film.weight
         print(f"adaptive: {res.passes} passes, {w.mean():.1f} spp on average ({w.min():.0f}..{w.max():.0f}), "

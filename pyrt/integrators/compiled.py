@@ -194,6 +194,8 @@ def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_dept
     opts[K.O_NLIGHTS] = cs.n_lights
     opts[K.O_SPP_LO] = 0
     opts[K.O_FALLBACK] = 1 if cs.fallback else 0
+    grid = int(round(spp ** 0.5))
+    opts[K.O_GRID] = grid if grid * grid == spp else 0
     optf = np.zeros(8)
     optf[K.F_CUTOFF] = throughput_cutoff
     optf[K.F_BG:K.F_BG + 3] = cs.background
@@ -222,9 +224,11 @@ def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_dept
 
 
 def packet_width():
-    """The camera and shadow packets' width: 16 (Embree splits a 16-wide query where the CPU's native width is 8;
-    measured in tools/bench.py)."""
-    return 16
+    """The camera and shadow packets' width: Embree's native width on this CPU (16 with AVX-512, 8 with AVX2, 4 with
+    SSE; a wider packet than the native width is slower: 12.5 against 40.2 Mrays/s for 16 against 8 lanes on an
+    AVX2 device, tests/test_embree_jit.py's measurement); 16 where Embree reports no native packets."""
+    w = embree_jit.native_packet_width()
+    return w if w in (4, 8, 16) else 16
 
 
 def pixel_mask(tiles_done, W, H):

@@ -29,22 +29,22 @@ RECORD = 20
 POINT, SPOT, DIRECTIONAL = 1, 2, 3
 
 
-@register_jitable
-def sample_li(tag, par, px, py, pz, out):
-    """Sample the light ``(tag, par)`` from the point ``p``: writes ``wi`` (unit, toward the light) into
-    ``out[0:3]`` and returns ``(dist, scale)`` with the irradiance ``E = scale * par[6:9]`` (scale 0: no light,
-    and no shadow ray to trace)."""
+@register_jitable(inline="always")
+def sample_li(tag, pars, j, px, py, pz, out, r):
+    """Sample light ``j`` (tag ``tag``, record ``pars[j]``) from the point ``p``: writes ``wi`` (unit, toward the
+    light) into row ``r`` of ``out`` and returns ``(dist, scale)`` with the irradiance ``E = scale * pars[j, 6:9]``
+    (scale 0: no light, and no shadow ray to trace)."""
     if tag == DIRECTIONAL:
-        out[0], out[1], out[2] = -par[3], -par[4], -par[5]
+        out[r, 0], out[r, 1], out[r, 2] = -pars[j, 3], -pars[j, 4], -pars[j, 5]
         return math.inf, 1.0
-    dx, dy, dz = par[0] - px, par[1] - py, par[2] - pz
+    dx, dy, dz = pars[j, 0] - px, pars[j, 1] - py, pars[j, 2] - pz
     dist = math.sqrt(dx * dx + dy * dy + dz * dz)
     inv = 1.0 / dist if dist > 0.0 else 0.0
-    out[0], out[1], out[2] = dx * inv, dy * inv, dz * inv
-    s = J.distance_falloff(int(par[13]), dist, par[14], par[15], par[16], par[17], par[18])
+    out[r, 0], out[r, 1], out[r, 2] = dx * inv, dy * inv, dz * inv
+    s = J.distance_falloff(int(pars[j, 13]), dist, pars[j, 14], pars[j, 15], pars[j, 16], pars[j, 17], pars[j, 18])
     if tag == SPOT and s > 0.0:
-        cos_theta = -(out[0] * par[3] + out[1] * par[4] + out[2] * par[5])
-        s *= J.spot_falloff(int(par[11]), cos_theta, par[9], par[10])
+        cos_theta = -(out[r, 0] * pars[j, 3] + out[r, 1] * pars[j, 4] + out[r, 2] * pars[j, 5])
+        s *= J.spot_falloff(int(pars[j, 11]), cos_theta, pars[j, 9], pars[j, 10])
     return dist, s
 
 

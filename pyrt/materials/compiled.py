@@ -34,55 +34,57 @@ RECORD = 8
 LAMBERT, BLINN_PHONG, MIRROR, GLASS = 1, 2, 3, 4
 
 
-@register_jitable
-def color_slot(par, k, tex_tag, tex_par, u, v, out):
-    """The colour of the slot at ``par[k:k + 4]`` at uv ``(u, v)`` into ``out`` (3,)."""
-    t = int(par[k])
+@register_jitable(inline="always")
+def color_slot(pars, m, k, tex_tag, tex_par, u, v, out, r):
+    """The colour of the slot at ``pars[m, k:k + 4]`` at uv ``(u, v)`` into row ``r`` of ``out``."""
+    t = int(pars[m, k])
     if t < 0:
-        out[0], out[1], out[2] = par[k + 1], par[k + 2], par[k + 3]
+        out[r, 0], out[r, 1], out[r, 2] = pars[m, k + 1], pars[m, k + 2], pars[m, k + 3]
     else:
-        texture_rgb(tex_tag[t], tex_par[t], u, v, out)
+        texture_rgb(tex_tag, tex_par, t, u, v, out, r)
 
 
-@register_jitable
+@register_jitable(inline="always")
 def has_diffuse(tag):
     """True for materials lit by the lights (a non-delta lobe)."""
     return tag == LAMBERT or tag == BLINN_PHONG
 
 
-@register_jitable
+@register_jitable(inline="always")
 def has_delta(tag):
     """True for materials that spawn specular rays."""
     return tag == MIRROR or tag == GLASS
 
 
-@register_jitable
-def f_cos(tag, par, albedo, cos_o, cos_i, cos_io, out):
-    """BRDF times cos(theta_i) (3,) into ``out`` for the cosines ``n.wo``, ``n.wi``, ``wo.wi`` (shading normal);
-    ``albedo`` (3,) is the material's diffuse colour at the hit (:func:`albedo_at`). Zero below either horizon.
+@register_jitable(inline="always")
+def f_cos(tag, pars, m, albedo, ar, cos_o, cos_i, cos_io, out, r):
+    """BRDF times cos(theta_i) of material ``m`` (tag ``tag``, record ``pars[m]``) into row ``r`` of ``out``, for the
+    cosines ``n.wo``, ``n.wi``, ``wo.wi`` (shading normal); ``albedo[ar]`` is the material's diffuse colour at the hit
+    (:func:`albedo_at`). Zero below either horizon.
 
     LAMBERT: :func:`pyrt.shaders.brdfs.lambert_f_cos_cosines`; BLINN_PHONG:
     :func:`pyrt.shaders.brdfs.blinn_phong_normalized_f_cos_cosines`."""
     c = J.upper_cos(cos_o, cos_i)
     if c == 0.0:
-        out[0] = out[1] = out[2] = 0.0
+        out[r, 0] = out[r, 1] = out[r, 2] = 0.0
         return
     if tag == LAMBERT:
         for ch in range(3):
-            out[ch] = albedo[ch] * (c / math.pi)
+            out[r, ch] = albedo[ar, ch] * (c / math.pi)
     else:
-        spec = J.blinn_phong_spec(cos_o, cos_i, cos_io, par[7])
+        spec = J.blinn_phong_spec(cos_o, cos_i, cos_io, pars[m, 7])
         for ch in range(3):
-            out[ch] = (albedo[ch] / math.pi + par[4 + ch] * spec) * c
+            out[r, ch] = (albedo[ar, ch] / math.pi + pars[m, 4 + ch] * spec) * c
 
 
-@register_jitable
-def albedo_at(tag, par, tex_tag, tex_par, u, v, out):
-    """The diffuse colour (Lambert albedo, Blinn-Phong kd) at uv ``(u, v)`` into ``out``; zeros otherwise."""
+@register_jitable(inline="always")
+def albedo_at(tag, pars, m, tex_tag, tex_par, u, v, out, r):
+    """The diffuse colour (Lambert albedo, Blinn-Phong kd) of material ``m`` at uv ``(u, v)`` into row ``r`` of
+    ``out``; zeros for the others."""
     if tag == LAMBERT or tag == BLINN_PHONG:
-        color_slot(par, 0, tex_tag, tex_par, u, v, out)
+        color_slot(pars, m, 0, tex_tag, tex_par, u, v, out, r)
     else:
-        out[0] = out[1] = out[2] = 0.0
+        out[r, 0] = out[r, 1] = out[r, 2] = 0.0
 
 
 def constant_slot(value):

@@ -20,12 +20,13 @@ RECORD = 8
 CHECKER_UV = 1
 
 
-@register_jitable
-def texture_rgb(tag, par, u, v, out):
-    """The texture ``(tag, par)`` at uv ``(u, v)`` into ``out`` (3,)."""
-    if tag == CHECKER_UV:
-        odd = (math.floor(u * par[6]) + math.floor(v * par[7])) % 2.0
+@register_jitable(inline="always")
+def texture_rgb(tags, pars, t, u, v, out, r):
+    """Texture ``t`` of the table ``(tags, pars)`` at uv ``(u, v)`` into row ``r`` of ``out`` (rows and tables are
+    indexed, never sliced: a view in a per-sample loop costs two atomic reference-count updates)."""
+    if tags[t] == CHECKER_UV:
+        odd = (math.floor(u * pars[t, 6]) + math.floor(v * pars[t, 7])) % 2.0
         for ch in range(3):
-            out[ch] = par[ch] + (par[3 + ch] - par[ch]) * odd
+            out[r, ch] = pars[t, ch] + (pars[t, 3 + ch] - pars[t, ch]) * odd
     else:
-        out[0] = out[1] = out[2] = 0.0
+        out[r, 0] = out[r, 1] = out[r, 2] = 0.0
