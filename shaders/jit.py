@@ -201,17 +201,32 @@ def distance_falloff(kind, r, eps, light_range, kc, kl, kq):
 
 # ----------------------------------------------------------------------------------------- ray offsets
 
+#: the smallest positive float32 (a subnormal), 2^-149
+TINY32 = 2.0 ** -149
+#: the smallest positive normal float32, 2^-126
+NORMAL32 = 2.0 ** -126
+
+
 @register_jitable(inline="always")
 def float32_step(x, direction):
     """The float32 value of ``x`` (a float64) rounded to nearest, then one float32 ulp further toward the sign
-    of ``direction`` (none for 0): one component of :func:`pyrt.geometry.offsets._round_away`, returned as a
-    float64 holding a float32 value."""
+    of ``direction`` (none for 0): one component of :func:`pyrt.geometry.offsets._round_away`
+    (``np.nextafter``), returned as a float64 holding a float32 value.
+
+    No library call: for a normal ``x32 = m 2^e`` (1 <= m < 2) a move by ``0.6 m`` ulps of its binade, rounded to
+    float32, lands on the neighbour on that side (0.6-1.2 ulps round to 1; below a power of two, where the spacing
+    halves, 0.6 ulps round to one half-ulp step); subnormals and 0 step by 2^-149 exactly. Bit-identical to
+    ``np.nextafter`` (tests/test_jit_shaders.py)."""
     x32 = np.float32(x)
-    if direction > 0.0:
-        return float(np.nextafter(x32, np.float32(np.inf)))
-    if direction < 0.0:
-        return float(np.nextafter(x32, np.float32(-np.inf)))
-    return float(x32)
+    if direction == 0.0:
+        return np.float64(x32)
+    sgn = 1.0 if direction > 0.0 else -1.0
+    a = abs(np.float64(x32))
+    if a < NORMAL32:
+        return np.float64(np.float32(np.float64(x32) + sgn * TINY32))
+    if not a <= 3.4028234663852886e38:     # inf, nan: as nextafter (inf stays inf one way, nan stays nan)
+        return np.float64(np.nextafter(x32, np.float32(sgn * np.inf)))
+    return np.float64(np.float32(np.float64(x32) + sgn * a * (0.6 * 2.0 ** -23)))
 
 
 @register_jitable(inline="always")

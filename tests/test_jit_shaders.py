@@ -97,12 +97,21 @@ def test_distance_falloff_with_range_cuts_at_the_range():
 
 
 def test_float32_step_is_round_away(rng):
-    x = np.concatenate([rng.normal(0, 10, 300), [0.0, 1e-45, -1e-45, 1e30, 3.0]])
-    d = rng.normal(0, 1, x.size)
+    """Bit-identical (up to the sign of zero) to np.nextafter after the float32 cast, powers of two (where the spacing changes), subnormals,
+    the normal/subnormal boundary and the largest float32 included."""
+    p2 = 2.0 ** np.arange(-130, 128)
+    edge = np.array([0.0, -0.0, 1e-45, -1e-45, 2.0 ** -126, -(2.0 ** -126), 1.1754942e-38, 3.4028235e38, 1e30, 3.0])
+    x = np.concatenate([rng.normal(0, 10, 3000), rng.normal(0, 1e-3, 1000) * 10.0 ** rng.integers(-40, 38, 1000),
+                        p2, -p2, np.nextafter(p2.astype(np.float32), 0).astype(np.float64), edge])
+    x = np.concatenate([x, x])
+    d = np.concatenate([np.ones(x.size // 2), -np.ones(x.size // 2)])
     d[:5] = [1.0, -1.0, 0.0, 1.0, -1.0]
     want = offsets._round_away(x[:, None] * np.ones((1, 3)), d[:, None] * np.ones((1, 3)))[:, 0]
-    got = [J.float32_step(a, b) for a, b in zip(x, d)]
-    np.testing.assert_array_equal(got, want)
+    with np.errstate(over="ignore"):
+        got = [J.float32_step(a, b) for a, b in zip(x, d)]
+    got = np.array(got)
+    np.testing.assert_array_equal(got, want)      # (equal values: -1e-45 stepped up is +0.0 here, -0.0 there)
+    assert np.array_equal(got.view(np.int64)[got != 0], want.view(np.int64)[want != 0])
 
 
 def test_gamma_matches_offsets():

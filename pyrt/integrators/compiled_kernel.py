@@ -32,6 +32,7 @@ from pyrt.integrators import kernel_cache
 
 kernel_cache.use_cache_dir()      # before the decorators below (and those of the modules they inline) run
 
+from pyrt.core.unmanaged import keep_alive, unmanaged as U  # noqa: E402
 from pyrt.geometry import embree_jit as E  # noqa: E402
 from pyrt.lights import compiled as LC  # noqa: E402
 from pyrt.materials import compiled as MC  # noqa: E402
@@ -64,7 +65,7 @@ T_INF = 1e37
 #: the first random dimension of the glass lobe choice (0, 1: the pixel position)
 DIM_LOBE = 2
 
-_njit = numba.njit(nogil=True, cache=True, inline="always")
+_njit = numba.njit(nogil=True, cache=True, error_model="numpy", inline="always")
 
 
 @_njit
@@ -299,7 +300,7 @@ def _push(S, r, stack, top, d0, d1, d2, t0, t1, t2, depth):
     return top + 1
 
 
-@numba.njit(nogil=True, cache=True)
+@numba.njit(nogil=True, cache=True, error_model="numpy")
 def trace_stack(scene, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, opts, optf,
                 key, dim, stack, top, L, lane, S, D, A, LE, WI, O, F, r, ray_buf, counters):
     """Trace the specular rays on ``stack`` (and those they spawn) with single-ray queries, adding their radiance
@@ -343,13 +344,31 @@ def trace_stack(scene, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, light
     return dim
 
 
-@numba.njit(nogil=True, cache=True)
+@numba.njit(nogil=True, cache=True, error_model="numpy")
 def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par,
                 opts, optf, sums, sqs, counters, width):
     """Render the pixels of tile ``tile`` (row-major over the image's tiles of :data:`TILE` pixels) at the samples
     ``[opts[O_SPP_LO], opts[O_SPP])`` of each pixel's set of ``opts[O_SPP]``, ``width`` samples (a packet) at a time:
     their radiance summed into ``sums`` and squared into ``sqs`` (pixel rows of the image), rays counted into
     ``counters`` (4,)."""
+    # every array the per-sample code binds is an unmanaged view (pyrt.core.unmanaged: no atomic reference counting);
+    # the arrays allocated here are kept alive by their last use at the end of the function
+    pk_own, sh_own, ray_own = E.packet_alloc(width), E.packet_alloc(width), E.ray_alloc()
+    n_rows = width + 1                       # one row per lane, and the last one for the specular tree
+    scratch = np.zeros((8, n_rows, S_SIZE))      # S, and the rows of D, A, LE, WI, O, F, L in its first columns
+    stack_own = np.zeros((STACK, 10))
+    flags_own = np.zeros((2, width), dtype=np.bool_)
+    keys_own = np.zeros(width, dtype=np.uint64)
+    pk, sh, ray_buf = U(pk_own), U(sh_own), U(ray_own)
+    S, D, A, LE, WI, O, F = (U(scratch[0]), U(scratch[1]), U(scratch[2]), U(scratch[3]), U(scratch[4]), U(scratch[5]),
+                             U(scratch[6]))
+    L = U(scratch[7])
+    stack, keys, hits, lit = U(stack_own), U(keys_own), U(flags_own[0]), U(flags_own[1])
+    cam, opts, optf, sums, sqs, counters = U(cam), U(opts), U(optf), U(sums), U(sqs), U(counters)
+    mats_tag, mats_par, tex_tag, tex_par = U(mats_tag), U(mats_par), U(tex_tag), U(tex_par)
+    lights_tag, lights_par = U(lights_tag), U(lights_par)
+    geo_f = (U(geo_f[0]), U(geo_f[1]), U(geo_f[2]), U(geo_f[3]), U(geo_f[4]), U(geo_f[5]))
+    geo_i = (U(geo_i[0]), U(geo_i[1]), U(geo_i[2]), U(geo_i[3]))
     W, H = int(cam[C_W]), int(cam[C_H])
     tiles_x = (W + TILE - 1) // TILE
     x0, y0 = (tile % tiles_x) * TILE, (tile // tiles_x) * TILE
@@ -360,22 +379,6 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
     fallback = opts[O_FALLBACK] != 0
     terminator = opts[O_TERMINATOR] != 0
     cx, cy, cz = cam[C_POS], cam[C_POS + 1], cam[C_POS + 2]
-    pk = E.packet_alloc(width)
-    sh = E.packet_alloc(width)
-    ray_buf = E.ray_alloc()
-    n_rows = width + 1                       # one row per lane, and the last one for the specular tree
-    S = np.zeros((n_rows, S_SIZE))
-    D = np.zeros((n_rows, 3))
-    A = np.zeros((n_rows, 3))
-    LE = np.zeros((n_rows, 3))
-    WI = np.zeros((n_rows, 3))
-    O = np.zeros((n_rows, 3))
-    F = np.zeros((n_rows, 3))
-    L = np.zeros((width, 3))
-    keys = np.zeros(width, dtype=np.uint64)
-    hits = np.zeros(width, dtype=np.bool_)
-    lit = np.zeros(width, dtype=np.bool_)
-    stack = np.zeros((STACK, 10))
     for py in range(y0, min(y0 + TILE, H)):
         for px in range(x0, min(x0 + TILE, W)):
             pix = py * W + px
@@ -458,9 +461,17 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
                     sqs[pix, 0] += l0 * l0
                     sqs[pix, 1] += l1 * l1
                     sqs[pix, 2] += l2 * l2
+    # the owners of the unmanaged views live until here
+    keep_alive(pk_own)
+    keep_alive(sh_own)
+    keep_alive(ray_own)
+    keep_alive(scratch)
+    keep_alive(stack_own)
+    keep_alive(flags_own)
+    keep_alive(keys_own)
 
 
-@numba.njit(nogil=True, cache=True, parallel=True)
+@numba.njit(nogil=True, cache=True, error_model="numpy", parallel=True)
 def render_tiles(scene, tiles, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par,
                  opts, optf, sums, sqs, counters, width):
     """:func:`render_tile` for every tile of ``tiles`` (threads over them); ``counters`` (len(tiles), 4)."""
