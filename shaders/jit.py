@@ -43,6 +43,26 @@ def key64(seed, pixel, sample):
 
 
 @register_jitable(inline="always")
+def pixel_key(seed, pixel):
+    """The 64-bit key of a pixel's samples (:func:`sample_key`): ``seed`` and ``pixel`` mixed."""
+    return mix64(mix64(np.uint64(seed) + np.uint64(0x9E3779B97F4A7C15)) ^ np.uint64(pixel))
+
+
+@register_jitable(inline="always")
+def sample_key(pix_key, sample):
+    """The 64-bit key of sample ``sample`` of the pixel whose key is ``pix_key``: one mix per sample."""
+    return mix64(pix_key ^ (np.uint64(sample) * np.uint64(0xD1B54A32D192ED03)))
+
+
+@register_jitable(inline="always")
+def uniform_pair(key):
+    """Two floats in [0, 1) with 24 bits each (a sample's position in its pixel): one mix of ``key``."""
+    h = mix64(key + np.uint64(0x9E3779B97F4A7C15))
+    return (float(h >> np.uint64(40)) * (1.0 / 16777216.0),
+            float((h >> np.uint64(16)) & np.uint64(0xFFFFFF)) * (1.0 / 16777216.0))
+
+
+@register_jitable(inline="always")
 def uniform(key, dim):
     """A float64 in [0, 1) for dimension ``dim`` of the sample whose key is ``key`` (:func:`key64`): 53 bits of
     ``mix64(key + (dim + 1) * golden)``."""

@@ -119,16 +119,19 @@ def write_table(data, path):
     if any_extra:
         lines += ["", "\\* outside the measured spp range of one series: extrapolated with relMSE ∝ 1/time."]
     lines += ["", "## Per-sample speed at equal spp (64 spp)", "",
-              "| scene | pyrt s | llvm s | scalar s | pyrt Msamples/s | llvm Msamples/s | scalar Msamples/s | "
-              "pyrt / scalar samples/s | relMSE @64: pyrt | llvm | scalar |",
-              "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+              "pyrt is the path `pyrt.render` takes (the compiled kernel where it covers the scene: the column "
+              "*path*), pyrt NumPy the NumPy reference path on the same scene.", "",
+              "| scene | path | pyrt s | llvm s | scalar s | pyrt Msamples/s | pyrt NumPy Msamples/s | llvm Msamples/s | "
+              "scalar Msamples/s | pyrt / llvm samples/s | relMSE @64: pyrt | llvm | scalar |",
+              "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for sc in data["scenes"]:
         curves = curves_of(sc)
-        got = {k: curves[k].get(64) for k in ("pyrt", "llvm_ad_rgb", "scalar_rgb") if k in curves}
-        row = [sc["name"]]
+        got = {k: curves[k].get(64) for k in ("pyrt", "pyrt_numpy", "llvm_ad_rgb", "scalar_rgb") if k in curves}
+        row = [sc["name"], "+".join(sc.get("pyrt_backends") or ["numpy"])]
         row += [f"{got[k][0]:.2f}" if got.get(k) else "—" for k in ("pyrt", "llvm_ad_rgb", "scalar_rgb")]
-        row += [f"{px * 64 / got[k][0] / 1e6:.2f}" if got.get(k) else "—" for k in ("pyrt", "llvm_ad_rgb", "scalar_rgb")]
-        row.append(f"{got['scalar_rgb'][0] / got['pyrt'][0]:.2f}" if got.get("scalar_rgb") and got.get("pyrt") else "—")
+        row += [f"{px * 64 / got[k][0] / 1e6:.2f}" if got.get(k) else "—"
+                for k in ("pyrt", "pyrt_numpy", "llvm_ad_rgb", "scalar_rgb")]
+        row.append(f"{got['llvm_ad_rgb'][0] / got['pyrt'][0]:.2f}" if got.get("llvm_ad_rgb") and got.get("pyrt") else "—")
         row += [f"{got[k][1]:.2e}" if got.get(k) else "—" for k in ("pyrt", "llvm_ad_rgb", "scalar_rgb")]
         lines.append("| " + " | ".join(row) + " |")
     lines += floor_table(data)
@@ -242,7 +245,8 @@ def write_chart(data, path):
     cols = min(3, n)
     rows = (n + cols - 1) // cols
     fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.4 * rows), squeeze=False)
-    style = {"pyrt": ("C0", "o", "pyrt (fixed spp)"), "llvm_ad_rgb": ("C3", "s", "Mitsuba llvm_ad_rgb"),
+    style = {"pyrt": ("C0", "o", "pyrt (fixed spp)"), "pyrt_numpy": ("C7", "x", "pyrt NumPy path"),
+             "llvm_ad_rgb": ("C3", "s", "Mitsuba llvm_ad_rgb"),
              "scalar_rgb": ("C2", "^", "Mitsuba scalar_rgb")}
     for ax, sc in zip(axes.ravel(), data["scenes"]):
         curves = curves_of(sc)

@@ -102,9 +102,11 @@ INSTALL = {"mitsuba": "pip install 'pyrt-embree[bench]' (or pip install mitsuba)
            "llvm_ad_rgb": "apt-get install -y libllvm19 and DRJIT_LIBLLVM_PATH=$(dpkg -L libllvm19 | grep 'libLLVM-19.so$')",
            "scalar_rgb": "pip install mitsuba (scalar_rgb ships with the wheel)"}
 MODES = {  # spp levels per series, repeats, reference spp (Mitsuba llvm) and pyrt's own reference spp
-    "quick": {"pyrt": [1, 4, 16, 64], "llvm_ad_rgb": [4, 16, 64, 256], "scalar_rgb": [4, 16, 64], "repeats": 2,
+    "quick": {"pyrt": [1, 4, 16, 64, 256], "pyrt_numpy": [16, 64], "llvm_ad_rgb": [4, 16, 64, 256],
+              "scalar_rgb": [4, 16, 64], "repeats": 2,
               "ref_spp": 2048, "pyrt_ref_spp": 128},
-    "full": {"pyrt": [1, 4, 16, 64, 256], "llvm_ad_rgb": [4, 16, 64, 256, 1024], "scalar_rgb": [4, 16, 64, 256],
+    "full": {"pyrt": [1, 4, 16, 64, 256, 1024], "pyrt_numpy": [16, 64], "llvm_ad_rgb": [4, 16, 64, 256, 1024],
+             "scalar_rgb": [4, 16, 64, 256],
              "repeats": 3, "ref_spp": 8192, "pyrt_ref_spp": 512},
 }
 
@@ -150,21 +152,30 @@ def machine():
 # ----------------------------------------------------------------------------- the renderers
 
 class PyrtRunner:
-    """pyrt on one bench scene: a PreparedScene built once, ``render(spp, seed)`` timed around the call."""
+    """pyrt on one bench scene: a PreparedScene built once, ``render(spp, seed)`` timed around the call.
+
+    ``backend``: what ``pyrt.render`` is given (``"auto"``: the compiled kernel where it covers the scene; the
+    series ``pyrt_numpy`` forces the NumPy path for comparison); :attr:`backends` collects the paths that ran."""
 
     name = "pyrt"
 
-    def __init__(self, scene):
+    def __init__(self, scene, backend="auto", prepared=None):
         self.scene = scene
+        self.backend = backend
+        self.backends = set()
         t = time.perf_counter()
-        self.prepared = pyrt.PreparedScene(scene)
+        self.prepared = pyrt.PreparedScene(scene) if prepared is None else prepared
+        self.own = prepared is None
         self.load_s = time.perf_counter() - t
 
     def render(self, spp, seed):
         """(image, seconds)."""
         t = time.perf_counter()
-        img = pyrt.render(self.scene, spp=spp, seed=seed, prepared=self.prepared, progress=False, **ms.PYRT_OPTIONS)
-        return img, time.perf_counter() - t
+        res = pyrt.render_full(self.scene, spp=spp, seed=seed, prepared=self.prepared, progress=False,
+                               backend=self.backend, **ms.PYRT_OPTIONS)
+        s = time.perf_counter() - t
+        self.backends.add(res.stats.backend)
+        return res.image, s
 
     def adaptive(self, target_error, seed, max_spp=4096, time_budget=600.0):
         """(image, seconds) of ``pyrt.render(target_error=...)``; TypeError where pyrt has no adaptive render."""
@@ -189,8 +200,9 @@ class PyrtRunner:
         return statistics.median(replay_seconds(self.prepared.accel, merged) for _ in range(repeats)), rays
 
     def close(self):
-        """Free the BVH."""
-        self.prepared.close()
+        """Free the BVH (when this runner built it)."""
+        if self.own:
+            self.prepared.close()
 
 
 class MitsubaRunner:
@@ -239,6 +251,7 @@ def bench_scene(name, mode, mi, dr, usable, args, log):
     cfg = MODES[mode]
     res = {"name": name, "description": desc, "mitsuba_integrator": kind, "runs": [], "notes": [], "first_run": {}}
     runners = {"pyrt": PyrtRunner(scene)}
+    runners["pyrt_numpy"] = PyrtRunner(scene, backend="numpy", prepared=runners["pyrt"].prepared)
     for v in VARIANTS:
         if usable.get(v) is not None:
             continue
@@ -248,7 +261,7 @@ def bench_scene(name, mode, mi, dr, usable, args, log):
         runners[v] = MitsubaRunner(mi, dr, v, scene, workdir, kind, args.mitsuba_sampler)
     res["load_s"] = {k: r.load_s for k, r in runners.items()}
     # first runs, before anything else renders (llvm: kernel compilation, or a load from drjit's disk cache)
-    series = [k for k in ("pyrt", "llvm_ad_rgb", "scalar_rgb") if k in runners]
+    series = [k for k in ("pyrt", "pyrt_numpy", "llvm_ad_rgb", "scalar_rgb") if k in runners]
     for k in series:      # llvm: every spp (a kernel per wavefront size); pyrt and scalar: the smallest spp
         for spp in (cfg[k] if k == "llvm_ad_rgb" else cfg[k][:1]):
             _img, s = runners[k].render(spp, seed=7)
@@ -295,6 +308,7 @@ def bench_scene(name, mode, mi, dr, usable, args, log):
             f"(noise alone ~{noise:.3g})")
     # pyrt adaptive at Mitsuba llvm's errors
     res["adaptive"] = run_adaptive(runners["pyrt"], res, ref, log)
+    res["pyrt_backends"] = sorted(runners["pyrt"].backends)      # the paths the "pyrt" series took
     for r in runners.values():
         r.close()
     return res

@@ -122,14 +122,17 @@ class CompiledScene:
     """
 
     def __init__(self, ps):
-        geo = ps.geo
-        f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)          # noqa: E731
-        i64 = lambda a: np.ascontiguousarray(a, dtype=np.int64)            # noqa: E731
-        self.geo_f = (f64(geo.vertices), f64(geo.normals), f64(geo.uv), f64(geo.face_normals),
-                      f64(geo.face_absmax), f64(geo.face_extent[:, None]))
-        self.geo_i = (i64(geo.faces), i64(geo.face_offset[:, None]), i64(geo.face_material[:, None]),
-                      i64(geo.face_smooth[:, None]))
-        self.fallback = geo.shading_normal_fallback
+        if ps.compiled_geometry is None:
+            geo = ps.geo
+            f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)          # noqa: E731
+            i64 = lambda a: np.ascontiguousarray(a, dtype=np.int64)            # noqa: E731
+            ps.compiled_geometry = (
+                (f64(geo.vertices), f64(geo.normals), f64(geo.uv), f64(geo.face_normals), f64(geo.face_absmax),
+                 f64(geo.face_extent[:, None])),
+                (i64(geo.faces), i64(geo.face_offset[:, None]), i64(geo.face_material[:, None]),
+                 i64(geo.face_smooth[:, None])))
+        self.geo_f, self.geo_i = ps.compiled_geometry
+        self.fallback = ps.geo.shading_normal_fallback
         textures = _TexturePacker()
         mats = [m.compiled_record(textures.add) for m in ps.scene.materials]
         self.materials = _table([t for t, _ in mats], [r for _, r in mats], MC.RECORD)
@@ -144,7 +147,7 @@ class CompiledScene:
 
 def camera_record(cam):
     """The kernel's camera record (float64): position, forward, right, up, tan(fov/2), width, height, jitter."""
-    rec = np.zeros(16)
+    rec = np.zeros(K.N_CAM)
     rec[K.C_POS:K.C_POS + 3] = cam.position
     rec[K.C_FWD:K.C_FWD + 3] = cam.forward
     rec[K.C_RIGHT:K.C_RIGHT + 3] = cam.right
@@ -152,6 +155,8 @@ def camera_record(cam):
     rec[K.C_TAN] = cam.tan_half
     rec[K.C_W], rec[K.C_H] = cam.width, cam.height
     rec[K.C_JITTER] = 1.0 if cam.jitter else 0.0
+    rec[K.C_K] = 2.0 * cam.tan_half / cam.height
+    rec[K.C_AX] = cam.tan_half * cam.width / cam.height
     return rec
 
 

@@ -102,6 +102,9 @@ class PreparedScene:
         self.coverage = CoverageTable.for_scene(mats)
         # materials with a tangent-space normal map (Material.normal_map, see pyrt.textures)
         self.has_normal_maps = any(m.normal_map is not None for m in mats)
+        #: the geometry as the compiled kernel's flat tables (:class:`pyrt.integrators.compiled.CompiledScene`), built
+        #: by the first compiled render and kept: the geometry cannot change once its BVH is built
+        self.compiled_geometry = None
 
     def before_fork(self):
         """Build now what every forked render worker (:class:`pyrt.render.pool.ChunkPool`) would otherwise build
