@@ -406,6 +406,71 @@ def packet_set_ray(p, lane, ox, oy, oz, dx, dy, dz, tnear, tfar):
     _set_i32(p, LANE_WORDS * w + lane, -1)
 
 
+# -- packets filled field by field (the render kernel's stage loops) ----------------------------------------------
+@numba.njit(nogil=True, cache=True, inline="always")
+def packet_prepare(p, ox, oy, oz):
+    """Write the fields a query never changes once for every lane: origin ``(ox, oy, oz)``, tnear 0, time 0, mask,
+    id, flags; instID invalid; every lane inactive. A kernel that traces many packets through the same buffer then
+    writes per packet only what changes (:func:`packet_set_dir`, :func:`packet_set_origin`, :func:`packet_activate`):
+    Embree writes tfar and the hit fields and nothing else of a ray (see the module docstring; checked by
+    tests/test_embree_jit.py)."""
+    w = packet_width(p)
+    for lane in range(w):
+        _set_ray(p, w, lane, ox, oy, oz, 0.0, 0.0, 1.0, 0.0, 0.0)
+        _set_i32(p, LANE_WORDS * w + lane, 0)
+
+
+@numba.njit(nogil=True, cache=True, inline="always")
+def packet_activate(p, n):
+    """Activate lanes ``[0, n)`` and deactivate the others."""
+    w = packet_width(p)
+    for lane in range(w):
+        _set_i32(p, LANE_WORDS * w + lane, -1 if lane < n else 0)
+
+
+@numba.njit(nogil=True, cache=True, inline="always")
+def packet_set_active(p, lane, active):
+    """Switch lane ``lane`` on or off (``active`` a bool; branch-free)."""
+    w = packet_width(p)
+    _set_i32(p, LANE_WORDS * w + lane, -np.int32(active))
+
+
+@numba.njit(nogil=True, cache=True, inline="always")
+def packet_set_dir(p, lane, dx, dy, dz, tfar):
+    """Lane ``lane``'s direction and tfar, and its geomID reset (a miss until a query says otherwise); the other
+    fields as :func:`packet_prepare` or an earlier :func:`packet_set_ray` left them. Does not activate the lane."""
+    w = packet_width(p)
+    p[DIR_X * w + lane] = dx
+    p[DIR_Y * w + lane] = dy
+    p[DIR_Z * w + lane] = dz
+    p[TFAR * w + lane] = tfar
+    _set_i32(p, GEOM_ID * w + lane, _INVALID)
+
+
+@numba.njit(nogil=True, cache=True, inline="always")
+def packet_set_origin(p, lane, ox, oy, oz):
+    """Lane ``lane``'s origin (with :func:`packet_set_dir`: a whole ray on a prepared buffer)."""
+    w = packet_width(p)
+    p[ORG_X * w + lane] = ox
+    p[ORG_Y * w + lane] = oy
+    p[ORG_Z * w + lane] = oz
+
+
+@numba.njit(nogil=True, cache=True, inline="always")
+def packet_geom_prim(p, lane):
+    """``(geomID, primID)`` of lane ``lane`` after :func:`intersect_packet` (geomID -1 on a miss; primID is then
+    whatever the buffer held)."""
+    w = packet_width(p)
+    return _get_i32(p, GEOM_ID * w + lane), _get_i32(p, PRIM_ID * w + lane)
+
+
+@numba.njit(nogil=True, cache=True, inline="always")
+def packet_uv(p, lane):
+    """The barycentrics ``(u, v)`` (float32) of lane ``lane``'s hit."""
+    w = packet_width(p)
+    return p[U * w + lane], p[V * w + lane]
+
+
 @numba.njit(nogil=True, cache=True, inline="always")
 def _packet_call(scene, p, coherent, occluded):
     w = packet_width(p)

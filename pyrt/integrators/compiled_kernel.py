@@ -40,14 +40,17 @@ from pyrt.shaders import jit as J  # noqa: E402
 
 #: pixels per tile side
 TILE = 8
-#: surface record layout (float64): hit point, geometric normal (viewer side), shading normal, interpolated vertex
-#: normal (= ng on flat faces), wo, flags, ids, uv, lifted point, local-bound magnitudes
-S_P, S_NG, S_NS, S_NV, S_WO = 0, 3, 6, 9, 12
-S_FRONT, S_FACE, S_MAT, S_SMOOTH = 15, 16, 17, 18
-S_U, S_V = 19, 20
-S_LIFT = 21
-S_MAG, S_MAG_LIFT = 24, 25
-S_SIZE = 26
+#: lanes of the per-packet scratch (the widest packet)
+LANES = 16
+#: per-packet scratch layout (float64, fields of :data:`LANES` lanes: field ``f`` of lane ``l`` at ``f * LANES + l``):
+#: ray direction, hit point, geometric normal (viewer side), shading normal, interpolated vertex normal (= ng on flat
+#: faces), terminator-lifted point, local-bound magnitudes, front flag, material (-1: a miss), albedo, radiance, the
+#: current light's unshadowed contribution and whether its shadow ray is traced
+V_D, V_P, V_NG, V_NS, V_NV, V_LIFT = 0, 3, 6, 9, 12, 15
+V_MAG, V_MAG_LIFT, V_FRONT, V_MAT = 18, 19, 20, 21
+V_A, V_L, V_F, V_LIT = 22, 25, 28, 31
+#: fields of the scratch
+V_SIZE = 32
 #: camera record layout (float64)
 C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W, C_H, C_JITTER, C_K, C_AX = 0, 3, 6, 9, 12, 13, 14, 15, 16, 17
 #: length of the camera record
@@ -71,16 +74,22 @@ _njit = numba.njit(nogil=True, cache=True, error_model="numpy", inline="always")
 
 
 @_njit
-def camera_ray(cam, x, y, D, r):
-    """Unit direction (float64) through raster point ``(x, y)`` into row ``r`` of ``D``
-    (:meth:`pyrt.core.camera.Camera.directions`, with ``sx = x k - a_x``, ``sy = a_y - y k`` from the camera
-    record's precomputed ``k = 2 tan(fov/2) / H``, ``a_x = tan(fov/2) W / H``, ``a_y = tan(fov/2)``: no division
-    but the normalisation's)."""
+def dot(a, b):
+    """``a . b`` of two 3-tuples (summed left to right, as the NumPy path's ``vec.dot``)."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@_njit
+def camera_dir(cam, x, y):
+    """Unit direction (float64 3-tuple) through raster point ``(x, y)`` (:meth:`pyrt.core.camera.Camera.directions`,
+    with ``sx = x k - a_x``, ``sy = a_y - y k`` from the camera record's precomputed ``k = 2 tan(fov/2) / H``,
+    ``a_x = tan(fov/2) W / H``, ``a_y = tan(fov/2)``: no division but the normalisation's)."""
     sx = x * cam[C_K] - cam[C_AX]
     sy = cam[C_TAN] - y * cam[C_K]
     inv = 1.0 / math.sqrt(1.0 + sx * sx + sy * sy)
-    for c in range(3):
-        D[r, c] = inv * (cam[C_FWD + c] + sx * cam[C_RIGHT + c] + sy * cam[C_UP + c])
+    return (inv * (cam[C_FWD] + sx * cam[C_RIGHT] + sy * cam[C_UP]),
+            inv * (cam[C_FWD + 1] + sx * cam[C_RIGHT + 1] + sy * cam[C_UP + 1]),
+            inv * (cam[C_FWD + 2] + sx * cam[C_RIGHT + 2] + sy * cam[C_UP + 2]))
 
 
 @_njit
@@ -101,156 +110,131 @@ def pixel_position(cam, spp, grid, sample, key, pix_key):
 
 
 @_njit
-def surface(geo_f, geo_i, fallback, geom, prim, u, v, D, dr, S, r):
-    """Rebuild the hit ``(geom, prim, u, v)`` of the ray along the unit ``D[dr]`` into the surface record ``S[r]``
-    (:func:`pyrt.geometry.surface.surface_from_hits`): float64 hit point from the vertices, the face normal turned to
-    the viewer, the interpolated vertex normal (back-facing -> ng when ``fallback``), uv, the terminator-lifted
-    point and the local-bound offset magnitudes (:func:`pyrt.geometry.offsets.local_bound_magnitude`)."""
+def hit_surface(geo_f, geo_i, fallback, terminator, geom, prim, u, v, wo):
+    """The surface at the hit ``(geom, prim, u, v)`` of a ray leaving toward ``wo`` (-direction)
+    (:func:`pyrt.geometry.surface.surface_from_hits`): ``(p, ng, ns, nv, lift, mag, mag_lift, front, face, uv)`` with
+    the float64 hit point from the vertices, the face normal turned to the viewer, the shading normal (the
+    interpolated vertex normal ``nv``, or ng where it is degenerate or, with ``fallback``, back-facing), the
+    terminator-lifted point (p without ``terminator``) and the local-bound offset magnitudes
+    (:func:`pyrt.geometry.offsets.local_bound_magnitude`) at p and at the lifted point."""
     verts, normals, uvs, fnorm, fabs = geo_f[0], geo_f[1], geo_f[2], geo_f[3], geo_f[4]
     fext = geo_f[5]
-    faces, foff, fmat, fsmooth = geo_i[0], geo_i[1], geo_i[2], geo_i[3]
+    faces, foff, fsmooth = geo_i[0], geo_i[1], geo_i[3]
     face = foff[geom, 0] + prim
     i0, i1, i2 = faces[face, 0], faces[face, 1], faces[face, 2]
     b1, b2 = np.float64(u), np.float64(v)
     b0 = 1.0 - b1 - b2
-    for c in range(3):
-        S[r, S_P + c] = b0 * verts[i0, c] + b1 * verts[i1, c] + b2 * verts[i2, c]
-        S[r, S_WO + c] = -D[dr, c]
-    cos_g = fnorm[face, 0] * S[r, S_WO] + fnorm[face, 1] * S[r, S_WO + 1] + fnorm[face, 2] * S[r, S_WO + 2]
-    front = cos_g >= 0.0
+    p = (b0 * verts[i0, 0] + b1 * verts[i1, 0] + b2 * verts[i2, 0],
+         b0 * verts[i0, 1] + b1 * verts[i1, 1] + b2 * verts[i2, 1],
+         b0 * verts[i0, 2] + b1 * verts[i1, 2] + b2 * verts[i2, 2])
+    front = fnorm[face, 0] * wo[0] + fnorm[face, 1] * wo[1] + fnorm[face, 2] * wo[2] >= 0.0
     sign = 1.0 if front else -1.0
-    for c in range(3):
-        S[r, S_NG + c] = sign * fnorm[face, c]
-    S[r, S_FRONT] = 1.0 if front else 0.0
-    S[r, S_FACE] = face
-    S[r, S_MAT] = fmat[face, 0]
-    smooth = fsmooth[face, 0] != 0
-    S[r, S_SMOOTH] = 1.0 if smooth else 0.0
-    for c in range(3):
-        S[r, S_NS + c] = S[r, S_NG + c]
-        S[r, S_NV + c] = S[r, S_NG + c]
-        S[r, S_LIFT + c] = S[r, S_P + c]
-    if smooth:
+    ng = (sign * fnorm[face, 0], sign * fnorm[face, 1], sign * fnorm[face, 2])
+    ns, nv, lift = ng, ng, p
+    if fsmooth[face, 0] != 0:
         n0 = b0 * normals[i0, 0] + b1 * normals[i1, 0] + b2 * normals[i2, 0]
         n1 = b0 * normals[i0, 1] + b1 * normals[i1, 1] + b2 * normals[i2, 1]
         n2 = b0 * normals[i0, 2] + b1 * normals[i1, 2] + b2 * normals[i2, 2]
         ln = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
         if ln > 0.0:
             n0, n1, n2 = sign * n0 / ln, sign * n1 / ln, sign * n2 / ln
-        S[r, S_NV], S[r, S_NV + 1], S[r, S_NV + 2] = n0, n1, n2
+        nv = (n0, n1, n2)
         bad = n0 * n0 + n1 * n1 + n2 * n2 == 0.0
         if fallback and not bad:
-            bad = n0 * S[r, S_WO] + n1 * S[r, S_WO + 1] + n2 * S[r, S_WO + 2] <= 0.0
+            bad = dot(nv, wo) <= 0.0
         if not bad:
-            S[r, S_NS], S[r, S_NS + 1], S[r, S_NS + 2] = n0, n1, n2
-        # Hanika's terminator lift: p' = p - sum_i b_i min(0, (p - v_i) . n_i) n_i, n_i turned to the ng side
-        for k in range(3):
-            vi = i0 if k == 0 else (i1 if k == 1 else i2)
-            bk = b0 if k == 0 else (b1 if k == 1 else b2)
-            h = sign * ((S[r, S_P] - verts[vi, 0]) * normals[vi, 0] + (S[r, S_P + 1] - verts[vi, 1]) * normals[vi, 1]
-                        + (S[r, S_P + 2] - verts[vi, 2]) * normals[vi, 2])
-            w = bk * min(h, 0.0) * sign
-            for c in range(3):
-                S[r, S_LIFT + c] -= normals[vi, c] * w
+            ns = nv
+        if terminator:
+            # Hanika's terminator lift: p' = p - sum_i b_i min(0, (p - v_i) . n_i) n_i, n_i turned to the ng side
+            l0, l1, l2 = p
+            for k in range(3):
+                vi = i0 if k == 0 else (i1 if k == 1 else i2)
+                bk = b0 if k == 0 else (b1 if k == 1 else b2)
+                h = sign * ((p[0] - verts[vi, 0]) * normals[vi, 0] + (p[1] - verts[vi, 1]) * normals[vi, 1]
+                            + (p[2] - verts[vi, 2]) * normals[vi, 2])
+                w = bk * min(h, 0.0) * sign
+                l0 -= normals[vi, 0] * w
+                l1 -= normals[vi, 1] * w
+                l2 -= normals[vi, 2] * w
+            lift = (l0, l1, l2)
     # local_bound_magnitude: |ng| . gamma_4(f64) absmax + 8 eps32 extent (absmax widened by the lift)
     g4 = J.gamma(4.0, J.EPS64)
     m = 0.0
     ml = 0.0
     for c in range(3):
         a = fabs[face, c]
-        m += abs(S[r, S_NG + c]) * g4 * a
-        ml += abs(S[r, S_NG + c]) * g4 * (a + abs(S[r, S_LIFT + c] - S[r, S_P + c]))
-    S[r, S_MAG] = m + 8.0 * J.EPS32 * fext[face, 0]
-    S[r, S_MAG_LIFT] = ml + 8.0 * J.EPS32 * fext[face, 0]
-    S[r, S_U] = b0 * uvs[i0, 0] + b1 * uvs[i1, 0] + b2 * uvs[i2, 0]
-    S[r, S_V] = b0 * uvs[i0, 1] + b1 * uvs[i1, 1] + b2 * uvs[i2, 1]
+        m += abs(ng[c]) * g4 * a
+        ml += abs(ng[c]) * g4 * (a + abs(lift[c] - p[c]))
+    mag = m + 8.0 * J.EPS32 * fext[face, 0]
+    mag_lift = ml + 8.0 * J.EPS32 * fext[face, 0]
+    uv = (b0 * uvs[i0, 0] + b1 * uvs[i1, 0] + b2 * uvs[i2, 0], b0 * uvs[i0, 1] + b1 * uvs[i1, 1] + b2 * uvs[i2, 1])
+    return p, ng, ns, nv, lift, mag, mag_lift, front, face, uv
 
 
 @_njit
-def offset_origin(S, r, base, mag, side, O, orow):
-    """``round_away(base + side mag ng)`` (:func:`pyrt.geometry.offsets.local_bound`) of the record ``S[r]`` into
-    ``O[orow]``: float64 values of float32 numbers, each one float32 ulp further along the offset."""
-    for c in range(3):
-        off = side * mag * S[r, S_NG + c]
-        O[orow, c] = J.float32_step(S[r, base + c] + off, off)
+def round_away(base, mag, side, ng):
+    """``round_away(base + side mag ng)`` (:func:`pyrt.geometry.offsets.local_bound`): a 3-tuple of float64 values of
+    float32 numbers, each one float32 ulp further along the offset."""
+    k = side * mag
+    return (J.float32_step(base[0] + k * ng[0], k * ng[0]), J.float32_step(base[1] + k * ng[1], k * ng[1]),
+            J.float32_step(base[2] + k * ng[2], k * ng[2]))
 
 
 @_njit
-def shadow_ray(S, r, WI, dist, lx, ly, lz, terminator, O):
-    """The shadow ray from the hit ``S[r]`` toward a light ``dist`` away along ``WI[r]`` (ending at ``(lx, ly, lz)``
-    for a light at a point): origin into ``O[r]`` and the returned ``tmax`` (:meth:`pyrt.geometry.offsets.Strategy.
-    shadow`, ``robust`` tmax; ``inf`` for directional light)."""
+def direct_light(ltags, lpars, j, mtag, mpars, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift, terminator):
+    """Light ``j``'s contribution at a hit before shadowing: ``(ok, tmax, origin, wi, f)`` with ``f`` = f_cos * E and
+    the shadow ray (origin offset to the side of ``wi``: :meth:`pyrt.geometry.offsets.Strategy.shadow`, ``robust``
+    tmax, ``inf`` for directional light). ``ok`` False where the light cannot contribute (wrong side, no irradiance,
+    zero BSDF: no shadow ray is traced, :func:`pyrt.integrators.direct._lit_lanes`)."""
+    w0, w1, w2, dist, s = LC.sample_li(ltags[j], lpars, j, p[0], p[1], p[2])
+    wi = (w0, w1, w2)
+    cg = dot(wi, ng)
+    ok = s > 0.0 and max(lpars[j, 6], lpars[j, 7], lpars[j, 8]) > 0.0 and (cg > 0.0 or dot(wi, nv) > 0.0)
+    f = MC.f_cos(mtag, mpars, m, albedo, dot(wo, ns), dot(wi, ns), dot(wi, wo))
+    ok = ok and max(f[0], f[1], f[2]) > 0.0
+    f = (f[0] * s * lpars[j, 6], f[1] * s * lpars[j, 7], f[2] * s * lpars[j, 8])
     if terminator:
-        offset_origin(S, r, S_LIFT, S[r, S_MAG_LIFT], 1.0, O, r)
+        o = round_away(lift, mag_lift, 1.0, ng)
     else:
-        cg = WI[r, 0] * S[r, S_NG] + WI[r, 1] * S[r, S_NG + 1] + WI[r, 2] * S[r, S_NG + 2]
-        offset_origin(S, r, S_P, S[r, S_MAG], 1.0 if cg >= 0.0 else -1.0, O, r)
-    if not math.isfinite(dist):
-        return math.inf
-    t_end = (lx - O[r, 0]) * WI[r, 0] + (ly - O[r, 1]) * WI[r, 1] + (lz - O[r, 2]) * WI[r, 2]
-    mag = max(abs(O[r, 0]), abs(O[r, 1]), abs(O[r, 2]), abs(lx), abs(ly), abs(lz))
-    margin = max(1e-4 * t_end, 16.0 * J.EPS32 * mag)
-    return max(t_end - margin, 0.5 * t_end)
+        o = round_away(p, mag, 1.0 if cg >= 0.0 else -1.0, ng)
+    tmax = math.inf
+    if math.isfinite(dist):
+        lx, ly, lz = lpars[j, 0], lpars[j, 1], lpars[j, 2]
+        t_end = (lx - o[0]) * w0 + (ly - o[1]) * w1 + (lz - o[2]) * w2
+        omag = max(abs(o[0]), abs(o[1]), abs(o[2]), abs(lx), abs(ly), abs(lz))
+        margin = max(1e-4 * t_end, 16.0 * J.EPS32 * omag)
+        tmax = max(t_end - margin, 0.5 * t_end)
+    return ok, min(tmax, T_INF), o, wi, f
 
 
 @_njit
-def light_term(S, r, ltags, lpars, j, mtag, mpars, m, A, terminator, WI, O, F):
-    """Light ``j``'s contribution at the hit ``S[r]`` before shadowing: ``F[r]`` = f_cos * E, the shadow ray's
-    origin ``O[r]`` and direction ``WI[r]``; returns its tmax, or -1 where the light cannot contribute (wrong side,
-    no irradiance, zero BSDF: no shadow ray is traced, :func:`pyrt.integrators.direct._lit_lanes`). ``A[r]`` is the
-    material's diffuse colour at the hit."""
-    dist, s = LC.sample_li(ltags[j], lpars, j, S[r, S_P], S[r, S_P + 1], S[r, S_P + 2], WI, r)
-    if not s > 0.0 or not max(lpars[j, 6], lpars[j, 7], lpars[j, 8]) > 0.0:
-        return -1.0
-    w0, w1, w2 = WI[r, 0], WI[r, 1], WI[r, 2]
-    cg = w0 * S[r, S_NG] + w1 * S[r, S_NG + 1] + w2 * S[r, S_NG + 2]
-    cv = w0 * S[r, S_NV] + w1 * S[r, S_NV + 1] + w2 * S[r, S_NV + 2]
-    if not (cg > 0.0 or cv > 0.0):
-        return -1.0
-    cos_i = w0 * S[r, S_NS] + w1 * S[r, S_NS + 1] + w2 * S[r, S_NS + 2]
-    cos_o = S[r, S_WO] * S[r, S_NS] + S[r, S_WO + 1] * S[r, S_NS + 1] + S[r, S_WO + 2] * S[r, S_NS + 2]
-    cos_io = w0 * S[r, S_WO] + w1 * S[r, S_WO + 1] + w2 * S[r, S_WO + 2]
-    MC.f_cos(mtag, mpars, m, A, r, cos_o, cos_i, cos_io, F, r)
-    if not max(F[r, 0], F[r, 1], F[r, 2]) > 0.0:
-        return -1.0
-    for c in range(3):
-        F[r, c] = F[r, c] * s * lpars[j, 6 + c]
-    return shadow_ray(S, r, WI, dist, lpars[j, 0], lpars[j, 1], lpars[j, 2], terminator, O)
-
-
-@_njit
-def emitted(S, r, mtag, mpars, m, A, optf, LE):
-    """Emission and ambient light at the hit ``S[r]`` into ``LE[r]`` (the Whitted integrator's per-material pass)."""
-    for c in range(3):
-        LE[r, c] = 0.0
-    if mtag == MC.LAMBERT:
-        for c in range(3):
-            LE[r, c] += mpars[m, 4 + c]
+def emitted(mtag, mpars, m, albedo, optf):
+    """Emission and ambient light at a hit of material ``m`` (the Whitted integrator's per-material pass)."""
+    e = (mpars[m, 4], mpars[m, 5], mpars[m, 6]) if mtag == MC.LAMBERT else (0.0, 0.0, 0.0)
     if MC.has_diffuse(mtag):
-        for c in range(3):
-            LE[r, c] += A[r, c] * optf[F_AMBIENT + c]
+        return (e[0] + albedo[0] * optf[F_AMBIENT], e[1] + albedo[1] * optf[F_AMBIENT + 1],
+                e[2] + albedo[2] * optf[F_AMBIENT + 2])
+    return e
 
 
 @_njit
-def spawn(S, r, mtag, mpars, m, thr0, thr1, thr2, depth, opts, optf, key, dim, stack, top):
-    """Push the delta lobes of the hit ``S[r]`` (reached with throughput ``thr`` at bounce ``depth``) onto ``stack``
-    (rows: origin, direction, throughput, depth) from row ``top``; returns ``(top, dim)``
+def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, thr, depth, split, cutoff, key, dim, stack, top):
+    """Push the delta lobes of a hit of material ``m`` (reached with throughput ``thr``, a 3-tuple, at bounce
+    ``depth``) onto ``stack`` (rows: origin, direction, throughput, depth) from row ``top``; returns ``(top, dim)``
     (:meth:`pyrt.integrators.whitted.Integrator._spawn_specular`: mirror reflections the shading normal sends below
-    the geometric surface are dropped; from the split depth on a dielectric follows one lobe, chosen by weight)."""
-    cos_o = S[r, S_WO] * S[r, S_NS] + S[r, S_WO + 1] * S[r, S_NS + 1] + S[r, S_WO + 2] * S[r, S_NS + 2]
-    wr0 = 2.0 * cos_o * S[r, S_NS] - S[r, S_WO]
-    wr1 = 2.0 * cos_o * S[r, S_NS + 1] - S[r, S_WO + 1]
-    wr2 = 2.0 * cos_o * S[r, S_NS + 2] - S[r, S_WO + 2]
-    cutoff = optf[F_CUTOFF]
+    the geometric surface are dropped; from the split depth (``split`` >= 0) on a dielectric follows one lobe, chosen
+    by weight)."""
+    cos_o = dot(wo, ns)
+    wr = (2.0 * cos_o * ns[0] - wo[0], 2.0 * cos_o * ns[1] - wo[1], 2.0 * cos_o * ns[2] - wo[2])
     if mtag == MC.MIRROR:
-        if not (wr0 * S[r, S_NG] + wr1 * S[r, S_NG + 1] + wr2 * S[r, S_NG + 2] > 0.0):
+        if not dot(wr, ng) > 0.0:
             return top, dim
-        t0, t1, t2 = thr0 * mpars[m, 0], thr1 * mpars[m, 1], thr2 * mpars[m, 2]
-        if max(t0, t1, t2) > cutoff and top < STACK:
-            top = _push(S, r, stack, top, wr0, wr1, wr2, t0, t1, t2, depth + 1)
+        t = (thr[0] * mpars[m, 0], thr[1] * mpars[m, 1], thr[2] * mpars[m, 2])
+        if max(t[0], t[1], t[2]) > cutoff and top < STACK:
+            top = _push(p, ng, mag, stack, top, wr, t, depth + 1)
         return top, dim
     # glass
-    eta = mpars[m, 0] if S[r, S_FRONT] != 0.0 else 1.0 / mpars[m, 0]
+    eta = mpars[m, 0] if front else 1.0 / mpars[m, 0]
     R = J.fr_dielectric(cos_o, eta)
     sin2_t = max(0.0, 1.0 - cos_o * cos_o) / (eta * eta)
     if sin2_t >= 1.0:
@@ -258,12 +242,10 @@ def spawn(S, r, mtag, mpars, m, thr0, thr1, thr2, depth, opts, optf, key, dim, s
     T = 1.0 - R
     cos_t = math.sqrt(max(0.0, 1.0 - sin2_t))
     k = cos_o / eta - cos_t
-    wt0 = -S[r, S_WO] / eta + k * S[r, S_NS]
-    wt1 = -S[r, S_WO + 1] / eta + k * S[r, S_NS + 1]
-    wt2 = -S[r, S_WO + 2] / eta + k * S[r, S_NS + 2]
+    wt = (-wo[0] / eta + k * ns[0], -wo[1] / eta + k * ns[1], -wo[2] / eta + k * ns[2])
     wR = R
     wT = T / (eta * eta) if T > 0.0 else 0.0
-    if opts[O_SPLIT] >= 0 and depth >= opts[O_SPLIT] and T > 0.0:
+    if split >= 0 and depth >= split and T > 0.0:
         # choose_one_lobe: probability by the lobes' mean weight (the tint is common to both)
         tint = (mpars[m, 1] + mpars[m, 2] + mpars[m, 3]) / 3.0
         mr, mt = R * tint, wT * tint
@@ -278,75 +260,81 @@ def spawn(S, r, mtag, mpars, m, thr0, thr1, thr2, depth, opts, optf, key, dim, s
                 wR, wT = 0.0, (wT / (1.0 - p_r) if mt > 0.0 else 0.0)
         else:
             wR, wT = 0.0, 0.0
-    t0, t1, t2 = thr0 * mpars[m, 1] * wR, thr1 * mpars[m, 2] * wR, thr2 * mpars[m, 3] * wR
-    if max(t0, t1, t2) > cutoff and top < STACK:
-        top = _push(S, r, stack, top, wr0, wr1, wr2, t0, t1, t2, depth + 1)
+    t = (thr[0] * mpars[m, 1] * wR, thr[1] * mpars[m, 2] * wR, thr[2] * mpars[m, 3] * wR)
+    if max(t[0], t[1], t[2]) > cutoff and top < STACK:
+        top = _push(p, ng, mag, stack, top, wr, t, depth + 1)
     if T > 0.0:
-        t0, t1, t2 = thr0 * mpars[m, 1] * wT, thr1 * mpars[m, 2] * wT, thr2 * mpars[m, 3] * wT
-        if max(t0, t1, t2) > cutoff and top < STACK:
-            top = _push(S, r, stack, top, wt0, wt1, wt2, t0, t1, t2, depth + 1)
+        t = (thr[0] * mpars[m, 1] * wT, thr[1] * mpars[m, 2] * wT, thr[2] * mpars[m, 3] * wT)
+        if max(t[0], t[1], t[2]) > cutoff and top < STACK:
+            top = _push(p, ng, mag, stack, top, wt, t, depth + 1)
     return top, dim
 
 
 @_njit
-def _push(S, r, stack, top, d0, d1, d2, t0, t1, t2, depth):
-    """One spawned ray from the hit ``S[r]`` on the stack: direction normalised, origin offset to the side it leaves
+def _push(p, ng, mag, stack, top, d, thr, depth):
+    """One spawned ray from the hit at ``p`` on the stack: direction normalised, origin offset to the side it leaves
     toward."""
+    d0, d1, d2 = d
     ln = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
     if ln > 0.0:
         d0, d1, d2 = d0 / ln, d1 / ln, d2 / ln
-    side = 1.0 if d0 * S[r, S_NG] + d1 * S[r, S_NG + 1] + d2 * S[r, S_NG + 2] >= 0.0 else -1.0
-    for c in range(3):
-        off = side * S[r, S_MAG] * S[r, S_NG + c]
-        stack[top, c] = J.float32_step(S[r, S_P + c] + off, off)
+    o = round_away(p, mag, 1.0 if d0 * ng[0] + d1 * ng[1] + d2 * ng[2] >= 0.0 else -1.0, ng)
+    stack[top, 0], stack[top, 1], stack[top, 2] = o
     stack[top, 3], stack[top, 4], stack[top, 5] = d0, d1, d2
-    stack[top, 6], stack[top, 7], stack[top, 8] = t0, t1, t2
+    stack[top, 6], stack[top, 7], stack[top, 8] = thr
     stack[top, 9] = depth
     return top + 1
 
 
 @numba.njit(nogil=True, cache=True, error_model="numpy")
 def trace_stack(scene, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, opts, optf,
-                key, dim, stack, top, L, lane, S, D, A, LE, WI, O, F, r, ray_buf, counters):
-    """Trace the specular rays on ``stack`` (and those they spawn) with single-ray queries, adding their radiance
-    into ``L[lane]``: the deeper bounces of one camera sample. Row ``r`` of the scratch arrays is this function's."""
+                key, dim, stack, top, ray_buf, counters, r0, r1, r2):
+    """Trace the specular rays on ``stack`` (and those they spawn) with single-ray queries: the deeper bounces of
+    one camera sample; returns the radiance ``(r0, r1, r2)`` plus theirs. Everything per ray is local."""
     fallback = opts[O_FALLBACK] != 0
     terminator = opts[O_TERMINATOR] != 0
+    split, cutoff, max_depth, nl = opts[O_SPLIT], optf[F_CUTOFF], opts[O_MAX_DEPTH], opts[O_NLIGHTS]
+    n_sec = n_sh = 0
     while top > 0:
         top -= 1
-        thr0, thr1, thr2 = stack[top, 6], stack[top, 7], stack[top, 8]
+        thr = (stack[top, 6], stack[top, 7], stack[top, 8])
         depth = int(stack[top, 9])
-        for c in range(3):
-            D[r, c] = stack[top, 3 + c]
-        counters[N_SECONDARY] += 1
-        hit, t, prim, geom, u, v, _, _, _ = E.intersect1(scene, stack[top, 0], stack[top, 1], stack[top, 2],
-                                                         D[r, 0], D[r, 1], D[r, 2], 0.0, T_INF, ray_buf)
+        d0, d1, d2 = stack[top, 3], stack[top, 4], stack[top, 5]
+        n_sec += 1
+        hit, _, prim, geom, u, v, _, _, _ = E.intersect1(scene, stack[top, 0], stack[top, 1], stack[top, 2],
+                                                         d0, d1, d2, 0.0, T_INF, ray_buf)
         if not hit:
-            L[lane, 0] += thr0 * optf[F_BG]
-            L[lane, 1] += thr1 * optf[F_BG + 1]
-            L[lane, 2] += thr2 * optf[F_BG + 2]
+            r0 += thr[0] * optf[F_BG]
+            r1 += thr[1] * optf[F_BG + 1]
+            r2 += thr[2] * optf[F_BG + 2]
             continue
-        surface(geo_f, geo_i, fallback, geom, prim, u, v, D, r, S, r)
-        m = int(S[r, S_MAT])
+        wo = (-d0, -d1, -d2)
+        p, ng, ns, nv, lift, mag, mag_lift, front, face, uv = hit_surface(geo_f, geo_i, fallback, terminator, geom,
+                                                                          prim, u, v, wo)
+        m = geo_i[2][face, 0]
         mtag = mats_tag[m]
-        MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, S[r, S_U], S[r, S_V], A, r)
-        emitted(S, r, mtag, mats_par, m, A, optf, LE)
+        albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1])
+        le0, le1, le2 = emitted(mtag, mats_par, m, albedo, optf)
         if MC.has_diffuse(mtag):
-            for j in range(opts[O_NLIGHTS]):
-                tmax = light_term(S, r, lights_tag, lights_par, j, mtag, mats_par, m, A, terminator, WI, O, F)
-                if tmax < 0.0:
+            for j in range(nl):
+                ok, tmax, o, wi, f = direct_light(lights_tag, lights_par, j, mtag, mats_par, m, albedo, p, ng, ns, nv,
+                                                  wo, lift, mag, mag_lift, terminator)
+                if not ok:
                     continue
-                counters[N_SHADOW] += 1
-                if not E.occluded1(scene, O[r, 0], O[r, 1], O[r, 2], WI[r, 0], WI[r, 1], WI[r, 2], 0.0,
-                                   min(tmax, T_INF), ray_buf):
-                    for c in range(3):
-                        LE[r, c] += F[r, c]
-        L[lane, 0] += thr0 * LE[r, 0]
-        L[lane, 1] += thr1 * LE[r, 1]
-        L[lane, 2] += thr2 * LE[r, 2]
-        if depth < opts[O_MAX_DEPTH] and MC.has_delta(mtag):
-            top, dim = spawn(S, r, mtag, mats_par, m, thr0, thr1, thr2, depth, opts, optf, key, dim, stack, top)
-    return dim
+                n_sh += 1
+                if not E.occluded1(scene, o[0], o[1], o[2], wi[0], wi[1], wi[2], 0.0, tmax, ray_buf):
+                    le0 += f[0]
+                    le1 += f[1]
+                    le2 += f[2]
+        r0 += thr[0] * le0
+        r1 += thr[1] * le1
+        r2 += thr[2] * le2
+        if depth < max_depth and MC.has_delta(mtag):
+            top, dim = spawn(p, ng, ns, wo, front, mag, mtag, mats_par, m, thr, depth, split, cutoff, key, dim,
+                             stack, top)
+    counters[N_SECONDARY] += n_sec
+    counters[N_SHADOW] += n_sh
+    return r0, r1, r2
 
 
 @numba.njit(nogil=True, cache=True, error_model="numpy")
@@ -355,126 +343,161 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
     """Render the pixels of tile ``tile`` (row-major over the image's tiles of :data:`TILE` pixels) at the samples
     ``[opts[O_SPP_LO], opts[O_SPP])`` of each pixel's set of ``opts[O_SPP]``, ``width`` samples (a packet) at a time:
     their radiance summed into ``sums`` and squared into ``sqs`` (pixel rows of the image), rays counted into
-    ``counters`` (4,)."""
+    ``counters`` (4,).
+
+    A packet goes through stages, each a short loop over its lanes whose values pass between stages in the
+    scratch ``V`` (field-major: one field of all lanes is contiguous), so that the lanes' work overlaps and the
+    compiler can vectorise: camera rays, the hits' surfaces, per light the shadow rays (then one occlusion query),
+    the specular trees, the film."""
     # every array the per-sample code binds is an unmanaged view (pyrt.core.unmanaged: no atomic reference counting);
     # the arrays allocated here are kept alive by their last use at the end of the function
     pk_own, sh_own, ray_own = E.packet_alloc(width), E.packet_alloc(width), E.ray_alloc()
-    n_rows = width + 1                       # one row per lane, and the last one for the specular tree
-    scratch = np.zeros((8, n_rows, S_SIZE))      # S, and the rows of D, A, LE, WI, O, F, L in its first columns
+    scratch = np.zeros(V_SIZE * LANES)
     stack_own = np.zeros((STACK, 10))
-    flags_own = np.zeros((2, width), dtype=np.bool_)
-    keys_own = np.zeros(width, dtype=np.uint64)
+    keys_own = np.zeros(LANES, dtype=np.uint64)
     pk, sh, ray_buf = U(pk_own), U(sh_own), U(ray_own)
-    S, D, A, LE, WI, O, F = (U(scratch[0]), U(scratch[1]), U(scratch[2]), U(scratch[3]), U(scratch[4]), U(scratch[5]),
-                             U(scratch[6]))
-    L = U(scratch[7])
-    stack, keys, hits, lit = U(stack_own), U(keys_own), U(flags_own[0]), U(flags_own[1])
+    V, stack, keys = U(scratch), U(stack_own), U(keys_own)
     cam, opts, optf, sums, sqs, counters = U(cam), U(opts), U(optf), U(sums), U(sqs), U(counters)
     mats_tag, mats_par, tex_tag, tex_par = U(mats_tag), U(mats_par), U(tex_tag), U(tex_par)
     lights_tag, lights_par = U(lights_tag), U(lights_par)
     geo_f = (U(geo_f[0]), U(geo_f[1]), U(geo_f[2]), U(geo_f[3]), U(geo_f[4]), U(geo_f[5]))
     geo_i = (U(geo_i[0]), U(geo_i[1]), U(geo_i[2]), U(geo_i[3]))
+    fmat = geo_i[2]
     W, H = int(cam[C_W]), int(cam[C_H])
     tiles_x = (W + TILE - 1) // TILE
     x0, y0 = (tile % tiles_x) * TILE, (tile // tiles_x) * TILE
     spp, spp_lo, grid = opts[O_SPP], opts[O_SPP_LO], opts[O_GRID]
     seed = opts[O_SEED]
     nl = opts[O_NLIGHTS]
-    max_depth = opts[O_MAX_DEPTH]
+    max_depth, split, cutoff = opts[O_MAX_DEPTH], opts[O_SPLIT], optf[F_CUTOFF]
     fallback = opts[O_FALLBACK] != 0
     terminator = opts[O_TERMINATOR] != 0
-    cx, cy, cz = cam[C_POS], cam[C_POS + 1], cam[C_POS + 2]
+    bg = (optf[F_BG], optf[F_BG + 1], optf[F_BG + 2])
+    E.packet_prepare(pk, cam[C_POS], cam[C_POS + 1], cam[C_POS + 2])
+    E.packet_prepare(sh, 0.0, 0.0, 0.0)
+    n_prim = n_shadow = n_bad = 0
     for py in range(y0, min(y0 + TILE, H)):
         for px in range(x0, min(x0 + TILE, W)):
             pix = py * W + px
             pkey = J.pixel_key(seed, pix)
             perm_seed = np.int64(pkey & np.uint64(0x7FFFFFFF))
+            s0_ = s1_ = s2_ = q0 = q1 = q2 = 0.0
             for s0 in range(spp_lo, spp, width):
                 n = min(width, spp - s0)
-                for lane in range(n):          # a loop of arithmetic only: the lanes' latencies overlap
+                # camera rays (arithmetic only)
+                for lane in range(n):
                     s = s0 + lane
                     key = J.sample_key(pkey, s)
                     keys[lane] = key
                     ox, oy = pixel_position(cam, spp, grid, s, key, perm_seed)
-                    camera_ray(cam, px + ox, py + oy, D, lane)
-                E.packet_clear(pk)
-                for lane in range(n):
-                    E.packet_set_ray(pk, lane, cx, cy, cz, D[lane, 0], D[lane, 1], D[lane, 2], 0.0, T_INF)
-                counters[N_PRIMARY] += n
+                    d = camera_dir(cam, px + ox, py + oy)
+                    for c in range(3):
+                        V[(V_D + c) * LANES + lane] = d[c]
+                    E.packet_set_dir(pk, lane, d[0], d[1], d[2], T_INF)
+                E.packet_activate(pk, n)
+                n_prim += n
                 E.intersect_packet(scene, pk, True)
+                # the hits' surfaces, albedo and emission (a miss: face 0 computed and dropped, no branch)
                 any_diffuse = False
                 for lane in range(n):
-                    hit, t, prim, geom, u, v, _, _, _ = E.packet_hit(pk, lane)
-                    hits[lane] = hit
-                    if not hit:
-                        for c in range(3):
-                            L[lane, c] = optf[F_BG + c]
-                        continue
-                    surface(geo_f, geo_i, fallback, geom, prim, u, v, D, lane, S, lane)
-                    m = int(S[lane, S_MAT])
+                    geom, prim = E.packet_geom_prim(pk, lane)
+                    hit = geom != -1
+                    geom, prim = (geom, prim) if hit else (0, 0)
+                    u, v = E.packet_uv(pk, lane)
+                    wo = (-V[V_D * LANES + lane], -V[(V_D + 1) * LANES + lane], -V[(V_D + 2) * LANES + lane])
+                    p, ng, ns, nv, lift, mag, mag_lift, front, face, uv = hit_surface(
+                        geo_f, geo_i, fallback, terminator, geom, prim, u, v, wo)
+                    m = fmat[face, 0]
                     mtag = mats_tag[m]
-                    MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, S[lane, S_U], S[lane, S_V], A, lane)
-                    emitted(S, lane, mtag, mats_par, m, A, optf, LE)
+                    albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1])
+                    le = emitted(mtag, mats_par, m, albedo, optf)
+                    any_diffuse |= hit and MC.has_diffuse(mtag)
                     for c in range(3):
-                        L[lane, c] = LE[lane, c]
-                    any_diffuse |= MC.has_diffuse(mtag)
+                        V[(V_P + c) * LANES + lane] = p[c]
+                        V[(V_NG + c) * LANES + lane] = ng[c]
+                        V[(V_NS + c) * LANES + lane] = ns[c]
+                        V[(V_NV + c) * LANES + lane] = nv[c]
+                        V[(V_LIFT + c) * LANES + lane] = lift[c]
+                        V[(V_A + c) * LANES + lane] = albedo[c]
+                        V[(V_L + c) * LANES + lane] = le[c] if hit else bg[c]
+                    V[V_MAG * LANES + lane] = mag
+                    V[V_MAG_LIFT * LANES + lane] = mag_lift
+                    V[V_FRONT * LANES + lane] = 1.0 if front else 0.0
+                    V[V_MAT * LANES + lane] = m if hit else -1
                 # direct light: per light, the packet's shadow rays in one masked query
                 for j in range(nl if any_diffuse else 0):
-                    E.packet_clear(sh)
+                    E.packet_activate(sh, 0)
                     n_sh = 0
                     for lane in range(n):
-                        lit[lane] = False
-                        if not hits[lane]:
-                            continue
-                        m = int(S[lane, S_MAT])
-                        mtag = mats_tag[m]
-                        if not MC.has_diffuse(mtag):
-                            continue
-                        tmax = light_term(S, lane, lights_tag, lights_par, j, mtag, mats_par, m, A, terminator, WI,
-                                          O, F)
-                        if tmax < 0.0:
-                            continue
-                        E.packet_set_ray(sh, lane, O[lane, 0], O[lane, 1], O[lane, 2], WI[lane, 0], WI[lane, 1],
-                                         WI[lane, 2], 0.0, min(tmax, T_INF))
-                        lit[lane] = True
-                        n_sh += 1
+                        m = int(V[V_MAT * LANES + lane])
+                        mtag = mats_tag[max(m, 0)]
+                        ok, tmax, o, wi, f = direct_light(
+                            lights_tag, lights_par, j, mtag, mats_par, max(m, 0),
+                            (V[V_A * LANES + lane], V[(V_A + 1) * LANES + lane], V[(V_A + 2) * LANES + lane]),
+                            (V[V_P * LANES + lane], V[(V_P + 1) * LANES + lane], V[(V_P + 2) * LANES + lane]),
+                            (V[V_NG * LANES + lane], V[(V_NG + 1) * LANES + lane], V[(V_NG + 2) * LANES + lane]),
+                            (V[V_NS * LANES + lane], V[(V_NS + 1) * LANES + lane], V[(V_NS + 2) * LANES + lane]),
+                            (V[V_NV * LANES + lane], V[(V_NV + 1) * LANES + lane], V[(V_NV + 2) * LANES + lane]),
+                            (-V[V_D * LANES + lane], -V[(V_D + 1) * LANES + lane], -V[(V_D + 2) * LANES + lane]),
+                            (V[V_LIFT * LANES + lane], V[(V_LIFT + 1) * LANES + lane],
+                             V[(V_LIFT + 2) * LANES + lane]),
+                            V[V_MAG * LANES + lane], V[V_MAG_LIFT * LANES + lane], terminator)
+                        ok = ok and m >= 0 and MC.has_diffuse(mtag)
+                        for c in range(3):
+                            V[(V_F + c) * LANES + lane] = f[c]
+                        V[V_LIT * LANES + lane] = 1.0 if ok else 0.0
+                        E.packet_set_origin(sh, lane, o[0], o[1], o[2])
+                        E.packet_set_dir(sh, lane, wi[0], wi[1], wi[2], tmax)
+                        E.packet_set_active(sh, lane, ok)
+                        n_sh += ok
                     if n_sh == 0:
                         continue
-                    counters[N_SHADOW] += n_sh
+                    n_shadow += n_sh
                     E.occluded_packet(scene, sh, True)
                     for lane in range(n):
-                        if lit[lane] and not E.packet_blocked(sh, lane):
-                            for c in range(3):
-                                L[lane, c] += F[lane, c]
+                        add = V[V_LIT * LANES + lane] != 0.0 and not E.packet_blocked(sh, lane)
+                        for c in range(3):
+                            V[(V_L + c) * LANES + lane] += V[(V_F + c) * LANES + lane] if add else 0.0
                 # the specular tree of each sample, then the film
                 for lane in range(n):
-                    if hits[lane] and max_depth > 0:
-                        m = int(S[lane, S_MAT])
-                        mtag = mats_tag[m]
-                        if MC.has_delta(mtag):
-                            top, dim = spawn(S, lane, mtag, mats_par, m, 1.0, 1.0, 1.0, 0, opts, optf, keys[lane],
-                                             DIM_LOBE, stack, 0)
-                            if top > 0:
-                                trace_stack(scene, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag,
-                                            lights_par, opts, optf, keys[lane], dim, stack, top, L, lane, S, D, A,
-                                            LE, WI, O, F, width, ray_buf, counters)
-                    l0, l1, l2 = L[lane, 0], L[lane, 1], L[lane, 2]
+                    l0, l1, l2 = V[V_L * LANES + lane], V[(V_L + 1) * LANES + lane], V[(V_L + 2) * LANES + lane]
+                    m = int(V[V_MAT * LANES + lane])
+                    if m >= 0 and max_depth > 0 and MC.has_delta(mats_tag[m]):
+                        top, dim = spawn(
+                            (V[V_P * LANES + lane], V[(V_P + 1) * LANES + lane], V[(V_P + 2) * LANES + lane]),
+                            (V[V_NG * LANES + lane], V[(V_NG + 1) * LANES + lane], V[(V_NG + 2) * LANES + lane]),
+                            (V[V_NS * LANES + lane], V[(V_NS + 1) * LANES + lane], V[(V_NS + 2) * LANES + lane]),
+                            (-V[V_D * LANES + lane], -V[(V_D + 1) * LANES + lane], -V[(V_D + 2) * LANES + lane]),
+                            V[V_FRONT * LANES + lane] != 0.0, V[V_MAG * LANES + lane], mats_tag[m], mats_par, m,
+                            (1.0, 1.0, 1.0), 0, split, cutoff, keys[lane], DIM_LOBE, stack, 0)
+                        if top > 0:
+                            l0, l1, l2 = trace_stack(scene, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par,
+                                                     lights_tag, lights_par, opts, optf, keys[lane], dim, stack, top,
+                                                     ray_buf, counters, l0, l1, l2)
                     if not (math.isfinite(l0) and math.isfinite(l1) and math.isfinite(l2)):
-                        counters[N_NONFINITE] += 1
+                        n_bad += 1
                         l0 = l1 = l2 = 0.0
-                    sums[pix, 0] += l0
-                    sums[pix, 1] += l1
-                    sums[pix, 2] += l2
-                    sqs[pix, 0] += l0 * l0
-                    sqs[pix, 1] += l1 * l1
-                    sqs[pix, 2] += l2 * l2
+                    s0_ += l0
+                    s1_ += l1
+                    s2_ += l2
+                    q0 += l0 * l0
+                    q1 += l1 * l1
+                    q2 += l2 * l2
+            sums[pix, 0] += s0_
+            sums[pix, 1] += s1_
+            sums[pix, 2] += s2_
+            sqs[pix, 0] += q0
+            sqs[pix, 1] += q1
+            sqs[pix, 2] += q2
+    counters[N_PRIMARY] += n_prim
+    counters[N_SHADOW] += n_shadow
+    counters[N_NONFINITE] += n_bad
     # the owners of the unmanaged views live until here
     keep_alive(pk_own)
     keep_alive(sh_own)
     keep_alive(ray_own)
     keep_alive(scratch)
     keep_alive(stack_own)
-    keep_alive(flags_own)
     keep_alive(keys_own)
 
 

@@ -30,22 +30,21 @@ POINT, SPOT, DIRECTIONAL = 1, 2, 3
 
 
 @register_jitable(inline="always")
-def sample_li(tag, pars, j, px, py, pz, out, r):
-    """Sample light ``j`` (tag ``tag``, record ``pars[j]``) from the point ``p``: writes ``wi`` (unit, toward the
-    light) into row ``r`` of ``out`` and returns ``(dist, scale)`` with the irradiance ``E = scale * pars[j, 6:9]``
-    (scale 0: no light, and no shadow ray to trace)."""
+def sample_li(tag, pars, j, px, py, pz):
+    """Sample light ``j`` (tag ``tag``, record ``pars[j]``) from the point ``p``: ``(wx, wy, wz, dist, scale)``, ``w``
+    the unit direction toward the light, the irradiance ``E = scale * pars[j, 6:9]`` (scale 0: no light, and no
+    shadow ray to trace)."""
     if tag == DIRECTIONAL:
-        out[r, 0], out[r, 1], out[r, 2] = -pars[j, 3], -pars[j, 4], -pars[j, 5]
-        return math.inf, 1.0
+        return -pars[j, 3], -pars[j, 4], -pars[j, 5], math.inf, 1.0
     dx, dy, dz = pars[j, 0] - px, pars[j, 1] - py, pars[j, 2] - pz
     dist = math.sqrt(dx * dx + dy * dy + dz * dz)
     inv = 1.0 / dist if dist > 0.0 else 0.0
-    out[r, 0], out[r, 1], out[r, 2] = dx * inv, dy * inv, dz * inv
+    wx, wy, wz = dx * inv, dy * inv, dz * inv
     s = J.distance_falloff(int(pars[j, 13]), dist, pars[j, 14], pars[j, 15], pars[j, 16], pars[j, 17], pars[j, 18])
     if tag == SPOT and s > 0.0:
-        cos_theta = -(out[r, 0] * pars[j, 3] + out[r, 1] * pars[j, 4] + out[r, 2] * pars[j, 5])
+        cos_theta = -(wx * pars[j, 3] + wy * pars[j, 4] + wz * pars[j, 5])
         s *= J.spot_falloff(int(pars[j, 11]), cos_theta, pars[j, 9], pars[j, 10])
-    return dist, s
+    return wx, wy, wz, dist, s
 
 
 def punctual_record(light, tag):

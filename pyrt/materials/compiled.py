@@ -35,13 +35,12 @@ LAMBERT, BLINN_PHONG, MIRROR, GLASS = 1, 2, 3, 4
 
 
 @register_jitable(inline="always")
-def color_slot(pars, m, k, tex_tag, tex_par, u, v, out, r):
-    """The colour of the slot at ``pars[m, k:k + 4]`` at uv ``(u, v)`` into row ``r`` of ``out``."""
+def color_slot(pars, m, k, tex_tag, tex_par, u, v):
+    """The colour (an RGB tuple) of the slot at ``pars[m, k:k + 4]`` at uv ``(u, v)``."""
     t = int(pars[m, k])
     if t < 0:
-        out[r, 0], out[r, 1], out[r, 2] = pars[m, k + 1], pars[m, k + 2], pars[m, k + 3]
-    else:
-        texture_rgb(tex_tag, tex_par, t, u, v, out, r)
+        return pars[m, k + 1], pars[m, k + 2], pars[m, k + 3]
+    return texture_rgb(tex_tag, tex_par, t, u, v)
 
 
 @register_jitable(inline="always")
@@ -57,34 +56,31 @@ def has_delta(tag):
 
 
 @register_jitable(inline="always")
-def f_cos(tag, pars, m, albedo, ar, cos_o, cos_i, cos_io, out, r):
-    """BRDF times cos(theta_i) of material ``m`` (tag ``tag``, record ``pars[m]``) into row ``r`` of ``out``, for the
-    cosines ``n.wo``, ``n.wi``, ``wo.wi`` (shading normal); ``albedo[ar]`` is the material's diffuse colour at the hit
-    (:func:`albedo_at`). Zero below either horizon.
+def f_cos(tag, pars, m, albedo, cos_o, cos_i, cos_io):
+    """BRDF times cos(theta_i) (an RGB tuple) of material ``m`` (tag ``tag``, record ``pars[m]``) for the cosines
+    ``n.wo``, ``n.wi``, ``wo.wi`` (shading normal); ``albedo`` (RGB tuple) is the material's diffuse colour at the
+    hit (:func:`albedo_at`). Zero below either horizon.
 
     LAMBERT: :func:`pyrt.shaders.brdfs.lambert_f_cos_cosines`; BLINN_PHONG:
     :func:`pyrt.shaders.brdfs.blinn_phong_normalized_f_cos_cosines`."""
     c = J.upper_cos(cos_o, cos_i)
     if c == 0.0:
-        out[r, 0] = out[r, 1] = out[r, 2] = 0.0
-        return
+        return 0.0, 0.0, 0.0
     if tag == LAMBERT:
-        for ch in range(3):
-            out[r, ch] = albedo[ar, ch] * (c / math.pi)
-    else:
-        spec = J.blinn_phong_spec(cos_o, cos_i, cos_io, pars[m, 7])
-        for ch in range(3):
-            out[r, ch] = (albedo[ar, ch] / math.pi + pars[m, 4 + ch] * spec) * c
+        k = c / math.pi
+        return albedo[0] * k, albedo[1] * k, albedo[2] * k
+    spec = J.blinn_phong_spec(cos_o, cos_i, cos_io, pars[m, 7])
+    return ((albedo[0] / math.pi + pars[m, 4] * spec) * c, (albedo[1] / math.pi + pars[m, 5] * spec) * c,
+            (albedo[2] / math.pi + pars[m, 6] * spec) * c)
 
 
 @register_jitable(inline="always")
-def albedo_at(tag, pars, m, tex_tag, tex_par, u, v, out, r):
-    """The diffuse colour (Lambert albedo, Blinn-Phong kd) of material ``m`` at uv ``(u, v)`` into row ``r`` of
-    ``out``; zeros for the others."""
+def albedo_at(tag, pars, m, tex_tag, tex_par, u, v):
+    """The diffuse colour (Lambert albedo, Blinn-Phong kd; an RGB tuple) of material ``m`` at uv ``(u, v)``; zeros
+    for the others."""
     if tag == LAMBERT or tag == BLINN_PHONG:
-        color_slot(pars, m, 0, tex_tag, tex_par, u, v, out, r)
-    else:
-        out[r, 0] = out[r, 1] = out[r, 2] = 0.0
+        return color_slot(pars, m, 0, tex_tag, tex_par, u, v)
+    return 0.0, 0.0, 0.0
 
 
 def constant_slot(value):

@@ -21,12 +21,11 @@ CHECKER_UV = 1
 
 
 @register_jitable(inline="always")
-def texture_rgb(tags, pars, t, u, v, out, r):
-    """Texture ``t`` of the table ``(tags, pars)`` at uv ``(u, v)`` into row ``r`` of ``out`` (rows and tables are
-    indexed, never sliced: a view in a per-sample loop costs two atomic reference-count updates)."""
+def texture_rgb(tags, pars, t, u, v):
+    """Texture ``t`` of the table ``(tags, pars)`` at uv ``(u, v)``: an RGB tuple (tables are indexed, never sliced: a
+    view in a per-sample loop costs two atomic reference-count updates)."""
     if tags[t] == CHECKER_UV:
         odd = (math.floor(u * pars[t, 6]) + math.floor(v * pars[t, 7])) % 2.0
-        for ch in range(3):
-            out[r, ch] = pars[t, ch] + (pars[t, 3 + ch] - pars[t, ch]) * odd
-    else:
-        out[r, 0] = out[r, 1] = out[r, 2] = 0.0
+        return (pars[t, 0] + (pars[t, 3] - pars[t, 0]) * odd, pars[t, 1] + (pars[t, 4] - pars[t, 1]) * odd,
+                pars[t, 2] + (pars[t, 5] - pars[t, 2]) * odd)
+    return 0.0, 0.0, 0.0
