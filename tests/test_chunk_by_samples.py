@@ -81,7 +81,7 @@ def _peak_bytes(scene, spp, **kw):
     tracemalloc.start()
     try:
         tracemalloc.reset_peak()
-        img = pyrt.render(scene, spp=spp, threads=1, progress=False, **kw)
+        img = pyrt.render(scene, backend="numpy", spp=spp, threads=1, progress=False, **kw)
         _, peak = tracemalloc.get_traced_memory()
     finally:
         tracemalloc.stop()
@@ -106,7 +106,7 @@ def test_split_pixel_is_unbiased_against_the_closed_form():
     scene = _lit_pixel()
     ref = _closed_form_pixel_mean(scene.camera)
     cs = 256
-    vals = np.array([pyrt.render(scene, spp=3 * cs, chunk_samples=cs, seed=s, threads=1)[0, 0, 0]
+    vals = np.array([pyrt.render(scene, backend="numpy", spp=3 * cs, chunk_samples=cs, seed=s, threads=1)[0, 0, 0]
                      for s in range(8)], dtype=np.float64)
     se = vals.std(ddof=1) / math.sqrt(len(vals))
     assert abs(vals.mean() - ref) < 5 * se + 1e-6 * ref, (vals.mean(), ref, se)
@@ -119,8 +119,8 @@ def test_split_square_and_non_square_spp_agree_with_unsplit():
     scene = _lit_pixel()
     ref = _closed_form_pixel_mean(scene.camera)
     for spp in (1024, 1000):
-        split = pyrt.render(scene, spp=spp, chunk_samples=100, threads=1)[0, 0, 0]
-        whole = pyrt.render(scene, spp=spp, threads=1)[0, 0, 0]
+        split = pyrt.render(scene, backend="numpy", spp=spp, chunk_samples=100, threads=1)[0, 0, 0]
+        whole = pyrt.render(scene, backend="numpy", spp=spp, threads=1)[0, 0, 0]
         # ~6 standard deviations each (measured: 1.5e-3 relative split, ~9e-3 for the unsplit Latin hypercube)
         assert abs(split - ref) < 1e-2 * ref and abs(whole - ref) < 5e-2 * ref, (spp, split, whole, ref)
 
@@ -128,9 +128,9 @@ def test_split_square_and_non_square_spp_agree_with_unsplit():
 def test_split_is_bit_identical_across_thread_counts():
     scene = _lit_pixel(size=3)
     kw = dict(spp=700, chunk_samples=128, aovs=True, progress=False)
-    a = pyrt.render_full(scene, threads=1, **kw)
-    b = pyrt.render_full(scene, threads=2, **kw)
-    c = pyrt.render_full(scene, threads=5, **kw)
+    a = pyrt.render_full(scene, backend="numpy", threads=1, **kw)
+    b = pyrt.render_full(scene, backend="numpy", threads=2, **kw)
+    c = pyrt.render_full(scene, backend="numpy", threads=5, **kw)
     for r in (b, c):
         np.testing.assert_array_equal(a.image, r.image)
         for k in a.aovs:
@@ -144,7 +144,7 @@ def test_unsplit_chunks_unchanged():
     """spp <= chunk_samples: chunks of whole pixels with the streams of before (what same_pixels checks on
     every scene): the pixel range of chunk ci is [ci * (chunk_samples // spp), ...)."""
     scene = _lit_pixel(size=4)
-    res = pyrt.render_full(scene, spp=16, chunk_samples=64, threads=1, progress=False)
+    res = pyrt.render_full(scene, backend="numpy", spp=16, chunk_samples=64, threads=1, progress=False)
     assert res.chunks_total == 4
     film = Film(4, 4)
     cam = pyrt.Camera(position=scene.camera.position, target=scene.camera.target, up=scene.camera.up, fov=60.0,
@@ -162,8 +162,8 @@ def test_unsplit_chunks_unchanged():
 def test_cancel_and_fill_with_split_pixels():
     scene = _lit_pixel(size=2)
     kw = dict(spp=1000, chunk_samples=256, threads=1, progress=False)    # 4 pieces per pixel, 16 chunks
-    full = pyrt.render_full(scene, **kw)
-    part = pyrt.render_full(scene, cancel=CancelAfter(6), **kw)
+    full = pyrt.render_full(scene, backend="numpy", **kw)
+    part = pyrt.render_full(scene, backend="numpy", cancel=CancelAfter(6), **kw)
     assert not part.complete and part.chunks_done == 6 and part.chunks_total == 16
     assert part.pixels_done == 1                        # pixel 0: 4 pieces; pixel 1: 2 of its 4
     assert part.samples_done == 1000 + 250 + 250
@@ -173,7 +173,7 @@ def test_cancel_and_fill_with_split_pixels():
     # the half-rendered pixel: its two pieces are spread over the whole pixel, so close to the full value
     assert abs(part.image[0, 1, 0] - full.image[0, 1, 0]) < 0.02 * full.image[0, 1, 0]
     assert (part.image[1] == 0).all() and part.pixels_filled == 0
-    filled = pyrt.render_full(scene, cancel=CancelAfter(6), fill=True, fill_budget=60.0, **kw)
+    filled = pyrt.render_full(scene, backend="numpy", cancel=CancelAfter(6), fill=True, fill_budget=60.0, **kw)
     assert filled.pixels_filled == 2 and filled.pixels_done == 1
     np.testing.assert_array_equal(filled.film.weight, [1000, 500, 1, 1])
     assert (filled.image[1] > 0).all()

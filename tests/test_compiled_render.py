@@ -137,3 +137,31 @@ def test_cancel_and_fill():
                          cancel=ev, fill=True)
     assert not r.complete and r.pixels_filled == 40 * 30
     assert np.all(r.film.weight == 1.0) and np.all(np.isfinite(r.image)) and r.image.max() > 0
+
+
+def test_subclasses_that_change_the_shading_are_not_compiled():
+    """A subclass overriding what its parent computes keeps the parent's record only if it says so: otherwise the
+    compiled path would render the parent (derived by construction, as the ``emits`` flag)."""
+    class Glowing(pyrt.Lambert):
+        def emission(self, ctx):
+            return np.ones((ctx.n_hits, 3))
+
+    class Striped(pyrt.CheckerTexture):
+        def evaluate(self, ctx):
+            return np.ones((ctx.n_hits, 3))
+
+    class Dimmer(pyrt.PointLight):
+        def radiant_intensity(self, w):
+            return 0.5 * super().radiant_intensity(w)
+
+    assert Glowing(0.5).compiled_record(lambda t: 0) is None
+    assert Striped(0, 1, filtered=False).compiled_record() is None
+    assert Dimmer((0, 1, 0), intensity=1.0).compiled_record() is None
+    assert pyrt.Lambert(0.5).compiled_record(lambda t: 0) is not None
+    scene = _scene(width=8, height=6)
+    scene.materials[0] = Glowing(0.5)
+    r = pyrt.render_full(scene, progress=False)
+    assert r.stats.backend == "numpy" and any("Glowing" in x for x in r.stats.fallback_reasons)
+    glass = pyrt.Glass(1.5)
+    glass.is_dielectric = False                   # the mirror rule for glass: not what the kernel does
+    assert glass.compiled_record(lambda t: 0) is None

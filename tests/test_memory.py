@@ -18,9 +18,9 @@ s.add_plane((0, 0, 0), 10.0, pyrt.Lambert(albedo=0.6))
 s.add_sphere((0, 0.6, 0), 0.6, pyrt.Lambert(albedo=(0.8, 0.4, 0.3)))
 s.add_light(pyrt.PointLight((2, 4, 3), intensity=25))
 with pyrt.PreparedScene(s, threads=1) as ps:
-    pyrt.render(s, prepared=ps, threads=1, progress=False)
+    pyrt.render(s, prepared=ps, threads=1, progress=False, backend="numpy")
     r0 = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
-    pyrt.render(s, prepared=ps, threads=1, progress=False)
+    pyrt.render(s, prepared=ps, threads=1, progress=False, backend="numpy")
     print(json.dumps({"faults": resource.getrusage(resource.RUSAGE_SELF).ru_minflt - r0}))
 """
 

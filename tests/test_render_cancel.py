@@ -23,7 +23,8 @@ def scene():
     return sc
 
 
-KW = dict(spp=2, chunk_samples=512, seed=3)   # 256 pixels per chunk: 12 chunks
+# the NumPy path's chunk pool (the compiled path's cancel and fill: tests/test_compiled_render.py)
+KW = dict(spp=2, chunk_samples=512, seed=3, backend="numpy")   # 256 pixels per chunk: 12 chunks
 
 
 def test_uncancelled_render_is_complete_and_unchanged(scene):
@@ -80,7 +81,7 @@ def test_keyboard_interrupt_cancels_pending_chunks_and_shuts_the_pool_down(scene
     sc, _ = pyrt.load_scene(ROOT / "assets/default_scene.toml")   # 640x480: ~100 chunks at 8 spp
     t0 = time.perf_counter()
     with pytest.raises(KeyboardInterrupt), CtrlC(0.3):
-        pyrt.render_full(sc, spp=8, threads=2, progress=False)
+        pyrt.render_full(sc, spp=8, threads=2, progress=False, backend="numpy")
     elapsed = time.perf_counter() - t0
     assert elapsed < 3.0                                  # not the whole render
     assert len(_pool_threads()) == before                 # no worker left running

@@ -44,7 +44,7 @@ def test_auto_is_processes_on_linux_for_long_renders_and_one_worker_is_the_calli
 
 def test_bad_parallel_is_a_render_error(scene):
     with pytest.raises(RenderError, match="parallel must be one of"):
-        pyrt.render(scene, spp=1, parallel="gpu")
+        pyrt.render(scene, backend="numpy", spp=1, parallel="gpu")
 
 
 @pytest.mark.parametrize("kw", [dict(spp=4, chunk_samples=512),                 # whole-pixel chunks: 14
@@ -56,8 +56,8 @@ def test_fixed_spp_processes_equal_threads_bit_for_bit(scene, kw):
         scene = copy.copy(scene)
         scene.camera = copy.copy(scene.camera)
         scene.camera.width, scene.camera.height = 8, 6
-    a = pyrt.render_full(scene, threads=2, parallel="threads", aovs=True, seed=5, **kw)
-    b = pyrt.render_full(scene, threads=2, parallel="processes", aovs=True, seed=5, **kw)
+    a = pyrt.render_full(scene, backend="numpy", threads=2, parallel="threads", aovs=True, seed=5, **kw)
+    b = pyrt.render_full(scene, backend="numpy", threads=2, parallel="processes", aovs=True, seed=5, **kw)
     np.testing.assert_array_equal(a.image, b.image)
     for k in a.aovs:
         np.testing.assert_array_equal(a.aovs[k], b.aovs[k])
@@ -68,8 +68,8 @@ def test_fixed_spp_processes_equal_threads_bit_for_bit(scene, kw):
 
 def test_adaptive_processes_equal_threads_bit_for_bit(scene):
     kw = dict(target_error=2e-3, max_spp=32, min_spp=2, seed=2, threads=2, chunk_samples=1024)
-    a = pyrt.render_full(scene, parallel="threads", **kw)
-    b = pyrt.render_full(scene, parallel="processes", **kw)
+    a = pyrt.render_full(scene, backend="numpy", parallel="threads", **kw)
+    b = pyrt.render_full(scene, backend="numpy", parallel="processes", **kw)
     assert a.passes >= 3                                   # several passes on the same pool
     assert (a.passes, a.stop_reason, a.samples_done) == (b.passes, b.stop_reason, b.samples_done)
     np.testing.assert_array_equal(a.image, b.image)
@@ -84,7 +84,7 @@ def test_a_worker_error_reaches_the_caller_with_its_type_and_message(scene, monk
 
     monkeypatch.setattr(P, "Integrator", Failing)      # the factory captures it; the workers inherit it
     with pytest.raises(ValueError, match="boom in a worker"):
-        pyrt.render_full(scene, spp=4, chunk_samples=512, threads=2, parallel="processes")
+        pyrt.render_full(scene, backend="numpy", spp=4, chunk_samples=512, threads=2, parallel="processes")
     assert _no_children()
 
 
@@ -125,7 +125,7 @@ def test_pool_collects_in_index_order_and_halted_stops_submitting():
 def test_cancel_before_the_start_renders_nothing_on_processes(scene):
     ev = threading.Event()
     ev.set()
-    res = pyrt.render_full(scene, spp=2, chunk_samples=256, threads=2, parallel="processes", cancel=ev)
+    res = pyrt.render_full(scene, backend="numpy", spp=2, chunk_samples=256, threads=2, parallel="processes", cancel=ev)
     assert not res.complete and res.chunks_done == 0 and not np.any(res.image) and _no_children()
 
 
@@ -133,7 +133,7 @@ def test_keyboard_interrupt_leaves_no_worker_process():
     sc, _ = pyrt.load_scene(ROOT / "assets/default_scene.toml")   # 640x480: ~100 chunks at 8 spp
     t0 = time.perf_counter()
     with pytest.raises(KeyboardInterrupt), CtrlC(0.5):
-        pyrt.render_full(sc, spp=8, threads=2, parallel="processes", progress=False)
+        pyrt.render_full(sc, backend="numpy", spp=8, threads=2, parallel="processes", progress=False)
     assert time.perf_counter() - t0 < 4.0 and _no_children()
 
 

@@ -164,6 +164,13 @@ def check_scalar(name, value, owner, *, lo=None, hi=None, lo_open=False):
 
 
 
+#: the methods whose override changes what a material renders (a subclass overriding one is not compiled unless it
+#: gives its own :meth:`Material.compiled_record`)
+_SHADING_METHODS = ("f_cos", "f_cos_cosines", "delta_lobes", "sample", "sample_direction", "pdf", "albedo", "emission",
+                    "coverage", "glossy_alpha", "param", "emits", "has_diffuse", "has_delta", "is_dielectric",
+                    "transmits", "normal_map", "alpha_mode", "double_sided", "thin_walled")
+
+
 class Material:
     """Base class of every material: the interface in the module docstring, with defaults.
 
@@ -320,6 +327,10 @@ class Material:
         super().__init_subclass__(**kwargs)
         if "lambertian" not in cls.__dict__:
             cls.lambertian = False
+        # a subclass that changes what the material computes but not its compiled record is not compiled (its
+        # parent's record would render the parent): derived by construction, as the emits flag below
+        if "compiled_record" not in cls.__dict__ and any(name in cls.__dict__ for name in _SHADING_METHODS):
+            cls.compiled_record = Material.compiled_record
         if "emits" not in cls.__dict__ and cls.emission is not Material.emission:
             # overrides emission() without saying when it is zero (no class from the one defining emission() on
             # declares emits, e.g. a mixin's property beside its emission()): assume it may emit

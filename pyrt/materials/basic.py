@@ -197,8 +197,9 @@ class Glass(Material):
 
     def compiled_record(self, pack_texture):
         """:data:`pyrt.materials.compiled.GLASS` with a constant tint (a scene whose dielectrics need interface
-        stacks, :mod:`pyrt.integrators.media`, is not compiled at all)."""
-        if is_texture(self.tint):
+        stacks, :mod:`pyrt.integrators.media`, is not compiled at all); None for a glass whose flags were changed
+        (``is_dielectric`` off: the mirror rule, which the kernel applies to mirrors only)."""
+        if is_texture(self.tint) or not self.is_dielectric:
             return None
         rec = _compiled.empty_record()
         rec[0] = float(self.ior)

@@ -177,7 +177,8 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
             raise RenderError("render: backend='compiled' does not cover " + "; ".join(reasons)
                               + " (backend='auto' renders them on the NumPy path)")
         if not reasons:
-            integrator_factory(ps, **integ)       # the same option checks as the NumPy path
+            integrator_factory(ps, **integ)()     # the same option checks as the NumPy path
+            use_processes(parallel, 1, 1)         # ... and of ``parallel``
             try:
                 return render_compiled(ps, cam, seed=seed, max_depth=max_depth, throughput_cutoff=throughput_cutoff,
                                        offset=offset, split_depth=split_depth, threads=threads, cancel=cancel,

@@ -69,6 +69,12 @@ class Texture:
         or None when the compiled kernel cannot read it (the render then takes the NumPy path). Default None."""
         return None
 
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        # a subclass that changes what the texture returns but not its compiled record is not compiled
+        if "compiled_record" not in cls.__dict__ and "evaluate" in cls.__dict__:
+            cls.compiled_record = Texture.compiled_record
+
     def evaluate(self, ctx):  # pragma: no cover - interface
         """The texture's values at the hits of ``ctx``.
 
