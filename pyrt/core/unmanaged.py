@@ -43,3 +43,22 @@ def keep_alive(typingctx, arr):
     def codegen(context, builder, sig, args):
         return context.get_dummy_value()
     return types.none(arr), codegen
+
+
+@intrinsic
+def pointer(typingctx, arr):
+    """The data pointer of the contiguous array ``arr`` (``types.CPointer`` of its dtype): indexed ``ptr[k]`` with
+    a flat index (row ``i``, column ``c`` of a C-contiguous 2-D array with ``n`` columns: ``ptr[i * n + c]``).
+
+    Why: Numba reference-counts every binding of an *array* variable, and the inlining of a helper binds its array
+    arguments; even on an unmanaged view (:func:`unmanaged`) each binding stays a call to ``NRT_incref`` /
+    ``NRT_decref`` (returning at once), hundreds of them in a render kernel's per-sample code, each spilling every
+    floating-point register (they are caller-saved) and stopping LLVM's vectoriser. A pointer is a plain value:
+    no calls. Same lifetime rule as :func:`unmanaged` (the array must outlive the pointer); no bounds, no negative
+    indices."""
+    if not (isinstance(arr, types.Array) and arr.layout == "C"):
+        return None
+
+    def codegen(context, builder, sig, args):
+        return context.make_array(sig.args[0])(context, builder, args[0]).data
+    return types.CPointer(arr.dtype)(arr), codegen

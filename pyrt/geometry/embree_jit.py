@@ -225,9 +225,15 @@ def _addr(typingctx, value):
     return types.voidptr(value), codegen
 
 
+def _buffer(ty):
+    """True for what the word intrinsics take: a 4-byte-element array or a pointer to 4-byte words
+    (:func:`pyrt.core.unmanaged.pointer` of one)."""
+    return (isinstance(ty, types.Array) or isinstance(ty, types.CPointer) and ty.dtype in (types.float32, types.int32))
+
+
 def _word_ptr(context, builder, arrty, arr, idx, idxty, lltype):
-    """LLVM pointer to word ``idx`` of a contiguous 4-byte-element array, as ``lltype*``."""
-    data = context.make_array(arrty)(context, builder, arr).data
+    """LLVM pointer to word ``idx`` of a contiguous 4-byte-element array (or of a pointer to words), as ``lltype*``."""
+    data = arr if isinstance(arrty, types.CPointer) else context.make_array(arrty)(context, builder, arr).data
     k = context.cast(builder, idx, idxty, types.intp)
     return builder.gep(builder.bitcast(data, lltype.as_pointer()), [k])
 
@@ -235,7 +241,7 @@ def _word_ptr(context, builder, arrty, arr, idx, idxty, lltype):
 @intrinsic
 def _ptr(typingctx, arr, idx):
     """``void*`` to word ``idx`` of a float32 buffer."""
-    if not (isinstance(arr, types.Array) and isinstance(idx, types.Integer)):
+    if not (_buffer(arr) and isinstance(idx, types.Integer)):
         return None
 
     def codegen(context, builder, sig, args):
@@ -247,7 +253,7 @@ def _ptr(typingctx, arr, idx):
 @intrinsic
 def _get_i32(typingctx, arr, idx):
     """The int32 stored at word ``idx`` of a float32 buffer (bits reinterpreted)."""
-    if not (isinstance(arr, types.Array) and isinstance(idx, types.Integer)):
+    if not (_buffer(arr) and isinstance(idx, types.Integer)):
         return None
 
     def codegen(context, builder, sig, args):
@@ -258,7 +264,7 @@ def _get_i32(typingctx, arr, idx):
 @intrinsic
 def _set_i32(typingctx, arr, idx, value):
     """Store ``value`` as an int32 at word ``idx`` of a float32 buffer."""
-    if not (isinstance(arr, types.Array) and isinstance(idx, types.Integer) and isinstance(value, types.Integer)):
+    if not (_buffer(arr) and isinstance(idx, types.Integer) and isinstance(value, types.Integer)):
         return None
 
     def codegen(context, builder, sig, args):
@@ -407,39 +413,37 @@ def packet_set_ray(p, lane, ox, oy, oz, dx, dy, dz, tnear, tfar):
 
 
 # -- packets filled field by field (the render kernel's stage loops) ----------------------------------------------
+# These take the buffer ``p`` (a :func:`packet_alloc` array or its :func:`pyrt.core.unmanaged.pointer`) and its
+# width ``w`` explicitly: with a pointer, the per-lane code binds no array (no reference counting at all).
 @numba.njit(nogil=True, cache=True, inline="always")
-def packet_prepare(p, ox, oy, oz):
+def packet_prepare(p, w, ox, oy, oz):
     """Write the fields a query never changes once for every lane: origin ``(ox, oy, oz)``, tnear 0, time 0, mask,
     id, flags; instID invalid; every lane inactive. A kernel that traces many packets through the same buffer then
     writes per packet only what changes (:func:`packet_set_dir`, :func:`packet_set_origin`, :func:`packet_activate`):
     Embree writes tfar and the hit fields and nothing else of a ray (see the module docstring; checked by
     tests/test_embree_jit.py)."""
-    w = packet_width(p)
     for lane in range(w):
         _set_ray(p, w, lane, ox, oy, oz, 0.0, 0.0, 1.0, 0.0, 0.0)
         _set_i32(p, LANE_WORDS * w + lane, 0)
 
 
 @numba.njit(nogil=True, cache=True, inline="always")
-def packet_activate(p, n):
+def packet_activate(p, w, n):
     """Activate lanes ``[0, n)`` and deactivate the others."""
-    w = packet_width(p)
     for lane in range(w):
         _set_i32(p, LANE_WORDS * w + lane, -1 if lane < n else 0)
 
 
 @numba.njit(nogil=True, cache=True, inline="always")
-def packet_set_active(p, lane, active):
+def packet_set_active(p, w, lane, active):
     """Switch lane ``lane`` on or off (``active`` a bool; branch-free)."""
-    w = packet_width(p)
     _set_i32(p, LANE_WORDS * w + lane, -np.int32(active))
 
 
 @numba.njit(nogil=True, cache=True, inline="always")
-def packet_set_dir(p, lane, dx, dy, dz, tfar):
+def packet_set_dir(p, w, lane, dx, dy, dz, tfar):
     """Lane ``lane``'s direction and tfar, and its geomID reset (a miss until a query says otherwise); the other
     fields as :func:`packet_prepare` or an earlier :func:`packet_set_ray` left them. Does not activate the lane."""
-    w = packet_width(p)
     p[DIR_X * w + lane] = dx
     p[DIR_Y * w + lane] = dy
     p[DIR_Z * w + lane] = dz
@@ -448,32 +452,35 @@ def packet_set_dir(p, lane, dx, dy, dz, tfar):
 
 
 @numba.njit(nogil=True, cache=True, inline="always")
-def packet_set_origin(p, lane, ox, oy, oz):
+def packet_set_origin(p, w, lane, ox, oy, oz):
     """Lane ``lane``'s origin (with :func:`packet_set_dir`: a whole ray on a prepared buffer)."""
-    w = packet_width(p)
     p[ORG_X * w + lane] = ox
     p[ORG_Y * w + lane] = oy
     p[ORG_Z * w + lane] = oz
 
 
 @numba.njit(nogil=True, cache=True, inline="always")
-def packet_geom_prim(p, lane):
+def packet_geom_prim(p, w, lane):
     """``(geomID, primID)`` of lane ``lane`` after :func:`intersect_packet` (geomID -1 on a miss; primID is then
     whatever the buffer held)."""
-    w = packet_width(p)
     return _get_i32(p, GEOM_ID * w + lane), _get_i32(p, PRIM_ID * w + lane)
 
 
 @numba.njit(nogil=True, cache=True, inline="always")
-def packet_uv(p, lane):
+def packet_uv(p, w, lane):
     """The barycentrics ``(u, v)`` (float32) of lane ``lane``'s hit."""
-    w = packet_width(p)
     return p[U * w + lane], p[V * w + lane]
 
 
 @numba.njit(nogil=True, cache=True, inline="always")
-def _packet_call(scene, p, coherent, occluded):
-    w = packet_width(p)
+def lane_blocked(p, w, lane):
+    """:func:`packet_blocked` with the width given."""
+    return p[TFAR * w + lane] == -np.inf
+
+
+@numba.njit(nogil=True, cache=True, inline="always")
+def packet_query(scene, p, w, coherent, occluded):
+    """:func:`intersect_packet` (``occluded`` False) or :func:`occluded_packet` with the width given."""
     args = LANE_WORDS * w + _VALID_WORDS
     _set_i32(p, args, RTC_RAY_QUERY_FLAG_COHERENT if coherent else RTC_RAY_QUERY_FLAG_INCOHERENT)
     s, v, r, a = _addr(scene), _ptr(p, LANE_WORDS * w), _ptr(p, 0), _ptr(p, args)
@@ -491,6 +498,11 @@ def _packet_call(scene, p, coherent, occluded):
         _rtcOccluded4(v, s, r, a)
     else:
         _rtcIntersect4(v, s, r, a)
+
+
+@numba.njit(nogil=True, cache=True, inline="always")
+def _packet_call(scene, p, coherent, occluded):
+    packet_query(scene, p, packet_width(p), coherent, occluded)
 
 
 @numba.njit(nogil=True, cache=True, inline="always")

@@ -32,7 +32,8 @@ from pyrt.integrators import kernel_cache
 
 kernel_cache.use_cache_dir()      # before the decorators below (and those of the modules they inline) run
 
-from pyrt.core.unmanaged import keep_alive, unmanaged as U  # noqa: E402
+from pyrt.core import unmanaged as U  # noqa: E402
+from pyrt.core.unmanaged import keep_alive  # noqa: E402
 from pyrt.geometry import embree_jit as E  # noqa: E402
 from pyrt.lights import compiled as LC  # noqa: E402
 from pyrt.materials import compiled as MC  # noqa: E402
@@ -65,6 +66,8 @@ F_CUTOFF, F_BG, F_AMBIENT = 0, 1, 4
 N_PRIMARY, N_SECONDARY, N_SHADOW, N_NONFINITE = 0, 1, 2, 3
 #: the largest stack of pending specular rays a sample can need (2 per bounce below the split depth)
 STACK = 64
+#: words of a stack row: origin, direction, throughput, depth
+STACK_ROW = 10
 #: Embree's "unbounded" tfar (:data:`pyrt.geometry.accel.T_INFINITE`)
 T_INF = 1e37
 #: the first random dimension of the glass lobe choice (0, 1: the pixel position)
@@ -110,31 +113,42 @@ def pixel_position(cam, spp, grid, sample, key, pix_key):
 
 
 @_njit
-def hit_surface(geo_f, geo_i, fallback, terminator, geom, prim, u, v, wo):
+def row3(a, i):
+    """Row ``i`` of an (n, 3) table given by its pointer: a 3-tuple."""
+    return a[3 * i], a[3 * i + 1], a[3 * i + 2]
+
+
+@_njit
+def bary3(b0, b1, b2, x0, x1, x2):
+    """``b0 x0 + b1 x1 + b2 x2`` of three 3-tuples."""
+    return (b0 * x0[0] + b1 * x1[0] + b2 * x2[0], b0 * x0[1] + b1 * x1[1] + b2 * x2[1],
+            b0 * x0[2] + b1 * x1[2] + b2 * x2[2])
+
+
+@_njit
+def hit_surface(G, fallback, terminator, geom, prim, u, v, wo):
     """The surface at the hit ``(geom, prim, u, v)`` of a ray leaving toward ``wo`` (-direction)
     (:func:`pyrt.geometry.surface.surface_from_hits`): ``(p, ng, ns, nv, lift, mag, mag_lift, front, face, uv)`` with
     the float64 hit point from the vertices, the face normal turned to the viewer, the shading normal (the
     interpolated vertex normal ``nv``, or ng where it is degenerate or, with ``fallback``, back-facing), the
     terminator-lifted point (p without ``terminator``) and the local-bound offset magnitudes
-    (:func:`pyrt.geometry.offsets.local_bound_magnitude`) at p and at the lifted point."""
-    verts, normals, uvs, fnorm, fabs = geo_f[0], geo_f[1], geo_f[2], geo_f[3], geo_f[4]
-    fext = geo_f[5]
-    faces, foff, fsmooth = geo_i[0], geo_i[1], geo_i[3]
-    face = foff[geom, 0] + prim
-    i0, i1, i2 = faces[face, 0], faces[face, 1], faces[face, 2]
+    (:func:`pyrt.geometry.offsets.local_bound_magnitude`) at p and at the lifted point. ``G``: the geometry tables'
+    pointers (:func:`geometry_pointers`)."""
+    verts, normals, uvs, fnorm, fabs, fext, faces, foff, _, fsmooth = G
+    face = foff[geom] + prim
+    i0, i1, i2 = faces[3 * face], faces[3 * face + 1], faces[3 * face + 2]
     b1, b2 = np.float64(u), np.float64(v)
     b0 = 1.0 - b1 - b2
-    p = (b0 * verts[i0, 0] + b1 * verts[i1, 0] + b2 * verts[i2, 0],
-         b0 * verts[i0, 1] + b1 * verts[i1, 1] + b2 * verts[i2, 1],
-         b0 * verts[i0, 2] + b1 * verts[i1, 2] + b2 * verts[i2, 2])
-    front = fnorm[face, 0] * wo[0] + fnorm[face, 1] * wo[1] + fnorm[face, 2] * wo[2] >= 0.0
+    v0, v1, v2 = row3(verts, i0), row3(verts, i1), row3(verts, i2)
+    p = bary3(b0, b1, b2, v0, v1, v2)
+    fn = row3(fnorm, face)
+    front = dot(fn, wo) >= 0.0
     sign = 1.0 if front else -1.0
-    ng = (sign * fnorm[face, 0], sign * fnorm[face, 1], sign * fnorm[face, 2])
+    ng = (sign * fn[0], sign * fn[1], sign * fn[2])
     ns, nv, lift = ng, ng, p
-    if fsmooth[face, 0] != 0:
-        n0 = b0 * normals[i0, 0] + b1 * normals[i1, 0] + b2 * normals[i2, 0]
-        n1 = b0 * normals[i0, 1] + b1 * normals[i1, 1] + b2 * normals[i2, 1]
-        n2 = b0 * normals[i0, 2] + b1 * normals[i1, 2] + b2 * normals[i2, 2]
+    if fsmooth[face] != 0:
+        n0_, n1_, n2_ = row3(normals, i0), row3(normals, i1), row3(normals, i2)
+        n0, n1, n2 = bary3(b0, b1, b2, n0_, n1_, n2_)
         ln = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
         if ln > 0.0:
             n0, n1, n2 = sign * n0 / ln, sign * n1 / ln, sign * n2 / ln
@@ -148,26 +162,26 @@ def hit_surface(geo_f, geo_i, fallback, terminator, geom, prim, u, v, wo):
             # Hanika's terminator lift: p' = p - sum_i b_i min(0, (p - v_i) . n_i) n_i, n_i turned to the ng side
             l0, l1, l2 = p
             for k in range(3):
-                vi = i0 if k == 0 else (i1 if k == 1 else i2)
+                vk, nk = (v0, n0_) if k == 0 else ((v1, n1_) if k == 1 else (v2, n2_))
                 bk = b0 if k == 0 else (b1 if k == 1 else b2)
-                h = sign * ((p[0] - verts[vi, 0]) * normals[vi, 0] + (p[1] - verts[vi, 1]) * normals[vi, 1]
-                            + (p[2] - verts[vi, 2]) * normals[vi, 2])
+                h = sign * ((p[0] - vk[0]) * nk[0] + (p[1] - vk[1]) * nk[1] + (p[2] - vk[2]) * nk[2])
                 w = bk * min(h, 0.0) * sign
-                l0 -= normals[vi, 0] * w
-                l1 -= normals[vi, 1] * w
-                l2 -= normals[vi, 2] * w
+                l0 -= nk[0] * w
+                l1 -= nk[1] * w
+                l2 -= nk[2] * w
             lift = (l0, l1, l2)
     # local_bound_magnitude: |ng| . gamma_4(f64) absmax + 8 eps32 extent (absmax widened by the lift)
     g4 = J.gamma(4.0, J.EPS64)
     m = 0.0
     ml = 0.0
     for c in range(3):
-        a = fabs[face, c]
+        a = fabs[3 * face + c]
         m += abs(ng[c]) * g4 * a
         ml += abs(ng[c]) * g4 * (a + abs(lift[c] - p[c]))
-    mag = m + 8.0 * J.EPS32 * fext[face, 0]
-    mag_lift = ml + 8.0 * J.EPS32 * fext[face, 0]
-    uv = (b0 * uvs[i0, 0] + b1 * uvs[i1, 0] + b2 * uvs[i2, 0], b0 * uvs[i0, 1] + b1 * uvs[i1, 1] + b2 * uvs[i2, 1])
+    mag = m + 8.0 * J.EPS32 * fext[face]
+    mag_lift = ml + 8.0 * J.EPS32 * fext[face]
+    uv = (b0 * uvs[2 * i0] + b1 * uvs[2 * i1] + b2 * uvs[2 * i2],
+          b0 * uvs[2 * i0 + 1] + b1 * uvs[2 * i1 + 1] + b2 * uvs[2 * i2 + 1])
     return p, ng, ns, nv, lift, mag, mag_lift, front, face, uv
 
 
@@ -186,20 +200,21 @@ def direct_light(ltags, lpars, j, mtag, mpars, m, albedo, p, ng, ns, nv, wo, lif
     the shadow ray (origin offset to the side of ``wi``: :meth:`pyrt.geometry.offsets.Strategy.shadow`, ``robust``
     tmax, ``inf`` for directional light). ``ok`` False where the light cannot contribute (wrong side, no irradiance,
     zero BSDF: no shadow ray is traced, :func:`pyrt.integrators.direct._lit_lanes`)."""
+    jb = j * LC.RECORD
     w0, w1, w2, dist, s = LC.sample_li(ltags[j], lpars, j, p[0], p[1], p[2])
     wi = (w0, w1, w2)
     cg = dot(wi, ng)
-    ok = s > 0.0 and max(lpars[j, 6], lpars[j, 7], lpars[j, 8]) > 0.0 and (cg > 0.0 or dot(wi, nv) > 0.0)
+    ok = s > 0.0 and max(lpars[jb + 6], lpars[jb + 7], lpars[jb + 8]) > 0.0 and (cg > 0.0 or dot(wi, nv) > 0.0)
     f = MC.f_cos(mtag, mpars, m, albedo, dot(wo, ns), dot(wi, ns), dot(wi, wo))
     ok = ok and max(f[0], f[1], f[2]) > 0.0
-    f = (f[0] * s * lpars[j, 6], f[1] * s * lpars[j, 7], f[2] * s * lpars[j, 8])
+    f = (f[0] * s * lpars[jb + 6], f[1] * s * lpars[jb + 7], f[2] * s * lpars[jb + 8])
     if terminator:
         o = round_away(lift, mag_lift, 1.0, ng)
     else:
         o = round_away(p, mag, 1.0 if cg >= 0.0 else -1.0, ng)
     tmax = math.inf
     if math.isfinite(dist):
-        lx, ly, lz = lpars[j, 0], lpars[j, 1], lpars[j, 2]
+        lx, ly, lz = lpars[jb], lpars[jb + 1], lpars[jb + 2]
         t_end = (lx - o[0]) * w0 + (ly - o[1]) * w1 + (lz - o[2]) * w2
         omag = max(abs(o[0]), abs(o[1]), abs(o[2]), abs(lx), abs(ly), abs(lz))
         margin = max(1e-4 * t_end, 16.0 * J.EPS32 * omag)
@@ -210,7 +225,8 @@ def direct_light(ltags, lpars, j, mtag, mpars, m, albedo, p, ng, ns, nv, wo, lif
 @_njit
 def emitted(mtag, mpars, m, albedo, optf):
     """Emission and ambient light at a hit of material ``m`` (the Whitted integrator's per-material pass)."""
-    e = (mpars[m, 4], mpars[m, 5], mpars[m, 6]) if mtag == MC.LAMBERT else (0.0, 0.0, 0.0)
+    mb = m * MC.RECORD
+    e = (mpars[mb + 4], mpars[mb + 5], mpars[mb + 6]) if mtag == MC.LAMBERT else (0.0, 0.0, 0.0)
     if MC.has_diffuse(mtag):
         return (e[0] + albedo[0] * optf[F_AMBIENT], e[1] + albedo[1] * optf[F_AMBIENT + 1],
                 e[2] + albedo[2] * optf[F_AMBIENT + 2])
@@ -224,17 +240,18 @@ def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, thr, depth, split, cutoff, 
     (:meth:`pyrt.integrators.whitted.Integrator._spawn_specular`: mirror reflections the shading normal sends below
     the geometric surface are dropped; from the split depth (``split`` >= 0) on a dielectric follows one lobe, chosen
     by weight)."""
+    mb = m * MC.RECORD
     cos_o = dot(wo, ns)
     wr = (2.0 * cos_o * ns[0] - wo[0], 2.0 * cos_o * ns[1] - wo[1], 2.0 * cos_o * ns[2] - wo[2])
     if mtag == MC.MIRROR:
         if not dot(wr, ng) > 0.0:
             return top, dim
-        t = (thr[0] * mpars[m, 0], thr[1] * mpars[m, 1], thr[2] * mpars[m, 2])
+        t = (thr[0] * mpars[mb], thr[1] * mpars[mb + 1], thr[2] * mpars[mb + 2])
         if max(t[0], t[1], t[2]) > cutoff and top < STACK:
             top = _push(p, ng, mag, stack, top, wr, t, depth + 1)
         return top, dim
     # glass
-    eta = mpars[m, 0] if front else 1.0 / mpars[m, 0]
+    eta = mpars[mb] if front else 1.0 / mpars[mb]
     R = J.fr_dielectric(cos_o, eta)
     sin2_t = max(0.0, 1.0 - cos_o * cos_o) / (eta * eta)
     if sin2_t >= 1.0:
@@ -247,7 +264,7 @@ def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, thr, depth, split, cutoff, 
     wT = T / (eta * eta) if T > 0.0 else 0.0
     if split >= 0 and depth >= split and T > 0.0:
         # choose_one_lobe: probability by the lobes' mean weight (the tint is common to both)
-        tint = (mpars[m, 1] + mpars[m, 2] + mpars[m, 3]) / 3.0
+        tint = (mpars[mb + 1] + mpars[mb + 2] + mpars[mb + 3]) / 3.0
         mr, mt = R * tint, wT * tint
         total = mr + mt
         u = J.uniform(key, dim)
@@ -260,11 +277,11 @@ def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, thr, depth, split, cutoff, 
                 wR, wT = 0.0, (wT / (1.0 - p_r) if mt > 0.0 else 0.0)
         else:
             wR, wT = 0.0, 0.0
-    t = (thr[0] * mpars[m, 1] * wR, thr[1] * mpars[m, 2] * wR, thr[2] * mpars[m, 3] * wR)
+    t = (thr[0] * mpars[mb + 1] * wR, thr[1] * mpars[mb + 2] * wR, thr[2] * mpars[mb + 3] * wR)
     if max(t[0], t[1], t[2]) > cutoff and top < STACK:
         top = _push(p, ng, mag, stack, top, wr, t, depth + 1)
     if T > 0.0:
-        t = (thr[0] * mpars[m, 1] * wT, thr[1] * mpars[m, 2] * wT, thr[2] * mpars[m, 3] * wT)
+        t = (thr[0] * mpars[mb + 1] * wT, thr[1] * mpars[mb + 2] * wT, thr[2] * mpars[mb + 3] * wT)
         if max(t[0], t[1], t[2]) > cutoff and top < STACK:
             top = _push(p, ng, mag, stack, top, wt, t, depth + 1)
     return top, dim
@@ -279,39 +296,42 @@ def _push(p, ng, mag, stack, top, d, thr, depth):
     if ln > 0.0:
         d0, d1, d2 = d0 / ln, d1 / ln, d2 / ln
     o = round_away(p, mag, 1.0 if d0 * ng[0] + d1 * ng[1] + d2 * ng[2] >= 0.0 else -1.0, ng)
-    stack[top, 0], stack[top, 1], stack[top, 2] = o
-    stack[top, 3], stack[top, 4], stack[top, 5] = d0, d1, d2
-    stack[top, 6], stack[top, 7], stack[top, 8] = thr
-    stack[top, 9] = depth
+    row = STACK_ROW * top
+    stack[row], stack[row + 1], stack[row + 2] = o
+    stack[row + 3], stack[row + 4], stack[row + 5] = d0, d1, d2
+    stack[row + 6], stack[row + 7], stack[row + 8] = thr
+    stack[row + 9] = depth
     return top + 1
 
 
 @numba.njit(nogil=True, cache=True, error_model="numpy")
-def trace_stack(scene, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, opts, optf,
-                key, dim, stack, top, ray_buf, counters, r0, r1, r2):
+def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, opts, optf, key, dim, stack,
+                top, ray_buf, counters, r0, r1, r2):
     """Trace the specular rays on ``stack`` (and those they spawn) with single-ray queries: the deeper bounces of
-    one camera sample; returns the radiance ``(r0, r1, r2)`` plus theirs. Everything per ray is local."""
+    one camera sample; returns the radiance ``(r0, r1, r2)`` plus theirs. Everything per ray is local; every table,
+    the stack and the ray buffer are pointers (:func:`pyrt.core.unmanaged.pointer`)."""
     fallback = opts[O_FALLBACK] != 0
     terminator = opts[O_TERMINATOR] != 0
     split, cutoff, max_depth, nl = opts[O_SPLIT], optf[F_CUTOFF], opts[O_MAX_DEPTH], opts[O_NLIGHTS]
     n_sec = n_sh = 0
     while top > 0:
         top -= 1
-        thr = (stack[top, 6], stack[top, 7], stack[top, 8])
-        depth = int(stack[top, 9])
-        d0, d1, d2 = stack[top, 3], stack[top, 4], stack[top, 5]
+        row = STACK_ROW * top
+        thr = (stack[row + 6], stack[row + 7], stack[row + 8])
+        depth = int(stack[row + 9])
+        d0, d1, d2 = stack[row + 3], stack[row + 4], stack[row + 5]
         n_sec += 1
-        hit, _, prim, geom, u, v, _, _, _ = E.intersect1(scene, stack[top, 0], stack[top, 1], stack[top, 2],
-                                                         d0, d1, d2, 0.0, T_INF, ray_buf)
+        hit, _, prim, geom, u, v, _, _, _ = E.intersect1(scene, stack[row], stack[row + 1], stack[row + 2], d0, d1,
+                                                         d2, 0.0, T_INF, ray_buf)
         if not hit:
             r0 += thr[0] * optf[F_BG]
             r1 += thr[1] * optf[F_BG + 1]
             r2 += thr[2] * optf[F_BG + 2]
             continue
         wo = (-d0, -d1, -d2)
-        p, ng, ns, nv, lift, mag, mag_lift, front, face, uv = hit_surface(geo_f, geo_i, fallback, terminator, geom,
-                                                                          prim, u, v, wo)
-        m = geo_i[2][face, 0]
+        p, ng, ns, nv, lift, mag, mag_lift, front, face, uv = hit_surface(G, fallback, terminator, geom, prim, u, v,
+                                                                          wo)
+        m = G[8][face]
         mtag = mats_tag[m]
         albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1])
         le0, le1, le2 = emitted(mtag, mats_par, m, albedo, optf)
@@ -337,6 +357,29 @@ def trace_stack(scene, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, light
     return r0, r1, r2
 
 
+@_njit
+def geometry_pointers(geo_f, geo_i):
+    """The geometry tables (:class:`pyrt.integrators.compiled.CompiledScene`'s ``geo_f``, ``geo_i``) as the tuple of
+    pointers :func:`hit_surface` reads: vertices, vertex normals, UVs, face normals, face absmax, face extents
+    (float64), faces, mesh face offsets, face materials, face smooth flags (int64)."""
+    return (U.pointer(geo_f[0]), U.pointer(geo_f[1]), U.pointer(geo_f[2]), U.pointer(geo_f[3]), U.pointer(geo_f[4]),
+            U.pointer(geo_f[5]), U.pointer(geo_i[0]), U.pointer(geo_i[1]), U.pointer(geo_i[2]), U.pointer(geo_i[3]))
+
+
+@_njit
+def lane_vec(V, field, lane):
+    """The 3-vector at ``field`` of lane ``lane`` of the packet scratch."""
+    return V[field * LANES + lane], V[(field + 1) * LANES + lane], V[(field + 2) * LANES + lane]
+
+
+@_njit
+def set_lane_vec(V, field, lane, x):
+    """Store the 3-tuple ``x`` at ``field`` of lane ``lane`` of the packet scratch."""
+    V[field * LANES + lane] = x[0]
+    V[(field + 1) * LANES + lane] = x[1]
+    V[(field + 2) * LANES + lane] = x[2]
+
+
 @numba.njit(nogil=True, cache=True, error_model="numpy")
 def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par,
                 opts, optf, sums, sqs, counters, width):
@@ -348,33 +391,37 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
     A packet goes through stages, each a short loop over its lanes whose values pass between stages in the
     scratch ``V`` (field-major: one field of all lanes is contiguous), so that the lanes' work overlaps and the
     compiler can vectorise: camera rays, the hits' surfaces, per light the shadow rays (then one occlusion query),
-    the specular trees, the film."""
-    # every array the per-sample code binds is an unmanaged view (pyrt.core.unmanaged: no atomic reference counting);
-    # the arrays allocated here are kept alive by their last use at the end of the function
+    the specular trees, the film. The per-sample code reads every array through a pointer
+    (:func:`pyrt.core.unmanaged.pointer`): it binds no array, so it makes no reference-counting calls."""
     pk_own, sh_own, ray_own = E.packet_alloc(width), E.packet_alloc(width), E.ray_alloc()
     scratch = np.zeros(V_SIZE * LANES)
-    stack_own = np.zeros((STACK, 10))
+    stack_own = np.zeros(STACK * STACK_ROW)
     keys_own = np.zeros(LANES, dtype=np.uint64)
-    pk, sh, ray_buf = U(pk_own), U(sh_own), U(ray_own)
-    V, stack, keys = U(scratch), U(stack_own), U(keys_own)
-    cam, opts, optf, sums, sqs, counters = U(cam), U(opts), U(optf), U(sums), U(sqs), U(counters)
-    mats_tag, mats_par, tex_tag, tex_par = U(mats_tag), U(mats_par), U(tex_tag), U(tex_par)
-    lights_tag, lights_par = U(lights_tag), U(lights_par)
-    geo_f = (U(geo_f[0]), U(geo_f[1]), U(geo_f[2]), U(geo_f[3]), U(geo_f[4]), U(geo_f[5]))
-    geo_i = (U(geo_i[0]), U(geo_i[1]), U(geo_i[2]), U(geo_i[3]))
-    fmat = geo_i[2]
+    # pointers into arrays that outlive this function's loops (the arguments; the arrays above, kept alive below)
+    pk, sh, ray_buf = U.pointer(pk_own), U.pointer(sh_own), U.pointer(ray_own)
+    V, stack, keys = U.pointer(scratch), U.pointer(stack_own), U.pointer(keys_own)
+    cam, opts, optf = U.pointer(cam), U.pointer(opts), U.pointer(optf)
+    mats_tag, mats_par = U.pointer(mats_tag), U.pointer(mats_par)
+    tex_tag, tex_par = U.pointer(tex_tag), U.pointer(tex_par)
+    lights_tag, lights_par = U.pointer(lights_tag), U.pointer(lights_par)
+    cnt = U.pointer(counters)
+    G = geometry_pointers(geo_f, geo_i)
+    fmat = G[8]
+    w = width
     W, H = int(cam[C_W]), int(cam[C_H])
     tiles_x = (W + TILE - 1) // TILE
     x0, y0 = (tile % tiles_x) * TILE, (tile // tiles_x) * TILE
     spp, spp_lo, grid = opts[O_SPP], opts[O_SPP_LO], opts[O_GRID]
+    centre = spp == 1 and cam[C_JITTER] == 0.0
+    ginv = 1.0 / max(grid, 1)
     seed = opts[O_SEED]
     nl = opts[O_NLIGHTS]
     max_depth, split, cutoff = opts[O_MAX_DEPTH], opts[O_SPLIT], optf[F_CUTOFF]
     fallback = opts[O_FALLBACK] != 0
     terminator = opts[O_TERMINATOR] != 0
     bg = (optf[F_BG], optf[F_BG + 1], optf[F_BG + 2])
-    E.packet_prepare(pk, cam[C_POS], cam[C_POS + 1], cam[C_POS + 2])
-    E.packet_prepare(sh, 0.0, 0.0, 0.0)
+    E.packet_prepare(pk, w, cam[C_POS], cam[C_POS + 1], cam[C_POS + 2])
+    E.packet_prepare(sh, w, 0.0, 0.0, 0.0)
     n_prim = n_shadow = n_bad = 0
     for py in range(y0, min(y0 + TILE, H)):
         for px in range(x0, min(x0 + TILE, W)):
@@ -382,98 +429,101 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
             pkey = J.pixel_key(seed, pix)
             perm_seed = np.int64(pkey & np.uint64(0x7FFFFFFF))
             s0_ = s1_ = s2_ = q0 = q1 = q2 = 0.0
-            for s0 in range(spp_lo, spp, width):
-                n = min(width, spp - s0)
-                # camera rays (arithmetic only)
+            for s0 in range(spp_lo, spp, w):
+                n = min(w, spp - s0)
+                # camera rays: arithmetic only, no branch (vectorised); the Latin-hypercube case in its own loop
+                if grid > 0:
+                    for lane in range(n):
+                        s = s0 + lane
+                        key = J.sample_key(pkey, s)
+                        keys[lane] = key
+                        u0, u1 = J.uniform_pair(key)
+                        cy = math.floor((s + 0.5) * ginv)
+                        ox, oy = (s - cy * grid + u0) * ginv, (cy + u1) * ginv
+                        ox, oy = (0.5, 0.5) if centre else (ox, oy)
+                        set_lane_vec(V, V_D, lane, camera_dir(cam, px + ox, py + oy))
+                else:
+                    for lane in range(n):
+                        s = s0 + lane
+                        key = J.sample_key(pkey, s)
+                        keys[lane] = key
+                        ox, oy = pixel_position(cam, spp, grid, s, key, perm_seed)
+                        set_lane_vec(V, V_D, lane, camera_dir(cam, px + ox, py + oy))
                 for lane in range(n):
-                    s = s0 + lane
-                    key = J.sample_key(pkey, s)
-                    keys[lane] = key
-                    ox, oy = pixel_position(cam, spp, grid, s, key, perm_seed)
-                    d = camera_dir(cam, px + ox, py + oy)
-                    for c in range(3):
-                        V[(V_D + c) * LANES + lane] = d[c]
-                    E.packet_set_dir(pk, lane, d[0], d[1], d[2], T_INF)
-                E.packet_activate(pk, n)
+                    d = lane_vec(V, V_D, lane)
+                    E.packet_set_dir(pk, w, lane, d[0], d[1], d[2], T_INF)
+                E.packet_activate(pk, w, n)
                 n_prim += n
-                E.intersect_packet(scene, pk, True)
-                # the hits' surfaces, albedo and emission (a miss: face 0 computed and dropped, no branch)
+                E.packet_query(scene, pk, w, True, False)
+                # the hits' surfaces, albedo and emission (a miss: face 0 computed and dropped)
                 any_diffuse = False
                 for lane in range(n):
-                    geom, prim = E.packet_geom_prim(pk, lane)
+                    geom, prim = E.packet_geom_prim(pk, w, lane)
                     hit = geom != -1
                     geom, prim = (geom, prim) if hit else (0, 0)
-                    u, v = E.packet_uv(pk, lane)
-                    wo = (-V[V_D * LANES + lane], -V[(V_D + 1) * LANES + lane], -V[(V_D + 2) * LANES + lane])
+                    u, v = E.packet_uv(pk, w, lane)
+                    d = lane_vec(V, V_D, lane)
                     p, ng, ns, nv, lift, mag, mag_lift, front, face, uv = hit_surface(
-                        geo_f, geo_i, fallback, terminator, geom, prim, u, v, wo)
-                    m = fmat[face, 0]
+                        G, fallback, terminator, geom, prim, u, v, (-d[0], -d[1], -d[2]))
+                    m = fmat[face]
                     mtag = mats_tag[m]
                     albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1])
                     le = emitted(mtag, mats_par, m, albedo, optf)
-                    any_diffuse |= hit and MC.has_diffuse(mtag)
-                    for c in range(3):
-                        V[(V_P + c) * LANES + lane] = p[c]
-                        V[(V_NG + c) * LANES + lane] = ng[c]
-                        V[(V_NS + c) * LANES + lane] = ns[c]
-                        V[(V_NV + c) * LANES + lane] = nv[c]
-                        V[(V_LIFT + c) * LANES + lane] = lift[c]
-                        V[(V_A + c) * LANES + lane] = albedo[c]
-                        V[(V_L + c) * LANES + lane] = le[c] if hit else bg[c]
+                    diffuse = hit and MC.has_diffuse(mtag)
+                    any_diffuse = any_diffuse or diffuse
+                    set_lane_vec(V, V_P, lane, p)
+                    set_lane_vec(V, V_NG, lane, ng)
+                    set_lane_vec(V, V_NS, lane, ns)
+                    set_lane_vec(V, V_NV, lane, nv)
+                    set_lane_vec(V, V_LIFT, lane, lift)
+                    set_lane_vec(V, V_A, lane, albedo)
+                    set_lane_vec(V, V_L, lane, le if hit else bg)
                     V[V_MAG * LANES + lane] = mag
                     V[V_MAG_LIFT * LANES + lane] = mag_lift
                     V[V_FRONT * LANES + lane] = 1.0 if front else 0.0
                     V[V_MAT * LANES + lane] = m if hit else -1
                 # direct light: per light, the packet's shadow rays in one masked query
                 for j in range(nl if any_diffuse else 0):
-                    E.packet_activate(sh, 0)
+                    E.packet_activate(sh, w, 0)
                     n_sh = 0
                     for lane in range(n):
                         m = int(V[V_MAT * LANES + lane])
                         mtag = mats_tag[max(m, 0)]
+                        d = lane_vec(V, V_D, lane)
                         ok, tmax, o, wi, f = direct_light(
-                            lights_tag, lights_par, j, mtag, mats_par, max(m, 0),
-                            (V[V_A * LANES + lane], V[(V_A + 1) * LANES + lane], V[(V_A + 2) * LANES + lane]),
-                            (V[V_P * LANES + lane], V[(V_P + 1) * LANES + lane], V[(V_P + 2) * LANES + lane]),
-                            (V[V_NG * LANES + lane], V[(V_NG + 1) * LANES + lane], V[(V_NG + 2) * LANES + lane]),
-                            (V[V_NS * LANES + lane], V[(V_NS + 1) * LANES + lane], V[(V_NS + 2) * LANES + lane]),
-                            (V[V_NV * LANES + lane], V[(V_NV + 1) * LANES + lane], V[(V_NV + 2) * LANES + lane]),
-                            (-V[V_D * LANES + lane], -V[(V_D + 1) * LANES + lane], -V[(V_D + 2) * LANES + lane]),
-                            (V[V_LIFT * LANES + lane], V[(V_LIFT + 1) * LANES + lane],
-                             V[(V_LIFT + 2) * LANES + lane]),
+                            lights_tag, lights_par, j, mtag, mats_par, max(m, 0), lane_vec(V, V_A, lane),
+                            lane_vec(V, V_P, lane), lane_vec(V, V_NG, lane), lane_vec(V, V_NS, lane),
+                            lane_vec(V, V_NV, lane), (-d[0], -d[1], -d[2]), lane_vec(V, V_LIFT, lane),
                             V[V_MAG * LANES + lane], V[V_MAG_LIFT * LANES + lane], terminator)
                         ok = ok and m >= 0 and MC.has_diffuse(mtag)
-                        for c in range(3):
-                            V[(V_F + c) * LANES + lane] = f[c]
+                        set_lane_vec(V, V_F, lane, f)
                         V[V_LIT * LANES + lane] = 1.0 if ok else 0.0
-                        E.packet_set_origin(sh, lane, o[0], o[1], o[2])
-                        E.packet_set_dir(sh, lane, wi[0], wi[1], wi[2], tmax)
-                        E.packet_set_active(sh, lane, ok)
+                        E.packet_set_origin(sh, w, lane, o[0], o[1], o[2])
+                        E.packet_set_dir(sh, w, lane, wi[0], wi[1], wi[2], tmax)
+                        E.packet_set_active(sh, w, lane, ok)
                         n_sh += ok
                     if n_sh == 0:
                         continue
                     n_shadow += n_sh
-                    E.occluded_packet(scene, sh, True)
+                    E.packet_query(scene, sh, w, True, True)
                     for lane in range(n):
-                        add = V[V_LIT * LANES + lane] != 0.0 and not E.packet_blocked(sh, lane)
+                        add = V[V_LIT * LANES + lane] != 0.0 and not E.lane_blocked(sh, w, lane)
                         for c in range(3):
                             V[(V_L + c) * LANES + lane] += V[(V_F + c) * LANES + lane] if add else 0.0
                 # the specular tree of each sample, then the film
                 for lane in range(n):
-                    l0, l1, l2 = V[V_L * LANES + lane], V[(V_L + 1) * LANES + lane], V[(V_L + 2) * LANES + lane]
+                    l0, l1, l2 = lane_vec(V, V_L, lane)
                     m = int(V[V_MAT * LANES + lane])
                     if m >= 0 and max_depth > 0 and MC.has_delta(mats_tag[m]):
-                        top, dim = spawn(
-                            (V[V_P * LANES + lane], V[(V_P + 1) * LANES + lane], V[(V_P + 2) * LANES + lane]),
-                            (V[V_NG * LANES + lane], V[(V_NG + 1) * LANES + lane], V[(V_NG + 2) * LANES + lane]),
-                            (V[V_NS * LANES + lane], V[(V_NS + 1) * LANES + lane], V[(V_NS + 2) * LANES + lane]),
-                            (-V[V_D * LANES + lane], -V[(V_D + 1) * LANES + lane], -V[(V_D + 2) * LANES + lane]),
-                            V[V_FRONT * LANES + lane] != 0.0, V[V_MAG * LANES + lane], mats_tag[m], mats_par, m,
-                            (1.0, 1.0, 1.0), 0, split, cutoff, keys[lane], DIM_LOBE, stack, 0)
+                        d = lane_vec(V, V_D, lane)
+                        top, dim = spawn(lane_vec(V, V_P, lane), lane_vec(V, V_NG, lane), lane_vec(V, V_NS, lane),
+                                         (-d[0], -d[1], -d[2]), V[V_FRONT * LANES + lane] != 0.0,
+                                         V[V_MAG * LANES + lane], mats_tag[m], mats_par, m, (1.0, 1.0, 1.0), 0, split,
+                                         cutoff, keys[lane], DIM_LOBE, stack, 0)
                         if top > 0:
-                            l0, l1, l2 = trace_stack(scene, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par,
-                                                     lights_tag, lights_par, opts, optf, keys[lane], dim, stack, top,
-                                                     ray_buf, counters, l0, l1, l2)
+                            l0, l1, l2 = trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag,
+                                                     lights_par, opts, optf, keys[lane], dim, stack, top, ray_buf,
+                                                     cnt, l0, l1, l2)
                     if not (math.isfinite(l0) and math.isfinite(l1) and math.isfinite(l2)):
                         n_bad += 1
                         l0 = l1 = l2 = 0.0
@@ -489,10 +539,10 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
             sqs[pix, 0] += q0
             sqs[pix, 1] += q1
             sqs[pix, 2] += q2
-    counters[N_PRIMARY] += n_prim
-    counters[N_SHADOW] += n_shadow
-    counters[N_NONFINITE] += n_bad
-    # the owners of the unmanaged views live until here
+    cnt[N_PRIMARY] += n_prim
+    cnt[N_SHADOW] += n_shadow
+    cnt[N_NONFINITE] += n_bad
+    # the owners of the pointers live until here
     keep_alive(pk_own)
     keep_alive(sh_own)
     keep_alive(ray_own)

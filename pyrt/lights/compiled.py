@@ -31,19 +31,22 @@ POINT, SPOT, DIRECTIONAL = 1, 2, 3
 
 @register_jitable(inline="always")
 def sample_li(tag, pars, j, px, py, pz):
-    """Sample light ``j`` (tag ``tag``, record ``pars[j]``) from the point ``p``: ``(wx, wy, wz, dist, scale)``, ``w``
-    the unit direction toward the light, the irradiance ``E = scale * pars[j, 6:9]`` (scale 0: no light, and no
-    shadow ray to trace)."""
+    """Sample light ``j`` (tag ``tag``; ``pars`` the record table's flat data, :func:`pyrt.core.unmanaged.pointer`:
+    its record at ``j * RECORD``) from the point ``p``: ``(wx, wy, wz, dist, scale)``, ``w`` the unit direction toward
+    the light, the irradiance ``E = scale * (record[6], record[7], record[8])`` (scale 0: no light, and no shadow ray
+    to trace)."""
+    b = j * RECORD
     if tag == DIRECTIONAL:
-        return -pars[j, 3], -pars[j, 4], -pars[j, 5], math.inf, 1.0
-    dx, dy, dz = pars[j, 0] - px, pars[j, 1] - py, pars[j, 2] - pz
+        return -pars[b + 3], -pars[b + 4], -pars[b + 5], math.inf, 1.0
+    dx, dy, dz = pars[b] - px, pars[b + 1] - py, pars[b + 2] - pz
     dist = math.sqrt(dx * dx + dy * dy + dz * dz)
     inv = 1.0 / dist if dist > 0.0 else 0.0
     wx, wy, wz = dx * inv, dy * inv, dz * inv
-    s = J.distance_falloff(int(pars[j, 13]), dist, pars[j, 14], pars[j, 15], pars[j, 16], pars[j, 17], pars[j, 18])
+    s = J.distance_falloff(int(pars[b + 13]), dist, pars[b + 14], pars[b + 15], pars[b + 16], pars[b + 17],
+                           pars[b + 18])
     if tag == SPOT and s > 0.0:
-        cos_theta = -(wx * pars[j, 3] + wy * pars[j, 4] + wz * pars[j, 5])
-        s *= J.spot_falloff(int(pars[j, 11]), cos_theta, pars[j, 9], pars[j, 10])
+        cos_theta = -(wx * pars[b + 3] + wy * pars[b + 4] + wz * pars[b + 5])
+        s *= J.spot_falloff(int(pars[b + 11]), cos_theta, pars[b + 9], pars[b + 10])
     return wx, wy, wz, dist, s
 
 

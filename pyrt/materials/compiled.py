@@ -16,6 +16,8 @@ MIRROR        0-2 reflectance (constant RGB)
 GLASS         0 ior, 1-3 tint (constant RGB)
 ============  ===================================================================================
 
+The kernel reads the record table through its flat data (:func:`pyrt.core.unmanaged.pointer`: material ``m``'s
+record at ``pars[m * RECORD:]``; a pointer binds no array, so the per-sample code pays no reference counting).
 The formulas are the scalar twins in :mod:`pyrt.shaders.jit` of the NumPy kernels the materials use.
 """
 from __future__ import annotations
@@ -36,10 +38,11 @@ LAMBERT, BLINN_PHONG, MIRROR, GLASS = 1, 2, 3, 4
 
 @register_jitable(inline="always")
 def color_slot(pars, m, k, tex_tag, tex_par, u, v):
-    """The colour (an RGB tuple) of the slot at ``pars[m, k:k + 4]`` at uv ``(u, v)``."""
-    t = int(pars[m, k])
+    """The colour (an RGB tuple) of the slot at ``k`` of material ``m``'s record at uv ``(u, v)``."""
+    b = m * RECORD + k
+    t = int(pars[b])
     if t < 0:
-        return pars[m, k + 1], pars[m, k + 2], pars[m, k + 3]
+        return pars[b + 1], pars[b + 2], pars[b + 3]
     return texture_rgb(tex_tag, tex_par, t, u, v)
 
 
@@ -57,7 +60,7 @@ def has_delta(tag):
 
 @register_jitable(inline="always")
 def f_cos(tag, pars, m, albedo, cos_o, cos_i, cos_io):
-    """BRDF times cos(theta_i) (an RGB tuple) of material ``m`` (tag ``tag``, record ``pars[m]``) for the cosines
+    """BRDF times cos(theta_i) (an RGB tuple) of material ``m`` (tag ``tag``) for the cosines
     ``n.wo``, ``n.wi``, ``wo.wi`` (shading normal); ``albedo`` (RGB tuple) is the material's diffuse colour at the
     hit (:func:`albedo_at`). Zero below either horizon.
 
@@ -69,9 +72,10 @@ def f_cos(tag, pars, m, albedo, cos_o, cos_i, cos_io):
     if tag == LAMBERT:
         k = c / math.pi
         return albedo[0] * k, albedo[1] * k, albedo[2] * k
-    spec = J.blinn_phong_spec(cos_o, cos_i, cos_io, pars[m, 7])
-    return ((albedo[0] / math.pi + pars[m, 4] * spec) * c, (albedo[1] / math.pi + pars[m, 5] * spec) * c,
-            (albedo[2] / math.pi + pars[m, 6] * spec) * c)
+    b = m * RECORD
+    spec = J.blinn_phong_spec(cos_o, cos_i, cos_io, pars[b + 7])
+    return ((albedo[0] / math.pi + pars[b + 4] * spec) * c, (albedo[1] / math.pi + pars[b + 5] * spec) * c,
+            (albedo[2] / math.pi + pars[b + 6] * spec) * c)
 
 
 @register_jitable(inline="always")

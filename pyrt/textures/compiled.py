@@ -22,10 +22,13 @@ CHECKER_UV = 1
 
 @register_jitable(inline="always")
 def texture_rgb(tags, pars, t, u, v):
-    """Texture ``t`` of the table ``(tags, pars)`` at uv ``(u, v)``: an RGB tuple (tables are indexed, never sliced: a
-    view in a per-sample loop costs two atomic reference-count updates)."""
+    """Texture ``t`` of the table ``(tags, pars)`` at uv ``(u, v)``: an RGB tuple. ``pars`` is the record table's
+    flat data (:func:`pyrt.core.unmanaged.pointer`: row ``t`` at ``t * RECORD``; a pointer binds no array, so the
+    per-sample code pays no reference counting). Branch-free but for the tag: the cell parity without ``%``."""
+    b = t * RECORD
     if tags[t] == CHECKER_UV:
-        odd = (math.floor(u * pars[t, 6]) + math.floor(v * pars[t, 7])) % 2.0
-        return (pars[t, 0] + (pars[t, 3] - pars[t, 0]) * odd, pars[t, 1] + (pars[t, 4] - pars[t, 1]) * odd,
-                pars[t, 2] + (pars[t, 5] - pars[t, 2]) * odd)
+        cells = math.floor(u * pars[b + 6]) + math.floor(v * pars[b + 7])
+        odd = cells - 2.0 * math.floor(0.5 * cells)
+        return (pars[b] + (pars[b + 3] - pars[b]) * odd, pars[b + 1] + (pars[b + 4] - pars[b + 1]) * odd,
+                pars[b + 2] + (pars[b + 5] - pars[b + 2]) * odd)
     return 0.0, 0.0, 0.0
