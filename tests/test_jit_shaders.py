@@ -7,6 +7,7 @@ too); tests/test_compiled_render.py checks them compiled, inside whole renders.
 """
 import math
 
+import numba
 import numpy as np
 import pytest
 
@@ -112,6 +113,18 @@ def test_float32_step_is_round_away(rng):
     got = np.array(got)
     np.testing.assert_array_equal(got, want)      # (equal values: -1e-45 stepped up is +0.0 here, -0.0 there)
     assert np.array_equal(got.view(np.int64)[got != 0], want.view(np.int64)[want != 0])
+
+
+def test_float32_step_of_infinities_and_nan():
+    """Its branch-free form keeps np.nextafter's answers at the ends: an infinity stays outward and becomes the largest
+    float32 inward; NaN stays NaN (in Python and compiled)."""
+    step = numba.njit(lambda x, d: J.float32_step(x, d))
+    for x in (np.inf, -np.inf, np.nan):
+        for d in (1.0, -1.0):
+            want = np.float64(np.nextafter(np.float32(x), np.float32(d * np.inf)))
+            for f in (J.float32_step, step):
+                got = f(x, d)
+                assert (np.isnan(got) and np.isnan(want)) or got == want, (x, d, got, want)
 
 
 def test_gamma_matches_offsets():
