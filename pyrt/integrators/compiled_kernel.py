@@ -243,10 +243,11 @@ def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, thr, depth, split, cutoff, 
     mb = m * MC.RECORD
     cos_o = dot(wo, ns)
     wr = (2.0 * cos_o * ns[0] - wo[0], 2.0 * cos_o * ns[1] - wo[1], 2.0 * cos_o * ns[2] - wo[2])
-    if mtag == MC.MIRROR:
+    if mtag != MC.GLASS:                       # mirror-like: one reflection lobe (MC.mirror_weight)
         if not dot(wr, ng) > 0.0:
             return top, dim
-        t = (thr[0] * mpars[mb], thr[1] * mpars[mb + 1], thr[2] * mpars[mb + 2])
+        w = MC.mirror_weight(mtag, mpars, m, cos_o)
+        t = (thr[0] * w[0], thr[1] * w[1], thr[2] * w[2])
         if max(t[0], t[1], t[2]) > cutoff and top < STACK:
             top = _push(p, ng, mag, stack, top, wr, t, depth + 1)
         return top, dim

@@ -59,6 +59,14 @@ def has_delta(tag):
 
 
 @register_jitable(inline="always")
+def mirror_weight(tag, pars, m, cos_o):
+    """The RGB weight of the one reflection lobe of a mirror-like material ``m`` (not GLASS, whose two lobes the
+    kernel's ``spawn`` computes) at ``cos_o = n.wo``: MIRROR's constant reflectance."""
+    b = m * RECORD
+    return pars[b], pars[b + 1], pars[b + 2]
+
+
+@register_jitable(inline="always")
 def f_cos(tag, pars, m, albedo, cos_o, cos_i, cos_io):
     """BRDF times cos(theta_i) (an RGB tuple) of material ``m`` (tag ``tag``) for the cosines
     ``n.wo``, ``n.wi``, ``wo.wi`` (shading normal); ``albedo`` (RGB tuple) is the material's diffuse colour at the
