@@ -9,12 +9,24 @@ NumPy path (the whole render falls back; ``result.stats.backend`` says which pat
 
 Record layouts (offsets into the record):
 
-============  ===================================================================================
-LAMBERT       0-3 albedo slot, 4-6 emission (constant RGB)
-BLINN_PHONG   0-3 kd slot, 4-6 ks (constant RGB), 7 exponent
-MIRROR        0-2 reflectance (constant RGB)
-GLASS         0 ior, 1-3 tint (constant RGB)
-============  ===================================================================================
+===================  ============================================================================================
+LAMBERT              0-3 albedo slot, 4-6 emission (constant RGB)
+BLINN_PHONG          0-3 kd slot, 4-6 ks (constant RGB), 7 exponent
+MIRROR               0-2 reflectance (constant RGB)
+GLASS                0 ior, 1-3 tint (constant RGB)
+CONDUCTOR            0-3 albedo slot (zero), 4-6 eta, 7-9 k (exact conductor Fresnel of the mirror lobe)
+PHONG, PHONG_CLASSIC,
+BLINN_PHONG_CLASSIC  0-3 albedo slot (constant: ``albedo()``, what the ambient term uses), 4-6 kd, 7-9 ks,
+                     10 exponent
+OREN_NAYAR           0-3 albedo slot, 4-6 albedo, 7 sigma (radians)
+WARD                 0-3 albedo slot, 4-6 kd, 7-9 ks, 10 alpha (isotropic), 11 variant
+COOK_TORRANCE        0-3 albedo slot, 4-6 kd, 7-9 ks, 10 alpha, 11 distribution, 12 geometry, 13 Fresnel model,
+                     14-16 f0 / ior / eta, 17-19 k (:func:`pyrt.shaders.jit_brdfs.cook_torrance_f_cos`)
+METALLIC_ROUGHNESS   0-3 albedo slot, 4-6 base colour, 7 metallic, 8 roughness, 9 geometry (also LearnOpenGLPBR)
+===================  ============================================================================================
+
+The models after BLINN_PHONG have constant parameters only (a textured one is not compiled); their formulas are the
+scalar twins in :mod:`pyrt.shaders.jit_brdfs`, held to the NumPy materials' ``f_cos`` by tests/test_jit_brdfs.py.
 
 The kernel reads the record table through its flat data (:func:`pyrt.core.unmanaged.pointer`: material ``m``'s
 record at ``pars[m * RECORD:]``; a pointer binds no array, so the per-sample code pays no reference counting).
@@ -28,12 +40,14 @@ import numpy as np
 from numba.extending import register_jitable
 
 from pyrt.shaders import jit as J
+from pyrt.shaders import jit_brdfs as JB
 from pyrt.textures.compiled import texture_rgb
 
 #: parameters per material record
-RECORD = 8
+RECORD = 20
 #: type tags (0 is no material)
-LAMBERT, BLINN_PHONG, MIRROR, GLASS = 1, 2, 3, 4
+LAMBERT, BLINN_PHONG, MIRROR, GLASS, CONDUCTOR = 1, 2, 3, 4, 5
+PHONG, PHONG_CLASSIC, BLINN_PHONG_CLASSIC, OREN_NAYAR, WARD, COOK_TORRANCE, METALLIC_ROUGHNESS = 6, 7, 8, 9, 10, 11, 12
 
 
 @register_jitable(inline="always")
@@ -49,20 +63,24 @@ def color_slot(pars, m, k, tex_tag, tex_par, u, v):
 @register_jitable(inline="always")
 def has_diffuse(tag):
     """True for materials lit by the lights (a non-delta lobe)."""
-    return tag == LAMBERT or tag == BLINN_PHONG
+    return tag == LAMBERT or tag == BLINN_PHONG or tag >= PHONG
 
 
 @register_jitable(inline="always")
 def has_delta(tag):
     """True for materials that spawn specular rays."""
-    return tag == MIRROR or tag == GLASS
+    return tag == MIRROR or tag == GLASS or tag == CONDUCTOR
 
 
 @register_jitable(inline="always")
 def mirror_weight(tag, pars, m, cos_o):
     """The RGB weight of the one reflection lobe of a mirror-like material ``m`` (not GLASS, whose two lobes the
-    kernel's ``spawn`` computes) at ``cos_o = n.wo``: MIRROR's constant reflectance."""
+    kernel's ``spawn`` computes) at ``cos_o = n.wo``: MIRROR's constant reflectance, CONDUCTOR's exact Fresnel
+    reflectance (:func:`pyrt.materials.Conductor.reflectance`)."""
     b = m * RECORD
+    if tag == CONDUCTOR:
+        return JB.conductor_delta_weight(cos_o, pars[b + 4], pars[b + 5], pars[b + 6], pars[b + 7], pars[b + 8],
+                                         pars[b + 9])
     return pars[b], pars[b + 1], pars[b + 2]
 
 
@@ -77,6 +95,8 @@ def f_cos(tag, pars, m, albedo, cos_o, cos_i, cos_io):
     c = J.upper_cos(cos_o, cos_i)
     if c == 0.0:
         return 0.0, 0.0, 0.0
+    if tag > BLINN_PHONG:
+        return _f_cos_library(tag, pars, m * RECORD, cos_o, cos_i, cos_io)
     if tag == LAMBERT:
         k = c / math.pi
         return albedo[0] * k, albedo[1] * k, albedo[2] * k
@@ -86,11 +106,39 @@ def f_cos(tag, pars, m, albedo, cos_o, cos_i, cos_io):
             (albedo[2] / math.pi + pars[b + 6] * spec) * c)
 
 
+@register_jitable
+def _f_cos_library(tag, p, b, cos_o, cos_i, cos_io):
+    """f_cos of the models with constant parameters (not inlined: their microfacet terms are long; float arguments
+    only, so the call costs no reference counting) for the record at ``p[b:]``."""
+    if tag == PHONG:
+        return JB.phong_f_cos(cos_o, cos_i, cos_io, p[b + 4], p[b + 5], p[b + 6], p[b + 7], p[b + 8], p[b + 9],
+                              p[b + 10])
+    if tag == PHONG_CLASSIC:
+        return JB.phong_classic_f_cos(cos_o, cos_i, cos_io, p[b + 4], p[b + 5], p[b + 6], p[b + 7], p[b + 8],
+                                      p[b + 9], p[b + 10])
+    if tag == BLINN_PHONG_CLASSIC:
+        return JB.blinn_phong_classic_f_cos(cos_o, cos_i, cos_io, p[b + 4], p[b + 5], p[b + 6], p[b + 7], p[b + 8],
+                                            p[b + 9], p[b + 10])
+    if tag == OREN_NAYAR:
+        return JB.oren_nayar_f_cos(cos_o, cos_i, cos_io, p[b + 4], p[b + 5], p[b + 6], p[b + 7])
+    if tag == WARD:
+        return JB.ward_f_cos(cos_o, cos_i, cos_io, p[b + 4], p[b + 5], p[b + 6], p[b + 7], p[b + 8], p[b + 9],
+                             p[b + 10], int(p[b + 11]))
+    if tag == COOK_TORRANCE:
+        return JB.cook_torrance_f_cos(cos_o, cos_i, cos_io, p[b + 4], p[b + 5], p[b + 6], p[b + 7], p[b + 8],
+                                      p[b + 9], p[b + 10], int(p[b + 11]), int(p[b + 12]), int(p[b + 13]),
+                                      p[b + 14], p[b + 15], p[b + 16], p[b + 17], p[b + 18], p[b + 19])
+    if tag == METALLIC_ROUGHNESS:
+        return JB.metallic_roughness_f_cos(cos_o, cos_i, cos_io, p[b + 4], p[b + 5], p[b + 6], p[b + 7], p[b + 8],
+                                           int(p[b + 9]))
+    return 0.0, 0.0, 0.0
+
+
 @register_jitable(inline="always")
 def albedo_at(tag, pars, m, tex_tag, tex_par, u, v):
-    """The diffuse colour (Lambert albedo, Blinn-Phong kd; an RGB tuple) of material ``m`` at uv ``(u, v)``; zeros
-    for the others."""
-    if tag == LAMBERT or tag == BLINN_PHONG:
+    """The diffuse colour (Lambert albedo, Blinn-Phong kd, the library models' constant ``albedo()``; an RGB tuple)
+    of material ``m`` at uv ``(u, v)``; zeros for the others."""
+    if tag == LAMBERT or tag == BLINN_PHONG or tag >= CONDUCTOR:
         return color_slot(pars, m, 0, tex_tag, tex_par, u, v)
     return 0.0, 0.0, 0.0
 
@@ -104,3 +152,29 @@ def constant_slot(value):
 def empty_record():
     """A zero parameter record."""
     return np.zeros(RECORD)
+
+
+class _OneHit:
+    """The context of one hit, for the constant parameters of a material (``Material.param`` reads ``n_hits``)."""
+
+    n_hits = 1
+
+
+#: what a material's constant parameters are evaluated on when it packs its record
+ONE_HIT = _OneHit()
+
+
+def library_record(material, tag, params):
+    """``(tag, record)`` of a model with constant parameters: its constant ``albedo()`` in the colour slot (what the
+    ambient term multiplies; zeros when it has none), ``params`` from offset 4."""
+    rec = empty_record()
+    albedo = np.asarray(material.albedo(ONE_HIT), dtype=np.float64).reshape(-1, 3)[0] if material.has_diffuse \
+        else np.zeros(3)
+    rec[0:4] = [-1.0, *albedo.tolist()]
+    rec[4:4 + len(params)] = params
+    return tag, rec
+
+
+def rgb(value):
+    """A constant colour parameter (grey or RGB) as three floats."""
+    return tuple(float(x) for x in np.broadcast_to(np.asarray(value, dtype=np.float64).reshape(-1), (3,)))

@@ -16,9 +16,10 @@ import math
 
 import numpy as np
 
-from pyrt.materials.base import DeltaLobe, IsotropicMaterial, Material, MaterialError, check_color, check_scalar, \
-    register
+from pyrt.materials.base import (DeltaLobe, IsotropicMaterial, Material, MaterialError, check_color, check_scalar,
+                                 is_texture, register)
 from pyrt.materials.library import MetallicRoughness, conductor_eta_k
+from pyrt.materials import compiled as _compiled
 from pyrt.shaders import brdfs
 from pyrt.shaders import fresnel
 from pyrt.shaders.vec import reflect
@@ -56,6 +57,10 @@ class Conductor(Material):
     def reflectance(self, cos_o):
         """Fresnel reflectance (N, 3) at the cosines ``cos_o`` (N,) of the viewing direction."""
         return fresnel.fr_conductor(cos_o, self.eta, self.k)
+
+    def compiled_record(self, pack_texture):
+        """:data:`pyrt.materials.compiled.CONDUCTOR`: the exact conductor Fresnel of ``eta``, ``k`` (per channel)."""
+        return _compiled.library_record(self, _compiled.CONDUCTOR, [*_compiled.rgb(self.eta), *_compiled.rgb(self.k)])
 
     def delta_lobes(self, wo, ctx, *, eta=None):
         """The mirror lobe ``reflect(wo)`` weighted by :meth:`reflectance` at ``cos theta_o``."""
@@ -98,6 +103,13 @@ class OrenNayar(IsotropicMaterial):
         self.albedo_value = check_color("albedo", albedo, self.label, lo=0.0, hi=1.0)
         self.sigma = check_scalar("sigma", 0.35 if sigma is None else sigma, self.label, lo=0.0, hi=math.pi / 2)
 
+    def compiled_record(self, pack_texture):
+        """:data:`pyrt.materials.compiled.OREN_NAYAR` with a constant albedo and sigma."""
+        if is_texture(self.albedo_value) or is_texture(self.sigma):
+            return None
+        return _compiled.library_record(self, _compiled.OREN_NAYAR, [*_compiled.rgb(self.albedo_value),
+                                                                     float(self.sigma)])
+
     def f_cos_cosines(self, q):
         """:func:`pyrt.shaders.brdfs.oren_nayar_f_cos_cosines` for the query's lanes."""
         return brdfs.oren_nayar_f_cos_cosines(q.cos_o, q.cos_i, q.cos_io(), q.param(self, self.albedo_value),
@@ -130,3 +142,7 @@ class LearnOpenGLPBR(MetallicRoughness):
     def __init__(self, *, albedo=0.8, metallic=0.0, roughness=0.5, name=None):
         super().__init__(base_color=albedo, metallic=metallic, roughness=roughness, name=name)
         self.geometry = "schlick_ue4"
+
+    def compiled_record(self, pack_texture):
+        """:class:`pyrt.materials.MetallicRoughness`'s record (its ``schlick_ue4`` geometry term included)."""
+        return MetallicRoughness.compiled_record(self, pack_texture)

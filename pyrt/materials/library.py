@@ -11,10 +11,12 @@ from __future__ import annotations
 import numpy as np
 
 from pyrt.core import checks
+from pyrt.materials import compiled as _compiled
 from pyrt.materials import preview as _preview
 from pyrt.materials.base import Material, MaterialError, check_color, check_scalar, is_texture, register
 from pyrt.shaders import brdfs
 from pyrt.shaders import fresnel
+from pyrt.shaders import jit_brdfs as _JB
 from pyrt.shaders import metals as _metals
 from pyrt.shaders import microfacet as _mf
 from pyrt.shaders import sampling
@@ -181,6 +183,10 @@ class Phong(Material):
         return brdfs.phong_normalized_f_cos(wo, wi, self.param(self.kd, ctx), self.param(self.ks, ctx),
                                             self.param(self.exponent, ctx, 1))
 
+    def compiled_record(self, pack_texture):
+        """:data:`pyrt.materials.compiled.PHONG` with constant parameters."""
+        return _phong_record(self, _compiled.PHONG)
+
     def glossy_alpha(self, ctx):
         """``alpha`` of the Blinn lobe of exponent ``4 n`` (the half-angle is half the reflection angle)."""
         return _glossy_alpha(_mf.alpha_from_blinn_exponent(4.0 * self.param(self.exponent, ctx, 1)), ctx)
@@ -198,6 +204,8 @@ class _Classic(Material):
               "exponent": ("scalar", 0.0, None, False), "ka": ("color", 0.0, 1.0, False)}
 
     _kernel = None
+    #: the compiled kernel's tag of the model (:mod:`pyrt.materials.compiled`)
+    _tag = None
 
     def __init__(self, *, kd=0.5, ks=0.5, exponent=32.0, ka=None, name=None):
         self.name = name
@@ -215,6 +223,10 @@ class _Classic(Material):
         """``ka`` (defaults to ``kd``): the classic ambient reflection coefficient."""
         return np.array(self.param(self.ka, ctx))
 
+    def compiled_record(self, pack_texture):
+        """The model's tag in :mod:`pyrt.materials.compiled` with constant parameters (``ka`` in the albedo slot)."""
+        return None if is_texture(self.ka) else _phong_record(self, type(self)._tag)
+
 
 @register
 class PhongClassic(_Classic):
@@ -227,6 +239,7 @@ class PhongClassic(_Classic):
 
     type_name = "phong_classic"
     _kernel = staticmethod(brdfs.phong_classic_f_cos)
+    _tag = _compiled.PHONG_CLASSIC
 
 
 @register
@@ -239,6 +252,7 @@ class BlinnPhongClassic(_Classic):
 
     type_name = "blinn_phong_classic"
     _kernel = staticmethod(brdfs.blinn_phong_classic_f_cos)
+    _tag = _compiled.BLINN_PHONG_CLASSIC
 
 
 @register
@@ -302,6 +316,14 @@ class Ward(Material):
 
     def albedo(self, ctx):
         return np.array(self.param(self.kd, ctx))
+
+    def compiled_record(self, pack_texture):
+        """:data:`pyrt.materials.compiled.WARD`, isotropic (``alpha_x == alpha_y``: the tangent plays no part) with
+        constant parameters; the anisotropic lobe is not compiled."""
+        if any(is_texture(v) for v in (self.kd, self.ks, self.alpha_x, self.alpha_y)) or self.alpha_x != self.alpha_y:
+            return None
+        return _compiled.library_record(self, _compiled.WARD, [*_compiled.rgb(self.kd), *_compiled.rgb(self.ks),
+                                                               float(self.alpha_x), _WARD_VARIANTS.index(self.variant)])
 
 
 @register
@@ -380,6 +402,23 @@ class CookTorrance(_MicrofacetSampling, Material):
                                  eta=self.ior if self.fresnel == "dielectric" else self.eta, k=self.k)[0]
         return np.array(self.param(self.kd, ctx)) + np.array(self.param(self.ks, ctx)) * F0
 
+    def compiled_record(self, pack_texture):
+        """:data:`pyrt.materials.compiled.COOK_TORRANCE` with constant parameters (every distribution, geometry term
+        and Fresnel model)."""
+        if any(is_texture(v) for v in (self.kd, self.ks, self.rough)):
+            return None
+        alpha = float(np.ravel(self._alpha(_compiled.ONE_HIT))[0])
+        p, k = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        if self.fresnel == "schlick":
+            p = _compiled.rgb(self.f0)
+        elif self.fresnel == "dielectric":
+            p = _compiled.rgb(self.ior)
+        elif self.fresnel == "conductor":
+            p, k = _compiled.rgb(self.eta), _compiled.rgb(self.k)
+        return _compiled.library_record(self, _compiled.COOK_TORRANCE, [
+            *_compiled.rgb(self.kd), *_compiled.rgb(self.ks), alpha, _JB.DISTRIBUTIONS.index(self.distribution),
+            _JB.GEOMETRY_TERMS.index(self.geometry), _JB.FRESNEL_MODELS.index(self.fresnel), *p, *k])
+
 
 @register
 class MetallicRoughness(_MicrofacetSampling, Material):
@@ -424,6 +463,15 @@ class MetallicRoughness(_MicrofacetSampling, Material):
     def albedo(self, ctx):
         return np.array(self.param(self.base_color, ctx))
 
+    def compiled_record(self, pack_texture):
+        """:data:`pyrt.materials.compiled.METALLIC_ROUGHNESS` with constant parameters (its geometry term: also
+        :class:`pyrt.materials.LearnOpenGLPBR`'s)."""
+        if any(is_texture(v) for v in (self.base_color, self.metallic, self.roughness)):
+            return None
+        return _compiled.library_record(self, _compiled.METALLIC_ROUGHNESS, [
+            *_compiled.rgb(self.base_color), float(self.metallic), float(self.roughness),
+            _JB.GEOMETRY_TERMS.index(self.geometry)])
+
     def preview_lobes(self, ctx):
         """Split-sum lobes: diffuse ``(1 - m) base (1 - F0)(1 - E5)``, one GGX lobe of albedo ``F0 A + B``."""
         base = np.asarray(self.param(self.base_color, ctx))
@@ -434,3 +482,14 @@ class MetallicRoughness(_MicrofacetSampling, Material):
         diffuse = base * (1.0 - m) * (1.0 - f0) * (1.0 - _preview.schlick_diffuse_loss(mu))
         return _preview.PreviewLobes(diffuse, [_preview.GlossyLobe(_preview.schlick_albedo(f0, mu, alpha, self.geometry),
                                                                    alpha)])
+
+
+#: Ward's variants in the order of :data:`pyrt.shaders.jit_brdfs.WARD_VARIANTS`
+_WARD_VARIANTS = _JB.WARD_VARIANTS
+
+
+def _phong_record(m, tag):
+    """The compiled record of the Phong family (kd, ks, exponent), or None for textured parameters."""
+    if any(is_texture(v) for v in (m.kd, m.ks, m.exponent)):
+        return None
+    return _compiled.library_record(m, tag, [*_compiled.rgb(m.kd), *_compiled.rgb(m.ks), float(m.exponent)])
