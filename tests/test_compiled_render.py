@@ -197,3 +197,40 @@ def test_textured_and_anisotropic_library_materials_fall_back():
     textured = pyrt.Phong(kd=pyrt.CheckerTexture(0.1, 0.5, filtered=False), ks=0.2)
     for m in (aniso, textured):
         assert m.compiled_record(lambda t: 0) is None
+
+
+def test_the_kernel_cache_is_keyed_on_every_kernel_source():
+    """Numba's own cache checks only the file a kernel is in: the cache directory's name hashes every module the
+    kernel is built from (an edit anywhere, a new Numba, another Python: a fresh cache). Every module with compiled
+    code that the kernel module reaches by its imports must be in the list."""
+    import ast
+    import pathlib
+    from pyrt.integrators import kernel_cache
+
+    root = pathlib.Path(__file__).resolve().parents[1]
+    srcs = set(kernel_cache.KERNEL_SOURCES)
+    todo, seen = ["pyrt.integrators.compiled_kernel"], set()
+    while todo:
+        name = todo.pop()
+        if name in seen:
+            continue
+        seen.add(name)
+        rel = name.replace("pyrt.shaders", "shaders").replace(".", "/") + ".py"
+        text = (root / rel).read_text()
+        if "numba" not in text:          # plain Python (e.g. the accelerator): no code of it is compiled in
+            seen.discard(name)
+            continue
+        tree = ast.parse(text)
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("pyrt") and \
+                    node.module not in ("pyrt.integrators.kernel_cache",):
+                for alias in node.names:
+                    mod = f"{node.module}.{alias.name}"
+                    target = mod if (root / (mod.replace("pyrt.shaders", "shaders").replace(".", "/") + ".py")).exists() \
+                        else node.module
+                    todo.append(target)
+            elif isinstance(node, ast.ImportFrom) and node.level == 1 and name.startswith("pyrt.shaders"):
+                todo.append(f"pyrt.shaders.{node.module}")
+    kernel_modules = {m for m in seen if m != "pyrt.integrators.kernel_cache"}
+    assert kernel_modules <= srcs, sorted(kernel_modules - srcs)
+    assert len(kernel_cache.source_hash()) == 64
