@@ -47,3 +47,14 @@ def test_adaptive_equals_local(client):
 def test_bad_dask_argument():
     with pytest.raises(pyrt.RenderError, match="dask must be"):
         pyrt.render(_scene(4, 4), spp=1, dask=3.5)
+
+
+def test_compiled_render_on_dask_equals_local(client):
+    """A scene the compiled kernel covers renders as groups of tiles on the workers: the same film, bit for bit."""
+    from test_compiled_render import _scene as compiled_scene
+    scene = compiled_scene(width=40, height=30, spp=4, jitter=True)
+    a = pyrt.render_full(scene, seed=3, progress=False)
+    b = pyrt.render_full(scene, seed=3, progress=False, dask=client)
+    assert a.stats.backend == b.stats.backend == "compiled"
+    assert b.complete and np.array_equal(a.film.sum, b.film.sum) and np.array_equal(a.film.weight, b.film.weight)
+    assert a.stats.rays == b.stats.rays

@@ -28,6 +28,8 @@ import numpy as np
 from pyrt.geometry import embree_jit
 from pyrt.integrators import compiled_kernel as K
 from pyrt.integrators import kernel_cache
+from pyrt.integrators.coverage import CoverageTable
+from pyrt.integrators.media import NestedMedia
 from pyrt.lights import compiled as LC
 from pyrt.materials import compiled as MC
 from pyrt.textures import compiled as TC
@@ -41,16 +43,20 @@ _announced = []
 
 
 def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=False, light_select_depth=None,
-                aovs=False, record_rays=False, adaptive=False, dask=None):
+                aovs=False, record_rays=False, adaptive=False, scene=None):
     """The reasons (strings) the compiled kernel cannot render the prepared scene ``ps`` with these options; an
-    empty list when it can. The options are those of :func:`pyrt.render_full`."""
+    empty list when it can. The options are those of :func:`pyrt.render_full`. ``ps`` None and ``scene`` given: the
+    same decision from the scene alone (what a Dask client decides before its workers prepare the scene; the
+    workers' accelerators are assumed to have a scene handle, as they do wherever the binding's layout is the one
+    :mod:`pyrt.geometry.accel` verifies)."""
     reasons = []
-    scene = ps.scene
+    facts = ps if ps is not None else _SceneFacts(scene)
+    scene = facts.scene
     if integrator != "whitted":
         reasons.append(f"integrator {integrator!r}")
     if not (offset is None or isinstance(offset, str) and offset in OFFSETS):
         reasons.append(f"offset strategy {offset!r}")
-    if transparent_shadows and np.any(ps.dielectric):
+    if transparent_shadows and np.any(facts.dielectric):
         reasons.append("transparent shadows")
     if light_select_depth is not None:
         reasons.append("light selection (light_select_depth)")
@@ -60,19 +66,17 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
         reasons.append("ray recording")
     if adaptive:
         reasons.append("adaptive passes")
-    if dask is not None:
-        reasons.append("Dask")
     if scene.environment is not None:
         reasons.append("an environment")
-    if ps.coverage is not None:
+    if facts.coverage is not None:
         reasons.append("alpha coverage or back-face culling")
-    if ps.media is not None:
+    if facts.media is not None:
         reasons.append("nested dielectrics or absorption")
-    if ps.face_gouraud is not None:
+    if (ps.face_gouraud is not None) if ps is not None else facts.gouraud:
         reasons.append("Gouraud shading")
-    if ps.has_normal_maps:
+    if facts.has_normal_maps:
         reasons.append("normal maps")
-    if ps.accel.buffers != "shared":
+    if ps is not None and ps.accel.buffers != "shared":
         reasons.append("no Embree scene handle (the binding's copied buffers)")
     textures = _TexturePacker()
     for m in scene.materials:
@@ -82,6 +86,19 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
         if lt.compiled_record() is None or lt.n_samples != 1 or lt.bsdf_samples or not lt.delta:
             reasons.append(f"light {lt.label}")
     return reasons
+
+
+class _SceneFacts:
+    """What :func:`unsupported` reads of a :class:`pyrt.PreparedScene`, from the scene alone (no BVH)."""
+
+    def __init__(self, scene):
+        mats = scene.materials
+        self.scene = scene
+        self.dielectric = np.array([m.is_dielectric for m in mats], dtype=bool)
+        self.coverage = CoverageTable.for_scene(mats)
+        self.media = NestedMedia.for_scene(mats)
+        self.gouraud = bool(scene.gouraud_meshes)
+        self.has_normal_maps = any(m.normal_map is not None for m in mats)
 
 
 class _TexturePacker:

@@ -17,6 +17,7 @@ from pyrt.core.errors import RenderError
 from pyrt.core.film import Film, FilmError
 from pyrt.integrators import compiled
 from pyrt.integrators.prepared import RenderStats
+from pyrt.render.distributed import compiled_tiles
 from pyrt.render.pool import progress_bar
 from pyrt.render.result import RenderResult
 
@@ -74,3 +75,45 @@ def check_backend(backend):
     if backend not in compiled.BACKENDS:
         raise RenderError(f"render: backend must be one of {compiled.BACKENDS}, got {backend!r}")
     return backend
+
+
+def render_compiled_dask(runner, cam, *, seed, max_depth, throughput_cutoff, offset, split_depth, cancel, nonfinite,
+                         progress, t_start):
+    """:func:`render_compiled` with the tiles as Dask tasks (:func:`pyrt.render.distributed.compiled_tiles`), merged
+    on the client; a cancellation stops at task granularity (no fill on Dask, as on the NumPy path)."""
+    W, H, S = cam.width, cam.height, cam.spp
+    order = compiled.tile_order(compiled.n_tiles(cam))
+    spec = {"threads": 1, "compiled": dict(spp=S, seed=seed, max_depth=max_depth, throughput_cutoff=throughput_cutoff,
+                                           split_depth=split_depth, terminator=offset in (None, "robust"))}
+    tasks = [(g, runner.submit(compiled_tiles, cam, runner.token, spec, order[g])) for g in runner.groups(order.size)]
+    film = Film(W, H, nonfinite=nonfinite)
+    counters = np.zeros(4, dtype=np.int64)
+    tiles_done = 0
+    bar = progress_bar(progress, total=order.size, desc="render", unit="tile", leave=False)
+    try:
+        for k, (g, fut) in enumerate(tasks):
+            if cancel is not None and cancel.is_set():
+                for _g, f in tasks[k:]:
+                    f.cancel()
+                break
+            pix, sums, c = fut.result()
+            film.sum[pix] += sums
+            film.weight[pix] += S
+            counters += c
+            tiles_done += len(g)
+            bar.update(len(g))
+    finally:
+        bar.close()
+    stats = RenderStats(primary_rays=int(counters[0]), secondary_rays=int(counters[1]),
+                        shadow_rays=int(counters[2]), nonfinite_samples=int(counters[3]), backend="compiled")
+    if stats.nonfinite_samples:
+        if nonfinite == "raise":
+            raise FilmError(f"Film: {stats.nonfinite_samples} samples with non-finite radiance")
+        film.nonfinite_samples = stats.nonfinite_samples
+        warnings.warn(f"render: {stats.nonfinite_samples} samples had non-finite radiance and were "
+                      "set to 0 (this is a bug; please report the scene)", RuntimeWarning, stacklevel=3)
+    stats.time_total = time.perf_counter() - t_start
+    n_done = int(np.count_nonzero(film.weight))
+    return RenderResult(image=film.image(), aovs=None, stats=stats, film=film, complete=tiles_done == order.size,
+                        chunks_done=tiles_done, chunks_total=int(order.size), pixels_done=n_done,
+                        samples_done=n_done * S)

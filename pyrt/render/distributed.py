@@ -9,6 +9,9 @@ client merges them in chunk order.
   random streams. The client adds the returned sums in chunk order, so the image equals the local render
   with the same seed (bit for bit: the same float64 additions in the same order).
 - Adaptive renders decide every pass's sample map on the client, from the merged film.
+- Renders the compiled kernel covers (:func:`pyrt.integrators.compiled.unsupported`, decided on the client from the
+  scene) run as groups of tiles (:func:`compiled_tiles`), each worker compiling the kernel once or loading it from
+  its kernel cache; the image equals the local compiled render bit for bit.
 
 ``dask``: a ``distributed.Client``, a scheduler address (``"tcp://host:8786"``), or True for a
 ``LocalCluster`` of ``n_workers`` single-threaded worker processes. Needs the ``preview`` extra
@@ -20,8 +23,11 @@ from __future__ import annotations
 import os
 import uuid
 
+import numpy as np
+
 from pyrt.core.errors import RenderError
 from pyrt.core.film import Film
+from pyrt.integrators import compiled
 from pyrt.integrators.prepared import PreparedScene
 from pyrt.render.chunks import shade_adaptive_chunk, shade_fixed_chunk
 from pyrt.render.pool import integrator_factory
@@ -59,6 +65,18 @@ def fixed_group(scene, cam, token, spec, cis):
     out = [shade_fixed_chunk(ps, cam, make, spec["seed"], ci, layout, film, lo, spec["aovs"], spec["nonfinite"])
            for ci in cis]
     return lo, film, out
+
+
+def compiled_tiles(scene, cam, token, spec, tiles):
+    """Worker task of a compiled render: the tiles ``tiles`` (:func:`pyrt.integrators.compiled.render_fixed` on one
+    Numba thread: the worker processes are the parallelism). Returns ``(pixels, sums (k, 3), counters (4,))`` for the
+    pixels of those tiles: per pixel the same float64 sum as a local compiled render (its samples are keyed on the
+    pixel), so the merged image equals the local one bit for bit."""
+    ps = worker_prepared(token, scene, spec["threads"])
+    sums, _sq, counters, done = compiled.render_fixed(compiled.CompiledScene(ps), cam, tiles=tiles, threads=1,
+                                                      **spec["compiled"])
+    pix = np.flatnonzero(compiled.pixel_mask(done, cam.width, cam.height))
+    return pix, sums[pix], counters
 
 
 def adaptive_group(scene, cam, token, spec, index, items):

@@ -28,7 +28,7 @@ from pyrt.integrators.prepared import PreparedScene, RenderStats
 from pyrt.integrators.whitted import DEFAULT_SPLIT_DEPTH
 from pyrt.integrators import compiled
 from pyrt.render.adaptive import render_adaptive
-from pyrt.render.compiled import check_backend, render_compiled
+from pyrt.render.compiled import check_backend, render_compiled, render_compiled_dask
 from pyrt.render.chunks import ChunkLayout, shade_fixed_chunk
 from pyrt.render.distributed import DaskRunner, fixed_group
 from pyrt.render.pool import INTEGRATORS, ChunkPool, integrator_factory, merge_stats, progress_bar, use_processes
@@ -168,14 +168,25 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
 
     reasons = []
     if check_backend(backend) != "numpy":
-        reasons = ["Dask"] if ps is None else compiled.unsupported(
+        reasons = compiled.unsupported(
             ps, integrator=integrator, offset=offset, transparent_shadows=transparent_shadows,
-            light_select_depth=light_select_depth, aovs=aovs, record_rays=record_rays)
+            light_select_depth=light_select_depth, aovs=aovs, record_rays=record_rays, scene=scene)
         if reasons and backend == "compiled":
             if own:
                 ps.close()
+            if runner is not None:
+                runner.close()
             raise RenderError("render: backend='compiled' does not cover " + "; ".join(reasons)
                               + " (backend='auto' renders them on the NumPy path)")
+        if not reasons and runner is not None:       # the tiles on the Dask workers
+            use_processes(parallel, 1, 1)
+            try:
+                return render_compiled_dask(runner, cam, seed=seed, max_depth=max_depth,
+                                            throughput_cutoff=throughput_cutoff, offset=offset,
+                                            split_depth=split_depth, cancel=cancel, nonfinite=nonfinite,
+                                            progress=progress, t_start=t_start)
+            finally:
+                runner.close()
         if not reasons:
             integrator_factory(ps, **integ)()     # the same option checks as the NumPy path
             use_processes(parallel, 1, 1)         # ... and of ``parallel``
