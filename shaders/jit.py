@@ -249,7 +249,131 @@ def float32_step(x, direction):
     return np.float64(np.float32(np.float64(x32) + sgn * a * (0.6 * 2.0 ** -23)))
 
 
+#: the largest finite float32
+MAX32 = 3.4028234663852886e38
+
+
+@register_jitable(inline="always")
+def float32_step_vec(x, direction):
+    """:func:`float32_step` written with selects only (no branch): the same bits, for the loops over a packet's
+    lanes that the compiler vectorises (a branch per lane stops the vectoriser; in scalar code the branches of
+    :func:`float32_step` were measured faster). Every case is computed and the right one chosen: the normal
+    step, the subnormal step 2^-149, and at an infinity ``np.nextafter``'s answer (outward it stays, inward it
+    becomes the largest float32 of its sign; NaN stays NaN)."""
+    x32 = np.float64(np.float32(x))
+    sgn = 1.0 if direction > 0.0 else -1.0
+    a = abs(x32)
+    step = TINY32 if a < NORMAL32 else a * (0.6 * 2.0 ** -23)
+    r = np.float64(np.float32(x32 + sgn * step))
+    r = r if a <= MAX32 else (math.copysign(MAX32, x32) if sgn * x32 < 0.0 else x32)
+    return x32 if direction == 0.0 else r
+
+
 @register_jitable(inline="always")
 def gamma(n, eps):
     """pbrt's ``gamma_n = n eps / (1 - n eps)`` for the unit roundoff ``eps``."""
     return n * eps / (1.0 - n * eps)
+
+
+# ----------------------------------------------------------------------------------------- hits and ray offsets
+# The compiled kernel's surface at a hit (:func:`pyrt.geometry.surface.surface_from_hits` with the local error bound
+# of :mod:`pyrt.geometry.offsets`) and its offset rounding, from geometry tables given as flat pointers
+# (:func:`pyrt.core.unmanaged.pointer`). tests/test_compiled_render.py holds them, through the kernel's images, to
+# the NumPy path bit for bit at pixel centres.
+
+
+@register_jitable(inline="always")
+def dot(a, b):
+    """``a . b`` of two 3-tuples (summed left to right, as the NumPy path's ``vec.dot``)."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@register_jitable(inline="always")
+def row3(a, i):
+    """Row ``i`` of an (n, 3) table given by its pointer: a 3-tuple."""
+    return a[3 * i], a[3 * i + 1], a[3 * i + 2]
+
+
+@register_jitable(inline="always")
+def bary3(b0, b1, b2, x0, x1, x2):
+    """``b0 x0 + b1 x1 + b2 x2`` of three 3-tuples."""
+    return (b0 * x0[0] + b1 * x1[0] + b2 * x2[0], b0 * x0[1] + b1 * x1[1] + b2 * x2[1],
+            b0 * x0[2] + b1 * x1[2] + b2 * x2[2])
+
+
+@register_jitable(inline="always")
+def hit_surface(G, fallback, terminator, geom, prim, u, v, wo):
+    """The surface at the hit ``(geom, prim, u, v)`` of a ray leaving toward ``wo`` (-direction)
+    (:func:`pyrt.geometry.surface.surface_from_hits`): ``(p, ng, ns, nv, lift, mag, mag_lift, front, face, uv)`` with
+    the float64 hit point from the vertices, the face normal turned to the viewer, the shading normal (the
+    interpolated vertex normal ``nv``, or ng where it is degenerate or, with ``fallback``, back-facing), the
+    terminator-lifted point (p without ``terminator``) and the local-bound offset magnitudes
+    (:func:`pyrt.geometry.offsets.local_bound_magnitude`) at p and at the lifted point. ``G``: the geometry tables'
+    pointers (:func:`pyrt.integrators.compiled_kernel.geometry_pointers`)."""
+    verts, normals, uvs, fnorm, fabs, fext, faces, foff, _, fsmooth = G
+    face = foff[geom] + prim
+    i0, i1, i2 = faces[3 * face], faces[3 * face + 1], faces[3 * face + 2]
+    b1, b2 = np.float64(u), np.float64(v)
+    b0 = 1.0 - b1 - b2
+    v0, v1, v2 = row3(verts, i0), row3(verts, i1), row3(verts, i2)
+    p = bary3(b0, b1, b2, v0, v1, v2)
+    fn = row3(fnorm, face)
+    front = dot(fn, wo) >= 0.0
+    sign = 1.0 if front else -1.0
+    ng = (sign * fn[0], sign * fn[1], sign * fn[2])
+    ns, nv, lift = ng, ng, p
+    if fsmooth[face] != 0:
+        n0_, n1_, n2_ = row3(normals, i0), row3(normals, i1), row3(normals, i2)
+        n0, n1, n2 = bary3(b0, b1, b2, n0_, n1_, n2_)
+        ln = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+        if ln > 0.0:
+            n0, n1, n2 = sign * n0 / ln, sign * n1 / ln, sign * n2 / ln
+        nv = (n0, n1, n2)
+        bad = n0 * n0 + n1 * n1 + n2 * n2 == 0.0
+        if fallback and not bad:
+            bad = dot(nv, wo) <= 0.0
+        if not bad:
+            ns = nv
+        if terminator:
+            # Hanika's terminator lift: p' = p - sum_i b_i min(0, (p - v_i) . n_i) n_i, n_i turned to the ng side
+            l0, l1, l2 = p
+            for k in range(3):
+                vk, nk = (v0, n0_) if k == 0 else ((v1, n1_) if k == 1 else (v2, n2_))
+                bk = b0 if k == 0 else (b1 if k == 1 else b2)
+                h = sign * ((p[0] - vk[0]) * nk[0] + (p[1] - vk[1]) * nk[1] + (p[2] - vk[2]) * nk[2])
+                w = bk * min(h, 0.0) * sign
+                l0 -= nk[0] * w
+                l1 -= nk[1] * w
+                l2 -= nk[2] * w
+            lift = (l0, l1, l2)
+    # local_bound_magnitude: |ng| . gamma_4(f64) absmax + 8 eps32 extent (absmax widened by the lift)
+    g4 = gamma(4.0, EPS64)
+    m = 0.0
+    ml = 0.0
+    for c in range(3):
+        a = fabs[3 * face + c]
+        m += abs(ng[c]) * g4 * a
+        ml += abs(ng[c]) * g4 * (a + abs(lift[c] - p[c]))
+    mag = m + 8.0 * EPS32 * fext[face]
+    mag_lift = ml + 8.0 * EPS32 * fext[face]
+    uv = (b0 * uvs[2 * i0] + b1 * uvs[2 * i1] + b2 * uvs[2 * i2],
+          b0 * uvs[2 * i0 + 1] + b1 * uvs[2 * i1 + 1] + b2 * uvs[2 * i2 + 1])
+    return p, ng, ns, nv, lift, mag, mag_lift, front, face, uv
+
+
+@register_jitable(inline="always")
+def round_away(base, mag, side, ng):
+    """``round_away(base + side mag ng)`` (:func:`pyrt.geometry.offsets.local_bound`): a 3-tuple of float64 values of
+    float32 numbers, each one float32 ulp further along the offset."""
+    k = side * mag
+    return (float32_step(base[0] + k * ng[0], k * ng[0]), float32_step(base[1] + k * ng[1], k * ng[1]),
+            float32_step(base[2] + k * ng[2], k * ng[2]))
+
+
+@register_jitable(inline="always")
+def round_away_vec(base, mag, side, ng):
+    """:func:`round_away` with :func:`float32_step_vec` (selects, no branch): the same bits, for
+    the lane loops the compiler vectorises."""
+    k = side * mag
+    return (float32_step_vec(base[0] + k * ng[0], k * ng[0]), float32_step_vec(base[1] + k * ng[1], k * ng[1]),
+            float32_step_vec(base[2] + k * ng[2], k * ng[2]))

@@ -97,8 +97,9 @@ def test_distance_falloff_with_range_cuts_at_the_range():
     assert J.distance_falloff(k, 1.9, 0, 2.0, 0, 0, 1) == pytest.approx(1 / 1.9 ** 2)
 
 
-def test_float32_step_is_round_away(rng):
-    """Bit-identical (up to the sign of zero) to np.nextafter after the float32 cast, powers of two (where the spacing changes), subnormals,
+@pytest.mark.parametrize("name", ["float32_step", "float32_step_vec"])
+def test_float32_step_is_round_away(rng, name):
+    """Both forms (branches, selects) bit-identical (up to the sign of zero) to np.nextafter after the float32 cast, powers of two (where the spacing changes), subnormals,
     the normal/subnormal boundary and the largest float32 included."""
     p2 = 2.0 ** np.arange(-130, 128)
     edge = np.array([0.0, -0.0, 1e-45, -1e-45, 2.0 ** -126, -(2.0 ** -126), 1.1754942e-38, 3.4028235e38, 1e30, 3.0])
@@ -109,20 +110,36 @@ def test_float32_step_is_round_away(rng):
     d[:5] = [1.0, -1.0, 0.0, 1.0, -1.0]
     want = offsets._round_away(x[:, None] * np.ones((1, 3)), d[:, None] * np.ones((1, 3)))[:, 0]
     with np.errstate(over="ignore"):
-        got = [J.float32_step(a, b) for a, b in zip(x, d)]
+        got = [getattr(J, name)(a, b) for a, b in zip(x, d)]
     got = np.array(got)
     np.testing.assert_array_equal(got, want)      # (equal values: -1e-45 stepped up is +0.0 here, -0.0 there)
     assert np.array_equal(got.view(np.int64)[got != 0], want.view(np.int64)[want != 0])
+    # compiled, in a loop over an array (the vectorised form where the compiler vectorises it)
+    got_c = _step_loop(getattr(J, name))(x, d)
+    np.testing.assert_array_equal(got_c, want)
+    assert np.array_equal(got_c.view(np.int64)[got_c != 0], want.view(np.int64)[want != 0])
+
+
+def _step_loop(step):
+    """A compiled loop applying ``step`` elementwise (what the kernel's lane loops do)."""
+    @numba.njit(error_model="numpy")
+    def loop(x, d):
+        out = np.empty_like(x)
+        for i in range(x.size):
+            out[i] = step(x[i], d[i])
+        return out
+    return loop
 
 
 def test_float32_step_of_infinities_and_nan():
     """Its branch-free form keeps np.nextafter's answers at the ends: an infinity stays outward and becomes the largest
     float32 inward; NaN stays NaN (in Python and compiled)."""
     step = numba.njit(lambda x, d: J.float32_step(x, d))
+    step_vec = numba.njit(lambda x, d: J.float32_step_vec(x, d))
     for x in (np.inf, -np.inf, np.nan):
         for d in (1.0, -1.0):
             want = np.float64(np.nextafter(np.float32(x), np.float32(d * np.inf)))
-            for f in (J.float32_step, step):
+            for f in (J.float32_step, step, J.float32_step_vec, step_vec):
                 got = f(x, d)
                 assert (np.isnan(got) and np.isnan(want)) or got == want, (x, d, got, want)
 

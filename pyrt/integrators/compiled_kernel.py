@@ -38,6 +38,7 @@ from pyrt.geometry import embree_jit as E  # noqa: E402
 from pyrt.lights import compiled as LC  # noqa: E402
 from pyrt.materials import compiled as MC  # noqa: E402
 from pyrt.shaders import jit as J  # noqa: E402
+from pyrt.shaders.jit import dot  # noqa: E402
 
 #: pixels per tile side
 TILE = 8
@@ -50,8 +51,13 @@ LANES = 16
 V_D, V_P, V_NG, V_NS, V_NV, V_LIFT = 0, 3, 6, 9, 12, 15
 V_MAG, V_MAG_LIFT, V_FRONT, V_MAT = 18, 19, 20, 21
 V_A, V_L, V_F, V_LIT = 22, 25, 28, 31
+#: the light stage's fields: the cosines ``ns.wo`` (per hit), ``ns.wi`` and ``wi.wo`` (per light), the light's
+#: irradiance scale and whether the light can reach the hit's side (before the BSDF)
+V_COSO, V_COSI, V_COSIO, V_S, V_GOK = 32, 33, 34, 35, 36
+#: the shadow ray: origin, direction, tmax
+V_SO, V_WI, V_TMAX = 37, 40, 43
 #: fields of the scratch
-V_SIZE = 32
+V_SIZE = 44
 #: camera record layout (float64)
 C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W, C_H, C_JITTER, C_K, C_AX = 0, 3, 6, 9, 12, 13, 14, 15, 16, 17
 #: length of the camera record
@@ -74,12 +80,11 @@ T_INF = 1e37
 DIM_LOBE = 2
 
 _njit = numba.njit(nogil=True, cache=True, error_model="numpy", inline="always")
-
-
-@_njit
-def dot(a, b):
-    """``a . b`` of two 3-tuples (summed left to right, as the NumPy path's ``vec.dot``)."""
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+#: a packet stage whose loop over the lanes should vectorise: compiled as a function of its own (not inlined by
+#: Numba), because LLVM does not vectorise such a loop once it sits inside the kernel's loops (measured: an inlined
+#: light stage stayed scalar, ~60 cycles a lane); compiled alone it vectorises, and LLVM may still inline the
+#: vectorised body. It takes pointers and numbers only, so the call costs no reference counting.
+_stage = numba.njit(nogil=True, cache=True, error_model="numpy")
 
 
 @_njit
@@ -113,88 +118,6 @@ def pixel_position(cam, spp, grid, sample, key, pix_key):
 
 
 @_njit
-def row3(a, i):
-    """Row ``i`` of an (n, 3) table given by its pointer: a 3-tuple."""
-    return a[3 * i], a[3 * i + 1], a[3 * i + 2]
-
-
-@_njit
-def bary3(b0, b1, b2, x0, x1, x2):
-    """``b0 x0 + b1 x1 + b2 x2`` of three 3-tuples."""
-    return (b0 * x0[0] + b1 * x1[0] + b2 * x2[0], b0 * x0[1] + b1 * x1[1] + b2 * x2[1],
-            b0 * x0[2] + b1 * x1[2] + b2 * x2[2])
-
-
-@_njit
-def hit_surface(G, fallback, terminator, geom, prim, u, v, wo):
-    """The surface at the hit ``(geom, prim, u, v)`` of a ray leaving toward ``wo`` (-direction)
-    (:func:`pyrt.geometry.surface.surface_from_hits`): ``(p, ng, ns, nv, lift, mag, mag_lift, front, face, uv)`` with
-    the float64 hit point from the vertices, the face normal turned to the viewer, the shading normal (the
-    interpolated vertex normal ``nv``, or ng where it is degenerate or, with ``fallback``, back-facing), the
-    terminator-lifted point (p without ``terminator``) and the local-bound offset magnitudes
-    (:func:`pyrt.geometry.offsets.local_bound_magnitude`) at p and at the lifted point. ``G``: the geometry tables'
-    pointers (:func:`geometry_pointers`)."""
-    verts, normals, uvs, fnorm, fabs, fext, faces, foff, _, fsmooth = G
-    face = foff[geom] + prim
-    i0, i1, i2 = faces[3 * face], faces[3 * face + 1], faces[3 * face + 2]
-    b1, b2 = np.float64(u), np.float64(v)
-    b0 = 1.0 - b1 - b2
-    v0, v1, v2 = row3(verts, i0), row3(verts, i1), row3(verts, i2)
-    p = bary3(b0, b1, b2, v0, v1, v2)
-    fn = row3(fnorm, face)
-    front = dot(fn, wo) >= 0.0
-    sign = 1.0 if front else -1.0
-    ng = (sign * fn[0], sign * fn[1], sign * fn[2])
-    ns, nv, lift = ng, ng, p
-    if fsmooth[face] != 0:
-        n0_, n1_, n2_ = row3(normals, i0), row3(normals, i1), row3(normals, i2)
-        n0, n1, n2 = bary3(b0, b1, b2, n0_, n1_, n2_)
-        ln = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-        if ln > 0.0:
-            n0, n1, n2 = sign * n0 / ln, sign * n1 / ln, sign * n2 / ln
-        nv = (n0, n1, n2)
-        bad = n0 * n0 + n1 * n1 + n2 * n2 == 0.0
-        if fallback and not bad:
-            bad = dot(nv, wo) <= 0.0
-        if not bad:
-            ns = nv
-        if terminator:
-            # Hanika's terminator lift: p' = p - sum_i b_i min(0, (p - v_i) . n_i) n_i, n_i turned to the ng side
-            l0, l1, l2 = p
-            for k in range(3):
-                vk, nk = (v0, n0_) if k == 0 else ((v1, n1_) if k == 1 else (v2, n2_))
-                bk = b0 if k == 0 else (b1 if k == 1 else b2)
-                h = sign * ((p[0] - vk[0]) * nk[0] + (p[1] - vk[1]) * nk[1] + (p[2] - vk[2]) * nk[2])
-                w = bk * min(h, 0.0) * sign
-                l0 -= nk[0] * w
-                l1 -= nk[1] * w
-                l2 -= nk[2] * w
-            lift = (l0, l1, l2)
-    # local_bound_magnitude: |ng| . gamma_4(f64) absmax + 8 eps32 extent (absmax widened by the lift)
-    g4 = J.gamma(4.0, J.EPS64)
-    m = 0.0
-    ml = 0.0
-    for c in range(3):
-        a = fabs[3 * face + c]
-        m += abs(ng[c]) * g4 * a
-        ml += abs(ng[c]) * g4 * (a + abs(lift[c] - p[c]))
-    mag = m + 8.0 * J.EPS32 * fext[face]
-    mag_lift = ml + 8.0 * J.EPS32 * fext[face]
-    uv = (b0 * uvs[2 * i0] + b1 * uvs[2 * i1] + b2 * uvs[2 * i2],
-          b0 * uvs[2 * i0 + 1] + b1 * uvs[2 * i1 + 1] + b2 * uvs[2 * i2 + 1])
-    return p, ng, ns, nv, lift, mag, mag_lift, front, face, uv
-
-
-@_njit
-def round_away(base, mag, side, ng):
-    """``round_away(base + side mag ng)`` (:func:`pyrt.geometry.offsets.local_bound`): a 3-tuple of float64 values of
-    float32 numbers, each one float32 ulp further along the offset."""
-    k = side * mag
-    return (J.float32_step(base[0] + k * ng[0], k * ng[0]), J.float32_step(base[1] + k * ng[1], k * ng[1]),
-            J.float32_step(base[2] + k * ng[2], k * ng[2]))
-
-
-@_njit
 def direct_light(ltags, lpars, j, mtag, mpars, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift, terminator):
     """Light ``j``'s contribution at a hit before shadowing: ``(ok, tmax, origin, wi, f)`` with ``f`` = f_cos * E and
     the shadow ray (origin offset to the side of ``wi``: :meth:`pyrt.geometry.offsets.Strategy.shadow`, ``robust``
@@ -209,9 +132,9 @@ def direct_light(ltags, lpars, j, mtag, mpars, m, albedo, p, ng, ns, nv, wo, lif
     ok = ok and max(f[0], f[1], f[2]) > 0.0
     f = (f[0] * s * lpars[jb + 6], f[1] * s * lpars[jb + 7], f[2] * s * lpars[jb + 8])
     if terminator:
-        o = round_away(lift, mag_lift, 1.0, ng)
+        o = J.round_away(lift, mag_lift, 1.0, ng)
     else:
-        o = round_away(p, mag, 1.0 if cg >= 0.0 else -1.0, ng)
+        o = J.round_away(p, mag, 1.0 if cg >= 0.0 else -1.0, ng)
     tmax = math.inf
     if math.isfinite(dist):
         lx, ly, lz = lpars[jb], lpars[jb + 1], lpars[jb + 2]
@@ -220,6 +143,99 @@ def direct_light(ltags, lpars, j, mtag, mpars, m, albedo, p, ng, ns, nv, wo, lif
         margin = max(1e-4 * t_end, 16.0 * J.EPS32 * omag)
         tmax = max(t_end - margin, 0.5 * t_end)
     return ok, min(tmax, T_INF), o, wi, f
+
+
+@_njit
+def light_lane(ltag, kind, rec, i_max, V, lane, terminator):
+    """The BSDF-free part of :func:`direct_light` for lane ``lane`` of the packet (its hit in the scratch ``V``), the
+    light given by its tag, distance-falloff kind and :func:`pyrt.lights.compiled.light_record` ``rec`` (``i_max``:
+    its largest intensity component): into the scratch the cosines ``ns.wi``, ``wi.wo``, the irradiance scale, whether the light reaches
+    the hit's side (:data:`V_COSI`, :data:`V_COSIO`, :data:`V_S`, :data:`V_GOK`) and the shadow ray (:data:`V_SO`,
+    :data:`V_WI`, :data:`V_TMAX`: origin offset, direction, robust tmax).
+
+    Written for the vectoriser: it reads and writes the scratch only (a write to another buffer, as far as the
+    compiler knows, could change what it reads: no vector loop), and has no branch (flags combined with ``&`` /
+    ``|``, the offset's base point and magnitude chosen by selects, float32 rounding by selects, the tmax of a
+    distant light by a select). The same arithmetic as :func:`direct_light`: the same bits."""
+    p = lane_vec(V, V_P, lane)
+    ng = lane_vec(V, V_NG, lane)
+    w0, w1, w2, dist, s = LC.sample_li_record(ltag, kind, rec, p[0], p[1], p[2])
+    wi = (w0, w1, w2)
+    cg = dot(wi, ng)
+    gok = (s > 0.0) & (i_max > 0.0) & ((cg > 0.0) | (dot(wi, lane_vec(V, V_NV, lane)) > 0.0))
+    d = lane_vec(V, V_D, lane)
+    V[V_COSI * LANES + lane] = dot(wi, lane_vec(V, V_NS, lane))
+    V[V_COSIO * LANES + lane] = dot(wi, (-d[0], -d[1], -d[2]))
+    V[V_S * LANES + lane] = s
+    V[V_GOK * LANES + lane] = 1.0 if gok else 0.0
+    # the origin: the lifted point to the ng side (terminator), else p to the side of wi
+    lift = lane_vec(V, V_LIFT, lane)
+    base = (lift[0] if terminator else p[0], lift[1] if terminator else p[1], lift[2] if terminator else p[2])
+    mag = V[V_MAG_LIFT * LANES + lane] if terminator else V[V_MAG * LANES + lane]
+    o = J.round_away_vec(base, mag, 1.0 if (terminator | (cg >= 0.0)) else -1.0, ng)
+    lx, ly, lz = rec[0], rec[1], rec[2]
+    t_end = (lx - o[0]) * w0 + (ly - o[1]) * w1 + (lz - o[2]) * w2
+    omag = max(abs(o[0]), abs(o[1]), abs(o[2]), abs(lx), abs(ly), abs(lz))
+    margin = max(1e-4 * t_end, 16.0 * J.EPS32 * omag)
+    tmax = max(t_end - margin, 0.5 * t_end) if math.isfinite(dist) else math.inf
+    set_lane_vec(V, V_SO, lane, o)
+    set_lane_vec(V, V_WI, lane, wi)
+    V[V_TMAX * LANES + lane] = min(tmax, T_INF)
+
+
+@_stage
+def light_stage(ltags, lpars, j, V, n, terminator):
+    """:func:`light_lane` of light ``j`` for lanes ``[0, n)``: one loop per light type, and for a point light with
+    the inverse-square falloff one of its own (tag and kind constants in each, so that their switches fold away:
+    the if-converted switch of the falloff kinds alone cost five vector divisions a lane)."""
+    ltag = ltags[j]
+    rec = LC.light_record(lpars, j)
+    kind = rec[6]
+    jb = j * LC.RECORD
+    i_max = max(lpars[jb + 6], lpars[jb + 7], lpars[jb + 8])
+    if ltag == LC.POINT and kind == 0:
+        for lane in range(n):
+            light_lane(LC.POINT, 0, rec, i_max, V, lane, terminator)
+    elif ltag == LC.DIRECTIONAL:
+        for lane in range(n):
+            light_lane(LC.DIRECTIONAL, kind, rec, i_max, V, lane, terminator)
+    else:
+        for lane in range(n):
+            light_lane(ltag, kind, rec, i_max, V, lane, terminator)
+
+
+@_stage
+def shadow_fill(V, sh, w, n):
+    """The shadow rays of :func:`light_stage` from the scratch into lanes ``[0, n)`` of the packet ``sh`` (width
+    ``w``; :func:`bsdf_stage` switches them on). A loop of its own: it reads one buffer and writes another."""
+    for lane in range(n):
+        o, wi = lane_vec(V, V_SO, lane), lane_vec(V, V_WI, lane)
+        E.packet_set_origin(sh, w, lane, o[0], o[1], o[2])
+        E.packet_set_dir(sh, w, lane, wi[0], wi[1], wi[2], V[V_TMAX * LANES + lane])
+
+
+@_njit
+def bsdf_stage(mats_tag, mats_par, lpars, j, V, sh, w, n):
+    """The BSDF part of :func:`direct_light` for lanes ``[0, n)`` after :func:`light_stage`: ``f = f_cos * E``
+    into :data:`V_F`, whether the shadow ray is traced into :data:`V_LIT` and the shadow packet's lane switched on
+    accordingly (a miss, a material without a non-delta lobe, a light that cannot reach the side, a zero BSDF:
+    off); returns the number of shadow rays."""
+    jb = j * LC.RECORD
+    e0, e1, e2 = lpars[jb + 6], lpars[jb + 7], lpars[jb + 8]
+    n_sh = 0
+    for lane in range(n):
+        m = int(V[V_MAT * LANES + lane])
+        mm = max(m, 0)
+        mtag = mats_tag[mm]
+        f = MC.f_cos(mtag, mats_par, mm, lane_vec(V, V_A, lane), V[V_COSO * LANES + lane], V[V_COSI * LANES + lane],
+                     V[V_COSIO * LANES + lane])
+        s = V[V_S * LANES + lane]
+        ok = V[V_GOK * LANES + lane] != 0.0 and max(f[0], f[1], f[2]) > 0.0 and m >= 0 and MC.has_diffuse(mtag)
+        set_lane_vec(V, V_F, lane, (f[0] * s * e0, f[1] * s * e1, f[2] * s * e2))
+        V[V_LIT * LANES + lane] = 1.0 if ok else 0.0
+        E.packet_set_active(sh, w, lane, ok)
+        n_sh += ok
+    return n_sh
 
 
 @_njit
@@ -296,7 +312,7 @@ def _push(p, ng, mag, stack, top, d, thr, depth):
     ln = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
     if ln > 0.0:
         d0, d1, d2 = d0 / ln, d1 / ln, d2 / ln
-    o = round_away(p, mag, 1.0 if d0 * ng[0] + d1 * ng[1] + d2 * ng[2] >= 0.0 else -1.0, ng)
+    o = J.round_away(p, mag, 1.0 if d0 * ng[0] + d1 * ng[1] + d2 * ng[2] >= 0.0 else -1.0, ng)
     row = STACK_ROW * top
     stack[row], stack[row + 1], stack[row + 2] = o
     stack[row + 3], stack[row + 4], stack[row + 5] = d0, d1, d2
@@ -330,7 +346,7 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
             r2 += thr[2] * optf[F_BG + 2]
             continue
         wo = (-d0, -d1, -d2)
-        p, ng, ns, nv, lift, mag, mag_lift, front, face, uv = hit_surface(G, fallback, terminator, geom, prim, u, v,
+        p, ng, ns, nv, lift, mag, mag_lift, front, face, uv = J.hit_surface(G, fallback, terminator, geom, prim, u, v,
                                                                           wo)
         m = G[8][face]
         mtag = mats_tag[m]
@@ -464,7 +480,7 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
                     geom, prim = (geom, prim) if hit else (0, 0)
                     u, v = E.packet_uv(pk, w, lane)
                     d = lane_vec(V, V_D, lane)
-                    p, ng, ns, nv, lift, mag, mag_lift, front, face, uv = hit_surface(
+                    p, ng, ns, nv, lift, mag, mag_lift, front, face, uv = J.hit_surface(
                         G, fallback, terminator, geom, prim, u, v, (-d[0], -d[1], -d[2]))
                     m = fmat[face]
                     mtag = mats_tag[m]
@@ -483,26 +499,13 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
                     V[V_MAG_LIFT * LANES + lane] = mag_lift
                     V[V_FRONT * LANES + lane] = 1.0 if front else 0.0
                     V[V_MAT * LANES + lane] = m if hit else -1
-                # direct light: per light, the packet's shadow rays in one masked query
+                    V[V_COSO * LANES + lane] = dot((-d[0], -d[1], -d[2]), ns)
+                # direct light: per light, the packet's shadow rays (geometry, then the BSDF) in one masked query
                 for j in range(nl if any_diffuse else 0):
                     E.packet_activate(sh, w, 0)
-                    n_sh = 0
-                    for lane in range(n):
-                        m = int(V[V_MAT * LANES + lane])
-                        mtag = mats_tag[max(m, 0)]
-                        d = lane_vec(V, V_D, lane)
-                        ok, tmax, o, wi, f = direct_light(
-                            lights_tag, lights_par, j, mtag, mats_par, max(m, 0), lane_vec(V, V_A, lane),
-                            lane_vec(V, V_P, lane), lane_vec(V, V_NG, lane), lane_vec(V, V_NS, lane),
-                            lane_vec(V, V_NV, lane), (-d[0], -d[1], -d[2]), lane_vec(V, V_LIFT, lane),
-                            V[V_MAG * LANES + lane], V[V_MAG_LIFT * LANES + lane], terminator)
-                        ok = ok and m >= 0 and MC.has_diffuse(mtag)
-                        set_lane_vec(V, V_F, lane, f)
-                        V[V_LIT * LANES + lane] = 1.0 if ok else 0.0
-                        E.packet_set_origin(sh, w, lane, o[0], o[1], o[2])
-                        E.packet_set_dir(sh, w, lane, wi[0], wi[1], wi[2], tmax)
-                        E.packet_set_active(sh, w, lane, ok)
-                        n_sh += ok
+                    light_stage(lights_tag, lights_par, j, V, n, terminator)
+                    shadow_fill(V, sh, w, n)
+                    n_sh = bsdf_stage(mats_tag, mats_par, lights_par, j, V, sh, w, n)
                     if n_sh == 0:
                         continue
                     n_shadow += n_sh

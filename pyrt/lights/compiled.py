@@ -30,24 +30,45 @@ POINT, SPOT, DIRECTIONAL = 1, 2, 3
 
 
 @register_jitable(inline="always")
+def light_record(pars, j):
+    """The fields of light ``j``'s record (``pars`` the record table's flat data,
+    :func:`pyrt.core.unmanaged.pointer`: its record at ``j * RECORD``) that :func:`sample_li_record` reads, as a
+    tuple: position, axis / direction, distance-falloff kind, epsilon, range, Kc, Kl, Kq, spot-falloff kind, cos
+    inner, cos outer. Read once per light before a loop over a packet's lanes: a loop that reads the table itself
+    cannot keep the values in registers (its stores might overwrite them, as far as the compiler knows) and does
+    not vectorise."""
+    b = j * RECORD
+    return (pars[b], pars[b + 1], pars[b + 2], pars[b + 3], pars[b + 4], pars[b + 5], int(pars[b + 13]),
+            pars[b + 14], pars[b + 15], pars[b + 16], pars[b + 17], pars[b + 18], int(pars[b + 11]), pars[b + 9],
+            pars[b + 10])
+
+
+@register_jitable(inline="always")
+def sample_li_record(tag, kind, rec, px, py, pz):
+    """:func:`sample_li` from the light's :func:`light_record` ``rec`` and its distance-falloff kind ``kind``
+    (``rec[6]``, or that value as a constant: a loop over many points for one light passes it so, and the falloff's
+    switch over the kinds folds away)."""
+    if tag == DIRECTIONAL:
+        return -rec[3], -rec[4], -rec[5], math.inf, 1.0
+    dx, dy, dz = rec[0] - px, rec[1] - py, rec[2] - pz
+    dist = math.sqrt(dx * dx + dy * dy + dz * dz)
+    inv = 1.0 / dist if dist > 0.0 else 0.0
+    wx, wy, wz = dx * inv, dy * inv, dz * inv
+    s = J.distance_falloff(kind, dist, rec[7], rec[8], rec[9], rec[10], rec[11])
+    if tag == SPOT and s > 0.0:
+        cos_theta = -(wx * rec[3] + wy * rec[4] + wz * rec[5])
+        s *= J.spot_falloff(rec[12], cos_theta, rec[13], rec[14])
+    return wx, wy, wz, dist, s
+
+
+@register_jitable(inline="always")
 def sample_li(tag, pars, j, px, py, pz):
     """Sample light ``j`` (tag ``tag``; ``pars`` the record table's flat data, :func:`pyrt.core.unmanaged.pointer`:
     its record at ``j * RECORD``) from the point ``p``: ``(wx, wy, wz, dist, scale)``, ``w`` the unit direction toward
     the light, the irradiance ``E = scale * (record[6], record[7], record[8])`` (scale 0: no light, and no shadow ray
     to trace)."""
-    b = j * RECORD
-    if tag == DIRECTIONAL:
-        return -pars[b + 3], -pars[b + 4], -pars[b + 5], math.inf, 1.0
-    dx, dy, dz = pars[b] - px, pars[b + 1] - py, pars[b + 2] - pz
-    dist = math.sqrt(dx * dx + dy * dy + dz * dz)
-    inv = 1.0 / dist if dist > 0.0 else 0.0
-    wx, wy, wz = dx * inv, dy * inv, dz * inv
-    s = J.distance_falloff(int(pars[b + 13]), dist, pars[b + 14], pars[b + 15], pars[b + 16], pars[b + 17],
-                           pars[b + 18])
-    if tag == SPOT and s > 0.0:
-        cos_theta = -(wx * pars[b + 3] + wy * pars[b + 4] + wz * pars[b + 5])
-        s *= J.spot_falloff(int(pars[b + 11]), cos_theta, pars[b + 9], pars[b + 10])
-    return wx, wy, wz, dist, s
+    rec = light_record(pars, j)
+    return sample_li_record(tag, rec[6], rec, px, py, pz)
 
 
 def punctual_record(light, tag):
