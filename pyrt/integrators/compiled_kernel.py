@@ -101,20 +101,28 @@ def camera_dir(cam, x, y):
 
 
 @_njit
-def pixel_position(cam, spp, grid, sample, key, pix_key):
-    """Raster offset ``(sx, sy)`` in [0, 1)^2 of sample ``sample`` of ``spp`` in its pixel: an ``n x n`` jittered grid
-    when ``spp = n^2`` (``grid`` = n, else 0), else a Latin hypercube (x stratum ``sample``, y stratum a per-pixel
-    permutation of it); the pixel centre for one unjittered sample. No integer division (a 64-bit ``idiv`` per
-    sample was measured at a fifth of the kernel's time): the grid cell from a float floor."""
-    if spp == 1 and cam[C_JITTER] == 0.0:
-        return 0.5, 0.5
-    u0, u1 = J.uniform_pair(key)
-    if grid > 0:
-        inv = 1.0 / grid
-        cy = math.floor((sample + 0.5) * inv)
-        return (sample - cy * grid + u0) * inv, (cy + u1) * inv
-    inv = 1.0 / spp
-    return (sample + u0) * inv, (J.permute(sample, spp, pix_key) + u1) * inv
+def strata_position(spp, rows, s, u0, u1):
+    """Raster offset in [0, 1)^2 of sample ``s`` of a pixel's ``spp`` (all three float64 integers) with the jitter
+    ``(u0, u1)``: the equal-area jittered grid of :func:`pyrt.core.sampler.pixel_strata` (``rows = isqrt(spp)``
+    rows, row ``j`` holding samples ``[floor(j spp / rows), floor((j + 1) spp / rows))`` side by side; the
+    ``n x n`` grid when ``spp = n^2``), for any ``spp``. No integer division (a 64-bit ``idiv`` per sample was
+    measured at a fifth of the kernel's time): floors of float64 quotients, exact for integers below 2^26 (a
+    quotient that is not an integer is at least 1 / spp from one, far more than its rounding error)."""
+    row = math.floor(((s + 1.0) * rows - 1.0) / spp)
+    first = math.floor(row * spp / rows)
+    n_row = math.floor((row + 1.0) * spp / rows) - first
+    return (s - first + u0) / n_row, (first + u1 * n_row) / spp
+
+
+@_njit
+def isqrt(n):
+    """``floor(sqrt(n))`` of a non-negative integer, exact (the float root corrected)."""
+    k = int(math.sqrt(n))
+    while k * k > n:
+        k -= 1
+    while (k + 1) * (k + 1) <= n:
+        k += 1
+    return k
 
 
 @_njit
@@ -431,6 +439,7 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
     spp, spp_lo, grid = opts[O_SPP], opts[O_SPP_LO], opts[O_GRID]
     centre = spp == 1 and cam[C_JITTER] == 0.0
     ginv = 1.0 / max(grid, 1)
+    spp_f, rows_f = float(spp), float(isqrt(spp))
     seed = opts[O_SEED]
     nl = opts[O_NLIGHTS]
     max_depth, split, cutoff = opts[O_MAX_DEPTH], opts[O_SPLIT], optf[F_CUTOFF]
@@ -444,11 +453,11 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
         for px in range(x0, min(x0 + TILE, W)):
             pix = py * W + px
             pkey = J.pixel_key(seed, pix)
-            perm_seed = np.int64(pkey & np.uint64(0x7FFFFFFF))
             s0_ = s1_ = s2_ = q0 = q1 = q2 = 0.0
             for s0 in range(spp_lo, spp, w):
                 n = min(w, spp - s0)
-                # camera rays: arithmetic only, no branch (vectorised); the Latin-hypercube case in its own loop
+                # camera rays: arithmetic only, no branch (vectorised); the square grid (spp = n^2) and the
+                # equal-area grid of any spp in loops of their own
                 if grid > 0:
                     for lane in range(n):
                         s = s0 + lane
@@ -464,7 +473,8 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
                         s = s0 + lane
                         key = J.sample_key(pkey, s)
                         keys[lane] = key
-                        ox, oy = pixel_position(cam, spp, grid, s, key, perm_seed)
+                        u0, u1 = J.uniform_pair(key)
+                        ox, oy = strata_position(spp_f, rows_f, float(s), u0, u1)
                         set_lane_vec(V, V_D, lane, camera_dir(cam, px + ox, py + oy))
                 for lane in range(n):
                     d = lane_vec(V, V_D, lane)
