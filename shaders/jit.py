@@ -109,6 +109,31 @@ def permute(i, n, seed):
     return np.int64((x + p) % np.uint64(n))
 
 
+@register_jitable(inline="always")
+def strata_position(spp, rows, s, u0, u1):
+    """Raster offset in [0, 1)^2 of sample ``s`` of a pixel's ``spp`` (all three float64 integers) with the jitter
+    ``(u0, u1)``: the equal-area jittered grid of :func:`pyrt.core.sampler.pixel_strata` (``rows = isqrt(spp)``
+    rows, row ``j`` holding samples ``[floor(j spp / rows), floor((j + 1) spp / rows))`` side by side; the
+    ``n x n`` grid when ``spp = n^2``), for any ``spp``. No integer division (a 64-bit ``idiv`` per sample was
+    measured at a fifth of the kernel's time): floors of float64 quotients, exact for integers below 2^26 (a
+    quotient that is not an integer is at least 1 / spp from one, far more than its rounding error)."""
+    row = math.floor(((s + 1.0) * rows - 1.0) / spp)
+    first = math.floor(row * spp / rows)
+    n_row = math.floor((row + 1.0) * spp / rows) - first
+    return (s - first + u0) / n_row, (first + u1 * n_row) / spp
+
+
+@register_jitable(inline="always")
+def isqrt(n):
+    """``floor(sqrt(n))`` of a non-negative integer, exact (the float root corrected)."""
+    k = int(math.sqrt(n))
+    while k * k > n:
+        k -= 1
+    while (k + 1) * (k + 1) <= n:
+        k += 1
+    return k
+
+
 # ----------------------------------------------------------------------------------------- BRDFs and Fresnel
 
 @register_jitable(inline="always")

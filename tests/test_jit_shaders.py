@@ -166,3 +166,32 @@ def test_uniform_is_uniform_and_keyed():
 def test_permute_is_a_permutation(n):
     for seed in (0, 1, 12345, 2 ** 31 - 1):
         assert sorted(J.permute(i, n, seed) for i in range(n)) == list(range(n))
+
+
+class _Fixed:
+    """A stand-in generator whose ``random`` returns the given array (the jitter of each sample)."""
+
+    def __init__(self, xi):
+        self.xi = xi
+
+    def random(self, shape):
+        return self.xi.reshape(shape)
+
+
+@pytest.mark.parametrize("spp", [1, 2, 3, 5, 7, 16, 17, 99, 768, 1000, 4097])
+def test_strata_position_is_pixel_strata(rng, spp):
+    """The kernel's equal-area grid (float floors, no integer division) is pyrt.core.sampler.pixel_strata's
+    (to rounding: the same cells, the same point in each), compiled and in Python; isqrt is exact."""
+    from pyrt.core.sampler import pixel_strata
+    s = np.arange(spp)
+    xi = rng.random((spp, 2))
+    xi[:2] = [[0.0, 0.0], [1.0 - 2.0 ** -53, 1.0 - 2.0 ** -53]][:min(2, spp)]
+    want = pixel_strata(_Fixed(xi), spp, s)
+    k = J.isqrt(spp)
+    assert k * k <= spp < (k + 1) * (k + 1)
+    got = np.array([J.strata_position(float(spp), float(k), float(i), a, b) for i, (a, b) in zip(s, xi)])
+    np.testing.assert_allclose(got, want, rtol=1e-14, atol=1e-15)
+    compiled = numba.njit(lambda n, r, i, a, b: J.strata_position(n, r, i, a, b))
+    got_c = np.array([compiled(float(spp), float(k), float(i), a, b) for i, (a, b) in zip(s[:50], xi[:50])])
+    np.testing.assert_allclose(got_c, want[:50], rtol=1e-14, atol=1e-15)
+    assert numba.njit(lambda n: J.isqrt(n))(spp) == k

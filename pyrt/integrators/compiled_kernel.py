@@ -101,31 +101,6 @@ def camera_dir(cam, x, y):
 
 
 @_njit
-def strata_position(spp, rows, s, u0, u1):
-    """Raster offset in [0, 1)^2 of sample ``s`` of a pixel's ``spp`` (all three float64 integers) with the jitter
-    ``(u0, u1)``: the equal-area jittered grid of :func:`pyrt.core.sampler.pixel_strata` (``rows = isqrt(spp)``
-    rows, row ``j`` holding samples ``[floor(j spp / rows), floor((j + 1) spp / rows))`` side by side; the
-    ``n x n`` grid when ``spp = n^2``), for any ``spp``. No integer division (a 64-bit ``idiv`` per sample was
-    measured at a fifth of the kernel's time): floors of float64 quotients, exact for integers below 2^26 (a
-    quotient that is not an integer is at least 1 / spp from one, far more than its rounding error)."""
-    row = math.floor(((s + 1.0) * rows - 1.0) / spp)
-    first = math.floor(row * spp / rows)
-    n_row = math.floor((row + 1.0) * spp / rows) - first
-    return (s - first + u0) / n_row, (first + u1 * n_row) / spp
-
-
-@_njit
-def isqrt(n):
-    """``floor(sqrt(n))`` of a non-negative integer, exact (the float root corrected)."""
-    k = int(math.sqrt(n))
-    while k * k > n:
-        k -= 1
-    while (k + 1) * (k + 1) <= n:
-        k += 1
-    return k
-
-
-@_njit
 def direct_light(ltags, lpars, j, mtag, mpars, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift, terminator):
     """Light ``j``'s contribution at a hit before shadowing: ``(ok, tmax, origin, wi, f)`` with ``f`` = f_cos * E and
     the shadow ray (origin offset to the side of ``wi``: :meth:`pyrt.geometry.offsets.Strategy.shadow`, ``robust``
@@ -439,7 +414,7 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
     spp, spp_lo, grid = opts[O_SPP], opts[O_SPP_LO], opts[O_GRID]
     centre = spp == 1 and cam[C_JITTER] == 0.0
     ginv = 1.0 / max(grid, 1)
-    spp_f, rows_f = float(spp), float(isqrt(spp))
+    spp_f, rows_f = float(spp), float(J.isqrt(spp))
     seed = opts[O_SEED]
     nl = opts[O_NLIGHTS]
     max_depth, split, cutoff = opts[O_MAX_DEPTH], opts[O_SPLIT], optf[F_CUTOFF]
@@ -474,7 +449,7 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
                         key = J.sample_key(pkey, s)
                         keys[lane] = key
                         u0, u1 = J.uniform_pair(key)
-                        ox, oy = strata_position(spp_f, rows_f, float(s), u0, u1)
+                        ox, oy = J.strata_position(spp_f, rows_f, float(s), u0, u1)
                         set_lane_vec(V, V_D, lane, camera_dir(cam, px + ox, py + oy))
                 for lane in range(n):
                     d = lane_vec(V, V_D, lane)
