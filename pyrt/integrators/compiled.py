@@ -209,21 +209,7 @@ def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_dept
     samples (zeroed)."""
     W, H = cam.width, cam.height
     order = tile_order(n_tiles(cam)) if tiles is None else np.asarray(tiles, dtype=np.int64)
-    opts = np.zeros(K.N_OPTS, dtype=np.int64)
-    opts[K.O_SEED] = int(seed) & 0x7FFFFFFFFFFFFFFF
-    opts[K.O_SPP] = spp
-    opts[K.O_MAX_DEPTH] = max_depth
-    opts[K.O_SPLIT] = -1 if split_depth is None else split_depth
-    opts[K.O_TERMINATOR] = 1 if terminator else 0
-    opts[K.O_NLIGHTS] = cs.n_lights
-    opts[K.O_SPP_LO] = 0
-    opts[K.O_FALLBACK] = 1 if cs.fallback else 0
-    grid = int(round(spp ** 0.5))
-    opts[K.O_GRID] = grid if grid * grid == spp else 0
-    optf = np.zeros(8)
-    optf[K.F_CUTOFF] = throughput_cutoff
-    optf[K.F_BG:K.F_BG + 3] = cs.background
-    optf[K.F_AMBIENT:K.F_AMBIENT + 3] = cs.ambient
+    opts, optf = _options(cs, spp, seed, max_depth, throughput_cutoff, split_depth, terminator)
     sums = np.zeros((W * H, 3))
     sqs = np.zeros((W * H, 3))
     counters = np.zeros((order.size, 4), dtype=np.int64)
@@ -249,6 +235,27 @@ def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_dept
         if progress is not None:
             progress.update(hi - lo)
     return sums, sqs, counters.sum(axis=0), done
+
+
+def _options(cs, spp, seed, max_depth, throughput_cutoff, split_depth, terminator):
+    """The kernel's integer and float option arrays (:data:`pyrt.integrators.compiled_kernel.N_OPTS`, ``O_*``,
+    ``F_*``)."""
+    opts = np.zeros(K.N_OPTS, dtype=np.int64)
+    opts[K.O_SEED] = int(seed) & 0x7FFFFFFFFFFFFFFF
+    opts[K.O_SPP] = spp
+    opts[K.O_MAX_DEPTH] = max_depth
+    opts[K.O_SPLIT] = -1 if split_depth is None else split_depth
+    opts[K.O_TERMINATOR] = 1 if terminator else 0
+    opts[K.O_NLIGHTS] = cs.n_lights
+    opts[K.O_SPP_LO] = 0
+    opts[K.O_FALLBACK] = 1 if cs.fallback else 0
+    grid = int(round(spp ** 0.5))
+    opts[K.O_GRID] = grid if grid * grid == spp else 0
+    optf = np.zeros(8)
+    optf[K.F_CUTOFF] = throughput_cutoff
+    optf[K.F_BG:K.F_BG + 3] = cs.background
+    optf[K.F_AMBIENT:K.F_AMBIENT + 3] = cs.ambient
+    return opts, optf
 
 
 def packet_width():
