@@ -195,3 +195,29 @@ def test_strata_position_is_pixel_strata(rng, spp):
     got_c = np.array([compiled(float(spp), float(k), float(i), a, b) for i, (a, b) in zip(s[:50], xi[:50])])
     np.testing.assert_allclose(got_c, want[:50], rtol=1e-14, atol=1e-15)
     assert numba.njit(lambda n: J.isqrt(n))(spp) == k
+
+
+def test_wide_vectors_asks_llvm_for_512_bit_vectors():
+    """pyrt.core.unmanaged.wide_vectors: the same results, and 512-bit registers in the loop on an AVX-512 CPU
+    (LLVM's default tuning there stays at 256 bits)."""
+    import llvmlite.binding as llvm
+    from pyrt.core.unmanaged import wide_vectors
+
+    @numba.njit(error_model="numpy")
+    def wide(a, b):
+        wide_vectors()
+        for i in range(a.size):
+            a[i] = a[i] * b[i] + 1.0
+
+    @numba.njit(error_model="numpy")
+    def plain(a, b):
+        for i in range(a.size):
+            a[i] = a[i] * b[i] + 1.0
+
+    x, y = np.arange(100.0), np.linspace(0, 1, 100)
+    a, b = x.copy(), x.copy()
+    wide(a, y)
+    plain(b, y)
+    np.testing.assert_array_equal(a, b)
+    if "+avx512f" in llvm.get_host_cpu_features().flatten():
+        assert "zmm" in list(wide.inspect_asm().values())[0]

@@ -62,3 +62,24 @@ def pointer(typingctx, arr):
     def codegen(context, builder, sig, args):
         return context.make_array(sig.args[0])(context, builder, args[0]).data
     return types.CPointer(arr.dtype)(arr), codegen
+
+
+#: the LLVM function attribute :func:`wide_vectors` sets (LLVM's own string-attribute syntax)
+_PREFER_512 = '"prefer-vector-width"="512"'
+
+
+@intrinsic
+def wide_vectors(typingctx):
+    """Let LLVM vectorise the function that calls this with 512-bit vectors where the CPU has them (AVX-512).
+
+    Why: on AVX-512 CPUs LLVM's default tuning prefers 256-bit vectors (``prefer-256-bit``), for fear of the lower
+    clock that heavy 512-bit code can bring. Measured on the render kernel's vectorised packet stages (light stage,
+    camera rays): 512-bit vectors render ~5-10 % faster, the images bit-identical. The call sets the function
+    attribute ``"prefer-vector-width"="512"`` on the function being compiled (not on its callers); on a CPU without
+    AVX-512 LLVM uses the widest vectors it has. A function that Numba inlines (``inline="always"``) lends the
+    attribute to its caller: call it only from the functions it is meant for. (llvmlite checks function attributes
+    against a list of known names that has no string attributes: the attribute is added to the set directly.)"""
+    def codegen(context, builder, sig, args):
+        set.add(builder.function.attributes, _PREFER_512)
+        return context.get_dummy_value()
+    return types.none(), codegen

@@ -83,7 +83,8 @@ _njit = numba.njit(nogil=True, cache=True, error_model="numpy", inline="always")
 #: a packet stage whose loop over the lanes should vectorise: compiled as a function of its own (not inlined by
 #: Numba), because LLVM does not vectorise such a loop once it sits inside the kernel's loops (measured: an inlined
 #: light stage stayed scalar, ~60 cycles a lane); compiled alone it vectorises, and LLVM may still inline the
-#: vectorised body. It takes pointers and numbers only, so the call costs no reference counting.
+#: vectorised body. It takes pointers and numbers only, so the call costs no reference counting. Stages and the
+#: tile function ask for 512-bit vectors (:func:`pyrt.core.unmanaged.wide_vectors`).
 _stage = numba.njit(nogil=True, cache=True, error_model="numpy")
 
 
@@ -171,6 +172,7 @@ def light_stage(ltags, lpars, j, V, n, terminator):
     """:func:`light_lane` of light ``j`` for lanes ``[0, n)``: one loop per light type, and for a point light with
     the inverse-square falloff one of its own (tag and kind constants in each, so that their switches fold away:
     the if-converted switch of the falloff kinds alone cost five vector divisions a lane)."""
+    U.wide_vectors()
     ltag = ltags[j]
     rec = LC.light_record(lpars, j)
     kind = rec[6]
@@ -191,6 +193,7 @@ def light_stage(ltags, lpars, j, V, n, terminator):
 def shadow_fill(V, sh, w, n):
     """The shadow rays of :func:`light_stage` from the scratch into lanes ``[0, n)`` of the packet ``sh`` (width
     ``w``; :func:`bsdf_stage` switches them on). A loop of its own: it reads one buffer and writes another."""
+    U.wide_vectors()
     for lane in range(n):
         o, wi = lane_vec(V, V_SO, lane), lane_vec(V, V_WI, lane)
         E.packet_set_origin(sh, w, lane, o[0], o[1], o[2])
@@ -393,6 +396,7 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
     compiler can vectorise: camera rays, the hits' surfaces, per light the shadow rays (then one occlusion query),
     the specular trees, the film. The per-sample code reads every array through a pointer
     (:func:`pyrt.core.unmanaged.pointer`): it binds no array, so it makes no reference-counting calls."""
+    U.wide_vectors()
     pk_own, sh_own, ray_own = E.packet_alloc(width), E.packet_alloc(width), E.ray_alloc()
     scratch = np.zeros(V_SIZE * LANES)
     stack_own = np.zeros(STACK * STACK_ROW)
