@@ -162,6 +162,8 @@ class CompiledScene:
         self.background = np.asarray(ps.scene.background, dtype=np.float64)
         self.ambient = np.asarray(ps.scene.ambient, dtype=np.float64)
         self.scene = embree_jit.scene_handle(ps.accel)
+        #: the prepared scene whose Embree scene ``scene`` is (kept alive while these tables are in use)
+        self.prepared = ps
 
 
 def camera_record(cam):
@@ -199,8 +201,17 @@ def n_tiles(cam):
     return -(-cam.width // K.TILE) * -(-cam.height // K.TILE)
 
 
+#: kernel calls per render (a progress step and a look at ``cancel`` between them; each call ends with a barrier):
+#: 4 rather than 16 calls, and threads taking 4 tiles at a time rather than one static block each, measured within
+#: the noise to 5 % faster on the shadowed bench scene (quickbench, 2 threads, load 0.1; 16 / static: 36.7 Ms/s,
+#: 4 / static 39.8, 2 / 4 tiles 38.8)
+GROUPS = 4
+#: tiles a thread takes at a time from a call's list (Numba's ``parallel_chunksize``; 0: one static block each)
+CHUNKSIZE = 4
+
+
 def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_depth, terminator, threads=None,
-                 cancel=None, progress=None, groups=16, tiles=None):
+                 cancel=None, progress=None, groups=None, tiles=None):
     """Render ``spp`` samples per pixel of the compiled scene ``cs`` through the camera ``cam``.
 
     The tiles (``tiles``: a subset, default all in :func:`tile_order`) are rendered in ``groups`` calls of the
@@ -219,6 +230,7 @@ def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_dept
     if threads is not None:
         numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
     announce_compile()
+    groups = GROUPS if groups is None else groups
     bounds = np.linspace(0, order.size, max(1, min(groups, order.size)) + 1).astype(np.int64)
     for g in range(len(bounds) - 1):
         if cancel is not None and cancel.is_set():
@@ -228,9 +240,10 @@ def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_dept
             # a compile (first call, cold cache) reports "variable ... is not in scope" for inlined helpers with
             # early returns: an internal check of Numba's, not a fault of the kernel (the tests hold its images)
             warnings.simplefilter("ignore", NumbaIRAssumptionWarning)
-            K.render_tiles(cs.scene, order[lo:hi], cam_rec, cs.geo_f, cs.geo_i, cs.materials[0], cs.materials[1],
-                           cs.textures[0], cs.textures[1], cs.lights[0], cs.lights[1], opts, optf, sums, sqs,
-                           counters[lo:hi], width)
+            with numba.parallel_chunksize(CHUNKSIZE):
+                K.render_tiles(cs.scene, order[lo:hi], cam_rec, cs.geo_f, cs.geo_i, cs.materials[0], cs.materials[1],
+                               cs.textures[0], cs.textures[1], cs.lights[0], cs.lights[1], opts, optf, sums, sqs,
+                               counters[lo:hi], width)
         done[order[lo:hi]] = True
         if progress is not None:
             progress.update(hi - lo)
