@@ -237,29 +237,8 @@ def test_the_kernel_cache_is_keyed_on_every_kernel_source():
 
 
 # --- non-square spp: the equal-area jittered grid of pyrt.core.sampler.pixel_strata --------------------------------
-_RHO, _I, _LP = 0.6, 7.0, np.array([0.4, 1.2, -0.3])
-
-
-def _lit_pixel():
-    """One pixel looking straight down at a Lambert plane under a point light, a wide field of view: the radiance
-    varies strongly across the pixel's footprint (tests/test_chunk_by_samples.py's scene)."""
-    cam = pyrt.Camera(position=(0, 3.0, 0), target=(0, 0, 0), up=(0, 0, -1), fov=60.0, width=1, height=1, spp=1,
-                      jitter=False)
-    scene = pyrt.Scene(cam)
-    scene.add_plane((0, 0, 0), 8.0, pyrt.Lambert(albedo=_RHO), name="floor")
-    scene.add_light(pyrt.PointLight(_LP, intensity=_I))
-    return scene
-
-
-def _closed_form_pixel_mean(cam, n=1024):
-    """The mean over the pixel of rho/pi I cos / r^2 at the plane y = 0 (midpoint rule on n x n points)."""
-    u = (np.arange(n) + 0.5) / n
-    x, y = np.meshgrid(u, u)
-    d = cam.directions(x.ravel(), y.ravel())
-    p = cam.position + (-cam.position[1] / d[:, 1])[:, None] * d
-    dl = _LP - p
-    r2 = (dl ** 2).sum(-1)
-    return float(np.mean(_RHO / np.pi * _I * (dl[:, 1] / np.sqrt(r2)) / r2))
+# the scene and closed form of tests/test_chunk_by_samples.py: one pixel whose radiance varies strongly across it
+from test_chunk_by_samples import _closed_form_pixel_mean, _lit_pixel  # noqa: E402
 
 
 def test_non_square_spp_is_the_equal_area_grid():

@@ -60,6 +60,17 @@ def trace1(scene, o, d, tnear, tfar):
 
 
 @numba.njit(nogil=True, cache=True)
+def _fill(p, valid, o, d, tnear, tfar, inactive, base, m):
+    """Rays base..base+m-1 into the packet's lanes; the ``inactive`` ones set, then masked off."""
+    ej.packet_clear(p)
+    for lane in range(m):
+        k = base + lane
+        ej.packet_set_ray(p, lane, o[k, 0], o[k, 1], o[k, 2], d[k, 0], d[k, 1], d[k, 2], tnear[k], tfar[k])
+        if inactive[k]:
+            valid[lane] = 0
+
+
+@numba.njit(nogil=True, cache=True)
 def trace_packets(scene, o, d, tnear, tfar, width, coherent, inactive):
     """Rays k..k+width-1 in one packet; rays with ``inactive[k]`` are set in their lane, then masked off."""
     n = o.shape[0]
@@ -68,12 +79,7 @@ def trace_packets(scene, o, d, tnear, tfar, width, coherent, inactive):
     valid = ej.packet_valid(p)
     for base in range(0, n, width):
         m = min(width, n - base)
-        ej.packet_clear(p)
-        for lane in range(m):
-            k = base + lane
-            ej.packet_set_ray(p, lane, o[k, 0], o[k, 1], o[k, 2], d[k, 0], d[k, 1], d[k, 2], tnear[k], tfar[k])
-            if inactive[k]:
-                valid[lane] = 0
+        _fill(p, valid, o, d, tnear, tfar, inactive, base, m)
         ej.intersect_packet(scene, p, coherent)
         for lane in range(m):
             _store(out, base + lane, ej.packet_hit(p, lane))
@@ -94,12 +100,7 @@ def occluded_rays(scene, o, d, tnear, tfar, width, coherent, inactive):
     valid = ej.packet_valid(p)
     for base in range(0, n, width):
         m = min(width, n - base)
-        ej.packet_clear(p)
-        for lane in range(m):
-            k = base + lane
-            ej.packet_set_ray(p, lane, o[k, 0], o[k, 1], o[k, 2], d[k, 0], d[k, 1], d[k, 2], tnear[k], tfar[k])
-            if inactive[k]:
-                valid[lane] = 0
+        _fill(p, valid, o, d, tnear, tfar, inactive, base, m)
         ej.occluded_packet(scene, p, coherent)
         for lane in range(m):
             out[base + lane] = ej.packet_blocked(p, lane)

@@ -51,13 +51,7 @@ def render_compiled(ps, cam, *, seed, max_depth, throughput_cutoff, offset, spli
         film.weight += filled
         pixels_filled = int(filled.sum())
         stats.nonfinite_samples += int(c1[3])
-    if stats.nonfinite_samples:
-        if nonfinite == "raise":
-            raise FilmError(f"Film: {stats.nonfinite_samples} samples with non-finite radiance")
-        film.nonfinite_samples = stats.nonfinite_samples
-        warnings.warn(f"render: {stats.nonfinite_samples} samples had non-finite radiance and were "
-                      "set to 0 (this is a bug; please report the scene)", RuntimeWarning, stacklevel=3)
-    stats.time_total = time.perf_counter() - t_start
+    _finish(stats, film, nonfinite, t_start)
     n_done = int(px_done.sum())
     return RenderResult(image=film.image(), aovs=None, stats=stats, film=film, complete=bool(done.all()),
                         chunks_done=int(done.sum()), chunks_total=int(done.size), pixels_done=n_done,
@@ -106,14 +100,20 @@ def render_compiled_dask(runner, cam, *, seed, max_depth, throughput_cutoff, off
         bar.close()
     stats = RenderStats(primary_rays=int(counters[0]), secondary_rays=int(counters[1]),
                         shadow_rays=int(counters[2]), nonfinite_samples=int(counters[3]), backend="compiled")
+    _finish(stats, film, nonfinite, t_start)
+    n_done = int(np.count_nonzero(film.weight))
+    return RenderResult(image=film.image(), aovs=None, stats=stats, film=film, complete=tiles_done == order.size,
+                        chunks_done=tiles_done, chunks_total=int(order.size), pixels_done=n_done,
+                        samples_done=n_done * S)
+
+
+def _finish(stats, film, nonfinite, t_start):
+    """The film's policy for the non-finite samples the kernel zeroed and counted (an error, or a warning), and the
+    render's total time."""
     if stats.nonfinite_samples:
         if nonfinite == "raise":
             raise FilmError(f"Film: {stats.nonfinite_samples} samples with non-finite radiance")
         film.nonfinite_samples = stats.nonfinite_samples
         warnings.warn(f"render: {stats.nonfinite_samples} samples had non-finite radiance and were "
-                      "set to 0 (this is a bug; please report the scene)", RuntimeWarning, stacklevel=3)
+                      "set to 0 (this is a bug; please report the scene)", RuntimeWarning, stacklevel=4)
     stats.time_total = time.perf_counter() - t_start
-    n_done = int(np.count_nonzero(film.weight))
-    return RenderResult(image=film.image(), aovs=None, stats=stats, film=film, complete=tiles_done == order.size,
-                        chunks_done=tiles_done, chunks_total=int(order.size), pixels_done=n_done,
-                        samples_done=n_done * S)
