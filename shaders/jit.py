@@ -386,6 +386,22 @@ def hit_surface(G, fallback, terminator, geom, prim, u, v, wo):
     return p, ng, ns, nv, lift, mag, mag_lift, front, face, uv
 
 
+#: :data:`pyrt.geometry.offsets.SHADOW_TMAX_SCALE`'s margin and :data:`pyrt.geometry.offsets.LIGHT_END_REL_ERROR`
+SHADOW_MARGIN, LIGHT_END_REL_ERROR = 1e-4, 16.0
+
+
+@register_jitable(inline="always")
+def robust_tmax(o, wi, lx, ly, lz, finite):
+    """The ``robust`` shadow-ray length (:func:`pyrt.geometry.offsets.robust_tmax`) from the origin ``o`` along ``wi``
+    to the light's point ``(lx, ly, lz)``: ``t_end - max(1e-4 t_end, 16 2^-24 max(|o|, |end|))``, at least half of
+    ``t_end``; ``inf`` where ``finite`` is False (directional light). Written with selects: the vectorised light stage
+    calls it too."""
+    t_end = (lx - o[0]) * wi[0] + (ly - o[1]) * wi[1] + (lz - o[2]) * wi[2]
+    mag = max(abs(o[0]), abs(o[1]), abs(o[2]), abs(lx), abs(ly), abs(lz))
+    margin = max(SHADOW_MARGIN * t_end, LIGHT_END_REL_ERROR * EPS32 * mag)
+    return max(t_end - margin, 0.5 * t_end) if finite else math.inf
+
+
 @register_jitable(inline="always")
 def round_away(base, mag, side, ng):
     """``round_away(base + side mag ng)`` (:func:`pyrt.geometry.offsets.local_bound`): a 3-tuple of float64 values of

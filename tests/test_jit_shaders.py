@@ -221,3 +221,16 @@ def test_wide_vectors_asks_llvm_for_512_bit_vectors():
     np.testing.assert_array_equal(a, b)
     if "+avx512f" in llvm.get_host_cpu_features().flatten():
         assert "zmm" in list(wide.inspect_asm().values())[0]
+
+
+def test_robust_tmax_matches_offsets(rng):
+    """The compiled kernel's shadow-ray length equals pyrt.geometry.offsets.robust_tmax (the robust strategy)."""
+    o = rng.normal(0, 50, (200, 3))
+    end = rng.normal(0, 50, 3)
+    wi = end - o
+    wi /= np.linalg.norm(wi, axis=1, keepdims=True)
+    o[:3] = [[1e-9, 0, 0], [1e4, -1e4, 3], end + 1e-7]         # tiny, far, and a light almost at the origin
+    want = offsets.robust_tmax(o, wi, end)
+    got = [J.robust_tmax(a, w, end[0], end[1], end[2], True) for a, w in zip(o, wi)]
+    np.testing.assert_allclose(got, want, rtol=1e-12)
+    assert J.robust_tmax(o[0], wi[0], 0.0, 0.0, 0.0, False) == np.inf

@@ -189,9 +189,12 @@ def tile_order(n_tiles):
 
 
 def announce_compile(stream=None):
-    """Say once per process, on stderr, that the kernels are being compiled (a cold cache)."""
-    if not _announced and not kernel_cache.is_warm():
+    """Say once per process, on stderr, that the kernels are being compiled (a cold cache); the cache is looked at
+    once per process (after that the kernel is loaded or compiled)."""
+    if not _announced:
         _announced.append(True)
+        if kernel_cache.is_warm():
+            return
         print("pyrt: compiling render kernels, first run only (cached in "
               f"{kernel_cache.cache_dir()})", file=stream or sys.stderr, flush=True)
 

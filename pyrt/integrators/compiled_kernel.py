@@ -14,11 +14,11 @@ without the terminator lift: local error bound along ng, float32 rounding one ul
 light sides, BRDFs, Fresnel and lobe choice. Random numbers are counter-based (:func:`pyrt.shaders.jit.uniform`
 of seed, pixel, sample and dimension), so the image depends on the seed alone, not on the threads.
 
-Surface records are rows of a float64 array of :data:`S_SIZE` columns (offsets ``S_*``); everything per sample
-lives in rows of per-tile scratch arrays, nothing is allocated per ray. Arrays are indexed, never sliced, in the
-per-sample code: a view costs two atomic reference-count updates (measured: the first version, which passed row
-views, spent more time in them than in Embree), and every helper is inlined (``inline="always"``) so that Numba
-can drop the reference counting of its array arguments.
+A packet's values pass between its stages in a per-tile scratch ``V`` (field-major: field ``f`` of lane ``l`` at
+``f * LANES + l``, offsets ``V_*``); per-ray values in the specular tree are locals; nothing is allocated per ray.
+The per-sample code reads every array through a raw pointer (:func:`pyrt.core.unmanaged.pointer`): Numba's
+reference counting is atomic and a call per binding of an array (measured: it outweighed Embree in the first
+version). Helpers are inlined; the lane loops that vectorise are compiled as functions of their own (``_stage``).
 """
 from __future__ import annotations
 
@@ -119,13 +119,7 @@ def direct_light(ltags, lpars, j, mtag, mpars, m, albedo, p, ng, ns, nv, wo, lif
         o = J.round_away(lift, mag_lift, 1.0, ng)
     else:
         o = J.round_away(p, mag, 1.0 if cg >= 0.0 else -1.0, ng)
-    tmax = math.inf
-    if math.isfinite(dist):
-        lx, ly, lz = lpars[jb], lpars[jb + 1], lpars[jb + 2]
-        t_end = (lx - o[0]) * w0 + (ly - o[1]) * w1 + (lz - o[2]) * w2
-        omag = max(abs(o[0]), abs(o[1]), abs(o[2]), abs(lx), abs(ly), abs(lz))
-        margin = max(1e-4 * t_end, 16.0 * J.EPS32 * omag)
-        tmax = max(t_end - margin, 0.5 * t_end)
+    tmax = J.robust_tmax(o, wi, lpars[jb], lpars[jb + 1], lpars[jb + 2], math.isfinite(dist))
     return ok, min(tmax, T_INF), o, wi, f
 
 
@@ -157,11 +151,7 @@ def light_lane(ltag, kind, rec, i_max, V, lane, terminator):
     base = (lift[0] if terminator else p[0], lift[1] if terminator else p[1], lift[2] if terminator else p[2])
     mag = V[V_MAG_LIFT * LANES + lane] if terminator else V[V_MAG * LANES + lane]
     o = J.round_away_vec(base, mag, 1.0 if (terminator | (cg >= 0.0)) else -1.0, ng)
-    lx, ly, lz = rec[0], rec[1], rec[2]
-    t_end = (lx - o[0]) * w0 + (ly - o[1]) * w1 + (lz - o[2]) * w2
-    omag = max(abs(o[0]), abs(o[1]), abs(o[2]), abs(lx), abs(ly), abs(lz))
-    margin = max(1e-4 * t_end, 16.0 * J.EPS32 * omag)
-    tmax = max(t_end - margin, 0.5 * t_end) if math.isfinite(dist) else math.inf
+    tmax = J.robust_tmax(o, wi, rec[0], rec[1], rec[2], math.isfinite(dist))
     set_lane_vec(V, V_SO, lane, o)
     set_lane_vec(V, V_WI, lane, wi)
     V[V_TMAX * LANES + lane] = min(tmax, T_INF)
