@@ -4,12 +4,14 @@
 (:func:`pyrt.core.sampler.hash32` of two or three keys) and the Owen-scrambled 2-D Sobol' points
 :func:`sobol_owen_2d` (:func:`pyrt.core.sampler.sobol_owen_2d`): the same bits as the NumPy functions
 (tests/test_jit_sampling.py), so a compiled adaptive pass puts its camera samples exactly where the NumPy path's
-would. 32-bit arithmetic is written as masked 64-bit (Numba widens small integers).
+would; :func:`padded_sobol_2d` (:func:`pyrt.core.sampler.padded_sobol_2d`), the padded light samples of camera hits. 32-bit arithmetic is written as masked 64-bit (Numba widens small integers).
 """
 from __future__ import annotations
 
 import numpy as np
 from numba.extending import register_jitable
+
+from pyrt.shaders.jit import permute
 
 _M32 = 0xFFFFFFFF
 #: the hash's initial state, (0x9E3779B9 * 0x85EBCA6B) mod 2^32
@@ -87,3 +89,14 @@ def sobol_owen_2d(index, seed):
     sx = reverse_bits32(laine_karras(i, hash32_2(s, 0x68E31DA4)))
     sy = reverse_bits32(laine_karras(reverse_bits32(y), hash32_2(s, 0xB5297A4D)))
     return float(sx) * 2.0 ** -32, float(sy) * 2.0 ** -32
+
+
+@register_jitable(inline="always")
+def padded_sobol_2d(index, n, key, dim):
+    """Point of dimension pair ``dim`` for sample ``index`` of a pixel whose set has ``n`` samples and whose seed is
+    ``key``: :func:`pyrt.core.sampler.padded_sobol_2d` for one sample (a fixed-size set), bit for bit: point
+    ``pi(index)`` of the Owen-scrambled Sobol' sequence of ``hash32(key, dim)``, ``pi`` Kensler's permutation
+    (:func:`pyrt.shaders.jit.permute`) of that seed's shuffle."""
+    k = hash32_2(key, dim)
+    shuffle = hash32_2(k, 0x2545F491)
+    return sobol_owen_2d(permute(index, n, shuffle), k)

@@ -30,3 +30,14 @@ def test_sobol_owen_matches_numpy_compiled_and_in_python(rng):
     want = sampler.sobol_owen_2d(index, seed)
     np.testing.assert_array_equal(_points(index, seed), want)
     np.testing.assert_array_equal([JS.sobol_owen_2d(i, s) for i, s in zip(index[:50], seed[:50])], want[:50])
+
+
+def test_padded_sobol_matches_numpy(rng):
+    """The padded points of a fixed-size set (the compiled area-light samples of camera hits), bit for bit."""
+    n = rng.integers(1, 70, 200)
+    index = rng.integers(0, 1 << 20, 200) % n
+    key = rng.integers(0, 1 << 32, 200)
+    for dim in (0, 1, 7):
+        want = sampler.padded_sobol_2d(index, n, key, dim)
+        got = np.array([JS.padded_sobol_2d(i, m, k, dim) for i, m, k in zip(index, n, key)])
+        np.testing.assert_array_equal(got, want)

@@ -9,11 +9,12 @@ texture and light: a type tag and a parameter record, packed by each object's ``
 What the compiled path covers (everything else renders through the NumPy path, automatically with
 ``backend="auto"``): the Whitted integrator with max depth, throughput cutoff and split depth; Lambert (constant or
 unfiltered-checker albedo, constant emission), normalised Blinn-Phong, Mirror, Glass (one dielectric, no nested
-media); point and spot lights (every spot and distance falloff) and directional lights; a constant background
-and ambient term; smooth and flat shading with or without the back-facing-normal fallback; the ``robust`` and
-``robust_no_terminator`` offsets. Not yet: environments, area and emissive-mesh lights, the other materials,
-image and filtered textures (ray differentials), normal maps, alpha coverage, nested media, transparent shadows,
-the glossy integrator, AOVs, adaptive passes and ray recording.
+media); point and spot lights (every spot and distance falloff), directional lights, rectangle, disk and sphere
+lights sampled by light sampling (stratified per hit, padded over a pixel's samples) with their visible meshes; a
+constant background and ambient term; smooth and flat shading with or without the back-facing-normal fallback; the
+``robust`` and ``robust_no_terminator`` offsets. Not yet: environments, area lights with BSDF samples (MIS),
+emissive-mesh lights, the other materials, image and filtered textures (ray differentials), normal maps, alpha
+coverage, nested media, transparent shadows, the glossy integrator, AOVs, adaptive passes and ray recording.
 """
 from __future__ import annotations
 
@@ -27,6 +28,7 @@ import numpy as np
 
 from pyrt.geometry import embree_jit
 from pyrt.integrators import compiled_kernel as K
+from pyrt.integrators import compiled_layout as KL
 from pyrt.integrators import kernel_cache
 from pyrt.integrators.coverage import CoverageTable
 from pyrt.integrators.media import NestedMedia
@@ -83,8 +85,10 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
         if m.compiled_record(textures.add) is None:
             reasons.append(f"material {m.label}")
     for lt in scene.lights:
-        if lt.compiled_record() is None or lt.n_samples != 1 or lt.bsdf_samples or not lt.delta:
+        if lt.compiled_record() is None or (lt.delta and lt.n_samples != 1):
             reasons.append(f"light {lt.label}")
+        elif lt.bsdf_samples:
+            reasons.append(f"light {lt.label} (BSDF samples)")
     return reasons
 
 
@@ -168,16 +172,16 @@ class CompiledScene:
 
 def camera_record(cam):
     """The kernel's camera record (float64): position, forward, right, up, tan(fov/2), width, height, jitter."""
-    rec = np.zeros(K.N_CAM)
-    rec[K.C_POS:K.C_POS + 3] = cam.position
-    rec[K.C_FWD:K.C_FWD + 3] = cam.forward
-    rec[K.C_RIGHT:K.C_RIGHT + 3] = cam.right
-    rec[K.C_UP:K.C_UP + 3] = cam.up_ortho
-    rec[K.C_TAN] = cam.tan_half
-    rec[K.C_W], rec[K.C_H] = cam.width, cam.height
-    rec[K.C_JITTER] = 1.0 if cam.jitter else 0.0
-    rec[K.C_K] = 2.0 * cam.tan_half / cam.height
-    rec[K.C_AX] = cam.tan_half * cam.width / cam.height
+    rec = np.zeros(KL.N_CAM)
+    rec[KL.C_POS:KL.C_POS + 3] = cam.position
+    rec[KL.C_FWD:KL.C_FWD + 3] = cam.forward
+    rec[KL.C_RIGHT:KL.C_RIGHT + 3] = cam.right
+    rec[KL.C_UP:KL.C_UP + 3] = cam.up_ortho
+    rec[KL.C_TAN] = cam.tan_half
+    rec[KL.C_W], rec[KL.C_H] = cam.width, cam.height
+    rec[KL.C_JITTER] = 1.0 if cam.jitter else 0.0
+    rec[KL.C_K] = 2.0 * cam.tan_half / cam.height
+    rec[KL.C_AX] = cam.tan_half * cam.width / cam.height
     return rec
 
 
@@ -200,8 +204,8 @@ def announce_compile(stream=None):
 
 
 def n_tiles(cam):
-    """Tiles of :data:`pyrt.integrators.compiled_kernel.TILE` pixels in the camera's image."""
-    return -(-cam.width // K.TILE) * -(-cam.height // K.TILE)
+    """Tiles of :data:`pyrt.integrators.compiled_layout.TILE` pixels in the camera's image."""
+    return -(-cam.width // KL.TILE) * -(-cam.height // KL.TILE)
 
 
 #: kernel calls per render (a progress step and a look at ``cancel`` between them; each call ends with a barrier):
@@ -254,23 +258,23 @@ def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_dept
 
 
 def _options(cs, spp, seed, max_depth, throughput_cutoff, split_depth, terminator):
-    """The kernel's integer and float option arrays (:data:`pyrt.integrators.compiled_kernel.N_OPTS`, ``O_*``,
+    """The kernel's integer and float option arrays (:data:`pyrt.integrators.compiled_layout.N_OPTS`, ``O_*``,
     ``F_*``)."""
-    opts = np.zeros(K.N_OPTS, dtype=np.int64)
-    opts[K.O_SEED] = int(seed) & 0x7FFFFFFFFFFFFFFF
-    opts[K.O_SPP] = spp
-    opts[K.O_MAX_DEPTH] = max_depth
-    opts[K.O_SPLIT] = -1 if split_depth is None else split_depth
-    opts[K.O_TERMINATOR] = 1 if terminator else 0
-    opts[K.O_NLIGHTS] = cs.n_lights
-    opts[K.O_SPP_LO] = 0
-    opts[K.O_FALLBACK] = 1 if cs.fallback else 0
+    opts = np.zeros(KL.N_OPTS, dtype=np.int64)
+    opts[KL.O_SEED] = int(seed) & 0x7FFFFFFFFFFFFFFF
+    opts[KL.O_SPP] = spp
+    opts[KL.O_MAX_DEPTH] = max_depth
+    opts[KL.O_SPLIT] = -1 if split_depth is None else split_depth
+    opts[KL.O_TERMINATOR] = 1 if terminator else 0
+    opts[KL.O_NLIGHTS] = cs.n_lights
+    opts[KL.O_SPP_LO] = 0
+    opts[KL.O_FALLBACK] = 1 if cs.fallback else 0
     grid = int(round(spp ** 0.5))
-    opts[K.O_GRID] = grid if grid * grid == spp else 0
+    opts[KL.O_GRID] = grid if grid * grid == spp else 0
     optf = np.zeros(8)
-    optf[K.F_CUTOFF] = throughput_cutoff
-    optf[K.F_BG:K.F_BG + 3] = cs.background
-    optf[K.F_AMBIENT:K.F_AMBIENT + 3] = cs.ambient
+    optf[KL.F_CUTOFF] = throughput_cutoff
+    optf[KL.F_BG:KL.F_BG + 3] = cs.background
+    optf[KL.F_AMBIENT:KL.F_AMBIENT + 3] = cs.ambient
     return opts, optf
 
 
@@ -284,6 +288,6 @@ def packet_width():
 
 def pixel_mask(tiles_done, W, H):
     """(H*W,) bool: the pixels of the finished tiles."""
-    tx = -(-W // K.TILE)
+    tx = -(-W // KL.TILE)
     ys, xs = np.divmod(np.arange(W * H), W)
-    return tiles_done[(ys // K.TILE) * tx + xs // K.TILE]
+    return tiles_done[(ys // KL.TILE) * tx + xs // KL.TILE]

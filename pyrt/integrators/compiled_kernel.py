@@ -35,57 +35,23 @@ kernel_cache.use_cache_dir()      # before the decorators below (and those of th
 from pyrt.core import unmanaged as U  # noqa: E402
 from pyrt.core.unmanaged import keep_alive  # noqa: E402
 from pyrt.geometry import embree_jit as E  # noqa: E402
+from pyrt.integrators.compiled_layout import (  # noqa: E402
+    TILE, LANES, V_D, V_P, V_NG, V_NS,
+    V_NV, V_LIFT, V_MAG, V_MAG_LIFT, V_FRONT, V_MAT,
+    V_A, V_L, V_F, V_LIT, V_COSO, V_SIZE,
+    C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W,
+    C_H, C_JITTER, C_K, C_AX, O_SEED, O_SPP,
+    O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK,
+    O_GRID, F_CUTOFF, F_BG, F_AMBIENT, N_PRIMARY, N_SECONDARY,
+    N_SHADOW, N_NONFINITE, STACK, STACK_ROW, T_INF, DIM_LOBE,
+    _njit, _stage, lane_vec, set_lane_vec)
+from pyrt.integrators.compiled_lighting import (  # noqa: E402
+    area_stage, area_u, bsdf_stage, direct_light, light_stage, shadow_fill)
 from pyrt.lights import compiled as LC  # noqa: E402
 from pyrt.materials import compiled as MC  # noqa: E402
 from pyrt.shaders import jit as J  # noqa: E402
+from pyrt.shaders import jit_sampling as JS  # noqa: E402
 from pyrt.shaders.jit import dot  # noqa: E402
-
-#: pixels per tile side
-TILE = 8
-#: lanes of the per-packet scratch (the widest packet)
-LANES = 16
-#: per-packet scratch layout (float64, fields of :data:`LANES` lanes: field ``f`` of lane ``l`` at ``f * LANES + l``):
-#: ray direction, hit point, geometric normal (viewer side), shading normal, interpolated vertex normal (= ng on flat
-#: faces), terminator-lifted point, local-bound magnitudes, front flag, material (-1: a miss), albedo, radiance, the
-#: current light's unshadowed contribution and whether its shadow ray is traced
-V_D, V_P, V_NG, V_NS, V_NV, V_LIFT = 0, 3, 6, 9, 12, 15
-V_MAG, V_MAG_LIFT, V_FRONT, V_MAT = 18, 19, 20, 21
-V_A, V_L, V_F, V_LIT = 22, 25, 28, 31
-#: the light stage's fields: the cosines ``ns.wo`` (per hit), ``ns.wi`` and ``wi.wo`` (per light), the light's
-#: irradiance scale and whether the light can reach the hit's side (before the BSDF)
-V_COSO, V_COSI, V_COSIO, V_S, V_GOK = 32, 33, 34, 35, 36
-#: the shadow ray: origin, direction, tmax
-V_SO, V_WI, V_TMAX = 37, 40, 43
-#: fields of the scratch
-V_SIZE = 44
-#: camera record layout (float64)
-C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W, C_H, C_JITTER, C_K, C_AX = 0, 3, 6, 9, 12, 13, 14, 15, 16, 17
-#: length of the camera record
-N_CAM = 18
-#: integer options
-O_SEED, O_SPP, O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK, O_GRID = 0, 1, 2, 3, 4, 5, 6, 7, 8
-#: length of the integer options
-N_OPTS = 9
-#: float options
-F_CUTOFF, F_BG, F_AMBIENT = 0, 1, 4
-#: ray counters per tile
-N_PRIMARY, N_SECONDARY, N_SHADOW, N_NONFINITE = 0, 1, 2, 3
-#: the largest stack of pending specular rays a sample can need (2 per bounce below the split depth)
-STACK = 64
-#: words of a stack row: origin, direction, throughput, depth
-STACK_ROW = 10
-#: Embree's "unbounded" tfar (:data:`pyrt.geometry.accel.T_INFINITE`)
-T_INF = 1e37
-#: the first random dimension of the glass lobe choice (0, 1: the pixel position)
-DIM_LOBE = 2
-
-_njit = numba.njit(nogil=True, cache=True, error_model="numpy", inline="always")
-#: a packet stage whose loop over the lanes should vectorise: compiled as a function of its own (not inlined by
-#: Numba), because LLVM does not vectorise such a loop once it sits inside the kernel's loops (measured: an inlined
-#: light stage stayed scalar, ~60 cycles a lane); compiled alone it vectorises, and LLVM may still inline the
-#: vectorised body. It takes pointers and numbers only, so the call costs no reference counting. Stages and the
-#: tile function ask for 512-bit vectors (:func:`pyrt.core.unmanaged.wide_vectors`).
-_stage = numba.njit(nogil=True, cache=True, error_model="numpy")
 
 
 @_njit
@@ -102,123 +68,10 @@ def camera_dir(cam, x, y):
 
 
 @_njit
-def direct_light(ltags, lpars, j, mtag, mpars, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift, terminator):
-    """Light ``j``'s contribution at a hit before shadowing: ``(ok, tmax, origin, wi, f)`` with ``f`` = f_cos * E and
-    the shadow ray (origin offset to the side of ``wi``: :meth:`pyrt.geometry.offsets.Strategy.shadow`, ``robust``
-    tmax, ``inf`` for directional light). ``ok`` False where the light cannot contribute (wrong side, no irradiance,
-    zero BSDF: no shadow ray is traced, :func:`pyrt.integrators.direct._lit_lanes`)."""
-    jb = j * LC.RECORD
-    w0, w1, w2, dist, s = LC.sample_li(ltags[j], lpars, j, p[0], p[1], p[2])
-    wi = (w0, w1, w2)
-    cg = dot(wi, ng)
-    ok = s > 0.0 and max(lpars[jb + 6], lpars[jb + 7], lpars[jb + 8]) > 0.0 and (cg > 0.0 or dot(wi, nv) > 0.0)
-    f = MC.f_cos(mtag, mpars, m, albedo, dot(wo, ns), dot(wi, ns), dot(wi, wo))
-    ok = ok and max(f[0], f[1], f[2]) > 0.0
-    f = (f[0] * s * lpars[jb + 6], f[1] * s * lpars[jb + 7], f[2] * s * lpars[jb + 8])
-    if terminator:
-        o = J.round_away(lift, mag_lift, 1.0, ng)
-    else:
-        o = J.round_away(p, mag, 1.0 if cg >= 0.0 else -1.0, ng)
-    tmax = J.robust_tmax(o, wi, lpars[jb], lpars[jb + 1], lpars[jb + 2], math.isfinite(dist))
-    return ok, min(tmax, T_INF), o, wi, f
-
-
-@_njit
-def light_lane(ltag, kind, rec, i_max, V, lane, terminator):
-    """The BSDF-free part of :func:`direct_light` for lane ``lane`` of the packet (its hit in the scratch ``V``), the
-    light given by its tag, distance-falloff kind and :func:`pyrt.lights.compiled.light_record` ``rec`` (``i_max``:
-    its largest intensity component): into the scratch the cosines ``ns.wi``, ``wi.wo``, the irradiance scale, whether the light reaches
-    the hit's side (:data:`V_COSI`, :data:`V_COSIO`, :data:`V_S`, :data:`V_GOK`) and the shadow ray (:data:`V_SO`,
-    :data:`V_WI`, :data:`V_TMAX`: origin offset, direction, robust tmax).
-
-    Written for the vectoriser: it reads and writes the scratch only (a write to another buffer, as far as the
-    compiler knows, could change what it reads: no vector loop), and has no branch (flags combined with ``&`` /
-    ``|``, the offset's base point and magnitude chosen by selects, float32 rounding by selects, the tmax of a
-    distant light by a select). The same arithmetic as :func:`direct_light`: the same bits."""
-    p = lane_vec(V, V_P, lane)
-    ng = lane_vec(V, V_NG, lane)
-    w0, w1, w2, dist, s = LC.sample_li_record(ltag, kind, rec, p[0], p[1], p[2])
-    wi = (w0, w1, w2)
-    cg = dot(wi, ng)
-    gok = (s > 0.0) & (i_max > 0.0) & ((cg > 0.0) | (dot(wi, lane_vec(V, V_NV, lane)) > 0.0))
-    d = lane_vec(V, V_D, lane)
-    V[V_COSI * LANES + lane] = dot(wi, lane_vec(V, V_NS, lane))
-    V[V_COSIO * LANES + lane] = dot(wi, (-d[0], -d[1], -d[2]))
-    V[V_S * LANES + lane] = s
-    V[V_GOK * LANES + lane] = 1.0 if gok else 0.0
-    # the origin: the lifted point to the ng side (terminator), else p to the side of wi
-    lift = lane_vec(V, V_LIFT, lane)
-    base = (lift[0] if terminator else p[0], lift[1] if terminator else p[1], lift[2] if terminator else p[2])
-    mag = V[V_MAG_LIFT * LANES + lane] if terminator else V[V_MAG * LANES + lane]
-    o = J.round_away_vec(base, mag, 1.0 if (terminator | (cg >= 0.0)) else -1.0, ng)
-    tmax = J.robust_tmax(o, wi, rec[0], rec[1], rec[2], math.isfinite(dist))
-    set_lane_vec(V, V_SO, lane, o)
-    set_lane_vec(V, V_WI, lane, wi)
-    V[V_TMAX * LANES + lane] = min(tmax, T_INF)
-
-
-@_stage
-def light_stage(ltags, lpars, j, V, n, terminator):
-    """:func:`light_lane` of light ``j`` for lanes ``[0, n)``: one loop per light type, and for a point light with
-    the inverse-square falloff one of its own (tag and kind constants in each, so that their switches fold away:
-    the if-converted switch of the falloff kinds alone cost five vector divisions a lane)."""
-    U.wide_vectors()
-    ltag = ltags[j]
-    rec = LC.light_record(lpars, j)
-    kind = rec[6]
-    jb = j * LC.RECORD
-    i_max = max(lpars[jb + 6], lpars[jb + 7], lpars[jb + 8])
-    if ltag == LC.POINT and kind == 0:
-        for lane in range(n):
-            light_lane(LC.POINT, 0, rec, i_max, V, lane, terminator)
-    elif ltag == LC.DIRECTIONAL:
-        for lane in range(n):
-            light_lane(LC.DIRECTIONAL, kind, rec, i_max, V, lane, terminator)
-    else:
-        for lane in range(n):
-            light_lane(ltag, kind, rec, i_max, V, lane, terminator)
-
-
-@_stage
-def shadow_fill(V, sh, w, n):
-    """The shadow rays of :func:`light_stage` from the scratch into lanes ``[0, n)`` of the packet ``sh`` (width
-    ``w``; :func:`bsdf_stage` switches them on). A loop of its own: it reads one buffer and writes another."""
-    U.wide_vectors()
-    for lane in range(n):
-        o, wi = lane_vec(V, V_SO, lane), lane_vec(V, V_WI, lane)
-        E.packet_set_origin(sh, w, lane, o[0], o[1], o[2])
-        E.packet_set_dir(sh, w, lane, wi[0], wi[1], wi[2], V[V_TMAX * LANES + lane])
-
-
-@_njit
-def bsdf_stage(mats_tag, mats_par, lpars, j, V, sh, w, n):
-    """The BSDF part of :func:`direct_light` for lanes ``[0, n)`` after :func:`light_stage`: ``f = f_cos * E``
-    into :data:`V_F`, whether the shadow ray is traced into :data:`V_LIT` and the shadow packet's lane switched on
-    accordingly (a miss, a material without a non-delta lobe, a light that cannot reach the side, a zero BSDF:
-    off); returns the number of shadow rays."""
-    jb = j * LC.RECORD
-    e0, e1, e2 = lpars[jb + 6], lpars[jb + 7], lpars[jb + 8]
-    n_sh = 0
-    for lane in range(n):
-        m = int(V[V_MAT * LANES + lane])
-        mm = max(m, 0)
-        mtag = mats_tag[mm]
-        f = MC.f_cos(mtag, mats_par, mm, lane_vec(V, V_A, lane), V[V_COSO * LANES + lane], V[V_COSI * LANES + lane],
-                     V[V_COSIO * LANES + lane])
-        s = V[V_S * LANES + lane]
-        ok = V[V_GOK * LANES + lane] != 0.0 and max(f[0], f[1], f[2]) > 0.0 and m >= 0 and MC.has_diffuse(mtag)
-        set_lane_vec(V, V_F, lane, (f[0] * s * e0, f[1] * s * e1, f[2] * s * e2))
-        V[V_LIT * LANES + lane] = 1.0 if ok else 0.0
-        E.packet_set_active(sh, w, lane, ok)
-        n_sh += ok
-    return n_sh
-
-
-@_njit
-def emitted(mtag, mpars, m, albedo, optf):
-    """Emission and ambient light at a hit of material ``m`` (the Whitted integrator's per-material pass)."""
-    mb = m * MC.RECORD
-    e = (mpars[mb + 4], mpars[mb + 5], mpars[mb + 6]) if mtag == MC.LAMBERT else (0.0, 0.0, 0.0)
+def emitted(mtag, mpars, m, albedo, optf, front):
+    """Emission and ambient light at a hit of material ``m`` (the Whitted integrator's per-material pass), seen
+    from the front (``front``) or the back."""
+    e = MC.emission(mtag, mpars, m, front)
     if MC.has_diffuse(mtag):
         return (e[0] + albedo[0] * optf[F_AMBIENT], e[1] + albedo[1] * optf[F_AMBIENT + 1],
                 e[2] + albedo[2] * optf[F_AMBIENT + 2])
@@ -327,18 +180,25 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
         m = G[8][face]
         mtag = mats_tag[m]
         albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1])
-        le0, le1, le2 = emitted(mtag, mats_par, m, albedo, optf)
+        le0, le1, le2 = emitted(mtag, mats_par, m, albedo, optf, front)
         if MC.has_diffuse(mtag):
+            hkey = J.sample_key(key, n_sec)          # this hit's random numbers (the area lights' samples)
             for j in range(nl):
-                ok, tmax, o, wi, f = direct_light(lights_tag, lights_par, j, mtag, mats_par, m, albedo, p, ng, ns, nv,
-                                                  wo, lift, mag, mag_lift, terminator)
-                if not ok:
-                    continue
-                n_sh += 1
-                if not E.occluded1(scene, o[0], o[1], o[2], wi[0], wi[1], wi[2], 0.0, tmax, ray_buf):
-                    le0 += f[0]
-                    le1 += f[1]
-                    le2 += f[2]
+                jb = j * LC.RECORD
+                n_j = int(lights_par[jb + LC.AREA_SAMPLES]) if lights_tag[j] >= LC.RECT else 1
+                k_j = J.isqrt(n_j)
+                inv_j = 1.0 / n_j
+                for s in range(n_j):
+                    u0, u1 = area_u(hkey, j, s, n_j, k_j) if n_j > 1 or lights_tag[j] >= LC.RECT else (0.0, 0.0)
+                    ok, tmax, o, wi, f = direct_light(lights_tag, lights_par, j, mtag, mats_par, m, albedo, p, ng, ns,
+                                                      nv, wo, lift, mag, mag_lift, terminator, u0, u1)
+                    if not ok:
+                        continue
+                    n_sh += 1
+                    if not E.occluded1(scene, o[0], o[1], o[2], wi[0], wi[1], wi[2], 0.0, tmax, ray_buf):
+                        le0 += f[0] * inv_j
+                        le1 += f[1] * inv_j
+                        le2 += f[2] * inv_j
         r0 += thr[0] * le0
         r1 += thr[1] * le1
         r2 += thr[2] * le2
@@ -357,20 +217,6 @@ def geometry_pointers(geo_f, geo_i):
     (float64), faces, mesh face offsets, face materials, face smooth flags (int64)."""
     return (U.pointer(geo_f[0]), U.pointer(geo_f[1]), U.pointer(geo_f[2]), U.pointer(geo_f[3]), U.pointer(geo_f[4]),
             U.pointer(geo_f[5]), U.pointer(geo_i[0]), U.pointer(geo_i[1]), U.pointer(geo_i[2]), U.pointer(geo_i[3]))
-
-
-@_njit
-def lane_vec(V, field, lane):
-    """The 3-vector at ``field`` of lane ``lane`` of the packet scratch."""
-    return V[field * LANES + lane], V[(field + 1) * LANES + lane], V[(field + 2) * LANES + lane]
-
-
-@_njit
-def set_lane_vec(V, field, lane, x):
-    """Store the 3-tuple ``x`` at ``field`` of lane ``lane`` of the packet scratch."""
-    V[field * LANES + lane] = x[0]
-    V[(field + 1) * LANES + lane] = x[1]
-    V[(field + 2) * LANES + lane] = x[2]
 
 
 @numba.njit(nogil=True, cache=True, error_model="numpy")
@@ -422,6 +268,7 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
         for px in range(x0, min(x0 + TILE, W)):
             pix = py * W + px
             pkey = J.pixel_key(seed, pix)
+            pkey32 = JS.hash32_2(seed, pix)       # the padded samples' pixel seed (pyrt.render.chunks._strata)
             s0_ = s1_ = s2_ = q0 = q1 = q2 = 0.0
             for s0 in range(spp_lo, spp, w):
                 n = min(w, spp - s0)
@@ -464,7 +311,7 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
                     m = fmat[face]
                     mtag = mats_tag[m]
                     albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1])
-                    le = emitted(mtag, mats_par, m, albedo, optf)
+                    le = emitted(mtag, mats_par, m, albedo, optf, front)
                     diffuse = hit and MC.has_diffuse(mtag)
                     any_diffuse = any_diffuse or diffuse
                     set_lane_vec(V, V_P, lane, p)
@@ -480,19 +327,31 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
                     V[V_MAT * LANES + lane] = m if hit else -1
                     V[V_COSO * LANES + lane] = dot((-d[0], -d[1], -d[2]), ns)
                 # direct light: per light, the packet's shadow rays (geometry, then the BSDF) in one masked query
+                pair = 0                # the padded dimension pairs of the area lights' samples
                 for j in range(nl if any_diffuse else 0):
-                    E.packet_activate(sh, w, 0)
-                    light_stage(lights_tag, lights_par, j, V, n, terminator)
-                    shadow_fill(V, sh, w, n)
-                    n_sh = bsdf_stage(mats_tag, mats_par, lights_par, j, V, sh, w, n)
-                    if n_sh == 0:
-                        continue
-                    n_shadow += n_sh
-                    E.packet_query(scene, sh, w, True, True)
-                    for lane in range(n):
-                        add = V[V_LIT * LANES + lane] != 0.0 and not E.lane_blocked(sh, w, lane)
-                        for c in range(3):
-                            V[(V_L + c) * LANES + lane] += V[(V_F + c) * LANES + lane] if add else 0.0
+                    ltag = lights_tag[j]
+                    area = ltag >= LC.RECT
+                    n_j = int(lights_par[j * LC.RECORD + LC.AREA_SAMPLES]) if area else 1
+                    k_j = J.isqrt(n_j)
+                    inv_j = 1.0 / n_j
+                    for s in range(n_j):
+                        E.packet_activate(sh, w, 0)
+                        if area:
+                            area_stage(ltag, lights_par, j, V, keys, n, s, n_j, k_j, terminator, pair + s, s0, spp,
+                                       pkey32)
+                        else:
+                            light_stage(lights_tag, lights_par, j, V, n, terminator)
+                        shadow_fill(V, sh, w, n)
+                        n_sh = bsdf_stage(mats_tag, mats_par, lights_par, j, V, sh, w, n)
+                        if n_sh == 0:
+                            continue
+                        n_shadow += n_sh
+                        E.packet_query(scene, sh, w, True, True)
+                        for lane in range(n):
+                            add = V[V_LIT * LANES + lane] != 0.0 and not E.lane_blocked(sh, w, lane)
+                            for c in range(3):
+                                V[(V_L + c) * LANES + lane] += V[(V_F + c) * LANES + lane] * inv_j if add else 0.0
+                    pair += n_j if area else 0
                 # the specular tree of each sample, then the film
                 for lane in range(n):
                     l0, l1, l2 = lane_vec(V, V_L, lane)

@@ -30,8 +30,10 @@ import numpy as np
 from pyrt.shaders import sampling
 from pyrt.shaders.vec import coordinate_frame
 
+from pyrt.lights import compiled as _compiled
 from pyrt.lights.base import LIGHTS, Light, LightError, _color, _nonneg, _vec3
 from pyrt.materials import Material, check_color, register
+from pyrt.materials import compiled as mc
 
 
 #: shadow rays per hit by default: ``tools/estimator_chart.py``'s area scene (160 x 120, equal shadow rays per
@@ -60,6 +62,13 @@ class AreaEmitter(Material):
         self.radiance = check_color("radiance", self.radiance, self.label, lo=0.0)
         super().validate()
 
+    def compiled_record(self, pack_texture):
+        """:data:`pyrt.materials.compiled.EMITTER`: the radiance and whether both sides emit."""
+        rec = mc.empty_record()
+        rec[4:7] = self.radiance
+        rec[7] = 1.0 if self.two_sided else 0.0
+        return mc.EMITTER, rec
+
     def emission(self, ctx):
         L = np.broadcast_to(self.radiance, (ctx.n_hits, 3))
         if self.two_sided:
@@ -77,6 +86,13 @@ class AreaLight(Light):
 
     delta = False
     has_mesh = True
+
+    def __init_subclass__(cls, **kwargs):
+        """A subclass that samples differently from its parent is not compiled unless it says how (the compiled
+        records hold the three shapes' sampling)."""
+        super().__init_subclass__(**kwargs)
+        if "compiled_record" not in cls.__dict__ and ("sample" in cls.__dict__ or "sample_li" in cls.__dict__):
+            cls.compiled_record = Light.compiled_record
 
     def _init_common(self, owner, radiance, power, color, n_samples, name, bsdf_samples=0):
         self.name = name
@@ -231,6 +247,10 @@ class RectLight(AreaLight):
     def _power_per_radiance(self):
         return math.pi * self.area
 
+    def compiled_record(self):
+        """:data:`pyrt.lights.compiled.RECT`."""
+        return _compiled.area_record(self, _compiled.RECT)
+
     def sample(self, p, u):
         x = (self.center + (u[:, 0:1] - 0.5) * self.size[0] * self.tangent
              + (u[:, 1:2] - 0.5) * self.size[1] * self.bitangent)
@@ -287,6 +307,10 @@ class DiskLight(AreaLight):
     def _power_per_radiance(self):
         return math.pi * self.area
 
+    def compiled_record(self):
+        """:data:`pyrt.lights.compiled.DISK`."""
+        return _compiled.area_record(self, _compiled.DISK)
+
     def sample(self, p, u):
         q = sampling.square_to_uniform_disk_concentric(u) * self.radius
         x = self.center + q[:, 0:1] * self.tangent + q[:, 1:2] * self.bitangent
@@ -339,6 +363,10 @@ class SphereLight(AreaLight):
 
     def _power_per_radiance(self):
         return math.pi * self.area
+
+    def compiled_record(self):
+        """:data:`pyrt.lights.compiled.SPHERE`."""
+        return _compiled.area_record(self, _compiled.SPHERE)
 
     def sample(self, p, u):
         r = self.radius

@@ -9,10 +9,16 @@ POINT      0-2 position, 6-8 intensity I (W/sr, RGB), 13 distance-falloff kind (
 SPOT       as POINT, plus 3-5 unit axis, 9 cos inner, 10 cos outer, 11 spot-falloff kind (:data:`pyrt.shaders.
            jit.SPOT_KINDS`)
 DIRECT     3-5 unit direction the light travels, 6-8 irradiance E (W/m^2, RGB)
+RECT       0-2 centre, 3-5 unit normal (the emitting side), 6-8 radiance L (W m^-2 sr^-1, RGB, ``color`` applied),
+           9-11 tangent (the width's direction), 12-14 bitangent, 15 width, 16 height, 17 area, 18 samples per hit
+DISK       as RECT with 15 radius (16 unused)
+SPHERE     0-2 centre, 6-8 radiance, 15 radius, 17 area, 18 samples per hit
 =========  =====================================================================================================
 
 :func:`sample_li` is :meth:`pyrt.lights.PointLight.sample_li` (and the spot's and directional light's) for one
 shading point: ``E = scale * rgb`` toward ``wi`` from ``dist`` away (``inf`` for directional light).
+:func:`area_sample` is the area lights' :meth:`~pyrt.lights.RectLight.sample` (rectangle and disk uniform by area,
+the sphere uniform in the cone it subtends) for one shading point and one pair of random numbers: ``E = scale * L``.
 """
 from __future__ import annotations
 
@@ -27,6 +33,10 @@ from pyrt.shaders import jit as J
 RECORD = 20
 #: type tags
 POINT, SPOT, DIRECTIONAL = 1, 2, 3
+#: the area lights' tags (every tag from :data:`RECT` on is an area light)
+RECT, DISK, SPHERE = 4, 5, 6
+#: where an area light's record holds its samples per hit
+AREA_SAMPLES = 18
 
 
 @register_jitable(inline="always")
@@ -80,4 +90,108 @@ def punctual_record(light, tag):
     rec[14] = light.epsilon or 0.0
     rec[15] = np.inf if light.range is None else light.range
     rec[16:19] = light.clq or (0.0, 0.0, 1.0)
+    return tag, rec
+
+
+@register_jitable(inline="always")
+def coordinate_frame(n0, n1, n2):
+    """The tangents ``(s, t)`` (two 3-tuples) around the unit normal ``n``: :func:`pyrt.shaders.vec.coordinate_frame`
+    (Duff et al. 2017) for one normal, the same arithmetic."""
+    sign = 1.0 if n2 >= 0.0 else -1.0
+    a = -1.0 / (sign + n2)
+    b = n0 * n1 * a
+    return (1.0 + sign * n0 * n0 * a, sign * b, -sign * n0), (b, sign + n1 * n1 * a, -n1)
+
+
+@register_jitable(inline="always")
+def concentric_disk(u0, u1):
+    """Shirley-Chiu's concentric map of ``(u0, u1)`` to the unit disk (:func:`pyrt.shaders.sampling.
+    square_to_uniform_disk_concentric` for one point)."""
+    x, y = 2.0 * u0 - 1.0, 2.0 * u1 - 1.0
+    if x == 0.0 and y == 0.0:
+        return 0.0, 0.0
+    if abs(x) > abs(y):
+        r, theta = x, (math.pi / 4) * (y / x)
+    else:
+        r, theta = y, math.pi / 2 - (math.pi / 4) * (x / y)
+    return r * math.cos(theta), r * math.sin(theta)
+
+
+@register_jitable(inline="always")
+def area_sample(tag, pars, j, px, py, pz, u0, u1):
+    """Sample area light ``j`` (tag :data:`RECT`, :data:`DISK` or :data:`SPHERE`) from the point ``p`` with the
+    random numbers ``(u0, u1)``: ``(wx, wy, wz, dist, scale)``, the irradiance ``E = scale * L`` (the record's
+    radiance at 6-8), ``dist`` the distance to the sampled point along the unit ``w``. The same arithmetic as the
+    lights' NumPy :meth:`sample` (:func:`pyrt.lights.area._planar_sample`: ``scale = max(0, -w.n) A / r^2``; the
+    sphere's ``2 pi (1 - cos theta_max)``, zero inside it)."""
+    b = j * RECORD
+    cx, cy, cz = pars[b], pars[b + 1], pars[b + 2]
+    if tag == SPHERE:
+        r = pars[b + 15]
+        dcx, dcy, dcz = cx - px, cy - py, cz - pz
+        dist_c = math.sqrt(dcx * dcx + dcy * dcy + dcz * dcz)
+        outside = dist_c > r * (1.0 + 1e-9)
+        inv = 1.0 / dist_c if dist_c > 0.0 else 0.0
+        wc = (dcx * inv, dcy * inv, dcz * inv)
+        sin2 = min(max((r * inv) ** 2, 0.0), 1.0)
+        one_minus_cos = sin2 / (1.0 + math.sqrt(1.0 - sin2)) if outside else 0.0
+        cos_max = 1.0 - one_minus_cos
+        z = 1.0 - u0 * (1.0 - cos_max)
+        rr = math.sqrt(max(0.0, 1.0 - z * z))
+        phi = 2.0 * math.pi * u1
+        lx, ly = rr * math.cos(phi), rr * math.sin(phi)
+        a0, a1, a2 = wc
+        if not outside:
+            a0, a1, a2 = 0.0, 0.0, 1.0
+        s_, t_ = coordinate_frame(a0, a1, a2)
+        w0 = lx * s_[0] + ly * t_[0] + z * wc[0]
+        w1 = lx * s_[1] + ly * t_[1] + z * wc[1]
+        w2 = lx * s_[2] + ly * t_[2] + z * wc[2]
+        bb = w0 * dcx + w1 * dcy + w2 * dcz
+        disc = max(bb * bb - (dist_c * dist_c - r * r), 0.0)
+        dist = max(bb - math.sqrt(disc), 0.0)
+        return w0, w1, w2, dist, 2.0 * math.pi * one_minus_cos
+    if tag == RECT:
+        a0, a1 = (u0 - 0.5) * pars[b + 15], (u1 - 0.5) * pars[b + 16]
+    else:
+        q0, q1 = concentric_disk(u0, u1)
+        a0, a1 = q0 * pars[b + 15], q1 * pars[b + 15]
+    x0 = cx + a0 * pars[b + 9] + a1 * pars[b + 12]
+    x1 = cy + a0 * pars[b + 10] + a1 * pars[b + 13]
+    x2 = cz + a0 * pars[b + 11] + a1 * pars[b + 14]
+    d0, d1, d2 = x0 - px, x1 - py, x2 - pz
+    dist = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    inv = 1.0 / dist if dist > 0.0 else 0.0
+    w0, w1, w2 = d0 * inv, d1 * inv, d2 * inv
+    cos_l = max(-(w0 * pars[b + 3] + w1 * pars[b + 4] + w2 * pars[b + 5]), 0.0)
+    return w0, w1, w2, dist, cos_l * pars[b + 17] * inv * inv
+
+
+@register_jitable(inline="always")
+def stratum(s, ns, k, x0, x1, perm):
+    """Sample ``s`` of a hit's ``ns`` light samples in [0, 1)^2 (:func:`pyrt.core.sampler.stratified_samples`): the
+    cell ``(s % k, s // k)`` of the ``k x k`` jittered grid when ``ns = k^2``, else the Latin-hypercube strata ``s``
+    and ``perm`` (the hit's permutation of ``range(ns)`` at ``s``), jittered by ``(x0, x1)``."""
+    if ns == 1:
+        return x0, x1
+    if k * k == ns:
+        return (s % k + x0) / k, (s // k + x1) / k
+    return (s + x0) / ns, (perm + x1) / ns
+
+
+def area_record(light, tag):
+    """The record of a rectangle, disk or sphere light (:data:`RECT`, :data:`DISK`, :data:`SPHERE`)."""
+    rec = np.zeros(RECORD)
+    rec[0:3] = light.center
+    rec[6:9] = light.L
+    if tag != SPHERE:
+        rec[3:6] = light.normal
+        rec[9:12] = light.tangent
+        rec[12:15] = light.bitangent
+    if tag == RECT:
+        rec[15:17] = light.size
+    else:
+        rec[15] = light.radius
+    rec[17] = light.area
+    rec[AREA_SAMPLES] = light.n_samples
     return tag, rec

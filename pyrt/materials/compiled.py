@@ -23,6 +23,8 @@ WARD                 0-3 albedo slot, 4-6 kd, 7-9 ks, 10 alpha (isotropic), 11 v
 COOK_TORRANCE        0-3 albedo slot, 4-6 kd, 7-9 ks, 10 alpha, 11 distribution, 12 geometry, 13 Fresnel model,
                      14-16 f0 / ior / eta, 17-19 k (:func:`pyrt.shaders.jit_brdfs.cook_torrance_f_cos`)
 METALLIC_ROUGHNESS   0-3 albedo slot, 4-6 base colour, 7 metallic, 8 roughness, 9 geometry (also LearnOpenGLPBR)
+EMITTER              4-6 radiance (constant RGB), 7 two-sided (1) or front only (0): an area light's visible mesh
+                     (:class:`pyrt.lights.area.AreaEmitter`: emits, reflects nothing)
 ===================  ============================================================================================
 
 The models after BLINN_PHONG have constant parameters only (a textured one is not compiled); their formulas are the
@@ -48,6 +50,7 @@ RECORD = 20
 #: type tags (0 is no material)
 LAMBERT, BLINN_PHONG, MIRROR, GLASS, CONDUCTOR = 1, 2, 3, 4, 5
 PHONG, PHONG_CLASSIC, BLINN_PHONG_CLASSIC, OREN_NAYAR, WARD, COOK_TORRANCE, METALLIC_ROUGHNESS = 6, 7, 8, 9, 10, 11, 12
+EMITTER = 13
 
 
 @register_jitable(inline="always")
@@ -63,7 +66,7 @@ def color_slot(pars, m, k, tex_tag, tex_par, u, v):
 @register_jitable(inline="always")
 def has_diffuse(tag):
     """True for materials lit by the lights (a non-delta lobe)."""
-    return tag == LAMBERT or tag == BLINN_PHONG or tag >= PHONG
+    return tag == LAMBERT or tag == BLINN_PHONG or PHONG <= tag <= METALLIC_ROUGHNESS
 
 
 @register_jitable(inline="always")
@@ -135,10 +138,20 @@ def _f_cos_library(tag, p, b, cos_o, cos_i, cos_io):
 
 
 @register_jitable(inline="always")
+def emission(tag, pars, m, front):
+    """The radiance (an RGB tuple) material ``m`` emits toward the viewer: LAMBERT's constant emission (both
+    sides), EMITTER's radiance from its front (or both sides when two-sided); zeros for the others."""
+    b = m * RECORD
+    if tag == LAMBERT or (tag == EMITTER and (front or pars[b + 7] != 0.0)):
+        return pars[b + 4], pars[b + 5], pars[b + 6]
+    return 0.0, 0.0, 0.0
+
+
+@register_jitable(inline="always")
 def albedo_at(tag, pars, m, tex_tag, tex_par, u, v):
     """The diffuse colour (Lambert albedo, Blinn-Phong kd, the library models' constant ``albedo()``; an RGB tuple)
     of material ``m`` at uv ``(u, v)``; zeros for the others."""
-    if tag == LAMBERT or tag == BLINN_PHONG or tag >= CONDUCTOR:
+    if tag == LAMBERT or tag == BLINN_PHONG or CONDUCTOR <= tag <= METALLIC_ROUGHNESS:
         return color_slot(pars, m, 0, tex_tag, tex_par, u, v)
     return 0.0, 0.0, 0.0
 

@@ -1,0 +1,79 @@
+"""The compiled tile kernel's data layout: the per-packet scratch, the camera record, the option arrays, the
+specular stack, random dimensions, and the decorators of its functions (:mod:`pyrt.integrators.compiled_kernel`,
+:mod:`pyrt.integrators.compiled_lighting`)."""
+from __future__ import annotations
+
+import numba
+
+from pyrt.integrators import kernel_cache
+
+kernel_cache.use_cache_dir()      # before the decorators below (and those of the modules they inline) run
+
+#: pixels per tile side
+TILE = 8
+#: lanes of the per-packet scratch (the widest packet)
+LANES = 16
+#: per-packet scratch layout (float64, fields of :data:`LANES` lanes: field ``f`` of lane ``l`` at ``f * LANES + l``):
+#: ray direction, hit point, geometric normal (viewer side), shading normal, interpolated vertex normal (= ng on flat
+#: faces), terminator-lifted point, local-bound magnitudes, front flag, material (-1: a miss), albedo, radiance, the
+#: current light's unshadowed contribution and whether its shadow ray is traced
+V_D, V_P, V_NG, V_NS, V_NV, V_LIFT = 0, 3, 6, 9, 12, 15
+V_MAG, V_MAG_LIFT, V_FRONT, V_MAT = 18, 19, 20, 21
+V_A, V_L, V_F, V_LIT = 22, 25, 28, 31
+#: the light stage's fields: the cosines ``ns.wo`` (per hit), ``ns.wi`` and ``wi.wo`` (per light), the light's
+#: irradiance scale and whether the light can reach the hit's side (before the BSDF)
+V_COSO, V_COSI, V_COSIO, V_S, V_GOK = 32, 33, 34, 35, 36
+#: the shadow ray: origin, direction, tmax
+V_SO, V_WI, V_TMAX = 37, 40, 43
+#: fields of the scratch
+V_SIZE = 44
+#: camera record layout (float64)
+C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W, C_H, C_JITTER, C_K, C_AX = 0, 3, 6, 9, 12, 13, 14, 15, 16, 17
+#: length of the camera record
+N_CAM = 18
+#: integer options
+O_SEED, O_SPP, O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK, O_GRID = 0, 1, 2, 3, 4, 5, 6, 7, 8
+#: length of the integer options
+N_OPTS = 9
+#: float options
+F_CUTOFF, F_BG, F_AMBIENT = 0, 1, 4
+#: ray counters per tile
+N_PRIMARY, N_SECONDARY, N_SHADOW, N_NONFINITE = 0, 1, 2, 3
+#: the largest stack of pending specular rays a sample can need (2 per bounce below the split depth)
+STACK = 64
+#: words of a stack row: origin, direction, throughput, depth
+STACK_ROW = 10
+#: Embree's "unbounded" tfar (:data:`pyrt.geometry.accel.T_INFINITE`)
+T_INF = 1e37
+#: the first random dimension of the glass lobe choice (0, 1: the pixel position)
+DIM_LOBE = 2
+#: the first random dimension of the area lights' samples at a hit (two per sample, :func:`area_u`; below it, one
+#: per light for its Latin-hypercube permutation); each hit of a sample's specular tree has a key of its own
+DIM_AREA = 1 << 20
+#: the largest number of an area light's samples per hit whose dimensions stay apart
+MAX_AREA_SAMPLES = 1 << 16
+
+_njit = numba.njit(nogil=True, cache=True, error_model="numpy", inline="always")
+#: a packet stage whose loop over the lanes should vectorise: compiled as a function of its own (not inlined by
+#: Numba), because LLVM does not vectorise such a loop once it sits inside the kernel's loops (measured: an inlined
+#: light stage stayed scalar, ~60 cycles a lane); compiled alone it vectorises, and LLVM may still inline the
+#: vectorised body. It takes pointers and numbers only, so the call costs no reference counting. Stages and the
+#: tile function ask for 512-bit vectors (:func:`pyrt.core.unmanaged.wide_vectors`).
+_stage = numba.njit(nogil=True, cache=True, error_model="numpy")
+
+
+@_njit
+def lane_vec(V, field, lane):
+    """The 3-vector at ``field`` of lane ``lane`` of the packet scratch."""
+    return V[field * LANES + lane], V[(field + 1) * LANES + lane], V[(field + 2) * LANES + lane]
+
+
+@_njit
+def set_lane_vec(V, field, lane, x):
+    """Store the 3-tuple ``x`` at ``field`` of lane ``lane`` of the packet scratch."""
+    V[field * LANES + lane] = x[0]
+    V[(field + 1) * LANES + lane] = x[1]
+    V[(field + 2) * LANES + lane] = x[2]
+
+
+kernel_cache.restore()

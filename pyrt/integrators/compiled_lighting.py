@@ -1,0 +1,215 @@
+"""The direct-light stages of the compiled tile kernel (:mod:`pyrt.integrators.compiled_kernel`).
+
+Per light, a packet's shadow rays are built in three short loops over its lanes, each compiled so that it can
+vectorise: :func:`light_stage` (punctual and directional lights: branch-free) or :func:`area_stage` (rectangle, disk
+and sphere lights: a stratified sample per hit, padded over the pixel's samples) writes each lane's cosines,
+irradiance scale and shadow ray into the scratch; :func:`shadow_fill` copies the rays into the packet;
+:func:`bsdf_stage` evaluates the BSDF and switches on the lanes whose ray is worth tracing. :func:`direct_light` is
+the same estimate for one hit of the specular tree (single rays).
+"""
+from __future__ import annotations
+
+import math
+
+from pyrt.integrators import kernel_cache
+
+kernel_cache.use_cache_dir()      # before the decorators below run
+
+from pyrt.core import unmanaged as U  # noqa: E402
+from pyrt.geometry import embree_jit as E  # noqa: E402
+from pyrt.integrators.compiled_layout import (  # noqa: E402
+    LANES, V_D, V_P, V_NG, V_NS, V_NV,
+    V_LIFT, V_MAG, V_MAG_LIFT, V_MAT, V_A, V_F,
+    V_LIT, V_COSO, V_COSI, V_COSIO, V_S, V_GOK,
+    V_SO, V_WI, V_TMAX, T_INF, DIM_AREA, MAX_AREA_SAMPLES,
+    _njit, _stage, lane_vec, set_lane_vec)
+from pyrt.lights import compiled as LC  # noqa: E402
+from pyrt.materials import compiled as MC  # noqa: E402
+from pyrt.shaders import jit as J  # noqa: E402
+from pyrt.shaders import jit_sampling as JS  # noqa: E402
+from pyrt.shaders.jit import dot  # noqa: E402
+
+
+@_njit
+def direct_light(ltags, lpars, j, mtag, mpars, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift, terminator, u0, u1):
+    """Light ``j``'s contribution at a hit before shadowing: ``(ok, tmax, origin, wi, f)`` with ``f`` = f_cos * E and
+    the shadow ray (origin offset to the side of ``wi``: :meth:`pyrt.geometry.offsets.Strategy.shadow`, ``robust``
+    tmax, ``inf`` for directional light). ``ok`` False where the light cannot contribute (wrong side, no irradiance,
+    zero BSDF: no shadow ray is traced, :func:`pyrt.integrators.direct._lit_lanes`). ``(u0, u1)``: an area light's
+    sample (:func:`pyrt.lights.compiled.area_sample`; its shadow ray ends at the sampled point)."""
+    jb = j * LC.RECORD
+    if ltags[j] >= LC.RECT:
+        w0, w1, w2, dist, s = LC.area_sample(ltags[j], lpars, j, p[0], p[1], p[2], u0, u1)
+        end = (p[0] + w0 * dist, p[1] + w1 * dist, p[2] + w2 * dist)
+    else:
+        w0, w1, w2, dist, s = LC.sample_li(ltags[j], lpars, j, p[0], p[1], p[2])
+        end = (lpars[jb], lpars[jb + 1], lpars[jb + 2])
+    wi = (w0, w1, w2)
+    cg = dot(wi, ng)
+    ok = s > 0.0 and max(lpars[jb + 6], lpars[jb + 7], lpars[jb + 8]) > 0.0 and (cg > 0.0 or dot(wi, nv) > 0.0)
+    f = MC.f_cos(mtag, mpars, m, albedo, dot(wo, ns), dot(wi, ns), dot(wi, wo))
+    ok = ok and max(f[0], f[1], f[2]) > 0.0
+    f = (f[0] * s * lpars[jb + 6], f[1] * s * lpars[jb + 7], f[2] * s * lpars[jb + 8])
+    if terminator:
+        o = J.round_away(lift, mag_lift, 1.0, ng)
+    else:
+        o = J.round_away(p, mag, 1.0 if cg >= 0.0 else -1.0, ng)
+    tmax = J.robust_tmax(o, wi, end[0], end[1], end[2], math.isfinite(dist))
+    return ok, min(tmax, T_INF), o, wi, f
+
+
+@_njit
+def area_u(key, j, s, ns, k):
+    """The random numbers of sample ``s`` of area light ``j``'s ``ns`` at a hit of the specular tree whose key is
+    ``key``: stratified per hit (:func:`pyrt.lights.compiled.stratum`: a jittered ``k x k`` grid, else
+    Latin-hypercube strata with a permutation per hit and light), jittered from dimensions of their own
+    (:data:`DIM_AREA`)."""
+    d = DIM_AREA + 2 * (j * MAX_AREA_SAMPLES + s)
+    return LC.stratum(s, ns, k, J.uniform(key, d), J.uniform(key, d + 1), _lhs_perm(key, j, s, ns, k))
+
+
+@_njit
+def _lhs_perm(key, j, s, ns, k):
+    """Element ``s`` of the hit's permutation of its ``ns`` Latin-hypercube strata for light ``j`` (0 where the
+    samples are a grid)."""
+    if ns > 1 and k * k != ns:
+        return J.permute(s, ns, int(J.uniform(key, DIM_AREA - 1 - j) * 4294967296.0))
+    return 0
+
+
+@_njit
+def light_lane(ltag, kind, rec, i_max, V, lane, terminator):
+    """The BSDF-free part of :func:`direct_light` for lane ``lane`` of the packet (its hit in the scratch ``V``), the
+    light given by its tag, distance-falloff kind and :func:`pyrt.lights.compiled.light_record` ``rec`` (``i_max``:
+    its largest intensity component): into the scratch the cosines ``ns.wi``, ``wi.wo``, the irradiance scale,
+    whether the light reaches the hit's side (:data:`V_COSI`, :data:`V_COSIO`, :data:`V_S`, :data:`V_GOK`) and the shadow ray (:data:`V_SO`,
+    :data:`V_WI`, :data:`V_TMAX`: origin offset, direction, robust tmax).
+
+    Written for the vectoriser: it reads and writes the scratch only (a write to another buffer, as far as the
+    compiler knows, could change what it reads: no vector loop), and has no branch (flags combined with ``&`` /
+    ``|``, the offset's base point and magnitude chosen by selects, float32 rounding by selects, the tmax of a
+    distant light by a select). The same arithmetic as :func:`direct_light`: the same bits."""
+    p = lane_vec(V, V_P, lane)
+    ng = lane_vec(V, V_NG, lane)
+    w0, w1, w2, dist, s = LC.sample_li_record(ltag, kind, rec, p[0], p[1], p[2])
+    wi = (w0, w1, w2)
+    cg = dot(wi, ng)
+    gok = (s > 0.0) & (i_max > 0.0) & ((cg > 0.0) | (dot(wi, lane_vec(V, V_NV, lane)) > 0.0))
+    d = lane_vec(V, V_D, lane)
+    V[V_COSI * LANES + lane] = dot(wi, lane_vec(V, V_NS, lane))
+    V[V_COSIO * LANES + lane] = dot(wi, (-d[0], -d[1], -d[2]))
+    V[V_S * LANES + lane] = s
+    V[V_GOK * LANES + lane] = 1.0 if gok else 0.0
+    # the origin: the lifted point to the ng side (terminator), else p to the side of wi
+    lift = lane_vec(V, V_LIFT, lane)
+    base = (lift[0] if terminator else p[0], lift[1] if terminator else p[1], lift[2] if terminator else p[2])
+    mag = V[V_MAG_LIFT * LANES + lane] if terminator else V[V_MAG * LANES + lane]
+    o = J.round_away_vec(base, mag, 1.0 if (terminator | (cg >= 0.0)) else -1.0, ng)
+    tmax = J.robust_tmax(o, wi, rec[0], rec[1], rec[2], math.isfinite(dist))
+    set_lane_vec(V, V_SO, lane, o)
+    set_lane_vec(V, V_WI, lane, wi)
+    V[V_TMAX * LANES + lane] = min(tmax, T_INF)
+
+
+@_stage
+def area_lane(ltag, lpars, j, e_max, V, lane, u0, u1, terminator):
+    """:func:`light_lane` for area light ``j`` (tag ``ltag``, largest radiance component ``e_max``) sampled with
+    ``(u0, u1)``: the same fields of the scratch; the shadow ray ends at the sampled point. Not inlined by Numba:
+    inlined into :func:`area_stage` (with tuple-valued conditional expressions, which Numba's inliner warned about)
+    its stores of the shadow ray were lost (measured: those fields stayed zero); compiled on its own they are
+    not."""
+    p = lane_vec(V, V_P, lane)
+    ng = lane_vec(V, V_NG, lane)
+    w0, w1, w2, dist, s = LC.area_sample(ltag, lpars, j, p[0], p[1], p[2], u0, u1)
+    wi = (w0, w1, w2)
+    cg = dot(wi, ng)
+    gok = (s > 0.0) & (e_max > 0.0) & ((cg > 0.0) | (dot(wi, lane_vec(V, V_NV, lane)) > 0.0))
+    d = lane_vec(V, V_D, lane)
+    V[V_COSI * LANES + lane] = dot(wi, lane_vec(V, V_NS, lane))
+    V[V_COSIO * LANES + lane] = dot(wi, (-d[0], -d[1], -d[2]))
+    V[V_S * LANES + lane] = s
+    V[V_GOK * LANES + lane] = 1.0 if gok else 0.0
+    if terminator:
+        o = J.round_away(lane_vec(V, V_LIFT, lane), V[V_MAG_LIFT * LANES + lane], 1.0, ng)
+    else:
+        o = J.round_away(p, V[V_MAG * LANES + lane], 1.0 if cg >= 0.0 else -1.0, ng)
+    tmax = J.robust_tmax(o, wi, p[0] + w0 * dist, p[1] + w1 * dist, p[2] + w2 * dist, True)
+    set_lane_vec(V, V_SO, lane, o)
+    set_lane_vec(V, V_WI, lane, wi)
+    V[V_TMAX * LANES + lane] = min(tmax, T_INF)
+
+
+@_stage
+def area_stage(ltag, lpars, j, V, keys, n, s, ns, k, terminator, pair, s0, spp, pkey):
+    """:func:`area_lane` of sample ``s`` of area light ``j``'s ``ns`` per hit (``k = isqrt(ns)``) for the camera
+    hits in lanes ``[0, n)`` (camera samples ``s0 + lane`` of the pixel's ``spp``): stratified per hit
+    (:func:`pyrt.lights.compiled.stratum`), each stratum's jitter padded over the pixel's samples as the NumPy
+    path's (:func:`pyrt.shaders.jit_sampling.padded_sobol_2d` of the pixel's seed ``pkey`` and the dimension pair
+    ``pair``: the pixel's ``spp`` jitters of one stratum are one stratified set)."""
+    U.wide_vectors()
+    jb = j * LC.RECORD
+    e_max = max(lpars[jb + 6], lpars[jb + 7], lpars[jb + 8])
+    for lane in range(n):
+        x0, x1 = JS.padded_sobol_2d(s0 + lane, spp, pkey, pair)
+        u0, u1 = LC.stratum(s, ns, k, x0, x1, _lhs_perm(keys[lane], j, s, ns, k))
+        area_lane(ltag, lpars, j, e_max, V, lane, u0, u1, terminator)
+
+
+@_stage
+def light_stage(ltags, lpars, j, V, n, terminator):
+    """:func:`light_lane` of light ``j`` for lanes ``[0, n)``: one loop per light type, and for a point light with
+    the inverse-square falloff one of its own (tag and kind constants in each, so that their switches fold away:
+    the if-converted switch of the falloff kinds alone cost five vector divisions a lane)."""
+    U.wide_vectors()
+    ltag = ltags[j]
+    rec = LC.light_record(lpars, j)
+    kind = rec[6]
+    jb = j * LC.RECORD
+    i_max = max(lpars[jb + 6], lpars[jb + 7], lpars[jb + 8])
+    if ltag == LC.POINT and kind == 0:
+        for lane in range(n):
+            light_lane(LC.POINT, 0, rec, i_max, V, lane, terminator)
+    elif ltag == LC.DIRECTIONAL:
+        for lane in range(n):
+            light_lane(LC.DIRECTIONAL, kind, rec, i_max, V, lane, terminator)
+    else:
+        for lane in range(n):
+            light_lane(ltag, kind, rec, i_max, V, lane, terminator)
+
+
+@_stage
+def shadow_fill(V, sh, w, n):
+    """The shadow rays of :func:`light_stage` from the scratch into lanes ``[0, n)`` of the packet ``sh`` (width
+    ``w``; :func:`bsdf_stage` switches them on). A loop of its own: it reads one buffer and writes another."""
+    U.wide_vectors()
+    for lane in range(n):
+        o, wi = lane_vec(V, V_SO, lane), lane_vec(V, V_WI, lane)
+        E.packet_set_origin(sh, w, lane, o[0], o[1], o[2])
+        E.packet_set_dir(sh, w, lane, wi[0], wi[1], wi[2], V[V_TMAX * LANES + lane])
+
+
+@_njit
+def bsdf_stage(mats_tag, mats_par, lpars, j, V, sh, w, n):
+    """The BSDF part of :func:`direct_light` for lanes ``[0, n)`` after :func:`light_stage`: ``f = f_cos * E``
+    into :data:`V_F`, whether the shadow ray is traced into :data:`V_LIT` and the shadow packet's lane switched on
+    accordingly (a miss, a material without a non-delta lobe, a light that cannot reach the side, a zero BSDF:
+    off); returns the number of shadow rays."""
+    jb = j * LC.RECORD
+    e0, e1, e2 = lpars[jb + 6], lpars[jb + 7], lpars[jb + 8]
+    n_sh = 0
+    for lane in range(n):
+        m = int(V[V_MAT * LANES + lane])
+        mm = max(m, 0)
+        mtag = mats_tag[mm]
+        f = MC.f_cos(mtag, mats_par, mm, lane_vec(V, V_A, lane), V[V_COSO * LANES + lane], V[V_COSI * LANES + lane],
+                     V[V_COSIO * LANES + lane])
+        s = V[V_S * LANES + lane]
+        ok = V[V_GOK * LANES + lane] != 0.0 and max(f[0], f[1], f[2]) > 0.0 and m >= 0 and MC.has_diffuse(mtag)
+        set_lane_vec(V, V_F, lane, (f[0] * s * e0, f[1] * s * e1, f[2] * s * e2))
+        V[V_LIT * LANES + lane] = 1.0 if ok else 0.0
+        E.packet_set_active(sh, w, lane, ok)
+        n_sh += ok
+    return n_sh
+
+
+kernel_cache.restore()
