@@ -223,9 +223,9 @@ def geometry_pointers(geo_f, geo_i):
 def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par,
                 opts, optf, sums, sqs, counters, width):
     """Render the pixels of tile ``tile`` (row-major over the image's tiles of :data:`TILE` pixels) at the samples
-    ``[opts[O_SPP_LO], opts[O_SPP])`` of each pixel's set of ``opts[O_SPP]``, ``width`` samples (a packet) at a time:
-    their radiance summed into ``sums`` and squared into ``sqs`` (pixel rows of the image), rays counted into
-    ``counters`` (4,).
+    ``[opts[O_SPP_LO], opts[O_SPP])`` of each pixel's set of ``opts[O_SPP]``, ``width`` samples (a packet) at a time
+    in pixel order (one pixel's samples when they fill a packet, several pixels' at low spp): their radiance summed
+    into ``sums`` and squared into ``sqs`` (pixel rows of the image), rays counted into ``counters`` (4,).
 
     A packet goes through stages, each a short loop over its lanes whose values pass between stages in the
     scratch ``V`` (field-major: one field of all lanes is contiguous), so that the lanes' work overlaps and the
@@ -237,9 +237,16 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
     scratch = np.zeros(V_SIZE * LANES)
     stack_own = np.zeros(STACK * STACK_ROW)
     keys_own = np.zeros(LANES, dtype=np.uint64)
+    lane_i_own = np.zeros(2 * LANES, dtype=np.int64)          # each lane's pixel and sample
+    lane_u_own = np.zeros(2 * LANES, dtype=np.uint64)         # its pixel's keys (samples, padded samples)
+    lane_xy_own = np.zeros(2 * LANES)                          # its pixel's raster corner
     # pointers into arrays that outlive this function's loops (the arguments; the arrays above, kept alive below)
     pk, sh, ray_buf = U.pointer(pk_own), U.pointer(sh_own), U.pointer(ray_own)
     V, stack, keys = U.pointer(scratch), U.pointer(stack_own), U.pointer(keys_own)
+    lane_pix, lane_s = U.pointer(lane_i_own), U.pointer(lane_i_own[LANES:])
+    lane_key, lane_k32 = U.pointer(lane_u_own), U.pointer(lane_u_own[LANES:])
+    lane_xy = U.pointer(lane_xy_own)
+    film_s, film_q = U.pointer(sums), U.pointer(sqs)
     cam, opts, optf = U.pointer(cam), U.pointer(opts), U.pointer(optf)
     mats_tag, mats_par = U.pointer(mats_tag), U.pointer(mats_par)
     tex_tag, tex_par = U.pointer(tex_tag), U.pointer(tex_par)
@@ -264,123 +271,133 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
     E.packet_prepare(pk, w, cam[C_POS], cam[C_POS + 1], cam[C_POS + 2])
     E.packet_prepare(sh, w, 0.0, 0.0, 0.0)
     n_prim = n_shadow = n_bad = 0
-    for py in range(y0, min(y0 + TILE, H)):
-        for px in range(x0, min(x0 + TILE, W)):
-            pix = py * W + px
-            pkey = J.pixel_key(seed, pix)
-            pkey32 = JS.hash32_2(seed, pix)       # the padded samples' pixel seed (pyrt.render.chunks._strata)
-            s0_ = s1_ = s2_ = q0 = q1 = q2 = 0.0
-            for s0 in range(spp_lo, spp, w):
-                n = min(w, spp - s0)
-                # camera rays: arithmetic only, no branch (vectorised); the square grid (spp = n^2) and the
-                # equal-area grid of any spp in loops of their own
-                if grid > 0:
-                    for lane in range(n):
-                        s = s0 + lane
-                        key = J.sample_key(pkey, s)
-                        keys[lane] = key
-                        u0, u1 = J.uniform_pair(key)
-                        cy = math.floor((s + 0.5) * ginv)
-                        ox, oy = (s - cy * grid + u0) * ginv, (cy + u1) * ginv
-                        ox, oy = (0.5, 0.5) if centre else (ox, oy)
-                        set_lane_vec(V, V_D, lane, camera_dir(cam, px + ox, py + oy))
+    # the tile's (pixel, sample) items in pixel order, ``width`` at a time: a packet holds one pixel's samples when
+    # they fill it, and several pixels' (a row piece of the tile) when spp is low
+    tw, th = min(x0 + TILE, W) - x0, min(y0 + TILE, H) - y0
+    n_items = tw * th * (spp - spp_lo)
+    cur_x = cur_y = 0
+    cur_s = spp_lo
+    cur_pix = y0 * W + x0
+    cur_key, cur_k32 = J.pixel_key(seed, cur_pix), JS.hash32_2(seed, cur_pix)
+    for t0 in range(0, n_items, w):
+        n = min(w, n_items - t0)
+        for lane in range(n):               # each lane's pixel and sample (counters: no division)
+            lane_pix[lane], lane_s[lane] = cur_pix, cur_s
+            lane_xy[lane], lane_xy[LANES + lane] = float(x0 + cur_x), float(y0 + cur_y)
+            lane_key[lane], lane_k32[lane] = cur_key, cur_k32
+            cur_s += 1
+            if cur_s == spp:
+                cur_s = spp_lo
+                cur_x += 1
+                if cur_x == tw:
+                    cur_x = 0
+                    cur_y += 1
+                cur_pix = (y0 + cur_y) * W + x0 + cur_x
+                cur_key, cur_k32 = J.pixel_key(seed, cur_pix), JS.hash32_2(seed, cur_pix)
+        # camera rays: arithmetic only, no branch (vectorised); the square grid (spp = n^2) and the equal-area grid
+        # of any spp in loops of their own
+        if grid > 0:
+            for lane in range(n):
+                s = lane_s[lane]
+                key = J.sample_key(lane_key[lane], s)
+                keys[lane] = key
+                u0, u1 = J.uniform_pair(key)
+                cy = math.floor((s + 0.5) * ginv)
+                ox, oy = (s - cy * grid + u0) * ginv, (cy + u1) * ginv
+                ox, oy = (0.5, 0.5) if centre else (ox, oy)
+                set_lane_vec(V, V_D, lane, camera_dir(cam, lane_xy[lane] + ox, lane_xy[LANES + lane] + oy))
+        else:
+            for lane in range(n):
+                s = lane_s[lane]
+                key = J.sample_key(lane_key[lane], s)
+                keys[lane] = key
+                u0, u1 = J.uniform_pair(key)
+                ox, oy = J.strata_position(spp_f, rows_f, float(s), u0, u1)
+                set_lane_vec(V, V_D, lane, camera_dir(cam, lane_xy[lane] + ox, lane_xy[LANES + lane] + oy))
+        for lane in range(n):
+            d = lane_vec(V, V_D, lane)
+            E.packet_set_dir(pk, w, lane, d[0], d[1], d[2], T_INF)
+        E.packet_activate(pk, w, n)
+        n_prim += n
+        E.packet_query(scene, pk, w, True, False)
+        # the hits' surfaces, albedo and emission (a miss: face 0 computed and dropped)
+        any_diffuse = False
+        for lane in range(n):
+            geom, prim = E.packet_geom_prim(pk, w, lane)
+            hit = geom != -1
+            geom, prim = (geom, prim) if hit else (0, 0)
+            u, v = E.packet_uv(pk, w, lane)
+            d = lane_vec(V, V_D, lane)
+            p, ng, ns, nv, lift, mag, mag_lift, front, face, uv = J.hit_surface(
+                G, fallback, terminator, geom, prim, u, v, (-d[0], -d[1], -d[2]))
+            m = fmat[face]
+            mtag = mats_tag[m]
+            albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1])
+            le = emitted(mtag, mats_par, m, albedo, optf, front)
+            diffuse = hit and MC.has_diffuse(mtag)
+            any_diffuse = any_diffuse or diffuse
+            set_lane_vec(V, V_P, lane, p)
+            set_lane_vec(V, V_NG, lane, ng)
+            set_lane_vec(V, V_NS, lane, ns)
+            set_lane_vec(V, V_NV, lane, nv)
+            set_lane_vec(V, V_LIFT, lane, lift)
+            set_lane_vec(V, V_A, lane, albedo)
+            set_lane_vec(V, V_L, lane, le if hit else bg)
+            V[V_MAG * LANES + lane] = mag
+            V[V_MAG_LIFT * LANES + lane] = mag_lift
+            V[V_FRONT * LANES + lane] = 1.0 if front else 0.0
+            V[V_MAT * LANES + lane] = m if hit else -1
+            V[V_COSO * LANES + lane] = dot((-d[0], -d[1], -d[2]), ns)
+        # direct light: per light, the packet's shadow rays (geometry, then the BSDF) in one masked query
+        pair = 0                # the padded dimension pairs of the area lights' samples
+        for j in range(nl if any_diffuse else 0):
+            ltag = lights_tag[j]
+            area = ltag >= LC.RECT
+            n_j = int(lights_par[j * LC.RECORD + LC.AREA_SAMPLES]) if area else 1
+            k_j = J.isqrt(n_j)
+            inv_j = 1.0 / n_j
+            for s in range(n_j):
+                E.packet_activate(sh, w, 0)
+                if area:
+                    area_stage(ltag, lights_par, j, V, keys, n, s, n_j, k_j, terminator, pair + s, lane_s, spp,
+                               lane_k32)
                 else:
-                    for lane in range(n):
-                        s = s0 + lane
-                        key = J.sample_key(pkey, s)
-                        keys[lane] = key
-                        u0, u1 = J.uniform_pair(key)
-                        ox, oy = J.strata_position(spp_f, rows_f, float(s), u0, u1)
-                        set_lane_vec(V, V_D, lane, camera_dir(cam, px + ox, py + oy))
+                    light_stage(lights_tag, lights_par, j, V, n, terminator)
+                shadow_fill(V, sh, w, n)
+                n_sh = bsdf_stage(mats_tag, mats_par, lights_par, j, V, sh, w, n)
+                if n_sh == 0:
+                    continue
+                n_shadow += n_sh
+                E.packet_query(scene, sh, w, True, True)
                 for lane in range(n):
-                    d = lane_vec(V, V_D, lane)
-                    E.packet_set_dir(pk, w, lane, d[0], d[1], d[2], T_INF)
-                E.packet_activate(pk, w, n)
-                n_prim += n
-                E.packet_query(scene, pk, w, True, False)
-                # the hits' surfaces, albedo and emission (a miss: face 0 computed and dropped)
-                any_diffuse = False
-                for lane in range(n):
-                    geom, prim = E.packet_geom_prim(pk, w, lane)
-                    hit = geom != -1
-                    geom, prim = (geom, prim) if hit else (0, 0)
-                    u, v = E.packet_uv(pk, w, lane)
-                    d = lane_vec(V, V_D, lane)
-                    p, ng, ns, nv, lift, mag, mag_lift, front, face, uv = J.hit_surface(
-                        G, fallback, terminator, geom, prim, u, v, (-d[0], -d[1], -d[2]))
-                    m = fmat[face]
-                    mtag = mats_tag[m]
-                    albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1])
-                    le = emitted(mtag, mats_par, m, albedo, optf, front)
-                    diffuse = hit and MC.has_diffuse(mtag)
-                    any_diffuse = any_diffuse or diffuse
-                    set_lane_vec(V, V_P, lane, p)
-                    set_lane_vec(V, V_NG, lane, ng)
-                    set_lane_vec(V, V_NS, lane, ns)
-                    set_lane_vec(V, V_NV, lane, nv)
-                    set_lane_vec(V, V_LIFT, lane, lift)
-                    set_lane_vec(V, V_A, lane, albedo)
-                    set_lane_vec(V, V_L, lane, le if hit else bg)
-                    V[V_MAG * LANES + lane] = mag
-                    V[V_MAG_LIFT * LANES + lane] = mag_lift
-                    V[V_FRONT * LANES + lane] = 1.0 if front else 0.0
-                    V[V_MAT * LANES + lane] = m if hit else -1
-                    V[V_COSO * LANES + lane] = dot((-d[0], -d[1], -d[2]), ns)
-                # direct light: per light, the packet's shadow rays (geometry, then the BSDF) in one masked query
-                pair = 0                # the padded dimension pairs of the area lights' samples
-                for j in range(nl if any_diffuse else 0):
-                    ltag = lights_tag[j]
-                    area = ltag >= LC.RECT
-                    n_j = int(lights_par[j * LC.RECORD + LC.AREA_SAMPLES]) if area else 1
-                    k_j = J.isqrt(n_j)
-                    inv_j = 1.0 / n_j
-                    for s in range(n_j):
-                        E.packet_activate(sh, w, 0)
-                        if area:
-                            area_stage(ltag, lights_par, j, V, keys, n, s, n_j, k_j, terminator, pair + s, s0, spp,
-                                       pkey32)
-                        else:
-                            light_stage(lights_tag, lights_par, j, V, n, terminator)
-                        shadow_fill(V, sh, w, n)
-                        n_sh = bsdf_stage(mats_tag, mats_par, lights_par, j, V, sh, w, n)
-                        if n_sh == 0:
-                            continue
-                        n_shadow += n_sh
-                        E.packet_query(scene, sh, w, True, True)
-                        for lane in range(n):
-                            add = V[V_LIT * LANES + lane] != 0.0 and not E.lane_blocked(sh, w, lane)
-                            for c in range(3):
-                                V[(V_L + c) * LANES + lane] += V[(V_F + c) * LANES + lane] * inv_j if add else 0.0
-                    pair += n_j if area else 0
-                # the specular tree of each sample, then the film
-                for lane in range(n):
-                    l0, l1, l2 = lane_vec(V, V_L, lane)
-                    m = int(V[V_MAT * LANES + lane])
-                    if m >= 0 and max_depth > 0 and MC.has_delta(mats_tag[m]):
-                        d = lane_vec(V, V_D, lane)
-                        top, dim = spawn(lane_vec(V, V_P, lane), lane_vec(V, V_NG, lane), lane_vec(V, V_NS, lane),
-                                         (-d[0], -d[1], -d[2]), V[V_FRONT * LANES + lane] != 0.0,
-                                         V[V_MAG * LANES + lane], mats_tag[m], mats_par, m, (1.0, 1.0, 1.0), 0, split,
-                                         cutoff, keys[lane], DIM_LOBE, stack, 0)
-                        if top > 0:
-                            l0, l1, l2 = trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag,
-                                                     lights_par, opts, optf, keys[lane], dim, stack, top, ray_buf,
-                                                     cnt, l0, l1, l2)
-                    if not (math.isfinite(l0) and math.isfinite(l1) and math.isfinite(l2)):
-                        n_bad += 1
-                        l0 = l1 = l2 = 0.0
-                    s0_ += l0
-                    s1_ += l1
-                    s2_ += l2
-                    q0 += l0 * l0
-                    q1 += l1 * l1
-                    q2 += l2 * l2
-            sums[pix, 0] += s0_
-            sums[pix, 1] += s1_
-            sums[pix, 2] += s2_
-            sqs[pix, 0] += q0
-            sqs[pix, 1] += q1
-            sqs[pix, 2] += q2
+                    add = V[V_LIT * LANES + lane] != 0.0 and not E.lane_blocked(sh, w, lane)
+                    for c in range(3):
+                        V[(V_L + c) * LANES + lane] += V[(V_F + c) * LANES + lane] * inv_j if add else 0.0
+            pair += n_j if area else 0
+        # the specular tree of each sample, then the film
+        for lane in range(n):
+            l0, l1, l2 = lane_vec(V, V_L, lane)
+            m = int(V[V_MAT * LANES + lane])
+            if m >= 0 and max_depth > 0 and MC.has_delta(mats_tag[m]):
+                d = lane_vec(V, V_D, lane)
+                top, dim = spawn(lane_vec(V, V_P, lane), lane_vec(V, V_NG, lane), lane_vec(V, V_NS, lane),
+                                 (-d[0], -d[1], -d[2]), V[V_FRONT * LANES + lane] != 0.0,
+                                 V[V_MAG * LANES + lane], mats_tag[m], mats_par, m, (1.0, 1.0, 1.0), 0, split,
+                                 cutoff, keys[lane], DIM_LOBE, stack, 0)
+                if top > 0:
+                    l0, l1, l2 = trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag,
+                                             lights_par, opts, optf, keys[lane], dim, stack, top, ray_buf,
+                                             cnt, l0, l1, l2)
+            if not (math.isfinite(l0) and math.isfinite(l1) and math.isfinite(l2)):
+                n_bad += 1
+                l0 = l1 = l2 = 0.0
+            q = lane_pix[lane] * 3
+            film_s[q] += l0
+            film_s[q + 1] += l1
+            film_s[q + 2] += l2
+            film_q[q] += l0 * l0
+            film_q[q + 1] += l1 * l1
+            film_q[q + 2] += l2 * l2
     cnt[N_PRIMARY] += n_prim
     cnt[N_SHADOW] += n_shadow
     cnt[N_NONFINITE] += n_bad
@@ -391,6 +408,9 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
     keep_alive(scratch)
     keep_alive(stack_own)
     keep_alive(keys_own)
+    keep_alive(lane_i_own)
+    keep_alive(lane_u_own)
+    keep_alive(lane_xy_own)
 
 
 @numba.njit(nogil=True, cache=True, error_model="numpy", parallel=True)

@@ -140,17 +140,17 @@ def area_lane(ltag, lpars, j, e_max, V, lane, u0, u1, terminator):
 
 
 @_stage
-def area_stage(ltag, lpars, j, V, keys, n, s, ns, k, terminator, pair, s0, spp, pkey):
+def area_stage(ltag, lpars, j, V, keys, n, s, ns, k, terminator, pair, lane_s, spp, lane_k32):
     """:func:`area_lane` of sample ``s`` of area light ``j``'s ``ns`` per hit (``k = isqrt(ns)``) for the camera
-    hits in lanes ``[0, n)`` (camera samples ``s0 + lane`` of the pixel's ``spp``): stratified per hit
+    hits in lanes ``[0, n)`` (lane ``l``: camera sample ``lane_s[l]`` of its pixel's ``spp``): stratified per hit
     (:func:`pyrt.lights.compiled.stratum`), each stratum's jitter padded over the pixel's samples as the NumPy
-    path's (:func:`pyrt.shaders.jit_sampling.padded_sobol_2d` of the pixel's seed ``pkey`` and the dimension pair
-    ``pair``: the pixel's ``spp`` jitters of one stratum are one stratified set)."""
+    path's (:func:`pyrt.shaders.jit_sampling.padded_sobol_2d` of the pixel's seed ``lane_k32[l]`` and the
+    dimension pair ``pair``: the pixel's ``spp`` jitters of one stratum are one stratified set)."""
     U.wide_vectors()
     jb = j * LC.RECORD
     e_max = max(lpars[jb + 6], lpars[jb + 7], lpars[jb + 8])
     for lane in range(n):
-        x0, x1 = JS.padded_sobol_2d(s0 + lane, spp, pkey, pair)
+        x0, x1 = JS.padded_sobol_2d(lane_s[lane], spp, lane_k32[lane], pair)
         u0, u1 = LC.stratum(s, ns, k, x0, x1, _lhs_perm(keys[lane], j, s, ns, k))
         area_lane(ltag, lpars, j, e_max, V, lane, u0, u1, terminator)
 

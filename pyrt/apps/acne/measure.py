@@ -88,14 +88,20 @@ def strategy_name(offset):
     return getattr(offset, "__name__", "custom")      # the user's own function (any callable)
 
 
-def run_case(case, offset=None, *, width=64, height=48, built=None, prepared=None, truth=None, threads=None):
-    """Render ``case`` with ``offset`` (name, callable(surf, w) -> origins, or Strategy) and score it."""
+def run_case(case, offset=None, *, width=64, height=48, built=None, prepared=None, truth=None, threads=None,
+             backend="numpy"):
+    """Render ``case`` with ``offset`` (name, callable(surf, w) -> origins, or Strategy) and score it.
+
+    ``backend="numpy"`` (default) renders through the NumPy path with the strategy wrapped to time its shadow
+    rays; ``"compiled"`` through the compiled kernel (:mod:`pyrt.integrators.compiled`: the built-in ``robust``
+    strategies only, shadow-ray time not measured)."""
     built = built if built is not None else build_case(case, width, height)
     truth = truth if truth is not None else truth_labels(built)
     strat = offsets.get_strategy(offset)
     timed = _Timed(name=strat.name, origin=strat.origin, tmax=strat.tmax, terminator=strat.terminator, inner=strat)
-    res = render_full(built.scene, spp=1, max_depth=built.max_depth, offset=timed, progress=False,
-                      prepared=prepared, threads=threads)
+    res = render_full(built.scene, spp=1, max_depth=built.max_depth,
+                      offset=timed if backend == "numpy" else offset, progress=False, prepared=prepared,
+                      threads=threads, backend=backend)
     lit = res.image.max(axis=2) > 0
     acne = int(np.sum((truth == LIT) & ~lit))
     leak = int(np.sum((truth == SHADOW) & lit))
