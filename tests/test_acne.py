@@ -48,6 +48,14 @@ def test_default_strategy_has_no_acne_and_no_leak(case):
     assert r.ok, _describe(r)
 
 
+@pytest.mark.parametrize("case", MATRIX, ids=lambda c: c.id)
+def test_default_strategy_has_no_acne_and_no_leak_on_the_compiled_path(case):
+    """The compiled kernel's offsets (its own scalar and vectorised code) on the same matrix: 0 acne, 0 leak."""
+    built, truth = _built(case)
+    r = acne.run_case(case, None, built=built, truth=truth, backend="compiled")
+    assert r.ok, _describe(r)
+
+
 # Cases built to contain surfaces edge-on to the light: |n . wi| < sin(normal_tol) is don't-care by definition.
 EDGE_ON = {"wall_lamp": "the lamp's own wall is edge-on to it", "corner-directional-s1-t0-i0":
            "the wall is parallel to an overhead light"}
