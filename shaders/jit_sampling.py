@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numba.extending import register_jitable
 
-from pyrt.shaders.jit import permute
+from .jit import permute
 
 _M32 = 0xFFFFFFFF
 #: the hash's initial state, (0x9E3779B9 * 0x85EBCA6B) mod 2^32
