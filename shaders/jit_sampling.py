@@ -51,6 +51,15 @@ def hash32_3(a, b, c):
 
 
 @register_jitable(inline="always")
+def hash32_4(a, b, c, d):
+    """:func:`pyrt.core.sampler.hash32` of the keys ``a, b, c, d`` (non-negative integers)."""
+    h = _mix(np.uint64(_H0), a)
+    h = _mix(_next(h), b)
+    h = _mix(_next(h), c)
+    return _mix(_next(h), d)
+
+
+@register_jitable(inline="always")
 def reverse_bits32(x):
     """Bit reversal of a 32-bit value (held in a uint64)."""
     m = np.uint64(_M32)
@@ -94,9 +103,13 @@ def sobol_owen_2d(index, seed):
 @register_jitable(inline="always")
 def padded_sobol_2d(index, n, key, dim):
     """Point of dimension pair ``dim`` for sample ``index`` of a pixel whose set has ``n`` samples and whose seed is
-    ``key``: :func:`pyrt.core.sampler.padded_sobol_2d` for one sample (a fixed-size set), bit for bit: point
-    ``pi(index)`` of the Owen-scrambled Sobol' sequence of ``hash32(key, dim)``, ``pi`` Kensler's permutation
-    (:func:`pyrt.shaders.jit.permute`) of that seed's shuffle."""
+    ``key``: :func:`pyrt.core.sampler.padded_sobol_2d` for one sample, bit for bit: point ``pi(index)`` of the
+    Owen-scrambled Sobol' sequence of ``hash32(key, dim)``, ``pi`` Kensler's permutation
+    (:func:`pyrt.shaders.jit.permute`) of that seed's shuffle, or for ``n`` <= 0 (the NumPy function's ``n=None``:
+    a progressive set) the nested uniform scramble of the index bits."""
     k = hash32_2(key, dim)
     shuffle = hash32_2(k, 0x2545F491)
+    if n <= 0:      # a progressive set: Burley's nested uniform shuffle of the index
+        i = np.uint64(index) & np.uint64(_M32)
+        return sobol_owen_2d(reverse_bits32(laine_karras(reverse_bits32(i), shuffle)), k)
     return sobol_owen_2d(permute(index, n, shuffle), k)

@@ -14,7 +14,8 @@ lights sampled by light sampling (stratified per hit, padded over a pixel's samp
 constant background and ambient term; smooth and flat shading with or without the back-facing-normal fallback; the
 ``robust`` and ``robust_no_terminator`` offsets. Not yet: environments, area lights with BSDF samples (MIS),
 emissive-mesh lights, the other materials, image and filtered textures (ray differentials), normal maps, alpha
-coverage, nested media, transparent shadows, the glossy integrator, AOVs, adaptive passes and ray recording.
+coverage, nested media, transparent shadows, the glossy integrator, AOVs and ray recording. Adaptive passes
+render their chunks with :func:`render_pixels`.
 """
 from __future__ import annotations
 
@@ -45,7 +46,7 @@ _announced = []
 
 
 def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=False, light_select_depth=None,
-                aovs=False, record_rays=False, adaptive=False, scene=None):
+                aovs=False, record_rays=False, scene=None):
     """The reasons (strings) the compiled kernel cannot render the prepared scene ``ps`` with these options; an
     empty list when it can. The options are those of :func:`pyrt.render_full`. ``ps`` None and ``scene`` given: the
     same decision from the scene alone (what a Dask client decides before its workers prepare the scene; the
@@ -66,8 +67,6 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
         reasons.append("AOVs")
     if record_rays:
         reasons.append("ray recording")
-    if adaptive:
-        reasons.append("adaptive passes")
     if scene.environment is not None:
         reasons.append("an environment")
     if facts.coverage is not None:
@@ -255,6 +254,25 @@ def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_dept
         if progress is not None:
             progress.update(hi - lo)
     return sums, sqs, counters.sum(axis=0), done
+
+
+def render_pixels(cs, cam, P, C, base, *, seed, max_depth, throughput_cutoff, split_depth, terminator):
+    """One chunk of an adaptive pass on the compiled kernel (:func:`pyrt.integrators.compiled_kernel.render_pixels`):
+    pixels ``P`` with ``C`` (even) new samples each, half to A and half to B, each half's sequence continued at
+    ``base`` (samples per half so far). Returns ``(sums of A + B (k, 3), sums of B (k, 3), counters (4,))``, a
+    non-finite sample zeroed and counted. Runs on the calling thread (no GIL held: a pool of threads runs the
+    pass's chunks side by side)."""
+    opts, optf = _options(cs, 0, seed, max_depth, throughput_cutoff, split_depth, terminator)
+    P, C, base = (np.ascontiguousarray(a, dtype=np.int64) for a in (P, C, base))
+    both, half_b = np.zeros((P.size, 3)), np.zeros((P.size, 3))
+    counters = np.zeros(4, dtype=np.int64)
+    announce_compile()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NumbaIRAssumptionWarning)     # (as in render_fixed)
+        K.render_pixels(cs.scene, camera_record(cam), cs.geo_f, cs.geo_i, cs.materials[0], cs.materials[1],
+                        cs.textures[0], cs.textures[1], cs.lights[0], cs.lights[1], opts, optf, P, C, base, both,
+                        half_b, counters, packet_width())
+    return both, half_b, counters
 
 
 def _options(cs, spp, seed, max_depth, throughput_cutoff, split_depth, terminator):

@@ -44,7 +44,7 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK,
     O_GRID, F_CUTOFF, F_BG, F_AMBIENT, N_PRIMARY, N_SECONDARY,
     N_SHADOW, N_NONFINITE, STACK, STACK_ROW, T_INF, DIM_LOBE,
-    _njit, _stage, lane_vec, set_lane_vec)
+    ADAPTIVE_KEYS, _njit, _stage, lane_vec, set_lane_vec)
 from pyrt.integrators.compiled_lighting import (  # noqa: E402
     area_stage, area_u, bsdf_stage, direct_light, light_stage, shadow_fill)
 from pyrt.lights import compiled as LC  # noqa: E402
@@ -219,6 +219,139 @@ def geometry_pointers(geo_f, geo_i):
             U.pointer(geo_f[5]), U.pointer(geo_i[0]), U.pointer(geo_i[1]), U.pointer(geo_i[2]), U.pointer(geo_i[3]))
 
 
+@_njit
+def packet_buffers(width):
+    """The per-call buffers of a kernel entry: the camera and shadow packets (``width`` lanes), the single-ray
+    buffer, the packet scratch, the specular stack, each lane's key, pixel and sample, its pixel's keys and raster
+    corner. Returned as owners: their pointers come from :func:`buffer_pointers`; :func:`release` at the end of the
+    entry keeps them alive until then."""
+    return (E.packet_alloc(width), E.packet_alloc(width), E.ray_alloc(), np.zeros(V_SIZE * LANES),
+            np.zeros(STACK * STACK_ROW), np.zeros(LANES, dtype=np.uint64), np.zeros(2 * LANES, dtype=np.int64),
+            np.zeros(2 * LANES, dtype=np.uint64), np.zeros(2 * LANES))
+
+
+@_njit
+def buffer_pointers(b):
+    """Pointers into :func:`packet_buffers`' owners: packet, shadow packet, ray, scratch, stack, keys, each lane's
+    pixel and sample, its pixel's sample key and padded-sample seed, its raster corner (x at ``[l]``, y at
+    ``[LANES + l]``)."""
+    return (U.pointer(b[0]), U.pointer(b[1]), U.pointer(b[2]), U.pointer(b[3]), U.pointer(b[4]), U.pointer(b[5]),
+            U.pointer(b[6]), U.pointer(b[6][LANES:]), U.pointer(b[7]), U.pointer(b[7][LANES:]), U.pointer(b[8]))
+
+
+@_njit
+def release(b):
+    """The last use of :func:`packet_buffers`' owners (Numba frees an array after its last use)."""
+    keep_alive(b[0])
+    keep_alive(b[1])
+    keep_alive(b[2])
+    keep_alive(b[3])
+    keep_alive(b[4])
+    keep_alive(b[5])
+    keep_alive(b[6])
+    keep_alive(b[7])
+    keep_alive(b[8])
+
+
+@numba.njit(nogil=True, cache=True, error_model="numpy")
+def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, spp, n, w, mats_tag, mats_par, tex_tag,
+                 tex_par, lights_tag, lights_par, opts, optf, cnt):
+    """Trace and shade a packet of ``n`` camera rays (directions in the scratch ``V`` at :data:`V_D`, lane ``l``'s
+    random numbers keyed by ``keys[l]``, its padded light samples by sample ``lane_s[l]`` of its pixel's set of
+    ``spp`` (``spp`` <= 0: a progressive set) and the pixel seed ``lane_k32[l]``): the camera packet's query, the
+    hits' surfaces, per light the shadow rays in one masked query, the specular tree of each sample; each lane's
+    radiance into :data:`V_L` (a non-finite value zeroed and counted), rays counted into ``cnt``. Every argument
+    but the numbers and the geometry tuple ``G`` is a pointer."""
+    fmat = G[8]
+    nl = opts[O_NLIGHTS]
+    max_depth, split, cutoff = opts[O_MAX_DEPTH], opts[O_SPLIT], optf[F_CUTOFF]
+    fallback = opts[O_FALLBACK] != 0
+    terminator = opts[O_TERMINATOR] != 0
+    bg = (optf[F_BG], optf[F_BG + 1], optf[F_BG + 2])
+    n_prim = n_shadow = n_bad = 0
+    for lane in range(n):
+        d = lane_vec(V, V_D, lane)
+        E.packet_set_dir(pk, w, lane, d[0], d[1], d[2], T_INF)
+    E.packet_activate(pk, w, n)
+    n_prim += n
+    E.packet_query(scene, pk, w, True, False)
+    # the hits' surfaces, albedo and emission (a miss: face 0 computed and dropped)
+    any_diffuse = False
+    for lane in range(n):
+        geom, prim = E.packet_geom_prim(pk, w, lane)
+        hit = geom != -1
+        geom, prim = (geom, prim) if hit else (0, 0)
+        u, v = E.packet_uv(pk, w, lane)
+        d = lane_vec(V, V_D, lane)
+        p, ng, ns, nv, lift, mag, mag_lift, front, face, uv = J.hit_surface(
+            G, fallback, terminator, geom, prim, u, v, (-d[0], -d[1], -d[2]))
+        m = fmat[face]
+        mtag = mats_tag[m]
+        albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1])
+        le = emitted(mtag, mats_par, m, albedo, optf, front)
+        diffuse = hit and MC.has_diffuse(mtag)
+        any_diffuse = any_diffuse or diffuse
+        set_lane_vec(V, V_P, lane, p)
+        set_lane_vec(V, V_NG, lane, ng)
+        set_lane_vec(V, V_NS, lane, ns)
+        set_lane_vec(V, V_NV, lane, nv)
+        set_lane_vec(V, V_LIFT, lane, lift)
+        set_lane_vec(V, V_A, lane, albedo)
+        set_lane_vec(V, V_L, lane, le if hit else bg)
+        V[V_MAG * LANES + lane] = mag
+        V[V_MAG_LIFT * LANES + lane] = mag_lift
+        V[V_FRONT * LANES + lane] = 1.0 if front else 0.0
+        V[V_MAT * LANES + lane] = m if hit else -1
+        V[V_COSO * LANES + lane] = dot((-d[0], -d[1], -d[2]), ns)
+    # direct light: per light, the packet's shadow rays (geometry, then the BSDF) in one masked query
+    pair = 0                # the padded dimension pairs of the area lights' samples
+    for j in range(nl if any_diffuse else 0):
+        ltag = lights_tag[j]
+        area = ltag >= LC.RECT
+        n_j = int(lights_par[j * LC.RECORD + LC.AREA_SAMPLES]) if area else 1
+        k_j = J.isqrt(n_j)
+        inv_j = 1.0 / n_j
+        for s in range(n_j):
+            E.packet_activate(sh, w, 0)
+            if area:
+                area_stage(ltag, lights_par, j, V, keys, n, s, n_j, k_j, terminator, pair + s, lane_s, spp,
+                           lane_k32)
+            else:
+                light_stage(lights_tag, lights_par, j, V, n, terminator)
+            shadow_fill(V, sh, w, n)
+            n_sh = bsdf_stage(mats_tag, mats_par, lights_par, j, V, sh, w, n)
+            if n_sh == 0:
+                continue
+            n_shadow += n_sh
+            E.packet_query(scene, sh, w, True, True)
+            for lane in range(n):
+                add = V[V_LIT * LANES + lane] != 0.0 and not E.lane_blocked(sh, w, lane)
+                for c in range(3):
+                    V[(V_L + c) * LANES + lane] += V[(V_F + c) * LANES + lane] * inv_j if add else 0.0
+        pair += n_j if area else 0
+    # the specular tree of each sample, then the film
+    for lane in range(n):
+        l0, l1, l2 = lane_vec(V, V_L, lane)
+        m = int(V[V_MAT * LANES + lane])
+        if m >= 0 and max_depth > 0 and MC.has_delta(mats_tag[m]):
+            d = lane_vec(V, V_D, lane)
+            top, dim = spawn(lane_vec(V, V_P, lane), lane_vec(V, V_NG, lane), lane_vec(V, V_NS, lane),
+                             (-d[0], -d[1], -d[2]), V[V_FRONT * LANES + lane] != 0.0,
+                             V[V_MAG * LANES + lane], mats_tag[m], mats_par, m, (1.0, 1.0, 1.0), 0, split,
+                             cutoff, keys[lane], DIM_LOBE, stack, 0)
+            if top > 0:
+                l0, l1, l2 = trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag,
+                                         lights_par, opts, optf, keys[lane], dim, stack, top, ray_buf,
+                                         cnt, l0, l1, l2)
+        if not (math.isfinite(l0) and math.isfinite(l1) and math.isfinite(l2)):
+            n_bad += 1
+            l0 = l1 = l2 = 0.0
+        set_lane_vec(V, V_L, lane, (l0, l1, l2))
+    cnt[N_PRIMARY] += n_prim
+    cnt[N_SHADOW] += n_shadow
+    cnt[N_NONFINITE] += n_bad
+
+
 @numba.njit(nogil=True, cache=True, error_model="numpy")
 def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par,
                 opts, optf, sums, sqs, counters, width):
@@ -233,19 +366,8 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
     the specular trees, the film. The per-sample code reads every array through a pointer
     (:func:`pyrt.core.unmanaged.pointer`): it binds no array, so it makes no reference-counting calls."""
     U.wide_vectors()
-    pk_own, sh_own, ray_own = E.packet_alloc(width), E.packet_alloc(width), E.ray_alloc()
-    scratch = np.zeros(V_SIZE * LANES)
-    stack_own = np.zeros(STACK * STACK_ROW)
-    keys_own = np.zeros(LANES, dtype=np.uint64)
-    lane_i_own = np.zeros(2 * LANES, dtype=np.int64)          # each lane's pixel and sample
-    lane_u_own = np.zeros(2 * LANES, dtype=np.uint64)         # its pixel's keys (samples, padded samples)
-    lane_xy_own = np.zeros(2 * LANES)                          # its pixel's raster corner
-    # pointers into arrays that outlive this function's loops (the arguments; the arrays above, kept alive below)
-    pk, sh, ray_buf = U.pointer(pk_own), U.pointer(sh_own), U.pointer(ray_own)
-    V, stack, keys = U.pointer(scratch), U.pointer(stack_own), U.pointer(keys_own)
-    lane_pix, lane_s = U.pointer(lane_i_own), U.pointer(lane_i_own[LANES:])
-    lane_key, lane_k32 = U.pointer(lane_u_own), U.pointer(lane_u_own[LANES:])
-    lane_xy = U.pointer(lane_xy_own)
+    bufs = packet_buffers(width)
+    pk, sh, ray_buf, V, stack, keys, lane_pix, lane_s, lane_key, lane_k32, lane_xy = buffer_pointers(bufs)
     film_s, film_q = U.pointer(sums), U.pointer(sqs)
     cam, opts, optf = U.pointer(cam), U.pointer(opts), U.pointer(optf)
     mats_tag, mats_par = U.pointer(mats_tag), U.pointer(mats_par)
@@ -253,7 +375,6 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
     lights_tag, lights_par = U.pointer(lights_tag), U.pointer(lights_par)
     cnt = U.pointer(counters)
     G = geometry_pointers(geo_f, geo_i)
-    fmat = G[8]
     w = width
     W, H = int(cam[C_W]), int(cam[C_H])
     tiles_x = (W + TILE - 1) // TILE
@@ -263,14 +384,8 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
     ginv = 1.0 / max(grid, 1)
     spp_f, rows_f = float(spp), float(J.isqrt(spp))
     seed = opts[O_SEED]
-    nl = opts[O_NLIGHTS]
-    max_depth, split, cutoff = opts[O_MAX_DEPTH], opts[O_SPLIT], optf[F_CUTOFF]
-    fallback = opts[O_FALLBACK] != 0
-    terminator = opts[O_TERMINATOR] != 0
-    bg = (optf[F_BG], optf[F_BG + 1], optf[F_BG + 2])
     E.packet_prepare(pk, w, cam[C_POS], cam[C_POS + 1], cam[C_POS + 2])
     E.packet_prepare(sh, w, 0.0, 0.0, 0.0)
-    n_prim = n_shadow = n_bad = 0
     # the tile's (pixel, sample) items in pixel order, ``width`` at a time: a packet holds one pixel's samples when
     # they fill it, and several pixels' (a row piece of the tile) when spp is low
     tw, th = min(x0 + TILE, W) - x0, min(y0 + TILE, H) - y0
@@ -314,83 +429,10 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
                 u0, u1 = J.uniform_pair(key)
                 ox, oy = J.strata_position(spp_f, rows_f, float(s), u0, u1)
                 set_lane_vec(V, V_D, lane, camera_dir(cam, lane_xy[lane] + ox, lane_xy[LANES + lane] + oy))
-        for lane in range(n):
-            d = lane_vec(V, V_D, lane)
-            E.packet_set_dir(pk, w, lane, d[0], d[1], d[2], T_INF)
-        E.packet_activate(pk, w, n)
-        n_prim += n
-        E.packet_query(scene, pk, w, True, False)
-        # the hits' surfaces, albedo and emission (a miss: face 0 computed and dropped)
-        any_diffuse = False
-        for lane in range(n):
-            geom, prim = E.packet_geom_prim(pk, w, lane)
-            hit = geom != -1
-            geom, prim = (geom, prim) if hit else (0, 0)
-            u, v = E.packet_uv(pk, w, lane)
-            d = lane_vec(V, V_D, lane)
-            p, ng, ns, nv, lift, mag, mag_lift, front, face, uv = J.hit_surface(
-                G, fallback, terminator, geom, prim, u, v, (-d[0], -d[1], -d[2]))
-            m = fmat[face]
-            mtag = mats_tag[m]
-            albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1])
-            le = emitted(mtag, mats_par, m, albedo, optf, front)
-            diffuse = hit and MC.has_diffuse(mtag)
-            any_diffuse = any_diffuse or diffuse
-            set_lane_vec(V, V_P, lane, p)
-            set_lane_vec(V, V_NG, lane, ng)
-            set_lane_vec(V, V_NS, lane, ns)
-            set_lane_vec(V, V_NV, lane, nv)
-            set_lane_vec(V, V_LIFT, lane, lift)
-            set_lane_vec(V, V_A, lane, albedo)
-            set_lane_vec(V, V_L, lane, le if hit else bg)
-            V[V_MAG * LANES + lane] = mag
-            V[V_MAG_LIFT * LANES + lane] = mag_lift
-            V[V_FRONT * LANES + lane] = 1.0 if front else 0.0
-            V[V_MAT * LANES + lane] = m if hit else -1
-            V[V_COSO * LANES + lane] = dot((-d[0], -d[1], -d[2]), ns)
-        # direct light: per light, the packet's shadow rays (geometry, then the BSDF) in one masked query
-        pair = 0                # the padded dimension pairs of the area lights' samples
-        for j in range(nl if any_diffuse else 0):
-            ltag = lights_tag[j]
-            area = ltag >= LC.RECT
-            n_j = int(lights_par[j * LC.RECORD + LC.AREA_SAMPLES]) if area else 1
-            k_j = J.isqrt(n_j)
-            inv_j = 1.0 / n_j
-            for s in range(n_j):
-                E.packet_activate(sh, w, 0)
-                if area:
-                    area_stage(ltag, lights_par, j, V, keys, n, s, n_j, k_j, terminator, pair + s, lane_s, spp,
-                               lane_k32)
-                else:
-                    light_stage(lights_tag, lights_par, j, V, n, terminator)
-                shadow_fill(V, sh, w, n)
-                n_sh = bsdf_stage(mats_tag, mats_par, lights_par, j, V, sh, w, n)
-                if n_sh == 0:
-                    continue
-                n_shadow += n_sh
-                E.packet_query(scene, sh, w, True, True)
-                for lane in range(n):
-                    add = V[V_LIT * LANES + lane] != 0.0 and not E.lane_blocked(sh, w, lane)
-                    for c in range(3):
-                        V[(V_L + c) * LANES + lane] += V[(V_F + c) * LANES + lane] * inv_j if add else 0.0
-            pair += n_j if area else 0
-        # the specular tree of each sample, then the film
+        shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, spp, n, w, mats_tag, mats_par,
+                     tex_tag, tex_par, lights_tag, lights_par, opts, optf, cnt)
         for lane in range(n):
             l0, l1, l2 = lane_vec(V, V_L, lane)
-            m = int(V[V_MAT * LANES + lane])
-            if m >= 0 and max_depth > 0 and MC.has_delta(mats_tag[m]):
-                d = lane_vec(V, V_D, lane)
-                top, dim = spawn(lane_vec(V, V_P, lane), lane_vec(V, V_NG, lane), lane_vec(V, V_NS, lane),
-                                 (-d[0], -d[1], -d[2]), V[V_FRONT * LANES + lane] != 0.0,
-                                 V[V_MAG * LANES + lane], mats_tag[m], mats_par, m, (1.0, 1.0, 1.0), 0, split,
-                                 cutoff, keys[lane], DIM_LOBE, stack, 0)
-                if top > 0:
-                    l0, l1, l2 = trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag,
-                                             lights_par, opts, optf, keys[lane], dim, stack, top, ray_buf,
-                                             cnt, l0, l1, l2)
-            if not (math.isfinite(l0) and math.isfinite(l1) and math.isfinite(l2)):
-                n_bad += 1
-                l0 = l1 = l2 = 0.0
             q = lane_pix[lane] * 3
             film_s[q] += l0
             film_s[q + 1] += l1
@@ -398,19 +440,7 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
             film_q[q] += l0 * l0
             film_q[q + 1] += l1 * l1
             film_q[q + 2] += l2 * l2
-    cnt[N_PRIMARY] += n_prim
-    cnt[N_SHADOW] += n_shadow
-    cnt[N_NONFINITE] += n_bad
-    # the owners of the pointers live until here
-    keep_alive(pk_own)
-    keep_alive(sh_own)
-    keep_alive(ray_own)
-    keep_alive(scratch)
-    keep_alive(stack_own)
-    keep_alive(keys_own)
-    keep_alive(lane_i_own)
-    keep_alive(lane_u_own)
-    keep_alive(lane_xy_own)
+    release(bufs)         # the owners of the pointers live until here
 
 
 @numba.njit(nogil=True, cache=True, error_model="numpy", parallel=True)
@@ -420,6 +450,65 @@ def render_tiles(scene, tiles, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, t
     for k in prange(tiles.shape[0]):
         render_tile(scene, tiles[k], cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag,
                     lights_par, opts, optf, sums, sqs, counters[k], width)
+
+
+@numba.njit(nogil=True, cache=True, error_model="numpy")
+def render_pixels(scene, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, opts, optf,
+                  P, C, base, both, half_b, counters, width):
+    """One chunk of an adaptive pass (:func:`pyrt.render.chunks.shade_adaptive_chunk`'s estimate): pixel ``P[i]``
+    gets ``C[i]`` (even) new samples, the first half to half-buffer A and the second to B, each half continuing its
+    Owen-scrambled Sobol' sequence at ``base[i]`` (camera positions
+    ``sobol_owen_2d(base + j, hash32(seed, pixel, half))``, bit for bit the NumPy path's: the same camera rays; their
+    hits' area-light samples continue a progressive padded set of seed ``hash32(seed, pixel, half, 0x9AD)``).
+    The radiance of all the new samples summed into ``both[i]``, of B's into ``half_b[i]``; rays counted into
+    ``counters`` (4,). Single-threaded (the pass's chunks run on a pool of threads: the kernel holds no GIL)."""
+    U.wide_vectors()
+    bufs = packet_buffers(width)
+    pk, sh, ray_buf, V, stack, keys, lane_pix, lane_s, lane_key, lane_k32, lane_xy = buffer_pointers(bufs)
+    cam, opts, optf = U.pointer(cam), U.pointer(opts), U.pointer(optf)
+    mats_tag, mats_par = U.pointer(mats_tag), U.pointer(mats_par)
+    tex_tag, tex_par = U.pointer(tex_tag), U.pointer(tex_par)
+    lights_tag, lights_par = U.pointer(lights_tag), U.pointer(lights_par)
+    cnt = U.pointer(counters)
+    G = geometry_pointers(geo_f, geo_i)
+    w = width
+    W = int(cam[C_W])
+    seed = opts[O_SEED]
+    E.packet_prepare(pk, w, cam[C_POS], cam[C_POS + 1], cam[C_POS + 2])
+    E.packet_prepare(sh, w, 0.0, 0.0, 0.0)
+    n_items = 0
+    for i in range(P.shape[0]):
+        n_items += C[i]
+    cur_i = cur_j = 0
+    for t0 in range(0, n_items, w):
+        n = min(w, n_items - t0)
+        for lane in range(n):               # each lane's pixel (its row of P in lane_pix), half and index
+            pix = P[cur_i]
+            h = C[cur_i] // 2
+            is_b = 1 if cur_j >= h else 0
+            idx = base[cur_i] + cur_j - is_b * h
+            lane_pix[lane] = cur_i * 2 + is_b
+            lane_s[lane] = idx
+            lane_k32[lane] = JS.hash32_4(seed, pix, is_b, 0x9AD)
+            key = J.key64(seed, pix, ADAPTIVE_KEYS + idx * 2 + is_b)
+            keys[lane] = key
+            u0, u1 = JS.sobol_owen_2d(idx, JS.hash32_3(seed, pix, is_b))
+            row = pix // W
+            set_lane_vec(V, V_D, lane, camera_dir(cam, float(pix - row * W) + u0, float(row) + u1))
+            cur_j += 1
+            if cur_j == C[cur_i]:
+                cur_i += 1
+                cur_j = 0
+        shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, -1, n, w, mats_tag, mats_par,
+                     tex_tag, tex_par, lights_tag, lights_par, opts, optf, cnt)
+        for lane in range(n):
+            q = lane_pix[lane]
+            r, is_b = q // 2, q % 2
+            for c in range(3):
+                x = V[(V_L + c) * LANES + lane]
+                both[r, c] += x
+                half_b[r, c] += x if is_b else 0.0
+    release(bufs)
 
 
 kernel_cache.restore()

@@ -50,6 +50,9 @@ DIM_LOBE = 2
 #: the first random dimension of the area lights' samples at a hit (two per sample, :func:`area_u`; below it, one
 #: per light for its Latin-hypercube permutation); each hit of a sample's specular tree has a key of its own
 DIM_AREA = 1 << 20
+#: adaptive passes key a sample by ``ADAPTIVE_KEYS + 2 index + half`` (:func:`pyrt.shaders.jit.key64`): apart from the
+#: fixed-spp renders' sample numbers
+ADAPTIVE_KEYS = 1 << 40
 #: the largest number of an area light's samples per hit whose dimensions stay apart
 MAX_AREA_SAMPLES = 1 << 16
 

@@ -76,9 +76,11 @@ from pyrt.core import checks
 from pyrt.core.errors import RenderError
 from pyrt.core.film import Film
 from pyrt.core.metrics import relmse_per_pixel
+from pyrt.integrators import compiled
 from pyrt.integrators.prepared import PreparedScene, RenderStats
 from pyrt.integrators.whitted import DEFAULT_SPLIT_DEPTH
 from pyrt.render.chunks import shade_adaptive_chunk
+from pyrt.render.compiled import adaptive_task, check_backend
 from pyrt.render.distributed import DaskRunner, adaptive_group
 from pyrt.render.pool import ChunkPool, integrator_factory, merge_stats, progress_bar, use_processes
 from pyrt.render.result import RenderResult
@@ -274,7 +276,7 @@ def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None,
                     throughput_cutoff=1e-4, offset=None, record_rays=False, transparent_shadows=False,
                     glossy_samples=4, glossy_depth=2, glossy_threshold=0.4, glossy_clamp=None, dask=None,
                     dask_workers=2, split_depth=DEFAULT_SPLIT_DEPTH, light_select_depth=None, parallel="auto",
-                    batch_rays=None, sampler="padded"):
+                    batch_rays=None, sampler="padded", backend="auto"):
     """Render ``scene`` in adaptive passes until the estimated relMSE is at most ``target_error``, the
     ``time_budget`` (seconds, counted from the call) is spent, or no pixel may take more samples
     (``max_spp``): a :class:`RenderResult` with ``passes``, ``estimated_error``, ``stop_reason`` and the film
@@ -285,7 +287,8 @@ def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None,
     in :func:`pyrt.render_full` (a cancelled base pass leaves pixels without samples; ``fill`` gives them 2).
     ``dask``: run every pass's chunks on Dask workers (:mod:`pyrt.render.distributed`; the sample map of the
     next pass is decided here, from the merged film). The other parameters are those of
-    :func:`pyrt.render_full`.
+    :func:`pyrt.render_full`; ``backend`` as there: the compiled kernel renders the passes' chunks where it covers
+    the scene and options (not on Dask workers yet), the same camera rays as the NumPy path.
     """
     t_start = time.perf_counter()
     target_error = _positive("target_error", target_error)
@@ -311,28 +314,54 @@ def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None,
     ps = prepared if prepared is not None or runner is not None else PreparedScene(scene, threads=threads)
     try:
         make = None if ps is None else integrator_factory(ps, **integ)
+        reasons = _compiled_reasons(backend, ps, scene, runner, integ, aovs)
         spec = dict(threads=1, seed=seed, aovs=aovs, nonfinite=nonfinite, integrator=integ)
         cam = scene.camera
         workers = 1 if ps is None else (ps.accel.threads if threads is None else int(threads))
         # the base pass's chunks, times 4: the passes after it add at least as many samples again, usually more
         base_chunks = -(-scene.camera.width * scene.camera.height * min_spp // chunk_samples)
-        processes = use_processes(parallel, workers, 4 * base_chunks) and runner is None
+        processes = use_processes(parallel, workers, 4 * base_chunks) and runner is None and bool(reasons)
         deadline = t_start + time_budget if time_budget is not None else math.inf
+        kernel = None if reasons else adaptive_task(ps, cam, seed=seed, max_depth=max_depth,
+                                                    throughput_cutoff=throughput_cutoff, offset=offset,
+                                                    split_depth=split_depth, nonfinite=nonfinite)
 
         def task(index, key, P, C, base, spp_after, timed):
             if timed and time.perf_counter() >= deadline:
                 return None
+            if kernel is not None:
+                return kernel(P, C, base)
             return shade_adaptive_chunk(ps, cam, make, seed, index, key, P, C, base, spp_after, aovs, nonfinite)
 
         with ChunkPool(task, workers if runner is None else 1, processes=processes, prepared=ps) as pool:
-            return _passes(cam, ps, pool, t_start, target_error, time_budget, max_spp, min_spp, seed, aovs,
-                           progress, max(2, chunk_samples - chunk_samples % 2), nonfinite, cancel, fill,
-                           fill_budget, on_pass, runner, spec)
+            res = _passes(cam, ps, pool, t_start, target_error, time_budget, max_spp, min_spp, seed, aovs,
+                          progress, max(2, chunk_samples - chunk_samples % 2), nonfinite, cancel, fill,
+                          fill_budget, on_pass, runner, spec)
+        res.stats.backend = "numpy" if reasons else "compiled"
+        res.stats.fallback_reasons = [r for r in reasons if r != "backend='numpy'"]
+        return res
     finally:
         if own:
             ps.close()
         if runner is not None:
             runner.close()
+
+
+def _compiled_reasons(backend, ps, scene, runner, integ, aovs):
+    """Why the passes cannot run on the compiled kernel (:func:`pyrt.integrators.compiled.unsupported`; empty: they
+    can); a :class:`RenderError` when ``backend="compiled"`` and there is a reason."""
+    if check_backend(backend) == "numpy":
+        return ["backend='numpy'"]
+    reasons = compiled.unsupported(ps, integrator=integ["integrator"], offset=integ["offset"],
+                                   transparent_shadows=integ["transparent_shadows"],
+                                   light_select_depth=integ["light_select_depth"], aovs=aovs,
+                                   record_rays=integ["record_rays"], scene=scene)
+    if runner is not None:
+        reasons.append("adaptive passes on Dask workers")
+    if reasons and backend == "compiled":
+        raise RenderError("render: backend='compiled' does not cover " + "; ".join(reasons)
+                          + " (backend='auto' renders them on the NumPy path)")
+    return reasons
 
 
 def _passes(cam, ps, pool, t_start, target_error, time_budget, max_spp, min_spp, seed, aovs, progress,

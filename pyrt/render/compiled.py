@@ -14,7 +14,7 @@ import warnings
 import numpy as np
 
 from pyrt.core.errors import RenderError
-from pyrt.core.film import Film, FilmError
+from pyrt.core.film import Film, FilmError, PixelSums
 from pyrt.integrators import compiled
 from pyrt.integrators.prepared import RenderStats
 from pyrt.render.distributed import compiled_tiles
@@ -56,6 +56,26 @@ def render_compiled(ps, cam, *, seed, max_depth, throughput_cutoff, offset, spli
     return RenderResult(image=film.image(), aovs=None, stats=stats, film=film, complete=bool(done.all()),
                         chunks_done=int(done.sum()), chunks_total=int(done.size), pixels_done=n_done,
                         pixels_filled=pixels_filled, samples_done=n_done * S)
+
+
+def adaptive_task(ps, cam, *, seed, max_depth, throughput_cutoff, offset, split_depth, nonfinite):
+    """The compiled twin of :func:`pyrt.render.chunks.shade_adaptive_chunk` for :func:`pyrt.render.adaptive.
+    render_adaptive`: a function ``(P, C, base) -> (stats, P, sums of A + B, sums of B)`` (:class:`PixelSums`) that
+    renders one chunk of a pass with the kernel (the same camera rays as the NumPy path's chunk)."""
+    cs = compiled.CompiledScene(ps)
+    kw = dict(seed=seed, max_depth=max_depth, throughput_cutoff=throughput_cutoff, split_depth=split_depth,
+              terminator=offset in (None, "robust"))
+
+    def chunk(P, C, base):
+        both, half_b, counters = compiled.render_pixels(cs, cam, P, C, base, **kw)
+        if counters[3] and nonfinite == "raise":
+            raise FilmError("Film: non-finite radiance in an adaptive pass")
+        stats = RenderStats(primary_rays=int(counters[0]), secondary_rays=int(counters[1]),
+                            shadow_rays=int(counters[2]), nonfinite_samples=int(counters[3]), backend="compiled")
+        C = np.asarray(C, dtype=np.int64)
+        return stats, P, PixelSums(C.astype(np.float64), both, nonfinite=int(counters[3])), \
+            PixelSums((C // 2).astype(np.float64), half_b)
+    return chunk
 
 
 def _one_sample(cam):

@@ -129,9 +129,6 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         if spp is not None:
             raise RenderError("render: spp (fixed samples per pixel) and target_error / time_budget / max_spp "
                               "(adaptive) exclude each other; min_spp sets the adaptive base pass")
-        if check_backend(backend) == "compiled":
-            raise RenderError("render: backend='compiled' does not render adaptive passes yet (target_error, "
-                              "time_budget, max_spp); use backend='auto' or 'numpy'")
         return render_adaptive(scene, target_error=target_error, time_budget=time_budget, max_spp=max_spp,
                                min_spp=min_spp, seed=seed, aovs=aovs, progress=progress,
                                chunk_samples=chunk_samples, threads=threads, prepared=prepared,
@@ -143,7 +140,7 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
                                glossy_clamp=glossy_clamp, dask=dask,
                                dask_workers=dask_workers, split_depth=split_depth,
                                light_select_depth=light_select_depth, parallel=parallel, batch_rays=batch_rays,
-                               sampler=sampler)
+                               sampler=sampler, backend=backend)
     t_start = time.perf_counter()
     if integrator not in INTEGRATORS:
         raise RenderError(f"render: integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
