@@ -61,7 +61,9 @@ def directional_albedo(mat, wo, n_theta=1200, n_phi=64):
 
 
 def _render(sc, spp, integrator, **kw):
-    return pyrt.render_full(sc, spp=spp, integrator=integrator, seed=1, progress=False, **kw)
+    """Both integrators on the NumPy path (the glossy one has only that; Whitted's compiled path draws other random
+    numbers for area lights, so the two could not be compared sample by sample)."""
+    return pyrt.render_full(sc, spp=spp, integrator=integrator, seed=1, progress=False, backend="numpy", **kw)
 
 
 # -- (a) furnace ---------------------------------------------------------------------------------
