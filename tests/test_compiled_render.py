@@ -252,3 +252,26 @@ def test_non_square_spp_is_the_equal_area_grid():
     se = vals.std(ddof=1) / np.sqrt(len(vals))
     assert abs(vals.mean() - ref) < 5 * se + 1e-6 * ref, (vals.mean(), ref, se)
     assert vals.std(ddof=1) < 5e-3 * ref, vals.std(ddof=1) / ref
+
+
+def test_cancel_is_seen_after_one_kernel_call():
+    """The tiles go to the kernel in calls of bounded time (a Ctrl-C is honoured between calls): cancelled from the
+    progress step of the first call, the render stops with that call's tiles only."""
+    import threading
+    from pyrt.integrators import compiled
+
+    ev = threading.Event()
+
+    class StopAfterFirst:
+        def update(self, n):
+            ev.set()
+
+    ps = pyrt.PreparedScene(_scene(width=160, height=120, spp=4))
+    cs = compiled.CompiledScene(ps)
+    cam = ps.scene.camera
+    sums, _sqs, _c, done = compiled.render_fixed(cs, cam, spp=4, seed=0, max_depth=4, throughput_cutoff=1e-4,
+                                                 split_depth=3, terminator=True, cancel=ev, progress=StopAfterFirst())
+    n = compiled.n_tiles(cam)
+    first = min(compiled.FIRST_CALL_TILES * __import__("numba").get_num_threads(), -(-n // compiled.MIN_CALLS))
+    assert done.sum() == first < n
+    assert np.all(sums[~compiled.pixel_mask(done, cam.width, cam.height)] == 0)

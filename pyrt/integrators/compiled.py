@@ -207,23 +207,29 @@ def n_tiles(cam):
     return -(-cam.width // KL.TILE) * -(-cam.height // KL.TILE)
 
 
-#: kernel calls per render (a progress step and a look at ``cancel`` between them; each call ends with a barrier):
-#: 4 rather than 16 calls, and threads taking 4 tiles at a time rather than one static block each, measured within
-#: the noise to 5 % faster on the shadowed bench scene (quickbench, 2 threads, load 0.1; 16 / static: 36.7 Ms/s,
-#: 4 / static 39.8, 2 / 4 tiles 38.8)
-GROUPS = 4
-#: tiles a thread takes at a time from a call's list (Numba's ``parallel_chunksize``; 0: one static block each)
+#: the seconds a kernel call should take at most (a progress step and a look at ``cancel`` between calls; each call
+#: ends with a barrier): the first call renders :data:`FIRST_CALL_TILES` tiles per thread, later calls as many as
+#: the rate measured so far fits in this time, at least 4 calls per render. A Ctrl-C (``cancel``) is seen within
+#: about one call (a 1920 x 1080 render at 64 spp in 4 calls took 27 s to stop)
+CALL_SECONDS = 0.25
+#: tiles per thread of the first call of a render (its time sets the later calls' sizes)
+FIRST_CALL_TILES = 8
+#: tiles a thread takes at a time from a call's list (Numba's ``parallel_chunksize``; 0: one static block each):
+#: 4 rather than 1, and 4 calls rather than 16, measured within the noise to 5 % faster on the shadowed bench
+#: scene (quickbench, 2 threads, load 0.1; 16 / static: 36.7 Ms/s, 4 / static 39.8, 2 / 4 tiles 38.8)
 CHUNKSIZE = 4
+#: the fewest kernel calls of a render with enough tiles (so that a progress bar moves)
+MIN_CALLS = 4
 
 
 def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_depth, terminator, threads=None,
-                 cancel=None, progress=None, groups=None, tiles=None):
+                 cancel=None, progress=None, tiles=None, call_seconds=CALL_SECONDS):
     """Render ``spp`` samples per pixel of the compiled scene ``cs`` through the camera ``cam``.
 
-    The tiles (``tiles``: a subset, default all in :func:`tile_order`) are rendered in ``groups`` calls of the
-    kernel (a progress step each; ``cancel`` is looked at between them). Returns ``(sums (H*W, 3), squared sums
-    (H*W, 3), counters (4,), tiles_done (n_tiles,) bool)``; counters: primary, secondary, shadow rays, non-finite
-    samples (zeroed)."""
+    The tiles (``tiles``: a subset, default all in :func:`tile_order`) are rendered in kernel calls of at most
+    about ``call_seconds`` each (a progress step each; ``cancel`` is looked at between them). Returns ``(sums
+    (H*W, 3), squared sums (H*W, 3), counters (4,), tiles_done (n_tiles,) bool)``; counters: primary, secondary,
+    shadow rays, non-finite samples (zeroed)."""
     W, H = cam.width, cam.height
     order = tile_order(n_tiles(cam)) if tiles is None else np.asarray(tiles, dtype=np.int64)
     opts, optf = _options(cs, spp, seed, max_depth, throughput_cutoff, split_depth, terminator)
@@ -236,12 +242,15 @@ def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_dept
     if threads is not None:
         numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
     announce_compile()
-    groups = GROUPS if groups is None else groups
-    bounds = np.linspace(0, order.size, max(1, min(groups, order.size)) + 1).astype(np.int64)
-    for g in range(len(bounds) - 1):
+    n_threads = numba.get_num_threads()
+    per_call = FIRST_CALL_TILES * n_threads
+    loading = not K.render_tiles.signatures        # the first call loads (or compiles) the kernel: not a rate
+    lo, timed_s, timed_tiles = 0, 0.0, 0
+    while lo < order.size:
         if cancel is not None and cancel.is_set():
             break
-        lo, hi = bounds[g], bounds[g + 1]
+        hi = min(order.size, lo + max(1, min(per_call, -(-order.size // MIN_CALLS))))
+        t0 = time.perf_counter()
         with warnings.catch_warnings():
             # a compile (first call, cold cache) reports "variable ... is not in scope" for inlined helpers with
             # early returns: an internal check of Numba's, not a fault of the kernel (the tests hold its images)
@@ -250,9 +259,15 @@ def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_dept
                 K.render_tiles(cs.scene, order[lo:hi], cam_rec, cs.geo_f, cs.geo_i, cs.materials[0], cs.materials[1],
                                cs.textures[0], cs.textures[1], cs.lights[0], cs.lights[1], opts, optf, sums, sqs,
                                counters[lo:hi], width)
+        if not loading:
+            timed_s += time.perf_counter() - t0
+            timed_tiles += hi - lo
+            per_call = max(CHUNKSIZE * n_threads, int(call_seconds * timed_tiles / max(timed_s, 1e-9)))
+        loading = False
         done[order[lo:hi]] = True
         if progress is not None:
             progress.update(hi - lo)
+        lo = hi
     return sums, sqs, counters.sum(axis=0), done
 
 
