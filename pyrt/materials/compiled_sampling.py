@@ -118,7 +118,7 @@ def square_to_uniform_sphere(u0, u1):
     return r * math.cos(phi), r * math.sin(phi), z
 
 
-@register_jitable(inline="always")
+@register_jitable
 def power_heuristic(pdf_f, pdf_g, beta, n_f, n_g):
     """Veach's power heuristic ``(n_f p_f)^beta / ((n_f p_f)^beta + (n_g p_g)^beta)`` for ``beta`` 2 (power) or 1
     (balance); 0 where both are 0: :func:`pyrt.shaders.sampling.power_heuristic`."""
@@ -128,7 +128,9 @@ def power_heuristic(pdf_f, pdf_g, beta, n_f, n_g):
         a = a * a
         b = b * b
     s = a + b
-    return a / s if s > 0.0 else 0.0
+    if s > 0.0:
+        return a / s
+    return 0.0
 
 
 # ----------------------------------------------------------------------------------------- microfacet sampling
