@@ -10,7 +10,8 @@ Frames. Directions are in the hit's local shading frame (z = shading normal), as
 ``pdf`` take them; :func:`coordinate_frame`, :func:`to_local` and :func:`to_world` are the NumPy path's frame
 (:func:`pyrt.shaders.vec.coordinate_frame` of the shading normal, :meth:`pyrt.geometry.SurfaceBatch.to_local` /
 ``to_world``) with the same operations in the same order, so a sampled local direction is the same world
-direction on both paths.
+direction on both paths. :mod:`pyrt.lights.compiled` samples the area lights with :func:`coordinate_frame` and
+:func:`square_to_uniform_disk_concentric` from here (one home for each formula).
 
 Which sampler each tag of :mod:`pyrt.materials.compiled` uses (the classes' own ``sample``):
 
