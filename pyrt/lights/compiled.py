@@ -27,6 +27,7 @@ import math
 import numpy as np
 from numba.extending import register_jitable
 
+from pyrt.materials.compiled_sampling import coordinate_frame, square_to_uniform_disk_concentric
 from pyrt.shaders import jit as J
 
 #: parameters per light record
@@ -94,30 +95,6 @@ def punctual_record(light, tag):
 
 
 @register_jitable(inline="always")
-def coordinate_frame(n0, n1, n2):
-    """The tangents ``(s, t)`` (two 3-tuples) around the unit normal ``n``: :func:`pyrt.shaders.vec.coordinate_frame`
-    (Duff et al. 2017) for one normal, the same arithmetic."""
-    sign = 1.0 if n2 >= 0.0 else -1.0
-    a = -1.0 / (sign + n2)
-    b = n0 * n1 * a
-    return (1.0 + sign * n0 * n0 * a, sign * b, -sign * n0), (b, sign + n1 * n1 * a, -n1)
-
-
-@register_jitable(inline="always")
-def concentric_disk(u0, u1):
-    """Shirley-Chiu's concentric map of ``(u0, u1)`` to the unit disk (:func:`pyrt.shaders.sampling.
-    square_to_uniform_disk_concentric` for one point)."""
-    x, y = 2.0 * u0 - 1.0, 2.0 * u1 - 1.0
-    if x == 0.0 and y == 0.0:
-        return 0.0, 0.0
-    if abs(x) > abs(y):
-        r, theta = x, (math.pi / 4) * (y / x)
-    else:
-        r, theta = y, math.pi / 2 - (math.pi / 4) * (x / y)
-    return r * math.cos(theta), r * math.sin(theta)
-
-
-@register_jitable(inline="always")
 def area_sample(tag, pars, j, px, py, pz, u0, u1):
     """Sample area light ``j`` (tag :data:`RECT`, :data:`DISK` or :data:`SPHERE`) from the point ``p`` with the
     random numbers ``(u0, u1)``: ``(wx, wy, wz, dist, scale)``, the irradiance ``E = scale * L`` (the record's
@@ -154,7 +131,7 @@ def area_sample(tag, pars, j, px, py, pz, u0, u1):
     if tag == RECT:
         a0, a1 = (u0 - 0.5) * pars[b + 15], (u1 - 0.5) * pars[b + 16]
     else:
-        q0, q1 = concentric_disk(u0, u1)
+        q0, q1 = square_to_uniform_disk_concentric(u0, u1)
         a0, a1 = q0 * pars[b + 15], q1 * pars[b + 15]
     x0 = cx + a0 * pars[b + 9] + a1 * pars[b + 12]
     x1 = cy + a0 * pars[b + 10] + a1 * pars[b + 13]

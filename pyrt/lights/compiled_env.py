@@ -1,0 +1,437 @@
+"""The environment's compiled form: a tag, a parameter record, flat tables, and the scalar lookup / sampling twins.
+
+:func:`pack_environment` turns a :class:`pyrt.ConstantEnvironment` or a :class:`pyrt.LatLongEnvironment` (either
+filter) and, optionally, the :class:`pyrt.EnvironmentLight` that lights with it into ``(tag, record, data)``; any
+other environment (cube maps, light probes, subclasses) gives None (the render then takes the NumPy path). The
+functions below are ``numba.extending.register_jitable``: callable from nopython code and from plain Python; each
+is the scalar form of the NumPy method named in its docstring, for ONE direction or ONE ``u``, and
+tests/test_compiled_env.py holds each to it (1e-6 relative; the same ``u`` gives the same direction and pdf) and
+runs a chi-square test of the compiled samplers against their compiled pdfs.
+
+Tags: :data:`CONSTANT`, :data:`LATLONG_BILINEAR` (``filter="bilinear"``, the default: bilinear lookups, the dual-cell
+table of :mod:`pyrt.shaders.envmap_bilinear`), :data:`LATLONG_NEAREST` (``filter="nearest"``: texel lookups, the
+texel table of :func:`pyrt.shaders.envmap.latlong_sample`).
+
+The record (float64, :data:`RECORD` entries; names are the offsets):
+
+==================  =================================================================================================
+``R_INTENSITY``     ``Environment.intensity``
+``R_ROT`` (9)       ``Environment.rotation`` (world_from_env), row-major: local = ``d @ R``, world = ``d @ R.T``
+``R_COLOR`` (3)     ``ConstantEnvironment.color``
+``R_BACKGROUND``    (3) ``Environment.background``; ``R_HIDE``: ``hide_background`` (1/0)
+``R_H, R_W``        the image's height and width (lat-long)
+``R_ROWS``          rows of the sampling tables: ``H + 1`` (bilinear dual cells), ``H`` (nearest)
+``R_F32``           1 when the image is float32 (a bilinear lookup is rounded to float32, as NumPy's is)
+``R_COMPENSATE``    the light's ``compensate`` (1/0: :func:`mis_sample` uses the compensated table)
+``R_BETA``          2 (power heuristic) or 1 (balance); ``R_NL``, ``R_NB``: the counts the weights use (1, 1 when
+                    ``n_samples == bsdf_samples``, as :meth:`EnvironmentLight.mis_weights`)
+``R_INTEGRAL``      the full table's ``integral``; ``R_C_INTEGRAL`` the compensated one's; ``R_HAS_C`` 1 when the
+                    compensated table exists (0: the light half of MIS has density 0 everywhere)
+``R_IMAGE``...      offsets into ``data`` of the image (``R_IMAGE``), the luminance (``R_LUM``), the full table
+                    (``R_TABLE``) and the compensated table (``R_C_TABLE``)
+==================  =================================================================================================
+
+``data`` (float64, flat): the image ``(H, W, 3)`` row-major; for bilinear maps the clamped luminance ``(H, W)`` (the
+corners of the dual cells); each table as its ``func`` ``(rows, W)``, ``cdf_cond`` ``(rows, W + 1)`` and
+``cdf_marg`` ``(rows + 1,)`` back to back (:class:`pyrt.shaders.distribution.Distribution2D`). A constant
+environment has no data (a one-element array).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba.extending import register_jitable
+
+from pyrt.lights.environment import ConstantEnvironment, LatLongEnvironment
+from pyrt.lights.environment_light import EnvironmentLight
+from pyrt.materials.compiled_sampling import power_heuristic, square_to_uniform_sphere
+
+#: tags (0: no environment)
+CONSTANT, LATLONG_BILINEAR, LATLONG_NEAREST = 1, 2, 3
+#: record entries
+RECORD = 40
+R_INTENSITY, R_ROT, R_COLOR, R_BACKGROUND, R_HIDE = 0, 1, 10, 13, 16
+R_H, R_W, R_ROWS, R_F32 = 17, 18, 19, 20
+R_COMPENSATE, R_BETA, R_NL, R_NB = 21, 22, 23, 24
+R_INTEGRAL, R_C_INTEGRAL, R_HAS_C = 25, 26, 27
+R_IMAGE, R_LUM, R_TABLE, R_C_TABLE = 28, 29, 30, 31
+
+INV_2PI2 = 1.0 / (2.0 * math.pi * math.pi)
+INV_4PI = 1.0 / (4.0 * math.pi)
+#: the largest float64 below 1 (``np.nextafter(1, 0)``: the samplers' in-cell offsets are clipped to it)
+BELOW_ONE = 1.0 - 2.0 ** -53
+
+
+# ----------------------------------------------------------------------------------------- packing
+
+def _table(dist):
+    """A :class:`Distribution2D`'s ``func``, ``cdf_cond``, ``cdf_marg`` flattened back to back."""
+    return [np.ravel(dist.func), np.ravel(dist.cdf_cond), np.ravel(dist.cdf_marg)]
+
+
+def pack_environment(env, light=None):
+    """``(tag, record, data)`` of ``env`` for the compiled kernel (module docstring), or None when it has no compiled
+    form (only :class:`pyrt.ConstantEnvironment` and :class:`pyrt.LatLongEnvironment` themselves, not subclasses).
+
+    ``light``: the :class:`pyrt.EnvironmentLight` lighting with ``env`` (its ``compensate``, ``heuristic``,
+    ``n_samples`` and ``bsdf_samples`` go into the record), or None (no compensation, power heuristic, 1 + 1).
+    The tables are the light's own (``env.distribution``, ``env.compensated_distribution``), built once by the
+    environment and shared with the NumPy path."""
+    rec = np.zeros(RECORD)
+    rec[R_INTENSITY] = env.intensity
+    rec[R_ROT:R_ROT + 9] = np.asarray(env.rotation, dtype=np.float64).ravel()
+    rec[R_BACKGROUND:R_BACKGROUND + 3] = np.broadcast_to(np.asarray(env.background, dtype=np.float64), (3,))
+    rec[R_HIDE] = 1.0 if env.hide_background else 0.0
+    rec[R_BETA] = 2.0
+    rec[R_NL] = rec[R_NB] = 1.0
+    if light is not None:
+        if not isinstance(light, EnvironmentLight):
+            raise TypeError(f"pack_environment: light must be an EnvironmentLight, got {type(light).__name__}")
+        rec[R_COMPENSATE] = 1.0 if light.compensate else 0.0
+        rec[R_BETA] = 2.0 if light.heuristic == "power" else 1.0
+        if light.n_samples != light.bsdf_samples:
+            rec[R_NL], rec[R_NB] = light.n_samples, light.bsdf_samples
+    if type(env) is ConstantEnvironment:
+        rec[R_COLOR:R_COLOR + 3] = np.broadcast_to(np.asarray(env.color, dtype=np.float64), (3,))
+        return CONSTANT, rec, np.zeros(1)
+    if type(env) is not LatLongEnvironment or env.filter not in ("bilinear", "nearest"):
+        return None
+    img = env.image
+    h, w = img.shape[:2]
+    rec[R_H], rec[R_W] = h, w
+    rec[R_F32] = 1.0 if img.dtype == np.float32 else 0.0
+    parts = [np.ravel(np.asarray(img, dtype=np.float64))]
+    bilinear = env.filter == "bilinear"
+    if bilinear:
+        parts.append(np.ravel(env.bilinear_table.c[:h]))       # the clamped luminance (each cell's bottom corners)
+    dist, comp = env.distribution, env.compensated_distribution
+    if bilinear and comp is not None:
+        comp = comp.dist
+    rec[R_ROWS] = dist.func.shape[0]
+    rec[R_INTEGRAL] = dist.integral
+    parts += _table(dist)
+    if comp is not None:
+        rec[R_HAS_C], rec[R_C_INTEGRAL] = 1.0, comp.integral
+        parts += _table(comp)
+    sizes = np.cumsum([0] + [p.size for p in parts])
+    rec[R_IMAGE] = sizes[0]
+    k = 1
+    if bilinear:
+        rec[R_LUM] = sizes[1]
+        k = 2
+    rec[R_TABLE] = sizes[k]
+    if comp is not None:
+        rec[R_C_TABLE] = sizes[k + 3]
+    return (LATLONG_BILINEAR if bilinear else LATLONG_NEAREST), rec, np.ascontiguousarray(np.concatenate(parts))
+
+
+# ----------------------------------------------------------------------------------------- frames and mapping
+
+@register_jitable(inline="always")
+def env_to_local(rec, dx, dy, dz):
+    """World direction -> the environment's frame, ``d @ R`` (:meth:`pyrt.lights.environment.Environment.to_local`)."""
+    b = R_ROT
+    return (dx * rec[b] + dy * rec[b + 3] + dz * rec[b + 6], dx * rec[b + 1] + dy * rec[b + 4] + dz * rec[b + 7],
+            dx * rec[b + 2] + dy * rec[b + 5] + dz * rec[b + 8])
+
+
+@register_jitable(inline="always")
+def env_to_world(rec, dx, dy, dz):
+    """The environment's frame -> world, ``d @ R.T`` (:meth:`pyrt.lights.environment.Environment.to_world`)."""
+    b = R_ROT
+    return (dx * rec[b] + dy * rec[b + 1] + dz * rec[b + 2], dx * rec[b + 3] + dy * rec[b + 4] + dz * rec[b + 5],
+            dx * rec[b + 6] + dy * rec[b + 7] + dz * rec[b + 8])
+
+
+@register_jitable(inline="always")
+def latlong_dir_to_uv(dx, dy, dz):
+    """Lat-long ``(u, v)`` of a unit direction: :func:`pyrt.shaders.envmap.latlong_dir_to_uv`."""
+    u = math.atan2(dx, -dz) * (0.5 / math.pi)
+    u = u - math.floor(u)
+    if u >= 1.0:
+        u = 0.0
+    return u, math.acos(min(max(dy, -1.0), 1.0)) / math.pi
+
+
+@register_jitable(inline="always")
+def latlong_uv_to_dir(u, v):
+    """The unit direction of lat-long ``(u, v)``: :func:`pyrt.shaders.envmap.latlong_uv_to_dir`."""
+    theta = math.pi * v
+    phi = 2.0 * math.pi * u
+    st = math.sin(theta)
+    return math.sin(phi) * st, math.cos(theta), -math.cos(phi) * st
+
+
+# ----------------------------------------------------------------------------------------- radiance
+
+@register_jitable
+def latlong_lookup(tag, rec, data, u, v):
+    """The map's texel value (RGB, no intensity) at lat-long ``(u, v)``: :func:`pyrt.shaders.envmap.latlong_lookup`
+    (``lookup_bilinear`` / ``lookup_nearest`` wrapping in u, clamping in v; a float32 image's bilinear blend rounded
+    to float32)."""
+    h, w = int(rec[R_H]), int(rec[R_W])
+    o = int(rec[R_IMAGE])
+    tv = 1.0 - v                              # the texture's v (up)
+    x = u * w - 0.5
+    y = (1.0 - tv) * h - 0.5
+    if tag == LATLONG_NEAREST:
+        ix = int(math.floor(x + 0.5)) % w
+        iy = min(max(int(math.floor(y + 0.5)), 0), h - 1)
+        t = o + 3 * (iy * w + ix)
+        return data[t], data[t + 1], data[t + 2]
+    x0, y0 = math.floor(x), math.floor(y)
+    fx, fy = x - x0, y - y0
+    ix0, iy0 = int(x0), int(y0)
+    cx0, cx1 = ix0 % w, (ix0 + 1) % w
+    ry0, ry1 = min(max(iy0, 0), h - 1) * w, min(max(iy0 + 1, 0), h - 1) * w
+    w0, w1, w2, w3 = (1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy
+    t0, t1, t2, t3 = o + 3 * (ry0 + cx0), o + 3 * (ry0 + cx1), o + 3 * (ry1 + cx0), o + 3 * (ry1 + cx1)
+    r = w0 * data[t0] + w1 * data[t1] + w2 * data[t2] + w3 * data[t3]
+    g = w0 * data[t0 + 1] + w1 * data[t1 + 1] + w2 * data[t2 + 1] + w3 * data[t3 + 1]
+    b = w0 * data[t0 + 2] + w1 * data[t1 + 2] + w2 * data[t2 + 2] + w3 * data[t3 + 2]
+    if rec[R_F32] != 0.0:
+        return np.float64(np.float32(r)), np.float64(np.float32(g)), np.float64(np.float32(b))
+    return r, g, b
+
+
+@register_jitable
+def radiance(tag, rec, data, dx, dy, dz):
+    """Radiance (RGB) arriving from the unit world direction ``d``: :meth:`pyrt.lights.environment.Environment.
+    radiance` (``intensity`` times the map in the environment's frame)."""
+    s = rec[R_INTENSITY]
+    if tag == CONSTANT:
+        return s * rec[R_COLOR], s * rec[R_COLOR + 1], s * rec[R_COLOR + 2]
+    lx, ly, lz = env_to_local(rec, dx, dy, dz)
+    u, v = latlong_dir_to_uv(lx, ly, lz)
+    r, g, b = latlong_lookup(tag, rec, data, u, v)
+    return s * r, s * g, s * b
+
+
+@register_jitable
+def missed(tag, rec, data, dx, dy, dz, primary):
+    """Radiance of a ray that misses everything: the environment, or its ``background`` for camera rays
+    (``primary``) when ``hide_background`` is set (:meth:`pyrt.integrators.whitted.WhittedIntegrator.background`)."""
+    if primary and rec[R_HIDE] != 0.0:
+        return rec[R_BACKGROUND], rec[R_BACKGROUND + 1], rec[R_BACKGROUND + 2]
+    return radiance(tag, rec, data, dx, dy, dz)
+
+
+# ----------------------------------------------------------------------------------------- 2-D tables
+
+@register_jitable
+def _find(data, o, n, shift, u):
+    """The cell ``k`` in ``[0, n)`` with ``cdf[k] + shift <= u + shift`` largest (0 if none) of the CDF row at
+    ``data[o:]`` (``shift``: the row's index, as :func:`pyrt.shaders.distribution._sample_cdf_rows` compares its
+    shifted CDF)."""
+    key = u + shift
+    if not data[o] + shift <= key:
+        return 0
+    lo, hi = 0, n - 1
+    while lo < hi:
+        mid = (lo + hi + 1) >> 1
+        if data[o + mid] + shift <= key:
+            lo = mid
+        else:
+            hi = mid - 1
+    return lo
+
+
+@register_jitable
+def _offset(data, o, k, u):
+    """The offset of ``u`` in cell ``k`` of the CDF row at ``data[o:]``, in ``[0, 1)``."""
+    lo = data[o + k]
+    width = data[o + k + 1] - lo
+    f = 0.0
+    if width > 0.0:
+        f = (u - lo) / width
+    return min(max(f, 0.0), BELOW_ONE)
+
+
+@register_jitable
+def sample_cells(data, o, rows, w, u0, u1):
+    """``(row, col, fu, fv)`` of the table at ``data[o:]`` (``rows x w``) for ``u``: the cells and in-cell offsets of
+    :func:`pyrt.shaders.distribution.distribution2d_sample_cells` (the row from ``u1`` by the marginal CDF, the
+    column from ``u0`` by the row's conditional CDF)."""
+    o_cond = o + rows * w
+    o_marg = o_cond + rows * (w + 1)
+    row = _find(data, o_marg, rows, 0.0, u1)
+    fv = _offset(data, o_marg, row, u1)
+    oc = o_cond + row * (w + 1)
+    col = _find(data, oc, w, float(row), u0)
+    return row, col, _offset(data, oc, col, u0), fv
+
+
+@register_jitable(inline="always")
+def cell_pdf(data, o, integral, w, row, col):
+    """``func / integral`` of a cell (1 for an all-zero table): :func:`pyrt.shaders.distribution._cell_pdf`."""
+    if integral <= 0.0:
+        return 1.0
+    return data[o + row * w + col] / integral
+
+
+# ----------------------------------------------------------------------------------------- lat-long sampling
+
+@register_jitable(inline="always")
+def _corners(rec, data, k, i):
+    """The luminances ``(a, b, c, d)`` at the corners of dual cell ``(k, i)`` (:class:`pyrt.shaders.
+    envmap_bilinear.BilinearTable`: top left, top right, bottom left, bottom right)."""
+    h, w = int(rec[R_H]), int(rec[R_W])
+    o = int(rec[R_LUM])
+    top, bottom = min(max(k - 1, 0), h - 1) * w, min(max(k, 0), h - 1) * w
+    i1 = (i + 1) % w
+    return data[o + top + i], data[o + top + i1], data[o + bottom + i], data[o + bottom + i1]
+
+
+@register_jitable(inline="always")
+def _v_extent(h, k):
+    """``(v0, v1)`` of dual-cell row ``k`` (:func:`pyrt.shaders.envmap_bilinear.bilinear_table`)."""
+    return min(max((k - 0.5) / h, 0.0), 1.0), min(max((k + 0.5) / h, 0.0), 1.0)
+
+
+@register_jitable
+def sample_linear(u, a, b):
+    """``x`` in [0, 1) of density ``(1 - x) a + x b``: :func:`pyrt.shaders.envmap_bilinear.sample_linear`."""
+    den = a + math.sqrt((1.0 - u) * a * a + u * b * b)
+    x = u
+    if den > 0.0:
+        x = u * (a + b) / den
+    return min(max(x, 0.0), BELOW_ONE)
+
+
+@register_jitable
+def _density_uv(rec, data, o, integral, k, i, s, t):
+    """Area density on [0, 1)^2 at ``(s, t)`` of dual cell ``(k, i)`` of the table at ``data[o:]``:
+    :func:`pyrt.shaders.envmap_bilinear._density_uv`."""
+    h, w = int(rec[R_H]), int(rec[R_W])
+    v0, v1 = _v_extent(h, k)
+    area_scale = (h + 1) * (v1 - v0)
+    if integral <= 0.0:
+        return 1.0 / area_scale
+    a, b, c, d = _corners(rec, data, k, i)
+    mean = 0.25 * (a + b + c + d)
+    bil = (1.0 - s) * (1.0 - t) * a + s * (1.0 - t) * b + (1.0 - s) * t * c + s * t * d
+    ratio = bil / mean if mean > 0.0 else 0.0
+    return data[o + k * w + i] / integral / area_scale * ratio
+
+
+@register_jitable
+def sample_table(tag, rec, data, o, integral, u0, u1):
+    """A direction in the environment's frame and its solid-angle density, ``(x, y, z, pdf)``, from the lat-long
+    table at ``data[o:]``: :func:`pyrt.shaders.envmap_bilinear.sample` (LATLONG_BILINEAR) or
+    :func:`pyrt.shaders.envmap.latlong_sample` (LATLONG_NEAREST)."""
+    h, w, rows = int(rec[R_H]), int(rec[R_W]), int(rec[R_ROWS])
+    k, i, fu, fv = sample_cells(data, o, rows, w, u0, u1)
+    if tag == LATLONG_NEAREST:
+        u = (i + fu) / w
+        v = (k + fv) / h
+        p = cell_pdf(data, o, integral, w, k, i)
+    else:
+        s, t = fu, fv
+        if integral > 0.0:
+            a, b, c, d = _corners(rec, data, k, i)
+            t = sample_linear(fv, a + b, c + d)
+            s = sample_linear(fu, (1.0 - t) * a + t * c, (1.0 - t) * b + t * d)
+        u = (i + 0.5 + s) / w
+        u = u - math.floor(u)
+        v0, v1 = _v_extent(h, k)
+        v = v0 + t * (v1 - v0)
+        p = _density_uv(rec, data, o, integral, k, i, s, t)
+    x, y, z = latlong_uv_to_dir(u, v)
+    st = math.sin(math.pi * v)
+    return x, y, z, (p * INV_2PI2 / st if st > 0.0 else 0.0)
+
+
+@register_jitable
+def pdf_table(tag, rec, data, o, integral, x, y, z):
+    """Solid-angle density of :func:`sample_table` at the unit direction ``(x, y, z)`` (environment frame):
+    :func:`pyrt.shaders.envmap_bilinear.pdf` / :func:`pyrt.shaders.envmap.latlong_pdf`."""
+    h, w = int(rec[R_H]), int(rec[R_W])
+    u, v = latlong_dir_to_uv(x, y, z)
+    if tag == LATLONG_NEAREST:
+        col = min(max(int(math.floor(u * w)), 0), w - 1)
+        row = min(max(int(math.floor(v * h)), 0), h - 1)
+        p = cell_pdf(data, o, integral, w, row, col)
+    else:
+        xx = u * w - 0.5
+        fx = math.floor(xx)
+        i = int(fx) % w
+        s = xx - fx
+        k = min(max(int(math.floor(v * h - 0.5)) + 1, 0), h)
+        v0, v1 = _v_extent(h, k)
+        t = min(max((v - v0) / (v1 - v0), 0.0), 1.0)
+        p = _density_uv(rec, data, o, integral, k, i, s, t)
+    st = math.sqrt(max(0.0, x * x + z * z))
+    return p * INV_2PI2 / st if st > 0.0 else 0.0
+
+
+# ----------------------------------------------------------------------------------------- the light's techniques
+
+@register_jitable
+def sample(tag, rec, data, u0, u1):
+    """An importance-sampled world direction and its density, ``(x, y, z, pdf)``: :meth:`pyrt.lights.environment.
+    Environment.sample` (constant: the uniform sphere; lat-long: the full table)."""
+    if tag == CONSTANT:
+        x, y, z = square_to_uniform_sphere(u0, u1)
+        p = INV_4PI
+    else:
+        x, y, z, p = sample_table(tag, rec, data, int(rec[R_TABLE]), rec[R_INTEGRAL], u0, u1)
+    wx, wy, wz = env_to_world(rec, x, y, z)
+    return wx, wy, wz, p
+
+
+@register_jitable
+def pdf(tag, rec, data, dx, dy, dz):
+    """Density of :func:`sample` at the unit world direction ``d``: :meth:`pyrt.lights.environment.Environment.pdf`."""
+    if tag == CONSTANT:
+        return INV_4PI
+    x, y, z = env_to_local(rec, dx, dy, dz)
+    return pdf_table(tag, rec, data, int(rec[R_TABLE]), rec[R_INTEGRAL], x, y, z)
+
+
+@register_jitable
+def sample_compensated(tag, rec, data, u0, u1):
+    """``(x, y, z, pdf)`` of the MIS-compensated table: :meth:`pyrt.lights.environment.Environment.
+    sample_compensated` (a uniform direction of density 0 where there is no such table: a constant map, or nothing
+    above the mean)."""
+    if tag == CONSTANT or rec[R_HAS_C] == 0.0:
+        x, y, z = square_to_uniform_sphere(u0, u1)
+        p = 0.0
+    else:
+        x, y, z, p = sample_table(tag, rec, data, int(rec[R_C_TABLE]), rec[R_C_INTEGRAL], u0, u1)
+    wx, wy, wz = env_to_world(rec, x, y, z)
+    return wx, wy, wz, p
+
+
+@register_jitable
+def pdf_compensated(tag, rec, data, dx, dy, dz):
+    """Density of :func:`sample_compensated`: :meth:`pyrt.lights.environment.Environment.pdf_compensated`."""
+    if tag == CONSTANT or rec[R_HAS_C] == 0.0:
+        return 0.0
+    x, y, z = env_to_local(rec, dx, dy, dz)
+    return pdf_table(tag, rec, data, int(rec[R_C_TABLE]), rec[R_C_INTEGRAL], x, y, z)
+
+
+@register_jitable
+def mis_sample(tag, rec, data, u0, u1):
+    """The light technique of ``strategy="mis"``, ``(x, y, z, pdf)``: :meth:`pyrt.EnvironmentLight.mis_sample`
+    (the compensated table when the light compensates, else the full one)."""
+    if rec[R_COMPENSATE] != 0.0:
+        return sample_compensated(tag, rec, data, u0, u1)
+    return sample(tag, rec, data, u0, u1)
+
+
+@register_jitable
+def mis_pdf(tag, rec, data, dx, dy, dz):
+    """Density of :func:`mis_sample` at a world direction: :meth:`pyrt.EnvironmentLight.mis_pdf`."""
+    if rec[R_COMPENSATE] != 0.0:
+        return pdf_compensated(tag, rec, data, dx, dy, dz)
+    return pdf(tag, rec, data, dx, dy, dz)
+
+
+@register_jitable(inline="always")
+def mis_weights(rec, pdf_light, pdf_bsdf):
+    """``(w_light, w_bsdf)`` of a direction of light density ``pdf_light`` (:func:`mis_pdf`) and BSDF density
+    ``pdf_bsdf``: :meth:`pyrt.EnvironmentLight.mis_weights` (the light's heuristic with its sample counts)."""
+    beta, nl, nb = rec[R_BETA], rec[R_NL], rec[R_NB]
+    return (power_heuristic(pdf_light, pdf_bsdf, beta, nl, nb), power_heuristic(pdf_bsdf, pdf_light, beta, nb, nl))

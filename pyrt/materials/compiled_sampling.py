@@ -1,0 +1,334 @@
+"""BSDF sampling of the compiled material families: scalar twins of the materials' ``sample`` / ``pdf``.
+
+Every function here is ``numba.extending.register_jitable``: callable from nopython code (the compiled tile kernel)
+and from plain Python on floats. Each is the scalar form, for ONE hit and ONE direction, of a NumPy function named
+in its docstring; tests/test_compiled_sampling.py holds each to its twin (same ``u`` -> the same direction and pdf,
+1e-6 relative, grazing ``wo`` and extreme ``u`` included) and runs the chi-square test of every compiled sampler
+against its compiled pdf.
+
+Frames. Directions are in the hit's local shading frame (z = shading normal), as the materials' ``sample`` and
+``pdf`` take them; :func:`coordinate_frame`, :func:`to_local` and :func:`to_world` are the NumPy path's frame
+(:func:`pyrt.shaders.vec.coordinate_frame` of the shading normal, :meth:`pyrt.geometry.SurfaceBatch.to_local` /
+``to_world``) with the same operations in the same order, so a sampled local direction is the same world
+direction on both paths. :mod:`pyrt.lights.compiled` samples the area lights with :func:`coordinate_frame` and
+:func:`square_to_uniform_disk_concentric` from here (one home for each formula).
+
+Which sampler each tag of :mod:`pyrt.materials.compiled` uses (the classes' own ``sample``):
+
+==========================================================  =========================================================
+LAMBERT, BLINN_PHONG, PHONG, PHONG_CLASSIC,                 the cosine-weighted hemisphere (:meth:`pyrt.materials.
+BLINN_PHONG_CLASSIC, OREN_NAYAR, WARD                       Material.sample`, :meth:`pyrt.materials.Lambert.sample`)
+COOK_TORRANCE, METALLIC_ROUGHNESS                           the mixture of :class:`pyrt.materials.library.
+                                                            _MicrofacetSampling`: with probability ``p_spec`` the
+                                                            specular lobe (GGX visible normals; the Beckmann NDF for
+                                                            the Beckmann and Blinn distributions), else the cosine
+                                                            lobe; ``u0`` is reused for the chosen strategy
+==========================================================  =========================================================
+
+``p_spec``: Cook-Torrance ``lum(ks) / (lum(ks) + lum(kd))`` (1 when both are 0); metallic-roughness
+``F / (F + lum(base (1 - m)) (1 - F))`` with ``F = lum(Schlick(F0, n.wo))``, ``F0 = mix(0.04, base, m)``.
+
+The pdf returned by :func:`sample_wi` is what the NumPy ``sample`` returns: for the microfacet mixture it is 0
+where ``wo`` or ``wi`` is at or below the horizon (and where the mixture density is 0); :func:`pdf_wi` is the
+NumPy ``pdf`` (not so masked: ``(1 - p_spec)`` times the cosine density wherever ``wi`` is above the horizon).
+"""
+from __future__ import annotations
+
+import math
+
+from numba.extending import register_jitable
+
+from pyrt.materials import compiled as MC
+from pyrt.shaders import jit_brdfs as JB
+
+INV_PI = 1.0 / math.pi
+#: Rec. 709 luminance weights (:data:`pyrt.shaders.color.LUMINANCE_WEIGHTS`)
+LUM_R, LUM_G, LUM_B = 0.2126, 0.7152, 0.0722
+#: the largest u the microfacet mixture hands to a warp after reusing u0 (``1 - 1e-12``, as the NumPy path clips)
+U_MAX = 1.0 - 1e-12
+
+
+# ----------------------------------------------------------------------------------------- frames
+
+@register_jitable(inline="always")
+def coordinate_frame(nx, ny, nz):
+    """The tangents ``(s, t)`` (two 3-tuples) around the unit normal ``n``: :func:`pyrt.shaders.vec.coordinate_frame`
+    (Duff et al. 2017), the same operations in the same order (bit for bit)."""
+    sign = 1.0 if nz >= 0.0 else -1.0
+    a = -1.0 / (sign + nz)
+    b = nx * ny * a
+    return (1.0 + sign * nx * nx * a, sign * b, -sign * nx), (b, sign + ny * ny * a, -ny)
+
+
+@register_jitable(inline="always")
+def to_local(v, s, t, n):
+    """World vector ``v`` in the frame ``(s, t, n)`` (3-tuples): :func:`pyrt.shaders.vec.to_local` (each component
+    ``v.x a.x + v.y a.y + v.z a.z``, summed left to right)."""
+    return (v[0] * s[0] + v[1] * s[1] + v[2] * s[2], v[0] * t[0] + v[1] * t[1] + v[2] * t[2],
+            v[0] * n[0] + v[1] * n[1] + v[2] * n[2])
+
+
+@register_jitable(inline="always")
+def to_world(w, s, t, n):
+    """Local vector ``w`` in world space: :meth:`pyrt.geometry.SurfaceBatch.to_world` (``w.x s + w.y t + w.z n`` per
+    component, summed left to right)."""
+    return (w[0] * s[0] + w[1] * t[0] + w[2] * n[0], w[0] * s[1] + w[1] * t[1] + w[2] * n[1],
+            w[0] * s[2] + w[1] * t[2] + w[2] * n[2])
+
+
+# ----------------------------------------------------------------------------------------- warps
+
+@register_jitable(inline="always")
+def square_to_uniform_disk_concentric(u0, u1):
+    """Shirley-Chiu's concentric map of ``(u0, u1)`` to the unit disk: :func:`pyrt.shaders.sampling.
+    square_to_uniform_disk_concentric`."""
+    x = 2.0 * u0 - 1.0
+    y = 2.0 * u1 - 1.0
+    if x == 0.0 and y == 0.0:
+        return 0.0, 0.0
+    if abs(x) > abs(y):
+        r = x
+        theta = (math.pi / 4) * (y / x)
+    else:
+        r = y
+        theta = math.pi / 2 - (math.pi / 4) * (x / y)
+    return r * math.cos(theta), r * math.sin(theta)
+
+
+@register_jitable(inline="always")
+def square_to_cosine_hemisphere(u0, u1):
+    """Cosine-weighted direction (Malley): :func:`pyrt.shaders.sampling.square_to_cosine_hemisphere`."""
+    dx, dy = square_to_uniform_disk_concentric(u0, u1)
+    return dx, dy, math.sqrt(max(0.0, 1.0 - (dx * dx + dy * dy)))
+
+
+@register_jitable(inline="always")
+def cosine_hemisphere_pdf(wz):
+    """``cos theta / pi`` above the horizon, else 0: :func:`pyrt.shaders.sampling.cosine_hemisphere_pdf`."""
+    if wz > 0.0:
+        return wz / math.pi
+    return 0.0
+
+
+@register_jitable(inline="always")
+def square_to_uniform_sphere(u0, u1):
+    """Uniform direction on the sphere: :func:`pyrt.shaders.sampling.square_to_uniform_sphere` (pdf ``1 / 4 pi``)."""
+    z = 1.0 - 2.0 * u0
+    r = math.sqrt(max(0.0, 1.0 - z * z))
+    phi = 2.0 * math.pi * u1
+    return r * math.cos(phi), r * math.sin(phi), z
+
+
+@register_jitable
+def power_heuristic(pdf_f, pdf_g, beta, n_f, n_g):
+    """Veach's power heuristic ``(n_f p_f)^beta / ((n_f p_f)^beta + (n_g p_g)^beta)`` for ``beta`` 2 (power) or 1
+    (balance); 0 where both are 0: :func:`pyrt.shaders.sampling.power_heuristic`."""
+    a = n_f * pdf_f
+    b = n_g * pdf_g
+    if beta == 2.0:
+        a = a * a
+        b = b * b
+    s = a + b
+    if s > 0.0:
+        return a / s
+    return 0.0
+
+
+# ----------------------------------------------------------------------------------------- microfacet sampling
+
+@register_jitable
+def sample_ggx_vndf(wox, woy, woz, u0, u1, alpha):
+    """A GGX visible normal from ``wo`` (Heitz 2018): :func:`pyrt.shaders.microfacet.sample_ggx_vndf` (isotropic)."""
+    al = max(alpha, JB.ALPHA_MIN)
+    vx, vy, vz = al * wox, al * woy, max(woz, 0.0)
+    vl = math.sqrt(vx * vx + vy * vy + vz * vz)
+    if vl > 0.0:
+        vx, vy, vz = vx / vl, vy / vl, vz / vl
+    else:
+        vx, vy, vz = 0.0, 0.0, 1.0
+    lensq = vx * vx + vy * vy
+    if lensq > 0.0:
+        inv = 1.0 / math.sqrt(lensq)
+        t1x, t1y, t1z = -vy * inv, vx * inv, 0.0
+    else:
+        t1x, t1y, t1z = 1.0, 0.0, 0.0
+    t2x, t2y, t2z = vy * t1z - vz * t1y, vz * t1x - vx * t1z, vx * t1y - vy * t1x      # cross(vh, t1)
+    r = math.sqrt(u0)
+    phi = 2.0 * math.pi * u1
+    p1 = r * math.cos(phi)
+    p2 = r * math.sin(phi)
+    s = 0.5 * (1.0 + vz)
+    p2 = (1.0 - s) * math.sqrt(max(0.0, 1.0 - p1 * p1)) + s * p2
+    p3 = math.sqrt(max(0.0, 1.0 - p1 * p1 - p2 * p2))
+    nx = p1 * t1x + p2 * t2x + p3 * vx
+    ny = p1 * t1y + p2 * t2y + p3 * vy
+    nz = p1 * t1z + p2 * t2z + p3 * vz
+    ex, ey, ez = al * nx, al * ny, max(nz, 0.0)
+    el = math.sqrt(ex * ex + ey * ey + ez * ez)
+    if el > 0.0:
+        return ex / el, ey / el, ez / el
+    return 0.0, 0.0, 1.0
+
+
+@register_jitable(inline="always")
+def sample_beckmann_ndf(u0, u1, alpha):
+    """A half vector of density ``D_beckmann(h) (n.h)``: :func:`pyrt.shaders.microfacet.sample_beckmann_ndf`."""
+    a2 = max(alpha, JB.ALPHA_MIN) ** 2
+    tan2 = -a2 * math.log1p(-min(u0, 1.0 - 1e-16))
+    cos_t = 1.0 / math.sqrt(1.0 + tan2)
+    sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
+    phi = 2.0 * math.pi * u1
+    return sin_t * math.cos(phi), sin_t * math.sin(phi), cos_t
+
+
+@register_jitable
+def ggx_vndf_pdf(wox, woy, woz, hx, hy, hz, alpha):
+    """``G1(wo) max(0, wo.h) D(h) / wo.z`` (0 where ``wo.z <= 0``): :func:`pyrt.shaders.microfacet.ggx_vndf_pdf`."""
+    if not woz > 0.0:
+        return 0.0
+    coh = max(wox * hx + woy * hy + woz * hz, 0.0)
+    g1 = 1.0 / (1.0 + JB.ggx_lambda(woz, alpha))
+    return g1 * coh * JB.ggx_d(hz, alpha) / woz
+
+
+@register_jitable
+def spec_pdf(distribution, wox, woy, woz, wix, wiy, wiz, alpha):
+    """Density of ``wi`` under the specular strategy: ``_MicrofacetSampling._spec_pdf`` (isotropic) with
+    :func:`pyrt.shaders.vec.half_vector` and :func:`pyrt.shaders.microfacet.reflect_pdf`; ``distribution`` an index
+    of :data:`pyrt.shaders.jit_brdfs.DISTRIBUTIONS` (0 GGX visible normals, else the Beckmann NDF)."""
+    if not (woz > 0.0 and wiz > 0.0):
+        return 0.0
+    hx, hy, hz = wox + wix, woy + wiy, woz + wiz
+    hl = math.sqrt(hx * hx + hy * hy + hz * hz)
+    if not hl > 0.0:
+        return 0.0
+    inv = 1.0 / hl
+    hx, hy, hz = hx * inv, hy * inv, hz * inv
+    if distribution == 0:
+        pdf_h = ggx_vndf_pdf(wox, woy, woz, hx, hy, hz, alpha)
+    else:
+        pdf_h = JB.beckmann_d(hz, alpha) * max(hz, 0.0)
+    coh = abs(wox * hx + woy * hy + woz * hz)
+    return pdf_h / (4.0 * coh) if coh > 0.0 else 0.0
+
+
+@register_jitable(inline="always")
+def _lum(r, g, b):
+    return r * LUM_R + g * LUM_G + b * LUM_B
+
+
+@register_jitable
+def mixture(tag, pars, m, woz):
+    """``(p_spec, alpha, distribution)`` of the microfacet mixture of material ``m`` (COOK_TORRANCE or
+    METALLIC_ROUGHNESS; ``pars`` the record table): ``CookTorrance._spec_prob`` / ``MetallicRoughness._spec_prob``,
+    the lobe's ``_alpha`` and its distribution index."""
+    b = m * MC.RECORD
+    if tag == MC.COOK_TORRANCE:
+        s = _lum(pars[b + 7], pars[b + 8], pars[b + 9])
+        d = _lum(pars[b + 4], pars[b + 5], pars[b + 6])
+        ps = s / (s + d) if s + d > 0.0 else 1.0
+        return ps, pars[b + 10], int(pars[b + 11])
+    base_r, base_g, base_b, metal, rough = pars[b + 4], pars[b + 5], pars[b + 6], pars[b + 7], pars[b + 8]
+    c = min(max(woz, 0.0), 1.0)
+    mm = (1.0 - c) ** 5
+    f0r = JB.GLTF_DIELECTRIC_F0 * (1.0 - metal) + base_r * metal
+    f0g = JB.GLTF_DIELECTRIC_F0 * (1.0 - metal) + base_g * metal
+    f0b = JB.GLTF_DIELECTRIC_F0 * (1.0 - metal) + base_b * metal
+    f = _lum(f0r + (1.0 - f0r) * mm, f0g + (1.0 - f0g) * mm, f0b + (1.0 - f0b) * mm)
+    d = _lum(base_r * (1.0 - metal), base_g * (1.0 - metal), base_b * (1.0 - metal)) * (1.0 - f)
+    ps = f / (f + d) if f + d > 0.0 else 1.0
+    return ps, rough * rough, 0
+
+
+@register_jitable(inline="always")
+def is_microfacet(tag):
+    """True for the tags sampled by the microfacet mixture (COOK_TORRANCE, METALLIC_ROUGHNESS)."""
+    return tag == MC.COOK_TORRANCE or tag == MC.METALLIC_ROUGHNESS
+
+
+# ----------------------------------------------------------------------------------------- the switch
+
+@register_jitable
+def sample_wi(tag, pars, m, wox, woy, woz, u0, u1):
+    """Sample material ``m`` (tag ``tag``, record table ``pars``) from the local ``wo``: ``(wix, wiy, wiz, pdf)``,
+    the local direction and its solid-angle density as the material's NumPy ``sample(wo, u, ctx)`` returns them
+    for ``u = (u0, u1)`` (the cosine hemisphere, or ``_MicrofacetSampling._sample_wi`` and its masked pdf). Tags
+    without a non-delta lobe give ``(0, 0, 1, 0)``."""
+    if is_microfacet(tag):
+        ps, alpha, dist = mixture(tag, pars, m, woz)
+        spec = u0 < ps
+        if spec:
+            v = u0 / (ps if ps > 0.0 else 1.0)
+        else:
+            v = (u0 - ps) / (1.0 - ps if ps < 1.0 else 1.0)
+        v = min(max(v, 0.0), U_MAX)
+        if spec:
+            if dist == 0:
+                hx, hy, hz = sample_ggx_vndf(wox, woy, woz, v, u1, alpha)
+            else:
+                hx, hy, hz = sample_beckmann_ndf(v, u1, alpha)
+            k = 2.0 * (wox * hx + woy * hy + woz * hz)
+            wix, wiy, wiz = -wox + k * hx, -woy + k * hy, -woz + k * hz
+        else:
+            wix, wiy, wiz = square_to_cosine_hemisphere(v, u1)
+        pdf = ps * spec_pdf(dist, wox, woy, woz, wix, wiy, wiz, alpha) + (1.0 - ps) * cosine_hemisphere_pdf(wiz)
+        if not (pdf > 0.0 and wiz > 0.0 and woz > 0.0):
+            pdf = 0.0
+        return wix, wiy, wiz, pdf
+    if MC.has_diffuse(tag):
+        wix, wiy, wiz = square_to_cosine_hemisphere(u0, u1)
+        return wix, wiy, wiz, cosine_hemisphere_pdf(wiz)
+    return 0.0, 0.0, 1.0, 0.0
+
+
+@register_jitable
+def pdf_wi(tag, pars, m, wox, woy, woz, wix, wiy, wiz):
+    """Solid-angle density of :func:`sample_wi` at the local ``wi``: the material's NumPy ``pdf(wo, wi, ctx)``
+    (``Material.pdf``, ``_MicrofacetSampling.pdf``); 0 for tags without a non-delta lobe."""
+    if is_microfacet(tag):
+        ps, alpha, dist = mixture(tag, pars, m, woz)
+        return ps * spec_pdf(dist, wox, woy, woz, wix, wiy, wiz, alpha) + (1.0 - ps) * cosine_hemisphere_pdf(wiz)
+    if MC.has_diffuse(tag):
+        return cosine_hemisphere_pdf(wiz)
+    return 0.0
+
+
+@register_jitable
+def f_cos_local(tag, pars, m, albedo, wox, woy, woz, wix, wiy, wiz):
+    """BRDF times ``cos theta_i`` (RGB) for local vectors: :func:`pyrt.materials.compiled.f_cos` of the three cosines,
+    but for the microfacet models from ``n.h`` and ``wo.h`` of the normalised half vector (as their NumPy ``f_cos``
+    computes them: well conditioned where both directions graze the surface)."""
+    if is_microfacet(tag):
+        hx, hy, hz = wox + wix, woy + wiy, woz + wiz
+        hl = math.sqrt(hx * hx + hy * hy + hz * hz)
+        inv = 1.0 / hl if hl > 0.0 else 0.0
+        hx, hy, hz = hx * inv, hy * inv, hz * inv
+        cos_h = hz
+        cos_oh = min(max(wox * hx + woy * hy + woz * hz, 0.0), 1.0)
+        b = m * MC.RECORD
+        p = pars
+        if tag == MC.COOK_TORRANCE:
+            return JB.cook_torrance_f_cos_h(woz, wiz, cos_h, cos_oh, p[b + 4], p[b + 5], p[b + 6], p[b + 7],
+                                            p[b + 8], p[b + 9], p[b + 10], int(p[b + 11]), int(p[b + 12]),
+                                            int(p[b + 13]), p[b + 14], p[b + 15], p[b + 16], p[b + 17], p[b + 18],
+                                            p[b + 19])
+        return JB.metallic_roughness_f_cos_h(woz, wiz, cos_h, cos_oh, p[b + 4], p[b + 5], p[b + 6], p[b + 7],
+                                             p[b + 8], int(p[b + 9]))
+    return MC.f_cos(tag, pars, m, albedo, woz, wiz, wox * wix + woy * wiy + woz * wiz)
+
+
+@register_jitable
+def sample_f(tag, pars, m, albedo, wox, woy, woz, u0, u1):
+    """The material's NumPy ``sample(wo, u, ctx)`` in full: ``(wix, wiy, wiz, w_r, w_g, w_b, pdf)``, the direction
+    and pdf of :func:`sample_wi` and the weight ``f_cos / pdf`` (:func:`f_cos_local`; 0 where the pdf is 0 or either
+    direction is at or below the horizon). LAMBERT's weight is its albedo where ``wo`` is above the horizon
+    (:meth:`pyrt.materials.Lambert.sample`); ``albedo`` (RGB tuple) is :func:`pyrt.materials.compiled.albedo_at`."""
+    wix, wiy, wiz, pdf = sample_wi(tag, pars, m, wox, woy, woz, u0, u1)
+    if tag == MC.LAMBERT:
+        if woz > 0.0 and pdf > 0.0:
+            return wix, wiy, wiz, albedo[0], albedo[1], albedo[2], pdf
+        return wix, wiy, wiz, 0.0, 0.0, 0.0, pdf
+    if not (pdf > 0.0 and wiz > 0.0 and woz > 0.0):
+        return wix, wiy, wiz, 0.0, 0.0, 0.0, pdf
+    fr, fg, fb = f_cos_local(tag, pars, m, albedo, wox, woy, woz, wix, wiy, wiz)
+    return wix, wiy, wiz, fr / pdf, fg / pdf, fb / pdf, pdf
