@@ -273,13 +273,15 @@ def test_remote_image_uri_is_refused(tmp_path):
     _refused(e, "m.glb: image 0", "only relative paths and data: URIs are allowed")
 
 
-def test_relative_uris_with_dotdot_and_data_uris_are_read(tmp_path):
+def test_relative_uris_with_dotdot_are_read_inside_the_root_and_data_uris_are_read(tmp_path):
     header, binary = _triangle("../shared/tri%20mesh.bin")
     (tmp_path / "shared").mkdir()
     (tmp_path / "shared" / "tri mesh.bin").write_bytes(binary)
     (tmp_path / "models").mkdir()
     (tmp_path / "models" / "a.gltf").write_text(json.dumps(header))
-    assert len(load_asset(str(tmp_path / "models" / "a.gltf")).meshes) == 1
+    with pytest.raises(AssetError, match="'../shared/tri mesh.bin' leaves the model's folder .*models: not read"):
+        load_asset(str(tmp_path / "models" / "a.gltf"))          # the default root: the model's own folder
+    assert len(load_asset(str(tmp_path / "models" / "a.gltf"), root=tmp_path).meshes) == 1
     header, binary = _triangle("data:application/octet-stream;base64," + base64.b64encode(binary).decode())
     (tmp_path / "d.gltf").write_text(json.dumps(header))
     assert len(load_asset(str(tmp_path / "d.gltf")).meshes) == 1

@@ -69,6 +69,7 @@ Modules: :mod:`~pyrt.io.assets.common` (errors, file types, material parameters)
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import time
 
@@ -83,6 +84,7 @@ from pyrt.io.assets.gltf import gltf_node_transforms, gltf_uv_transform, load_gl
 from pyrt.io.assets.obj import load_obj, parse_mtl
 from pyrt.io.assets.off import load_off
 from pyrt.io.assets.archive import load_zip, split_member
+from pyrt.io.assets.find_file import active_root, reading_root
 from pyrt.io.assets.ply_stl import load_ply_stl, read_ply_tristrips, tristrip_faces
 
 __all__ = [
@@ -96,7 +98,7 @@ __all__ = [
 ]
 
 
-def load_asset(path, *, max_texture=None, generate_tangents=True):
+def load_asset(path, *, max_texture=None, generate_tangents=True, root=None):
     """Load any supported file (by extension: .gltf .glb .obj .ply .stl .off, or a .zip
     archive holding one, ``ARCHIVE.zip!member`` for a given one: :mod:`pyrt.io.assets.archive`) into an :class:`Asset`.
 
@@ -113,6 +115,11 @@ def load_asset(path, *, max_texture=None, generate_tangents=True):
         ``TANGENT``) get smooth vertex tangents from their UVs when added to a scene (:mod:`pyrt.geometry.tangents`,
         MikkTSpace's main rules, as glTF asks of viewers; default); False: the normal maps use each triangle's own UV
         tangents (constant per triangle).
+    root : str or os.PathLike, optional
+        The folder whose files a loose model may read (its buffers, MTL, textures): default (None) the model file's
+        own folder and its subfolders; a reference leaving it is an :class:`AssetError` naming it, and nothing
+        outside is opened (:mod:`pyrt.io.assets.find_file`). A model in a ZIP archive reads only the archive,
+        whatever ``root`` says.
 
     Returns
     -------
@@ -139,7 +146,9 @@ def load_asset(path, *, max_texture=None, generate_tangents=True):
                                                            generate_tangents=generate_tangents), member=member)
         asset.load_time = time.perf_counter() - t0
         return asset
-    with malformed_is_asset_error(path, fmt.upper() if fmt != "gltf" else "glTF"):
+    folder = os.path.dirname(os.path.abspath(path)) if root is None else os.fspath(root)
+    within = contextlib.nullcontext() if active_root() is not None else reading_root(folder)   # an archive's stays
+    with within, malformed_is_asset_error(path, fmt.upper() if fmt != "gltf" else "glTF"):
         if fmt == "gltf":
             asset = load_gltf(path, max_texture)
         elif fmt == "obj":

@@ -9,25 +9,47 @@ and errors read ``ARCHIVE.zip!member`` instead of the temporary folder.
 Which model: the members with a supported extension, macOS resource forks (``__MACOSX/``, ``._*``) left out; glTF /
 GLB first, then OBJ, PLY, STL, OFF (a scan or a CAD export beside a glTF is usually its source); among those the one
 nearest the archive's root. Two or more equally good candidates are an error that lists them; ``ARCHIVE.zip!member``
-(e.g. ``pack.zip!models/chair.obj``) names the model to load instead (:func:`split_member`). The archive must be safe to extract: a member whose path leaves the folder (absolute, ``..``)
-or links elsewhere, more than :data:`MAX_MEMBERS` members or more than :data:`MAX_BYTES` of uncompressed data are
-errors naming the archive, as are a corrupt or encrypted archive and one without a model.
+(e.g. ``pack.zip!models/chair.obj``) names the model to load instead (:func:`split_member`).
+
+Only what the model needs is extracted: the model's member and the members whose file name (in any case) the model
+names -- a glTF's JSON (its buffer and image URIs, percent-decoded), an OBJ's ``mtllib`` lines and those MTL files,
+a PLY's header (``TextureFile``); a readme, another model or a junk member beside them is left in the archive. The
+model reads only the extracted folder: a URI that climbs out of it (``../../../etc/hostname``) is an error naming the
+URI (:mod:`pyrt.io.assets.find_file`).
+
+The archive must be safe to extract, checked from its directory before a byte is extracted: a member whose path
+leaves the folder (absolute, ``..``) or links elsewhere, more than :data:`MAX_MEMBERS` members, a member to extract
+larger than :data:`MAX_MEMBER_BYTES` or (above :data:`RATIO_MIN_BYTES`) compressed more than :data:`MAX_RATIO`
+times (a zip bomb: zeros or one repeated line), or more than :data:`MAX_BYTES` to extract in all are errors naming
+the archive, the member and the numbers, as are a corrupt or encrypted archive and one without a model. Each member
+is extracted by a loop that stops at its stated size, so a directory that lies about a size cannot write more.
 """
 from __future__ import annotations
 
 import os
 import posixpath
+import re
 import shutil
 import stat
+import struct
 import tempfile
+import urllib.parse
 import zipfile
 
 from pyrt.io.assets.common import FORMATS, AssetError
+from pyrt.io.assets.find_file import reading_root
 
 #: the most members an archive may have
 MAX_MEMBERS = 100_000
 #: the most uncompressed bytes an archive may hold (a model with its textures: far less; a zip bomb: more)
 MAX_BYTES = 8 << 30
+#: the largest member extracted: 1 GiB (a model's OBJ text or glTF buffer; a 1.5 GB OBJ needs ~6 GB to load)
+MAX_MEMBER_BYTES = 1 << 30
+#: the highest compression ratio (uncompressed / compressed size) accepted for a member above RATIO_MIN_BYTES:
+#: OBJ text and glTF buffers compress 2-10x, images about 1x; a zip bomb's zeros or repeated lines 300-1000x
+MAX_RATIO = 100
+#: members smaller than this (16 MiB) are extracted whatever their ratio (a small MTL of repeated lines may be 50x)
+RATIO_MIN_BYTES = 16 << 20
 #: formats in the order a model is preferred when an archive holds several
 PREFERENCE = ("gltf", "obj", "ply", "stl", "off")
 
@@ -75,6 +97,90 @@ def split_member(path):
     return head, member.replace("\\", "/").lstrip("/")
 
 
+def _mib(n):
+    """``n`` bytes in bytes, MiB or GiB, for a message."""
+    if n < 1 << 20:
+        return f"{n} bytes"
+    return f"{n / (1 << 30):.1f} GiB" if n >= 1 << 30 else f"{n / (1 << 20):.1f} MiB"
+
+
+def _check_size(path, info):
+    """AssetError naming ``info``'s member and its sizes when it is too large or too compressed to extract."""
+    if info.file_size > MAX_MEMBER_BYTES:
+        raise AssetError(f"{path}: member {info.filename!r} unpacks to {_mib(info.file_size)} (at most "
+                         f"{_mib(MAX_MEMBER_BYTES)} per member are extracted): refused")
+    ratio = info.file_size / max(info.compress_size, 1)
+    if info.file_size > RATIO_MIN_BYTES and ratio > MAX_RATIO:
+        raise AssetError(f"{path}: member {info.filename!r} unpacks from {_mib(info.compress_size)} to "
+                         f"{_mib(info.file_size)}, {ratio:.0f} times (at most {MAX_RATIO} for a member above "
+                         f"{_mib(RATIO_MIN_BYTES)}): refused as a likely zip bomb")
+
+
+def _extract(zf, info, folder):
+    """Write member ``info`` under ``folder``, at most its stated size (a lying directory cannot write more)."""
+    dest = os.path.join(folder, *info.filename.split("/"))
+    os.makedirs(os.path.dirname(dest), exist_ok=True)
+    left = info.file_size
+    with zf.open(info) as src, open(dest, "wb") as out:
+        while left > 0:
+            block = src.read(min(left, 1 << 20))
+            if not block:
+                break
+            out.write(block)
+            left -= len(block)
+    return dest
+
+
+def _named_text(fmt, dest):
+    """The text of extracted file ``dest`` in which a model names its other files, lower case: a glTF's JSON
+    (percent-decoded), an OBJ's ``mtllib`` lines, an MTL whole, a PLY's header; "" for the other formats."""
+    if fmt == "gltf":
+        with open(dest, "rb") as fh:
+            data = fh.read()
+        if data[:4] == b"glTF" and len(data) >= 20:      # GLB: the JSON chunk
+            n = struct.unpack_from("<I", data, 12)[0]
+            data = data[20:20 + n]
+        return urllib.parse.unquote(data.decode("utf-8", "replace")).lower()
+    if fmt in ("obj", "mtl", "ply"):
+        out = []
+        with open(dest, "rb") as fh:
+            for raw in fh:
+                line = raw.decode("utf-8", "replace")
+                if fmt == "mtl" or (fmt == "obj" and re.match(r"\s*mtllib\s", line)) or fmt == "ply":
+                    out.append(line)
+                if fmt == "ply" and line.strip() == "end_header":
+                    break
+        return "".join(out).lower()
+    return ""
+
+
+def _extract_needed(path, zf, infos, member, folder):
+    """Extract ``member`` and the members it names (module docstring) into ``folder``, each checked first."""
+    by_name = {i.filename: i for i in infos}
+    others = [i for i in infos if not i.filename.endswith("/") and not _junk(i.filename) and i.filename != member]
+    todo, done, total = [by_name[member]], set(), 0
+    while todo:
+        info = todo.pop(0)
+        if info.filename in done:
+            continue
+        _check_size(path, info)
+        total += info.file_size
+        if total > MAX_BYTES:
+            raise AssetError(f"{path}: the members the model needs unpack to {_mib(total)} or more, with "
+                             f"{info.filename!r} (at most {_mib(MAX_BYTES)} are extracted): refused")
+        try:
+            dest = _extract(zf, info, folder)
+        except (zipfile.BadZipFile, OSError, RuntimeError, EOFError, NotImplementedError) as exc:
+            raise AssetError(f"{path}: member {info.filename!r} cannot be extracted ({exc})") from None
+        done.add(info.filename)
+        ext = posixpath.splitext(info.filename)[1].lower()
+        fmt = "mtl" if ext == ".mtl" else FORMATS.get(ext) if info.filename == member else None
+        text = _named_text(fmt, dest) if fmt else ""
+        if text:
+            todo += [i for i in others if i.filename not in done
+                     and posixpath.basename(i.filename).lower() in text]
+
+
 def load_zip(path, load, member=None):
     """Load the model in ZIP archive ``path`` with ``load(extracted_path)`` (module docstring); returns its Asset.
     ``member``: the archive's member to load (None: the one :func:`model_member` picks)."""
@@ -86,10 +192,6 @@ def load_zip(path, load, member=None):
         infos = zf.infolist()
         if len(infos) > MAX_MEMBERS:
             raise AssetError(f"{path}: the archive has {len(infos)} members (at most {MAX_MEMBERS} are extracted)")
-        total = sum(i.file_size for i in infos)
-        if total > MAX_BYTES:
-            raise AssetError(f"{path}: the archive unpacks to {total / (1 << 30):.1f} GiB (at most "
-                             f"{MAX_BYTES >> 30} GiB are extracted)")
         for i in infos:
             if not _member_ok(i.filename):
                 raise AssetError(f"{path}: member {i.filename!r} would be extracted outside its folder: refused")
@@ -106,14 +208,12 @@ def load_zip(path, load, member=None):
             raise AssetError(f"{path}!{member}: unsupported file type {posixpath.splitext(member)[1]!r}")
         tmp = tempfile.mkdtemp(prefix="pyrt-zip-")
         try:
-            try:
-                zf.extractall(tmp)
-            except (zipfile.BadZipFile, OSError, RuntimeError, EOFError) as exc:
-                raise AssetError(f"{path}: the archive cannot be extracted ({exc})") from None
+            _extract_needed(path, zf, infos, member, tmp)
             inner = os.path.join(tmp, *member.split("/"))
             shown = f"{path}!{member}"
             try:
-                asset = load(inner)
+                with reading_root(tmp, f"the archive {path}"):
+                    asset = load(inner)
             except AssetError as exc:
                 raise AssetError(str(exc).replace(inner, shown).replace(tmp + os.sep, f"{path}!")) from None
         finally:
