@@ -107,9 +107,9 @@ def test_every_environment_against_brute_force(name):
     assert rel.max() < 1e-3, rel.max()
 
 
-def test_intensity_and_rotation_apply_per_query_and_a_new_image_rebuilds():
+def test_intensity_and_rotation_apply_per_query_and_a_new_image_is_refused():
     """E_world(n) = intensity E_env(R^T n): changing intensity or rotation later needs no rebuild; assigning a new
-    image (another array) rebuilds the grid."""
+    image (whose tables would be stale) is an error naming the environment and the attribute."""
     env = _sky_env()
     n = _normals(20)
     E = env.irradiance(n)
@@ -120,9 +120,10 @@ def test_intensity_and_rotation_apply_per_query_and_a_new_image_rebuilds():
     env.rotation = R
     np.testing.assert_allclose(env.irradiance(n @ R.T), 2.5 * E, rtol=1e-12)
     assert irr.irradiance_table(env) is table
-    env.image = env.image * 2.0
-    assert irr.irradiance_table(env) is not table
-    np.testing.assert_allclose(env.irradiance(n @ R.T), 5.0 * E, rtol=1e-12)
+    with pytest.raises(pyrt.Error, match="LatLongEnvironment.*image cannot be changed after construction"):
+        env.image = env.image * 2.0
+    env.image = env.image                       # the same array: a no-op
+    np.testing.assert_allclose(env.irradiance(n @ R.T), 2.5 * E, rtol=1e-12)
 
 
 def test_values_do_not_depend_on_the_query():

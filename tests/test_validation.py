@@ -60,7 +60,9 @@ def test_camera_and_background_mutated_after_construction_are_errors():
     with pytest.raises(pyrt.Error, match="fov"):
         pyrt.render(scene)
     scene, _, _ = _lit_scene()
-    scene.camera.position = np.array([0.0, NAN, 0.0])
+    with pytest.raises(pyrt.Error, match="position"):           # refused as it is assigned
+        scene.camera.position = np.array([0.0, NAN, 0.0])
+    scene.camera.position[1] = NAN                                # changed in place: found before the render
     with pytest.raises(pyrt.Error, match="position"):
         pyrt.render(scene)
     scene, _, _ = _lit_scene()

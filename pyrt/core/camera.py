@@ -57,36 +57,88 @@ class Camera:
         Samples per pixel (stratified: jittered grid when spp is a square, else Latin hypercube).
     jitter : bool
         If False and spp == 1, rays go through pixel centres (useful for exact tests).
+
+    Every parameter may be assigned later (``camera.position = (0, 2, 5)``): position, target and up are checked
+    as they are assigned, the frame (:attr:`forward`, :attr:`right`, :attr:`up_ortho`) derives from them whenever
+    it is read, and the rest is checked by :meth:`validate` before every render.
     """
 
     def __init__(self, position=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), *, fov=45.0, width=640, height=480,
                  spp=1, jitter=True):
-        self.position = _vec3("position", position)
-        self.target = _vec3("target", target)
-        self.up = _vec3("up", up)
-        fwd = self.target - self.position
-        if np.linalg.norm(fwd) == 0:
-            raise CameraError("Camera: target equals position (zero-length view direction)")
-        self.forward = fwd / np.linalg.norm(fwd)
-        right = np.cross(self.forward, self.up)
-        if np.linalg.norm(right) < 1e-9 * max(np.linalg.norm(self.up), 1e-300):
-            raise CameraError("Camera: up is zero or parallel to the view direction")
-        self.right = right / np.linalg.norm(right)
-        self.up_ortho = np.cross(self.right, self.forward)
+        self.position = position
+        self.target = target
+        self.up = up
+        self._frame()
         self.fov, self.width, self.height, self.spp = fov, width, height, spp
         self.jitter = bool(jitter)
         self.validate()
+
+    # position, target and up are checked when set; the frame derives from them when read, so it never goes stale
+    @property
+    def position(self):
+        """Eye point, float64 (3,); assigning it moves the camera (it keeps looking at :attr:`target`)."""
+        return self._position
+
+    @position.setter
+    def position(self, value):
+        self._position = _vec3("position", value)
+
+    @property
+    def target(self):
+        """The point looked at, float64 (3,); assigning it turns the camera."""
+        return self._target
+
+    @target.setter
+    def target(self, value):
+        self._target = _vec3("target", value)
+
+    @property
+    def up(self):
+        """The up hint, float64 (3,) (need not be orthogonal to the view direction)."""
+        return self._up
+
+    @up.setter
+    def up(self, value):
+        self._up = _vec3("up", value)
+
+    def _frame(self):
+        """``(forward, right, up_ortho)`` from position, target and up as they are now; CameraError when degenerate."""
+        fwd = self._target - self._position
+        n = np.linalg.norm(fwd)
+        if n == 0:
+            raise CameraError("Camera: target equals position (zero-length view direction)")
+        forward = fwd / n
+        right = np.cross(forward, self._up)
+        if np.linalg.norm(right) < 1e-9 * max(np.linalg.norm(self._up), 1e-300):
+            raise CameraError("Camera: up is zero or parallel to the view direction")
+        right = right / np.linalg.norm(right)
+        return forward, right, np.cross(right, forward)
+
+    @property
+    def forward(self):
+        """Unit view direction (derived from position and target; read-only)."""
+        return self._frame()[0]
+
+    @property
+    def right(self):
+        """Unit right vector of the image plane (derived; read-only)."""
+        return self._frame()[1]
+
+    @property
+    def up_ortho(self):
+        """Unit up vector of the image plane, orthogonal to forward and right (derived; read-only)."""
+        return self._frame()[2]
 
     def validate(self):
         """Check the parameters as they are now; :class:`CameraError` otherwise.
 
         The constructor ends with it and :class:`pyrt.PreparedScene` calls it before every render (so an
-        attribute assigned later cannot smuggle in a NaN): position, target, up and the derived frame
-        finite, ``fov`` in (0, 180) degrees, ``width``, ``height``, ``spp`` positive integers (stored as int).
+        attribute assigned later cannot smuggle in a NaN): position, target and up finite, the frame they
+        give not degenerate, ``fov`` in (0, 180) degrees, ``width``, ``height``, ``spp`` positive integers (stored as int).
         """
-        for nm, v in (("position", self.position), ("target", self.target), ("up", self.up),
-                      ("forward", self.forward), ("right", self.right), ("up_ortho", self.up_ortho)):
-            _vec3(nm, v)
+        for nm, v in (("position", self.position), ("target", self.target), ("up", self.up)):
+            _vec3(nm, v)                  # in place changes (camera.position[1] = nan) are caught here
+        self._frame()
         try:
             fov = float(self.fov)
         except (TypeError, ValueError):
@@ -114,7 +166,7 @@ class Camera:
         coef[:, 0] = inv
         np.multiply(sx, inv, out=coef[:, 1])
         np.multiply(sy, inv, out=coef[:, 2])
-        return coef @ np.stack([self.forward, self.right, self.up_ortho])
+        return coef @ np.stack(self._frame())
 
     def pixel_samples(self, pixel_lo, pixel_hi, rng, samples=None):
         """Raster positions for the samples of pixels ``[pixel_lo, pixel_hi)`` (row-major index).

@@ -6,6 +6,8 @@ import numbers
 
 import numpy as np
 
+from pyrt.core.errors import Error
+
 
 def numbers_array(owner, name, value, error=ValueError):
     """``value`` as a float64 array; ``error`` naming ``owner`` and ``name`` when it is not numbers at all
@@ -85,3 +87,40 @@ def finite_number(owner, name, value, error=ValueError, *, lo=None):
         rng = f" >= {lo}" if lo is not None else ""
         raise error(f"{owner}: {name} must be a finite number{rng}, got {value!r}")
     return float(value)
+
+
+class FixedAttributeError(Error, AttributeError):
+    """A parameter that derived state was computed from was assigned after construction (:class:`Fixed`)."""
+
+
+class Fixed:
+    """A parameter fixed at construction: its constructor sets it once, a later assignment raises
+    :class:`FixedAttributeError` naming the object, the attribute and what derives from it (instead of a render
+    that silently mixes the new value with state derived from the old one).
+
+    Declared in the class body, ``normal = Fixed("the tangent frame derives from it")``; the value lives in the
+    instance's ``__dict__`` under the same name, so ``vars()``, copies and pickles see a plain attribute.
+    Assigning the object it already holds is allowed (a no-op).
+    """
+
+    def __init__(self, why):
+        self.why = why
+
+    def __set_name__(self, owner, name):
+        self.name = name
+
+    def __get__(self, obj, cls=None):
+        if obj is None:
+            return self
+        try:
+            return obj.__dict__[self.name]
+        except KeyError:
+            raise AttributeError(f"{type(obj).__name__} has no attribute {self.name!r} yet") from None
+
+    def __set__(self, obj, value):
+        d = obj.__dict__
+        if self.name in d and d[self.name] is not value:
+            label = getattr(obj, "label", None) or type(obj).__name__
+            raise FixedAttributeError(f"{label}: {self.name} cannot be changed after construction ({self.why}): "
+                                      f"make a new {type(obj).__name__}(...)")
+        d[self.name] = value

@@ -27,6 +27,7 @@ import numbers
 
 import numpy as np
 
+from pyrt.core.checks import Fixed
 from pyrt.shaders import sampling
 from pyrt.shaders.vec import coordinate_frame
 
@@ -211,6 +212,11 @@ class RectLight(AreaLight):
     by default an arbitrary frame around ``normal``.
     """
 
+    normal = Fixed('the tangent frame derives from it')
+    tangent = Fixed('the tangent frame derives from it')
+    bitangent = Fixed('it derives from normal and tangent')
+
+
     @classmethod
     def example(cls):
         """A 1 x 0.5 rectangle at height 2 facing down, 20 W."""
@@ -280,6 +286,11 @@ class RectLight(AreaLight):
 @LIGHTS.register("disk")
 class DiskLight(AreaLight):
     """Disk of ``radius`` centred at ``center``, emitting toward ``normal`` (one-sided)."""
+
+    normal = Fixed('the tangent frame derives from it')
+    tangent = Fixed('it derives from normal')
+    bitangent = Fixed('it derives from normal')
+
 
     #: polygon segments of the visible mesh (the light itself is sampled on the exact disk)
     segments = 64

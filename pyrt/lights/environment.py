@@ -48,6 +48,7 @@ import os
 
 import numpy as np
 
+from pyrt.core.checks import Fixed
 from pyrt.shaders import envmap as K
 from pyrt.shaders import sampling
 from pyrt.shaders import textures as _tex
@@ -327,6 +328,9 @@ ENVIRONMENTS = Registry("environment", Environment)
 class ConstantEnvironment(Environment):
     """Uniform radiance ``color * intensity`` from every direction (the white-furnace environment)."""
 
+    color = Fixed('the cached irradiance coefficients derive from it')
+
+
     def __init__(self, color=1.0, *, intensity=1.0, rotate=None, hide_background=False, background=0.0, name=None):
         super().__init__(intensity=intensity, rotate=rotate, hide_background=hide_background,
                          background=background, name=name)
@@ -413,6 +417,10 @@ class LatLongEnvironment(BilinearSampling, LatLongTable):
         the bilinear luminance for ``bilinear`` (:mod:`pyrt.lights.latlong_sampling`).
     """
 
+    image = Fixed('the importance-sampling and irradiance tables derive from it')
+    filter = Fixed('the importance-sampling table derives from it')
+
+
 
     @classmethod
     def example(cls):
@@ -463,6 +471,10 @@ class CubeMapEnvironment(Environment):
         Faces in the order ``+x, -x, +y, -y, +z, -z``; a 4:3 or 3:4 cross is split by
         :func:`shaders.envmap.split_cross`.
     """
+
+    faces = Fixed('the importance-sampling and irradiance tables derive from them')
+    filter = Fixed('the importance-sampling table derives from it')
+
 
 
     @classmethod

@@ -9,6 +9,7 @@ import os
 
 import numpy as np
 
+from pyrt.core.checks import Fixed
 from pyrt.lights.base import LIGHTS, LUMINOUS_EFFICACY, LightError, _intensity, _nonneg, _resolve_color, _vec3
 from pyrt.lights.punctual import SpotLight, _PunctualLight, _axis, _frame
 from pyrt.shaders import color as _colour
@@ -47,6 +48,12 @@ class ProjectorLight(SpotLight):
     ``inner_angle = outer_angle`` gives a hard-edged cone. Give ``intensity`` (W/sr) or
     ``candela`` (scale of a white texel on the axis).
     """
+
+    direction = Fixed('the projection frame derives from it')
+    outer_angle = Fixed("the projection's tan_half derives from it")
+    frame = Fixed('it derives from direction and up')
+    tan_half = Fixed('it derives from outer_angle')
+
 
     @classmethod
     def example(cls):
@@ -128,6 +135,10 @@ class GoniometricLight(_PunctualLight):
     ``intensity`` (W/sr per unit texel) or ``candela``.
     """
 
+    up = Fixed("the light's frame derives from it")
+    frame = Fixed('it derives from up and reference')
+
+
     @classmethod
     def example(cls):
         """A goniometric light at (0, 2, 0) brighter toward its up axis."""
@@ -173,6 +184,12 @@ class IESLight(_PunctualLight):
     above). ``I(w) = scale * candela(V, H) / 683 * color`` (W/sr); the candela values are bilinearly
     interpolated (:func:`shaders.ies.ies_candela`). A spot-shaped profile is a spot light.
     """
+
+    scale = Fixed('intensity derives from it')
+    intensity = Fixed('it derives from scale')
+    direction = Fixed("the light's frame derives from it")
+    frame = Fixed('it derives from direction and reference')
+
 
     @classmethod
     def example(cls):

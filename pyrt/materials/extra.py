@@ -16,6 +16,7 @@ import math
 
 import numpy as np
 
+from pyrt.core.checks import Fixed
 from pyrt.materials.base import (DeltaLobe, IsotropicMaterial, Material, MaterialError, check_color, check_scalar,
                                  is_texture, register)
 from pyrt.materials.library import MetallicRoughness, conductor_eta_k
@@ -42,6 +43,9 @@ class Conductor(Material):
         Real and imaginary parts of the relative complex index per channel (instead of ``metal``).
     name : str, optional
     """
+
+    metal = Fixed('eta and k were looked up from it')
+
 
     has_diffuse = False
     has_delta = True

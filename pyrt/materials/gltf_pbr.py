@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pyrt.core.checks import Fixed
 from pyrt.materials import preview as _preview
 from pyrt.materials.base import DeltaLobe, Material, MaterialError, check_color, check_scalar, is_texture, register
 from pyrt.materials.layering import adopt_base, finish_sample, split_u, weighted_delta_lobes
@@ -114,6 +115,11 @@ class GltfPBR(MetallicRoughness):
     anisotropy_rotation : float (radians, default 0): ``anisotropyRotation``
     anisotropy_texture : 3-channel texture, optional: ``anisotropyTexture`` (linear; RG the direction, B the strength)
     """
+
+    transmission = Fixed("the material's lobes and its transmitted tint derive from it")
+    thin = Fixed("the material's lobes derive from it")
+    ior_value = Fixed('ior derives from it')
+
 
     ranges = {**MetallicRoughness.ranges, "specular": ("scalar", 0.0, 1.0, False),
               "specular_color": ("color", 0.0, None, False), "ior_value": ("scalar", 1.0, None, False),

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pyrt.core.checks import Fixed
 from pyrt.core import checks
 from pyrt.materials import compiled as _compiled
 from pyrt.materials import preview as _preview
@@ -343,6 +344,10 @@ class CookTorrance(_MicrofacetSampling, Material):
         (with ``metal`` = a name of :data:`shaders.metals.METALS`, or ``eta`` and ``k`` RGB) or
         "none". Inferred when omitted: metal/eta/k -> conductor, ior -> dielectric, else schlick.
     """
+
+    metal = Fixed('eta and k were looked up from it')
+    fresnel = Fixed('which of f0, ior, eta and k are set derives from it')
+
 
     type_name = "cook_torrance"
     ranges = {"kd": ("color", 0.0, 1.0, False), "ks": ("color", 0.0, 1.0, False), "rough": ("scalar", 0.0, 1.0, False),

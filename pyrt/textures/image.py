@@ -29,6 +29,7 @@ import threading
 
 import numpy as np
 
+from pyrt.core.checks import Fixed
 from pyrt.core.image_io import ImageFileError, read_image
 from pyrt.geometry.memo import row_memo, rows_cached
 from pyrt.shaders import color as _color
@@ -319,6 +320,11 @@ class ImageTexture(Texture):
         The UV set read (0 = the mesh's UVs; k = glTF ``TEXCOORD_k``, :attr:`Texture.texcoord`).
     """
 
+    srgb = Fixed('the texels were decoded with it')
+    decode = Fixed('the texels were decoded with it')
+    channels = Fixed("it is the decoded image's")
+
+
     def __init__(self, source, *, srgb=None, wrap="repeat", filter="trilinear", scale=(1.0, 1.0),
                  offset=(0.0, 0.0), rotation_deg=0.0, channels=None, select=None, footprint_scale=None,
                  max_anisotropy=8.0, name=None, decode=None, texcoord=0):
@@ -346,13 +352,12 @@ class ImageTexture(Texture):
             elif not (is_int or np.issubdtype(img.dtype, np.floating)):
                 raise TextureError(f"texture {label}: unsupported array dtype {img.dtype}")
         self.name = name
-        self.srgb = bool(is_int) if srgb is None else bool(srgb)
         if decode is not None:
             if decode not in DECODINGS:
                 raise TextureError(f"texture {label}: decode must be one of {DECODINGS}, got {decode!r}")
             if srgb is not None and bool(srgb) != (decode == "srgb"):
                 raise TextureError(f"texture {label}: srgb={srgb} contradicts decode={decode!r}; pass one")
-            self.srgb = decode == "srgb"
+        self.srgb = decode == "srgb" if decode is not None else bool(is_int) if srgb is None else bool(srgb)
         #: The texel decoding applied on load (one of :data:`DECODINGS`).
         self.decode = decode if decode is not None else ("srgb" if self.srgb else "linear")
         if filter not in FILTERS:

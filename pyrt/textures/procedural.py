@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pyrt.core.checks import Fixed
 from pyrt.shaders import noise as _noise
 from pyrt.textures import compiled as _compiled
 from pyrt.textures.base import (TEXTURES, Texture, TextureError, as_value, dp_dxy, footprints, is_texture, lerp,
@@ -95,6 +96,9 @@ class CheckerTexture(_Procedural):
 
 class _NoiseBase(_Procedural):
     """A scalar noise ``t`` in [0, 1] (:meth:`_t`) mapped to ``low + (high - low) t``."""
+
+    seed = Fixed('the permutation table derives from it')
+
 
     def __init__(self, scale, space, seed, low, high, owner):
         super().__init__(scale, space, owner)

@@ -1,7 +1,7 @@
 """Models in ZIP archives, as download sites ship them (a ``.gltf`` with its ``.bin`` and ``textures/`` folder, an OBJ
 with its MTL and images, a readme and a licence beside them).
 
-:func:`load_zip` picks the model inside, extracts the archive into a temporary folder, loads the model there with the
+:func:`load_zip` picks the model inside, extracts it and the files it names into a temporary folder, loads the model there with the
 loader for its format (its textures and buffers found by their relative paths, as in the unpacked folder) and deletes
 the folder: textures are decoded during the load, so nothing is read from it later. Paths in the asset, its warnings
 and errors read ``ARCHIVE.zip!member`` instead of the temporary folder.
