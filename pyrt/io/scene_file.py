@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import inspect
 import json
+import math
 import os
 import tomllib
 
@@ -60,6 +61,7 @@ from pyrt.lights import environment as _env
 from pyrt.lights.environment_light import set_environment
 from pyrt.materials import REGISTRY as MATERIALS
 from pyrt.render import INTEGRATORS, SAMPLERS
+from pyrt.core import checks
 from pyrt.core.transforms import align_vectors
 from pyrt.scene import Scene, plane_quad, transform_matrix
 from pyrt.textures import TextureError, texture_from_dict
@@ -100,6 +102,16 @@ def _check_keys(where, table, allowed, path):
         raise SceneFileError(f"{path}: unknown key(s) {sorted(unknown)} in {where}; allowed: {sorted(allowed)}")
 
 
+def _array_of_tables(data, key, path):
+    """``data[key]`` (default empty), which must be a list: ``[[meshes]]`` in TOML, a JSON array of objects."""
+    items = data.get(key, [])
+    if not isinstance(items, list):
+        got = "a single table" if isinstance(items, dict) else type(items).__name__
+        raise SceneFileError(f"{path}: {key} must be an array of tables ([[{key}]] in TOML, a list in JSON/dicts), "
+                             f"got {got}" + (f" ([{key}] in TOML)" if isinstance(items, dict) else ""))
+    return items
+
+
 def _typed(spec, registry, what, where, path):
     """A table with a ``type`` from ``registry`` -> ``(type, the other keys)``; errors name the table."""
     if not isinstance(spec, dict) or "type" not in spec:
@@ -121,15 +133,67 @@ def _construct(cls, kwargs, where, path):
         raise SceneFileError(f"{path}: {where}: {e}") from None
 
 
+#: how each numeric [render] option is checked: (checks function, its keyword arguments)
+_RENDER_NUMBERS = {"max_depth": (checks.integer, {"lo": 0}), "seed": (checks.integer, {"lo": 0}),
+                   "throughput_cutoff": (checks.finite_number, {"lo": 0.0}),
+                   "glossy_samples": (checks.integer, {"lo": 1}), "glossy_depth": (checks.integer, {"lo": 0}),
+                   "glossy_threshold": (checks.finite_number, {"lo": 0.0}),
+                   "target_error": (checks.finite_number, {"lo": 0.0}), "time_budget": (checks.finite_number, {"lo": 0.0}),
+                   "max_spp": (checks.integer, {"lo": 1}), "min_spp": (checks.integer, {"lo": 1})}
+#: the largest icosphere subdivision level a scene file may ask for (level 8: 1.3 M triangles)
+MAX_SUBDIVISIONS = 8
+
+
+def _render_options(rnd, path):
+    """The ``[render]`` keys that are :func:`pyrt.render` arguments, each checked here whatever integrator or path
+    would read it (an unused ``glossy_samples = -1`` is still an error naming the key and the file)."""
+    options = {k: rnd[k] for k in _RENDER_OPTIONS if k in rnd}
+    for key, (check, kw) in _RENDER_NUMBERS.items():
+        if key in options:
+            options[key] = check(f"{path}: [render]", key, options[key], SceneFileError, **kw)
+    if "transparent_shadows" in options and not isinstance(options["transparent_shadows"], bool):
+        raise SceneFileError(f"{path}: [render] transparent_shadows must be true or false, "
+                             f"got {options['transparent_shadows']!r}")
+    if "offset" in options and not isinstance(options["offset"], str):
+        raise SceneFileError(f"{path}: [render] offset must be a strategy name (a string), got {options['offset']!r}")
+    if "integrator" in options and options["integrator"] not in INTEGRATORS:
+        raise SceneFileError(f"{path}: [render] integrator must be one of {list(INTEGRATORS)}, "
+                             f"got {options['integrator']!r}")
+    if "sampler" in options and options["sampler"] not in SAMPLERS:
+        raise SceneFileError(f"{path}: [render] sampler must be one of {list(SAMPLERS)}, got {options['sampler']!r}")
+    return options
+
+
+def _positive(params, key, default, where, path):
+    """``params[key]`` (else ``default``) as a finite float > 0, else a SceneFileError naming the key."""
+    v = params.get(key, default)
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+        raise SceneFileError(f"{path}: {where}: {key} must be a finite number > 0, got {v!r}")
+    return float(v)
+
+
 def _primitive(kind, params, where, path):
     import trimesh  # deferred (pyrt.core.transforms)
     if kind == "sphere":
-        return trimesh.creation.icosphere(subdivisions=int(params.get("subdivisions", 4)),
-                                          radius=float(params.get("radius", 1.0))), True
+        sub = params.get("subdivisions", 4)
+        checks.integer(f"{path}: {where}", "subdivisions", sub, SceneFileError, lo=0)
+        if sub > MAX_SUBDIVISIONS:
+            raise SceneFileError(f"{path}: {where}: subdivisions must be at most {MAX_SUBDIVISIONS} "
+                                 f"({20 * 4 ** MAX_SUBDIVISIONS} triangles), got {sub!r}")
+        return trimesh.creation.icosphere(subdivisions=int(sub),
+                                          radius=_positive(params, "radius", 1.0, where, path)), True
     if kind == "box":
-        return trimesh.creation.box(extents=params.get("extents", (1.0, 1.0, 1.0))), False
+        ext = checks.numbers_array(f"{path}: {where}", "extents", params.get("extents", (1.0, 1.0, 1.0)),
+                                   SceneFileError)
+        if ext.shape != (3,) or not np.all(np.isfinite(ext)) or np.any(ext <= 0):
+            raise SceneFileError(f"{path}: {where}: extents must be 3 finite numbers > 0, got {params['extents']!r}")
+        return trimesh.creation.box(extents=ext), False
     if kind == "plane":
-        sx, sz = np.broadcast_to(np.asarray(params.get("size", 1.0), dtype=np.float64), (2,))
+        size = checks.numbers_array(f"{path}: {where}", "size", params.get("size", 1.0), SceneFileError)
+        if size.shape not in ((), (2,)) or not np.all(np.isfinite(size)) or np.any(size <= 0):
+            raise SceneFileError(f"{path}: {where}: size must be a finite number > 0 or two of them, "
+                                 f"got {params['size']!r}")
+        sx, sz = np.broadcast_to(size, (2,))
         v, f, uv = plane_quad(sx, sz)
         m = trimesh.Trimesh(vertices=v, faces=f, process=False)
         m.visual = trimesh.visual.TextureVisuals(uv=uv)
@@ -139,9 +203,11 @@ def _primitive(kind, params, where, path):
         m.apply_transform(align_vectors([0, 1, 0], nrm / np.linalg.norm(nrm)))
         return m, False
     if kind == "cylinder":
-        return trimesh.creation.cylinder(radius=float(params.get("radius", 0.5)),
-                                         height=float(params.get("height", 1.0)),
-                                         sections=int(params.get("sections", 64))), "auto"
+        sections = params.get("sections", 64)
+        checks.integer(f"{path}: {where}", "sections", sections, SceneFileError, lo=3)
+        return trimesh.creation.cylinder(radius=_positive(params, "radius", 0.5, where, path),
+                                         height=_positive(params, "height", 1.0, where, path),
+                                         sections=int(sections)), "auto"
     raise SceneFileError(f"{path}: {where}: unknown primitive {kind!r}; choose one of {sorted(_PRIMITIVE_KEYS)}")
 
 
@@ -259,12 +325,7 @@ def _load(data, base, path):
     scene = _construct(Scene, {"camera": camera, **{k: rnd[k] for k in ("background", "ambient",
                                                                        "shading_normal_fallback") if k in rnd}},
                        "[render]", path)
-    options = {k: rnd[k] for k in _RENDER_OPTIONS if k in rnd}
-    if "integrator" in options and options["integrator"] not in INTEGRATORS:
-        raise SceneFileError(f"{path}: [render] integrator must be one of {list(INTEGRATORS)}, "
-                             f"got {options['integrator']!r}")
-    if "sampler" in options and options["sampler"] not in SAMPLERS:
-        raise SceneFileError(f"{path}: [render] sampler must be one of {list(SAMPLERS)}, got {options['sampler']!r}")
+    options = _render_options(rnd, path)
 
     materials = {}
     mats_t = data.get("materials", {})
@@ -287,7 +348,7 @@ def _load(data, base, path):
             spec_nm = {"type": "normal_map", "path": normal_map} if isinstance(normal_map, str) else normal_map
             materials[name].normal_map = _texture(spec_nm, f"{where}.normal_map", base, path)
 
-    for i, spec in enumerate(data.get("meshes", [])):
+    for i, spec in enumerate(_array_of_tables(data, "meshes", path)):
         where = f"[[meshes]] #{i}" + (f" ({spec.get('name')})" if isinstance(spec, dict) and "name" in spec else "")
         if not isinstance(spec, dict):
             raise SceneFileError(f"{path}: {where} must be a table")
@@ -332,7 +393,7 @@ def _load(data, base, path):
         except ValueError as e:
             raise SceneFileError(f"{path}: {where}: {e}") from None
 
-    for i, spec in enumerate(data.get("lights", [])):
+    for i, spec in enumerate(_array_of_tables(data, "lights", path)):
         where = f"[[lights]] #{i}"
         kind, kwargs = _typed(spec, LIGHTS, "light", where, path)
         for k in LIGHT_PATH_ARGUMENTS:  # image / IES files relative to the scene file

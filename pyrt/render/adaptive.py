@@ -83,6 +83,7 @@ from pyrt.render.chunks import shade_adaptive_chunk
 from pyrt.render.compiled import adaptive_task, check_backend
 from pyrt.render.distributed import DaskRunner, adaptive_group
 from pyrt.render.pool import ChunkPool, integrator_factory, merge_stats, progress_bar, use_processes
+from pyrt.render.options import check_options, warn_smooth_lobes
 from pyrt.render.result import RenderResult
 
 #: samples per pixel cap when ``max_spp`` is not given
@@ -296,6 +297,9 @@ def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None,
     if target_error is None and time_budget is None:
         raise RenderError("render: adaptive rendering needs target_error or time_budget (max_spp alone would "
                           "render every pixel to max_spp: use spp= for that)")
+    seed = check_options(seed=seed, glossy_samples=glossy_samples, glossy_depth=glossy_depth,
+                         glossy_threshold=glossy_threshold, glossy_clamp=glossy_clamp)
+    warn_smooth_lobes(scene, integrator)
     min_spp = checks.integer("render", "min_spp", min_spp, RenderError)
     if min_spp < 2 or min_spp % 2:
         raise RenderError(f"render: min_spp must be an even integer >= 2 (two half-buffers), got {min_spp!r}")

@@ -32,6 +32,7 @@ from pyrt.render.compiled import check_backend, render_compiled, render_compiled
 from pyrt.render.chunks import ChunkLayout, shade_fixed_chunk
 from pyrt.render.distributed import DaskRunner, fixed_group
 from pyrt.render.pool import INTEGRATORS, ChunkPool, integrator_factory, merge_stats, progress_bar, use_processes
+from pyrt.render.options import check_options, warn_smooth_lobes
 from pyrt.render.result import RenderResult
 
 
@@ -144,6 +145,9 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     t_start = time.perf_counter()
     if integrator not in INTEGRATORS:
         raise RenderError(f"render: integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
+    seed = check_options(seed=seed, glossy_samples=glossy_samples, glossy_depth=glossy_depth,
+                         glossy_threshold=glossy_threshold, glossy_clamp=glossy_clamp)
+    warn_smooth_lobes(scene, integrator)
     integ = dict(integrator=integrator, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
                  transparent_shadows=transparent_shadows, glossy_samples=glossy_samples, glossy_depth=glossy_depth,
                  glossy_threshold=glossy_threshold, glossy_clamp=glossy_clamp, split_depth=split_depth,
