@@ -173,8 +173,15 @@ class Scene:
         if shading == "flat":
             smooth = False
         if isinstance(mesh, (tuple, list)):
+            if len(mesh) != 2:
+                raise SceneError(f"mesh {name!r}: expected a trimesh.Trimesh or a (vertices, faces) pair, got a "
+                                 f"{type(mesh).__name__} of {len(mesh)} items (vertices alone? pass "
+                                 "(vertices, [[0, 1, 2], ...]))")
             v_in, f_in = mesh
-            v_in, f_in, vis_uv = np.asarray(v_in, dtype=np.float64), np.asarray(f_in), uv
+            try:
+                v_in, f_in, vis_uv = np.asarray(v_in, dtype=np.float64), np.asarray(f_in), uv
+            except (TypeError, ValueError) as exc:
+                raise SceneError(f"mesh {name!r}: vertices and faces must be arrays of numbers ({exc})") from None
             if f_in.dtype.kind == "f" and np.all(f_in == np.round(f_in)):   # 0.0, 1.0, 2.0: indices (as trimesh took)
                 f_in = f_in.astype(np.int64)
         else:

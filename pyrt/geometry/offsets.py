@@ -69,6 +69,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pyrt.core.errors import RenderError
 from pyrt.shaders.vec import converted, dot, max_component, scale_rows, sub_from_point, take_rows, to_float32
 
 _EPS32 = np.finfo(np.float32).eps / 2  # unit roundoff of float32, 2^-24
@@ -486,9 +487,30 @@ STRATEGIES = {
     "robust_no_terminator": Strategy("robust_no_terminator", local_bound, tmax="robust", terminator=False,
                                      magnitude=local_bound_magnitude),
 }
+#: the library's origin functions (passed bare, they need no result check)
+_LIBRARY_ORIGINS = frozenset(st.origin for st in STRATEGIES.values())
 DEFAULT = "robust"
 #: origin functions whose offset distance does not depend on the direction -> that distance
 _MAGNITUDES = {local_bound: local_bound_magnitude}
+
+
+def _checked_origin(fn, name):
+    """``fn`` (a user's ``f(surf, w) -> origins``) wrapped so that a result that is not ``(N, 3)`` finite numbers
+    for ``N`` directions is a :class:`pyrt.RenderError` naming the function, not a failure deep in the renderer."""
+    def origin(surf, w):
+        try:
+            out = np.asarray(fn(surf, w), dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise RenderError(f"offset function {name}: its result is not an array of numbers ({exc})") from None
+        if out.shape != (len(w), 3):
+            raise RenderError(f"offset function {name}: returned an array of shape {out.shape}, expected "
+                              f"({len(w)}, 3) (one origin per direction)")
+        if not np.isfinite(out).all():
+            raise RenderError(f"offset function {name}: returned {int((~np.isfinite(out)).any(axis=1).sum())} "
+                              f"non-finite origin(s) out of {len(w)}")
+        return out
+    origin.__name__ = name
+    return origin
 
 
 def get_strategy(offset):
@@ -500,7 +522,10 @@ def get_strategy(offset):
         return offset
     if callable(offset):
         # the library's origin functions keep their direction-independent fast path when passed bare
-        return Strategy(getattr(offset, "__name__", "custom"), offset, magnitude=_MAGNITUDES.get(offset))
+        name = getattr(offset, "__name__", "custom")
+        if offset in _MAGNITUDES or offset in _LIBRARY_ORIGINS:
+            return Strategy(name, offset, magnitude=_MAGNITUDES.get(offset))
+        return Strategy(name, _checked_origin(offset, name))
     if offset is None:
         offset = DEFAULT
     try:

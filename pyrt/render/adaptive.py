@@ -83,7 +83,7 @@ from pyrt.render.chunks import shade_adaptive_chunk
 from pyrt.render.compiled import adaptive_task, check_backend
 from pyrt.render.distributed import DaskRunner, adaptive_group
 from pyrt.render.pool import ChunkPool, integrator_factory, merge_stats, progress_bar, use_processes
-from pyrt.render.options import check_options, warn_smooth_lobes
+from pyrt.render.options import check_image_memory, check_options, warn_smooth_lobes
 from pyrt.render.result import RenderResult
 
 #: samples per pixel cap when ``max_spp`` is not given
@@ -308,6 +308,8 @@ def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None,
         raise RenderError(f"render: max_spp ({max_spp}) is below min_spp ({min_spp})")
     chunk_samples = checks.integer("render", "chunk_samples", chunk_samples, RenderError)
     threads = None if threads is None else checks.integer("render", "threads", threads, RenderError)
+    scene.camera.validate()
+    check_image_memory(scene.camera.width, scene.camera.height, aovs=aovs, films=2)
     integ = dict(integrator=integrator, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
                  record_rays=record_rays, transparent_shadows=transparent_shadows, glossy_samples=glossy_samples,
                  glossy_depth=glossy_depth, glossy_threshold=glossy_threshold,

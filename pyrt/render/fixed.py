@@ -32,7 +32,7 @@ from pyrt.render.compiled import check_backend, render_compiled, render_compiled
 from pyrt.render.chunks import ChunkLayout, shade_fixed_chunk
 from pyrt.render.distributed import DaskRunner, fixed_group
 from pyrt.render.pool import INTEGRATORS, ChunkPool, integrator_factory, merge_stats, progress_bar, use_processes
-from pyrt.render.options import check_options, warn_smooth_lobes
+from pyrt.render.options import check_image_memory, check_options, warn_smooth_lobes
 from pyrt.render.result import RenderResult
 
 
@@ -158,6 +158,8 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         cam.spp = checks.integer("render", "spp", spp, RenderError)
     chunk_samples = checks.integer("render", "chunk_samples", chunk_samples, RenderError)
     threads = None if threads is None else checks.integer("render", "threads", threads, RenderError)
+    cam.validate()
+    check_image_memory(cam.width, cam.height, aovs=aovs)
     runner = None if dask is None else DaskRunner(dask, scene, dask_workers)
     own = prepared is None and runner is None
     ps = prepared if prepared is not None or runner is not None else PreparedScene(scene, threads=threads)

@@ -14,6 +14,7 @@ is named in a warning, with the integrator that traces it (``integrator="glossy"
 """
 from __future__ import annotations
 
+import os
 import warnings
 
 import numpy as np
@@ -23,6 +24,11 @@ from pyrt.core.errors import RenderError
 
 #: the microfacet alpha (roughness^2) at or below which a lobe counts as mirror-like for :func:`warn_smooth_lobes`
 SMOOTH_ALPHA = 0.01
+
+
+#: bytes per pixel a render holds besides the scene: the film's float64 weight and RGB sums (32), the float64
+#: resolve temporaries and the float32 image (24 + 12); per AOV film 64 more; an adaptive render has two films
+FILM_BYTES, AOV_BYTES, IMAGE_BYTES = 32, 64, 36
 
 
 class SmoothLobeWarning(UserWarning):
@@ -71,3 +77,30 @@ def warn_smooth_lobes(scene, integrator):
                       "highlights on black; render with integrator='glossy' (--integrator glossy, [render] "
                       "integrator = \"glossy\"), or use a Conductor, Mirror or Glass for an exactly smooth surface",
                       SmoothLobeWarning, stacklevel=3)
+
+
+def available_memory():
+    """Bytes of memory a new allocation can use now: Linux's ``MemAvailable`` plus free swap; elsewhere the free
+    physical pages; None when neither can be read (then nothing is checked)."""
+    try:
+        with open("/proc/meminfo") as fh:
+            info = {ln.split(":")[0]: int(ln.split()[1]) * 1024 for ln in fh if ln.split()[1:2] != []}
+        return info["MemAvailable"] + info.get("SwapFree", 0)
+    except (OSError, KeyError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def check_image_memory(width, height, *, aovs=False, films=1):
+    """RenderError naming ``width`` x ``height`` when the image's film and output (:data:`FILM_BYTES` ... per
+    pixel, ``films`` films) need more memory than :func:`available_memory` says there is, before anything of that
+    size is allocated (NumPy would fail later, with a traceback and no word of the image size)."""
+    need = int(width) * int(height) * (films * FILM_BYTES + (AOV_BYTES if aovs else 0) + IMAGE_BYTES)
+    avail = available_memory()
+    if avail is not None and need > avail:
+        raise RenderError(f"render: a {width}x{height} image needs about {need / (1 << 30):.1f} GiB of memory for "
+                          f"its film and output, more than the {avail / (1 << 30):.1f} GiB available: lower width "
+                          "and height")

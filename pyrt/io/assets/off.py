@@ -73,8 +73,29 @@ def load_off(path):
     ------
     AssetError
         Naming the file and, where there is one, the line: not an OFF header, binary / 4D / nD OFF, wrong counts,
-        a vertex that is not finite, an index out of range, no polygon with 3 or more vertices.
+        a vertex that is not finite, an index out of range, no polygon with 3 or more vertices. When data lines
+        follow the announced vertices and faces, the error says the header's counts are too small (the blocks
+        were cut in the wrong place), whatever else went wrong.
     """
+    found = {}
+    try:
+        asset = _load_off(path, found)
+    except AssetError as exc:
+        if found.get("left", 0) > 0:
+            raise AssetError(f"{exc} -- the header (line {found['line']}) announces {found['nv']} vertices and "
+                             f"{found['nf']} faces, but {found['left']} more data line(s) follow them: are the "
+                             "counts too small?") from None
+        raise
+    if found["left"] > 0:
+        raise AssetError(f"{path}: the header (line {found['line']}) announces {found['nv']} vertices and "
+                         f"{found['nf']} faces, but {found['left']} more data line(s) follow them: the counts are "
+                         "too small (or the file has trailing data)")
+    return asset
+
+
+def _load_off(path, found):
+    """:func:`load_off`'s work; fills ``found`` (nv, nf, their line, the data lines left after the faces) as soon
+    as the header is read."""
     lines = _lines(path)
     if not lines:
         raise AssetError(f"{path}: empty OFF file")
@@ -99,6 +120,7 @@ def load_off(path):
         raise AssetError(f"{path}: line {kc}: expected the vertex and face counts, got {counts[:40]!r}") from None
     if nv <= 0 or nf <= 0:
         raise AssetError(f"{path}: line {kc}: {nv} vertices and {nf} faces: no triangles")
+    found.update(nv=nv, nf=nf, line=kc, left=len(body) - (1 + nv + nf))
     if len(body) < 1 + nv + nf:
         raise AssetError(f"{path}: the header announces {nv} vertices and {nf} faces but the file has "
                          f"{len(body) - 1} data lines (truncated?)")
