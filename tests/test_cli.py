@@ -18,7 +18,8 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 SCENE = str(ROOT / "assets/default_scene.toml")
 SMALL = ["--width", "16", "--height", "12", "--spp", "1"]
 INTERRUPTED = re.compile(r"pyrt: interrupted: (\d+)/(\d+) chunks \((\d+) % of the pixels\) rendered at \d+ spp; "
-                         r"(the rest is black|the other pixels got 1 sample each \(noisier\))")
+                         r"(the rest is black|the other pixels got 1 sample each \(noisier\)|\d+ % of the other pixels "
+                         r"got 1 sample each \(noisier\), the rest is black \(the fill's time was up\))")
 
 
 def _env():
@@ -146,7 +147,8 @@ def test_cli_sigint_writes_the_finished_chunks_and_exits_130(tmp_path):
     m = INTERRUPTED.search(err)
     assert m, err
     done, total, pct = map(int, m.groups()[:3])
-    filled = m.group(4) != "the rest is black"
+    filled = m.group(4).startswith("the other pixels")
+    black = m.group(4) == "the rest is black"
     assert 0 < done < total and 0 < pct < 100
     assert "Traceback" not in err and f"wrote {exr}" in out and f"wrote {png}" in out
     # not a speed test: the render left would take minutes; stopping well before says the interrupt was honoured
@@ -157,8 +159,10 @@ def test_cli_sigint_writes_the_finished_chunks_and_exits_130(tmp_path):
     rows = img.reshape(480, -1).any(axis=1)
     if filled:                                # the unfinished pixels got one sample each: no black rows
         assert rows.all()
-    else:                                     # chunks are rendered top down: the bottom is black
+    elif black:                               # chunks are rendered top down: the bottom is black
         assert rows[0] and not rows[-1] and abs(rows.mean() - pct / 100) < 0.05
+    else:                                     # the fill's deadline came first: part of the rest is filled
+        assert rows[0] and rows.mean() > pct / 100
     from PIL import Image
     assert Image.open(png).size == (640, 480)
     assert sorted(os.listdir(tmp_path)) == ["a.exr", "a.png", "stderr.txt"]   # no temporary file left
@@ -199,3 +203,47 @@ def test_cli_creates_a_missing_output_folder(tmp_path, capsys):
     out = tmp_path / "new" / "sub" / "x.png"
     assert main(["render", SCENE, "-o", str(out), "--width", "16", "--height", "12", "--spp", "1"]) == 0
     assert out.is_file()
+
+
+def _signal_large_render(tmp_path, backend):
+    """Start a 1280x960, 256-spp render of the default scene (minutes of work), send SIGINT once its chunks run;
+    ``(seconds from the signal to the exit, stderr, exr path)``."""
+    exr, png = tmp_path / "big.exr", tmp_path / "big.png"
+    errf = open(tmp_path / "stderr.txt", "w+")
+    args = [sys.executable, "-m", "pyrt", "render", SCENE, "--width", "1280", "--height", "960", "--spp", "256",
+            "--backend", backend, "-o", str(exr), "-o", str(png)]
+    p = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=errf, text=True, env=_env(), cwd=tmp_path)
+    t_end = time.monotonic() + 120
+    while "/s]" not in (tmp_path / "stderr.txt").read_text() and time.monotonic() < t_end:
+        time.sleep(0.05)
+    time.sleep(1.0)
+    t0 = time.monotonic()
+    p.send_signal(signal.SIGINT)
+    p.communicate(timeout=120)
+    stopped = time.monotonic() - t0
+    err = (tmp_path / "stderr.txt").read_text()
+    errf.close()
+    assert p.returncode == 130, err
+    return stopped, err, exr
+
+
+@pytest.mark.slow
+def test_cli_first_sigint_ends_a_large_numpy_render_within_seconds(tmp_path):
+    """README: the first Ctrl-C ends the command ~2 s later with a readable image (the chunks in progress, the fill
+    of the pixels not rendered for at most 1 s, the writes). Before the fill ran in jobs of whole pixel chunks it
+    took ~20 s here (9,000 fill jobs of 128 pixels). The bound is generous: the machine may be shared."""
+    stopped, err, exr = _signal_large_render(tmp_path, "numpy")
+    assert INTERRUPTED.search(err) and "Traceback" not in err, err
+    assert stopped < 6.0, (stopped, err)
+    img = pyrt.read_exr(exr)
+    assert img.shape == (960, 1280, 3) and np.isfinite(img).all() and img.reshape(960, -1).any(axis=1)[0]
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="the compiled path (pyrt/integrators/compiled.py render_fixed) looks at the "
+                   "cancel event only between its GROUPS = 4 kernel calls, and pyrt/render/compiled.py fills the rest "
+                   "without a time budget: ~27 s after the signal measured; those files belong to the compiled-kernel "
+                   "work (issue 32)")
+def test_cli_first_sigint_ends_a_large_compiled_render_within_seconds(tmp_path):
+    stopped, err, exr = _signal_large_render(tmp_path, "compiled")
+    assert stopped < 6.0, (stopped, err)

@@ -83,6 +83,11 @@ def _parser():
     return ap
 
 
+#: seconds the pixels not rendered at the first Ctrl-C may take to get one sample each (the fill's deadline): with
+#: the chunks in progress and the writes, the command ends ~2 s after the signal
+FILL_BUDGET = 1.0
+
+
 def main(argv=None):
     """Run ``pyrt ...``; returns the exit code (0 done, 2 error, 130 interrupted)."""
     ap = _parser()
@@ -91,6 +96,9 @@ def main(argv=None):
         return _compile(args)
     if args.white is not None and args.tonemap != "reinhard":
         ap.error(f"--white applies to --tonemap reinhard only, not {args.tonemap}")
+    if args.aovs and not any(o.lower().endswith(".exr") for o in args.output):
+        ap.error("--aovs writes depth, normal and albedo channels into EXR outputs, and no -o ends in .exr "
+                 "(a PNG holds the image alone)")
     adaptive = args.target_error is not None or args.time_budget is not None
     if args.spp is not None and (adaptive or args.max_spp is not None or args.min_spp is not None):
         ap.error("--spp (fixed samples per pixel) excludes --target-error/--time/--max-spp/--min-spp (adaptive)")
@@ -156,7 +164,8 @@ def _render(args, cancel):
     if args.dask is not None:
         opts["dask"], opts["dask_workers"] = args.dask, args.dask_workers
     t0 = time.perf_counter()
-    res = pyrt.render_full(scene, spp=args.spp, aovs=args.aovs, progress=True, cancel=cancel, fill=True, **opts)
+    res = pyrt.render_full(scene, spp=args.spp, aovs=args.aovs, progress=True, cancel=cancel, fill=True,
+                           fill_budget=FILL_BUDGET, **opts)
     dt = time.perf_counter() - t0
     if res.chunks_done == 0:
         print("pyrt: interrupted before any pixel was rendered; nothing written", file=sys.stderr)
@@ -176,8 +185,14 @@ def _render(args, cancel):
                   + ("; pixels without any sample got 2" if res.pixels_filled else ""), file=sys.stderr)
             return EXIT_INTERRUPTED
     if not res.complete:
-        rest = ("the other pixels got 1 sample each (noisier)" if res.pixels_filled
-                else "the rest is black")
+        others = scene.camera.width * scene.camera.height - res.pixels_done
+        if res.pixels_filled >= others:
+            rest = "the other pixels got 1 sample each (noisier)"
+        elif res.pixels_filled:
+            rest = (f"{100 * res.pixels_filled / others:.0f} % of the other pixels got 1 sample each (noisier), "
+                    "the rest is black (the fill's time was up)")
+        else:
+            rest = "the rest is black"
         spp = scene.camera.spp if args.spp is None else args.spp
         if res.samples_done > res.pixels_done * spp:   # above 32768 spp a pixel's samples span several chunks
             share = res.samples_done / (scene.camera.width * scene.camera.height * spp)

@@ -14,6 +14,7 @@ import signal
 import sys
 import threading
 
+from pyrt.core.atomic import ImageWriteError, check_writable
 from pyrt.core.errors import Error
 
 #: The exit code of a program stopped by SIGINT / SIGTERM (128 + SIGINT, what shells report for Ctrl-C).
@@ -120,7 +121,10 @@ def check_outputs(paths, extensions=OUTPUT_EXTENSIONS):
     """Check output files before anything is rendered; raise :class:`OutputPathError` naming the first problem.
 
     Each path must end in one of ``extensions`` (any case), sit in a writable folder (created if missing), not be a
-    folder itself, not be an existing read-only file, and no two paths may name the same file.
+    folder itself, not be an existing read-only file, and no two paths may name the same file. Writability is
+    tested by creating (and removing) the temporary file the write will use
+    (:func:`pyrt.core.atomic.check_writable`: ``os.access`` says yes to root under ``/proc`` and ``/sys``), which
+    also removes the temporaries a killed earlier run left beside the target.
     """
     seen = {}
     for p in paths:
@@ -136,6 +140,10 @@ def check_outputs(paths, extensions=OUTPUT_EXTENSIONS):
         if key in seen:
             raise OutputPathError(f"the same output file is given twice: {seen[key]} and {p}")
         seen[key] = p
+        try:
+            check_writable(p)
+        except ImageWriteError as exc:
+            raise OutputPathError(str(exc)) from None
 
 
 # ============================================================================ interrupts

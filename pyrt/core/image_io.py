@@ -1,13 +1,12 @@
 """Image output: EXR (linear, float32 or half, optional AOVs) and PNG (tone-mapped, sRGB-encoded).
 
-Every file is written through :func:`atomic_write`: to a temporary file in the target's folder, renamed
-over the target only when complete, so an interrupted or failed write leaves the previous file intact.
+Every file is written through :func:`pyrt.core.atomic.atomic_write`: to a temporary file in the target's folder,
+renamed over the target only when complete, so an interrupted or failed write leaves the previous file intact.
 """
 from __future__ import annotations
 
 import mmap
 import os
-import secrets
 import struct
 import warnings
 
@@ -21,65 +20,7 @@ from pyrt.core.errors import Error
 from pyrt.core.image_modes import CONVERTED_MODES as _CONVERTED_MODES, converted as _converted, still_array, still_frame
 from pyrt.core.image_types import EXR_MAGIC as _EXR_MAGIC, HDR_MAGIC as _HDR_MAGIC, PNG_MAGIC as _PNG_MAGIC
 from pyrt.core.image_types import image_kind
-
-
-def atomic_write(path, write):
-    """Create or replace the file ``path`` all at once: ``write(tmp)`` writes a temporary file, renamed over it.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The target. Its folder must exist.
-    write : callable
-        ``write(tmp_path)`` writes the whole file at ``tmp_path`` (a new, empty file named
-        ``.NAME.XXXXXXXX.tmp`` in the target's folder, so the rename never crosses file systems).
-
-    The temporary file is flushed to disk and ``os.replace``-d over ``path`` (atomic on POSIX and
-    Windows). If ``write`` raises -- any exception, ``KeyboardInterrupt`` included -- the temporary file
-    is removed, the previous ``path`` (if any) is left as it was, and the exception propagates. The new
-    file gets the permissions of the file it replaces, or the usual ones (``0o666`` minus the umask).
-    """
-    path = os.fspath(path)
-    folder, base = os.path.split(os.path.abspath(path))
-    if os.path.isdir(path):
-        raise ImageWriteError(f"cannot write {path}: it is a folder")
-    if not os.path.isdir(folder):
-        raise ImageWriteError(f"cannot write {path}: the folder {folder} does not exist")
-    try:
-        mode = os.stat(path).st_mode & 0o7777
-    except OSError:
-        mode = 0o666
-    tmp = os.path.join(folder, f".{base}.{secrets.token_hex(4)}.tmp")
-    os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, mode))
-    try:
-        write(tmp)
-        fd = os.open(tmp, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.remove(tmp)
-        except OSError:
-            pass
-        raise
-
-
-def write_bytes(path, data):
-    """Write ``data`` (bytes, or str as UTF-8) to ``path`` through :func:`atomic_write`."""
-    blob = data.encode("utf-8") if isinstance(data, str) else bytes(data)
-
-    def put(tmp):
-        with open(tmp, "wb") as fh:
-            fh.write(blob)
-
-    atomic_write(path, put)
-
-
-class ImageWriteError(Error, ValueError):
-    """An image cannot be written: wrong shape, non-finite values, or the target is a folder."""
+from pyrt.core.atomic import ImageWriteError, atomic_write, write_bytes  # noqa: F401 (public here too)
 
 
 def _check_image(img, name="image"):

@@ -384,7 +384,7 @@ def _passes(cam, ps, pool, t_start, target_error, time_budget, max_spp, min_spp,
     bar = progress_bar(progress, desc="pass 0", unit="sample", unit_scale=True, leave=False)
     totals = {"chunks": 0, "chunks_total": 0, "render_s": 0.0}
 
-    def run_pass(counts, index, timed=True, honour_cancel=True):
+    def run_pass(counts, index, timed=True, honour_cancel=True, stop_at=math.inf):
         chunks = _chunks(counts, chunk_samples)
         order = np.random.default_rng([seed, 0xADA, index, 1 << 20]).permutation(len(chunks))
         spp_after = film.weight + counts
@@ -392,7 +392,7 @@ def _passes(cam, ps, pool, t_start, target_error, time_budget, max_spp, min_spp,
 
         def halted():
             return (honour_cancel and cancel is not None and cancel.is_set()) or \
-                (timed and time.perf_counter() >= deadline)
+                (timed and time.perf_counter() >= deadline) or time.perf_counter() >= stop_at
 
         def collect(k, res):
             if res is None:
@@ -464,8 +464,9 @@ def _passes(cam, ps, pool, t_start, target_error, time_budget, max_spp, min_spp,
         if fill and empty.any() and film.weight.sum() > 0:
             rate = totals["render_s"] / film.weight.sum()
             if 2 * empty.sum() * rate <= fill_budget:
-                run_pass(np.where(empty, 2, 0).astype(np.int64), index + 1, timed=False, honour_cancel=False)
-                pixels_filled = int(empty.sum())
+                run_pass(np.where(empty, 2, 0).astype(np.int64), index + 1, timed=False, honour_cancel=False,
+                         stop_at=time.perf_counter() + fill_budget)      # no chunk starts after the budget
+                pixels_filled = int(np.count_nonzero(empty & (film.weight > 0)))
                 est = estimated_error(film, pixel_errors(film, half), (H, W))
     finally:
         bar.close()

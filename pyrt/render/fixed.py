@@ -63,13 +63,13 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         :class:`RenderResult`: unfinished pixels are black).
     fill : bool
         After a cancellation, give every pixel with no sample one sample (random stream
-        ``default_rng([seed, chunk_index, 1])``; above ``chunk_samples`` spp ``default_rng([seed, first_pixel,
-        1])`` per run of such pixels) when that is estimated, from the speed of the chunks done, to take at
-        most ``fill_budget`` seconds: the image is then complete, at 1 spp in those pixels
-        (``result.pixels_filled``); partly rendered pixels keep the samples they have. What the command
-        line does on Ctrl-C.
+        ``default_rng([seed, first_pixel, 1])`` per run of at most ``chunk_samples`` such pixels) when that is
+        estimated, from the speed of the chunks done, to take at most ``fill_budget`` seconds: the image is then
+        complete, at 1 spp in those pixels (``result.pixels_filled``); partly rendered pixels keep the samples
+        they have. No fill job starts after ``fill_budget`` seconds (the pixels of those not run stay black), so
+        the fill ends within the budget plus the jobs in progress. What the command line does on Ctrl-C.
     fill_budget : float
-        Seconds the fill may take (estimate); above it the unfinished pixels stay black.
+        Seconds the fill may take; above the estimate no pixel is filled, at the deadline the fill stops.
     integrator : {"whitted", "glossy"}
         ``"whitted"`` (default): only delta lobes (mirrors, glass) spawn rays. ``"glossy"``
         (:mod:`pyrt.integrators.glossy`): glossy lobes also spawn BSDF-sampled rays, MIS-combined with
@@ -232,6 +232,7 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         merge_stats(stats, st)
 
     bar = progress_bar(progress, total=n_chunks, desc="render", unit="chunk", leave=False)
+    t_chunks = time.perf_counter()
     try:
         if runner is not None:
             spec = dict(threads=1, layout=layout, seed=seed, aovs=aovs, nonfinite=nonfinite,
@@ -253,14 +254,17 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     n_unstarted = int(np.count_nonzero(unstarted))
     pixels_filled = 0
     if fill and ps is not None and n_unstarted and done["samples"]:
-        # seconds per pixel-sample so far; the fill gives the pixels with no sample one sample each
-        rate = (time.perf_counter() - t_start) / done["samples"]
+        # wall seconds per sample of the chunks so far (the fill gives the pixels with no sample one sample each);
+        # the fill stops at its deadline whatever the estimate said, its unfinished pixels left black
+        rate = (time.perf_counter() - t_chunks) / done["samples"]
         if n_unstarted * rate <= fill_budget:
+            deadline = time.perf_counter() + fill_budget
             cam1 = copy(cam)
             cam1.spp = 1
             fps = ps
             fill_make = integrator_factory(ps, **integ)
-            jobs = _fill_jobs(unstarted, split, n_chunks, chunk_pixels, chunk_samples)
+            jobs = _fill_jobs(unstarted, chunk_samples)
+            filled = []
 
             def fill_chunk(k):
                 lo, hi, key = jobs[k]
@@ -271,15 +275,20 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
                 integ.stats.nonfinite_samples += film.add_block(lo, hi, L, a)
                 return integ.stats
 
+            def fill_done(k, st):
+                merge_stats(stats, st)
+                filled.append(jobs[k][1] - jobs[k][0])
+
             fill_bar = progress_bar(progress, total=len(jobs), desc="fill", unit="chunk", leave=False)
             try:
                 with ChunkPool(fill_chunk, workers) as pool:     # threads: the chunks write into ``film``
-                    pool.map([(k,) for k in range(len(jobs))], fill_bar, lambda k, st: merge_stats(stats, st))
+                    pool.map([(k,) for k in range(len(jobs))], fill_bar, fill_done,
+                             lambda: time.perf_counter() > deadline)
             finally:
                 fill_bar.close()
                 if own:
                     ps.close()
-            pixels_filled = n_unstarted
+            pixels_filled = sum(filled)
     if own:
         ps.close()
     if stats.nonfinite_samples:
@@ -308,12 +317,11 @@ def _run_dask(runner, cam, spec, n_chunks, cancel, bar, film, collect):
         bar.update(len(g))
 
 
-def _fill_jobs(unstarted, split, n_chunks, chunk_pixels, chunk_samples):
-    """The fill pass's ``(lo, hi, stream key)``: the unfinished chunks of pixels (key: the chunk index), or,
-    when pixels were split into pieces, the runs of pixels with no piece done, cut at ``chunk_samples``
-    pixels (key: the run's first pixel)."""
-    if not split:
-        return [(*chunk_pixels(ci), ci) for ci in range(n_chunks) if unstarted[chunk_pixels(ci)[0]]]
+def _fill_jobs(unstarted, chunk_samples):
+    """The fill pass's ``(lo, hi, stream key)``: the runs of pixels with no sample (``unstarted``), cut at
+    ``chunk_samples`` pixels (one sample each: as many samples as a render chunk; key: the run's first pixel).
+    Jobs of whole chunks instead would be thousands of tiny ones at high spp (128 pixels at 256 spp), whose
+    per-job cost made a 1280x960, 256-spp fill take ~20 s."""
     idx = np.flatnonzero(unstarted)
     cuts = np.flatnonzero(np.diff(idx) != 1) + 1
     jobs = []
