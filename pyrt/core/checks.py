@@ -120,7 +120,7 @@ class Fixed:
     def __set__(self, obj, value):
         d = obj.__dict__
         if self.name in d and d[self.name] is not value:
-            label = getattr(obj, "label", None) or type(obj).__name__
+            label = f"{type(obj).__name__}({d.get('name') or ''})"
             raise FixedAttributeError(f"{label}: {self.name} cannot be changed after construction ({self.why}): "
                                       f"make a new {type(obj).__name__}(...)")
         d[self.name] = value

@@ -266,7 +266,7 @@ def load_dict(spec, *, base_dir=None):
     The keys are the tables of a scene file (this module's docstring): ``camera``, ``render``,
     ``materials`` (name -> ``{"type": ..., parameters}``), ``meshes`` and ``lights`` (lists of dicts),
     ``environment``. Types are looked up in the family registries (``pyrt.materials.REGISTRY``,
-    ``pyrt.lights.REGISTRY``, ``pyrt.lights.environment.REGISTRY``, textures through
+    ``pyrt.lights.REGISTRY``, ``pyrt.lights.environment.ENVIRONMENTS``, textures through
     :func:`pyrt.textures.texture_from_dict`). Values may be lists, tuples or arrays. ``spec`` is not
     modified.
 
@@ -436,18 +436,18 @@ def _load_environment(spec, scene, base, path):
 
     common = {k: spec[k] for k in ("intensity", "rotate", "hide_background", "background", "name") if k in spec}
     if kind == "constant":
-        env = _construct(_env.REGISTRY["constant"], {"color": spec.get("color", 1.0), **common}, where, path)
+        env = _construct(_env.ENVIRONMENTS["constant"], {"color": spec.get("color", 1.0), **common}, where, path)
     elif kind == "latlong":
         if "file" not in spec:
             raise SceneFileError(f"{path}: {where}: type 'latlong' needs 'file'")
-        env = _construct(_env.REGISTRY["latlong"], {"image": rel(spec["file"]), **common,
+        env = _construct(_env.ENVIRONMENTS["latlong"], {"image": rel(spec["file"]), **common,
                                                    **({"filter": spec["filter"]} if "filter" in spec else {})},
                          where, path)
     elif kind == "cube":
         if ("file" in spec) == ("faces" in spec):
             raise SceneFileError(f"{path}: {where}: type 'cube' needs exactly one of 'file' (cross) or 'faces'")
         faces = rel(spec["file"]) if "file" in spec else [rel(f) for f in spec["faces"]]
-        env = _construct(_env.REGISTRY["cube"], {"faces": faces, **common,
+        env = _construct(_env.ENVIRONMENTS["cube"], {"faces": faces, **common,
                                                    **({"filter": spec["filter"]} if "filter" in spec else {})},
                          where, path)
     else:
@@ -456,7 +456,7 @@ def _load_environment(spec, scene, base, path):
             img = _env.procedural_sky(**sky_kw)
         except (TypeError, ValueError) as e:
             raise SceneFileError(f"{path}: {where}: {e}") from None
-        env = _construct(_env.REGISTRY["latlong"], {"image": img, **common,
+        env = _construct(_env.ENVIRONMENTS["latlong"], {"image": img, **common,
                                                    **({"filter": spec["filter"]} if "filter" in spec else {})},
                          where, path)
     lighting = spec.get("lighting", "mis")

@@ -48,7 +48,6 @@ import os
 
 import numpy as np
 
-from pyrt.core.checks import Fixed
 from pyrt.shaders import envmap as K
 from pyrt.shaders import sampling
 from pyrt.shaders import textures as _tex
@@ -328,9 +327,7 @@ ENVIRONMENTS = Registry("environment", Environment)
 class ConstantEnvironment(Environment):
     """Uniform radiance ``color * intensity`` from every direction (the white-furnace environment)."""
 
-    color = Fixed('the cached irradiance coefficients derive from it')
-
-
+    color = checks.Fixed('the cached irradiance coefficients derive from it')
     def __init__(self, color=1.0, *, intensity=1.0, rotate=None, hide_background=False, background=0.0, name=None):
         super().__init__(intensity=intensity, rotate=rotate, hide_background=hide_background,
                          background=background, name=name)
@@ -417,10 +414,7 @@ class LatLongEnvironment(BilinearSampling, LatLongTable):
         the bilinear luminance for ``bilinear`` (:mod:`pyrt.lights.latlong_sampling`).
     """
 
-    image = Fixed('the importance-sampling and irradiance tables derive from it')
-    filter = Fixed('the importance-sampling table derives from it')
-
-
+    image, filter = checks.Fixed("the sampling tables derive from it"), checks.Fixed("the sampling table too")
 
     @classmethod
     def example(cls):
@@ -472,10 +466,7 @@ class CubeMapEnvironment(Environment):
         :func:`shaders.envmap.split_cross`.
     """
 
-    faces = Fixed('the importance-sampling and irradiance tables derive from them')
-    filter = Fixed('the importance-sampling table derives from it')
-
-
+    faces, filter = checks.Fixed("the sampling tables derive from them"), checks.Fixed("the sampling table too")
 
     @classmethod
     def example(cls):
@@ -606,7 +597,3 @@ def procedural_sky(width=256, height=128, *, sun_direction=(0.4, 0.5, -0.3), sun
         cover[idx] = inside.reshape(idx.size, -1).mean(axis=1)
     sky = sky + cover.reshape(height, width, 1) * np.asarray(sun_radiance, dtype=np.float64)
     return sky.astype(np.float32)
-
-
-#: scene-file ``[environment] type`` -> class (the old name of :data:`ENVIRONMENTS`)
-REGISTRY = ENVIRONMENTS

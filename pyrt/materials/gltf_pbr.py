@@ -76,15 +76,14 @@ class GltfPBR(MetallicRoughness):
       (``absorption = -ln(attenuationColor) / attenuationDistance``; nested media and absorption:
       :mod:`pyrt.integrators.media`).
 
-    Up to :data:`SMOOTH_ROUGHNESS` the transmissive share ``w`` is a smooth interface given as delta lobes, traced
-    to ``max_depth`` by every integrator: an untinted mirror reflection ``w R`` and the tinted transmission
-    ``w (1 - R)`` (``R`` the exact Fresnel of a volume, with total internal reflection, as :class:`pyrt.Glass`;
-    ``R = specular F`` with the reflection's Schlick F for a thin wall); the opaque share ``1 - w`` keeps the
-    GGX lobes. Above it the
+    Up to :data:`SMOOTH_ROUGHNESS` the transmissive share ``w`` is a smooth interface given as delta lobes, traced to
+    ``max_depth`` by every integrator: an untinted mirror reflection ``w R`` and the tinted transmission ``w (1 - R)``
+    (``R`` the exact Fresnel of a volume, with total internal reflection, as :class:`pyrt.Glass`; ``R = specular F``
+    with the reflection's Schlick F for a thin wall); the opaque share ``1 - w`` keeps the GGX lobes. Above it the
     transmission is a BTDF that the glossy integrator samples (where ``alpha <= glossy_threshold``; rougher
-    transmission only receives direct light through its own surface) and the reflection the base model's GGX
-    lobe. Not modelled: ``specular`` on the transmitted weight of a volume, total internal reflection of a
-    rough volume beyond its BTDF's.
+    transmission only receives direct light through its own surface) and the reflection the base model's GGX lobe. Not
+    modelled: ``specular`` on the transmitted weight of a volume, total internal reflection of a rough volume beyond
+    its BTDF's.
 
     Anisotropy (``KHR_materials_anisotropy``): with ``anisotropy`` (the strength) > 0 the reflection's GGX lobe (metal
     and dielectric) has the width ``alpha_t = mix(alpha, 1, strength^2)`` along the direction ``t`` and ``alpha_b =
@@ -116,11 +115,7 @@ class GltfPBR(MetallicRoughness):
     anisotropy_texture : 3-channel texture, optional: ``anisotropyTexture`` (linear; RG the direction, B the strength)
     """
 
-    transmission = Fixed("the material's lobes and its transmitted tint derive from it")
-    thin = Fixed("the material's lobes derive from it")
-    ior_value = Fixed('ior derives from it')
-
-
+    transmission, thin, ior_value = Fixed("its lobes derive from it"), Fixed("its lobes too"), Fixed("ior too")
     ranges = {**MetallicRoughness.ranges, "specular": ("scalar", 0.0, 1.0, False),
               "specular_color": ("color", 0.0, None, False), "ior_value": ("scalar", 1.0, None, False),
               "transmission": ("scalar", 0.0, 1.0, False), "anisotropy": ("scalar", 0.0, 1.0, False)}
