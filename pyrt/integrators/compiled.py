@@ -12,7 +12,9 @@ unfiltered-checker albedo, constant emission), normalised Blinn-Phong, Mirror, G
 media); point and spot lights (every spot and distance falloff), directional lights, rectangle, disk and sphere
 lights sampled by light sampling (stratified per hit, padded over a pixel's samples) with their visible meshes; a
 constant background and ambient term; smooth and flat shading with or without the back-facing-normal fallback; the
-``robust`` and ``robust_no_terminator`` offsets. Not yet: environments, area lights with BSDF samples (MIS),
+``robust`` and ``robust_no_terminator`` offsets; constant and lat-long environments, seen by missed rays and lighting
+by ``strategy="mis"`` (light and BSDF samples). Not yet: other environments and strategies, area lights with BSDF
+samples (MIS),
 emissive-mesh lights, the other materials, image and filtered textures (ray differentials), normal maps, alpha
 coverage, nested media, transparent shadows, the glossy integrator, AOVs and ray recording. Adaptive passes
 render their chunks with :func:`render_pixels`.
@@ -34,6 +36,7 @@ from pyrt.integrators import kernel_cache
 from pyrt.integrators.coverage import CoverageTable
 from pyrt.integrators.media import NestedMedia
 from pyrt.lights import compiled as LC
+from pyrt.lights import compiled_env
 from pyrt.materials import compiled as MC
 from pyrt.textures import compiled as TC
 
@@ -67,8 +70,8 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
         reasons.append("AOVs")
     if record_rays:
         reasons.append("ray recording")
-    if scene.environment is not None:
-        reasons.append("an environment")
+    if scene.environment is not None and not compiled_env.packable(scene.environment):
+        reasons.append(f"environment {type(scene.environment).__name__}")
     if facts.coverage is not None:
         reasons.append("alpha coverage or back-face culling")
     if facts.media is not None:
@@ -86,7 +89,9 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
     for lt in scene.lights:
         if lt.compiled_record() is None or (lt.delta and lt.n_samples != 1):
             reasons.append(f"light {lt.label}")
-        elif lt.bsdf_samples:
+        elif lt.environment is not None and lt.environment is not scene.environment:
+            reasons.append(f"light {lt.label} (lights with an environment other than the scene's)")
+        elif lt.bsdf_samples and lt.environment is None:
             reasons.append(f"light {lt.label} (BSDF samples)")
     return reasons
 
@@ -162,6 +167,12 @@ class CompiledScene:
         lights = [lt.compiled_record() for lt in ps.scene.lights]
         self.lights = _table([t for t, _ in lights], [r for _, r in lights], LC.RECORD)
         self.n_lights = len(lights)
+        env = ps.scene.environment
+        env_light = next((lt for lt in ps.scene.lights if lt.environment is not None), None)
+        packed = compiled_env.pack_environment(env, env_light) if env is not None else None
+        #: the environment (:func:`pyrt.lights.compiled_env.pack_environment`): tag (0: none), record, data
+        self.env_tag, self.env_record, self.env_data = packed if packed is not None else (
+            0, np.zeros(compiled_env.RECORD), np.zeros(1))
         self.background = np.asarray(ps.scene.background, dtype=np.float64)
         self.ambient = np.asarray(ps.scene.ambient, dtype=np.float64)
         self.scene = embree_jit.scene_handle(ps.accel)
@@ -257,8 +268,8 @@ def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_dept
             warnings.simplefilter("ignore", NumbaIRAssumptionWarning)
             with numba.parallel_chunksize(CHUNKSIZE):
                 K.render_tiles(cs.scene, order[lo:hi], cam_rec, cs.geo_f, cs.geo_i, cs.materials[0], cs.materials[1],
-                               cs.textures[0], cs.textures[1], cs.lights[0], cs.lights[1], opts, optf, sums, sqs,
-                               counters[lo:hi], width)
+                               cs.textures[0], cs.textures[1], cs.lights[0], cs.lights[1], cs.env_data, opts,
+                               optf, sums, sqs, counters[lo:hi], width)
         if not loading:
             timed_s += time.perf_counter() - t0
             timed_tiles += hi - lo
@@ -285,8 +296,8 @@ def render_pixels(cs, cam, P, C, base, *, seed, max_depth, throughput_cutoff, sp
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", NumbaIRAssumptionWarning)     # (as in render_fixed)
         K.render_pixels(cs.scene, camera_record(cam), cs.geo_f, cs.geo_i, cs.materials[0], cs.materials[1],
-                        cs.textures[0], cs.textures[1], cs.lights[0], cs.lights[1], opts, optf, P, C, base, both,
-                        half_b, counters, packet_width())
+                        cs.textures[0], cs.textures[1], cs.lights[0], cs.lights[1], cs.env_data, opts, optf, P, C,
+                        base, both, half_b, counters, packet_width())
     return both, half_b, counters
 
 
@@ -304,7 +315,9 @@ def _options(cs, spp, seed, max_depth, throughput_cutoff, split_depth, terminato
     opts[KL.O_FALLBACK] = 1 if cs.fallback else 0
     grid = int(round(spp ** 0.5))
     opts[KL.O_GRID] = grid if grid * grid == spp else 0
-    optf = np.zeros(8)
+    opts[KL.O_ENV] = cs.env_tag
+    optf = np.zeros(KL.F_ENV + compiled_env.RECORD)
+    optf[KL.F_ENV:] = cs.env_record
     optf[KL.F_CUTOFF] = throughput_cutoff
     optf[KL.F_BG:KL.F_BG + 3] = cs.background
     optf[KL.F_AMBIENT:KL.F_AMBIENT + 3] = cs.ambient

@@ -44,10 +44,11 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK,
     O_GRID, F_CUTOFF, F_BG, F_AMBIENT, N_PRIMARY, N_SECONDARY,
     N_SHADOW, N_NONFINITE, STACK, STACK_ROW, T_INF, DIM_LOBE,
-    ADAPTIVE_KEYS, _njit, _stage, lane_vec, set_lane_vec)
+    ADAPTIVE_KEYS, DIM_ENV, F_ENV, O_ENV, _njit, _stage, lane_vec, set_lane_vec)
 from pyrt.integrators.compiled_lighting import (  # noqa: E402
-    area_stage, area_u, bsdf_stage, direct_light, light_stage, shadow_fill)
+    area_stage, area_u, bsdf_stage, direct_light, env_sample, env_stage, light_stage, shadow_fill)
 from pyrt.lights import compiled as LC  # noqa: E402
+from pyrt.lights import compiled_env as CE  # noqa: E402
 from pyrt.materials import compiled as MC  # noqa: E402
 from pyrt.shaders import jit as J  # noqa: E402
 from pyrt.shaders import jit_sampling as JS  # noqa: E402
@@ -151,14 +152,45 @@ def _push(p, ng, mag, stack, top, d, thr, depth):
 
 
 @numba.njit(nogil=True, cache=True, error_model="numpy")
-def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, opts, optf, key, dim, stack,
-                top, ray_buf, counters, r0, r1, r2):
+def env_hit(scene, etag, erec, edata, mtag, mats_par, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift, terminator,
+            key, n_l, n_b, ray_buf):
+    """The environment light at one hit of the specular tree: ``n_l`` light and ``n_b`` BSDF samples
+    (:func:`pyrt.integrators.compiled_lighting.env_sample`; round ``s`` draws the light sample's numbers, then the
+    BSDF sample's, each second number stratified over its technique's rounds), single shadow rays; returns
+    ``(r, g, b, shadow rays)``."""
+    a0 = a1 = a2 = 0.0
+    b0 = b1 = b2 = 0.0
+    n_sh = 0
+    for s in range(max(n_l, n_b)):
+        for tech in range(2):
+            count = n_l if tech == 0 else n_b
+            if s >= count:
+                continue
+            d = DIM_ENV + 4 * s + 2 * tech
+            ok, o, wi, val = env_sample(etag, erec, edata, mtag, mats_par, m, albedo, p, ng, ns, nv, wo, lift, mag,
+                                        mag_lift, terminator, J.uniform(key, d), (s + J.uniform(key, d + 1)) / count,
+                                        tech == 1)
+            if not ok:
+                continue
+            n_sh += 1
+            if not E.occluded1(scene, o[0], o[1], o[2], wi[0], wi[1], wi[2], 0.0, T_INF, ray_buf):
+                if tech == 0:
+                    a0, a1, a2 = a0 + val[0], a1 + val[1], a2 + val[2]
+                else:
+                    b0, b1, b2 = b0 + val[0], b1 + val[1], b2 + val[2]
+    return a0 / n_l + b0 / n_b, a1 / n_l + b1 / n_b, a2 / n_l + b2 / n_b, float(n_sh)
+
+
+@numba.njit(nogil=True, cache=True, error_model="numpy")
+def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, erec, edata, opts, optf, key,
+                dim, stack, top, ray_buf, counters, r0, r1, r2):
     """Trace the specular rays on ``stack`` (and those they spawn) with single-ray queries: the deeper bounces of
     one camera sample; returns the radiance ``(r0, r1, r2)`` plus theirs. Everything per ray is local; every table,
     the stack and the ray buffer are pointers (:func:`pyrt.core.unmanaged.pointer`)."""
     fallback = opts[O_FALLBACK] != 0
     terminator = opts[O_TERMINATOR] != 0
     split, cutoff, max_depth, nl = opts[O_SPLIT], optf[F_CUTOFF], opts[O_MAX_DEPTH], opts[O_NLIGHTS]
+    etag = opts[O_ENV]
     n_sec = n_sh = 0
     while top > 0:
         top -= 1
@@ -170,9 +202,11 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
         hit, _, prim, geom, u, v, _, _, _ = E.intersect1(scene, stack[row], stack[row + 1], stack[row + 2], d0, d1,
                                                          d2, 0.0, T_INF, ray_buf)
         if not hit:
-            r0 += thr[0] * optf[F_BG]
-            r1 += thr[1] * optf[F_BG + 1]
-            r2 += thr[2] * optf[F_BG + 2]
+            bg = CE.missed(etag, erec, edata, d0, d1, d2, False) if etag else (optf[F_BG], optf[F_BG + 1],
+                                                                              optf[F_BG + 2])
+            r0 += thr[0] * bg[0]
+            r1 += thr[1] * bg[1]
+            r2 += thr[2] * bg[2]
             continue
         wo = (-d0, -d1, -d2)
         p, ng, ns, nv, lift, mag, mag_lift, front, face, uv = J.hit_surface(G, fallback, terminator, geom, prim, u, v,
@@ -185,6 +219,12 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
             hkey = J.sample_key(key, n_sec)          # this hit's random numbers (the area lights' samples)
             for j in range(nl):
                 jb = j * LC.RECORD
+                if lights_tag[j] == LC.ENV:
+                    e = env_hit(scene, etag, erec, edata, mtag, mats_par, m, albedo, p, ng, ns, nv, wo, lift, mag,
+                                mag_lift, terminator, hkey, int(lights_par[jb]), int(lights_par[jb + 1]), ray_buf)
+                    le0, le1, le2 = le0 + e[0], le1 + e[1], le2 + e[2]
+                    n_sh += int(e[3])
+                    continue
                 n_j = int(lights_par[jb + LC.AREA_SAMPLES]) if lights_tag[j] >= LC.RECT else 1
                 k_j = J.isqrt(n_j)
                 inv_j = 1.0 / n_j
@@ -254,15 +294,46 @@ def release(b):
 
 
 @numba.njit(nogil=True, cache=True, error_model="numpy")
+def env_rounds(scene, etag, erec, edata, mats_tag, mats_par, V, n, terminator, pair, lane_s, spp, lane_k32, sh, w, n_l,
+               n_b, cnt):
+    """The environment light at the packet's camera hits: ``max(n_l, n_b)`` rounds, each the light technique's
+    sample (while the round is below ``n_l``) then the BSDF technique's (below ``n_b``), each a masked occlusion
+    query of the packet (:func:`pyrt.integrators.compiled_lighting.env_stage`); their values divided by their
+    technique's count added into :data:`V_L`. Returns the next free padded dimension pair (one per sample drawn,
+    in the NumPy path's order)."""
+    for s in range(max(n_l, n_b)):
+        for tech in range(2):
+            count = n_l if tech == 0 else n_b
+            if s >= count:
+                continue
+            E.packet_activate(sh, w, 0)
+            n_sh = env_stage(etag, erec, edata, mats_tag, mats_par, V, n, terminator, tech == 1, s, count, pair,
+                             lane_s, spp, lane_k32, sh, w)
+            pair += 1
+            if n_sh == 0:
+                continue
+            cnt[N_SHADOW] += n_sh
+            E.packet_query(scene, sh, w, True, True)
+            inv = 1.0 / count
+            for lane in range(n):
+                add = V[V_LIT * LANES + lane] != 0.0 and not E.lane_blocked(sh, w, lane)
+                for c in range(3):
+                    V[(V_L + c) * LANES + lane] += V[(V_F + c) * LANES + lane] * inv if add else 0.0
+    return pair
+
+
+@numba.njit(nogil=True, cache=True, error_model="numpy")
 def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, spp, n, w, mats_tag, mats_par, tex_tag,
-                 tex_par, lights_tag, lights_par, opts, optf, cnt):
+                 tex_par, lights_tag, lights_par, erec, edata, opts, optf, cnt):
     """Trace and shade a packet of ``n`` camera rays (directions in the scratch ``V`` at :data:`V_D`, lane ``l``'s
     random numbers keyed by ``keys[l]``, its padded light samples by sample ``lane_s[l]`` of its pixel's set of
     ``spp`` (``spp`` <= 0: a progressive set) and the pixel seed ``lane_k32[l]``): the camera packet's query, the
     hits' surfaces, per light the shadow rays in one masked query, the specular tree of each sample; each lane's
-    radiance into :data:`V_L` (a non-finite value zeroed and counted), rays counted into ``cnt``. Every argument
-    but the numbers and the geometry tuple ``G`` is a pointer."""
+    radiance into :data:`V_L` (a non-finite value zeroed and counted), rays counted into ``cnt``. ``erec``,
+    ``edata``: the environment's record and data (:mod:`pyrt.lights.compiled_env`; its tag ``opts[O_ENV]``). Every
+    argument but the numbers and the geometry tuple ``G`` is a pointer."""
     fmat = G[8]
+    etag = opts[O_ENV]
     nl = opts[O_NLIGHTS]
     max_depth, split, cutoff = opts[O_MAX_DEPTH], opts[O_SPLIT], optf[F_CUTOFF]
     fallback = opts[O_FALLBACK] != 0
@@ -297,7 +368,9 @@ def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, sp
         set_lane_vec(V, V_NV, lane, nv)
         set_lane_vec(V, V_LIFT, lane, lift)
         set_lane_vec(V, V_A, lane, albedo)
-        set_lane_vec(V, V_L, lane, le if hit else bg)
+        if not hit and etag != 0:
+            le = CE.missed(etag, erec, edata, d[0], d[1], d[2], True)
+        set_lane_vec(V, V_L, lane, le if hit or etag != 0 else bg)
         V[V_MAG * LANES + lane] = mag
         V[V_MAG_LIFT * LANES + lane] = mag_lift
         V[V_FRONT * LANES + lane] = 1.0 if front else 0.0
@@ -307,6 +380,11 @@ def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, sp
     pair = 0                # the padded dimension pairs of the area lights' samples
     for j in range(nl if any_diffuse else 0):
         ltag = lights_tag[j]
+        if ltag == LC.ENV:
+            pair = env_rounds(scene, etag, erec, edata, mats_tag, mats_par, V, n, terminator, pair, lane_s, spp,
+                              lane_k32, sh, w, int(lights_par[j * LC.RECORD]), int(lights_par[j * LC.RECORD + 1]),
+                              cnt)
+            continue
         area = ltag >= LC.RECT
         n_j = int(lights_par[j * LC.RECORD + LC.AREA_SAMPLES]) if area else 1
         k_j = J.isqrt(n_j)
@@ -341,7 +419,7 @@ def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, sp
                              cutoff, keys[lane], DIM_LOBE, stack, 0)
             if top > 0:
                 l0, l1, l2 = trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag,
-                                         lights_par, opts, optf, keys[lane], dim, stack, top, ray_buf,
+                                         lights_par, erec, edata, opts, optf, keys[lane], dim, stack, top, ray_buf,
                                          cnt, l0, l1, l2)
         if not (math.isfinite(l0) and math.isfinite(l1) and math.isfinite(l2)):
             n_bad += 1
@@ -354,7 +432,7 @@ def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, sp
 
 @numba.njit(nogil=True, cache=True, error_model="numpy")
 def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par,
-                opts, optf, sums, sqs, counters, width):
+                env_data, opts, optf, sums, sqs, counters, width):
     """Render the pixels of tile ``tile`` (row-major over the image's tiles of :data:`TILE` pixels) at the samples
     ``[opts[O_SPP_LO], opts[O_SPP])`` of each pixel's set of ``opts[O_SPP]``, ``width`` samples (a packet) at a time
     in pixel order (one pixel's samples when they fill a packet, several pixels' at low spp): their radiance summed
@@ -369,6 +447,7 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
     bufs = packet_buffers(width)
     pk, sh, ray_buf, V, stack, keys, lane_pix, lane_s, lane_key, lane_k32, lane_xy = buffer_pointers(bufs)
     film_s, film_q = U.pointer(sums), U.pointer(sqs)
+    erec, edata = U.pointer(optf[F_ENV:]), U.pointer(env_data)
     cam, opts, optf = U.pointer(cam), U.pointer(opts), U.pointer(optf)
     mats_tag, mats_par = U.pointer(mats_tag), U.pointer(mats_par)
     tex_tag, tex_par = U.pointer(tex_tag), U.pointer(tex_par)
@@ -430,7 +509,7 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
                 ox, oy = J.strata_position(spp_f, rows_f, float(s), u0, u1)
                 set_lane_vec(V, V_D, lane, camera_dir(cam, lane_xy[lane] + ox, lane_xy[LANES + lane] + oy))
         shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, spp, n, w, mats_tag, mats_par,
-                     tex_tag, tex_par, lights_tag, lights_par, opts, optf, cnt)
+                     tex_tag, tex_par, lights_tag, lights_par, erec, edata, opts, optf, cnt)
         for lane in range(n):
             l0, l1, l2 = lane_vec(V, V_L, lane)
             q = lane_pix[lane] * 3
@@ -445,16 +524,16 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
 
 @numba.njit(nogil=True, cache=True, error_model="numpy", parallel=True)
 def render_tiles(scene, tiles, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par,
-                 opts, optf, sums, sqs, counters, width):
+                 env_data, opts, optf, sums, sqs, counters, width):
     """:func:`render_tile` for every tile of ``tiles`` (threads over them); ``counters`` (len(tiles), 4)."""
     for k in prange(tiles.shape[0]):
         render_tile(scene, tiles[k], cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag,
-                    lights_par, opts, optf, sums, sqs, counters[k], width)
+                    lights_par, env_data, opts, optf, sums, sqs, counters[k], width)
 
 
 @numba.njit(nogil=True, cache=True, error_model="numpy")
-def render_pixels(scene, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, opts, optf,
-                  P, C, base, both, half_b, counters, width):
+def render_pixels(scene, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, env_data,
+                  opts, optf, P, C, base, both, half_b, counters, width):
     """One chunk of an adaptive pass (:func:`pyrt.render.chunks.shade_adaptive_chunk`'s estimate): pixel ``P[i]``
     gets ``C[i]`` (even) new samples, the first half to half-buffer A and the second to B, each half continuing its
     Owen-scrambled Sobol' sequence at ``base[i]`` (camera positions
@@ -465,6 +544,7 @@ def render_pixels(scene, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par
     U.wide_vectors()
     bufs = packet_buffers(width)
     pk, sh, ray_buf, V, stack, keys, lane_pix, lane_s, lane_key, lane_k32, lane_xy = buffer_pointers(bufs)
+    erec, edata = U.pointer(optf[F_ENV:]), U.pointer(env_data)
     cam, opts, optf = U.pointer(cam), U.pointer(opts), U.pointer(optf)
     mats_tag, mats_par = U.pointer(mats_tag), U.pointer(mats_par)
     tex_tag, tex_par = U.pointer(tex_tag), U.pointer(tex_par)
@@ -500,7 +580,7 @@ def render_pixels(scene, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par
                 cur_i += 1
                 cur_j = 0
         shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, -1, n, w, mats_tag, mats_par,
-                     tex_tag, tex_par, lights_tag, lights_par, opts, optf, cnt)
+                     tex_tag, tex_par, lights_tag, lights_par, erec, edata, opts, optf, cnt)
         for lane in range(n):
             q = lane_pix[lane]
             r, is_b = q // 2, q % 2

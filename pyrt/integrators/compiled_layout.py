@@ -32,11 +32,14 @@ C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W, C_H, C_JITTER, C_K, C_AX = 0, 3, 6, 9, 
 #: length of the camera record
 N_CAM = 18
 #: integer options
-O_SEED, O_SPP, O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK, O_GRID = 0, 1, 2, 3, 4, 5, 6, 7, 8
+O_SEED, O_SPP, O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK, O_GRID, O_ENV = range(10)
 #: length of the integer options
-N_OPTS = 9
+N_OPTS = 10
 #: float options
 F_CUTOFF, F_BG, F_AMBIENT = 0, 1, 4
+#: where the float options hold the environment's record (:data:`pyrt.lights.compiled_env.RECORD` entries; its tag
+#: is ``opts[O_ENV]``, 0: none)
+F_ENV = 8
 #: ray counters per tile
 N_PRIMARY, N_SECONDARY, N_SHADOW, N_NONFINITE = 0, 1, 2, 3
 #: the largest stack of pending specular rays a sample can need (2 per bounce below the split depth)
@@ -50,6 +53,8 @@ DIM_LOBE = 2
 #: the first random dimension of the area lights' samples at a hit (two per sample, :func:`area_u`; below it, one
 #: per light for its Latin-hypercube permutation); each hit of a sample's specular tree has a key of its own
 DIM_AREA = 1 << 20
+#: the first random dimension of the environment light's samples at a hit of the specular tree (four per round)
+DIM_ENV = 1 << 40
 #: adaptive passes key a sample by ``ADAPTIVE_KEYS + 2 index + half`` (:func:`pyrt.shaders.jit.key64`): apart from the
 #: fixed-spp renders' sample numbers
 ADAPTIVE_KEYS = 1 << 40

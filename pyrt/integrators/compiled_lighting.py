@@ -5,7 +5,9 @@ vectorise: :func:`light_stage` (punctual and directional lights: branch-free) or
 and sphere lights: a stratified sample per hit, padded over the pixel's samples) writes each lane's cosines,
 irradiance scale and shadow ray into the scratch; :func:`shadow_fill` copies the rays into the packet;
 :func:`bsdf_stage` evaluates the BSDF and switches on the lanes whose ray is worth tracing. :func:`direct_light` is
-the same estimate for one hit of the specular tree (single rays).
+the same estimate for one hit of the specular tree (single rays). The environment light (``strategy="mis"``) has a
+stage of its own, :func:`env_stage` (:func:`env_sample` per lane, one technique at a time: its light samples and
+its BSDF samples, MIS-weighted).
 """
 from __future__ import annotations
 
@@ -24,7 +26,9 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     V_SO, V_WI, V_TMAX, T_INF, DIM_AREA, MAX_AREA_SAMPLES,
     _njit, _stage, lane_vec, set_lane_vec)
 from pyrt.lights import compiled as LC  # noqa: E402
+from pyrt.lights import compiled_env as CE  # noqa: E402
 from pyrt.materials import compiled as MC  # noqa: E402
+from pyrt.materials import compiled_sampling as CS  # noqa: E402
 from pyrt.shaders import jit as J  # noqa: E402
 from pyrt.shaders import jit_sampling as JS  # noqa: E402
 from pyrt.shaders.jit import dot  # noqa: E402
@@ -206,6 +210,79 @@ def bsdf_stage(mats_tag, mats_par, lpars, j, V, sh, w, n):
         s = V[V_S * LANES + lane]
         ok = V[V_GOK * LANES + lane] != 0.0 and max(f[0], f[1], f[2]) > 0.0 and m >= 0 and MC.has_diffuse(mtag)
         set_lane_vec(V, V_F, lane, (f[0] * s * e0, f[1] * s * e1, f[2] * s * e2))
+        V[V_LIT * LANES + lane] = 1.0 if ok else 0.0
+        E.packet_set_active(sh, w, lane, ok)
+        n_sh += ok
+    return n_sh
+
+
+@_stage
+def env_sample(etag, erec, edata, mtag, mpars, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift, terminator, u0,
+               u1, bsdf_technique):
+    """One sample of the environment light at a hit of material ``m`` (``strategy="mis"``,
+    :func:`pyrt.integrators.direct.environment_estimate`): the light technique (:func:`pyrt.lights.compiled_env.
+    mis_sample`, ``f_cos L / pdf`` times its MIS weight; :func:`pyrt.integrators.direct._add_environment_sample`) or,
+    with ``bsdf_technique``, the BSDF's (:func:`pyrt.materials.compiled_sampling.sample_f`, ``weight L`` times its
+    weight; ``_add_bsdf_sample``), in the shading frame of ``ns``. Returns ``(ok, origin, wi, value)``: ``ok`` False
+    where the sample adds nothing (no density, the wrong side, zero value: no shadow ray); the shadow ray leaves
+    ``origin`` along ``wi`` unbounded (the environment is at infinity)."""
+    fs, ft = CS.coordinate_frame(ns[0], ns[1], ns[2])
+    wol = CS.to_local(wo, fs, ft, ns)
+    if bsdf_technique:
+        x, y, z, w_r, w_g, w_b, pdf_b = CS.sample_f(mtag, mpars, m, albedo, wol[0], wol[1], wol[2], u0, u1)
+        wi = CS.to_world((x, y, z), fs, ft, ns)
+        ok = pdf_b > 0.0 and max(w_r, w_g, w_b) > 0.0
+        le = CE.radiance(etag, erec, edata, wi[0], wi[1], wi[2])
+        k = CE.mis_weights(erec, CE.mis_pdf(etag, erec, edata, wi[0], wi[1], wi[2]), pdf_b)[1] if ok else 0.0
+        val = (w_r * le[0] * k, w_g * le[1] * k, w_b * le[2] * k)
+    else:
+        x, y, z, pdf_l = CE.mis_sample(etag, erec, edata, u0, u1)
+        wi = (x, y, z)
+        ok = pdf_l > 0.0
+        le = CE.radiance(etag, erec, edata, x, y, z)
+        ok = ok and max(le[0], le[1], le[2]) > 0.0
+        val = (0.0, 0.0, 0.0)
+        if ok:
+            wil = CS.to_local(wi, fs, ft, ns)
+            f = CS.f_cos_local(mtag, mpars, m, albedo, wol[0], wol[1], wol[2], wil[0], wil[1], wil[2])
+            k = CE.mis_weights(erec, pdf_l, CS.pdf_wi(mtag, mpars, m, wol[0], wol[1], wol[2], wil[0], wil[1],
+                                                      wil[2]))[0] / pdf_l
+            val = (f[0] * le[0] * k, f[1] * le[1] * k, f[2] * le[2] * k)
+    cg = dot(wi, ng)
+    ok = ok and (cg > 0.0 or dot(wi, nv) > 0.0) and max(val[0], val[1], val[2]) > 0.0
+    if terminator:
+        o = J.round_away(lift, mag_lift, 1.0, ng)
+    else:
+        o = J.round_away(p, mag, 1.0 if cg >= 0.0 else -1.0, ng)
+    return ok, o, wi, val
+
+
+@_stage
+def env_stage(etag, erec, edata, mats_tag, mats_par, V, n, terminator, bsdf_technique, s, count, pair, lane_s, spp,
+              lane_k32, sh, w):
+    """:func:`env_sample` for the camera hits in lanes ``[0, n)`` (round ``s`` of ``count`` samples of one
+    technique: the second random number stratified over the rounds, as the NumPy path's ``u[:, 1] = (s + u) /
+    n``), each lane's numbers padded over its pixel's samples (dimension pair ``pair``, as :func:`area_stage`):
+    the value into :data:`V_F`, whether it is traced into :data:`V_LIT`, the shadow ray into the packet ``sh``
+    (width ``w``, the lane switched on accordingly). Returns the number of shadow rays."""
+    n_sh = 0
+    for lane in range(n):
+        x0, x1 = JS.padded_sobol_2d(lane_s[lane], spp, lane_k32[lane], pair)
+        m = int(V[V_MAT * LANES + lane])
+        mm = max(m, 0)
+        mtag = mats_tag[mm]
+        ok = False
+        if m >= 0 and MC.has_diffuse(mtag):
+            d = lane_vec(V, V_D, lane)
+            ok, o, wi, val = env_sample(etag, erec, edata, mtag, mats_par, mm, lane_vec(V, V_A, lane),
+                                        lane_vec(V, V_P, lane), lane_vec(V, V_NG, lane), lane_vec(V, V_NS, lane),
+                                        lane_vec(V, V_NV, lane), (-d[0], -d[1], -d[2]), lane_vec(V, V_LIFT, lane),
+                                        V[V_MAG * LANES + lane], V[V_MAG_LIFT * LANES + lane], terminator, x0,
+                                        (s + x1) / count, bsdf_technique)
+            if ok:
+                set_lane_vec(V, V_F, lane, val)
+                E.packet_set_origin(sh, w, lane, o[0], o[1], o[2])
+                E.packet_set_dir(sh, w, lane, wi[0], wi[1], wi[2], T_INF)
         V[V_LIT * LANES + lane] = 1.0 if ok else 0.0
         E.packet_set_active(sh, w, lane, ok)
         n_sh += ok

@@ -13,6 +13,7 @@ RECT       0-2 centre, 3-5 unit normal (the emitting side), 6-8 radiance L (W m^
            9-11 tangent (the width's direction), 12-14 bitangent, 15 width, 16 height, 17 area, 18 samples per hit
 DISK       as RECT with 15 radius (16 unused)
 SPHERE     0-2 centre, 6-8 radiance, 15 radius, 17 area, 18 samples per hit
+ENV        0 light samples, 1 BSDF samples per hit (:class:`pyrt.EnvironmentLight` with ``strategy="mis"``)
 =========  =====================================================================================================
 
 :func:`sample_li` is :meth:`pyrt.lights.PointLight.sample_li` (and the spot's and directional light's) for one
@@ -38,6 +39,9 @@ POINT, SPOT, DIRECTIONAL = 1, 2, 3
 RECT, DISK, SPHERE = 4, 5, 6
 #: where an area light's record holds its samples per hit
 AREA_SAMPLES = 18
+#: the environment light (``strategy="mis"``): record 0 light samples, 1 BSDF samples per hit; the environment
+#: itself is the kernel's (:mod:`pyrt.lights.compiled_env`, packed once per scene)
+ENV = 7
 
 
 @register_jitable(inline="always")

@@ -70,6 +70,13 @@ def _table(dist):
     return [np.ravel(dist.func), np.ravel(dist.cdf_cond), np.ravel(dist.cdf_marg)]
 
 
+def packable(env):
+    """True when :func:`pack_environment` gives ``env`` a compiled form: a :class:`pyrt.ConstantEnvironment` or a
+    :class:`pyrt.LatLongEnvironment` (bilinear or nearest) itself, not a subclass."""
+    return type(env) is ConstantEnvironment or (type(env) is LatLongEnvironment
+                                                 and env.filter in ("bilinear", "nearest"))
+
+
 def pack_environment(env, light=None):
     """``(tag, record, data)`` of ``env`` for the compiled kernel (module docstring), or None when it has no compiled
     form (only :class:`pyrt.ConstantEnvironment` and :class:`pyrt.LatLongEnvironment` themselves, not subclasses).
@@ -95,7 +102,7 @@ def pack_environment(env, light=None):
     if type(env) is ConstantEnvironment:
         rec[R_COLOR:R_COLOR + 3] = np.broadcast_to(np.asarray(env.color, dtype=np.float64), (3,))
         return CONSTANT, rec, np.zeros(1)
-    if type(env) is not LatLongEnvironment or env.filter not in ("bilinear", "nearest"):
+    if not packable(env):
         return None
     img = env.image
     h, w = img.shape[:2]

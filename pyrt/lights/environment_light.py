@@ -155,6 +155,16 @@ class EnvironmentLight(Light):
             if not isinstance(v, (bool, np.bool_)):
                 raise EnvironmentMapError(f"{self.label}: {nm} must be true or false, got {v!r}")
 
+    def compiled_record(self):
+        """:data:`pyrt.lights.compiled.ENV` for ``strategy="mis"`` without the control variate, over an environment the
+        kernel can read (:func:`pyrt.lights.compiled_env.pack_environment`); None otherwise."""
+        from pyrt.lights import compiled as lc, compiled_env      # (compiled_env imports this module)
+        if self.strategy != "mis" or self.control_variate or not compiled_env.packable(self.environment):
+            return None
+        rec = np.zeros(lc.RECORD)
+        rec[0], rec[1] = self.n_samples, self.bsdf_samples
+        return lc.ENV, rec
+
     def sample(self, p, u):
         """Environment importance sample as a plain light sample (``E = L / pdf``, ``dist = inf``)."""
         wi, pdf = self.environment.sample(u)
