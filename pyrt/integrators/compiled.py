@@ -8,7 +8,7 @@ texture and light: a type tag and a parameter record, packed by each object's ``
 
 What the compiled path covers (everything else renders through the NumPy path, automatically with
 ``backend="auto"``): the Whitted integrator with max depth, throughput cutoff and split depth; Lambert (constant or
-unfiltered-checker albedo, constant emission), normalised Blinn-Phong, Mirror, Glass (one dielectric, no nested
+unfiltered-checker or nearest / bilinear image albedo, constant emission), normalised Blinn-Phong, Mirror, Glass (one dielectric, no nested
 media); point and spot lights (every spot and distance falloff), directional lights, rectangle, disk and sphere
 lights sampled by light sampling (stratified per hit, padded over a pixel's samples) with their visible meshes; a
 constant background and ambient term; smooth and flat shading with or without the back-facing-normal fallback; the
@@ -113,7 +113,7 @@ class _TexturePacker:
     """Collects texture records (each texture once) for the texture table."""
 
     def __init__(self):
-        self.tags, self.records, self._index = [], [], {}
+        self.tags, self.records, self.texels, self._index = [], [], [], {}
 
     def add(self, texture):
         """The texture's row in the table (added on first sight), or None when the kernel cannot read it."""
@@ -125,6 +125,7 @@ class _TexturePacker:
             self._index[key] = len(self.tags)
             self.tags.append(rec[0])
             self.records.append(np.asarray(rec[1], dtype=np.float64))
+            self.texels.append(rec[2] if len(rec) > 2 else None)
         return self._index[key]
 
 
@@ -163,7 +164,7 @@ class CompiledScene:
         textures = _TexturePacker()
         mats = [m.compiled_record(textures.add) for m in ps.scene.materials]
         self.materials = _table([t for t, _ in mats], [r for _, r in mats], MC.RECORD)
-        self.textures = _table(textures.tags, textures.records, TC.RECORD)
+        self.textures = TC.pack_table(textures.tags, textures.records, textures.texels)
         lights = [lt.compiled_record() for lt in ps.scene.lights]
         self.lights = _table([t for t, _ in lights], [r for _, r in lights], LC.RECORD)
         self.n_lights = len(lights)

@@ -36,6 +36,7 @@ from pyrt.shaders import color as _color
 from pyrt.shaders import ewa as _ewa
 from pyrt.shaders import mip as _mip
 from pyrt.shaders import textures as _tex
+from pyrt.textures import compiled as _compiled
 from pyrt.textures.base import TEXTURES, Texture, TextureError, texcoords
 
 
@@ -392,6 +393,26 @@ class ImageTexture(Texture):
             self._table = decode_table(self._image.dtype, self.decode) if self._image.dtype in CODE_TYPES else None
             self._pyramid = MipPyramid(self._image, self._table)
         self.channels = self._image.shape[2]
+
+    def compiled_record(self):
+        """:data:`pyrt.textures.compiled.IMAGE` with the decoded texels, for an RGB image read with the ``nearest`` or
+        ``bilinear`` filter from the mesh's UVs; None otherwise (the footprint filters need ray differentials)."""
+        if self.filter not in ("nearest", "bilinear") or self.channels != 3 or self.texcoord != 0:
+            return None
+        img = self.image
+        rec = np.zeros(_compiled.RECORD)
+        rec[0], rec[1] = img.shape[0], img.shape[1]
+        rec[3], rec[4] = (_compiled.WRAPS.index(m) for m in self.wrap)
+        rec[5] = 0.0 if self.filter == "nearest" else 1.0
+        rec[6] = 1.0 if img.dtype == np.float32 else 0.0
+        if self.scale != (1.0, 1.0) or self.offset != (0.0, 0.0) or self.rotation_deg != 0.0:
+            rot = np.deg2rad(self.rotation_deg)
+            c, s = np.cos(rot), np.sin(rot)
+            sx, sy = self.scale
+            rec[7] = 1.0
+            rec[8:12] = (c * sx, s * sx, -s * sy, c * sy)          # transform_uv's lin_t, row-major
+            rec[12:14] = self.offset
+        return _compiled.IMAGE, rec, img
 
     @classmethod
     def from_dict(cls, params, base_dir=None):
