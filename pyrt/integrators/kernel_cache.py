@@ -69,12 +69,12 @@ def cache_dir():
 
 
 def is_warm(path=None):
-    """True when the render kernel is in the cache (no compilation ahead)."""
+    """True when the render kernels (the fixed-spp and the adaptive entry) are in the cache (no compilation ahead)."""
     path = cache_dir() if path is None else path
+    want = {"compiled_kernel.render_tiles", "compiled_kernel.render_pixels"}
     for _root, _dirs, files in os.walk(path):
-        if any(f.startswith("compiled_kernel.render_tiles") and f.endswith(".nbi") for f in files):
-            return True
-    return False
+        want -= {w for w in want if any(f.startswith(w) and f.endswith(".nbi") for f in files)}
+    return not want
 
 
 def use_cache_dir():
