@@ -100,6 +100,8 @@ class Scene:
                  shading_normal_fallback=True):
         self.camera = camera if camera is not None else Camera()
         #: Replace a back-facing interpolated normal by the geometric one (see the class docstring).
+        if not isinstance(shading_normal_fallback, (bool, np.bool_)):
+            raise SceneError(f"Scene: shading_normal_fallback must be True or False, got {shading_normal_fallback!r}")
         self.shading_normal_fallback = bool(shading_normal_fallback)
         self.background = _rgb("Scene", "background", background)
         self.ambient = _rgb("Scene", "ambient", ambient)
@@ -167,7 +169,12 @@ class Scene:
             given, or smooth shading that keeps the vertices as they are); dropped where ``smooth="auto"``
             re-indexes the vertices; a vertex whose tangent is zero has none (the UV tangents are used there).
         """
+        if name is not None and not isinstance(name, str):
+            raise SceneError(f"mesh {name!r}: name must be a string, got {type(name).__name__}")
         name = name or f"mesh{len(self.meshes)}"
+        if isinstance(crease_angle, bool) or not isinstance(crease_angle, (int, float)) \
+                or not 0 <= crease_angle <= 180:
+            raise SceneError(f"mesh {name!r}: crease_angle must be a number of degrees in [0, 180], got {crease_angle!r}")
         if shading not in (None, "flat", "phong", "gouraud"):
             raise SceneError(f"mesh {name!r}: shading must be None, 'flat', 'phong' or 'gouraud', got {shading!r}")
         if shading == "flat":

@@ -47,6 +47,15 @@ def _scene_file(tmp_path, text):
     ("[meshes]\nprimitive = \"sphere\"\nmaterial = \"red\"\n",
      r"meshes must be an array of tables \(\[\[meshes\]\] in TOML.*got a single table \(\[meshes\] in TOML\)"),
     ("[lights]\ntype = \"point\"\n" + SPHERE, r"lights must be an array of tables"),
+    ("[render]\noffset = \"bogus\"\n" + SPHERE, r"\[render\] offset must be one of \["),
+    ("[render]\nmin_spp = 3\n" + SPHERE, r"\[render\] min_spp must be even"),
+    ("[render]\ntarget_error = 0.0\n" + SPHERE, r"\[render\] target_error must be > 0"),
+    ("[render]\nshading_normal_fallback = \"x\"\n" + SPHERE, r"shading_normal_fallback must be True or False"),
+    (SPHERE + "crease_angle = -5\n", r"#0.*crease_angle must be a number of degrees in \[0, 180\], got -5"),
+    (SPHERE + "crease_angle = nan\n", r"crease_angle must be a number of degrees in \[0, 180\], got nan"),
+    (SPHERE + "name = 3\n", r"name must be a string, got int"),
+    ("[[meshes]]\nprimitive = \"cylinder\"\nmaterial = \"red\"\nsections = 2.5\n",
+     r"#0: sections must be an integer >= 3, got 2.5$"),
 ])
 def test_a_bad_scene_file_key_names_the_key_and_the_file(tmp_path, text, message):
     path = _scene_file(tmp_path, text)
@@ -68,6 +77,11 @@ def test_render_options_are_checked_even_when_the_integrator_does_not_read_them(
                                "meshes": [{"primitive": "sphere", "material": "m"}]})
     with pytest.raises(pyrt.RenderError, match=message):
         pyrt.render(scene, integrator="whitted", **kw)
+
+
+def test_camera_jitter_must_be_a_boolean():
+    with pytest.raises(pyrt.Error, match="Camera: jitter must be True or False, got 'no'"):
+        pyrt.Camera(jitter="no")
 
 
 def _metal_scene(roughness):

@@ -70,6 +70,8 @@ class Camera:
         self.up = up
         self._frame()
         self.fov, self.width, self.height, self.spp = fov, width, height, spp
+        if not isinstance(jitter, (bool, np.bool_)):
+            raise CameraError(f"Camera: jitter must be True or False, got {jitter!r}")
         self.jitter = bool(jitter)
         self.validate()
 

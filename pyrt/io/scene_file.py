@@ -60,6 +60,7 @@ from pyrt.lights import LIGHTS, PATH_ARGUMENTS as LIGHT_PATH_ARGUMENTS
 from pyrt.lights import environment as _env
 from pyrt.lights.environment_light import set_environment
 from pyrt.materials import REGISTRY as MATERIALS
+from pyrt.geometry.offsets import STRATEGIES
 from pyrt.render import INTEGRATORS, SAMPLERS
 from pyrt.core import checks
 from pyrt.core.transforms import align_vectors
@@ -154,8 +155,13 @@ def _render_options(rnd, path):
     if "transparent_shadows" in options and not isinstance(options["transparent_shadows"], bool):
         raise SceneFileError(f"{path}: [render] transparent_shadows must be true or false, "
                              f"got {options['transparent_shadows']!r}")
-    if "offset" in options and not isinstance(options["offset"], str):
-        raise SceneFileError(f"{path}: [render] offset must be a strategy name (a string), got {options['offset']!r}")
+    for key in ("target_error", "time_budget"):
+        if key in options and options[key] <= 0:
+            raise SceneFileError(f"{path}: [render] {key} must be > 0, got {options[key]!r}")
+    if "offset" in options and (not isinstance(options["offset"], str) or options["offset"] not in STRATEGIES):
+        raise SceneFileError(f"{path}: [render] offset must be one of {sorted(STRATEGIES)}, got {options['offset']!r}")
+    if "min_spp" in options and options["min_spp"] % 2:
+        raise SceneFileError(f"{path}: [render] min_spp must be even (two half-buffers), got {options['min_spp']}")
     if "integrator" in options and options["integrator"] not in INTEGRATORS:
         raise SceneFileError(f"{path}: [render] integrator must be one of {list(INTEGRATORS)}, "
                              f"got {options['integrator']!r}")
@@ -367,6 +373,8 @@ def _load(data, base, path):
         if prim is not None:
             try:
                 mesh, smooth_default = _primitive(prim, spec, where, path)
+            except SceneFileError:
+                raise
             except (ValueError, TypeError, IndexError, OverflowError) as e:  # trimesh.creation on bad sizes
                 raise SceneFileError(f"{path}: {where}: invalid {prim} parameters: {type(e).__name__}: {e}") from None
         else:
