@@ -72,3 +72,13 @@ def test_a_parameter_with_derived_state_is_refused_after_construction(make, attr
     assert getattr(obj, attr) is old
     setattr(obj, attr, old)           # the object it holds: allowed
     assert isinstance(FixedAttributeError("x"), (pyrt.Error, AttributeError))
+
+
+def test_a_procedural_texture_channel_count_follows_its_colours():
+    tex = pyrt.CheckerTexture(0.2, 0.8)
+    assert tex.channels == 1
+    tex.color1 = np.array([0.9, 0.1, 0.1])      # grey -> RGB: a render reads 3 channels now (was: still 1)
+    assert tex.channels == 3
+    noise = pyrt.NoiseTexture.example()
+    noise.high = np.array([1.0, 0.5, 0.0])
+    assert noise.channels == 3

@@ -216,7 +216,6 @@ class RectLight(AreaLight):
     tangent = Fixed('the tangent frame derives from it')
     bitangent = Fixed('it derives from normal and tangent')
 
-
     @classmethod
     def example(cls):
         """A 1 x 0.5 rectangle at height 2 facing down, 20 W."""
@@ -290,7 +289,6 @@ class DiskLight(AreaLight):
     normal = Fixed('the tangent frame derives from it')
     tangent = Fixed('it derives from normal')
     bitangent = Fixed('it derives from normal')
-
 
     #: polygon segments of the visible mesh (the light itself is sampled on the exact disk)
     segments = 64

@@ -54,7 +54,6 @@ class ProjectorLight(SpotLight):
     frame = Fixed('it derives from direction and up')
     tan_half = Fixed('it derives from outer_angle')
 
-
     @classmethod
     def example(cls):
         """A projector at (0, 2, 0) pointing down with an 8x8 gradient slide and a soft 20-40 degree edge."""
@@ -138,7 +137,6 @@ class GoniometricLight(_PunctualLight):
     up = Fixed("the light's frame derives from it")
     frame = Fixed('it derives from up and reference')
 
-
     @classmethod
     def example(cls):
         """A goniometric light at (0, 2, 0) brighter toward its up axis."""
@@ -189,7 +187,6 @@ class IESLight(_PunctualLight):
     intensity = Fixed('it derives from scale')
     direction = Fixed("the light's frame derives from it")
     frame = Fixed('it derives from direction and reference')
-
 
     @classmethod
     def example(cls):

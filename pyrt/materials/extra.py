@@ -46,7 +46,6 @@ class Conductor(Material):
 
     metal = Fixed('eta and k were looked up from it')
 
-
     has_diffuse = False
     has_delta = True
     ranges = {"eta": ("color", 0.0, None, True), "k": ("color", 0.0, None, False)}

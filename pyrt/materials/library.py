@@ -348,7 +348,6 @@ class CookTorrance(_MicrofacetSampling, Material):
     metal = Fixed('eta and k were looked up from it')
     fresnel = Fixed('which of f0, ior, eta and k are set derives from it')
 
-
     type_name = "cook_torrance"
     ranges = {"kd": ("color", 0.0, 1.0, False), "ks": ("color", 0.0, 1.0, False), "rough": ("scalar", 0.0, 1.0, False),
               "f0": ("color", 0.0, 1.0, False), "ior": ("scalar", 0.0, None, True), "eta": ("color", 0.0, None, False),

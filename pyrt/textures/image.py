@@ -325,7 +325,6 @@ class ImageTexture(Texture):
     decode = Fixed('the texels were decoded with it')
     channels = Fixed("it is the decoded image's")
 
-
     def __init__(self, source, *, srgb=None, wrap="repeat", filter="trilinear", scale=(1.0, 1.0),
                  offset=(0.0, 0.0), rotation_deg=0.0, channels=None, select=None, footprint_scale=None,
                  max_anisotropy=8.0, name=None, decode=None, texcoord=0):

@@ -71,7 +71,11 @@ class CheckerTexture(_Procedural):
         self.color0 = as_value(color0, "CheckerTexture", "color0")
         self.color1 = as_value(color1, "CheckerTexture", "color1")
         self.filtered = bool(filtered)
-        self.channels = max(value_channels(c) for c in (self.color0, self.color1))
+
+    @property
+    def channels(self):
+        """The larger channel count of ``color0`` and ``color1`` (derived whenever read: it never goes stale)."""
+        return max(value_channels(c) for c in (self.color0, self.color1))
 
     def compiled_record(self):
         """The unfiltered UV checker with constant colours (:data:`pyrt.textures.compiled.CHECKER_UV`); None for
@@ -99,7 +103,6 @@ class _NoiseBase(_Procedural):
 
     seed = Fixed('the permutation table derives from it')
 
-
     def __init__(self, scale, space, seed, low, high, owner):
         super().__init__(scale, space, owner)
         self.seed = seed
@@ -109,7 +112,11 @@ class _NoiseBase(_Procedural):
             raise TextureError(f"{owner}: {exc}") from None
         self.low = as_value(low, owner, "low")
         self.high = as_value(high, owner, "high")
-        self.channels = max(value_channels(c) for c in (self.low, self.high))
+
+    @property
+    def channels(self):
+        """The larger channel count of ``low`` and ``high`` (derived whenever read: it never goes stale)."""
+        return max(value_channels(c) for c in (self.low, self.high))
 
     def _t(self, ctx):  # pragma: no cover - interface
         raise NotImplementedError
