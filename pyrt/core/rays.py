@@ -87,13 +87,19 @@ class RayBatch:
     def concatenate(batches):
         """One batch of the rays of ``batches`` (of one depth), in order. ``bsdf_pdf`` is 0 (delta-lobe rays) for
         the rays of a batch without one; ``differentials``, ``stack``, ``pixel`` and ``tmax`` are kept when every
-        batch has them."""
+        batch has them. Interface stacks of different widths (a slice whose rays entered more volumes) are padded
+        with -1 (empty) to the widest."""
         if len(batches) == 1:
             return batches[0]
 
         def cat(name):
             parts = [getattr(b, name) for b in batches]
-            return None if any(p is None for p in parts) else np.concatenate(parts)
+            if any(p is None for p in parts):
+                return None
+            if name == "stack":
+                wdt = max(p.shape[1] for p in parts)
+                parts = [np.pad(p, ((0, 0), (0, wdt - p.shape[1])), constant_values=-1) for p in parts]
+            return np.concatenate(parts)
         pdfs = [b.bsdf_pdf for b in batches]
         bsdf_pdf = None if all(p is None for p in pdfs) else np.concatenate(
             [np.zeros(b.size) if p is None else p for b, p in zip(batches, pdfs)])

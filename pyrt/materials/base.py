@@ -416,6 +416,14 @@ class Material:
         BSDF-sampled rays where ``alpha <= glossy_threshold``; elsewhere it uses direct light only."""
         return None
 
+    def rough_transmission(self, ctx):
+        """(N,) bool: the hit transmits light through a non-delta lobe (rough glass: :meth:`sample` gives directions
+        below the surface there). The glossy integrator continues such hits by one BSDF-sampled ray at every bounce
+        up to ``max_depth``, as delta lobes are, whatever ``glossy_depth`` and ``glossy_threshold`` say: a path
+        through a rough volume crosses at least two surfaces, and one cut inside would end black. Default:
+        :attr:`transmits` everywhere."""
+        return np.full(ctx.n_hits, bool(self.transmits))
+
     def albedo(self, ctx):
         """Diffuse-like reflectance (N, 3): the ambient term and the albedo AOV."""
         return np.zeros((ctx.n_hits, 3))

@@ -340,6 +340,11 @@ class GltfPBR(MetallicRoughness):
             lobes.append(DeltaLobe(wt, tint * (w * (1.0 - R) / (eta * eta))[:, None], "refract", eta))
         return lobes
 
+    def rough_transmission(self, ctx):
+        """Hits whose transmissive share is rough (``(1 - metallic) transmission > 0`` and roughness above
+        :data:`SMOOTH_ROUGHNESS`: the GGX BTDF); smooth transmission is delta lobes."""
+        return self._transmission_weights(ctx)[0] > 0
+
     def preview_lobes(self, ctx):
         """Split-sum lobes of the reflection half (None where the batch has rough transmission: the preview samples
         it): diffuse ``(1 - m)(1 - t) base (1 - s (F0m + (1 - F0m) E5))`` (``F0m`` the largest channel of the
@@ -533,6 +538,10 @@ class Clearcoat(Material):
     def delta_lobes(self, wo, ctx, *, eta=None):
         """The base's delta lobes weighted ``1 - c F_c(n.v)``."""
         return weighted_delta_lobes(self.base, wo, ctx, eta, lambda w, c: 1.0 - self.coat_weight(w, c))
+
+    def rough_transmission(self, ctx):
+        """The base's (the coat reflects, it does not stop what the base transmits)."""
+        return self.base.rough_transmission(ctx)
 
     def glossy_alpha(self, ctx):
         """The coat's alpha where it coats (``c > 0``), else the base's."""

@@ -109,6 +109,10 @@ class Sheen(Material):
         """The base's delta lobes weighted ``1 - max(sheen_color) E(n.v)``."""
         return weighted_delta_lobes(self.base, wo, ctx, eta, lambda w, c: 1.0 - self._scaling(w, c))
 
+    def rough_transmission(self, ctx):
+        """The base's."""
+        return self.base.rough_transmission(ctx)
+
     def glossy_alpha(self, ctx):
         """The base's (the sheen lobe is broad: diffuse-like for the glossy integrator)."""
         return self.base.glossy_alpha(ctx)

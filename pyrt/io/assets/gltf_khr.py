@@ -9,7 +9,8 @@ What each extension becomes (the materials: :mod:`pyrt.materials.gltf_pbr`; the 
 - ``KHR_materials_volume``: with ``thicknessFactor > 0`` the mesh bounds a volume (refraction, nested media) whose
   medium absorbs ``sigma_a = -ln(attenuationColor) / attenuationDistance`` per scene unit (world units, as the
   extension defines them); without it, or with thickness 0, a thin wall (light goes straight through).
-  ``thicknessTexture`` is a rasteriser's stand-in for the distance a ray tracer measures: not read;
+  ``thicknessTexture`` is a rasteriser's stand-in for the distance a ray tracer measures: not read, and no
+  warning (nothing is lost);
 - ``KHR_materials_specular`` (specularFactor x specularTexture A, specularColorFactor x specularColorTexture
   RGB, sRGB): the dielectric F0 scale and tint; ``KHR_materials_ior`` without transmission: F0 from ior;
 - ``KHR_materials_clearcoat`` (clearcoatFactor x clearcoatTexture R, clearcoatRoughnessFactor x
@@ -208,8 +209,8 @@ def read_material_extensions(m, P, what, warnings, texture, channel, image_array
             raise AssetError(f"{w}: attenuationDistance must be > 0, got {dist}")
         color = np.clip(_color3(vol, "attenuationColor", w), 0.0, 1.0)
         P.attenuation_color, P.attenuation_distance = color, dist
-        if "thicknessTexture" in vol:
-            warnings.append(f"{w}: thicknessTexture not read (a ray tracer measures the thickness)")
+        # thicknessTexture is not read and not warned about: it stands in, for rasterisers, for the distance a ray
+        # tracer measures (the extension: path tracers may ignore it); nothing of the model is lost
         if tr is None:
             warnings.append(f"{w}: volume without KHR_materials_transmission has no effect")
     sp = ext.get("KHR_materials_specular")
