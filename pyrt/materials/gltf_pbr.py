@@ -1,7 +1,6 @@
 """glTF's material extensions as pyrt materials: the extended metallic-roughness BSDF (``KHR_materials_specular``,
-``_ior``, ``_transmission``, ``_volume``, ``_anisotropy``), the clear coat layer (``KHR_materials_clearcoat``) and
-unlit surfaces (``KHR_materials_unlit``). Scene-file ``type`` names in brackets; the glTF loader
-(:mod:`pyrt.io.assets.gltf`) builds them from the files' parameters.
+``_ior``, ``_transmission``, ``_volume``, ``_anisotropy``), the clear coat layer (``KHR_materials_clearcoat``) and unlit
+surfaces (``KHR_materials_unlit``). Scene-file ``type`` names in brackets; built by :mod:`pyrt.io.assets.gltf`.
 
 - :class:`GltfPBR` [gltf_pbr]: :class:`pyrt.materials.MetallicRoughness` with the dielectric F0 from ``ior`` times
   ``specular_color``, the specular weight ``specular`` (kernel :func:`pyrt.shaders.brdfs.gltf_pbr_f_cos`) and a
@@ -20,7 +19,7 @@ import numpy as np
 from pyrt.core.checks import Fixed
 from pyrt.materials import preview as _preview
 from pyrt.materials.base import DeltaLobe, Material, MaterialError, check_color, check_scalar, is_texture, register
-from pyrt.materials.layering import adopt_base, finish_sample, split_u, weighted_delta_lobes
+from pyrt.materials.layering import Layer, adopt_base, finish_sample, split_u, weighted_delta_lobes
 from pyrt.materials.library import MetallicRoughness, _check_choice
 from pyrt.shaders import brdfs, fresnel
 from pyrt.shaders import microfacet as _mf
@@ -80,10 +79,9 @@ class GltfPBR(MetallicRoughness):
     ``max_depth`` by every integrator: an untinted mirror reflection ``w R`` and the tinted transmission ``w (1 - R)``
     (``R`` the exact Fresnel of a volume, with total internal reflection, as :class:`pyrt.Glass`; ``R = specular F``
     with the reflection's Schlick F for a thin wall); the opaque share ``1 - w`` keeps the GGX lobes. Above it the
-    transmission is a BTDF that the glossy integrator samples (where ``alpha <= glossy_threshold``; rougher
-    transmission only receives direct light through its own surface) and the reflection the base model's GGX lobe. Not
-    modelled: ``specular`` on the transmitted weight of a volume, total internal reflection of a rough volume beyond
-    its BTDF's.
+    transmission is a BTDF that the glossy integrator samples at every bounce (:meth:`rough_transmission`) and the
+    reflection the base model's GGX lobe. Not modelled: ``specular`` on the transmitted weight of a volume, total
+    internal reflection of a rough volume beyond its BTDF's.
 
     Anisotropy (``KHR_materials_anisotropy``): with ``anisotropy`` (the strength) > 0 the reflection's GGX lobe (metal
     and dielectric) has the width ``alpha_t = mix(alpha, 1, strength^2)`` along the direction ``t`` and ``alpha_b =
@@ -341,8 +339,7 @@ class GltfPBR(MetallicRoughness):
         return lobes
 
     def rough_transmission(self, ctx):
-        """Hits whose transmissive share is rough (``(1 - metallic) transmission > 0`` and roughness above
-        :data:`SMOOTH_ROUGHNESS`: the GGX BTDF); smooth transmission is delta lobes."""
+        """Hits with a rough transmissive share (roughness above :data:`SMOOTH_ROUGHNESS`: the GGX BTDF)."""
         return self._transmission_weights(ctx)[0] > 0
 
     def preview_lobes(self, ctx):
@@ -385,7 +382,7 @@ class GltfPBR(MetallicRoughness):
 
 
 @register("clearcoat")
-class Clearcoat(Material):
+class Clearcoat(Layer):
     """A clear dielectric coat over a base material [clearcoat] (``KHR_materials_clearcoat``).
 
     ``f = base (1 - c F_c) + c F_c D_ggx G / (4 |n.l| |n.v|)``, ``F_c = F0 + (1 - F0)(1 - cos)^5`` with
@@ -538,10 +535,6 @@ class Clearcoat(Material):
     def delta_lobes(self, wo, ctx, *, eta=None):
         """The base's delta lobes weighted ``1 - c F_c(n.v)``."""
         return weighted_delta_lobes(self.base, wo, ctx, eta, lambda w, c: 1.0 - self.coat_weight(w, c))
-
-    def rough_transmission(self, ctx):
-        """The base's (the coat reflects, it does not stop what the base transmits)."""
-        return self.base.rough_transmission(ctx)
 
     def glossy_alpha(self, ctx):
         """The coat's alpha where it coats (``c > 0``), else the base's."""

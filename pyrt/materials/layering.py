@@ -9,6 +9,14 @@ from pyrt.materials.base import DeltaLobe, Material, MaterialError
 from pyrt.materials.library import MetallicRoughness
 
 
+class Layer(Material):
+    """A layer over a material (:attr:`base`, set by :func:`adopt_base`): what passes the layer is the base's."""
+
+    def rough_transmission(self, ctx):
+        """The base's (a coat or a sheen reflects; it does not stop what the base transmits)."""
+        return self.base.rough_transmission(ctx)
+
+
 def split_u(u, p):
     """``(choose, uu)``: lanes with ``u0 < p`` choose the first strategy; ``uu`` is ``u`` with ``u0`` rescaled to
     [0, 1) inside each branch (as :class:`pyrt.materials.library.CookTorrance` does)."""

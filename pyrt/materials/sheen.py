@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from pyrt.materials.base import Material, check_color, check_scalar, is_texture, register
-from pyrt.materials.layering import adopt_base, finish_sample, split_u, weighted_delta_lobes
+from pyrt.materials.base import check_color, check_scalar, is_texture, register
+from pyrt.materials.layering import Layer, adopt_base, finish_sample, split_u, weighted_delta_lobes
 from pyrt.materials.library import MetallicRoughness
 from pyrt.textures import footprinted
 from pyrt.shaders import sampling
@@ -24,7 +24,7 @@ from pyrt.shaders.sheen import MIN_ROUGHNESS, sheen_albedo, sheen_f_cos
 
 
 @register("sheen")
-class Sheen(Material):
+class Sheen(Layer):
     """Sheen over a base material [sheen] (``KHR_materials_sheen``; the module docstring has the model).
 
     Sampling: the sheen lobe (cosine-weighted; it is broad) with probability ``max(sheen_color) E(n.v)`` (at most
@@ -108,10 +108,6 @@ class Sheen(Material):
     def delta_lobes(self, wo, ctx, *, eta=None):
         """The base's delta lobes weighted ``1 - max(sheen_color) E(n.v)``."""
         return weighted_delta_lobes(self.base, wo, ctx, eta, lambda w, c: 1.0 - self._scaling(w, c))
-
-    def rough_transmission(self, ctx):
-        """The base's."""
-        return self.base.rough_transmission(ctx)
 
     def glossy_alpha(self, ctx):
         """The base's (the sheen lobe is broad: diffuse-like for the glossy integrator)."""
