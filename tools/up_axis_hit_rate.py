@@ -1,13 +1,14 @@
 """Hit rate of the previewer's up-axis guess on scan-like generated meshes, before and after issue 14.
 
-Every case of :func:`scan_shapes.cases` (6 shapes x authored y-up / z-up x yaw 0 / 30 degrees, scan-like
+Every case of :func:`scan_shapes.cases` (12 shapes x authored y-up / z-up x yaw 0 / 30 degrees, scan-like
 noise) is written to a PLY file without comments (as a scanner would), loaded with ``pyrt.load_asset``
 and guessed by
 
 - *before*: the base-area score the previewer used until issue 14 (the area of downward-facing triangles
   within 1 % of the lowest point, +y against +z; kept here only as the baseline), and
-- *after*: :func:`pyrt.apps.preview.detect_up_axis` (convex-hull support polygon, centroid inside it,
-  mirror symmetry; see :func:`pyrt.apps.preview.rig.guess_up_axis`).
+- *after*: :func:`pyrt.apps.preview.detect_up_axis` (planar outlines stood up to face the camera, flat bases and
+  cuts, then the convex-hull support polygon, centroid inside it, mirror symmetry; see
+  :func:`pyrt.apps.preview.rig.guess_up_axis`).
 
 Prints one line per case and the two hit rates.
 

@@ -7,8 +7,10 @@ Two things go wrong, measured with pyrt's Accel (closest hits of rays toward a t
   (``np.spacing(np.float32(x))``). A unit sphere (size 2) centred at distance D renders correctly up to
   D = 1e6 (ulp 0.06: 32 steps across it), is visibly distorted at D = 1e7 (ulp 1: 2 steps, 28 % too many
   pixels) and vanishes from D = 1e8 on (ulp 8: every triangle collapses to zero area). Rule: a mesh whose
-  size spans fewer than :data:`RESOLVED_STEPS` float32 steps at its coordinates is warned about; one whose
-  triangles all have zero area once rounded to float32 is lost.
+  size (its largest extent) spans fewer than :data:`RESOLVED_STEPS` float32 steps of some axis at its coordinates
+  is warned about (a step there moves a vertex by that share of the mesh's size); one whose triangles all have zero
+  area once rounded to float32 is lost. A thin axis alone is no risk to the image: a board 1e-7 thick at unit
+  coordinates is 2 steps thick, and a step is 1e-7 of its size.
 - **Overflow.** Embree's ray-triangle test multiplies a ray-origin distance by two edge vectors
   (``dot(v0 - o, cross(e1, e2))``): with ``L`` the distance from the ray origin and ``l`` the longest
   edge, hits are lost once ``L l^2`` reaches ~2.2e38 (measured for l = 2e6, 2e10, 2e12: the first miss
@@ -98,10 +100,12 @@ def _mesh_problem(v, f, extent, v_object):
     v32 = v.astype(np.float32).astype(np.float64)
     sizes = v32.max(axis=0) - v32.min(axis=0)
     ulps = np.spacing(np.max(np.abs(v32), axis=0).astype(np.float32)).astype(np.float64)
-    # per axis; a flat mesh has an axis of size 0, but a solid one (rank 3 in object space, and an invertible
-    # transform keeps the rank) has none unless float32 rounding flattened it: zero steps there
+    # the mesh's size in float32 steps of each axis (a step moves a vertex by ulp / size of the mesh's size); a flat
+    # mesh's axis of size 0 is exact (no steps to count), a solid one's (rank 3 in object space, and an invertible
+    # transform keeps the rank) was flattened by float32 rounding: counted
     solid = np.linalg.matrix_rank(v_object - v_object.mean(axis=0)) == 3
-    steps = np.where(sizes > 0, sizes / ulps, 0.0 if solid else np.inf)
+    big = float(sizes.max())
+    steps = np.where((sizes > 0) | solid, big / ulps, np.inf)
     k = int(np.argmin(steps))
     size, ulp = float(sizes[k]), float(ulps[k])
     # Per-triangle work only where it can change the answer (multi-million-triangle meshes): every edge lies in
@@ -121,8 +125,9 @@ def _mesh_problem(v, f, extent, v_object):
         return (f"scene extent {extent:.3g} x longest edge {edge:.3g} squared = {product:.3g} overflows Embree's "
                 "float32 intersection test (>= 2e38): the mesh is lost"), True
     if steps[k] < RESOLVED_STEPS:
-        return (f"its size {size:.3g} along {'xyz'[k]} spans only {steps[k]:.3g} float32 steps of {ulp:.3g} at its "
-                f"coordinates (|x| up to {mag:.3g}; {RESOLVED_STEPS} needed): its shape is distorted or flattened"), False
+        return (f"its size {big:.3g} spans only {steps[k]:.3g} float32 steps of {ulp:.3g} along {'xyz'[k]} at its "
+                f"coordinates (|x| up to {mag:.3g}; {RESOLVED_STEPS} needed; its size {size:.3g} along {'xyz'[k]}): its "
+                "shape is distorted or flattened"), False
     if product is not None and product * OVERFLOW_MARGIN >= OVERFLOW_PRODUCT:
         return (f"scene extent {extent:.3g} x longest edge {edge:.3g} squared = {product:.3g} is within "
                 f"{OVERFLOW_MARGIN:g}x of the float32 overflow of Embree's intersection test (2e38)"), False

@@ -37,6 +37,11 @@ class AssetReport:
     phases: dict = field(default_factory=dict)
     #: what the loader replaced to render the model anyway (a missing texture, MTL, ...): also in ``warnings``
     substitutions: list = field(default_factory=list)
+    #: camera samples per pixel reached (the mean over the views; adaptive renders vary it per pixel)
+    spp: float = 0.0
+    #: adaptive renders: the largest estimated relMSE of a view (:attr:`pyrt.RenderResult.estimated_error`); None at a
+    #: fixed spp
+    estimated_error: float | None = None
 
     @property
     def prepare_time(self):
@@ -89,6 +94,7 @@ def preview_asset(path, out_dir=None, options=None, *, name=None, return_files=F
     rep.triangles, rep.load_time, rep.render_time = res.triangles, res.load_time, res.render_time
     rep.warnings, rep.exposure = list(dict.fromkeys(res.warnings)), res.exposure
     rep.phases, rep.substitutions = dict(res.phases), list(res.substitutions)
+    rep.spp, rep.estimated_error = res.mean_spp, res.worst_error
     if return_files:
         rep.files = res.files
         rep.outputs = sorted(res.files)
@@ -100,13 +106,18 @@ def preview_asset(path, out_dir=None, options=None, *, name=None, return_files=F
 
 
 def collect_inputs(specs):
-    """Expand files, folders (their supported models, sorted) and glob patterns into model paths."""
+    """Expand files, folders and glob patterns into model paths. A folder is searched recursively (a folder of model
+    folders, as the Khronos samples come: ``Duck/glTF-Binary/Duck.glb``) for the files of the supported formats, in
+    sorted order, skipping hidden folders (``.git``)."""
     out = []
     for s in specs:
         s = os.fspath(s)
         if os.path.isdir(s):
-            out += sorted(os.path.join(s, f) for f in os.listdir(s)
-                          if os.path.splitext(f)[1].lower() in FORMATS and os.path.isfile(os.path.join(s, f)))
+            found = []
+            for top, dirs, files in os.walk(s):
+                dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+                found += [os.path.join(top, f) for f in files if os.path.splitext(f)[1].lower() in FORMATS]
+            out += sorted(found)
         elif any(ch in s for ch in "*?["):
             out += sorted(p for p in glob.glob(s, recursive=True) if os.path.isfile(p))
         else:
@@ -227,20 +238,23 @@ def _batch_dask(dist, paths, names, out_dir, o, dask, n_workers, processes, prog
 
 
 def summary_rows(reports):
-    """The summary table as rows of strings (header first); "prepare s" is :attr:`AssetReport.prepare_time`,
+    """The summary table as rows of strings (header first); "prepare s" is :attr:`AssetReport.prepare_time`, "spp"
+    the samples per pixel reached, "rel. err." the estimated relMSE of an adaptive render ("-" at a fixed spp),
     "subst." the number of substitutions (listed under the table by :func:`format_summary`)."""
-    rows = [["asset", "status", "triangles", "load s", "prepare s", "render s", "warnings", "subst.", "message"]]
+    rows = [["asset", "status", "triangles", "load s", "prepare s", "render s", "spp", "rel. err.", "warnings",
+             "subst.", "message"]]
     for r in reports:
         msg = r.error or (r.warnings[0] if r.warnings else "")
         rows.append([os.path.basename(r.path), r.status, str(r.triangles), f"{r.load_time:.2f}",
-                     f"{r.prepare_time:.2f}", f"{r.render_time:.2f}", str(len(r.warnings)),
+                     f"{r.prepare_time:.2f}", f"{r.render_time:.2f}", f"{r.spp:.3g}" if r.spp else "-",
+                     "-" if r.estimated_error is None else f"{r.estimated_error:.2g}", str(len(r.warnings)),
                      str(len(r.substitutions)), msg])
     return rows
 
 
-def format_summary(reports, *, width=60):
-    """A fixed-width text table of :func:`summary_rows` (messages cut to ``width`` characters)."""
-    rows = [r[:-1] + [r[-1] if len(r[-1]) <= width else r[-1][:width - 3] + "..."] for r in summary_rows(reports)]
+def format_summary(reports):
+    """A text table of :func:`summary_rows`, columns aligned, the message column (last) whole."""
+    rows = summary_rows(reports)
     w = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
     last = len(rows[0]) - 1
     lines = ["  ".join(c.ljust(w[i]) if i in (0, 1, last) else c.rjust(w[i]) for i, c in enumerate(r)) for r in rows]
@@ -263,10 +277,11 @@ def write_summary(reports, out_dir):
     buf = io.StringIO(newline="")
     wr = csv.writer(buf)
     wr.writerow(["asset", "status", "triangles", "load_s", "render_s", "n_warnings", "error", "warnings",
-                 "prepare_s", *(f"{k}_s" for k in PHASES), "substitutions"])
+                 "prepare_s", *(f"{k}_s" for k in PHASES), "substitutions", "spp", "estimated_relmse"])
     for r in reports:
         wr.writerow([r.path, r.status, r.triangles, f"{r.load_time:.4f}", f"{r.render_time:.4f}",
                      len(r.warnings), r.error, " | ".join(r.warnings), f"{r.prepare_time:.4f}",
-                     *(f"{r.phases[k]:.4f}" if k in r.phases else "" for k in PHASES), " | ".join(r.substitutions)])
+                     *(f"{r.phases[k]:.4f}" if k in r.phases else "" for k in PHASES), " | ".join(r.substitutions),
+                     f"{r.spp:.4g}", "" if r.estimated_error is None else f"{r.estimated_error:.4g}"])
     write_bytes(os.path.join(out_dir, "summary.csv"), buf.getvalue())
     write_bytes(os.path.join(out_dir, "summary.txt"), format_summary(reports) + "\n")

@@ -22,7 +22,7 @@ from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, ArgumentParser, chec
                               finite_float, interrupts, nonnegative_int, positive_float, positive_int, run_console)
 from pyrt.render.pool import PARALLEL
 from pyrt.apps.preview.options import AXES, PreviewError, PreviewInterrupted, PreviewOptions
-from pyrt.apps.preview.render import format_phases, render_preview, write_files
+from pyrt.apps.preview.render import format_phases, format_sampling, render_preview, write_files
 from pyrt.apps.preview.batch import collect_inputs, format_summary, preview_batch
 
 
@@ -44,7 +44,9 @@ def _parser():
     ap.add_argument("models", nargs="+", help="model files (ARCHIVE.zip!member: a model inside an archive), folders or "
                                               "glob patterns")
     ap.add_argument("-o", "--output", action="append",
-                    help="output file for a single model (.png and/or .exr; may be repeated)")
+                    help="output file for a single model (.png and/or .exr; may be repeated); with --turntable N, "
+                         "-o X.png writes the frames X_turntable/frame_000.png ... frame_{N-1}.png and the "
+                         "contact sheet X_sheet.png")
     ap.add_argument("--out-dir", help="output folder (batch mode; default: preview_out)")
     ap.add_argument("--width", type=positive_int, default=640)
     ap.add_argument("--height", type=positive_int, default=480)
@@ -81,7 +83,9 @@ def _parser():
     ap.add_argument("--tonemap", default="reinhard", choices=TONEMAPS,
                     help="tone mapper: reinhard (default; automatic white point), pbr_neutral (Khronos PBR Neutral, "
                          "the glTF Sample Viewer's), aces (Filament's), film, linear, reinhard_rgb")
-    ap.add_argument("--turntable", type=nonnegative_int, default=0, metavar="N", help="render N views around the model")
+    ap.add_argument("--turntable", type=nonnegative_int, default=0, metavar="N", help="render N views around the model (N frames and a contact sheet: "
+                         "with -o X.png, X_turntable/frame_000.png ... and X_sheet.png; in a batch, "
+                         "NAME_turntable/ and NAME_sheet.png per model)")
     ap.add_argument("--format", default=None, help="batch output formats, e.g. png,exr (default png)")
     ap.add_argument("--aovs", action="store_true", help="also write depth/normal/albedo")
     ap.add_argument("--seed", type=nonnegative_int, default=0)
@@ -192,7 +196,8 @@ def _main_single(path, outputs, opts, quiet, cancel):
         print(f"warning: {w}", file=sys.stderr)
     if not quiet:
         print(f"{res.triangles} triangles, up {res.up_axis} ({res.up_reason}), {format_phases(res.phases)} "
-              f"(total {sum(res.phases.values()):.2f} s), exposure {res.exposure:+.2f} stops")
+              f"(total {sum(res.phases.values()):.2f} s), {format_sampling(res, opts.target_error)}, "
+              f"exposure {res.exposure:+.2f} stops")
     if cancel.is_set():
         print("pyrt-preview: interrupted after the view had finished; the outputs are complete", file=sys.stderr)
         return EXIT_INTERRUPTED

@@ -119,7 +119,10 @@ class PreviewScene:
         quality = o.bvh_quality
         if quality == "auto":
             quality = "low" if asset.n_triangles >= BVH_LOW_TRIANGLES else "medium"
-        self.prepared = PreparedScene(self.scene, threads=o.threads, build_quality=quality)
+        with _warnings.catch_warnings(record=True) as caught:   # (PrecisionWarning: one line of the summary)
+            _warnings.simplefilter("always")
+            self.prepared = PreparedScene(self.scene, threads=o.threads, build_quality=quality)
+        self.warnings += [str(w.message) for w in caught]
         self.timings.update(self.prepared.timings)
         self.exposure = o.exposure
         self.white = None
@@ -270,6 +273,33 @@ class PreviewResult:
     phases: dict = field(default_factory=dict)
     #: the loader's substitutions (:attr:`pyrt.io.assets.Asset.substitutions`; also in ``warnings``)
     substitutions: list = field(default_factory=list)
+    #: per view: camera samples per pixel reached (the mean over the pixels)
+    spp: list = field(default_factory=list)
+    #: per view: the estimated relMSE an adaptive render reached (:attr:`pyrt.RenderResult.estimated_error`), None
+    #: at a fixed spp
+    estimated_errors: list = field(default_factory=list)
+
+    @property
+    def mean_spp(self):
+        """Samples per pixel reached, the mean over the views (0 without views)."""
+        return float(np.mean(self.spp)) if self.spp else 0.0
+
+    @property
+    def worst_error(self):
+        """The largest estimated relMSE of the views (None at a fixed spp)."""
+        errs = [e for e in self.estimated_errors if e is not None]
+        return max(errs) if errs else None
+
+
+def format_sampling(result, target_error=None):
+    """``"4 spp"`` at a fixed spp; ``"5.3 spp (mean), estimated relMSE 9.6e-04 (target 0.001)"`` for adaptive renders
+    (the views' mean spp and their largest estimated error): what the previewer reached."""
+    text = f"{result.mean_spp:.3g} spp"
+    err = result.worst_error
+    if err is None:
+        return text
+    target = "" if target_error is None else f" (target {target_error:g})"
+    return f"{text} (mean), estimated relMSE {err:.2g}{target}"
 
 
 #: The phases a preview reports (:attr:`PreviewResult.phases`, the ``pyrt-preview`` summary line, the batch summary):
@@ -373,7 +403,7 @@ def render_preview(model, options=None, *, name="preview", deadline=None, cancel
     try:
         n_views = max(1, o.turntable)
         az = [ps.azimuth + 360.0 * k / n_views for k in range(n_views)] if o.turntable else [ps.azimuth]
-        images, aovs = [], []
+        images, aovs, spp, errors = [], [], [], []
         files = {}
         t_render = 0.0
         last = None
@@ -389,6 +419,8 @@ def render_preview(model, options=None, *, name="preview", deadline=None, cancel
             t_render += last
             images.append(res.image)
             aovs.append(res.aovs)
+            spp.append(res.samples_done / max(res.image.shape[0] * res.image.shape[1], 1))
+            errors.append(res.estimated_error)
         phases.update(ps.timings)
         phases["render"] = t_render
         t_enc = time.perf_counter()
@@ -409,7 +441,7 @@ def render_preview(model, options=None, *, name="preview", deadline=None, cancel
                              up_axis=ps.up_axis, up_reason=ps.up_reason, center=ps.center, radius=ps.radius,
                              camera=ps.camera(az[0]), triangles=ps.n_triangles, load_time=load_time,
                              render_time=t_render, warnings=ps.warnings, files=files, phases=phases,
-                             substitutions=list(asset.substitutions))
+                             substitutions=list(asset.substitutions), spp=spp, estimated_errors=errors)
     finally:
         ps.close()
 

@@ -65,6 +65,15 @@ SUPPORT_MARGIN = 0.02
 SYMMETRY_TOL = 0.01
 #: the winner's score must beat the other candidate's by this factor, else the format's default is kept
 UP_CONFIDENCE = 1.5
+#: a point set whose smallest principal extent is at most this fraction of its largest is planar (a 2-D outline,
+#: z = 0 everywhere): :func:`guess_up_axis` stands it up to face the camera
+PLANAR_TOL = 1e-3
+#: a flat base (:func:`flat_bases`): hull facets within this angle (degrees) and distance (x size) are one plane,
+#: and the model's faces and open boundary within that distance of it lie on it
+FLAT_ANGLE, FLAT_DIST = 1.0, 1e-3
+#: a flat base counts when the model covers at least this share of its hull plane, its area is at least this
+#: fraction of size^2, and its outward normal is within FLAT_TILT degrees of a candidate's "down"
+FLAT_BACKED, FLAT_MIN_AREA, FLAT_TILT = 0.9, 0.01, 45.0
 
 def _subsample(p, n, rng):
     return p if p.shape[0] <= n else p[np.sort(rng.choice(p.shape[0], n, replace=False))]
@@ -104,16 +113,21 @@ def framing_points(points, *, rng=None):
     return p
 
 
+def convex_hull(points, *, rng=None):
+    """scipy's ``ConvexHull`` of :func:`framing_points` of ``points`` (N, 3), or None for a flat or degenerate set."""
+    from scipy.spatial import ConvexHull, QhullError     # ~0.27 s to import: only where a hull is taken
+
+    try:
+        return ConvexHull(framing_points(points, rng=rng))
+    except (QhullError, ValueError):
+        return None
+
+
 def hull_points(points, *, rng=None):
     """The convex-hull vertices of ``points`` (N, 3); above :data:`HULL_POINTS` points, of a deterministic random
     subset of them plus the six axis-extreme points (then a close inner approximation of the true hull)."""
-    from scipy.spatial import ConvexHull, QhullError     # ~0.27 s to import: only where a hull is taken
-
-    p = framing_points(points, rng=rng)
-    try:
-        return p[ConvexHull(p).vertices]
-    except (QhullError, ValueError):      # flat or degenerate point sets: all points
-        return p
+    h = convex_hull(points, rng=rng)
+    return framing_points(points, rng=rng) if h is None else h.points[h.vertices]
 
 
 def _in_plane(up):
@@ -160,10 +174,83 @@ def mirror_asymmetry(samples, axis_index):
     return float(np.median(d)) / max(size, 1e-300)
 
 
+def planar_normal(points):
+    """The unit normal of a planar point set (N, 3) — its smallest principal extent at most :data:`PLANAR_TOL` of its
+    largest — or None."""
+    p = np.asarray(points, dtype=np.float64)
+    c = p - p.mean(axis=0)
+    _, _, vt = np.linalg.svd(c[:: max(1, c.shape[0] // 20000)], full_matrices=False)
+    proj = c @ vt.T
+    ext = proj.max(axis=0) - proj.min(axis=0)
+    return vt[2] if ext[0] > 0 and ext[2] <= PLANAR_TOL * ext[0] else None
+
+
+def flat_bases(vertices, faces, hull=None):
+    """The planes of the convex hull that the model itself lies on: ``[(area, backed, normal)]``, largest first.
+
+    Hull facets within :data:`FLAT_ANGLE` degrees and :data:`FLAT_DIST` x size of each other are one plane of ``area``
+    (units of size^2) and outward unit ``normal``; ``backed`` is the share of it the model covers: the area of its
+    faces lying in the plane, plus the area inside its open boundary edges lying there (the 2-D hull of their
+    vertices), at most 1. A bust's or a scan's cut is such a plane, capped (faces) or open (a boundary loop), whatever
+    its tilt; the plane across a quadruped's hooves is not (backed ~0). ``hull``: the points' :func:`convex_hull`,
+    if already taken."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces)
+    size = float(np.max(v.max(axis=0) - v.min(axis=0)))
+    hull = convex_hull(v) if hull is None else hull
+    if hull is None:
+        return []
+    eq = hull.equations
+    tri = hull.points[hull.simplices]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    tv = v[f]
+    fn = np.cross(tv[:, 1] - tv[:, 0], tv[:, 2] - tv[:, 0])
+    fa = 0.5 * np.linalg.norm(fn, axis=1)
+    fn /= np.maximum(2.0 * fa, 1e-300)[:, None]
+    key = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]).astype(np.int64), axis=1)
+    key = key[:, 0] * (int(v.shape[0]) + 1) + key[:, 1]
+    uk, count = np.unique(key, return_counts=True)
+    edge = uk[count == 1]                                   # edges of one face: the open boundary
+    bnd = np.stack([edge // (v.shape[0] + 1), edge % (v.shape[0] + 1)], axis=1)
+    cos_tol, tol = math.cos(math.radians(FLAT_ANGLE)), FLAT_DIST * size
+    # hull facets grouped by plane (normal to ~FLAT_ANGLE / 2, offset to FLAT_DIST): a planar region is triangulated
+    # into many small facets; only groups of at least FLAT_MIN_AREA are looked at
+    q = np.column_stack([np.round(eq[:, :3] / math.radians(0.5 * FLAT_ANGLE)), np.round(eq[:, 3] / tol)])
+    _, group = np.unique(q, axis=0, return_inverse=True)
+    group = group.ravel()
+    g_area = np.bincount(group, weights=area)
+    out = []
+    for g in np.flatnonzero(g_area >= FLAT_MIN_AREA * size * size):
+        i = np.flatnonzero(group == g)
+        n = eq[i, :3].mean(axis=0)
+        n /= np.linalg.norm(n)
+        d = float(eq[i, 3].mean())
+        a = float(g_area[g])
+        on = np.all(np.abs(tv @ n + d) < tol, axis=1) & (np.abs(fn @ n) > cos_tol)
+        covered = float(fa[on].sum())
+        loop = bnd[np.all(np.abs(v[bnd] @ n + d) < tol, axis=1)]
+        if loop.shape[0] >= 3:
+            e1, e2 = _in_plane(n)
+            q = v[np.unique(loop)]
+            try:
+                covered += ConvexHull(np.column_stack([q @ e1, q @ e2])).volume
+            except (QhullError, ValueError):
+                pass
+        out.append((a / size ** 2, min(1.0, covered / a), n))
+    return sorted(out, key=lambda r: -r[0])
+
+
 def guess_up_axis(vertices, faces=None, *, default="+y", candidates=("+y", "+z")):
     """Up axis from geometry alone: ``(axis, reason, scores)``.
 
-    For each candidate the model stands on its convex hull (:func:`support_score`); the score is the support
+    A planar model (:func:`planar_normal`: a 2-D outline, z = 0 everywhere) stands up: the candidate most
+    perpendicular to its normal, so that it faces the camera. A model with a flat base (:func:`flat_bases`: a hull
+    plane covered at least :data:`FLAT_BACKED` by the model's own faces or open boundary, at least
+    :data:`FLAT_MIN_AREA` size^2, outward normal within :data:`FLAT_TILT` degrees of a candidate's down: a bust's or a
+    scan's cut, oblique or not, open or capped) stands on it when the largest such base of one candidate is
+    :data:`UP_CONFIDENCE` x the other's (a cube's are equal: no decision there). Otherwise, for each candidate the model stands on its convex hull (:func:`support_score`); the score is the support
     polygon's area, times 0.05 when the surface centroid does not project at least ``SUPPORT_MARGIN`` inside
     it (the model would tip over), times 0.25 when the plane normal to the candidate is a mirror symmetry
     of the shape and the plane normal to the other one is not (animals, people, vehicles and vases stand
@@ -182,7 +269,24 @@ def guess_up_axis(vertices, faces=None, *, default="+y", candidates=("+y", "+z")
     size = float(np.max(v.max(axis=0) - v.min(axis=0)))
     if not size > 0:
         return default, "zero-size model; format default", {}
-    hull = hull_points(v, rng=rng)
+    n = planar_normal(v)
+    if n is not None:
+        best = min(candidates, key=lambda a: abs(float(n @ AXES[a])))
+        return best, f"planar (a 2-D outline): stood up along {best} to face the camera", {}
+    chull = convex_hull(v, rng=rng)
+    if f is not None:       # the largest flat base per candidate; one clearly larger than the other's wins
+        base = {}
+        for area, backed, n in flat_bases(v, f, chull):
+            down = {a: -float(n @ AXES[a]) for a in candidates}
+            best = max(candidates, key=lambda a: down[a])
+            if (backed >= FLAT_BACKED and area >= FLAT_MIN_AREA and down[best] >= math.cos(math.radians(FLAT_TILT))
+                    and area > base.get(best, (0.0,))[0]):
+                base[best] = (area, math.degrees(math.acos(min(down[best], 1.0))))
+        if base:
+            best = max(base, key=lambda a: base[a][0])
+            if base[best][0] > UP_CONFIDENCE * max((base[a][0] for a in base if a != best), default=0.0):
+                return best, f"stands on a flat base or cut along {best} ({base[best][1]:.0f} degrees off)", {}
+    hull = hull_points(v, rng=rng) if chull is None else chull.points[chull.vertices]
     centroid = samples.mean(axis=0)
     sym = {ax: mirror_asymmetry(samples, int(np.flatnonzero(AXES[ax])[0])) < SYMMETRY_TOL for ax in candidates}
     scores = {}

@@ -1,0 +1,106 @@
+"""What the previewer says it did (issue 33): samples per pixel and estimated error on the summary line and in the
+batch table, whole messages, one-line precision warnings (none for a thin board), folders searched recursively, and
+``--help`` naming what ``-o X.png --turntable N`` writes."""
+from __future__ import annotations
+
+import os
+import shutil
+import warnings
+
+import numpy as np
+import pytest
+
+import pyrt
+from pyrt.apps import preview as P
+from pyrt.apps.preview import batch as P_batch
+from pyrt.geometry.precision import PrecisionWarning
+
+BLOB = os.path.join(os.path.dirname(__file__), "..", "assets", "models", "blob.ply")
+
+
+def _line(capsys):
+    return [ln for ln in capsys.readouterr().out.splitlines() if "triangles" in ln][0]
+
+
+def test_summary_line_gives_the_spp_of_a_fixed_render(tmp_path, capsys):
+    assert P.main([BLOB, "-o", str(tmp_path / "v.png"), "--width", "24", "--height", "18", "--spp", "2"]) == 0
+    line = _line(capsys)
+    assert ", 2 spp, exposure" in line and "relMSE" not in line
+
+
+def test_summary_line_gives_the_spp_and_error_an_adaptive_render_reached(tmp_path, capsys):
+    assert P.main([BLOB, "-o", str(tmp_path / "v.png"), "--width", "24", "--height", "18", "--target-error", "1e-9",
+                   "--min-spp", "2", "--max-spp", "4"]) == 0
+    line = _line(capsys)
+    part = line.split(" spp (mean), estimated relMSE ")
+    assert len(part) == 2, line
+    spp = float(part[0].rsplit(", ", 1)[1])
+    err = float(part[1].split(" ")[0])
+    assert 2 <= spp <= 4 and err > 1e-9          # the target is out of reach: max_spp stops it
+    assert "(target 1e-09)" in line
+
+
+def test_batch_summary_has_spp_error_and_whole_messages(tmp_path):
+    long = "x" * 150 + " the end"
+    reps = [P_batch.AssetReport(path="a.ply", name="a_ply", warnings=[long], spp=4.0),
+            P_batch.AssetReport(path="b.ply", name="b_ply", spp=5.25, estimated_error=0.00123)]
+    table = P.format_summary(reps)
+    assert long in table
+    head = table.splitlines()[0].split()
+    assert "spp" in head and "err." in head
+    rows = table.splitlines()[2:4]
+    assert " 4 " in rows[0] and " - " in rows[0]
+    assert " 5.25 " in rows[1] and " 0.0012 " in rows[1]
+    P_batch.write_summary(reps, str(tmp_path))
+    header = (tmp_path / "summary.csv").read_text().splitlines()[0].split(",")
+    assert header[-2:] == ["spp", "estimated_relmse"]
+
+
+def test_a_folder_of_model_folders_is_searched_recursively(tmp_path):
+    (tmp_path / "Blob" / "ply").mkdir(parents=True)
+    (tmp_path / "Other").mkdir()
+    (tmp_path / ".hidden").mkdir()
+    shutil.copy(BLOB, tmp_path / "Blob" / "ply" / "blob.ply")
+    shutil.copy(BLOB, tmp_path / "Other" / "b.ply")
+    shutil.copy(BLOB, tmp_path / ".hidden" / "c.ply")
+    (tmp_path / "Other" / "README.md").write_text("not a model")
+    found = P.collect_inputs([str(tmp_path)])
+    assert found == [str(tmp_path / "Blob" / "ply" / "blob.ply"), str(tmp_path / "Other" / "b.ply")]
+
+
+def test_help_says_what_a_turntable_writes(capsys):
+    with pytest.raises(SystemExit):
+        P.main(["--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert "X_turntable/frame_000.png" in out and "X_sheet.png" in out
+
+
+def _board_scene(thickness, offset=0.0):
+    s = pyrt.Scene(pyrt.Camera((offset, 0, 5), (offset, 0, 0), (0, 1, 0), width=8, height=8))
+    s.add_box((offset, 0, 0), (1.0, 1.0, thickness), pyrt.Lambert(0.8), name="board")
+    return s
+
+
+def test_a_thin_board_is_no_precision_risk():
+    """A board 1e-7 thick at unit coordinates (2 float32 steps thick; a step is 1e-7 of its size) is not warned about;
+    the same board far from the origin (1e7: a step is half its size) is."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", PrecisionWarning)
+        pyrt.PreparedScene(_board_scene(1e-7)).close()
+    with pytest.warns(PrecisionWarning, match="float32 steps"):
+        pyrt.PreparedScene(_board_scene(1e-7, offset=1e7)).close()
+
+
+def test_previewer_reports_precision_warnings_as_its_own_lines(tmp_path):
+    """A model far from the origin: the PrecisionWarning is one of the preview's warnings, not a Python warning."""
+    import trimesh
+    mesh = trimesh.creation.icosphere(subdivisions=2)
+    mesh.apply_scale(4.0)
+    mesh.apply_translation((4e6, 0, 0))          # float32 step 0.25 there: 32 steps across its size 8
+    path = tmp_path / "far.ply"
+    mesh.export(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", PrecisionWarning)
+        ps = P.PreviewScene(pyrt.load_asset(str(path)), P.PreviewOptions(width=8, height=8, spp=1))
+        ps.close()
+    assert any("float32 steps" in w for w in ps.warnings)
