@@ -11,8 +11,13 @@ Three models, each a :func:`pyrt.io.assets.gltf_write.embedded_gltf` header (wri
 - :func:`polished_metal` — a smooth-shaded chrome cylinder (metallic 1, roughness 0.05): what a viewer shows as
   silver under image-based light.
 
-``python tools/glass_scenes.py OUT_DIR`` writes the models and, with ``--render``, renders each with the previewer's
-defaults and a converged reference (``--ref-spp``), and prints the mean and the dark-pixel fraction of both.
+``python tools/glass_scenes.py OUT_DIR`` writes the models; with ``--picture PNG`` it also renders the rough thick glass
+(roughness 0.15), the decal glass and the metal with the previewer's defaults (``--spp``, as ``--seeds`` renders of
+``spp / seeds``) and an unbiased reference (``--ref-spp``: glossy and dielectric depth 40, no throughput cutoff, one
+glass lobe per hit from bounce 2), prints the mean linear RGB over the model's pixels of both with the default's
+standard error (from the seeds), and writes a sheet: default | reference | 4 x |default - reference| per model, all
+with the reference's automatic exposure (docs/glass_convergence.png: ``python tools/glass_scenes.py /tmp/glass
+--picture docs/glass_convergence.png``).
 """
 from __future__ import annotations
 
@@ -170,8 +175,62 @@ def polished_metal(*, segments=24, roughness=0.05):
     return embedded_gltf({"POSITION": p, "NORMAL": n}, f, mat)
 
 
-MODELS = {"glass": lambda: hurricane_glass(), "glass_decal": lambda: hurricane_glass(decal=True),
-          "metal": lambda: polished_metal()}
+def _rough(h, roughness=0.15):
+    h["materials"][0]["pbrMetallicRoughness"]["roughnessFactor"] = roughness
+    return h
+
+
+MODELS = {"glass": lambda: hurricane_glass(), "glass_rough": lambda: _rough(hurricane_glass(attenuation_distance=0.004)),
+          "glass_decal": lambda: hurricane_glass(decal=True), "metal": lambda: polished_metal()}
+#: the models of the picture
+PICTURE = ("glass_rough", "glass_decal", "metal")
+#: the reference's options: every path to its end (unbiased; split_depth 2 keeps the tree's width bounded)
+REFERENCE = {"glossy_depth": 40, "dielectric_depth": 40, "dielectric_cutoff": 0.0, "split_depth": 2}
+
+
+def render_views(path, *, width, height, spp, seeds, seed0=0, **options):
+    """``(images (S, H, W, 3), model mask (H, W), preview scene of the last seed)``: ``seeds`` previews of ``path`` at
+    ``spp`` each (the previewer's defaults and ``options``), fixed exposure 0."""
+    from pyrt.apps.preview import PreviewOptions, PreviewScene
+    from pyrt.io.assets import load_asset
+
+    imgs = []
+    for k in range(seeds):
+        o = PreviewOptions(width=width, height=height, spp=spp, exposure=0.0, seed=seed0 + k, **options)
+        ps = PreviewScene(load_asset(path), o)
+        try:
+            imgs.append(ps.render_view(ps.azimuth).image)
+            mask = ps.model_mask()
+        finally:
+            ps.close()
+    return np.stack(imgs), mask
+
+
+def picture(paths, out_png, *, width, height, spp, seeds, ref_spp):
+    """Render :data:`PICTURE` (defaults and references), print the means, write the sheet; returns the rows."""
+    from pyrt.apps.preview.rig import auto_exposure
+    from pyrt.core.image_io import encode_png, tonemap_to_display, write_bytes
+    from pyrt.shaders import color as _color
+
+    rows, tiles = [], []
+    for name in PICTURE:
+        dflt, mask = render_views(paths[name], width=width, height=height, spp=max(1, spp // seeds), seeds=seeds)
+        ref, _ = render_views(paths[name], width=width, height=height, spp=max(1, ref_spp // 2), seeds=2, seed0=100,
+                              **REFERENCE)
+        per_seed = dflt[:, mask].mean(axis=1)                       # (seeds, 3)
+        m_d, se = per_seed.mean(axis=0), per_seed.std(axis=0, ddof=1) / np.sqrt(seeds)
+        m_r = ref[:, mask].mean(axis=(0, 1))
+        rows.append((name, m_d, se, m_r))
+        print(f"{name:12s} default {np.round(m_d, 4)} +- {np.round(se, 4)}   reference {np.round(m_r, 4)}   "
+              f"(default - reference) / se {np.round((m_d - m_r) / np.maximum(se, 1e-12), 1)}", flush=True)
+        a, b = dflt.mean(axis=0), ref.mean(axis=0)
+        exposure, white = auto_exposure(b, mask)
+        row = [tonemap_to_display(x, exposure=exposure, L_white=white) for x in (a, b)]
+        row.append(np.clip(4.0 * np.abs(a - b) * 2.0 ** exposure, 0.0, 1.0))
+        tiles.append(np.concatenate([np.pad(t, ((2, 2), (2, 2), (0, 0)), constant_values=1.0) for t in row], axis=1))
+    sheet = np.concatenate(tiles, axis=0)
+    write_bytes(out_png, encode_png(np.round(_color.srgb_encode(sheet) * 255).astype(np.uint8)))
+    return rows
 
 
 def write_models(out_dir):
@@ -188,9 +247,19 @@ def write_models(out_dir):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("out_dir")
+    ap.add_argument("--picture", help="render and write the comparison sheet here (PNG)")
+    ap.add_argument("--width", type=int, default=96)
+    ap.add_argument("--height", type=int, default=120)
+    ap.add_argument("--spp", type=int, default=16)
+    ap.add_argument("--seeds", type=int, default=4)
+    ap.add_argument("--ref-spp", type=int, default=128)
     args = ap.parse_args(argv)
-    for name, path in write_models(args.out_dir).items():
+    paths = write_models(args.out_dir)
+    for name, path in paths.items():
         print(name, path)
+    if args.picture:
+        picture(paths, args.picture, width=args.width, height=args.height, spp=args.spp, seeds=args.seeds,
+                ref_spp=args.ref_spp)
 
 
 if __name__ == "__main__":

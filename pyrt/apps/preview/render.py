@@ -29,8 +29,8 @@ from pyrt.apps.preview.options import (ADAPTIVE_MAX_SPP, BACK_FACE_GRID, BACK_FA
                                        PreviewError, PreviewInterrupted, PreviewOptions)
 from pyrt.apps.preview.studio import STUDIO_PREVIEW_SAMPLES, StudioEnvironment, camera_rotation
 from pyrt.apps.preview.rig import (auto_exposure, bounding_sphere, detect_up_axis, frame_camera, frame_points,
-                                   framing_points, ground_radiance, hull_points, lit_white_radiance, studio_rig,
-                                   up_transform)
+                                   framing_points, ground_radiance, hull_points, limit_backdrop, lit_white_radiance,
+                                   studio_rig, up_transform)
 
 
 # ============================================================================ the preview scene
@@ -234,6 +234,8 @@ class PreviewScene:
         self.warnings += [str(w.message) for w in caught]
         if self.exposure is None:
             self.exposure, self.white = auto_exposure(res.image, self.model_mask())
+            if o.ground:     # the shadow catcher's backdrop stays grey (rig.limit_backdrop)
+                self.exposure, self.white = limit_backdrop(self.exposure, self.white, self.scene.background, o.tonemap)
         return res
 
     def to_display(self, image):

@@ -194,6 +194,14 @@ class SurfaceExtras:
     def emission(self, ctx):
         return np.array(self.param(self.emission_value, ctx))
 
+    def compiled_record(self, pack_texture):
+        """The base model's compiled record when the extras change nothing (no emission, occlusion or normal map),
+        else None: the compiled path has no place for them (the mixin overrides ``albedo`` and ``emission``, which
+        :class:`pyrt.materials.Material`'s subclass rule does not see on a class that is no Material)."""
+        if self.emits or self.occlusion is not None or self.normal_map is not None:
+            return None
+        return super().compiled_record(pack_texture)
+
     def preview_lobes(self, ctx):
         """The material's split-sum lobes with the occlusion ``1 + strength (occ - 1)`` on the environment term."""
         lobes = super().preview_lobes(ctx)
