@@ -66,14 +66,13 @@ class GltfPBR(MetallicRoughness):
     colour. The transmission lobe has weight ``(1 - metallic) transmission`` and is tinted by the base colour
     (glTF: ``mix(diffuse, specular_btdf * baseColor, transmission)`` under the same specular layer):
 
-    - ``thin=True`` (no ``KHR_materials_volume``, or thicknessFactor 0): a thin wall; light goes straight
-      through, weighted ``1 - specular max(F)`` (the same F as the reflection, so the two sum to one), spread by
-      the roughness as the reflection is (the GGX lobe mirrored through the surface plane);
-    - ``thin=False``: the boundary of a volume of index ``ior`` (Snell, exact Fresnel ``1 - R`` and the
-      ``1 / eta^2`` radiance compression as :class:`pyrt.Glass`; GGX BTDF of :class:`pyrt.RoughDielectric`
-      when rough) whose medium absorbs ``exp(-absorption d)`` along a path of length ``d``
-      (``absorption = -ln(attenuationColor) / attenuationDistance``; nested media and absorption:
-      :mod:`pyrt.integrators.media`).
+    - ``thin=True`` (no ``KHR_materials_volume``, or thicknessFactor 0): a thin wall; light goes straight through,
+      weighted ``1 - specular max(F)`` (the same F as the reflection, so the two sum to one), spread by the
+      roughness as the reflection is (the GGX lobe mirrored through the surface plane);
+    - ``thin=False``: the boundary of a volume of index ``ior`` (Snell, exact Fresnel ``1 - R`` and the ``1 / eta^2``
+      radiance compression as :class:`pyrt.Glass`; GGX BTDF of :class:`pyrt.RoughDielectric` when rough) whose
+      medium absorbs ``exp(-absorption d)`` along a path of length ``d`` (``absorption = -ln(attenuationColor) /
+      attenuationDistance``; nested media and absorption: :mod:`pyrt.integrators.media`).
 
     Up to :data:`SMOOTH_ROUGHNESS` the transmissive share ``w`` is a smooth interface given as delta lobes, traced to
     ``max_depth`` by every integrator: an untinted mirror reflection ``w R`` and the tinted transmission ``w (1 - R)``
@@ -108,8 +107,7 @@ class GltfPBR(MetallicRoughness):
     ior : float >= 1 (default 1.5): the dielectric F0 and, with transmission, the refraction index
     transmission : float or scalar texture in [0, 1] (default 0: opaque)
     thin : bool (default True), absorption : constant RGB >= 0 per scene unit (volumes only)
-    anisotropy : float in [0, 1] (default 0: isotropic): ``anisotropyStrength``
-    anisotropy_rotation : float (radians, default 0): ``anisotropyRotation``
+    anisotropy : float in [0, 1] (default 0: isotropic), anisotropy_rotation : float (radians, default 0)
     anisotropy_texture : 3-channel texture, optional: ``anisotropyTexture`` (linear; RG the direction, B the strength)
     """
 
