@@ -9,6 +9,7 @@ import numpy as np
 from pyrt.shaders import color as _color
 
 from pyrt.core.camera import Camera
+from pyrt.core.image_io import tonemap_to_display
 from pyrt.core.transforms import apply_matrix, rotation_matrix
 from pyrt.io.assets.common import metadata_up_axis
 from pyrt.lights import DirectionalLight
@@ -497,8 +498,6 @@ def limit_backdrop(exposure, white, backdrop, tonemap="reinhard", *, limit=BACKD
     scales with the exposure, at least 1. The automatic exposure brings a dark model's log-average to the key: on the
     shared Khronos set it ranged -1.6 to +2.3 stops, and at +2.3 (VertexColorTest, a dark model) the grey backdrop was
     pure white (255); the limit keeps it grey (231) and leaves models that leave it below alone (20 of 23)."""
-    from pyrt.core.image_io import tonemap_to_display
-
     bg = np.asarray(backdrop, dtype=np.float64).reshape(1, 1, 3)
     if not np.any(bg > 0):
         return exposure, white
