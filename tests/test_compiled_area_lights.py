@@ -39,6 +39,30 @@ def test_area_sample_is_the_lights_sample(light, rng):
     np.testing.assert_allclose(got[:, 4:5] * light.L, E, rtol=1e-12, atol=1e-13)
 
 
+@numba.njit(cache=False)
+def _pdf_dist_all(tag, rec, P, W):
+    out = np.zeros((P.shape[0], 2))
+    for i in range(P.shape[0]):
+        out[i, 0], out[i, 1] = LC.area_pdf_dist(tag, rec, 0, P[i, 0], P[i, 1], P[i, 2], W[i, 0], W[i, 1], W[i, 2])
+    return out
+
+
+@pytest.mark.parametrize("light", LIGHTS, ids=lambda x: type(x).__name__)
+def test_area_pdf_and_distance_are_the_lights(light, rng):
+    """Toward the light's own samples (inside its cone / on its face) and toward random directions (mostly
+    missing it): the NumPy light's ``pdf_li`` and ``ray_distance``."""
+    P = rng.normal(size=(3000, 3)) * 1.5
+    wi, _, _ = light.sample(P, rng.random((3000, 2)))
+    W = rng.normal(size=(3000, 3))
+    W /= np.linalg.norm(W, axis=1)[:, None]
+    W[:1500] = wi[:1500]
+    tag, rec = light.compiled_record()
+    got = _pdf_dist_all(tag, rec, P, W)
+    np.testing.assert_allclose(got[:, 0], light.pdf_li(P, W), rtol=1e-9, atol=0)
+    np.testing.assert_allclose(got[:, 1], light.ray_distance(P, W), rtol=1e-9, atol=0)
+    assert (got[:1500, 0] > 0).mean() > 0.3
+
+
 def test_stratum_is_the_stratified_grid_and_latin_hypercube():
     """``k x k`` cells for a square count (sample ``s`` in column ``s % k``, row ``s // k``), Latin-hypercube strata
     otherwise: every stratum of each axis holds exactly one sample."""
@@ -132,12 +156,25 @@ def test_the_emitter_is_seen_from_its_front_only():
     assert AreaEmitter(1.0, two_sided=True).compiled_record(None)[1][7] == 1.0
 
 
-def test_area_lights_with_bsdf_samples_fall_back():
-    scene = _scene(spp=1)
-    scene.lights[0].bsdf_samples = 2
-    r = pyrt.render_full(scene, progress=False)
-    assert r.stats.backend == "numpy"
-    assert any("BSDF samples" in x for x in r.stats.fallback_reasons), r.stats.fallback_reasons
+def test_area_lights_with_bsdf_samples_agree_with_the_numpy_path():
+    """Light and BSDF samples combined by the power heuristic (the rectangle 4 + 4: grids; the disk 3 + 2; a glossy
+    Blinn-Phong and gold near the lights): per pixel z-scores against the NumPy path as above."""
+    scene = _scene()
+    scene.lights[0].bsdf_samples = 4
+    scene.lights[1].bsdf_samples = 2
+    K = 6
+    c = [pyrt.render_full(scene, backend="compiled", progress=False, seed=k) for k in range(K)]
+    n = [pyrt.render_full(scene, backend="numpy", progress=False, seed=100 + k) for k in range(K)]
+    ci = np.array([r.image for r in c], dtype=np.float64)
+    ni = np.array([r.image for r in n], dtype=np.float64)
+    se = np.sqrt(ci.var(axis=0, ddof=1) / K + ni.var(axis=0, ddof=1) / K)
+    noisy = se > 1e-6 * (1.0 + np.abs(ni.mean(axis=0)))
+    z = (ci.mean(axis=0) - ni.mean(axis=0))[noisy] / se[noisy]
+    assert np.abs(z).max() < 6.0, np.abs(z).max()
+    assert abs(z.mean()) < 4.0 * z.std() / np.sqrt(z.size), (z.mean(), z.std())
+    rays_c = np.mean([r.stats.shadow_rays for r in c])
+    rays_n = np.mean([r.stats.shadow_rays for r in n])
+    assert abs(rays_c - rays_n) < 0.01 * rays_n, (rays_c, rays_n)
 
 
 def test_an_area_light_subclass_that_samples_differently_is_not_compiled():

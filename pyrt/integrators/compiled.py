@@ -7,17 +7,16 @@ texture and light: a type tag and a parameter record, packed by each object's ``
 :mod:`pyrt.integrators.compiled_kernel` and returns per-pixel sums.
 
 What the compiled path covers (everything else renders through the NumPy path, automatically with
-``backend="auto"``): the Whitted integrator with max depth, throughput cutoff and split depth; Lambert (constant or
-unfiltered-checker or nearest / bilinear image albedo, constant emission), normalised Blinn-Phong, Mirror, Glass (one dielectric, no nested
-media); point and spot lights (every spot and distance falloff), directional lights, rectangle, disk and sphere
-lights sampled by light sampling (stratified per hit, padded over a pixel's samples) with their visible meshes; a
-constant background and ambient term; smooth and flat shading with or without the back-facing-normal fallback; the
-``robust`` and ``robust_no_terminator`` offsets; constant and lat-long environments, seen by missed rays and lighting
-by ``strategy="mis"`` (light and BSDF samples). Not yet: other environments and strategies, area lights with BSDF
-samples (MIS),
-emissive-mesh lights, the other materials, image and filtered textures (ray differentials), normal maps, alpha
-coverage, nested media, transparent shadows, the glossy integrator, AOVs and ray recording. Adaptive passes
-render their chunks with :func:`render_pixels`.
+``backend="auto"``): the Whitted integrator with max depth, throughput cutoff and split depth; Lambert (constant,
+unfiltered-checker or nearest / bilinear image albedo, constant emission), normalised Blinn-Phong, Mirror, Glass
+(one dielectric, no nested media), smooth Conductor and the library models with constant parameters; point and spot
+lights (every spot and distance falloff), directional lights; rectangle, disk and sphere lights (light samples
+stratified per hit and padded over a pixel's samples, BSDF samples beside them with MIS) with their visible meshes;
+constant and lat-long environments, seen by missed rays and lighting by ``strategy="mis"``; a constant background
+and ambient term; smooth and flat shading with or without the back-facing-normal fallback; the ``robust`` and
+``robust_no_terminator`` offsets; fixed spp and adaptive passes (:func:`render_pixels`). Not yet: other
+environments and strategies, emissive-mesh lights, the other materials, filtered textures (ray differentials),
+normal maps, alpha coverage, nested media, transparent shadows, the glossy integrator, AOVs and ray recording.
 """
 from __future__ import annotations
 
@@ -91,8 +90,7 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
             reasons.append(f"light {lt.label}")
         elif lt.environment is not None and lt.environment is not scene.environment:
             reasons.append(f"light {lt.label} (lights with an environment other than the scene's)")
-        elif lt.bsdf_samples and lt.environment is None:
-            reasons.append(f"light {lt.label} (BSDF samples)")
+
     return reasons
 
 

@@ -44,9 +44,10 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK,
     O_GRID, F_CUTOFF, F_BG, F_AMBIENT, N_PRIMARY, N_SECONDARY,
     N_SHADOW, N_NONFINITE, STACK, STACK_ROW, T_INF, DIM_LOBE,
-    ADAPTIVE_KEYS, DIM_ENV, F_ENV, O_ENV, _njit, _stage, lane_vec, set_lane_vec)
+    ADAPTIVE_KEYS, F_ENV, O_ENV, _njit, lane_vec, set_lane_vec)
 from pyrt.integrators.compiled_lighting import (  # noqa: E402
-    area_stage, area_u, bsdf_stage, direct_light, env_sample, env_stage, light_stage, shadow_fill)
+    area_bsdf_sample, area_bsdf_stage, area_light_weight, area_mis_stage, area_stage, area_u, bsdf_stage, direct_light,
+    env_hit, env_rounds, light_stage, shadow_fill)
 from pyrt.lights import compiled as LC  # noqa: E402
 from pyrt.lights import compiled_env as CE  # noqa: E402
 from pyrt.materials import compiled as MC  # noqa: E402
@@ -152,36 +153,6 @@ def _push(p, ng, mag, stack, top, d, thr, depth):
 
 
 @numba.njit(nogil=True, cache=True, error_model="numpy")
-def env_hit(scene, etag, erec, edata, mtag, mats_par, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift, terminator,
-            key, n_l, n_b, ray_buf):
-    """The environment light at one hit of the specular tree: ``n_l`` light and ``n_b`` BSDF samples
-    (:func:`pyrt.integrators.compiled_lighting.env_sample`; round ``s`` draws the light sample's numbers, then the
-    BSDF sample's, each second number stratified over its technique's rounds), single shadow rays; returns
-    ``(r, g, b, shadow rays)``."""
-    a0 = a1 = a2 = 0.0
-    b0 = b1 = b2 = 0.0
-    n_sh = 0
-    for s in range(max(n_l, n_b)):
-        for tech in range(2):
-            count = n_l if tech == 0 else n_b
-            if s >= count:
-                continue
-            d = DIM_ENV + 4 * s + 2 * tech
-            ok, o, wi, val = env_sample(etag, erec, edata, mtag, mats_par, m, albedo, p, ng, ns, nv, wo, lift, mag,
-                                        mag_lift, terminator, J.uniform(key, d), (s + J.uniform(key, d + 1)) / count,
-                                        tech == 1)
-            if not ok:
-                continue
-            n_sh += 1
-            if not E.occluded1(scene, o[0], o[1], o[2], wi[0], wi[1], wi[2], 0.0, T_INF, ray_buf):
-                if tech == 0:
-                    a0, a1, a2 = a0 + val[0], a1 + val[1], a2 + val[2]
-                else:
-                    b0, b1, b2 = b0 + val[0], b1 + val[1], b2 + val[2]
-    return a0 / n_l + b0 / n_b, a1 / n_l + b1 / n_b, a2 / n_l + b2 / n_b, float(n_sh)
-
-
-@numba.njit(nogil=True, cache=True, error_model="numpy")
 def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, erec, edata, opts, optf, key,
                 dim, stack, top, ray_buf, counters, r0, r1, r2):
     """Trace the specular rays on ``stack`` (and those they spawn) with single-ray queries: the deeper bounces of
@@ -225,20 +196,33 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
                     le0, le1, le2 = le0 + e[0], le1 + e[1], le2 + e[2]
                     n_sh += int(e[3])
                     continue
-                n_j = int(lights_par[jb + LC.AREA_SAMPLES]) if lights_tag[j] >= LC.RECT else 1
-                k_j = J.isqrt(n_j)
-                inv_j = 1.0 / n_j
-                for s in range(n_j):
-                    u0, u1 = area_u(hkey, j, s, n_j, k_j) if n_j > 1 or lights_tag[j] >= LC.RECT else (0.0, 0.0)
-                    ok, tmax, o, wi, f = direct_light(lights_tag, lights_par, j, mtag, mats_par, m, albedo, p, ng, ns,
-                                                      nv, wo, lift, mag, mag_lift, terminator, u0, u1)
+                area = lights_tag[j] >= LC.RECT
+                n_j = int(lights_par[jb + LC.AREA_SAMPLES]) if area else 1
+                n_b = int(lights_par[jb + LC.AREA_SAMPLES + 1]) if area else 0
+                k_j, k_b = J.isqrt(n_j), J.isqrt(n_b)
+                for s in range(n_j + n_b):
+                    if s < n_j:
+                        u0, u1 = area_u(hkey, j, s, n_j, k_j) if area else (0.0, 0.0)
+                        ok, tmax, o, wi, f = direct_light(lights_tag, lights_par, j, mtag, mats_par, m, albedo, p, ng,
+                                                          ns, nv, wo, lift, mag, mag_lift, terminator, u0, u1)
+                        if ok and n_b > 0:
+                            k = area_light_weight(lights_tag[j], lights_par, j, mtag, mats_par, m, p, ns, wo, wi,
+                                                  n_j, n_b)
+                            f = (f[0] * k, f[1] * k, f[2] * k)
+                        inv = 1.0 / n_j
+                    else:
+                        u0, u1 = area_u(hkey, j + 4096, s - n_j, n_b, k_b)
+                        ok, o, wi, tmax, f = area_bsdf_sample(lights_tag[j], lights_par, j, mtag, mats_par, m, albedo,
+                                                              p, ng, ns, nv, wo, lift, mag, mag_lift, terminator, u0,
+                                                              u1, n_j, n_b)
+                        inv = 1.0 / n_b
                     if not ok:
                         continue
                     n_sh += 1
                     if not E.occluded1(scene, o[0], o[1], o[2], wi[0], wi[1], wi[2], 0.0, tmax, ray_buf):
-                        le0 += f[0] * inv_j
-                        le1 += f[1] * inv_j
-                        le2 += f[2] * inv_j
+                        le0 += f[0] * inv
+                        le1 += f[1] * inv
+                        le2 += f[2] * inv
         r0 += thr[0] * le0
         r1 += thr[1] * le1
         r2 += thr[2] * le2
@@ -291,35 +275,6 @@ def release(b):
     keep_alive(b[6])
     keep_alive(b[7])
     keep_alive(b[8])
-
-
-@numba.njit(nogil=True, cache=True, error_model="numpy")
-def env_rounds(scene, etag, erec, edata, mats_tag, mats_par, V, n, terminator, pair, lane_s, spp, lane_k32, sh, w, n_l,
-               n_b, cnt):
-    """The environment light at the packet's camera hits: ``max(n_l, n_b)`` rounds, each the light technique's
-    sample (while the round is below ``n_l``) then the BSDF technique's (below ``n_b``), each a masked occlusion
-    query of the packet (:func:`pyrt.integrators.compiled_lighting.env_stage`); their values divided by their
-    technique's count added into :data:`V_L`. Returns the next free padded dimension pair (one per sample drawn,
-    in the NumPy path's order)."""
-    for s in range(max(n_l, n_b)):
-        for tech in range(2):
-            count = n_l if tech == 0 else n_b
-            if s >= count:
-                continue
-            E.packet_activate(sh, w, 0)
-            n_sh = env_stage(etag, erec, edata, mats_tag, mats_par, V, n, terminator, tech == 1, s, count, pair,
-                             lane_s, spp, lane_k32, sh, w)
-            pair += 1
-            if n_sh == 0:
-                continue
-            cnt[N_SHADOW] += n_sh
-            E.packet_query(scene, sh, w, True, True)
-            inv = 1.0 / count
-            for lane in range(n):
-                add = V[V_LIT * LANES + lane] != 0.0 and not E.lane_blocked(sh, w, lane)
-                for c in range(3):
-                    V[(V_L + c) * LANES + lane] += V[(V_F + c) * LANES + lane] * inv if add else 0.0
-    return pair
 
 
 @numba.njit(nogil=True, cache=True, error_model="numpy")
@@ -387,26 +342,34 @@ def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, sp
             continue
         area = ltag >= LC.RECT
         n_j = int(lights_par[j * LC.RECORD + LC.AREA_SAMPLES]) if area else 1
-        k_j = J.isqrt(n_j)
-        inv_j = 1.0 / n_j
-        for s in range(n_j):
+        n_b = int(lights_par[j * LC.RECORD + LC.AREA_SAMPLES + 1]) if area else 0
+        k_j, k_b = J.isqrt(n_j), J.isqrt(n_b)
+        # the light samples (with BSDF samples beside them: MIS-weighted), then the BSDF samples
+        for s in range(n_j + n_b):
             E.packet_activate(sh, w, 0)
-            if area:
-                area_stage(ltag, lights_par, j, V, keys, n, s, n_j, k_j, terminator, pair + s, lane_s, spp,
-                           lane_k32)
+            if s >= n_j:
+                n_sh = area_bsdf_stage(ltag, lights_par, j, mats_tag, mats_par, V, keys, n, terminator, s - n_j, n_j,
+                                       n_b, k_b, pair + s, lane_s, spp, lane_k32, sh, w)
             else:
-                light_stage(lights_tag, lights_par, j, V, n, terminator)
-            shadow_fill(V, sh, w, n)
-            n_sh = bsdf_stage(mats_tag, mats_par, lights_par, j, V, sh, w, n)
+                if area:
+                    area_stage(ltag, lights_par, j, V, keys, n, s, n_j, k_j, terminator, pair + s, lane_s, spp,
+                               lane_k32)
+                else:
+                    light_stage(lights_tag, lights_par, j, V, n, terminator)
+                shadow_fill(V, sh, w, n)
+                n_sh = bsdf_stage(mats_tag, mats_par, lights_par, j, V, sh, w, n)
+                if n_b > 0 and n_sh > 0:
+                    area_mis_stage(ltag, lights_par, j, mats_tag, mats_par, V, n, n_j, n_b)
             if n_sh == 0:
                 continue
             n_shadow += n_sh
             E.packet_query(scene, sh, w, True, True)
+            inv = 1.0 / (n_j if s < n_j else n_b)
             for lane in range(n):
                 add = V[V_LIT * LANES + lane] != 0.0 and not E.lane_blocked(sh, w, lane)
                 for c in range(3):
-                    V[(V_L + c) * LANES + lane] += V[(V_F + c) * LANES + lane] * inv_j if add else 0.0
-        pair += n_j if area else 0
+                    V[(V_L + c) * LANES + lane] += V[(V_F + c) * LANES + lane] * inv if add else 0.0
+        pair += n_j + n_b if area else 0
     # the specular tree of each sample, then the film
     for lane in range(n):
         l0, l1, l2 = lane_vec(V, V_L, lane)

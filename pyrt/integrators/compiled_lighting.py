@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import math
 
+import numba
+
 from pyrt.integrators import kernel_cache
 
 kernel_cache.use_cache_dir()      # before the decorators below run
@@ -23,7 +25,7 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     LANES, V_D, V_P, V_NG, V_NS, V_NV,
     V_LIFT, V_MAG, V_MAG_LIFT, V_MAT, V_A, V_F,
     V_LIT, V_COSO, V_COSI, V_COSIO, V_S, V_GOK,
-    V_SO, V_WI, V_TMAX, T_INF, DIM_AREA, MAX_AREA_SAMPLES,
+    V_SO, V_WI, V_TMAX, T_INF, DIM_AREA, MAX_AREA_SAMPLES, V_L, DIM_ENV, N_SHADOW,
     _njit, _stage, lane_vec, set_lane_vec)
 from pyrt.lights import compiled as LC  # noqa: E402
 from pyrt.lights import compiled_env as CE  # noqa: E402
@@ -287,6 +289,150 @@ def env_stage(etag, erec, edata, mats_tag, mats_par, V, n, terminator, bsdf_tech
         E.packet_set_active(sh, w, lane, ok)
         n_sh += ok
     return n_sh
+
+
+@_stage
+def area_light_weight(ltag, lpars, j, mtag, mpars, m, p, ns, wo, wi, n_l, n_b):
+    """The power-heuristic weight of a light sample toward ``wi`` of area light ``j`` with ``n_b`` BSDF samples
+    beside its ``n_l`` light samples (:func:`pyrt.integrators.direct.area_mis_estimate`'s ``w_light``: the light's
+    density and the BSDF's, in the shading frame of ``ns``)."""
+    pdf_l = LC.area_pdf_dist(ltag, lpars, j, p[0], p[1], p[2], wi[0], wi[1], wi[2])[0]
+    fs, ft = CS.coordinate_frame(ns[0], ns[1], ns[2])
+    wol, wil = CS.to_local(wo, fs, ft, ns), CS.to_local(wi, fs, ft, ns)
+    pdf_b = CS.pdf_wi(mtag, mpars, m, wol[0], wol[1], wol[2], wil[0], wil[1], wil[2])
+    return CS.power_heuristic(pdf_l, pdf_b, 2.0, float(n_l), float(n_b))
+
+
+@_stage
+def area_bsdf_sample(ltag, lpars, j, mtag, mpars, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift, terminator, u0,
+                     u1, n_l, n_b):
+    """One BSDF sample toward area light ``j`` (``area_mis_estimate``'s second technique): ``(ok, origin, wi, tmax,
+    value)``, ``value = weight L w_b`` where the sampled direction reaches the light's front (:func:`pyrt.lights.
+    compiled.area_pdf_dist`), the shadow ray to that point (robust tmax); ``ok`` False where it adds nothing."""
+    fs, ft = CS.coordinate_frame(ns[0], ns[1], ns[2])
+    wol = CS.to_local(wo, fs, ft, ns)
+    x, y, z, w_r, w_g, w_b, pdf_b = CS.sample_f(mtag, mpars, m, albedo, wol[0], wol[1], wol[2], u0, u1)
+    wi = CS.to_world((x, y, z), fs, ft, ns)
+    cg = dot(wi, ng)
+    ok = (cg > 0.0 or dot(wi, nv) > 0.0) and pdf_b > 0.0 and max(w_r, w_g, w_b) > 0.0
+    pdf_l, dist = LC.area_pdf_dist(ltag, lpars, j, p[0], p[1], p[2], wi[0], wi[1], wi[2])
+    ok = ok and math.isfinite(dist)
+    k = CS.power_heuristic(pdf_b, pdf_l, 2.0, float(n_b), float(n_l)) if ok else 0.0
+    b = j * LC.RECORD
+    val = (w_r * lpars[b + 6] * k, w_g * lpars[b + 7] * k, w_b * lpars[b + 8] * k)
+    ok = ok and max(val[0], val[1], val[2]) > 0.0
+    if terminator:
+        o = J.round_away(lift, mag_lift, 1.0, ng)
+    else:
+        o = J.round_away(p, mag, 1.0 if cg >= 0.0 else -1.0, ng)
+    d = dist if ok else 1.0
+    tmax = J.robust_tmax(o, wi, p[0] + wi[0] * d, p[1] + wi[1] * d, p[2] + wi[2] * d, True)
+    return ok, o, wi, min(tmax, T_INF), val
+
+
+@_stage
+def area_mis_stage(ltag, lpars, j, mats_tag, mats_par, V, n, n_l, n_b):
+    """The light samples' MIS weights (:func:`area_light_weight`) into their values (:data:`V_F`) for the lanes
+    whose shadow ray is traced, after :func:`bsdf_stage`."""
+    for lane in range(n):
+        if V[V_LIT * LANES + lane] != 0.0:
+            m = int(V[V_MAT * LANES + lane])
+            d = lane_vec(V, V_D, lane)
+            k = area_light_weight(ltag, lpars, j, mats_tag[m], mats_par, m, lane_vec(V, V_P, lane),
+                                  lane_vec(V, V_NS, lane), (-d[0], -d[1], -d[2]), lane_vec(V, V_WI, lane), n_l, n_b)
+            f = lane_vec(V, V_F, lane)
+            set_lane_vec(V, V_F, lane, (f[0] * k, f[1] * k, f[2] * k))
+
+
+@_stage
+def area_bsdf_stage(ltag, lpars, j, mats_tag, mats_par, V, keys, n, terminator, s, n_l, n_b, k_b, pair, lane_s, spp,
+                    lane_k32, sh, w):
+    """:func:`area_bsdf_sample` number ``s`` of ``n_b`` for the camera hits in lanes ``[0, n)`` (stratified per hit
+    as the light samples, :func:`pyrt.lights.compiled.stratum`, the jitter padded: dimension pair ``pair``): the
+    value into :data:`V_F`, whether it is traced into :data:`V_LIT`, the shadow ray into the packet ``sh``
+    (width ``w``). Returns the number of shadow rays."""
+    n_sh = 0
+    for lane in range(n):
+        x0, x1 = JS.padded_sobol_2d(lane_s[lane], spp, lane_k32[lane], pair)
+        u0, u1 = LC.stratum(s, n_b, k_b, x0, x1, _lhs_perm(keys[lane], j + 4096, s, n_b, k_b))
+        m = int(V[V_MAT * LANES + lane])
+        mm = max(m, 0)
+        mtag = mats_tag[mm]
+        ok = False
+        if m >= 0 and MC.has_diffuse(mtag):
+            d = lane_vec(V, V_D, lane)
+            ok, o, wi, tmax, val = area_bsdf_sample(
+                ltag, lpars, j, mtag, mats_par, mm, lane_vec(V, V_A, lane), lane_vec(V, V_P, lane),
+                lane_vec(V, V_NG, lane), lane_vec(V, V_NS, lane), lane_vec(V, V_NV, lane), (-d[0], -d[1], -d[2]),
+                lane_vec(V, V_LIFT, lane), V[V_MAG * LANES + lane], V[V_MAG_LIFT * LANES + lane], terminator, u0, u1,
+                n_l, n_b)
+            if ok:
+                set_lane_vec(V, V_F, lane, val)
+                E.packet_set_origin(sh, w, lane, o[0], o[1], o[2])
+                E.packet_set_dir(sh, w, lane, wi[0], wi[1], wi[2], tmax)
+        V[V_LIT * LANES + lane] = 1.0 if ok else 0.0
+        E.packet_set_active(sh, w, lane, ok)
+        n_sh += ok
+    return n_sh
+
+
+@numba.njit(nogil=True, cache=True, error_model="numpy")
+def env_hit(scene, etag, erec, edata, mtag, mats_par, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift, terminator,
+            key, n_l, n_b, ray_buf):
+    """The environment light at one hit of the specular tree: ``n_l`` light and ``n_b`` BSDF samples
+    (:func:`env_sample`; round ``s`` draws the light sample's numbers, then the
+    BSDF sample's, each second number stratified over its technique's rounds), single shadow rays; returns
+    ``(r, g, b, shadow rays)``."""
+    a0 = a1 = a2 = 0.0
+    b0 = b1 = b2 = 0.0
+    n_sh = 0
+    for s in range(max(n_l, n_b)):
+        for tech in range(2):
+            count = n_l if tech == 0 else n_b
+            if s >= count:
+                continue
+            d = DIM_ENV + 4 * s + 2 * tech
+            ok, o, wi, val = env_sample(etag, erec, edata, mtag, mats_par, m, albedo, p, ng, ns, nv, wo, lift, mag,
+                                        mag_lift, terminator, J.uniform(key, d), (s + J.uniform(key, d + 1)) / count,
+                                        tech == 1)
+            if not ok:
+                continue
+            n_sh += 1
+            if not E.occluded1(scene, o[0], o[1], o[2], wi[0], wi[1], wi[2], 0.0, T_INF, ray_buf):
+                if tech == 0:
+                    a0, a1, a2 = a0 + val[0], a1 + val[1], a2 + val[2]
+                else:
+                    b0, b1, b2 = b0 + val[0], b1 + val[1], b2 + val[2]
+    return a0 / n_l + b0 / n_b, a1 / n_l + b1 / n_b, a2 / n_l + b2 / n_b, float(n_sh)
+
+
+@numba.njit(nogil=True, cache=True, error_model="numpy")
+def env_rounds(scene, etag, erec, edata, mats_tag, mats_par, V, n, terminator, pair, lane_s, spp, lane_k32, sh, w, n_l,
+               n_b, cnt):
+    """The environment light at the packet's camera hits: ``max(n_l, n_b)`` rounds, each the light technique's
+    sample (while the round is below ``n_l``) then the BSDF technique's (below ``n_b``), each a masked occlusion
+    query of the packet (:func:`env_stage`); their values divided by their
+    technique's count added into :data:`V_L`. Returns the next free padded dimension pair (one per sample drawn,
+    in the NumPy path's order)."""
+    for s in range(max(n_l, n_b)):
+        for tech in range(2):
+            count = n_l if tech == 0 else n_b
+            if s >= count:
+                continue
+            E.packet_activate(sh, w, 0)
+            n_sh = env_stage(etag, erec, edata, mats_tag, mats_par, V, n, terminator, tech == 1, s, count, pair,
+                             lane_s, spp, lane_k32, sh, w)
+            pair += 1
+            if n_sh == 0:
+                continue
+            cnt[N_SHADOW] += n_sh
+            E.packet_query(scene, sh, w, True, True)
+            inv = 1.0 / count
+            for lane in range(n):
+                add = V[V_LIT * LANES + lane] != 0.0 and not E.lane_blocked(sh, w, lane)
+                for c in range(3):
+                    V[(V_L + c) * LANES + lane] += V[(V_F + c) * LANES + lane] * inv if add else 0.0
+    return pair
 
 
 kernel_cache.restore()

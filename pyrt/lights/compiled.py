@@ -13,6 +13,7 @@ RECT       0-2 centre, 3-5 unit normal (the emitting side), 6-8 radiance L (W m^
            9-11 tangent (the width's direction), 12-14 bitangent, 15 width, 16 height, 17 area, 18 samples per hit
 DISK       as RECT with 15 radius (16 unused)
 SPHERE     0-2 centre, 6-8 radiance, 15 radius, 17 area, 18 samples per hit
+           (every area light: 19 BSDF samples per hit, combined with the light samples by the power heuristic)
 ENV        0 light samples, 1 BSDF samples per hit (:class:`pyrt.EnvironmentLight` with ``strategy="mis"``)
 =========  =====================================================================================================
 
@@ -148,6 +149,45 @@ def area_sample(tag, pars, j, px, py, pz, u0, u1):
     return w0, w1, w2, dist, cos_l * pars[b + 17] * inv * inv
 
 
+@register_jitable
+def area_pdf_dist(tag, pars, j, px, py, pz, wx, wy, wz):
+    """Where the ray ``p + t w`` (``t > 0``) meets area light ``j``'s emitting surface: ``(pdf, dist)``, the
+    solid-angle density of :func:`area_sample` toward ``w`` (:meth:`pyrt.lights.RectLight.pdf_li` and the disk's and
+    sphere's) and the distance (:meth:`~pyrt.lights.RectLight.ray_distance`; ``inf`` and pdf 0 where it misses: the
+    back of a rectangle or disk, outside the sphere's cone, or ``p`` inside the sphere)."""
+    b = j * RECORD
+    cx, cy, cz = pars[b], pars[b + 1], pars[b + 2]
+    if tag == SPHERE:
+        r = pars[b + 15]
+        dcx, dcy, dcz = cx - px, cy - py, cz - pz
+        cc = dcx * dcx + dcy * dcy + dcz * dcz
+        dist_c = math.sqrt(cc)
+        outside = dist_c > r * (1.0 + 1e-9)
+        inv = 1.0 / dist_c if dist_c > 0.0 else 0.0
+        sin2 = min(max((r * inv) ** 2, 0.0), 1.0)
+        one_minus_cos = sin2 / (1.0 + math.sqrt(1.0 - sin2)) if outside else 0.0
+        bb = wx * dcx + wy * dcy + wz * dcz
+        pdf = 1.0 / (2.0 * math.pi * one_minus_cos) if outside and bb * inv >= 1.0 - one_minus_cos else 0.0
+        c = cc - r * r
+        disc = bb * bb - c
+        t = bb - math.sqrt(max(disc, 0.0))
+        return pdf, (t if disc >= 0.0 and c > 0.0 and t > 0.0 else math.inf)
+    nx, ny, nz = pars[b + 3], pars[b + 4], pars[b + 5]
+    cos_l = -(wx * nx + wy * ny + wz * nz)
+    t = ((cx - px) * nx + (cy - py) * ny + (cz - pz) * nz) / -cos_l if cos_l > 0.0 else -1.0
+    if not (cos_l > 0.0 and t > 0.0):
+        return 0.0, math.inf
+    x0, x1, x2 = px + t * wx - cx, py + t * wy - cy, pz + t * wz - cz
+    if tag == RECT:
+        inside = (abs(x0 * pars[b + 9] + x1 * pars[b + 10] + x2 * pars[b + 11]) <= 0.5 * pars[b + 15]
+                  and abs(x0 * pars[b + 12] + x1 * pars[b + 13] + x2 * pars[b + 14]) <= 0.5 * pars[b + 16])
+    else:
+        inside = x0 * x0 + x1 * x1 + x2 * x2 <= pars[b + 15] ** 2
+    if not inside:
+        return 0.0, math.inf
+    return t * t / cos_l / pars[b + 17], t
+
+
 @register_jitable(inline="always")
 def stratum(s, ns, k, x0, x1, perm):
     """Sample ``s`` of a hit's ``ns`` light samples in [0, 1)^2 (:func:`pyrt.core.sampler.stratified_samples`): the
@@ -175,4 +215,5 @@ def area_record(light, tag):
         rec[15] = light.radius
     rec[17] = light.area
     rec[AREA_SAMPLES] = light.n_samples
+    rec[AREA_SAMPLES + 1] = light.bsdf_samples
     return tag, rec

@@ -44,7 +44,6 @@ import numpy as np
 from numba.extending import register_jitable
 
 from pyrt.lights.environment import ConstantEnvironment, LatLongEnvironment
-from pyrt.lights.environment_light import EnvironmentLight
 from pyrt.materials.compiled_sampling import power_heuristic, square_to_uniform_sphere
 
 #: tags (0: no environment)
@@ -93,8 +92,8 @@ def pack_environment(env, light=None):
     rec[R_BETA] = 2.0
     rec[R_NL] = rec[R_NB] = 1.0
     if light is not None:
-        if not isinstance(light, EnvironmentLight):
-            raise TypeError(f"pack_environment: light must be an EnvironmentLight, got {type(light).__name__}")
+        if light.environment is not env:
+            raise ValueError(f"pack_environment: {light.label} lights with another environment")
         rec[R_COMPENSATE] = 1.0 if light.compensate else 0.0
         rec[R_BETA] = 2.0 if light.heuristic == "power" else 1.0
         if light.n_samples != light.bsdf_samples:

@@ -67,6 +67,8 @@ import numpy as np
 
 from pyrt.shaders import sampling
 
+from pyrt.lights import compiled as _compiled
+from pyrt.lights import compiled_env as _compiled_env
 from pyrt.lights.base import Light, LightSample
 from pyrt.lights.environment import HEURISTICS, STRATEGIES, Environment, EnvironmentMapError
 
@@ -158,12 +160,11 @@ class EnvironmentLight(Light):
     def compiled_record(self):
         """:data:`pyrt.lights.compiled.ENV` for ``strategy="mis"`` without the control variate, over an environment the
         kernel can read (:func:`pyrt.lights.compiled_env.pack_environment`); None otherwise."""
-        from pyrt.lights import compiled as lc, compiled_env      # (compiled_env imports this module)
-        if self.strategy != "mis" or self.control_variate or not compiled_env.packable(self.environment):
+        if self.strategy != "mis" or self.control_variate or not _compiled_env.packable(self.environment):
             return None
-        rec = np.zeros(lc.RECORD)
+        rec = np.zeros(_compiled.RECORD)
         rec[0], rec[1] = self.n_samples, self.bsdf_samples
-        return lc.ENV, rec
+        return _compiled.ENV, rec
 
     def sample(self, p, u):
         """Environment importance sample as a plain light sample (``E = L / pdf``, ``dist = inf``)."""

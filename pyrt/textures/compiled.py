@@ -103,3 +103,25 @@ def pack_table(tags, records, texels):
             at += parts[-1].size
     flat = np.concatenate([recs.ravel(), *parts, np.zeros(-at % RECORD)])
     return np.asarray(tags, dtype=np.int64), np.ascontiguousarray(flat.reshape(-1, RECORD))
+
+
+def image_record(tex):
+    """``(IMAGE, record, texels)`` of a :class:`pyrt.ImageTexture` read with the ``nearest`` or ``bilinear`` filter,
+    RGB, from UV set 0 (the decoded level 0 as its texels); None for any other (the footprint filters need ray
+    differentials)."""
+    if tex.filter not in ("nearest", "bilinear") or tex.channels != 3 or tex.texcoord != 0:
+        return None
+    img = tex.image
+    rec = np.zeros(RECORD)
+    rec[0], rec[1] = img.shape[0], img.shape[1]
+    rec[3], rec[4] = (WRAPS.index(m) for m in tex.wrap)
+    rec[5] = 0.0 if tex.filter == "nearest" else 1.0
+    rec[6] = 1.0 if img.dtype == np.float32 else 0.0
+    if tex.scale != (1.0, 1.0) or tex.offset != (0.0, 0.0) or tex.rotation_deg != 0.0:
+        rot = np.deg2rad(tex.rotation_deg)
+        c, s = np.cos(rot), np.sin(rot)
+        sx, sy = tex.scale
+        rec[7] = 1.0
+        rec[8:12] = (c * sx, s * sx, -s * sy, c * sy)          # transform_uv's lin_t, row-major
+        rec[12:14] = tex.offset
+    return IMAGE, rec, img

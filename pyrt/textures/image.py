@@ -394,24 +394,9 @@ class ImageTexture(Texture):
         self.channels = self._image.shape[2]
 
     def compiled_record(self):
-        """:data:`pyrt.textures.compiled.IMAGE` with the decoded texels, for an RGB image read with the ``nearest`` or
-        ``bilinear`` filter from the mesh's UVs; None otherwise (the footprint filters need ray differentials)."""
-        if self.filter not in ("nearest", "bilinear") or self.channels != 3 or self.texcoord != 0:
-            return None
-        img = self.image
-        rec = np.zeros(_compiled.RECORD)
-        rec[0], rec[1] = img.shape[0], img.shape[1]
-        rec[3], rec[4] = (_compiled.WRAPS.index(m) for m in self.wrap)
-        rec[5] = 0.0 if self.filter == "nearest" else 1.0
-        rec[6] = 1.0 if img.dtype == np.float32 else 0.0
-        if self.scale != (1.0, 1.0) or self.offset != (0.0, 0.0) or self.rotation_deg != 0.0:
-            rot = np.deg2rad(self.rotation_deg)
-            c, s = np.cos(rot), np.sin(rot)
-            sx, sy = self.scale
-            rec[7] = 1.0
-            rec[8:12] = (c * sx, s * sx, -s * sy, c * sy)          # transform_uv's lin_t, row-major
-            rec[12:14] = self.offset
-        return _compiled.IMAGE, rec, img
+        """:func:`pyrt.textures.compiled.image_record`: an RGB image read with the ``nearest`` or ``bilinear`` filter
+        from UV set 0; None otherwise (the footprint filters need ray differentials)."""
+        return _compiled.image_record(self)
 
     @classmethod
     def from_dict(cls, params, base_dir=None):
