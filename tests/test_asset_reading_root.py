@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from pyrt.io.assets import AssetError, archive, load_asset, pack_glb
-from pyrt.io.assets.find_file import find_file, reading_root
+from pyrt.io.assets.find_file import OutsideRootError, find_file, reading_root
 
 SECRET = b"TOP-SECRET-BYTES"
 
@@ -56,7 +56,8 @@ def test_an_archived_gltf_cannot_read_outside_the_archive(tmp_path):
         zf.writestr("m/model.glb", pack_glb(header, binary))
     with pytest.raises(AssetError, match=r"leaves the archive .*m\.zip: not read") as e:
         load_asset(str(z))
-    assert "hostname" in str(e.value)        # the URI is named
+    assert "hostname" in str(e.value)        # the URI is named, and the member that names it
+    assert str(e.value).startswith(f"{z}!m/model.glb: ") and isinstance(e.value, OutsideRootError)
     _no_secret(e)
 
 
@@ -79,6 +80,7 @@ def test_a_loose_model_reads_nothing_outside_its_folder(tmp_path):
     (model / "m.glb").write_bytes(pack_glb(header, binary))
     with pytest.raises(AssetError, match=r"'../elsewhere/hostname' leaves the model's folder .*download: not read") as e:
         load_asset(str(model / "m.glb"))
+    assert str(e.value).startswith(f"{model / 'm.glb'}: ")
     _no_secret(e)
 
 

@@ -84,7 +84,7 @@ from pyrt.io.assets.gltf import gltf_node_transforms, gltf_uv_transform, load_gl
 from pyrt.io.assets.obj import load_obj, parse_mtl
 from pyrt.io.assets.off import load_off
 from pyrt.io.assets.archive import load_zip, split_member
-from pyrt.io.assets.find_file import active_root, reading_root
+from pyrt.io.assets.find_file import OutsideRootError, active_root, reading_root
 from pyrt.io.assets.ply_stl import load_ply_stl, read_ply_tristrips, tristrip_faces
 
 __all__ = [
@@ -148,15 +148,18 @@ def load_asset(path, *, max_texture=None, generate_tangents=True, root=None):
         return asset
     folder = os.path.dirname(os.path.abspath(path)) if root is None else os.fspath(root)
     within = contextlib.nullcontext() if active_root() is not None else reading_root(folder)   # an archive's stays
-    with within, malformed_is_asset_error(path, fmt.upper() if fmt != "gltf" else "glTF"):
-        if fmt == "gltf":
-            asset = load_gltf(path, max_texture)
-        elif fmt == "obj":
-            asset = load_obj(path, max_texture)
-        elif fmt == "off":
-            asset = load_off(path)
-        else:
-            asset = load_ply_stl(path, fmt, max_texture)
+    try:
+        with within, malformed_is_asset_error(path, fmt.upper() if fmt != "gltf" else "glTF"):
+            if fmt == "gltf":
+                asset = load_gltf(path, max_texture)
+            elif fmt == "obj":
+                asset = load_obj(path, max_texture)
+            elif fmt == "off":
+                asset = load_off(path)
+            else:
+                asset = load_ply_stl(path, fmt, max_texture)
+    except OutsideRootError as exc:      # the file that names it (ARCHIVE.zip!member once load_zip rewrites it)
+        raise (exc if str(exc).startswith(path) else OutsideRootError(f"{path}: {exc}")) from None
     asset.stated_up_axis = metadata_up_axis(path, fmt)
     asset.load_time = time.perf_counter() - t0
     asset.generate_tangents = bool(generate_tangents)

@@ -214,8 +214,8 @@ def load_zip(path, load, member=None):
             try:
                 with reading_root(tmp, f"the archive {path}"):
                     asset = load(inner)
-            except AssetError as exc:
-                raise AssetError(str(exc).replace(inner, shown).replace(tmp + os.sep, f"{path}!")) from None
+            except AssetError as exc:      # the same class (OutsideRootError stays one), the paths as the user knows them
+                raise type(exc)(str(exc).replace(inner, shown).replace(tmp + os.sep, f"{path}!")) from None
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
     asset.path = shown

@@ -38,12 +38,16 @@ import os
 
 from pyrt.io.assets.common import AssetError
 
-__all__ = ["find_file", "reading_root", "active_root", "SEARCH_DEPTH", "SEARCH_ENTRIES"]
+__all__ = ["find_file", "reading_root", "active_root", "OutsideRootError", "SEARCH_DEPTH", "SEARCH_ENTRIES"]
 
 #: subfolder levels below the model's folder searched for a file by its name
 SEARCH_DEPTH = 2
 #: directory entries looked at, at most, in that search
 SEARCH_ENTRIES = 20000
+
+
+class OutsideRootError(AssetError):
+    """A model names a file outside the folder or archive it may read (module docstring)."""
 
 
 #: the folder (real path) and its description a load may read files from: set by :func:`reading_root`
@@ -127,7 +131,7 @@ def find_file(base, name):
 
     Raises
     ------
-    AssetError
+    OutsideRootError
         ``name`` is a relative path that leaves the root, or names a link to a file outside it.
     """
     root, label = _ROOT.get() or (os.path.realpath(base), f"the model's folder {base}")
@@ -144,7 +148,7 @@ def find_file(base, name):
         windows_abs = True                   # an exporter's path: looked for by its file name inside the root
     elif not windows_abs:
         if not unix_abs and not _inside(os.path.join(rbase, norm), root):
-            raise AssetError(f"{name[:200]!r} leaves {label}: not read (a model reads only files inside its folder "
+            raise OutsideRootError(f"{name[:200]!r} leaves {label}: not read (a model reads only files inside its folder "
                              "or archive)")
         direct = norm if unix_abs else os.path.join(base, norm)
         hit, how = (direct, None) if os.path.isfile(direct) else (None, None)
@@ -153,7 +157,7 @@ def find_file(base, name):
             how = "found by its name in another case"
         if hit is not None:
             if outside(hit):
-                raise AssetError(f"{name[:200]!r} is a link to a file outside {label}: not read")
+                raise OutsideRootError(f"{name[:200]!r} is a link to a file outside {label}: not read")
             return hit, how
     leaf = ntpath.basename(name) if windows_abs else os.path.basename(norm)
     if leaf:
