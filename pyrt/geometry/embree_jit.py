@@ -473,6 +473,12 @@ def packet_uv(p, w, lane):
 
 
 @numba.njit(nogil=True, cache=True, inline="always")
+def packet_tfar(p, w, lane):
+    """Lane ``lane``'s tfar (float32) after a closest-hit query: the hit's distance along the ray's direction."""
+    return p[TFAR * w + lane]
+
+
+@numba.njit(nogil=True, cache=True, inline="always")
 def lane_blocked(p, w, lane):
     """:func:`packet_blocked` with the width given."""
     return p[TFAR * w + lane] == -np.inf

@@ -16,7 +16,8 @@ constant and lat-long environments, seen by missed rays and lighting by ``strate
 and ambient term; smooth and flat shading with or without the back-facing-normal fallback; the ``robust`` and
 ``robust_no_terminator`` offsets; fixed spp and adaptive passes (:func:`render_pixels`). Not yet: other
 environments and strategies, emissive-mesh lights, the other materials, filtered textures (ray differentials),
-normal maps, alpha coverage, nested media, transparent shadows, the glossy integrator, AOVs and ray recording.
+normal maps, alpha coverage, nested media, transparent shadows, the glossy integrator and ray recording (AOVs:
+fixed spp, not on Dask workers).
 """
 from __future__ import annotations
 
@@ -48,7 +49,7 @@ _announced = []
 
 
 def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=False, light_select_depth=None,
-                aovs=False, record_rays=False, scene=None):
+                record_rays=False, scene=None):
     """The reasons (strings) the compiled kernel cannot render the prepared scene ``ps`` with these options; an
     empty list when it can. The options are those of :func:`pyrt.render_full`. ``ps`` None and ``scene`` given: the
     same decision from the scene alone (what a Dask client decides before its workers prepare the scene; the
@@ -65,8 +66,6 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
         reasons.append("transparent shadows")
     if light_select_depth is not None:
         reasons.append("light selection (light_select_depth)")
-    if aovs:
-        reasons.append("AOVs")
     if record_rays:
         reasons.append("ray recording")
     if scene.environment is not None and not compiled_env.packable(scene.environment):
@@ -233,18 +232,21 @@ MIN_CALLS = 4
 
 
 def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_depth, terminator, threads=None,
-                 cancel=None, progress=None, tiles=None, call_seconds=CALL_SECONDS):
+                 cancel=None, progress=None, tiles=None, call_seconds=CALL_SECONDS, aovs=False):
     """Render ``spp`` samples per pixel of the compiled scene ``cs`` through the camera ``cam``.
 
     The tiles (``tiles``: a subset, default all in :func:`tile_order`) are rendered in kernel calls of at most
     about ``call_seconds`` each (a progress step each; ``cancel`` is looked at between them). Returns ``(sums
-    (H*W, 3), squared sums (H*W, 3), counters (4,), tiles_done (n_tiles,) bool)``; counters: primary, secondary,
-    shadow rays, non-finite samples (zeroed)."""
+    (H*W, 3), squared sums (H*W, 3), counters (4,), tiles_done (n_tiles,) bool)``, and with ``aovs`` the AOV sums
+    (H*W, :data:`pyrt.integrators.compiled_layout.N_AOV`) after them; counters: primary, secondary, shadow rays,
+    non-finite samples (zeroed)."""
     W, H = cam.width, cam.height
     order = tile_order(n_tiles(cam)) if tiles is None else np.asarray(tiles, dtype=np.int64)
     opts, optf = _options(cs, spp, seed, max_depth, throughput_cutoff, split_depth, terminator)
     sums = np.zeros((W * H, 3))
     sqs = np.zeros((W * H, 3))
+    aov = np.zeros((W * H if aovs else 1, KL.N_AOV))
+    opts[KL.O_AOV] = 1 if aovs else 0
     counters = np.zeros((order.size, 4), dtype=np.int64)
     done = np.zeros(n_tiles(cam), dtype=bool)
     cam_rec = camera_record(cam)
@@ -268,7 +270,7 @@ def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_dept
             with numba.parallel_chunksize(CHUNKSIZE):
                 K.render_tiles(cs.scene, order[lo:hi], cam_rec, cs.geo_f, cs.geo_i, cs.materials[0], cs.materials[1],
                                cs.textures[0], cs.textures[1], cs.lights[0], cs.lights[1], cs.env_data, opts,
-                               optf, sums, sqs, counters[lo:hi], width)
+                               optf, sums, sqs, aov, counters[lo:hi], width)
         if not loading:
             timed_s += time.perf_counter() - t0
             timed_tiles += hi - lo
@@ -278,6 +280,8 @@ def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_dept
         if progress is not None:
             progress.update(hi - lo)
         lo = hi
+    if aovs:
+        return sums, sqs, counters.sum(axis=0), done, aov
     return sums, sqs, counters.sum(axis=0), done
 
 

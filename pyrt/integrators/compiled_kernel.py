@@ -44,7 +44,7 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK,
     O_GRID, F_CUTOFF, F_BG, F_AMBIENT, N_PRIMARY, N_SECONDARY,
     N_SHADOW, N_NONFINITE, STACK, STACK_ROW, T_INF, DIM_LOBE,
-    ADAPTIVE_KEYS, F_ENV, O_ENV, _njit, lane_vec, set_lane_vec)
+    ADAPTIVE_KEYS, F_ENV, O_ENV, O_AOV, N_AOV, V_T, _njit, lane_vec, set_lane_vec)
 from pyrt.integrators.compiled_lighting import (  # noqa: E402
     area_bsdf_sample, area_bsdf_stage, area_light_weight, area_mis_stage, area_stage, area_u, bsdf_stage, direct_light,
     env_hit, env_rounds, light_stage, shadow_fill)
@@ -331,6 +331,7 @@ def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, sp
         V[V_FRONT * LANES + lane] = 1.0 if front else 0.0
         V[V_MAT * LANES + lane] = m if hit else -1
         V[V_COSO * LANES + lane] = dot((-d[0], -d[1], -d[2]), ns)
+        V[V_T * LANES + lane] = E.packet_tfar(pk, w, lane) if hit else math.inf
     # direct light: per light, the packet's shadow rays (geometry, then the BSDF) in one masked query
     pair = 0                # the padded dimension pairs of the area lights' samples
     for j in range(nl if any_diffuse else 0):
@@ -393,13 +394,28 @@ def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, sp
     cnt[N_NONFINITE] += n_bad
 
 
+@_njit
+def add_aovs(V, lane, a, q):
+    """Lane ``lane``'s first-hit AOVs added to the pixel's row ``a[q:q + N_AOV]``: depth and a count where the
+    camera ray hit, the shading normal and the albedo (zeros on a miss), as :meth:`pyrt.core.film.Film.add_block`."""
+    t = V[V_T * LANES + lane]
+    if math.isfinite(t):
+        a[q] += t
+        a[q + 1] += 1.0
+        ns, alb = lane_vec(V, V_NS, lane), lane_vec(V, V_A, lane)
+        for c in range(3):
+            a[q + 2 + c] += ns[c]
+            a[q + 5 + c] += alb[c]
+
+
 @numba.njit(nogil=True, cache=True, error_model="numpy")
 def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par,
-                env_data, opts, optf, sums, sqs, counters, width):
+                env_data, opts, optf, sums, sqs, aovs, counters, width):
     """Render the pixels of tile ``tile`` (row-major over the image's tiles of :data:`TILE` pixels) at the samples
     ``[opts[O_SPP_LO], opts[O_SPP])`` of each pixel's set of ``opts[O_SPP]``, ``width`` samples (a packet) at a time
     in pixel order (one pixel's samples when they fill a packet, several pixels' at low spp): their radiance summed
-    into ``sums`` and squared into ``sqs`` (pixel rows of the image), rays counted into ``counters`` (4,).
+    into ``sums`` and squared into ``sqs`` (pixel rows of the image), with ``opts[O_AOV]`` the camera hits' AOVs
+    summed into ``aovs`` (:data:`N_AOV` columns), rays counted into ``counters`` (4,).
 
     A packet goes through stages, each a short loop over its lanes whose values pass between stages in the
     scratch ``V`` (field-major: one field of all lanes is contiguous), so that the lanes' work overlaps and the
@@ -409,7 +425,8 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
     U.wide_vectors()
     bufs = packet_buffers(width)
     pk, sh, ray_buf, V, stack, keys, lane_pix, lane_s, lane_key, lane_k32, lane_xy = buffer_pointers(bufs)
-    film_s, film_q = U.pointer(sums), U.pointer(sqs)
+    film_s, film_q, film_a = U.pointer(sums), U.pointer(sqs), U.pointer(aovs)
+    want_aovs = opts[O_AOV] != 0
     erec, edata = U.pointer(optf[F_ENV:]), U.pointer(env_data)
     cam, opts, optf = U.pointer(cam), U.pointer(opts), U.pointer(optf)
     mats_tag, mats_par = U.pointer(mats_tag), U.pointer(mats_par)
@@ -482,16 +499,18 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
             film_q[q] += l0 * l0
             film_q[q + 1] += l1 * l1
             film_q[q + 2] += l2 * l2
+            if want_aovs:
+                add_aovs(V, lane, film_a, lane_pix[lane] * N_AOV)
     release(bufs)         # the owners of the pointers live until here
 
 
 @numba.njit(nogil=True, cache=True, error_model="numpy", parallel=True)
 def render_tiles(scene, tiles, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par,
-                 env_data, opts, optf, sums, sqs, counters, width):
+                 env_data, opts, optf, sums, sqs, aovs, counters, width):
     """:func:`render_tile` for every tile of ``tiles`` (threads over them); ``counters`` (len(tiles), 4)."""
     for k in prange(tiles.shape[0]):
         render_tile(scene, tiles[k], cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag,
-                    lights_par, env_data, opts, optf, sums, sqs, counters[k], width)
+                    lights_par, env_data, opts, optf, sums, sqs, aovs, counters[k], width)
 
 
 @numba.njit(nogil=True, cache=True, error_model="numpy")

@@ -25,16 +25,20 @@ V_A, V_L, V_F, V_LIT = 22, 25, 28, 31
 V_COSO, V_COSI, V_COSIO, V_S, V_GOK = 32, 33, 34, 35, 36
 #: the shadow ray: origin, direction, tmax
 V_SO, V_WI, V_TMAX = 37, 40, 43
+#: the camera ray's hit distance (``inf``: a miss; the depth AOV)
+V_T = 44
 #: fields of the scratch
-V_SIZE = 44
+V_SIZE = 45
 #: camera record layout (float64)
 C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W, C_H, C_JITTER, C_K, C_AX = 0, 3, 6, 9, 12, 13, 14, 15, 16, 17
 #: length of the camera record
 N_CAM = 18
 #: integer options
-O_SEED, O_SPP, O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK, O_GRID, O_ENV = range(10)
+O_SEED, O_SPP, O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK, O_GRID, O_ENV, O_AOV = range(11)
 #: length of the integer options
-N_OPTS = 10
+N_OPTS = 11
+#: the AOV sums per pixel (``opts[O_AOV]`` 1): depth, depth weight (samples that hit), normal (3), albedo (3)
+N_AOV = 8
 #: float options
 F_CUTOFF, F_BG, F_AMBIENT = 0, 1, 4
 #: where the float options hold the environment's record (:data:`pyrt.lights.compiled_env.RECORD` entries; its tag

@@ -360,10 +360,12 @@ def _compiled_reasons(backend, ps, scene, runner, integ, aovs):
         return ["backend='numpy'"]
     reasons = compiled.unsupported(ps, integrator=integ["integrator"], offset=integ["offset"],
                                    transparent_shadows=integ["transparent_shadows"],
-                                   light_select_depth=integ["light_select_depth"], aovs=aovs,
+                                   light_select_depth=integ["light_select_depth"],
                                    record_rays=integ["record_rays"], scene=scene)
     if runner is not None:
         reasons.append("adaptive passes on Dask workers")
+    if aovs:
+        reasons.append("AOVs with adaptive passes")
     if reasons and backend == "compiled":
         raise RenderError("render: backend='compiled' does not cover " + "; ".join(reasons)
                           + " (backend='auto' renders them on the NumPy path)")

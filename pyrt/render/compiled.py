@@ -23,21 +23,25 @@ from pyrt.render.result import RenderResult
 
 
 def render_compiled(ps, cam, *, seed, max_depth, throughput_cutoff, offset, split_depth, threads, cancel, fill,
-                    nonfinite, progress, t_start):
+                    nonfinite, progress, t_start, aovs=False):
     """Render ``cam.spp`` samples per pixel of the prepared scene ``ps`` with the compiled kernel; a
-    :class:`RenderResult`. After a cancellation with ``fill``, the tiles not rendered get one sample per pixel."""
+    :class:`RenderResult` (with ``aovs`` the film's depth, normal and albedo AOVs). After a cancellation with
+    ``fill``, the tiles not rendered get one sample per pixel."""
     cs = compiled.CompiledScene(ps)
     W, H, S = cam.width, cam.height, cam.spp
     kw = dict(seed=seed, max_depth=max_depth, throughput_cutoff=throughput_cutoff, split_depth=split_depth,
               terminator=offset in (None, "robust"), threads=threads)
     bar = progress_bar(progress, total=compiled.n_tiles(cam), desc="render", unit="tile", leave=False)
     try:
-        sums, sqs, counters, done = compiled.render_fixed(cs, cam, spp=S, cancel=cancel, progress=bar, **kw)
+        sums, sqs, counters, done, *aov = compiled.render_fixed(cs, cam, spp=S, cancel=cancel, progress=bar,
+                                                                aovs=aovs, **kw)
     finally:
         bar.close()
-    film = Film(W, H, nonfinite=nonfinite)
+    film = Film(W, H, aovs=aovs, nonfinite=nonfinite)
     px_done = compiled.pixel_mask(done, W, H)
     film.sum += sums
+    if aovs:
+        _add_aovs(film, aov[0])
     film.weight += np.where(px_done, float(S), 0.0)
     stats = RenderStats(primary_rays=int(counters[0]), secondary_rays=int(counters[1]),
                         shadow_rays=int(counters[2]), nonfinite_samples=int(counters[3]), backend="compiled")
@@ -45,15 +49,17 @@ def render_compiled(ps, cam, *, seed, max_depth, throughput_cutoff, offset, spli
     if not done.all() and fill:
         rest = np.flatnonzero(~done)
         cam1 = _one_sample(cam)
-        s1, _q, c1, d1 = compiled.render_fixed(cs, cam1, spp=1, tiles=rest, **kw)
+        s1, _q, c1, d1, *a1 = compiled.render_fixed(cs, cam1, spp=1, tiles=rest, aovs=aovs, **kw)
         filled = compiled.pixel_mask(d1, W, H)
         film.sum += s1
+        if aovs:
+            _add_aovs(film, a1[0])
         film.weight += filled
         pixels_filled = int(filled.sum())
         stats.nonfinite_samples += int(c1[3])
     _finish(stats, film, nonfinite, t_start)
     n_done = int(px_done.sum())
-    return RenderResult(image=film.image(), aovs=None, stats=stats, film=film, complete=bool(done.all()),
+    return RenderResult(image=film.image(), aovs=film.aovs(), stats=stats, film=film, complete=bool(done.all()),
                         chunks_done=int(done.sum()), chunks_total=int(done.size), pixels_done=n_done,
                         pixels_filled=pixels_filled, samples_done=n_done * S)
 
@@ -125,6 +131,15 @@ def render_compiled_dask(runner, cam, *, seed, max_depth, throughput_cutoff, off
     return RenderResult(image=film.image(), aovs=None, stats=stats, film=film, complete=tiles_done == order.size,
                         chunks_done=tiles_done, chunks_total=int(order.size), pixels_done=n_done,
                         samples_done=n_done * S)
+
+
+def _add_aovs(film, a):
+    """The kernel's AOV sums (H*W, 8: depth, depth weight, normal, albedo) into the film's."""
+    f = film._aov
+    f["depth"] += a[:, 0]
+    f["depth_weight"] += a[:, 1]
+    f["normal"] += a[:, 2:5]
+    f["albedo"] += a[:, 5:8]
 
 
 def _finish(stats, film, nonfinite, t_start):

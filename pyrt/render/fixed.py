@@ -173,7 +173,9 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     if check_backend(backend) != "numpy":
         reasons = compiled.unsupported(
             ps, integrator=integrator, offset=offset, transparent_shadows=transparent_shadows,
-            light_select_depth=light_select_depth, aovs=aovs, record_rays=record_rays, scene=scene)
+            light_select_depth=light_select_depth, record_rays=record_rays, scene=scene)
+        if aovs and runner is not None:
+            reasons.append("AOVs on Dask workers")
         if reasons and backend == "compiled":
             if own:
                 ps.close()
@@ -196,7 +198,8 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
             try:
                 return render_compiled(ps, cam, seed=seed, max_depth=max_depth, throughput_cutoff=throughput_cutoff,
                                        offset=offset, split_depth=split_depth, threads=threads, cancel=cancel,
-                                       fill=fill, nonfinite=nonfinite, progress=progress, t_start=t_start)
+                                       fill=fill, nonfinite=nonfinite, progress=progress, t_start=t_start,
+                                       aovs=aovs)
             finally:
                 if runner is not None:
                     runner.close()
