@@ -6,6 +6,8 @@ import pytest
 import pyrt
 from pyrt.core.errors import RenderError
 
+from test_compiled_area_lights import assert_agree_in_distribution
+
 
 def _sky_scene(spp=16, width=40, height=30):
     cam = pyrt.Camera(position=(0, 1.0, 4.0), target=(0, 0.4, 0), fov=40, width=width, height=height, spp=spp)
@@ -40,24 +42,8 @@ def test_white_furnace_is_exact():
 
 def test_sky_agrees_with_the_numpy_path_in_distribution():
     """A lat-long sky with a sun over a Lambert ground, gold, Blinn-Phong and a mirror (2 light + 3 BSDF samples per
-    hit, the compensated table, the power heuristic): per pixel the mean of 6 compiled renders against the mean of 6
-    NumPy renders, z-scores from their standard errors; the same number of shadow rays to 1 %."""
-    scene = _sky_scene()
-    K = 6
-    c = [pyrt.render_full(scene, backend="compiled", progress=False, seed=k) for k in range(K)]
-    n = [pyrt.render_full(scene, backend="numpy", progress=False, seed=100 + k) for k in range(K)]
-    ci = np.array([r.image for r in c], dtype=np.float64)
-    ni = np.array([r.image for r in n], dtype=np.float64)
-    se = np.sqrt(ci.var(axis=0, ddof=1) / K + ni.var(axis=0, ddof=1) / K)
-    diff = ci.mean(axis=0) - ni.mean(axis=0)
-    noisy = se > 1e-6 * (1.0 + np.abs(ni.mean(axis=0)))
-    z = diff[noisy] / se[noisy]
-    assert np.abs(z).max() < 6.0, np.abs(z).max()
-    assert abs(z.mean()) < 4.0 * z.std() / np.sqrt(z.size), (z.mean(), z.std())
-    np.testing.assert_allclose(ci.mean(axis=0)[~noisy], ni.mean(axis=0)[~noisy], rtol=1e-5, atol=1e-6)
-    rays_c = np.mean([r.stats.shadow_rays for r in c])
-    rays_n = np.mean([r.stats.shadow_rays for r in n])
-    assert abs(rays_c - rays_n) < 0.01 * rays_n, (rays_c, rays_n)
+    hit, the compensated table, the power heuristic): per pixel against the NumPy path."""
+    assert_agree_in_distribution(_sky_scene())
 
 
 def test_hidden_background_and_reflections():

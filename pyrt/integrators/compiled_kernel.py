@@ -264,6 +264,15 @@ def buffer_pointers(b):
 
 
 @_njit
+def table_pointers(env_data, cam, opts, optf, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, counters):
+    """Pointers into a kernel entry's array arguments (they outlive its loops): the environment's record (in the
+    float options from :data:`F_ENV`) and data, then the arguments' own in order."""
+    return (U.pointer(optf[F_ENV:]), U.pointer(env_data), U.pointer(cam), U.pointer(opts), U.pointer(optf),
+            U.pointer(mats_tag), U.pointer(mats_par), U.pointer(tex_tag), U.pointer(tex_par), U.pointer(lights_tag),
+            U.pointer(lights_par), U.pointer(counters))
+
+
+@_njit
 def release(b):
     """The last use of :func:`packet_buffers`' owners (Numba frees an array after its last use)."""
     keep_alive(b[0])
@@ -427,12 +436,8 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
     pk, sh, ray_buf, V, stack, keys, lane_pix, lane_s, lane_key, lane_k32, lane_xy = buffer_pointers(bufs)
     film_s, film_q, film_a = U.pointer(sums), U.pointer(sqs), U.pointer(aovs)
     want_aovs = opts[O_AOV] != 0
-    erec, edata = U.pointer(optf[F_ENV:]), U.pointer(env_data)
-    cam, opts, optf = U.pointer(cam), U.pointer(opts), U.pointer(optf)
-    mats_tag, mats_par = U.pointer(mats_tag), U.pointer(mats_par)
-    tex_tag, tex_par = U.pointer(tex_tag), U.pointer(tex_par)
-    lights_tag, lights_par = U.pointer(lights_tag), U.pointer(lights_par)
-    cnt = U.pointer(counters)
+    erec, edata, cam, opts, optf, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, cnt = \
+        table_pointers(env_data, cam, opts, optf, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, counters)
     G = geometry_pointers(geo_f, geo_i)
     w = width
     W, H = int(cam[C_W]), int(cam[C_H])
@@ -526,12 +531,8 @@ def render_pixels(scene, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par
     U.wide_vectors()
     bufs = packet_buffers(width)
     pk, sh, ray_buf, V, stack, keys, lane_pix, lane_s, lane_key, lane_k32, lane_xy = buffer_pointers(bufs)
-    erec, edata = U.pointer(optf[F_ENV:]), U.pointer(env_data)
-    cam, opts, optf = U.pointer(cam), U.pointer(opts), U.pointer(optf)
-    mats_tag, mats_par = U.pointer(mats_tag), U.pointer(mats_par)
-    tex_tag, tex_par = U.pointer(tex_tag), U.pointer(tex_par)
-    lights_tag, lights_par = U.pointer(lights_tag), U.pointer(lights_par)
-    cnt = U.pointer(counters)
+    erec, edata, cam, opts, optf, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, cnt = \
+        table_pointers(env_data, cam, opts, optf, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, counters)
     G = geometry_pointers(geo_f, geo_i)
     w = width
     W = int(cam[C_W])
