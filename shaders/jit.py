@@ -412,6 +412,17 @@ def round_away(base, mag, side, ng):
 
 
 @register_jitable(inline="always")
+def shadow_origin(p, ng, lift, mag, mag_lift, cg, terminator):
+    """The origin of a shadow ray leaving the hit ``p`` toward a direction with ``cg = wi . ng``
+    (:meth:`pyrt.geometry.offsets.Strategy.shadow`, ``robust``): with the terminator lift the lifted point offset to
+    the ng side, else ``p`` offset to the side of ``wi`` (:func:`round_away`). The branch-free form for the vectorised
+    light stage is written with :func:`round_away_vec` in its loop."""
+    if terminator:
+        return round_away(lift, mag_lift, 1.0, ng)
+    return round_away(p, mag, 1.0 if cg >= 0.0 else -1.0, ng)
+
+
+@register_jitable(inline="always")
 def round_away_vec(base, mag, side, ng):
     """:func:`round_away` with :func:`float32_step_vec` (selects, no branch): the same bits, for
     the lane loops the compiler vectorises."""

@@ -56,10 +56,7 @@ def direct_light(ltags, lpars, j, mtag, mpars, m, albedo, p, ng, ns, nv, wo, lif
     f = MC.f_cos(mtag, mpars, m, albedo, dot(wo, ns), dot(wi, ns), dot(wi, wo))
     ok = ok and max(f[0], f[1], f[2]) > 0.0
     f = (f[0] * s * lpars[jb + 6], f[1] * s * lpars[jb + 7], f[2] * s * lpars[jb + 8])
-    if terminator:
-        o = J.round_away(lift, mag_lift, 1.0, ng)
-    else:
-        o = J.round_away(p, mag, 1.0 if cg >= 0.0 else -1.0, ng)
+    o = J.shadow_origin(p, ng, lift, mag, mag_lift, cg, terminator)
     tmax = J.robust_tmax(o, wi, end[0], end[1], end[2], math.isfinite(dist))
     return ok, min(tmax, T_INF), o, wi, f
 
@@ -135,10 +132,8 @@ def area_lane(ltag, lpars, j, e_max, V, lane, u0, u1, terminator):
     V[V_COSIO * LANES + lane] = dot(wi, (-d[0], -d[1], -d[2]))
     V[V_S * LANES + lane] = s
     V[V_GOK * LANES + lane] = 1.0 if gok else 0.0
-    if terminator:
-        o = J.round_away(lane_vec(V, V_LIFT, lane), V[V_MAG_LIFT * LANES + lane], 1.0, ng)
-    else:
-        o = J.round_away(p, V[V_MAG * LANES + lane], 1.0 if cg >= 0.0 else -1.0, ng)
+    o = J.shadow_origin(p, ng, lane_vec(V, V_LIFT, lane), V[V_MAG * LANES + lane], V[V_MAG_LIFT * LANES + lane], cg,
+                        terminator)
     tmax = J.robust_tmax(o, wi, p[0] + w0 * dist, p[1] + w1 * dist, p[2] + w2 * dist, True)
     set_lane_vec(V, V_SO, lane, o)
     set_lane_vec(V, V_WI, lane, wi)
@@ -252,10 +247,7 @@ def env_sample(etag, erec, edata, mtag, mpars, m, albedo, p, ng, ns, nv, wo, lif
             val = (f[0] * le[0] * k, f[1] * le[1] * k, f[2] * le[2] * k)
     cg = dot(wi, ng)
     ok = ok and (cg > 0.0 or dot(wi, nv) > 0.0) and max(val[0], val[1], val[2]) > 0.0
-    if terminator:
-        o = J.round_away(lift, mag_lift, 1.0, ng)
-    else:
-        o = J.round_away(p, mag, 1.0 if cg >= 0.0 else -1.0, ng)
+    o = J.shadow_origin(p, ng, lift, mag, mag_lift, cg, terminator)
     return ok, o, wi, val
 
 
@@ -321,10 +313,7 @@ def area_bsdf_sample(ltag, lpars, j, mtag, mpars, m, albedo, p, ng, ns, nv, wo, 
     b = j * LC.RECORD
     val = (w_r * lpars[b + 6] * k, w_g * lpars[b + 7] * k, w_b * lpars[b + 8] * k)
     ok = ok and max(val[0], val[1], val[2]) > 0.0
-    if terminator:
-        o = J.round_away(lift, mag_lift, 1.0, ng)
-    else:
-        o = J.round_away(p, mag, 1.0 if cg >= 0.0 else -1.0, ng)
+    o = J.shadow_origin(p, ng, lift, mag, mag_lift, cg, terminator)
     d = dist if ok else 1.0
     tmax = J.robust_tmax(o, wi, p[0] + wi[0] * d, p[1] + wi[1] * d, p[2] + wi[2] * d, True)
     return ok, o, wi, min(tmax, T_INF), val
