@@ -82,3 +82,42 @@ def test_a_procedural_texture_channel_count_follows_its_colours():
     noise = pyrt.NoiseTexture.example()
     noise.high = np.array([1.0, 0.5, 0.0])
     assert noise.channels == 3
+
+
+def _glass_shadow(material):
+    """A Lambert floor under a slab of ``material`` lit by a point light above it (transparent shadows, pixel
+    centres, NumPy path): the floor's colour is the light times the slab's tint at each interface."""
+    cam = pyrt.Camera(position=(0, 0.5, 0), target=(0, 0, 0), up=(0, 0, -1), fov=100.0, width=12, height=12,
+                      spp=1, jitter=False)
+    scene = pyrt.Scene(cam)
+    scene.add_plane((0, 0, 0), 4.0, pyrt.Lambert(albedo=0.8), name="floor")
+    scene.add_light(pyrt.PointLight((0.3, 1.3, -0.2), intensity=5.0))
+    scene.add_plane((0, 0.9, 0), 20.0, material, normal=(0, -1, 0), name="slab bottom")
+    scene.add_plane((0, 1.0, 0), 20.0, material, normal=(0, 1, 0), name="slab top")
+    return pyrt.render(scene, transparent_shadows=True, backend="numpy")
+
+
+TINTED = [
+    ("base_color", np.array([0.9, 0.5, 0.2]), lambda **kw: pyrt.GltfPBR(roughness=0.0, thin=False, **kw)),
+    ("metallic", 0.5, lambda **kw: pyrt.GltfPBR(roughness=0.0, thin=False, **kw)),
+    ("base_color", np.array([0.9, 0.5, 0.2]),
+     lambda **kw: pyrt.GltfPBR(roughness=0.0, thin=False, transmission=pyrt.ImageTexture(np.full((2, 2), 0.75),
+                                                                                            srgb=False), **kw)),
+]
+
+
+@pytest.mark.parametrize("coat", [False, True])
+@pytest.mark.parametrize("attr, value, make", TINTED, ids=["base_color", "metallic", "textured-transmission"])
+def test_a_transmitting_gltf_material_tints_by_its_parameters_as_they_are_at_render_time(attr, value, make, coat):
+    """The tint transparent shadows multiply by derives from base_color, metallic and transmission whenever it is
+    read (was: computed once in the constructor; a base_color or metallic assigned later left the old colour in the
+    shadow), also through a clear coat on top (a layer passes its base's tint on)."""
+    const = {} if make is TINTED[2][2] else {"transmission": 1.0}
+    mat = make(**const)
+    shown = pyrt.Clearcoat(mat, clearcoat=0.0) if coat else mat      # the layer built before the assignment
+    before = _glass_shadow(shown)
+    setattr(mat, attr, value)
+    after = _glass_shadow(shown)
+    fresh = make(**const, **{attr: value})
+    np.testing.assert_array_equal(after, _glass_shadow(pyrt.Clearcoat(fresh, clearcoat=0.0) if coat else fresh))
+    assert np.abs(after - before).max() > 0.01

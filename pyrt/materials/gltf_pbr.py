@@ -21,11 +21,12 @@ from pyrt.materials import preview as _preview
 from pyrt.materials.base import DeltaLobe, Material, MaterialError, check_color, check_scalar, is_texture, register
 from pyrt.materials.layering import Layer, adopt_base, finish_sample, split_u, weighted_delta_lobes
 from pyrt.materials.library import MetallicRoughness, _check_choice
+from pyrt.materials.tint import TransmittedTint, transmitted_tint
 from pyrt.shaders import brdfs, fresnel
 from pyrt.shaders import microfacet as _mf
 from pyrt.shaders.textures import tangent_frame
 from pyrt.shaders.vec import coordinate_frame, half_vector, reflect, refract, to_azimuth_frame, to_local, to_world
-from pyrt.textures import Texture, footprinted, perturb_normal
+from pyrt.textures import footprinted, perturb_normal
 
 #: roughness at or below which a transmission lobe is perfectly specular (delta lobes, traced to ``max_depth`` by
 #: every integrator); above it the lobe is a GGX BTDF sampled by the glossy integrator
@@ -33,27 +34,6 @@ SMOOTH_ROUGHNESS = 0.03
 #: normal-incidence reflectance of glTF's clear coat (ior 1.5)
 CLEARCOAT_IOR = 1.5
 _FLIP_Z = np.array([1.0, 1.0, -1.0])
-
-
-class _TransmittedTint(Texture):
-    """``base_color x transmission x (1 - metallic)`` of a :class:`GltfPBR`, per hit: the colour transparent
-    shadows (:mod:`pyrt.integrators.shadows`) multiply by per interface, where a parameter is a texture or the
-    surface transmits only in part."""
-
-    channels = 3
-
-    def __init__(self, material):
-        self._material = material       # private: the texture's repr does not print the material (a cycle)
-
-    @property
-    def needs_footprint(self):
-        return footprinted(self._material.metallic, self._material.transmission, self._material.base_color)
-
-    def evaluate(self, ctx):
-        """The tint (N, 3)."""
-        m = self._material
-        w = (1.0 - m.param(m.metallic, ctx, 1)) * m.param(m.transmission, ctx, 1)
-        return np.asarray(m.param(m.base_color, ctx)) * w[:, None]
 
 
 @register("gltf_pbr")
@@ -144,19 +124,19 @@ class GltfPBR(MetallicRoughness):
             self.is_dielectric = self.transmits = self.has_delta = True
             self.thin_walled = self.thin
             self.ior = self.ior_value
-            consts = not any(is_texture(v) for v in (self.base_color, self.metallic, self.transmission))
-            if consts:
-                self.tint = self.base_color * (1.0 - self.metallic) * self.transmission
-            elif self.metallic == 0.0 and self.transmission == 1.0:
-                self.tint = self.base_color
-            else:
-                self.tint = _TransmittedTint(self)
+            self._tint = TransmittedTint(self)
             if not self.thin:
                 self.absorption = sigma
         elif np.any(sigma > 0):
             raise MaterialError(f"{owner}: absorption needs transmission > 0 (an opaque surface encloses no medium)")
         if self.thin and np.any(sigma > 0):
             raise MaterialError(f"{owner}: a thin wall (thin=True) encloses no medium to absorb in; use thin=False")
+
+    @property
+    def tint(self):
+        """The transmission's colour per interface, ``base_color (1 - metallic) transmission`` from the parameters as
+        they are now (:func:`pyrt.materials.tint.transmitted_tint`); 1 when the material does not transmit."""
+        return transmitted_tint(self, self._tint) if self.transmits else 1.0
 
     @classmethod
     def example(cls):

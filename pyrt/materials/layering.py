@@ -16,6 +16,11 @@ class Layer(Material):
         """The base's (a coat or a sheen reflects; it does not stop what the base transmits)."""
         return self.base.rough_transmission(ctx)
 
+    @property
+    def tint(self):
+        """The base's, as it is now (a coat or a sheen does not filter what the base transmits)."""
+        return self.base.tint
+
 
 def split_u(u, p):
     """``(choose, uu)``: lanes with ``u0 < p`` choose the first strategy; ``uu`` is ``u`` with ``u0`` rescaled to
@@ -32,7 +37,7 @@ def adopt_base(layer, base):
     if not isinstance(base, Material):
         raise MaterialError(f"{layer.label}: base must be a pyrt Material, got {type(base).__name__}")
     layer.base = base
-    for attr in ("has_delta", "is_dielectric", "ior", "priority", "absorption", "tint", "emits", "normal_map",
+    for attr in ("has_delta", "is_dielectric", "ior", "priority", "absorption", "emits", "normal_map",
                  "transmits", "thin_walled"):
         setattr(layer, attr, getattr(base, attr))
     return base
