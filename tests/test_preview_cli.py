@@ -122,3 +122,43 @@ def test_console_scripts_exit_with_main_s_code_and_keep_their_output(tmp_path, m
         assert proc.stdout.strip()                    # the summary line, flushed before os._exit
     else:
         assert proc.stderr.strip().startswith("pyrt-preview: error: ")
+
+
+def _shared_buffer_model(tmp_path):
+    """``tmp_path/models/a.gltf``, a triangle whose buffer is ``../shared/tri.bin`` (a model pack's shared folder)."""
+    import json
+    import numpy as np
+    binary = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32).tobytes()
+    header = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+              "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+              "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                             "min": [0, 0, 0], "max": [1, 1, 0]}],
+              "bufferViews": [{"buffer": 0, "byteLength": len(binary)}],
+              "buffers": [{"byteLength": len(binary), "uri": "../shared/tri.bin"}]}
+    (tmp_path / "shared").mkdir()
+    (tmp_path / "shared" / "tri.bin").write_bytes(binary)
+    (tmp_path / "models").mkdir()
+    (tmp_path / "models" / "a.gltf").write_text(json.dumps(header))
+    return str(tmp_path / "models" / "a.gltf")
+
+
+def test_preview_cli_root_widens_the_folder_a_loose_model_reads(tmp_path, capsys):
+    """The root rule of pyrt.io.assets.find_file from the command line: a URI leaving the model's folder is a
+    one-line error (exit 2, nothing written); --root naming a folder that contains the model and the file reads it;
+    a --root that is not a folder or does not contain the model is an error before anything is read."""
+    model = _shared_buffer_model(tmp_path)
+    out = tmp_path / "v.png"
+    tiny = ["--width", "24", "--height", "18", "--spp", "1", "--quiet"]
+    assert P.main([model, "-o", str(out)] + tiny) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("pyrt-preview: error: ") and "'../shared/tri.bin' leaves the model's folder" in err, err
+    assert len(err.strip().splitlines()) == 1 and not out.exists()
+    (tmp_path / "elsewhere").mkdir()
+    for root, message in ((tmp_path / "nothing", "root must be an existing folder"),
+                          (tmp_path / "elsewhere", "does not contain the model")):
+        assert P.main([model, "-o", str(out), "--root", str(root)] + tiny) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("pyrt-preview: error: ") and message in err, err
+        assert len(err.strip().splitlines()) == 1 and not out.exists()
+    assert P.main([model, "-o", str(out), "--root", str(tmp_path)] + tiny) == 0
+    assert out.stat().st_size > 0

@@ -93,6 +93,10 @@ def _parser():
     ap.add_argument("--threads", type=positive_int, help="render workers per asset (default: all cores)")
     ap.add_argument("--parallel", default="auto", choices=list(PARALLEL),
                     help="render workers as forked processes or threads (default auto: processes on Linux for renders of at least 16 chunks)")
+    ap.add_argument("--root", metavar="DIR",
+                    help="folder a loose model may read files from (it must contain the model; default: the model's "
+                         "own folder and its subfolders: a URI leaving it is an error and nothing outside is read); "
+                         "models in a ZIP read only the archive")
     ap.add_argument("--double-sided", action="store_true",
                     help="render both sides of every face (default: as the file says; back faces of single-sided "
                          "glTF materials are culled)")
@@ -141,7 +145,7 @@ def _run(args, cancel):
                           seed=args.seed, time_budget=args.budget, threads=args.threads, parallel=args.parallel,
                           bvh_quality=args.bvh_quality, double_sided=args.double_sided, target_error=args.target_error,
                           max_spp=args.max_spp, max_texture=args.max_texture, glossy_clamp=args.glossy_clamp,
-                          min_spp=args.min_spp).validate()
+                          min_spp=args.min_spp, root=args.root).validate()
     paths = collect_inputs(args.models)
     if not paths:
         raise PreviewError(f"no models found in {' '.join(args.models)} "

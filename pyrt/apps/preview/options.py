@@ -1,6 +1,7 @@
 """What a preview can be told (:class:`PreviewOptions`) and the previewer's errors."""
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 from pyrt.core.errors import Error
@@ -56,6 +57,9 @@ class PreviewOptions:
     emissive_samples: int = 1            # shadow rays per hit toward the emissive triangles (docs/preview.md)
     emissive_selection: str = "oriented"  # how they are chosen: "power" or "oriented" (per shading point)
     exposure: float | None = None        # stops; None = automatic
+    #: the folder a loose model may read its files from (pyrt.load_asset's root=: it must contain the model); None:
+    #: the model's own folder and its subfolders. A model in a ZIP archive reads only the archive whatever it says
+    root: str | None = None
     tonemap: str = "reinhard"            # any of pyrt.core.image_io.TONEMAPS (pbr_neutral, aces, ...)
     turntable: int = 0                   # number of views (0 = a single view)
     formats: tuple = ("png",)            # any of "png", "exr"
@@ -212,6 +216,8 @@ class PreviewOptions:
             raise PreviewError(f"bvh_quality must be 'auto', 'low', 'medium' or 'high', got {self.bvh_quality!r}")
         if self.time_budget is not None and not self.time_budget > 0:
             raise PreviewError(f"time_budget must be > 0 seconds, got {self.time_budget}")
+        if self.root is not None and not (isinstance(self.root, (str, os.PathLike)) and os.path.isdir(self.root)):
+            raise PreviewError(f"root must be an existing folder, got {self.root!r}")
         mt = self.max_texture
         if not (mt in ("auto", None) or (isinstance(mt, int) and not isinstance(mt, bool) and mt >= 0)):
             raise PreviewError(f"max_texture must be 'auto', None or an integer >= 0, got {self.max_texture!r}")

@@ -396,7 +396,7 @@ def render_preview(model, options=None, *, name="preview", deadline=None, cancel
     """
     o = (options or PreviewOptions()).validate()
     t0 = time.perf_counter()
-    asset = model if isinstance(model, Asset) else load_asset(model, max_texture=o.texture_budget())
+    asset = model if isinstance(model, Asset) else load_asset(model, max_texture=o.texture_budget(), root=o.root)
     load_time = asset.load_time if isinstance(model, Asset) else time.perf_counter() - t0
     phases = {"load": load_time}
     if deadline is not None and time.perf_counter() > deadline:

@@ -118,8 +118,9 @@ def load_asset(path, *, max_texture=None, generate_tangents=True, root=None):
     root : str or os.PathLike, optional
         The folder whose files a loose model may read (its buffers, MTL, textures): default (None) the model file's
         own folder and its subfolders; a reference leaving it is an :class:`AssetError` naming it, and nothing
-        outside is opened (:mod:`pyrt.io.assets.find_file`). A model in a ZIP archive reads only the archive,
-        whatever ``root`` says.
+        outside is opened (:mod:`pyrt.io.assets.find_file`). A given ``root`` widens the model's folder: it must be
+        an existing folder that contains the model file (else an :class:`AssetError` naming both). A model in a ZIP
+        archive reads only the archive, whatever ``root`` says.
 
     Returns
     -------
@@ -146,7 +147,9 @@ def load_asset(path, *, max_texture=None, generate_tangents=True, root=None):
                                                            generate_tangents=generate_tangents), member=member)
         asset.load_time = time.perf_counter() - t0
         return asset
-    folder = os.path.dirname(os.path.abspath(path)) if root is None else os.fspath(root)
+    folder = os.path.dirname(os.path.abspath(path))
+    if root is not None:
+        folder = _widened_root(path, folder, root)
     within = contextlib.nullcontext() if active_root() is not None else reading_root(folder)   # an archive's stays
     try:
         with within, malformed_is_asset_error(path, fmt.upper() if fmt != "gltf" else "glTF"):
@@ -164,3 +167,14 @@ def load_asset(path, *, max_texture=None, generate_tangents=True, root=None):
     asset.load_time = time.perf_counter() - t0
     asset.generate_tangents = bool(generate_tangents)
     return asset
+
+
+def _widened_root(path, folder, root):
+    """``root`` as the folder a loose model at ``path`` (in ``folder``) may read: an existing folder containing it."""
+    root = os.fspath(root)
+    if not os.path.isdir(root):
+        raise AssetError(f"{path}: root {root!r} is not a folder")
+    top, own = os.path.realpath(root), os.path.realpath(folder)
+    if own != top and not own.startswith(top.rstrip(os.sep) + os.sep):
+        raise AssetError(f"{path}: root {root!r} does not contain the model (a root widens the model's folder)")
+    return root

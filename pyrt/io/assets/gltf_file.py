@@ -5,8 +5,12 @@ buffers and its decoded accessors and images, every count and length checked aga
 What a glTF file may make pyrt read (documented choice; the glTF specification allows only these)
 -------------------------------------------------------------------------------------------------
 - ``data:`` URIs (base64 or percent-encoded), decoded in memory;
-- relative URI references, percent-decoded and resolved from the folder of the .gltf/.glb file; ``..`` steps are
-  allowed (model packs share texture folders), and the target must be a regular file;
+- relative URI references, percent-decoded and resolved from the folder of the .gltf/.glb file, to a regular file
+  inside the model's root (:mod:`pyrt.io.assets.find_file`): the model's own folder and its subfolders, the archive
+  for a model in a ZIP, or the wider folder given as :func:`pyrt.load_asset`'s ``root`` (model packs that share a
+  texture folder; ``pyrt-preview --root``). A ``..`` step may move within the root; a reference that leaves it, or
+  a link to a file outside it, is an :class:`~pyrt.io.assets.find_file.OutsideRootError` naming the URI, and
+  nothing outside is opened or quoted;
 - nothing else: a URI with a scheme (``https://``, ``http://``, ``file:``, ...) or an absolute path is refused
   with an :class:`AssetError` — pyrt never opens a network connection.
 
@@ -173,13 +177,14 @@ class GltfFile:
         return chunks[0][1], next((c for t, c in chunks[1:] if t == _CHUNK_BIN), None)
 
     def resolve(self, uri, what):
-        """The local file a relative URI reference names (percent-decoded, from the file's folder).
+        """The local file a relative URI reference names (percent-decoded, from the file's folder, inside the
+        model's root: the module docstring).
 
         Raises
         ------
         AssetError
-            For a URI with a scheme (``https://`` ...: pyrt reads no network), an absolute path, or a missing
-            file.
+            For a URI with a scheme (``https://`` ...: pyrt reads no network), an absolute path, a reference that
+            leaves the root (:class:`~pyrt.io.assets.find_file.OutsideRootError`), or a missing file.
         """
         if not isinstance(uri, str) or not uri:
             raise AssetError(f"{self.path}: {what}: uri must be a non-empty string, got {uri!r}")
