@@ -201,7 +201,7 @@ def floor_table(data):
              "recorded; the rays are replayed through the binding alone (`tools/bench.py`'s replay: every query "
              "kind as one batch over both cores, no shading, no film, no Python in between). That is what pyrt "
              "would take if everything but the ray queries were free. Where the floor is above half of "
-             "Mitsuba llvm's time, issue 13's \"time to llvm's error <= 0.5x llvm's\" cannot be met by cheaper "
+             "Mitsuba llvm's time, a target of \"time to llvm's error <= 0.5x llvm's\" cannot be met by cheaper "
              "shading with these estimators: only fewer rays (better estimators) or faster ray queries than "
              "embreex's could. Where the floor's samples/s are below scalar's, neither can \"samples/s >= "
              "scalar_rgb\" at pyrt's rays per sample.", "",

@@ -20,7 +20,7 @@ Usage::
     python tools/bench_kinds.py --profile env [--spp 16]          # pyinstrument profile of one kind (if installed)
 
 ``--ab`` runs every kind in TREE_A and TREE_B alternately (A B, B A, ...), each run a fresh process with
-that tree's own ``pyrt`` and kernels (as :mod:`ab_trees`), and prints per-kind medians of wall and process CPU
+that tree's own ``pyrt`` and kernels (as :mod:`experiments.ab_trees`), and prints per-kind medians of wall and process CPU
 time and the B/A ratios (``--embree``: also each tree's ratio to Embree alone on the same rays). CPU time is
 the steadier figure on a shared machine; wall time is what a user waits.
 Absolute times depend on the machine's load: compare trees only within one interleaved session.

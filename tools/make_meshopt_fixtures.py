@@ -26,6 +26,7 @@ would write it):
 """
 from __future__ import annotations
 
+import argparse
 import ctypes
 import json
 import os
@@ -177,6 +178,7 @@ def scene_header(attrs, indices, node=None):
 
 
 def main():
+    argparse.ArgumentParser(description=__doc__.split("\n")[0]).parse_args()
     os.makedirs(OUT, exist_ok=True)
     pos, nrm, uv, faces = sphere()
     nv, ni = len(pos), faces.size

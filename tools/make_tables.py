@@ -12,6 +12,7 @@ Both are pure functions of constants in the code, built in ~0.3 s together by ev
 """
 from __future__ import annotations
 
+import argparse
 import os
 
 from pyrt.apps.preview import studio
@@ -19,6 +20,7 @@ from pyrt.materials import preview
 
 
 def main():
+    argparse.ArgumentParser(description=__doc__.split("\n")[0]).parse_args()
     for path in (preview.write_tables(), studio.write_shipped_prefiltered()):
         print(f"wrote {path} ({os.path.getsize(path)} bytes)")
 

@@ -5,17 +5,20 @@ On the Mitsuba benchmark scenes (``tools/_mitsuba_scenes.py``, pyrt side only), 
 ``--ref-spp``. Rounds alternate the order of the ``min_spp`` values; prints every run (wall and process CPU seconds,
 true relMSE) and fixed-spp renders for comparison. This measured the default ``min_spp = 4``.
 
-Usage: python tools/adaptive_base_pass.py [--scenes diffuse,shadowed,default] [--min-spp 2,4,8] [--rounds 2]
+Usage: python tools/experiments/adaptive_base_pass.py [--scenes diffuse,shadowed,default] [--min-spp 2,4,8] [--rounds 2]
 """
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import sys
 import tempfile
 import time
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))   # tools/
 from _usage import cpu_seconds  # noqa: E402  (tools/_usage.py)
 
 import pyrt

@@ -19,7 +19,7 @@ sampling Lambertian surfaces miss the emitters' light): compare noise within a r
 Times are wall-clock seconds of ``render_full`` in this process; read the ratios (the variants are interleaved,
 medians over ``--runs``) and the load printed with them.
 
-    python tools/emissive_noise.py ../shared/khronos-gltf/EmissiveStrengthTest/EmissiveStrengthTest.glb
+    python tools/experiments/emissive_noise.py ../shared/khronos-gltf/EmissiveStrengthTest/EmissiveStrengthTest.glb
 """
 from __future__ import annotations
 

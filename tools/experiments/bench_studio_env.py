@@ -6,7 +6,7 @@ single views at the previewer's defaults (640x480, 4 spp, glossy integrator) are
 on, off, off, on, ... ``--rounds`` times; the medians and their ratio are printed with the machine's load
 (``os.getloadavg``) before and after, since the machine may be shared.
 
-Usage: python tools/bench_studio_env.py [MODEL ...] [--rounds 5] [--width 640 --height 480]
+Usage: python tools/experiments/bench_studio_env.py [MODEL ...] [--rounds 5] [--width 640 --height 480]
        (default models: the example glTF and three Khronos samples under ../shared/khronos-gltf if present)
 """
 from __future__ import annotations

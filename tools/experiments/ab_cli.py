@@ -1,11 +1,11 @@
 """A/B of the whole ``pyrt-preview`` command between two checkouts of pyrt: the wall time of the process, Python's
 start, the imports, loading, rendering, encoding and exit included, interleaved (A, B, A, B, ...).
 
-``tools/ab_preview.py`` times the render phase inside the process; this one times what a user waits for. Each run
+``tools/experiments/ab_preview.py`` times the render phase inside the process; this one times what a user waits for. Each run
 is ``python -c <pyrt.apps.preview.cli.main>`` with the tree first on ``sys.path`` (``tools/_trees.py``); any further
 arguments are passed to the previewer.
 
-Usage: python tools/ab_cli.py TREE_A TREE_B MODEL [--rounds 5] [PREVIEW_ARGS...]
+Usage: python tools/experiments/ab_cli.py TREE_A TREE_B MODEL [--rounds 5] [PREVIEW_ARGS...]
 """
 from __future__ import annotations
 
@@ -17,6 +17,7 @@ import sys
 import tempfile
 import time
 
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))   # tools/, for _trees
 from _trees import TREE_PREAMBLE  # noqa: E402  (tools/_trees.py)
 
 CODE = TREE_PREAMBLE + "\nfrom pyrt.apps.preview.cli import main\nsys.exit(main(sys.argv[2:]))\n"

@@ -8,8 +8,8 @@ the CPU time of the render phase (``os.times`` around each view: all threads and
 other jobs the wall time follows the load, the CPU time much less.
 ``pyrt.shaders`` is imported from each tree's ``shaders/`` (not the editable install's checkout).
 
-Usage: python tools/ab_preview.py TREE_A TREE_B MODEL [MODEL ...] [--rounds 2] [--threads 1] [--size 640x480]
-   e.g. git archive BASE | tar -x -C /tmp/before && python tools/ab_preview.py /tmp/before . Duck.glb
+Usage: python tools/experiments/ab_preview.py TREE_A TREE_B MODEL [MODEL ...] [--rounds 2] [--threads 1] [--size 640x480]
+   e.g. git archive BASE | tar -x -C /tmp/before && python tools/experiments/ab_preview.py /tmp/before . Duck.glb
 """
 from __future__ import annotations
 
@@ -23,6 +23,7 @@ import tempfile
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))   # tools/, for _trees
 from _trees import TREE_PREAMBLE  # noqa: E402  (tools/_trees.py)
 
 SNIPPET = TREE_PREAMBLE + r'''

@@ -6,8 +6,8 @@ reports the median of 3 timed renders and of Embree alone on the same recorded r
 tree's own ``pyrt`` and kernels are imported (``pyrt.shaders`` from the tree's ``shaders/``, or the top-level
 ``shaders`` package of trees from before the restructuring). Prints every round and the medians.
 
-Usage: python tools/ab_trees.py TREE_A TREE_B [--rounds 8]
-   e.g. git worktree add /tmp/before 283530d && python tools/ab_trees.py /tmp/before .
+Usage: python tools/experiments/ab_trees.py TREE_A TREE_B [--rounds 8]
+   e.g. git worktree add /tmp/before 283530d && python tools/experiments/ab_trees.py /tmp/before .
 """
 from __future__ import annotations
 
@@ -18,6 +18,7 @@ import statistics
 import subprocess
 import sys
 
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))   # tools/, for _trees
 from _trees import TREE_PREAMBLE  # noqa: E402  (tools/_trees.py)
 
 SNIPPET = TREE_PREAMBLE + r'''

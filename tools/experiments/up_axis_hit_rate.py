@@ -12,7 +12,7 @@ and guessed by
 
 Prints one line per case and the two hit rates.
 
-Usage: python tools/up_axis_hit_rate.py [--noise 0.003]
+Usage: python tools/experiments/up_axis_hit_rate.py [--noise 0.003]
 """
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ import tempfile
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))   # tools/
 import scan_shapes  # noqa: E402
 
 from pyrt.apps.preview import detect_up_axis  # noqa: E402

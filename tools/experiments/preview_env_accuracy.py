@@ -9,8 +9,8 @@ relMSE against the reference and the mean of each. The previewer's studio enviro
 With ``--time-rounds N`` it instead times the two estimates at the given size and spp, ``N`` interleaved rounds in
 one process (order alternating), and prints the medians of the render phase.
 
-Usage: python tools/preview_env_accuracy.py MODEL [MODEL ...] [--size 160x120] [--spp 8] [--ref-samples 128]
-       python tools/preview_env_accuracy.py MODEL [MODEL ...] --size 640x480 --spp 4 --time-rounds 3
+Usage: python tools/experiments/preview_env_accuracy.py MODEL [MODEL ...] [--size 160x120] [--spp 8] [--ref-samples 128]
+       python tools/experiments/preview_env_accuracy.py MODEL [MODEL ...] --size 640x480 --spp 4 --time-rounds 3
 """
 from __future__ import annotations
 

@@ -4,10 +4,10 @@ The scene: the asset framed from (0.6, 0.4, 1) at three times its bounding radiu
 directional and a point light (no previewer rig, no ground), 320x240, 4 spp. Each process loads the asset,
 renders once to warm up, then reports the median of 3 timed ``pyrt.render`` calls (render time only) and the
 image mean (a check that both trees render the same thing). Rounds alternate the order (A B, B A, ...);
-prints every run, the medians and the ratio B / A. ``tools/ab_trees.py`` does the same for the bench scene.
+prints every run, the medians and the ratio B / A. ``tools/experiments/ab_trees.py`` does the same for the bench scene.
 
-Usage: python tools/ab_asset.py TREE_A TREE_B MODEL [--integrator whitted] [--rounds 4]
-   e.g. git archive BASE | tar -x -C /tmp/before && python tools/ab_asset.py /tmp/before . model.glb
+Usage: python tools/experiments/ab_asset.py TREE_A TREE_B MODEL [--integrator whitted] [--rounds 4]
+   e.g. git archive BASE | tar -x -C /tmp/before && python tools/experiments/ab_asset.py /tmp/before . model.glb
 """
 from __future__ import annotations
 
@@ -18,6 +18,7 @@ import statistics
 import subprocess
 import sys
 
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))   # tools/, for _trees
 from _trees import TREE_PREAMBLE  # noqa: E402  (tools/_trees.py)
 
 SNIPPET = TREE_PREAMBLE + r'''
