@@ -20,7 +20,7 @@ from pyrt.lights import GoniometricLight, IESLight, ProjectorLight
 from pyrt.materials import Material, MaterialError, REGISTRY as MATERIALS, Lambert, BlinnPhong, Mirror, Glass, register
 from pyrt.materials import (BlinnPhongClassic, CookTorrance, MetallicRoughness, Phong, PhongClassic,  # material library
                         Ward, RoughDielectric, Clearcoat, GltfPBR, Unlit, Sheen)
-from pyrt.materials import Conductor, LearnOpenGLPBR, OrenNayar  # issue 16
+from pyrt.materials import Conductor, LearnOpenGLPBR, OrenNayar
 from pyrt.scene import Scene, SceneError, transform_matrix
 from pyrt.lights import (ConstantEnvironment, CubeMapEnvironment, EnvironmentLight, EnvironmentMapError,
                           LatLongEnvironment, procedural_sky, set_environment)

@@ -55,8 +55,8 @@ def blinn_phong_normalization(exponent):
     Notes
     -----
     Real-Time Rendering's popular ``(e + 8) / (8 pi)`` is an approximation of this that
-    overshoots by up to 7.5 % (albedo 1.075 at e = 8, normal incidence); it was this kernel's
-    constant before issue 3. Derivation: at normal incidence wi = 2 theta_h,
+    overshoots by up to 7.5 % (albedo 1.075 at e = 8, normal incidence); an earlier
+    version of this kernel used it. Derivation: at normal incidence wi = 2 theta_h,
     ``dw_i = 4 cos(theta_h) dw_h``, and ``8 pi int_{cos=1/sqrt2}^1 c^(e+1) (2c^2 - 1) dc
     = 8 pi (e + 2^(-e/2)) / ((e + 2)(e + 4))`` (F. Giesen, "The Blinn-Phong normalization zoo", 2009).
     """
@@ -103,7 +103,7 @@ def blinn_phong_normalized_f_cos_cosines(cos_o, cos_i, cos_io, kd, ks, exponent)
 
 
 # ---------------------------------------------------------------------------------------------
-# The material library (issue 3). Conventions of this module apply: local frame, z = shading
+# The material library. Conventions of this module apply: local frame, z = shading
 # normal, (N, 3) unit wo / wi, returns f * cos(theta_i) as (N, 3), zero below either horizon.
 # Reciprocal (f(wo, wi) = f(wi, wo)): lambert, phong_normalized, blinn_phong_normalized, ward
 # (both variants), cook_torrance (every D / G / Fresnel choice: all are symmetric in wo, wi since
@@ -423,7 +423,7 @@ def thin_transmission_spec_cos(wo, wi, alpha):
 
 
 # ---------------------------------------------------------------------------------------------
-# Oren-Nayar (issue 16, item 7)
+# Oren-Nayar
 # ---------------------------------------------------------------------------------------------
 
 

@@ -50,7 +50,7 @@ def gamma_decode(encoded, gamma=2.2):
 ENCODINGS = {"srgb": (srgb_encode, srgb_decode), "gamma": (gamma_encode, gamma_decode)}
 
 
-# ----------------------------------------------------------------------------- colorimetry (issue 8)
+# ----------------------------------------------------------------------------- colorimetry
 #
 # CIE 1931 2-degree standard observer. No installed package ships the tabulated CIE data (numpy,
 # scipy, scikit-image, matplotlib, trimesh do not; ``colour-science`` is not a dependency), so the

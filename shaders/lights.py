@@ -80,7 +80,7 @@ def directional_light(p, direction, E):
     return wi, np.full(n, np.inf), np.broadcast_to(np.asarray(E, dtype=np.float64), (n, 3)).copy()
 
 
-# ----------------------------------------------------------------------------- falloff variants (issue 8)
+# ----------------------------------------------------------------------------- falloff variants
 #
 # Distance falloff ``f(r)`` multiplies the intensity: E = I(w) f(r). Names (used by pyrt.lights):
 #   "inverse_square"      1 / r^2                               physical, the default

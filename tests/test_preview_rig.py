@@ -32,7 +32,7 @@ _NUMBA_SCIPY = ("scipy", "scipy.__config__", "scipy.version", "scipy._distributo
 
 def test_up_axis_hit_rate_on_scan_like_shapes(tmp_path):
     """48 cases (12 shapes x y-up / z-up x 2 yaws, scan noise 0.3 % of the size), each written to a comment-less
-    PLY and loaded as a user's file is: all 48 right (measured, tools/up_axis_hit_rate.py; the hull rule alone,
+    PLY and loaded as a user's file is: all 48 right (measured, tools/experiments/up_axis_hit_rate.py; the hull rule alone,
     before issue 33, got 36: every 2-D outline laid down but one, every oblique neck cut on its back). Thresholds
     were chosen on these shapes, so the test guards the rules, not their generality; 46/48 is required to leave
     room for tessellation changes."""

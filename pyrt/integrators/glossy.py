@@ -11,7 +11,7 @@ glass, glTF transmission above its smooth limit) is the exception: its hits trac
 up to ``max_depth``, whatever the depth and threshold, as delta lobes do. A path through thick rough glass crosses
 at least two surfaces per wall, and cut at ``glossy_depth`` it ended black: on ``tools/glass_scenes.py``'s thick
 glass at roughness 0.15 the glass was 2.2-4.5x too dark (mean RGB 0.077, 0.101, 0.112 against 0.167, 0.368,
-0.510), the dark speckle of issue 33.
+0.510), a dark speckle.
 
 MIS (Veach 1997, power heuristic with the sample counts; pbrt-v4 ``PathIntegrator::SampleLd`` and the
 emitted-radiance weight on the next hit). At a hit that traces glossy rays, a direction can reach a light by

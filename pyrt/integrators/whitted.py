@@ -540,7 +540,7 @@ class Integrator:
             # one that leaves above it does not, whichever lobe it came from. About an interpolated shading normal
             # a refraction can point above the triangle (it stays outside) and a reflection inside the glass below it
             # (it leaves): counted by the lobe, the stack said "inside" for a ray in the air, Beer-Lambert absorbed
-            # it on its way and an escape to the environment came back 0 (issue 33's dark speckle on thick glass).
+            # it on its way and an escape to the environment came back 0 (a dark speckle on thick glass).
             crossed = dot(d, c.ng) < 0
             stack = media.spawn_stacks(stack_h, mids, surf.front, src, crossed)
         sample = np.take(s_idx, src)

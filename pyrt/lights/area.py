@@ -38,8 +38,8 @@ from pyrt.materials import compiled as mc
 
 
 #: shadow rays per hit by default: ``tools/estimator_chart.py``'s area scene (160 x 120, equal shadow rays per
-#: pixel, 3 interleaved repeats, 2026-12-02) with padded camera-hit samples: 4 per hit has 0.48x the relMSE x time
-#: of 16 (the default before padding, when a pixel's samples were independent and a hit's 16 were its only strata)
+#: pixel, 3 interleaved repeats) with padded camera-hit samples: 4 per hit has 0.48x the relMSE x time
+#: of 16 (with independent samples a hit's 16 were its only strata)
 DEFAULT_SAMPLES = 4
 
 

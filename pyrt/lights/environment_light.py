@@ -44,7 +44,7 @@ Off by default: it removes the noise of unoccluded light, but it also moves the 
 the sun from the lit ground (where the plain estimate had it) into the sun's shadows (where the plain estimate,
 whose sun samples are blocked, had none), and relMSE weighs a shadow's error by ``1 / R^2``.
 ``python tools/control_variate_chart.py`` (320 x 240, 4 / 16 / 64 spp, threads = 1, 3 interleaved runs,
-docs/environment.md): issue 13's ``sky`` scene (a sun of radiance 400 in a 512 x 256 map, 4 + 4 samples) 0.79-0.80x
+docs/environment.md): the benchmark's ``sky`` scene (a sun of radiance 400 in a 512 x 256 map, 4 + 4 samples) 0.79-0.80x
 the relMSE at 1.02-1.03x the time, relMSE x time 0.81-0.82x (a win); ``tools/bench_kinds.py``'s ``env`` scene (a sun of
 2000 in a 256 x 128 map, 1 + 1 samples) 2.8-3.0x the relMSE at 1.03-1.07x the time, relMSE x time 2.9-3.2x (a loss:
 at 16 spp the lit ground's part of the relMSE falls 13x, the shadowed ground's rises 38x). The sun's own estimate is
@@ -74,7 +74,7 @@ from pyrt.lights.environment import HEURISTICS, STRATEGIES, Environment, Environ
 
 #: samples per hit of each technique by default (``n_samples``; ``bsdf_samples`` follows it), with
 #: ``compensate=True``: measured by ``tools/estimator_chart.py`` (docs/environment.md). With padded camera-hit
-#: samples (``sampler="padded"``, 2026-12-02) 2 + 2 has 0.63x (sun sky) and 0.85x (studio map) the relMSE x time of
+#: samples (``sampler="padded"``) 2 + 2 has 0.63x (sun sky) and 0.85x (studio map) the relMSE x time of
 #: one light + one BSDF sample without compensation, and 4 + 4 0.99x and 1.02x: a pixel's samples are stratified
 #: over its spp now, so more samples per hit buy less (with independent draws 4 + 4 had been 1.5-2.4x better)
 DEFAULT_SAMPLES = 2
@@ -112,7 +112,7 @@ class EnvironmentLight(Light):
         ``albedo / pi * E(n)`` (:meth:`pyrt.lights.environment.Environment.irradiance`) and let the samples
         estimate only what occluders take away, ``(V - 1)`` times their value (module docstring). Default False:
         it moves the sun samples' noise from lit ground into the sun's shadows, and loses 2.9-3.2x at equal time on
-        ``tools/bench_kinds.py``'s ``env`` scene while it wins 1.22-1.24x on issue 13's ``sky`` scene (module docstring).
+        ``tools/bench_kinds.py``'s ``env`` scene while it wins 1.22-1.24x on the benchmark's ``sky`` scene (module docstring).
     """
 
     delta = False

@@ -5,7 +5,7 @@
 - :mod:`pyrt.materials.basic`: Lambert, Blinn-Phong, mirror, glass;
 - :mod:`pyrt.materials.library`: the rest of the course's models (Phong, classic models, Ward,
   Cook-Torrance, glTF metallic-roughness);
-- :mod:`pyrt.materials.extra`: smooth conductor, Oren-Nayar, LearnOpenGL's PBR model (issue 16);
+- :mod:`pyrt.materials.extra`: smooth conductor, Oren-Nayar, LearnOpenGL's PBR model;
 - :mod:`pyrt.materials.rough_dielectric`: frosted glass (GGX reflection and transmission, Walter 2007);
 - :mod:`pyrt.materials.gltf_pbr`: glTF's material extensions (specular / ior / transmission / volume, clear coat,
   unlit);

@@ -1,4 +1,4 @@
-"""More reflection models (issue 16): the smooth conductor, Oren-Nayar and LearnOpenGL's PBR model.
+"""More reflection models: the smooth conductor, Oren-Nayar and LearnOpenGL's PBR model.
 
 Each is a thin holder of validated parameters over kernels of :mod:`pyrt.shaders` (scene-file ``type``
 names in brackets):

@@ -1,4 +1,4 @@
-"""The material library (issue 3): every reflection model of the course, each a thin holder of
+"""The material library: every reflection model of the course, each a thin holder of
 validated parameters over one kernel of :mod:`pyrt.shaders.brdfs`. Scene-file ``type`` names in brackets.
 
 Ambient: the integrator's optional constant ambient radiance L_a (``Scene(ambient=...)``) is

@@ -99,8 +99,7 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     sampler : {"padded", "independent"}
         The random numbers of the light and BSDF samples at the camera rays' hits: ``"padded"`` (default) makes
         a pixel's samples one stratified set in every dimension pair, shuffled per pair
-        (:class:`pyrt.core.sampler.PaddedStream`); ``"independent"`` draws them independently (the sampler before
-        2026-12-02). Both are unbiased; padding lowers the noise of area, environment and glossy samples (the
+        (:class:`pyrt.core.sampler.PaddedStream`); ``"independent"`` draws them independently. Both are unbiased; padding lowers the noise of area, environment and glossy samples (the
         pixel positions are stratified either way).
     backend : {"auto", "compiled", "numpy"}
         The path that renders (``result.stats.backend`` says which did). ``"compiled"``: the Numba tile kernel

@@ -79,7 +79,7 @@ def studio_environment_image(width=256, height=128):
 
 
 #: fixed BSDF samples per non-glossy, non-Lambertian hit of the ``"preview"`` estimate (the engine's default is 16;
-#: 4 renders a textured model ~1.7x faster than 16, 1.6 % RMS from it: tools/bench_studio_env.py)
+#: 4 renders a textured model ~1.7x faster than 16, 1.6 % RMS from it: tools/experiments/bench_studio_env.py)
 STUDIO_PREVIEW_SAMPLES = 4
 
 #: Hammersley samples per texel of the studio's prefiltered maps (the engine's default for any map is 128)

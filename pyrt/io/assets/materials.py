@@ -296,7 +296,7 @@ def make_metallic_roughness(**kwargs):
     """
     if GltfMaterial is None:
         raise AssetError("pyrt.materials.MetallicRoughness is not available, so glTF metallic-roughness "
-                         "materials cannot be built (material library, issue 3)")
+                         "materials cannot be built (the material library)")
     return GltfMaterial(**kwargs)
 
 
