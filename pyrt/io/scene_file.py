@@ -28,7 +28,8 @@ Format (every key optional unless marked; unknown keys are errors naming the tab
                         # area lights: type = "rect" (center, normal, size, tangent) | "disk" (center, normal,
                         # radius) | "sphere" (center, radius); radiance or power, color, n_samples, bsdf_samples;
                         # visible = true adds the emitting mesh (seen by camera rays);
-                        # type = "emissive_mesh" (n_samples, name): the emissive meshes above as a light
+                        # type = "emissive_mesh" (n_samples, selection, min_power, name): the emissive meshes
+                        # above as a light (an error when none of them emits)
     [environment]       # type = "constant" (color) | "latlong" (file: EXR or .hdr, relative to the scene file) |
                         # "cube" (file: cross image, or faces = [6 files]) | "sky" (procedural: sun_direction,
                         # sun_angle, sun_radiance, zenith, horizon, ground, width, height);
@@ -351,6 +352,9 @@ def _load(data, base, path):
             except Error as exc:
                 raise SceneFileError(f"{path}: {where}: {exc}") from None
         if normal_map is not None:
+            if not isinstance(normal_map, (str, dict)):
+                raise SceneFileError(f"{path}: {where}.normal_map must be an image path or a texture table, "
+                                     f"got {normal_map!r}")
             spec_nm = {"type": "normal_map", "path": normal_map} if isinstance(normal_map, str) else normal_map
             materials[name].normal_map = _texture(spec_nm, f"{where}.normal_map", base, path)
 
@@ -409,11 +413,15 @@ def _load(data, base, path):
                 kwargs[k] = os.path.join(base, kwargs[k])
         if LIGHTS[kind].scene_emitter:       # the emissive meshes loaded above (Scene.add_emissive_lights)
             try:
-                scene.add_emissive_lights(**kwargs)
+                added = scene.add_emissive_lights(**kwargs)
             except TypeError as e:
-                raise SceneFileError(f"{path}: {where}: {e}; allowed parameters: ['n_samples', 'name']") from None
+                raise SceneFileError(f"{path}: {where}: {e}; allowed parameters: "
+                                     "['n_samples', 'selection', 'min_power', 'name']") from None
             except ValueError as e:
                 raise SceneFileError(f"{path}: {where}: {e}") from None
+            if added is None and "min_power" not in kwargs:     # asked for, and nothing to light with
+                raise SceneFileError(f"{path}: {where}: type {kind!r}: no mesh above emits light (no material with "
+                                     "emission, or its emission is 0): the light would add nothing")
             continue
         visible = kwargs.pop("visible", True) if LIGHTS[kind].has_mesh else None
         light = _construct(LIGHTS[kind], kwargs, where, path)

@@ -40,17 +40,20 @@ the scene (meshes added later are not part of it).
 """
 from __future__ import annotations
 
+from collections.abc import Iterable
 import math
 import numbers
 
 import numpy as np
 
+from pyrt.core.checks import Fixed
 from pyrt.geometry.accel import Accel, Hits
 from pyrt.geometry.surface import GeometryTable, MeshData, surface_from_hits
 from pyrt.shaders.vec import cross, dot, take_rows
 
 from pyrt.lights.base import LIGHTS, Light, LightError, LightSample
 from pyrt.lights.area import AreaEmitter
+from pyrt.materials import Material
 from pyrt.lights.mesh_clusters import ClusterChoice
 
 #: barycentric (b1, b2) of the four points per triangle at which the emission bound is evaluated
@@ -99,6 +102,10 @@ class EmissiveMeshLight(Light):
 
     delta = False
     scene_emitter = True
+    selection = Fixed("the triangle choice (the clusters of 'oriented') was built for it")
+    pmf = Fixed("it derives from the meshes' emission at construction")
+    area_pdf = Fixed("it derives from pmf")
+    power = Fixed("it derives from the meshes' emission at construction")
 
     @classmethod
     def example(cls):
@@ -119,9 +126,11 @@ class EmissiveMeshLight(Light):
         if not isinstance(n_samples, numbers.Integral) or isinstance(n_samples, bool) or n_samples < 1:
             raise LightError(f"{owner}: n_samples must be a positive integer, got {n_samples!r}")
         self.n_samples = int(n_samples)
-        meshes, materials = list(meshes), list(materials)
+        meshes, materials = _scene_lists(owner, meshes, materials)
         if mesh_ids is None:
             mesh_ids = [i for i, m in enumerate(meshes) if materials[m.material_id].emits]
+        elif isinstance(mesh_ids, (str, bytes)) or not isinstance(mesh_ids, Iterable):
+            raise LightError(f"{owner}: mesh_ids must be a sequence of mesh indices, got {mesh_ids!r}")
         ids = []
         for i in mesh_ids:
             if not isinstance(i, numbers.Integral) or isinstance(i, bool) or not 0 <= i < len(meshes):
@@ -129,6 +138,8 @@ class EmissiveMeshLight(Light):
             ids.append(int(i))
         if not ids:
             raise LightError(f"{owner}: the scene has no emissive mesh (no material declares emits)")
+        for i in ids:          # the emission is read below: a bad value is named by its material, not as the power
+            materials[meshes[i].material_id].validate()
         self._materials = materials
         self._geo = GeometryTable([meshes[i] for i in ids])
         #: the scene meshes (indices into ``scene.meshes``) whose triangles the light samples
@@ -331,3 +342,23 @@ class EmissiveMeshLight(Light):
             t_done[rows] = np.maximum(t, t_done[rows])
             last[rows] = tri
         return out
+
+
+def _scene_lists(owner, meshes, materials):
+    """``(meshes, materials)`` as lists, checked: meshes are :class:`MeshData` whose ``material_id`` indexes
+    ``materials``, which are :class:`pyrt.materials.Material`; else a :class:`LightError` naming ``owner``."""
+    for name, seq in (("meshes", meshes), ("materials", materials)):
+        if isinstance(seq, (str, bytes)) or not isinstance(seq, Iterable):
+            raise LightError(f"{owner}: {name} must be the scene's list of {name}, got {seq!r}"[:300])
+    meshes, materials = list(meshes), list(materials)
+    for k, m in enumerate(materials):
+        if not isinstance(m, Material):
+            raise LightError(f"{owner}: materials[{k}] must be a pyrt Material, got {type(m).__name__}")
+    for k, m in enumerate(meshes):
+        if not isinstance(m, MeshData):
+            raise LightError(f"{owner}: meshes[{k}] must be a mesh of the scene (MeshData), got {type(m).__name__}")
+        mid = m.material_id
+        if not (isinstance(mid, numbers.Integral) and 0 <= mid < len(materials)):
+            raise LightError(f"{owner}: mesh {m.name!r} has material_id {mid!r}, not an index of the "
+                             f"{len(materials)} materials given")
+    return meshes, materials

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pyrt.core.checks import Fixed
 from pyrt.shaders import envmap as K
 from pyrt.shaders import probes as P
 from pyrt.shaders import textures as _tex
@@ -31,6 +32,7 @@ class _ProbeEnvironment(LatLongTable):
     """Shared parts of the light probes: a square image, its mapping ``kind`` and the resampled tables."""
 
     kind = None
+    image, filter = Fixed("the sampling tables derive from it"), Fixed("the sampling table too")
 
     def __init__(self, image, *, intensity=1.0, rotate=None, filter="bilinear", hide_background=False,
                  background=0.0, name=None):

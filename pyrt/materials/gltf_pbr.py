@@ -405,7 +405,6 @@ class Clearcoat(Layer):
         self.fresnel = _check_choice(owner, "fresnel", fresnel, ("view", "half"))
         #: the coat's own normal map (None: the coat uses the shading normal)
         self.coat_normal_map = normal_map
-        self.reciprocal = self.fresnel == "half" and base.reciprocal
         self.validate()
 
     #: the default ``fresnel="view"`` is not reciprocal (see the class docstring)
@@ -417,9 +416,16 @@ class Clearcoat(Layer):
         return cls(MetallicRoughness(base_color=(0.7, 0.1, 0.1), roughness=0.5), clearcoat=0.8, roughness=0.35)
 
     def validate(self):
-        """The coat's ranges, then the base's."""
+        """The coat's ranges, its ``fresnel`` choice and normal map (None or a 3-channel texture) as they are now, then
+        the base's; :attr:`reciprocal` follows ``fresnel``."""
         super().validate()
+        _check_choice(self.label, "fresnel", self.fresnel, ("view", "half"))
+        nm = self.coat_normal_map
+        if nm is not None and not (is_texture(nm) and nm.channels == 3):
+            raise MaterialError(f"{self.label}: normal_map must be None or a 3-channel texture (a pyrt.NormalMap), "
+                                f"got {nm!r}")
         self.base.validate()
+        self.reciprocal = self.fresnel == "half" and self.base.reciprocal
 
     @property
     def uses_textures(self):

@@ -5,12 +5,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from pyrt.core.checks import Fixed
 from pyrt.materials.base import DeltaLobe, Material, MaterialError
 from pyrt.materials.library import MetallicRoughness
 
 
 class Layer(Material):
     """A layer over a material (:attr:`base`, set by :func:`adopt_base`): what passes the layer is the base's."""
+
+    #: the material under the layer; fixed: the attributes the integrators read are copied from it
+    base = Fixed("the layer's dielectric, delta, emission and normal-map attributes were copied from it")
 
     def rough_transmission(self, ctx):
         """The base's (a coat or a sheen reflects; it does not stop what the base transmits)."""
