@@ -12,6 +12,7 @@ the function that makes them, or arrays that function allocates and keeps in a v
 """
 from __future__ import annotations
 
+from llvmlite import ir
 from numba.core import cgutils, types
 from numba.extending import intrinsic
 
@@ -81,5 +82,24 @@ def wide_vectors(typingctx):
     against a list of known names that has no string attributes: the attribute is added to the set directly.)"""
     def codegen(context, builder, sig, args):
         set.add(builder.function.attributes, _PREFER_512)
+        return context.get_dummy_value()
+    return types.none(), codegen
+
+
+@intrinsic
+def noalias_args(typingctx):
+    """Promise LLVM that the pointer arguments of the function that calls this do not alias one another (the LLVM
+    ``noalias`` attribute on each): memory written through one is not read or written through another during the
+    call.
+
+    Why: a packet stage that gathers from the scene's tables (indices loaded from one table, values from another)
+    and writes the packet scratch vectorises only if LLVM knows the stores cannot change the tables; for gathers it
+    cannot check that at run time, so without the promise the loop stays scalar. Call it only from a function that
+    Numba does not inline (a ``_stage``: its own LLVM function) and whose pointer arguments are distinct buffers, or
+    buffers only read. Numba passes a tuple argument as its members, so the pointers in a tuple get it too."""
+    def codegen(context, builder, sig, args):
+        for a in builder.function.args:
+            if isinstance(a.type, ir.PointerType):
+                a.add_attribute("noalias")
         return context.get_dummy_value()
     return types.none(), codegen

@@ -36,15 +36,15 @@ from pyrt.core import unmanaged as U  # noqa: E402
 from pyrt.core.unmanaged import keep_alive  # noqa: E402
 from pyrt.geometry import embree_jit as E  # noqa: E402
 from pyrt.integrators.compiled_layout import (  # noqa: E402
-    TILE, LANES, V_D, V_P, V_NG, V_NS,
-    V_NV, V_LIFT, V_MAG, V_MAG_LIFT, V_FRONT, V_MAT,
-    V_A, V_L, V_F, V_LIT, V_COSO, V_SIZE,
+    TILE, LANES, V_D, V_P, V_NG, V_NS, V_MAG, V_FRONT, V_MAT,
+    V_A, V_L, V_F, V_LIT, V_SIZE,
     C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W,
     C_H, C_JITTER, C_K, C_AX, O_SEED, O_SPP,
     O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK,
     O_GRID, F_CUTOFF, F_BG, F_AMBIENT, N_PRIMARY, N_SECONDARY,
     N_SHADOW, N_NONFINITE, STACK, STACK_ROW, T_INF, DIM_LOBE,
-    ADAPTIVE_KEYS, F_ENV, O_ENV, O_AOV, N_AOV, V_T, _njit, lane_vec, set_lane_vec)
+    ADAPTIVE_KEYS, F_ENV, O_ENV, O_AOV, N_AOV, V_T, V_FACE, V_UV, _njit, lane_vec, set_lane_vec)
+from pyrt.integrators.compiled_surface import surface_stage  # noqa: E402
 from pyrt.integrators.compiled_lighting import (  # noqa: E402
     area_bsdf_sample, area_bsdf_stage, area_light_weight, area_mis_stage, area_stage, area_u, bsdf_stage, direct_light,
     env_hit, env_rounds, light_stage, shadow_fill)
@@ -310,37 +310,23 @@ def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, sp
     E.packet_activate(pk, w, n)
     n_prim += n
     E.packet_query(scene, pk, w, True, False)
-    # the hits' surfaces, albedo and emission (a miss: face 0 computed and dropped)
+    # the hits' surfaces (one vectorised loop), then their materials' albedo and emission (a miss: face 0's, dropped)
+    surface_stage(G, pk, w, V, n, fallback, terminator)
     any_diffuse = False
     for lane in range(n):
-        geom, prim = E.packet_geom_prim(pk, w, lane)
+        geom, _ = E.packet_geom_prim(pk, w, lane)
         hit = geom != -1
-        geom, prim = (geom, prim) if hit else (0, 0)
-        u, v = E.packet_uv(pk, w, lane)
-        d = lane_vec(V, V_D, lane)
-        p, ng, ns, nv, lift, mag, mag_lift, front, face, uv = J.hit_surface(
-            G, fallback, terminator, geom, prim, u, v, (-d[0], -d[1], -d[2]))
-        m = fmat[face]
+        m = fmat[int(V[V_FACE * LANES + lane])]
         mtag = mats_tag[m]
-        albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1])
-        le = emitted(mtag, mats_par, m, albedo, optf, front)
-        diffuse = hit and MC.has_diffuse(mtag)
-        any_diffuse = any_diffuse or diffuse
-        set_lane_vec(V, V_P, lane, p)
-        set_lane_vec(V, V_NG, lane, ng)
-        set_lane_vec(V, V_NS, lane, ns)
-        set_lane_vec(V, V_NV, lane, nv)
-        set_lane_vec(V, V_LIFT, lane, lift)
+        albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, V[V_UV * LANES + lane], V[(V_UV + 1) * LANES + lane])
+        le = emitted(mtag, mats_par, m, albedo, optf, V[V_FRONT * LANES + lane] != 0.0)
+        any_diffuse = any_diffuse or (hit and MC.has_diffuse(mtag))
         set_lane_vec(V, V_A, lane, albedo)
         if not hit and etag != 0:
+            d = lane_vec(V, V_D, lane)
             le = CE.missed(etag, erec, edata, d[0], d[1], d[2], True)
         set_lane_vec(V, V_L, lane, le if hit or etag != 0 else bg)
-        V[V_MAG * LANES + lane] = mag
-        V[V_MAG_LIFT * LANES + lane] = mag_lift
-        V[V_FRONT * LANES + lane] = 1.0 if front else 0.0
         V[V_MAT * LANES + lane] = m if hit else -1
-        V[V_COSO * LANES + lane] = dot((-d[0], -d[1], -d[2]), ns)
-        V[V_T * LANES + lane] = E.packet_tfar(pk, w, lane) if hit else math.inf
     # direct light: per light, the packet's shadow rays (geometry, then the BSDF) in one masked query
     pair = 0                # the padded dimension pairs of the area lights' samples
     for j in range(nl if any_diffuse else 0):
@@ -401,6 +387,28 @@ def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, sp
     cnt[N_PRIMARY] += n_prim
     cnt[N_SHADOW] += n_shadow
     cnt[N_NONFINITE] += n_bad
+
+
+@_njit
+def film_add(V, lane_pix, n, film_s, film_q):
+    """Lanes ``[0, n)``'s radiance (:data:`V_L`) added to their pixels' sums and squares (rows ``lane_pix[l]``): a
+    pixel's running sums stay in registers over its run of lanes (they come in pixel order) and are stored once per
+    run, the same additions in the same order as one lane at a time (a store per lane made each addition wait for
+    the previous one's store)."""
+    lane = 0
+    while lane < n:
+        q = lane_pix[lane] * 3
+        s0, s1, s2, q0, q1, q2 = film_s[q], film_s[q + 1], film_s[q + 2], film_q[q], film_q[q + 1], film_q[q + 2]
+        while lane < n and lane_pix[lane] * 3 == q:
+            l0, l1, l2 = lane_vec(V, V_L, lane)
+            s0 += l0
+            s1 += l1
+            s2 += l2
+            q0 += l0 * l0
+            q1 += l1 * l1
+            q2 += l2 * l2
+            lane += 1
+        film_s[q], film_s[q + 1], film_s[q + 2], film_q[q], film_q[q + 1], film_q[q + 2] = s0, s1, s2, q0, q1, q2
 
 
 @_njit
@@ -495,16 +503,9 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
                 set_lane_vec(V, V_D, lane, camera_dir(cam, lane_xy[lane] + ox, lane_xy[LANES + lane] + oy))
         shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, spp, n, w, mats_tag, mats_par,
                      tex_tag, tex_par, lights_tag, lights_par, erec, edata, opts, optf, cnt)
-        for lane in range(n):
-            l0, l1, l2 = lane_vec(V, V_L, lane)
-            q = lane_pix[lane] * 3
-            film_s[q] += l0
-            film_s[q + 1] += l1
-            film_s[q + 2] += l2
-            film_q[q] += l0 * l0
-            film_q[q + 1] += l1 * l1
-            film_q[q + 2] += l2 * l2
-            if want_aovs:
+        film_add(V, lane_pix, n, film_s, film_q)
+        if want_aovs:
+            for lane in range(n):
                 add_aovs(V, lane, film_a, lane_pix[lane] * N_AOV)
     release(bufs)         # the owners of the pointers live until here
 
