@@ -12,6 +12,8 @@ from pyrt.apps.preview.rig import BACKDROP_MAX, auto_exposure, limit_backdrop
 from pyrt.core.image_io import tonemap_to_display
 from pyrt.io.assets import load_asset
 from pyrt.io.assets.gltf_write import embedded_gltf
+from pyrt.apps.preview.cli import _parser
+from pyrt.shaders import color
 
 
 @pytest.mark.parametrize("tonemap", ["reinhard", "pbr_neutral", "aces", "film"])
@@ -63,3 +65,32 @@ def test_gltf_extras_keep_a_material_off_the_compiled_path():
     assert occluded.compiled_record(pack) is None
     glowing = GltfMaterial(base_color=0.5, metallic=0.0, roughness=0.5, emission=(1.0, 0.5, 0.2))
     assert glowing.compiled_record(pack) is None
+
+
+def test_the_default_tone_map_is_pbr_neutral_and_keeps_a_bright_emitter_s_channels_below_white():
+    """The previewer's default display (docs/preview.md, "tone map"; tools/tonemap_choice.py measured it on the shared
+    Khronos set) is Khronos PBR Neutral at the automatic exposure. EmissiveStrengthTest's cube colour (0.1, 0.5, 0.9) at
+    16x, exposed as the rule exposed that model (-1.63 stops), keeps every channel below 255 and goes toward white
+    (smallest / largest channel above 0.4), where Reinhard on luminance clips blue and keeps it cyan."""
+    assert PreviewOptions().tonemap == "pbr_neutral" and _parser().parse_args(["m.glb"]).tonemap == "pbr_neutral"
+    cube = np.array([[[0.1, 0.5, 0.9]]]) * 16.0
+    s8 = {op: np.round(color.srgb_encode(tonemap_to_display(cube, tonemap_op=op, exposure=-1.63)) * 255)[0, 0]
+          for op in ("pbr_neutral", "reinhard")}
+    assert s8["pbr_neutral"].max() < 255 and s8["reinhard"][2] == 255
+    lin = color.srgb_decode(s8["pbr_neutral"] / 255.0)
+    assert lin.min() / lin.max() > 0.4
+
+
+def test_the_preview_png_is_its_linear_image_through_the_chosen_tone_map(tmp_path):
+    h = embedded_gltf({"POSITION": np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)}, np.array([[0, 1, 2]]),
+                      {"pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.3, 0.1, 1.0], "metallicFactor": 0.0}})
+    path = tmp_path / "t.gltf"
+    path.write_text(json.dumps(h))
+    for op in ("pbr_neutral", "aces"):
+        ps = PreviewScene(load_asset(path), PreviewOptions(width=24, height=18, spp=1, tonemap=op))
+        try:
+            img = ps.render_view(ps.azimuth).image
+            expect = tonemap_to_display(img, tonemap_op=op, exposure=ps.exposure)
+            np.testing.assert_array_equal(ps.to_display(img), np.round(color.srgb_encode(expect) * 255))
+        finally:
+            ps.close()

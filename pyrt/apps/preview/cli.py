@@ -80,9 +80,9 @@ def _parser():
     ap.add_argument("--emissive-selection", default=PreviewOptions.emissive_selection, choices=["power", "oriented"],
                     help="how the emissive triangles are chosen: by power, or per shading point (distance, side)")
     ap.add_argument("--exposure", type=finite_float, help="exposure in stops (default: automatic)")
-    ap.add_argument("--tonemap", default="reinhard", choices=TONEMAPS,
-                    help="tone mapper: reinhard (default; automatic white point), pbr_neutral (Khronos PBR Neutral, "
-                         "the glTF Sample Viewer's), aces (Filament's), film, linear, reinhard_rgb")
+    ap.add_argument("--tonemap", default=PreviewOptions.tonemap, choices=TONEMAPS,
+                    help="tone mapper: pbr_neutral (default: Khronos PBR Neutral, the glTF Sample Viewer's), reinhard "
+                         "(luminance, automatic white point), aces (Filament's), film, linear, reinhard_rgb")
     ap.add_argument("--turntable", type=nonnegative_int, default=0, metavar="N", help="render N views around the model (N frames and a contact sheet: "
                          "with -o X.png, X_turntable/frame_000.png ... and X_sheet.png; in a batch, "
                          "NAME_turntable/ and NAME_sheet.png per model)")

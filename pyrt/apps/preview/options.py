@@ -60,7 +60,9 @@ class PreviewOptions:
     #: the folder a loose model may read its files from (pyrt.load_asset's root=: it must contain the model); None:
     #: the model's own folder and its subfolders. A model in a ZIP archive reads only the archive whatever it says
     root: str | None = None
-    tonemap: str = "reinhard"            # any of pyrt.core.image_io.TONEMAPS (pbr_neutral, aces, ...)
+    #: any of pyrt.core.image_io.TONEMAPS; default Khronos PBR Neutral, decided on the shared Khronos set
+    #: (docs/preview.md, tools/tonemap_choice.py: no channel clipped on any of the 24 models, highlights toward white)
+    tonemap: str = "pbr_neutral"
     turntable: int = 0                   # number of views (0 = a single view)
     formats: tuple = ("png",)            # any of "png", "exr"
     aovs: bool = False
