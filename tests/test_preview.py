@@ -345,8 +345,9 @@ def test_environment_map_option_keeps_the_matched_backdrop(tmp_path):
 
 
 def test_dielectric_cutoff_only_for_models_with_a_dielectric(monkeypatch):
-    """Models with a dielectric render with ``dielectric_cutoff`` (and ``dielectric_depth``), others with
-    pyrt.render's throughput cutoff 1e-4 and ``max_depth``; the option is validated."""
+    """Models with a dielectric render with ``dielectric_cutoff``, Russian roulette below it (``dielectric_roulette``)
+    and ``dielectric_depth``, others with pyrt.render's throughput cutoff 1e-4, no roulette and ``max_depth``; the
+    options are validated."""
     seen = []
 
     class Stop(Exception):
@@ -360,12 +361,14 @@ def test_dielectric_cutoff_only_for_models_with_a_dielectric(monkeypatch):
     ps = P.PreviewScene(load_asset(BLOB), P.PreviewOptions(dielectric_cutoff=0.05, **TINY))
     with pytest.raises(Stop):
         ps.render_view(0.0)
-    assert (seen[-1]["throughput_cutoff"], seen[-1]["max_depth"]) == (1e-4, 4)
+    assert (seen[-1]["throughput_cutoff"], seen[-1]["max_depth"], seen[-1]["roulette"]) == (1e-4, 4, False)
     monkeypatch.setattr(ps.prepared, "dielectric", np.ones_like(ps.prepared.dielectric, dtype=bool))
     with pytest.raises(Stop):
         ps.render_view(0.0)
-    assert (seen[-1]["throughput_cutoff"], seen[-1]["max_depth"]) == (0.05, 10)
-    assert P.PreviewOptions().dielectric_cutoff == 0.01
+    assert (seen[-1]["throughput_cutoff"], seen[-1]["max_depth"], seen[-1]["roulette"]) == (0.05, 10, True)
+    assert P.PreviewOptions().dielectric_cutoff == 0.01 and P.PreviewOptions().dielectric_roulette is True
+    with pytest.raises(P.PreviewError, match="dielectric_roulette must be True or False"):
+        P.PreviewOptions(dielectric_roulette="yes").validate()
     for bad in (-0.1, 1.0):
         with pytest.raises(P.PreviewError, match="dielectric_cutoff"):
             P.PreviewOptions(dielectric_cutoff=bad).validate()

@@ -1,6 +1,6 @@
 """Generated glTF models that reproduce what went wrong on thick textured glass (issue 33), and their pictures.
 
-Three models, each a :func:`pyrt.io.assets.gltf_write.embedded_gltf` header (write it with ``json.dump``):
+Four models, each a :func:`pyrt.io.assets.gltf_write.embedded_gltf` header (write it with ``json.dump``):
 
 - :func:`hurricane_glass` — a thick, curved glass shell (a hurricane candle holder: an open cylinder with a
   solid base, outer and inner walls joined at the rim), coarsely tessellated around its axis with smooth vertex
@@ -10,6 +10,8 @@ Three models, each a :func:`pyrt.io.assets.gltf_write.embedded_gltf` header (wri
   glass: ``baseColorTexture`` tints the transmission) on the outer wall only.
 - :func:`polished_metal` — a smooth-shaded chrome cylinder (metallic 1, roughness 0.05): what a viewer shows as
   silver under image-based light.
+- :func:`decal_layer` — the clear thick glass with a decal as its own alpha-blended layer just outside it (two meshes,
+  :func:`merge_gltf`).
 
 ``python tools/glass_scenes.py OUT_DIR`` writes the models; with ``--picture PNG`` it also renders the rough thick glass
 (roughness 0.15), the decal glass and the metal with the previewer's defaults (``--spp``, as ``--seeds`` renders of
@@ -175,13 +177,78 @@ def polished_metal(*, segments=24, roughness=0.05):
     return embedded_gltf({"POSITION": p, "NORMAL": n}, f, mat)
 
 
+def merge_gltf(a, b):
+    """One glTF header holding the meshes of headers ``a`` and ``b`` (each of :func:`embedded_gltf`: one mesh, one
+    material, data-URI buffers), ``b``'s indices shifted past ``a``'s."""
+    out = json.loads(json.dumps(a))
+    nb, nv, na, nm, ni = (len(out.get(k, [])) for k in ("buffers", "bufferViews", "accessors", "materials", "images"))
+    for v in b["bufferViews"]:
+        out["bufferViews"].append({**v, "buffer": v["buffer"] + nb})
+    for acc in b["accessors"]:
+        out["accessors"].append({**acc, "bufferView": acc["bufferView"] + nv})
+    out["buffers"] += b["buffers"]
+    mat = json.loads(json.dumps(b["materials"][0]))
+    tex = mat.get("pbrMetallicRoughness", {}).get("baseColorTexture")
+    if tex is not None:
+        tex["index"] += len(out.get("textures", []))
+    out["materials"].append(mat)
+    if "images" in b:
+        out.setdefault("images", []).extend(b["images"])
+        out.setdefault("textures", []).extend({**t, "source": t["source"] + ni} for t in b["textures"])
+    prim = b["meshes"][0]["primitives"][0]
+    out["meshes"].append({"primitives": [{"attributes": {k: i + na for k, i in prim["attributes"].items()},
+                                          "indices": prim["indices"] + na, "material": nm}]})
+    out["nodes"].append({"mesh": len(out["meshes"]) - 1})
+    out["scenes"][0]["nodes"].append(len(out["nodes"]) - 1)
+    for k in ("extensionsUsed",):
+        if k in b:
+            out[k] = sorted(set(out.get(k, [])) | set(b[k]))
+    return out
+
+
+def _decal_rgba(size=64):
+    """(size, size, 4) uint8: a red band (the decal's ink, opaque) over ``0.1 < u < 0.9``, ``0.3 < v < 0.7``, clear
+    (alpha 0) elsewhere."""
+    img = np.zeros((size, size, 4), dtype=np.uint8)
+    c = (np.arange(size) + 0.5) / size
+    img[np.ix_((c > 0.3) & (c < 0.7), (c > 0.1) & (c < 0.9))] = (230, 60, 30, 255)
+    return img
+
+
+def decal_layer(*, segments=24, offset=0.0005, span=0.9):
+    """The clear thick glass of :func:`hurricane_glass` with a decal as a separate layer: a patch of the outer wall
+    ``span`` radians wide (facing the camera's default azimuth side, +z), ``offset`` outside it, alpha-blended
+    (``alphaMode`` BLEND, the ink opaque, the rest clear), one-sided, as exporters write label decals on glass."""
+    glass = hurricane_glass(segments=segments)
+    n_u, n_v = 16, 8
+    a = np.pi / 2 + span * (np.linspace(0.0, 1.0, n_u + 1) - 0.5)
+    y = 0.3 * np.linspace(0.25, 0.75, n_v + 1)
+    A, Y = np.meshgrid(a, y)
+    r = 0.09 * (1.0 + 0.25 * np.sin(np.pi * Y / 0.3)) + offset
+    pos = np.stack([r * np.cos(A), Y, r * np.sin(A)], axis=-1).reshape(-1, 3).astype(np.float32)
+    nrm = np.stack([np.cos(A), np.zeros_like(A), np.sin(A)], axis=-1).reshape(-1, 3).astype(np.float32)
+    uv = np.stack([1.0 - (A - a[0]) / span, 1.0 - (Y - y[0]) / (y[-1] - y[0])], axis=-1).reshape(-1, 2)
+    k = np.arange(n_u)
+    faces = []
+    for j in range(n_v):
+        i0, i1 = j * (n_u + 1) + k, (j + 1) * (n_u + 1) + k
+        faces += [np.stack([i0, i1, i1 + 1], 1), np.stack([i0, i1 + 1, i0 + 1], 1)]
+    f = _orient(pos, nrm, np.concatenate(faces))
+    mat = {"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.0, "roughnessFactor": 0.6},
+           "alphaMode": "BLEND"}
+    decal = embedded_gltf({"POSITION": pos, "NORMAL": nrm, "TEXCOORD_0": uv.astype(np.float32)}, f, mat,
+                          (_decal_rgba(),))
+    return merge_gltf(glass, decal)
+
+
 def _rough(h, roughness=0.15):
     h["materials"][0]["pbrMetallicRoughness"]["roughnessFactor"] = roughness
     return h
 
 
 MODELS = {"glass": lambda: hurricane_glass(), "glass_rough": lambda: _rough(hurricane_glass(attenuation_distance=0.004)),
-          "glass_decal": lambda: hurricane_glass(decal=True), "metal": lambda: polished_metal()}
+          "glass_decal": lambda: hurricane_glass(decal=True), "metal": lambda: polished_metal(),
+          "decal_layer": lambda: decal_layer()}
 #: the models of the picture
 PICTURE = ("glass_rough", "glass_decal", "metal")
 #: the reference's options: every path to its end (unbiased; split_depth 2 keeps the tree's width bounded)

@@ -49,7 +49,7 @@ _announced = []
 
 
 def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=False, light_select_depth=None,
-                record_rays=False, scene=None):
+                record_rays=False, scene=None, roulette=False):
     """The reasons (strings) the compiled kernel cannot render the prepared scene ``ps`` with these options; an
     empty list when it can. The options are those of :func:`pyrt.render_full`. ``ps`` None and ``scene`` given: the
     same decision from the scene alone (what a Dask client decides before its workers prepare the scene; the
@@ -60,6 +60,8 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
     scene = facts.scene
     if integrator != "whitted":
         reasons.append(f"integrator {integrator!r}")
+    if roulette:
+        reasons.append("Russian roulette below throughput_cutoff (roulette=True)")
     if not (offset is None or isinstance(offset, str) and offset in OFFSETS):
         reasons.append(f"offset strategy {offset!r}")
     if transparent_shadows and np.any(facts.dielectric):

@@ -49,10 +49,11 @@ from pyrt.core.sampler import stratified_samples, stream_rows
 from pyrt.geometry.differentials import reflect_differential_terms
 from pyrt.integrators import direct
 from pyrt.integrators import light_choice
+from pyrt.integrators import roulette
 from pyrt.integrators.whitted import Integrator, normalize_rows
 from pyrt.materials.dispatch import BSDFBatch
 from pyrt.shaders import sampling
-from pyrt.shaders.vec import dot, max_component, put_rows, take_rows
+from pyrt.shaders.vec import dot, put_rows, take_rows
 
 #: environment strategies that light-sample at glossy hits (the others leave the environment to the rays)
 _ENV_LIGHT_SAMPLED = ("uniform", "cosine", "map", "mis")
@@ -263,7 +264,8 @@ class GlossyIntegrator(Integrator):
         below = dot(wi, sub.ng) <= 0
         transmits = self.ps.transmits[sub.material_id]
         refr_all = below & transmits
-        alive = (pdf > 0) & (max_component(t_new) > self.throughput_cutoff) & (~below | refr_all)
+        above, t_new = roulette.survivors(t_new, self.throughput_cutoff, rng if self.roulette else None)
+        alive = (pdf > 0) & above & (~below | refr_all)
         keep = np.flatnonzero(alive)
         if keep.size == 0:
             return None

@@ -39,9 +39,10 @@ from pyrt.integrators import coverage
 from pyrt.integrators import direct
 from pyrt.integrators import gouraud
 from pyrt.integrators import light_choice
+from pyrt.integrators import roulette
+from pyrt.integrators.roulette import choose_one_lobe
 from pyrt.integrators import shadows
 from pyrt.integrators.prepared import RenderStats
-from pyrt.materials.base import DeltaLobe
 from pyrt.materials.dispatch import BSDFBatch
 from pyrt.textures import apply_normal_maps
 from pyrt.shaders.vec import dot, max_component, put_rows, take_rows
@@ -72,7 +73,10 @@ class Integrator:
     max_depth : int
         Maximum number of specular bounces (0 = direct light only).
     throughput_cutoff : float
-        Specular rays whose max-channel throughput falls below this are dropped.
+        Specular rays whose max-channel throughput falls below this are dropped, or with ``roulette`` continue by
+        Russian roulette (:mod:`pyrt.integrators.roulette`).
+    roulette : bool
+        Russian roulette below ``throughput_cutoff`` instead of dropping (unbiased; default False).
     offset : str or callable
         Ray-origin offset strategy (see :mod:`pyrt.geometry.offsets`).
     record_rays : bool
@@ -111,12 +115,15 @@ class Integrator:
     #: (:func:`clamp_sampled`; set by :class:`pyrt.integrators.glossy.GlossyIntegrator`, None: no clamp)
     glossy_clamp = None
 
-    def __init__(self, prepared, *, max_depth=8, throughput_cutoff=1e-4, offset=None, record_rays=False,
-                 transparent_shadows=False, split_depth=DEFAULT_SPLIT_DEPTH,
+    def __init__(self, prepared, *, max_depth=8, throughput_cutoff=1e-4, roulette=False, offset=None,
+                 record_rays=False, transparent_shadows=False, split_depth=DEFAULT_SPLIT_DEPTH,
                  light_select_depth=None, batch_rays=None, sampler="padded"):
         self.max_depth = checks.integer("render", "max_depth", max_depth, RenderError, lo=0)
         self.throughput_cutoff = checks.finite_number("render", "throughput_cutoff", throughput_cutoff, RenderError,
                                                       lo=0.0)
+        if not isinstance(roulette, (bool, np.bool_)):
+            raise RenderError(f"render: roulette must be True or False, got {roulette!r}")
+        self.roulette = bool(roulette)
         self.ps = prepared
         self.scene = prepared.scene
         self.offset = offsets.get_strategy(offset)
@@ -492,9 +499,8 @@ class Integrator:
             if select and mat.is_dielectric and len(lobes) > 1:
                 lobes = choose_one_lobe(lobes, rng.random(sel.size))
             for lobe in lobes:
-                t_new = thr_k * lobe.weight
                 w_all = ctx.to_world(lobe.wi)
-                alive = max_component(t_new) > self.throughput_cutoff
+                alive, t_new = roulette.survivors(thr_k * lobe.weight, self.throughput_cutoff, rng if self.roulette else None)
                 if not mat.is_dielectric:
                     # A mirror reflection about an interpolated shading normal can point below the geometric
                     # surface. Such a ray is dropped (radiance 0): traced, it would enter the closed mirror
@@ -557,30 +563,6 @@ def clamp_sampled(Ld, thr, sampled, limit):
     Ld = Ld.copy()
     put_rows(Ld, over, take_rows(Ld, over) * (limit / np.take(m, over))[:, None])
     return Ld
-
-
-def choose_one_lobe(lobes, u):
-    """The delta ``lobes`` (a list of :class:`pyrt.materials.DeltaLobe` over the same N hits) with one kept per
-    hit: lobe ``i`` is chosen with probability ``p_i = m_i / sum_j m_j``, ``m_i`` its weight's mean over RGB,
-    by ``u`` (N,) uniform in [0, 1); the chosen lobe's weight is divided by ``p_i``, the others' are 0 (the
-    integrator drops their rays). The expected weight of every lobe is its own (unbiased: stochastic
-    selection of the splitting tree's branches, Russian roulette between them); for an untinted dielectric
-    the chosen ray carries ``R + T``-scaled throughput whichever branch it takes. Hits whose lobes all
-    weigh 0 keep none.
-    """
-    m = np.stack([lobe.weight.mean(axis=1) for lobe in lobes])      # (L, N)
-    total = m.sum(axis=0)
-    # (a uniform share in p, to choose glass's weak reflection more often, was measured: noisier on GlassVaseFlowers,
-    # RMSE against a converged preview 0.067 with half the probability uniform, 0.040 without)
-    p = np.divide(m, total, out=np.zeros_like(m), where=total > 0)
-    c = np.cumsum(p, axis=0)
-    pick = np.minimum(np.sum(u * c[-1] >= c, axis=0), len(lobes) - 1)   # (N,) lobe index
-    out = []
-    for i, lobe in enumerate(lobes):
-        chosen = (pick == i) & (m[i] > 0)
-        scale = np.divide(1.0, p[i], out=np.zeros_like(total), where=chosen)
-        out.append(DeltaLobe(lobe.wi, lobe.weight * scale[:, None], lobe.kind, lobe.eta))
-    return out
 
 
 def normalize_rows(w):

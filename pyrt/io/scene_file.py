@@ -5,7 +5,8 @@ Format (every key optional unless marked; unknown keys are errors naming the tab
     [camera]            # position, target, up, fov (degrees, vertical), width, height, spp
     [render]            # max_depth, seed, background (RGB radiance), ambient (RGB radiance),
                         # shading_normal_fallback (bool, default true: see the README's conventions),
-                        # throughput_cutoff, offset (strategy name), transparent_shadows (bool),
+                        # throughput_cutoff, roulette (bool: Russian roulette below the cutoff),
+                        # offset (strategy name), transparent_shadows (bool),
                         # integrator ("whitted" | "glossy"), glossy_samples, glossy_depth, glossy_threshold,
                         # target_error, time_budget (s), max_spp, min_spp (adaptive rendering: pyrt.render),
                         # sampler ("padded" | "independent": the camera hits' light and BSDF samples)
@@ -78,7 +79,7 @@ class SceneFileNotFoundError(SceneFileError, FileNotFoundError):
 
 
 _CAMERA_KEYS = {"position", "target", "up", "fov", "width", "height", "spp", "jitter"}
-_RENDER_OPTIONS = ("max_depth", "seed", "throughput_cutoff", "offset", "transparent_shadows", "integrator",
+_RENDER_OPTIONS = ("max_depth", "seed", "throughput_cutoff", "roulette", "offset", "transparent_shadows", "integrator",
                    "glossy_samples", "glossy_depth", "glossy_threshold", "sampler",
                    "target_error", "time_budget", "max_spp", "min_spp")
 _RENDER_KEYS = {"background", "ambient", "shading_normal_fallback", *_RENDER_OPTIONS}
@@ -153,9 +154,9 @@ def _render_options(rnd, path):
     for key, (check, kw) in _RENDER_NUMBERS.items():
         if key in options:
             options[key] = check(f"{path}: [render]", key, options[key], SceneFileError, **kw)
-    if "transparent_shadows" in options and not isinstance(options["transparent_shadows"], bool):
-        raise SceneFileError(f"{path}: [render] transparent_shadows must be true or false, "
-                             f"got {options['transparent_shadows']!r}")
+    for key in ("transparent_shadows", "roulette"):
+        if key in options and not isinstance(options[key], bool):
+            raise SceneFileError(f"{path}: [render] {key} must be true or false, got {options[key]!r}")
     for key in ("target_error", "time_budget"):
         if key in options and options[key] <= 0:
             raise SceneFileError(f"{path}: [render] {key} must be > 0, got {options[key]!r}")

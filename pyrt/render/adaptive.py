@@ -274,7 +274,7 @@ def _chunks(counts, chunk_samples):
 def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None, min_spp=4, seed=0, aovs=False,
                     progress=None, chunk_samples=1 << 15, threads=None, prepared=None, nonfinite="zero",
                     cancel=None, fill=False, fill_budget=2.0, on_pass=None, integrator="whitted", max_depth=8,
-                    throughput_cutoff=1e-4, offset=None, record_rays=False, transparent_shadows=False,
+                    throughput_cutoff=1e-4, roulette=False, offset=None, record_rays=False, transparent_shadows=False,
                     glossy_samples=4, glossy_depth=2, glossy_threshold=0.4, glossy_clamp=None, dask=None,
                     dask_workers=2, split_depth=DEFAULT_SPLIT_DEPTH, light_select_depth=None, parallel="auto",
                     batch_rays=None, sampler="padded", backend="auto"):
@@ -310,7 +310,8 @@ def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None,
     threads = None if threads is None else checks.integer("render", "threads", threads, RenderError)
     scene.camera.validate()
     check_image_memory(scene.camera.width, scene.camera.height, aovs=aovs, films=2)
-    integ = dict(integrator=integrator, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
+    integ = dict(integrator=integrator, max_depth=max_depth, throughput_cutoff=throughput_cutoff, roulette=roulette,
+                 offset=offset,
                  record_rays=record_rays, transparent_shadows=transparent_shadows, glossy_samples=glossy_samples,
                  glossy_depth=glossy_depth, glossy_threshold=glossy_threshold,
                  glossy_clamp=glossy_clamp, split_depth=split_depth,
@@ -361,7 +362,7 @@ def _compiled_reasons(backend, ps, scene, runner, integ, aovs):
     reasons = compiled.unsupported(ps, integrator=integ["integrator"], offset=integ["offset"],
                                    transparent_shadows=integ["transparent_shadows"],
                                    light_select_depth=integ["light_select_depth"],
-                                   record_rays=integ["record_rays"], scene=scene)
+                                   record_rays=integ["record_rays"], scene=scene, roulette=integ["roulette"])
     if runner is not None:
         reasons.append("adaptive passes on Dask workers")
     if aovs:

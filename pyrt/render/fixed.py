@@ -37,7 +37,7 @@ from pyrt.render.result import RenderResult
 
 
 
-def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4, offset=None, aovs=False,
+def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4, roulette=False, offset=None, aovs=False,
                 progress=None, chunk_samples=1 << 15, threads=None, record_rays=False, prepared=None,
                 nonfinite="zero", cancel=None, fill=False, fill_budget=2.0, transparent_shadows=False,
                 integrator="whitted", glossy_samples=4, glossy_depth=2, glossy_threshold=0.4, glossy_clamp=None,
@@ -134,7 +134,8 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
                                chunk_samples=chunk_samples, threads=threads, prepared=prepared,
                                nonfinite=nonfinite, cancel=cancel, fill=fill, fill_budget=fill_budget,
                                on_pass=on_pass, integrator=integrator, max_depth=max_depth,
-                               throughput_cutoff=throughput_cutoff, offset=offset, record_rays=record_rays,
+                               throughput_cutoff=throughput_cutoff, roulette=roulette, offset=offset,
+                               record_rays=record_rays,
                                transparent_shadows=transparent_shadows, glossy_samples=glossy_samples,
                                glossy_depth=glossy_depth, glossy_threshold=glossy_threshold,
                                glossy_clamp=glossy_clamp, dask=dask,
@@ -147,7 +148,8 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     seed = check_options(seed=seed, glossy_samples=glossy_samples, glossy_depth=glossy_depth,
                          glossy_threshold=glossy_threshold, glossy_clamp=glossy_clamp)
     warn_smooth_lobes(scene, integrator)
-    integ = dict(integrator=integrator, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
+    integ = dict(integrator=integrator, max_depth=max_depth, throughput_cutoff=throughput_cutoff, roulette=roulette,
+                 offset=offset,
                  transparent_shadows=transparent_shadows, glossy_samples=glossy_samples, glossy_depth=glossy_depth,
                  glossy_threshold=glossy_threshold, glossy_clamp=glossy_clamp, split_depth=split_depth,
                  light_select_depth=light_select_depth, batch_rays=batch_rays, sampler=sampler)
@@ -172,7 +174,7 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
     if check_backend(backend) != "numpy":
         reasons = compiled.unsupported(
             ps, integrator=integrator, offset=offset, transparent_shadows=transparent_shadows,
-            light_select_depth=light_select_depth, record_rays=record_rays, scene=scene)
+            light_select_depth=light_select_depth, record_rays=record_rays, scene=scene, roulette=roulette)
         if aovs and runner is not None:
             reasons.append("AOVs on Dask workers")
         if reasons and backend == "compiled":
@@ -347,6 +349,11 @@ def render(scene, **kwargs):
         Maximum specular recursion depth (default 8).
     throughput_cutoff : float
         Drop specular rays whose throughput falls below this (default 1e-4).
+    roulette : bool
+        Instead of dropping them, continue the rays below ``throughput_cutoff`` by Russian roulette (with probability
+        ``max-channel throughput / throughput_cutoff``, their throughput divided by it: unbiased, a little noisier;
+        :mod:`pyrt.integrators.roulette`). Default False. Rendered on the NumPy path (the compiled kernel has no
+        roulette yet: ``stats.fallback_reasons`` says so).
     offset : str or callable
         Ray-offset strategy (:mod:`pyrt.geometry.offsets`): a name, a Strategy or a callable; default "robust"
         (local error bound + robust shadow tmax + shadow-terminator lift).

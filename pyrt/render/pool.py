@@ -244,7 +244,7 @@ class ChunkPool:
         return not stopped and nxt == n
 
 
-def integrator_factory(ps, integrator, *, max_depth, throughput_cutoff, offset, record_rays=False,
+def integrator_factory(ps, integrator, *, max_depth, throughput_cutoff, offset, roulette=False, record_rays=False,
                        transparent_shadows=False, glossy_samples=4, glossy_depth=2, glossy_threshold=0.4,
                        glossy_clamp=None, split_depth=DEFAULT_SPLIT_DEPTH, light_select_depth=None, batch_rays=None,
                        sampler="padded"):
@@ -259,7 +259,7 @@ def integrator_factory(ps, integrator, *, max_depth, throughput_cutoff, offset, 
     cls = GlossyIntegrator if integrator == "glossy" else Integrator
 
     def make():
-        return cls(ps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, offset=offset,
+        return cls(ps, max_depth=max_depth, throughput_cutoff=throughput_cutoff, roulette=roulette, offset=offset,
                    record_rays=record_rays, transparent_shadows=transparent_shadows, split_depth=split_depth,
                    light_select_depth=light_select_depth, batch_rays=batch_rays, sampler=sampler, **extra)
     return make

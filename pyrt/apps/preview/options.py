@@ -72,10 +72,14 @@ class PreviewOptions:
     #: wall crosses four interfaces before it reaches what is behind (only delta rays go that deep)
     dielectric_depth: int = 10
     #: the throughput cutoff where the model has a dielectric (elsewhere pyrt.render's 1e-4): rays whose max-channel
-    #: throughput falls below it are dropped. 0.01 keeps glass's paths with one reflection (~0.04) and drops those
-    #: with two or more (~0.0016), whose number grows with the depth: a documented bias of the preview (about
-    #: -0.2% mean on GlassVaseFlowers, docs/preview.md); 1e-4 renders what pyrt.render would
+    #: throughput falls below it continue by Russian roulette (dielectric_roulette) or are dropped. 0.01 keeps glass's
+    #: paths with one reflection (~0.04) whole and plays roulette with those of two or more (~0.0016), whose number
+    #: grows with the depth
     dielectric_cutoff: float = 0.01
+    #: where the model has a dielectric: rays below dielectric_cutoff continue by Russian roulette (pyrt.render_full's
+    #: roulette: unbiased) instead of being dropped (False: dropped, a bias of -1.8 to -2.5 % on thick glass,
+    #: docs/preview.md)
+    dielectric_roulette: bool = True
     #: where the model has a dielectric: from this bounce on, a glass hit continues along one of its reflected and
     #: refracted rays (chosen by weight, weighted 1 / probability: unbiased, noisier) instead of both
     #: (pyrt.render_full's split_depth). Default None: both at every bounce (measured, docs/preview.md: 1 saves
@@ -206,6 +210,8 @@ class PreviewOptions:
                 raise PreviewError(f"{name} must be >= 0, got {getattr(self, name)}")
         if self.tonemap not in TONEMAPS:
             raise PreviewError(f"tonemap must be one of {', '.join(TONEMAPS)}, got {self.tonemap!r}")
+        if not isinstance(self.dielectric_roulette, bool):
+            raise PreviewError(f"dielectric_roulette must be True or False, got {self.dielectric_roulette!r}")
         if not 0 <= self.dielectric_cutoff < 1:
             raise PreviewError(f"dielectric_cutoff must be in [0, 1), got {self.dielectric_cutoff}")
         for name in ("split_depth", "light_select_depth"):

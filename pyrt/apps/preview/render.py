@@ -224,6 +224,7 @@ class PreviewScene:
             res = render_full(self.scene, seed=o.seed, max_depth=depth, aovs=aovs, progress=False,
                               prepared=self.prepared, threads=o.threads, parallel=o.parallel, integrator="glossy",
                               transparent_shadows=True, throughput_cutoff=cutoff,
+                              roulette=o.dielectric_roulette and glass,
                               light_select_depth=o.light_select_depth, glossy_samples=o.glossy_samples,
                               glossy_depth=o.glossy_depth, glossy_threshold=o.glossy_threshold,
                               glossy_clamp=clamp,
