@@ -14,6 +14,7 @@ from pyrt.core.camera import Camera, CameraError
 from pyrt.geometry.surface import GeometryError
 from pyrt.integrators import PreparedScene, RenderStats
 from pyrt.render import RenderResult, render, render_full
+from pyrt.render import Execution, Glossy, Output, Sampling, Whitted
 from pyrt.render.warmup import compile_kernels
 from pyrt.lights import DirectionalLight, Light, LightError, PointLight, SpotLight
 from pyrt.lights import GoniometricLight, IESLight, ProjectorLight
@@ -27,6 +28,7 @@ from pyrt.lights import (ConstantEnvironment, CubeMapEnvironment, EnvironmentLig
 from pyrt.lights import AreaEmitter, DiskLight, RectLight, SphereLight
 from pyrt.lights import EmissiveMeshLight
 from pyrt.core.image_io import atomic_write, read_exr, write_exr, write_png, tonemap_to_display
+from pyrt.core.display import Picture, show
 from pyrt.io.scene_file import SceneFileError, load_scene
 from pyrt.io.scene_file import load_dict
 from pyrt.io.assets import AssetError, load_asset
@@ -35,6 +37,7 @@ from pyrt.textures import (CheckerTexture, ConstantTexture, FbmTexture, ImageTex
 
 __all__ = [
     "Error", "Camera", "CameraError", "GeometryError", "RenderResult", "RenderStats", "PreparedScene", "render", "render_full", "compile_kernels",
+    "Whitted", "Glossy", "Sampling", "Output", "Execution", "Picture", "show",
     "DirectionalLight", "Light", "LightError", "PointLight", "SpotLight", "ProjectorLight", "GoniometricLight", "IESLight", "Material", "MaterialError", "MATERIALS",
     "Lambert", "BlinnPhong", "Mirror", "Glass", "register", "Phong", "PhongClassic", "BlinnPhongClassic", "Ward", "RoughDielectric", "Clearcoat", "GltfPBR", "Unlit", "Sheen",
     "CookTorrance", "MetallicRoughness", "Conductor", "LearnOpenGLPBR", "OrenNayar", "Scene", "SceneError", "transform_matrix",

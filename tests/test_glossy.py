@@ -299,10 +299,9 @@ _SPEC = {"camera": {"position": [0, 0, 4], "width": 8, "height": 8},
 
 
 def test_scene_file_render_table_names_the_integrator():
-    spec = dict(_SPEC, render={"integrator": "glossy", "glossy_samples": 2, "glossy_depth": 1,
-                               "glossy_threshold": 0.3})
+    spec = dict(_SPEC, render={"integrator": {"type": "glossy", "samples": 2, "depth": 1, "threshold": 0.3}})
     scene, options = pyrt.load_dict(spec)
-    assert options == {"integrator": "glossy", "glossy_samples": 2, "glossy_depth": 1, "glossy_threshold": 0.3}
+    assert options == {"integrator": {"type": "glossy", "samples": 2, "depth": 1, "threshold": 0.3}}
     assert pyrt.render(scene, spp=1, **options).shape == (8, 8, 3)
     with pytest.raises(pyrt.Error, match="integrator"):
         pyrt.load_dict(dict(_SPEC, render={"integrator": "path"}))

@@ -66,10 +66,10 @@ def test_a_bad_scene_file_key_names_the_key_and_the_file(tmp_path, text, message
 
 @pytest.mark.parametrize("kw, message", [
     ({"seed": "abc"}, "seed must be an integer >= 0, got 'abc'"), ({"seed": -3}, "seed must be an integer >= 0"),
-    ({"glossy_samples": -1}, "glossy_samples must be a positive integer, got -1"),
-    ({"glossy_depth": -1}, "glossy_depth must be an integer >= 0"),
-    ({"glossy_threshold": float("nan")}, "glossy_threshold must be a finite number"),
-    ({"glossy_samples": 0, "target_error": 0.1}, "glossy_samples must be a positive integer"),
+    ({"glossy_samples": -1}, r"Glossy: samples must be a positive integer, got -1 \(from the keywords glossy_samples\)"),
+    ({"glossy_depth": -1}, r"Glossy: depth must be an integer >= 0.*glossy_depth"),
+    ({"glossy_threshold": float("nan")}, r"Glossy: threshold must be a finite number.*glossy_threshold"),
+    ({"glossy_samples": 0, "target_error": 0.1}, r"samples must be a positive integer.*glossy_samples"),
 ])
 def test_render_options_are_checked_even_when_the_integrator_does_not_read_them(kw, message):
     scene, _ = pyrt.load_dict({"camera": {"width": 4, "height": 3},

@@ -123,21 +123,21 @@ def test_defaults_picked_with_padded_samples():
 
 
 def test_sampler_reaches_the_command_line_and_scene_files(tmp_path, monkeypatch):
-    """``pyrt render --sampler padded`` overrides a scene file's ``[render] sampler = "independent"`` (the render
+    """``pyrt render --sampler padded`` overrides a scene file's ``[render.sampling] sampler = "independent"`` (the render
     call receives it); a bad value in a scene file names the key."""
     from pyrt.apps.cli import main
     from pyrt.io.scene_file import SceneFileError
     scene = tmp_path / "s.toml"
     scene.write_text('[camera]\nposition = [0, 1, 3]\ntarget = [0, 0.5, 0]\nwidth = 8\nheight = 6\nspp = 4\n'
-                     '[render]\nsampler = "independent"\n[materials.m]\ntype = "lambert"\n'
+                     '[render.sampling]\nsampler = "independent"\n[materials.m]\ntype = "lambert"\n'
                      '[[meshes]]\nprimitive = "sphere"\nradius = 0.5\nmaterial = "m"\n'
                      '[[lights]]\ntype = "point"\nposition = [1, 2, 2]\nintensity = 5.0\n')
-    assert pyrt.load_scene(str(scene))[1]["sampler"] == "independent"
+    assert pyrt.load_scene(str(scene))[1]["sampling"] == {"sampler": "independent"}
     seen = []
     real = pyrt.render_full
 
     def spy(*args, **kwargs):
-        seen.append(kwargs.get("sampler"))
+        seen.append(kwargs["sampling"]["sampler"])
         return real(*args, **kwargs)
     monkeypatch.setattr(pyrt, "render_full", spy)
     assert main(["render", str(scene), "-o", str(tmp_path / "a.exr")]) in (0, None)

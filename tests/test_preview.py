@@ -361,11 +361,11 @@ def test_dielectric_cutoff_only_for_models_with_a_dielectric(monkeypatch):
     ps = P.PreviewScene(load_asset(BLOB), P.PreviewOptions(dielectric_cutoff=0.05, **TINY))
     with pytest.raises(Stop):
         ps.render_view(0.0)
-    assert (seen[-1]["throughput_cutoff"], seen[-1]["max_depth"], seen[-1]["roulette"]) == (1e-4, 4, False)
+    assert (seen[-1]["integrator"].throughput_cutoff, seen[-1]["integrator"].max_depth, seen[-1]["integrator"].roulette) == (1e-4, 4, False)
     monkeypatch.setattr(ps.prepared, "dielectric", np.ones_like(ps.prepared.dielectric, dtype=bool))
     with pytest.raises(Stop):
         ps.render_view(0.0)
-    assert (seen[-1]["throughput_cutoff"], seen[-1]["max_depth"], seen[-1]["roulette"]) == (0.05, 10, True)
+    assert (seen[-1]["integrator"].throughput_cutoff, seen[-1]["integrator"].max_depth, seen[-1]["integrator"].roulette) == (0.05, 10, True)
     assert P.PreviewOptions().dielectric_cutoff == 0.01 and P.PreviewOptions().dielectric_roulette is True
     with pytest.raises(P.PreviewError, match="dielectric_roulette must be True or False"):
         P.PreviewOptions(dielectric_roulette="yes").validate()

@@ -24,7 +24,7 @@ def test_preview_render_uses_the_chunk_size(monkeypatch):
     real = R.render_full
 
     def spy(*a, **k):
-        seen.append(k.get("chunk_samples"))
+        seen.append(k["execution"].chunk_samples)
         return real(*a, **k)
 
     monkeypatch.setattr(R, "render_full", spy)

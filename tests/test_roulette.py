@@ -71,5 +71,5 @@ def test_roulette_must_be_a_boolean_in_the_api_and_in_scene_files(tmp_path):
     f.write_text('[camera]\nwidth = 4\nheight = 4\n[render]\nroulette = "yes"\n')
     with pytest.raises(pyrt.Error, match=r"s.toml: \[render\] roulette must be true or false, got 'yes'"):
         pyrt.load_scene(str(f))
-    f.write_text('[camera]\nwidth = 4\nheight = 4\n[render]\nroulette = true\n')
-    assert pyrt.load_scene(str(f))[1]["roulette"] is True
+    f.write_text('[camera]\nwidth = 4\nheight = 4\n[render.integrator]\nroulette = true\n')
+    assert pyrt.load_scene(str(f))[1]["integrator"]["roulette"] is True

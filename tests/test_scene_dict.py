@@ -75,7 +75,7 @@ def _to_toml(spec):
 
 SIMPLE = {
     "camera": {"position": (0, 1, 4), "target": (0, 0.5, 0), "width": 32, "height": 24},
-    "render": {"seed": 3, "max_depth": 4},
+    "render": {"seed": 3, "integrator": {"max_depth": 4}},
     "materials": {"red": {"type": "lambert", "albedo": np.array([0.8, 0.2, 0.2])},
                   "chrome": {"type": "mirror", "reflectance": 0.9}},
     "meshes": [{"primitive": "sphere", "radius": 0.5, "translate": (0, 0.5, 0), "material": "red"},
@@ -87,7 +87,7 @@ SIMPLE = {
 def test_load_dict_takes_tuples_and_arrays_and_leaves_the_spec_alone():
     before = copy.deepcopy(SIMPLE)
     scene, options = pyrt.load_dict(SIMPLE)
-    assert options == {"seed": 3, "max_depth": 4}
+    assert options == {"seed": 3, "integrator": {"max_depth": 4}}
     assert isinstance(scene, pyrt.Scene) and len(scene.meshes) == 2 and len(scene.lights) == 1
     assert SIMPLE.keys() == before.keys() and SIMPLE["materials"]["red"].keys() == before["materials"]["red"].keys()
     assert SIMPLE["meshes"] == before["meshes"] and SIMPLE["lights"] == before["lights"]

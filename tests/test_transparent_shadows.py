@@ -130,8 +130,10 @@ def test_switch_changes_nothing_in_a_scene_without_dielectrics():
 def test_switch_is_a_bool_and_a_scene_file_key():
     with pytest.raises(pyrt.RenderError):
         pyrt.render(_scene(), transparent_shadows="yes")
-    _, opts = pyrt.load_dict({"render": {"transparent_shadows": True}})
-    assert opts["transparent_shadows"] is True
+    with pytest.raises(pyrt.RenderError, match="transparent_shadows must be True or False"):
+        pyrt.Whitted(transparent_shadows="yes")
+    _, opts = pyrt.load_dict({"render": {"integrator": {"transparent_shadows": True}}})
+    assert opts["integrator"]["transparent_shadows"] is True
 
 
 

@@ -140,7 +140,7 @@ def test_mesh_without_faces_says_it_has_no_triangles():
 ])
 def test_render_options_out_of_range_are_errors(option, value):
     scene, _, _ = _lit_scene()
-    with pytest.raises(pyrt.RenderError, match=rf"render: {option} must be"):
+    with pytest.raises(pyrt.RenderError, match=rf"(render|Whitted|Execution): {option} must be"):
         pyrt.render(scene, **{option: value})
 
 

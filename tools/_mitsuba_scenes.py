@@ -45,7 +45,7 @@ SUPPORTED = ("Lambert (constant, CheckerTexture(filtered=False), ImageTexture(fi
 WIDTH, HEIGHT = 320, 240
 #: pyrt render options every bench render uses (Mitsuba has no terminator lift and no shading-normal
 #: fallback; throughput_cutoff 0: Mitsuba's Whitted below traces every bounce to max_depth)
-PYRT_OPTIONS = {"max_depth": 8, "offset": "robust_no_terminator", "throughput_cutoff": 0.0}
+PYRT_OPTIONS = {"integrator": pyrt.Whitted(max_depth=8, offset="robust_no_terminator", throughput_cutoff=0.0)}
 
 
 class BenchSceneError(pyrt.Error):

@@ -66,7 +66,8 @@ def main(argv=None):
         if os.path.exists(path):
             ref = np.load(path)
         else:
-            ref = pyrt.render(scene, spp=args.ref_spp, seed=999, prepared=ps, progress=False, **ms.PYRT_OPTIONS)
+            ref = pyrt.render(scene, spp=args.ref_spp, seed=999,
+                              execution=pyrt.Execution(prepared=ps, progress=False), **ms.PYRT_OPTIONS)
             np.save(path, ref)
         for target in targets:
             for seed in seeds:

@@ -66,7 +66,7 @@ def run(kind, w, h, ref_spp, spps, targets, repeats):
             fixed[s][0].append(dt)
             fixed[s][1].append(relmse(img, ref) - e_ref)
         for t in targets:
-            res, dt = timed(lambda: pyrt.render_full(sc, target_error=t, seed=rep))
+            res, dt = timed(lambda: pyrt.render_full(sc, seed=rep, sampling=pyrt.Sampling(target_error=t)))
             a = adapt[t]
             a[0].append(dt)
             a[1].append(relmse(res.image, ref) - e_ref)

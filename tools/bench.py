@@ -99,13 +99,14 @@ def measure(scene, repeats):
         # Embree builds its BVH on the first query: do that before timing (build time is reported apart)
         ps.accel.intersect(np.zeros((1, 3)), np.ones((1, 3)))
         t0 = time.perf_counter()
-        measure.last_backend = pyrt.render_full(scene, seed=0, prepared=ps).stats.backend
+        measure.last_backend = pyrt.render_full(scene, seed=0, execution=pyrt.Execution(prepared=ps)).stats.backend
         e2e.append(time.perf_counter() - t0)
         t0 = time.perf_counter()
-        pyrt.render_full(scene, seed=0, prepared=ps, backend="numpy")
+        pyrt.render_full(scene, seed=0, execution=pyrt.Execution(prepared=ps, backend="numpy"))
         e2e_np.append(time.perf_counter() - t0)
         # the same render again, recording its rays (deterministic: identical rays) for the replay
-        res = pyrt.render_full(scene, seed=0, record_rays=True, prepared=ps)
+        res = pyrt.render_full(scene, seed=0, output=pyrt.Output(record_rays=True),
+                               execution=pyrt.Execution(prepared=ps))
         rec = res.stats.recorded
         merged = replay_batches(rec)
         emb.append(replay_seconds(ps.accel, merged))

@@ -54,28 +54,29 @@ def main(argv=None):
     t = {"local": [], "dask": [], "render_overhead": [], "task_roundtrip": [], "local_adaptive": [],
          "dask_adaptive": []}
     try:
-        pyrt.render(tiny, spp=1, dask=client)                      # warm the workers' imports
+        pyrt.render(tiny, spp=1, execution=pyrt.Execution(dask=client))   # warm the workers' imports
         for r in range(a.rounds):
             t0 = time.perf_counter()
             loc = pyrt.render_full(scene, spp=a.spp, seed=r, **opts)
             t["local"].append(time.perf_counter() - t0)
             t0 = time.perf_counter()
-            dk = pyrt.render_full(scene, spp=a.spp, seed=r, dask=client, **opts)
+            dk = pyrt.render_full(scene, spp=a.spp, seed=r, execution=pyrt.Execution(dask=client), **opts)
             t["dask"].append(time.perf_counter() - t0)
             if not np.array_equal(loc.image, dk.image):
                 raise SystemExit("bench_dask: the Dask image differs from the local one")
             t0 = time.perf_counter()
-            pyrt.render(tiny, spp=1, dask=client)
+            pyrt.render(tiny, spp=1, execution=pyrt.Execution(dask=client))
             t["render_overhead"].append(time.perf_counter() - t0)
             t0 = time.perf_counter()
             client.submit(int, 0, pure=False).result()
             t["task_roundtrip"].append(time.perf_counter() - t0)
             if a.target_error:
                 t0 = time.perf_counter()
-                pyrt.render_full(scene, target_error=a.target_error, seed=r, **opts)
+                pyrt.render_full(scene, seed=r, sampling=pyrt.Sampling(target_error=a.target_error), **opts)
                 t["local_adaptive"].append(time.perf_counter() - t0)
                 t0 = time.perf_counter()
-                res = pyrt.render_full(scene, target_error=a.target_error, seed=r, dask=client, **opts)
+                res = pyrt.render_full(scene, seed=r, sampling=pyrt.Sampling(target_error=a.target_error),
+                                       execution=pyrt.Execution(dask=client), **opts)
                 t["dask_adaptive"].append(time.perf_counter() - t0)
                 t["passes"] = res.passes
     finally:

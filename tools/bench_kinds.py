@@ -92,11 +92,11 @@ def measure(kind, spp, repeats, width=320, height=240, embree=False):
     scene = make_scene(kind, width, height, spp)
     ps = pyrt.PreparedScene(scene)
     ps.accel.intersect(np.zeros((1, 3)), np.ones((1, 3)))        # BVH build outside the timing
-    pyrt.render_full(scene, seed=0, prepared=ps, progress=False)   # warm-up (allocations, lazy tables)
+    pyrt.render_full(scene, seed=0, execution=pyrt.Execution(prepared=ps, progress=False))   # warm-up (allocations, lazy tables)
     times, cpu = [], []
     for _ in range(repeats):
         t0, c0 = time.perf_counter(), cpu_seconds()
-        pyrt.render_full(scene, seed=0, prepared=ps, progress=False)
+        pyrt.render_full(scene, seed=0, execution=pyrt.Execution(prepared=ps, progress=False))
         times.append(time.perf_counter() - t0)
         cpu.append(cpu_seconds() - c0)
     med = statistics.median(times)
@@ -105,7 +105,8 @@ def measure(kind, spp, repeats, width=320, height=240, embree=False):
     if embree:
         sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
         import bench
-        rec = pyrt.render_full(scene, seed=0, prepared=ps, progress=False, record_rays=True).stats.recorded
+        rec = pyrt.render_full(scene, seed=0, execution=pyrt.Execution(prepared=ps, progress=False),
+                               output=pyrt.Output(record_rays=True)).stats.recorded
         merged = bench.replay_batches(rec)
         out["embree_s"] = statistics.median(bench.replay_seconds(ps.accel, merged) for _ in range(repeats))
     ps.close()
@@ -178,10 +179,10 @@ def main(argv=None):
         from pyinstrument import Profiler      # a developer tool, not a dependency of pyrt
         scene = make_scene(args.profile, spp=args.spp)
         ps = pyrt.PreparedScene(scene)
-        pyrt.render_full(scene, seed=0, prepared=ps, progress=False, threads=1)
+        pyrt.render_full(scene, seed=0, execution=pyrt.Execution(prepared=ps, progress=False, threads=1))
         prof = Profiler(interval=0.001)
         prof.start()
-        pyrt.render_full(scene, seed=0, prepared=ps, progress=False, threads=1)
+        pyrt.render_full(scene, seed=0, execution=pyrt.Execution(prepared=ps, progress=False, threads=1))
         prof.stop()
         print(prof.output_text(unicode=False, color=False, show_all=False))
         return

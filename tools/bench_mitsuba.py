@@ -171,8 +171,9 @@ class PyrtRunner:
     def render(self, spp, seed):
         """(image, seconds)."""
         t = time.perf_counter()
-        res = pyrt.render_full(self.scene, spp=spp, seed=seed, prepared=self.prepared, progress=False,
-                               backend=self.backend, **ms.PYRT_OPTIONS)
+        res = pyrt.render_full(self.scene, spp=spp, seed=seed,
+                               execution=pyrt.Execution(prepared=self.prepared, progress=False, backend=self.backend),
+                               **ms.PYRT_OPTIONS)
         s = time.perf_counter() - t
         self.backends.add(res.stats.backend)
         return res.image, s
@@ -180,8 +181,9 @@ class PyrtRunner:
     def adaptive(self, target_error, seed, max_spp=4096, time_budget=600.0):
         """(image, seconds) of ``pyrt.render(target_error=...)``; TypeError where pyrt has no adaptive render."""
         t = time.perf_counter()
-        img = pyrt.render(self.scene, target_error=target_error, time_budget=time_budget, max_spp=max_spp,
-                          seed=seed, prepared=self.prepared, progress=False, **ms.PYRT_OPTIONS)
+        img = pyrt.render(self.scene, seed=seed,
+                          sampling=pyrt.Sampling(target_error=target_error, time_budget=time_budget, max_spp=max_spp),
+                          execution=pyrt.Execution(prepared=self.prepared, progress=False), **ms.PYRT_OPTIONS)
         return img, time.perf_counter() - t
 
     def embree_floor(self, seed, spp=None, target_error=None, repeats=3):

@@ -44,8 +44,7 @@ def _case(name, args):
         kw = {}
     elif name == "default":
         scene, kw = pyrt.load_scene(os.path.join(ROOT, "assets", "default_scene.toml"))
-        kw = {k: v for k, v in kw.items() if k not in ("target_error", "time_budget", "max_spp", "min_spp", "seed",
-                                                      "progress", "threads", "parallel", "prepared")}
+        kw = {k: v for k, v in kw.items() if k == "integrator"}     # the file's sampling and execution: the tool's
         kw["spp"] = args.default_spp
     elif name in KINDS:
         import bench_kinds
@@ -64,7 +63,9 @@ def _case(name, args):
     ps.accel.intersect(np.zeros((1, 3)), np.ones((1, 3)))          # BVH build outside the timing
 
     def render(mode):
-        pyrt.render_full(scene, seed=0, prepared=ps, progress=False, threads=args.threads, parallel=mode, **kw)
+        pyrt.render_full(scene, seed=0,
+                         execution=pyrt.Execution(prepared=ps, progress=False, threads=args.threads, parallel=mode),
+                         **kw)
     return f"{name} ({scene.camera.width}x{scene.camera.height}, {kw.get('spp', scene.camera.spp)} spp)", render
 
 

@@ -79,7 +79,8 @@ def uptime():
 def render(scene, prepared, light, cv, spp, seed, threads):
     """One render with the variate ``cv``: (image float64, seconds inside the renderer)."""
     light.control_variate = cv
-    r = pyrt.render_full(scene, spp=spp, seed=seed, progress=False, threads=threads, prepared=prepared)
+    r = pyrt.render_full(scene, spp=spp, seed=seed,
+                         execution=pyrt.Execution(progress=False, threads=threads, prepared=prepared))
     return r.image.astype(np.float64), r.stats.time_total
 
 
@@ -95,7 +96,7 @@ def ground_only(name, spp, workdir, args):
     sc, light = make_scene(name, args.width, args.height, workdir, args.filter)
     sc.meshes[:] = [m for m in sc.meshes if m.name == "ground"]
     light.control_variate = False
-    return pyrt.render_full(sc, spp=spp, seed=3000, progress=False).image.astype(np.float64)
+    return pyrt.render_full(sc, spp=spp, seed=3000, execution=pyrt.Execution(progress=False)).image.astype(np.float64)
 
 
 def run_scene(name, args):
@@ -106,7 +107,8 @@ def run_scene(name, args):
     try:
         env = light.environment
         _ = env.distribution, env.compensated_distribution, env.irradiance(np.array([[0.0, 1.0, 0.0]]))
-        normal = pyrt.render_full(sc, spp=4, seed=0, aovs=True, progress=False, prepared=prepared).aovs["normal"]
+        normal = pyrt.render_full(sc, spp=4, seed=0, output=pyrt.Output(aovs=True),
+                                  execution=pyrt.Execution(progress=False, prepared=prepared)).aovs["normal"]
         ground = normal[..., 1] > 0.999
         t0 = time.perf_counter()
         half = max(1, args.ref_spp // 2)

@@ -62,7 +62,7 @@ def main(argv=None):
     plt = pyplot()
     display = lambda img: pyrt.tonemap_to_display(np.asarray(img, np.float32), tonemap_op="reinhard")  # noqa: E731
     scene = glass_shadow_scene()
-    imgs = [pyrt.render(scene, seed=0, transparent_shadows=t) for t in (False, True)]
+    imgs = [pyrt.render(scene, seed=0, integrator=pyrt.Whitted(transparent_shadows=t)) for t in (False, True)]
     _panels(plt, imgs, ("transparent_shadows=False (Whitted)", "transparent_shadows=True"),
             os.path.join(args.out, "transparent_shadow.png"), (8, 2.9), [1, 1])
     _panels(plt, probe_images(), ("lat-long", "angular map (light probe)", "mirror ball"),

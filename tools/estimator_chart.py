@@ -123,7 +123,8 @@ def configure(scene, est):
 def render(scene, prepared, est, spp, seed, threads):
     """One render: (image float64, seconds inside the renderer)."""
     configure(scene, est)
-    r = pyrt.render_full(scene, spp=spp, seed=seed, progress=False, threads=threads, prepared=prepared)
+    r = pyrt.render_full(scene, spp=spp, seed=seed,
+                         execution=pyrt.Execution(progress=False, threads=threads, prepared=prepared))
     return r.image.astype(np.float64), r.stats.time_total
 
 

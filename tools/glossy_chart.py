@@ -54,7 +54,7 @@ def main(argv=None):
     rows = []
     for integ in ("whitted", "glossy"):
         sc = make_scene(args.width, h)
-        res = pyrt.render_full(sc, spp=args.spp, seed=1, integrator=integ, progress=False)
+        res = pyrt.render_full(sc, spp=args.spp, seed=1, integrator=integ, execution=pyrt.Execution(progress=False))
         print(f"{integ}: {res.stats.time_total:.1f} s, {res.stats.rays} rays")
         rows.append((integ, srgb_encode(pyrt.tonemap_to_display(res.image, exposure=0.5))))
     plt = pyplot()

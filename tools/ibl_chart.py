@@ -53,7 +53,8 @@ def make_scene(env, width, height):
 def render(env, width, height, strategy, n, seed=1):
     sc = make_scene(env, width, height)
     set_environment(sc, env, lighting=strategy, n_samples=n)
-    r = pyrt.render_full(sc, spp=1, seed=seed, aovs=True, progress=False)
+    r = pyrt.render_full(sc, spp=1, seed=seed, output=pyrt.Output(aovs=True),
+                         execution=pyrt.Execution(progress=False))
     return r.image.astype(np.float64), r.stats.time_total, r.aovs
 
 

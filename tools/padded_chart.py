@@ -25,7 +25,8 @@ def render(sampler, spp, width, height, seed):
     import bench_kinds
     import pyrt
     scene = bench_kinds.make_scene("env", width, height, spp)
-    return pyrt.render_full(scene, seed=seed, progress=False, sampler=sampler).image
+    return pyrt.render_full(scene, seed=seed, execution=pyrt.Execution(progress=False),
+                            sampling=pyrt.Sampling(sampler=sampler)).image
 
 
 def main(argv=None):

@@ -144,7 +144,7 @@ def renders():
         yield f"ibl_{st}", pyrt.render(scene_ibl(st), seed=5)
     yield "lights", pyrt.render(scene_lights(), seed=6)
     yield "materials", pyrt.render(scene_materials(), seed=7)
-    res = pyrt.render_full(scene_textures(), seed=8, aovs=True)
+    res = pyrt.render_full(scene_textures(), seed=8, output=pyrt.Output(aovs=True))
     yield "aovs_image", res.image
     for k, v in sorted(res.aovs.items()):
         yield f"aovs_{k}", v

@@ -65,7 +65,7 @@ def render(path, generate):
     load_asset(path, generate_tangents=generate).add_to_scene(scene, lights=False)
     scene.add_light(pyrt.DirectionalLight((-0.5, -0.35, -0.8), irradiance=3.0))
     scene.add_light(pyrt.DirectionalLight((0.7, -0.2, -0.3), irradiance=0.6))
-    return pyrt.render(scene, seed=1, progress=False)
+    return pyrt.render(scene, seed=1, execution=pyrt.Execution(progress=False))
 
 
 def main(argv=None):

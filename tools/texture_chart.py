@@ -77,7 +77,8 @@ def texture_for(image, filt, srgb):
 
 def interior_mask(width, height):
     """Pixels whose centre and 8 neighbours hit the plane (from a pixel-centre depth AOV)."""
-    res = pyrt.render_full(make_scene(pyrt.ConstantTexture(0.5), width, height, 1, False), aovs=True, progress=False)
+    res = pyrt.render_full(make_scene(pyrt.ConstantTexture(0.5), width, height, 1, False),
+                           output=pyrt.Output(aovs=True), execution=pyrt.Execution(progress=False))
     hit = np.isfinite(res.aovs["depth"])
     pad = np.pad(hit, 1, constant_values=False)
     ok = np.ones_like(hit)
@@ -89,7 +90,7 @@ def interior_mask(width, height):
 
 def render_timed(scene, seed):
     t0 = time.perf_counter()
-    res = pyrt.render_full(scene, seed=seed, progress=False)
+    res = pyrt.render_full(scene, seed=seed, execution=pyrt.Execution(progress=False))
     return res.image, time.perf_counter() - t0
 
 

@@ -9,6 +9,7 @@ paths are checked before the scene is loaded, and every file is replaced atomica
 from __future__ import annotations
 
 import argparse
+from dataclasses import fields
 import sys
 import threading
 import time
@@ -18,6 +19,7 @@ import pyrt
 from pyrt.core.image_io import TONEMAPS
 from pyrt.geometry.offsets import STRATEGIES
 from pyrt.render import INTEGRATORS, SAMPLERS
+from pyrt.render.settings import INTEGRATOR_TYPES
 from pyrt.render.pool import PARALLEL
 from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, ArgumentParser, check_outputs, finite_float, interrupts,
                               nonnegative_int, positive_float, positive_int, run_console)
@@ -25,6 +27,34 @@ from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, ArgumentParser, chec
 
 class CommandError(pyrt.Error, ValueError):
     """A command-line run that cannot proceed (the message says why)."""
+
+
+def _value(text):
+    """A ``KEY=VALUE`` value of ``--integrator``: an int, a float, true / false / none, else the string."""
+    low = text.strip().lower()
+    if low in ("true", "false", "none"):
+        return {"true": True, "false": False, "none": None}[low]
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text.strip()
+
+
+def integrator_spec(text):
+    """``--integrator TYPE[:KEY=VALUE,...]`` -> ``(type, {key: value})``; the options are checked by the integrator's
+    class (:mod:`pyrt.render.settings`) when the render starts, argparse's error for a bad TYPE or pair."""
+    kind, _, rest = text.partition(":")
+    if kind not in INTEGRATORS:
+        raise argparse.ArgumentTypeError(f"must be one of {', '.join(INTEGRATORS)} (then :KEY=VALUE,...), got {kind!r}")
+    options = {}
+    for pair in filter(None, rest.split(",")):
+        key, eq, value = pair.partition("=")
+        if not eq or not key.strip():
+            raise argparse.ArgumentTypeError(f"options are KEY=VALUE pairs separated by commas, got {pair!r}")
+        options[key.strip()] = _value(value)
+    return kind, options
 
 
 def _parser():
@@ -46,7 +76,7 @@ def _parser():
     r.add_argument("--dask", nargs="?", const=True, default=None, metavar="SCHEDULER",
                    help="render the chunks on Dask: a scheduler address, or without one a local cluster of "
                         "--dask-workers processes (needs the preview extra)")
-    r.add_argument("--dask-workers", type=positive_int, default=2, metavar="N",
+    r.add_argument("--dask-workers", type=positive_int, metavar="N",
                    help="worker processes of the local cluster of --dask (default 2)")
     r.add_argument("--write-every", type=positive_float, metavar="SECONDS",
                    help="adaptive: rewrite the outputs with the current image after a pass, at most every SECONDS")
@@ -60,8 +90,10 @@ def _parser():
     r.add_argument("--seed", type=nonnegative_int)
     r.add_argument("--max-depth", type=nonnegative_int, help="maximum specular depth (0: direct light only)")
     r.add_argument("--offset", choices=sorted(STRATEGIES), help="ray-origin offset strategy (default: robust)")
-    r.add_argument("--integrator", choices=list(INTEGRATORS),
-                   help="whitted: only mirrors and glass spawn rays (default); glossy: glossy lobes too")
+    r.add_argument("--integrator", type=integrator_spec, metavar="TYPE[:KEY=VALUE,...]",
+                   help=f"one of {', '.join(INTEGRATORS)} and its options, as pyrt.Whitted / pyrt.Glossy take them: "
+                        "whitted (default): only mirrors and glass spawn rays; glossy: glossy lobes too, e.g. "
+                        "glossy:samples=8,depth=1,clamp=4 (an option the integrator does not take is an error)"),
     r.add_argument("--sampler", choices=list(SAMPLERS),
                    help="the camera hits' light and BSDF samples: padded over each pixel's samples (default) or "
                         "independent")
@@ -144,14 +176,25 @@ def _render(args, cancel):
         scene.camera.width = args.width
     if args.height is not None:
         scene.camera.height = args.height
-    for key in ("seed", "max_depth", "offset", "transparent_shadows", "integrator", "target_error", "time_budget",
-                "max_spp", "min_spp", "threads", "parallel", "sampler", "backend"):
-        if getattr(args, key) is not None:
-            opts[key] = getattr(args, key)
+    integ = dict(opts.pop("integrator", {}))
+    sampling = dict(opts.pop("sampling", {}))
+    execution = dict(opts.pop("execution", {}))
+    if args.integrator is not None:
+        kind, options = args.integrator
+        if kind != integ.get("type", "whitted"):     # another type than the file's: keep what the new one takes
+            allowed = {f.name for f in fields(INTEGRATOR_TYPES[kind])}
+            integ = {k: v for k, v in integ.items() if k in allowed}
+        integ.update(options, type=kind)
+    for group, keys in ((integ, ("max_depth", "offset", "transparent_shadows")),
+                        (sampling, ("target_error", "time_budget", "max_spp", "min_spp", "sampler")),
+                        (execution, ("threads", "parallel", "backend", "dask_workers"))):
+        group.update({key: getattr(args, key) for key in keys if getattr(args, key) is not None})
+    if args.seed is not None:
+        opts["seed"] = args.seed
     if args.spp is not None:      # the command line's --spp wins over a scene file's adaptive keys
         for key in ("target_error", "time_budget", "max_spp", "min_spp"):
-            opts.pop(key, None)
-    adaptive = any(k in opts for k in ("target_error", "time_budget", "max_spp"))
+            sampling.pop(key, None)
+    adaptive = any(k in sampling for k in ("target_error", "time_budget", "max_spp"))
     last = {"t": time.perf_counter()}
 
     def on_pass(info):
@@ -160,12 +203,13 @@ def _render(args, cancel):
             last["t"] = time.perf_counter()
 
     if adaptive:
-        opts["on_pass"] = on_pass
+        sampling["on_pass"] = on_pass
     if args.dask is not None:
-        opts["dask"], opts["dask_workers"] = args.dask, args.dask_workers
+        execution["dask"] = args.dask
     t0 = time.perf_counter()
-    res = pyrt.render_full(scene, spp=args.spp, aovs=args.aovs, progress=True, cancel=cancel, fill=True,
-                           fill_budget=FILL_BUDGET, **opts)
+    res = pyrt.render_full(scene, spp=args.spp, integrator=integ, sampling=sampling,
+                           output=pyrt.Output(aovs=args.aovs, fill=True, fill_budget=FILL_BUDGET),
+                           execution=dict(execution, progress=True, cancel=cancel), **opts)
     dt = time.perf_counter() - t0
     if res.chunks_done == 0:
         print("pyrt: interrupted before any pixel was rendered; nothing written", file=sys.stderr)

@@ -520,6 +520,15 @@ def write_png(path, image, *, tonemap="reinhard", exposure=0.0, L_white=None, bi
         encode = lambda x: color.gamma_encode(x, gamma)  # noqa: E731
     else:
         raise ValueError(f"unknown encoding {encoding!r}; choose one of {sorted(color.ENCODINGS)}")
+    data = png_bytes(image, tonemap=tonemap, exposure=exposure, L_white=L_white, bits=bits, encode=encode)
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    write_bytes(path, data)
+
+
+def png_bytes(image, *, tonemap="reinhard", exposure=0.0, L_white=None, bits=8, encode=color.srgb_encode):
+    """The PNG file bytes :func:`write_png` writes for ``image`` (linear radiance, (H, W, 3)): exposure, tone map,
+    ``encode`` (display-linear -> code values in [0, 1], default the exact sRGB curve), quantisation to ``bits``.
+    What notebooks show (:class:`pyrt.render.result.RenderResult`, :func:`pyrt.core.display.show`)."""
     disp = tonemap_to_display(image, tonemap_op=tonemap, exposure=exposure, L_white=L_white)
     enc = encode(disp)
     if bits == 8:
@@ -528,6 +537,4 @@ def write_png(path, image, *, tonemap="reinhard", exposure=0.0, L_white=None, bi
         out = np.round(enc * 65535).astype(np.uint16)
     else:
         raise ValueError(f"bits must be 8 or 16, got {bits}")
-    data = encode_png(out)
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    write_bytes(path, data)
+    return encode_png(out)

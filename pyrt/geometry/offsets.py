@@ -11,8 +11,9 @@ Interface
 A *strategy* is a :class:`Strategy`: ``strategy(surf, w) -> origins`` gives float64 origins (N, 3) of
 secondary rays with unit directions ``w`` (N, 3) leaving the hits of ``surf``
 (:class:`pyrt.geometry.SurfaceBatch`), and ``strategy.shadow(surf, wi, dist) -> (origins, tmax)`` gives
-shadow rays toward a light at distance ``dist`` (``inf`` for directional light). ``pyrt.render(scene,
-offset=...)`` takes a name of :data:`STRATEGIES` or any callable ``f(surf, w) -> origins``; a plain
+shadow rays toward a light at distance ``dist`` (``inf`` for directional light). ``pyrt.Whitted(offset=...)``
+(the integrator of ``pyrt.render``) takes a name of :data:`STRATEGIES` or any callable
+``f(surf, w) -> origins``; a plain
 callable is wrapped by :func:`get_strategy` (its shadow rays end ``SHADOW_TMAX_SCALE`` short of the
 light, pbrt's rule, and it gets no terminator lift).
 

@@ -3,13 +3,18 @@
 Format (every key optional unless marked; unknown keys are errors naming the table)::
 
     [camera]            # position, target, up, fov (degrees, vertical), width, height, spp
-    [render]            # max_depth, seed, background (RGB radiance), ambient (RGB radiance),
+    [render]            # seed, background (RGB radiance), ambient (RGB radiance),
                         # shading_normal_fallback (bool, default true: see the README's conventions),
-                        # throughput_cutoff, roulette (bool: Russian roulette below the cutoff),
+                        # integrator = "whitted" | "glossy" (or the table below)
+    [render.integrator] # type = "whitted" | "glossy" and that integrator's options (pyrt.Whitted, pyrt.Glossy):
+                        # max_depth, throughput_cutoff, roulette (bool: Russian roulette below the cutoff),
                         # offset (strategy name), transparent_shadows (bool),
-                        # integrator ("whitted" | "glossy"), glossy_samples, glossy_depth, glossy_threshold,
-                        # target_error, time_budget (s), max_spp, min_spp (adaptive rendering: pyrt.render),
-                        # sampler ("padded" | "independent": the camera hits' light and BSDF samples)
+                        # split_depth, light_select_depth; glossy also samples, depth, threshold, clamp
+    [render.sampling]   # target_error, time_budget (s), max_spp, min_spp (adaptive rendering), sampler
+                        # ("padded" | "independent": the camera hits' light and BSDF samples) (pyrt.Sampling)
+    [render.execution]  # threads, backend ("auto" | "compiled" | "numpy"), parallel, chunk_samples
+                        # The flat [render] keys of earlier releases (max_depth, glossy_samples, target_error, ...)
+                        # still load, with a DeprecationWarning naming the table they belong in.
     [materials.NAME]    # type = "lambert" | "blinn_phong" | "mirror" | "glass" | ... ; the rest are the
                         # material constructor's keyword arguments (validated by it); a parameter
                         # may be a texture table, e.g. albedo = {type = "image", path = "wood.png"}
@@ -53,6 +58,7 @@ import json
 import math
 import os
 import tomllib
+import warnings
 
 import numpy as np
 
@@ -64,6 +70,8 @@ from pyrt.lights.environment_light import set_environment
 from pyrt.materials import REGISTRY as MATERIALS
 from pyrt.geometry.offsets import STRATEGIES
 from pyrt.render import INTEGRATORS, SAMPLERS
+from pyrt.render import settings
+from pyrt.core.errors import RenderError
 from pyrt.core import checks
 from pyrt.core.transforms import align_vectors
 from pyrt.scene import Scene, plane_quad, transform_matrix
@@ -82,7 +90,12 @@ _CAMERA_KEYS = {"position", "target", "up", "fov", "width", "height", "spp", "ji
 _RENDER_OPTIONS = ("max_depth", "seed", "throughput_cutoff", "roulette", "offset", "transparent_shadows", "integrator",
                    "glossy_samples", "glossy_depth", "glossy_threshold", "sampler",
                    "target_error", "time_budget", "max_spp", "min_spp")
-_RENDER_KEYS = {"background", "ambient", "shading_normal_fallback", *_RENDER_OPTIONS}
+#: the option tables of [render] and the keys each takes (pyrt.render.settings: the same names as in Python)
+_RENDER_TABLES = {"integrator": {"type", "max_depth", "throughput_cutoff", "roulette", "offset", "transparent_shadows",
+                                 "split_depth", "light_select_depth", "samples", "depth", "threshold", "clamp"},
+                  "sampling": {"target_error", "time_budget", "max_spp", "min_spp", "sampler"},
+                  "execution": {"threads", "backend", "parallel", "chunk_samples"}}
+_RENDER_KEYS = {"background", "ambient", "shading_normal_fallback", "sampling", "execution", *_RENDER_OPTIONS}
 _MESH_COMMON = {"file", "primitive", "material", "translate", "rotate", "scale", "matrix", "smooth", "name",
                 "crease_angle", "shading"}
 _PRIMITIVE_KEYS = {"sphere": {"radius", "subdivisions"}, "box": {"extents"}, "plane": {"size", "normal"},
@@ -172,6 +185,50 @@ def _render_options(rnd, path):
     return options
 
 
+def _grouped_options(rnd, path):
+    """The ``[render]`` table's render options as :func:`pyrt.render` arguments: ``seed`` and one dict per option
+    table (``integrator``, ``sampling``, ``execution``), each checked by its class in :mod:`pyrt.render.settings` and
+    the per-name checks of :func:`_render_options`. Flat keys of earlier releases move into their table, with a
+    DeprecationWarning naming it."""
+    flat = {k: v for k, v in rnd.items() if k in _RENDER_OPTIONS and k not in ("seed", "integrator")}
+    tables = {}
+    integ = rnd.get("integrator")
+    if isinstance(integ, dict) or integ is None:
+        tables["integrator"] = dict(integ or {})
+    else:
+        tables["integrator"] = {"type": integ}
+    for name in ("sampling", "execution"):
+        tables[name] = dict(rnd.get(name) or {})
+    for name, table in tables.items():
+        _check_keys(f"[render.{name}]", table, _RENDER_TABLES[name], path)
+    inverse = {v: k for k, v in settings.LEGACY.items()}
+    checked = {"seed": rnd["seed"]} if "seed" in rnd else {}
+    for name, table in tables.items():      # the per-name checks, under the flat names they were written for
+        checked.update({inverse.get((name, k), k): v for k, v in table.items() if k != "type"})
+    if "type" in tables["integrator"]:
+        checked["integrator"] = tables["integrator"]["type"]
+    checked.update(flat)
+    checked = _render_options(checked, path)
+    if flat:
+        moved = ", ".join(f"{k} -> [render.{settings.LEGACY[k][0]}] {settings.LEGACY[k][1]}" for k in flat)
+        warnings.warn(f"deprecated scene-file render keys in {path}: {moved}", DeprecationWarning, stacklevel=4)
+    for key in flat:
+        group, name = settings.LEGACY[key]
+        if group == "integrator" and name in ("samples", "depth", "threshold", "clamp") \
+                and tables["integrator"].get("type", "whitted") == "whitted":
+            continue        # earlier releases accepted (and checked) the glossy options beside whitted
+        tables[group][name] = checked[key]
+    options = {"seed": checked["seed"]} if "seed" in checked else {}
+    try:
+        settings.integrator_from(tables["integrator"])
+        for name in ("sampling", "execution"):
+            settings.group_from(name, tables[name])
+    except RenderError as e:
+        raise SceneFileError(f"{path}: [render] {e}") from None
+    options.update({name: table for name, table in tables.items() if table})
+    return options
+
+
 def _positive(params, key, default, where, path):
     """``params[key]`` (else ``default``) as a finite float > 0, else a SceneFileError naming the key."""
     v = params.get(key, default)
@@ -240,8 +297,8 @@ def load_scene(path):
     -------
     scene : pyrt.Scene
     render_options : dict
-        The ``[render]`` keys that are arguments of :func:`pyrt.render` (max_depth, seed,
-        throughput_cutoff, offset, transparent_shadows, integrator, glossy_samples, glossy_depth, glossy_threshold).
+        The arguments of :func:`pyrt.render` the file's ``[render]`` table gives: ``seed`` and the option tables
+        ``integrator`` / ``sampling`` / ``execution`` as dicts (``pyrt.render(scene, **render_options)``).
 
     Raises
     ------
@@ -290,8 +347,8 @@ def load_dict(spec, *, base_dir=None):
     -------
     scene : pyrt.Scene
     render_options : dict
-        The ``render`` keys that are arguments of :func:`pyrt.render` (max_depth, seed,
-        throughput_cutoff, offset, transparent_shadows, integrator, glossy_samples, glossy_depth, glossy_threshold).
+        The arguments of :func:`pyrt.render` the file's ``[render]`` table gives: ``seed`` and the option tables
+        ``integrator`` / ``sampling`` / ``execution`` as dicts (``pyrt.render(scene, **render_options)``).
 
     Raises
     ------
@@ -333,7 +390,7 @@ def _load(data, base, path):
     scene = _construct(Scene, {"camera": camera, **{k: rnd[k] for k in ("background", "ambient",
                                                                        "shading_normal_fallback") if k in rnd}},
                        "[render]", path)
-    options = _render_options(rnd, path)
+    options = _grouped_options(rnd, path)
 
     materials = {}
     mats_t = data.get("materials", {})

@@ -1,6 +1,7 @@
 """Adaptive, progressive rendering: passes of camera samples, spent where the estimated error is high.
 
-How it works (:func:`render_adaptive`; ``pyrt.render(scene, target_error=..., time_budget=..., max_spp=...)``):
+How it works (:func:`render_adaptive`;
+``pyrt.render(scene, sampling=pyrt.Sampling(target_error=..., time_budget=..., max_spp=...))``):
 
 1. **Two interleaved half-buffers.** Every pass gives a pixel an even number ``c`` of new samples, ``c / 2``
    to half A and ``c / 2`` to half B. Each half of each pixel draws its positions from its own

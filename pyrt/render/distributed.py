@@ -1,4 +1,5 @@
-"""Renders on Dask (``render(..., dask=client_or_address)``): a pass's chunks run as tasks on the workers, the
+"""Renders on Dask (``render(..., execution=pyrt.Execution(dask=client_or_address))``):
+a pass's chunks run as tasks on the workers, the
 client merges them in chunk order.
 
 - The scene is pickled once and broadcast to the workers (``client.scatter``); each worker process prepares

@@ -34,19 +34,60 @@ from pyrt.render.distributed import DaskRunner, fixed_group
 from pyrt.render.pool import INTEGRATORS, ChunkPool, integrator_factory, merge_stats, progress_bar, use_processes
 from pyrt.render.options import check_image_memory, check_options, warn_smooth_lobes
 from pyrt.render.result import RenderResult
+from pyrt.render import settings
 
 
 
-def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4, roulette=False, offset=None, aovs=False,
-                progress=None, chunk_samples=1 << 15, threads=None, record_rays=False, prepared=None,
+def render_full(scene, *, spp=None, seed=0, integrator="whitted", sampling=None, output=None, execution=None,
+                **keywords):
+    """Render ``scene`` and return a :class:`RenderResult`: the image, AOVs, statistics and the film.
+
+    Parameters
+    ----------
+    scene : pyrt.Scene
+    spp : int, optional
+        Samples per pixel (default: the camera's); short for ``sampling=pyrt.Sampling(spp=...)``.
+    seed : int
+        Random seed; the same seed gives a bit-identical image.
+    integrator : pyrt.Whitted, pyrt.Glossy, str or dict
+        The estimator and its own parameters (:class:`pyrt.render.settings.Whitted`, ``Glossy``), a type name
+        (``"whitted"``, the default, or ``"glossy"``) or a ``{"type": ..., option: value}`` dict.
+    sampling, output, execution : pyrt.Sampling, pyrt.Output, pyrt.Execution or dict, optional
+        Adaptive sampling and the sampler; AOVs, the non-finite policy, the fill after a cancellation; threads,
+        backend, workers, Dask, cancellation, progress (:mod:`pyrt.render.settings`). An option that the other
+        settings leave unused is an error naming it.
+    **keywords
+        The flat keywords of earlier releases (``max_depth=``, ``aovs=``, ``threads=`` ...:
+        :data:`pyrt.render.settings.LEGACY`) still work, with a ``DeprecationWarning`` naming the new spelling.
+
+    A ``KeyboardInterrupt`` while rendering cancels the chunks not yet started, waits for the running ones, shuts
+    the worker pool down and propagates (no thread or process is left running). The image does not depend on the
+    number or kind of workers (:func:`_render_flat`).
+    """
+    return _render_options(scene, spp, seed, integrator, sampling, output, execution, keywords, stacklevel=3)
+
+
+def _render_options(scene, spp, seed, integrator, sampling, output, execution, keywords, *, stacklevel):
+    """:func:`render_full`'s arguments resolved to the option objects, then :func:`_render_flat`."""
+    integ, samp, out, exe = settings.from_keywords(integrator, sampling, output, execution, keywords,
+                                                   stacklevel=stacklevel)
+    if spp is not None and samp.spp is not None:
+        raise RenderError("render: spp given twice (spp= and sampling=pyrt.Sampling(spp=...)): give it once")
+    if spp is not None and samp.adaptive:
+        raise RenderError("render: spp (fixed samples per pixel) and target_error / time_budget / max_spp "
+                          "(adaptive) exclude each other; min_spp sets the adaptive base pass")
+    return _render_flat(scene, spp=samp.spp if spp is None else spp, seed=seed, **integ.keywords(),
+                        **samp.keywords(), **out.keywords(), **exe.keywords())
+
+
+def _render_flat(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4, roulette=False, offset=None,
+                 aovs=False, progress=None, chunk_samples=1 << 15, threads=None, record_rays=False, prepared=None,
                 nonfinite="zero", cancel=None, fill=False, fill_budget=2.0, transparent_shadows=False,
                 integrator="whitted", glossy_samples=4, glossy_depth=2, glossy_threshold=0.4, glossy_clamp=None,
                 target_error=None, time_budget=None, max_spp=None, min_spp=4, on_pass=None, dask=None,
                 dask_workers=2, split_depth=DEFAULT_SPLIT_DEPTH, light_select_depth=None, parallel="auto", batch_rays=None,
                 sampler="padded", backend="auto"):
-    """Render ``scene`` and return a :class:`RenderResult` with the image, AOVs and statistics.
-
-    Parameters are those of :func:`render`, plus:
+    """The render itself, every option a keyword (what :func:`render_full`'s option objects resolve to).
 
     aovs : bool
         Also the first hit's depth, shading normal and albedo, averaged per pixel (``result.aovs``).
@@ -297,7 +338,7 @@ def render_full(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4,
         ps.close()
     if stats.nonfinite_samples:
         warnings.warn(f"render: {stats.nonfinite_samples} samples had non-finite radiance and were "
-                      "set to 0 (this is a bug; please report the scene)", RuntimeWarning, stacklevel=2)
+                      "set to 0 (this is a bug; please report the scene)", RuntimeWarning, stacklevel=4)
     stats.time_total = time.perf_counter() - t_start
     stats.fallback_reasons = reasons
     return RenderResult(image=film.image(), aovs=film.aovs(), stats=stats, film=film,
@@ -335,8 +376,9 @@ def _fill_jobs(unstarted, chunk_samples):
     return jobs
 
 
-def render(scene, **kwargs):
-    """Render ``scene`` to linear radiance.
+def render(scene, *, spp=None, seed=0, integrator="whitted", sampling=None, output=None, execution=None,
+           **keywords):
+    """Render ``scene`` to linear radiance: ``pyrt.render(scene, spp=4)``.
 
     Parameters
     ----------
@@ -345,55 +387,18 @@ def render(scene, **kwargs):
         Samples per pixel (default: the camera's).
     seed : int
         Random seed; the same seed gives a bit-identical image.
-    max_depth : int
-        Maximum specular recursion depth (default 8).
-    throughput_cutoff : float
-        Drop specular rays whose throughput falls below this (default 1e-4).
-    roulette : bool
-        Instead of dropping them, continue the rays below ``throughput_cutoff`` by Russian roulette (with probability
-        ``max-channel throughput / throughput_cutoff``, their throughput divided by it: unbiased, a little noisier;
-        :mod:`pyrt.integrators.roulette`). Default False. Rendered on the NumPy path (the compiled kernel has no
-        roulette yet: ``stats.fallback_reasons`` says so).
-    offset : str or callable
-        Ray-offset strategy (:mod:`pyrt.geometry.offsets`): a name, a Strategy or a callable; default "robust"
-        (local error bound + robust shadow tmax + shadow-terminator lift).
-    transparent_shadows : bool
-        Shadow rays pass straight through dielectrics, attenuated by the Fresnel transmittance of each
-        interface, the tint and Beer-Lambert absorption (:mod:`pyrt.integrators.shadows`: an approximation,
-        no caustics). Default False (strict Whitted: glass casts a shadow of 0, like an opaque object).
-    progress : bool, optional
-        Show a progress bar (default: only on a terminal).
-    chunk_samples : int
-        Camera samples per chunk (bounds memory at any ``spp``: a pixel with more samples is split over
-        several chunks; default 32768: measured fastest on the benchmark scene).
-    threads : int, optional
-        Workers for chunks and for Embree batches (default: all cores); processes or threads, see
-        ``parallel`` in :func:`render_full`.
-    cancel : threading.Event, optional
-        Stop early when set (no new chunk starts); the chunks not rendered stay black. Use
-        :func:`render_full` to learn whether the image is complete.
-    integrator : {"whitted", "glossy"}
-        Default ``"whitted"``; see :func:`render_full` (also ``glossy_samples``, ``glossy_depth``,
-        ``glossy_threshold``).
-    target_error, time_budget, max_spp : float, float, int, optional
-        Adaptive, progressive rendering (:mod:`pyrt.render.adaptive`) instead of a fixed ``spp``: passes
-        until the estimated relMSE (:mod:`pyrt.core.metrics`) is at most ``target_error``, ``time_budget``
-        seconds have passed, or every pixel that still needs samples has ``max_spp`` (default 65536),
-        whichever comes first; at least one of ``target_error`` and ``time_budget``. ``min_spp`` (default
-        4, even): the base pass; ``on_pass``: called with a :class:`pyrt.render.adaptive.PassInfo` after
-        every pass. Exclusive with ``spp``.
-    backend : {"auto", "compiled", "numpy"}
-        Which path renders: the compiled tile kernel where it covers the scene and options (``"auto"``, default),
-        always it (``"compiled"``, an error where it does not), or the NumPy reference (``"numpy"``); see
-        :func:`render_full`.
-    dask : distributed.Client, str or True, optional
-        Render the chunks (fixed spp) or each pass's chunks (adaptive) as tasks on Dask workers
-        (:mod:`pyrt.render.distributed`): a client, a scheduler address, or True for a local cluster of
-        ``dask_workers`` processes. The image equals the local render with the same seed.
+    integrator, sampling, output, execution
+        The option objects of :func:`render_full` (:mod:`pyrt.render.settings`): e.g.
+        ``integrator=pyrt.Glossy(samples=4)``, ``sampling=pyrt.Sampling(target_error=1e-3)``,
+        ``execution=pyrt.Execution(threads=1, backend="numpy")``.
+    **keywords
+        The flat keywords of earlier releases, with a ``DeprecationWarning`` naming the new spelling.
 
     Returns
     -------
     (H, W, 3) float32 ndarray
-        Linear scene radiance (W m^-2 sr^-1 per RGB channel).
+        Linear scene radiance (W m^-2 sr^-1 per RGB channel). :func:`render_full` returns the whole
+        :class:`RenderResult` (AOVs, statistics, whether a cancelled render is complete).
     """
-    return render_full(scene, **kwargs).image
+    return _render_options(scene, spp, seed, integrator, sampling, output, execution, keywords,
+                           stacklevel=3).image

@@ -76,7 +76,7 @@ def warn_smooth_lobes(scene, integrator):
                       f"{SMOOTH_ALPHA}): integrator='whitted' traces no rays along it, so it shows the lights' "
                       "highlights on black; render with integrator='glossy' (--integrator glossy, [render] "
                       "integrator = \"glossy\"), or use a Conductor, Mirror or Glass for an exactly smooth surface",
-                      SmoothLobeWarning, stacklevel=3)
+                      SmoothLobeWarning, stacklevel=5)
 
 
 def available_memory():

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pyrt.core.film import Film
+from pyrt.core.image_io import png_bytes
 from pyrt.integrators.prepared import RenderStats
 
 
@@ -44,6 +45,9 @@ class RenderResult:
         Adaptive renders: the estimated relMSE of the image (:mod:`pyrt.render.adaptive`); None otherwise.
     stop_reason : str or None
         Adaptive renders: ``"target_error"``, ``"time_budget"``, ``"max_spp"`` or ``"cancelled"``.
+
+    In Jupyter a result displays as its image, tone-mapped as :func:`pyrt.write_png` does by default (Reinhard,
+    sRGB); ``pyrt.show(result.image, tonemap=..., exposure=...)`` chooses otherwise.
     """
 
     image: np.ndarray
@@ -59,6 +63,15 @@ class RenderResult:
     passes: int = 1
     estimated_error: float | None = None
     stop_reason: str | None = None
+
+    def _repr_png_(self):
+        """The image as 8-bit sRGB PNG bytes with the default tone map (IPython's display protocol)."""
+        return png_bytes(self.image)
+
+    def __repr__(self):
+        h, w = self.image.shape[:2]
+        return (f"RenderResult({w}x{h}, {self.stats.backend} path, {self.passes} pass(es), "
+                f"{'complete' if self.complete else f'{self.fraction_done:.0%} done'})")
 
     @property
     def spp_map(self):

@@ -8,6 +8,7 @@ from pyrt.integrators import kernel_cache
 from pyrt.lights.punctual import DirectionalLight, PointLight, SpotLight
 from pyrt.materials.basic import BlinnPhong, Glass, Lambert, Mirror
 from pyrt.render.fixed import render_full
+from pyrt.render.settings import Execution, Sampling
 from pyrt.scene import Scene
 from pyrt.textures.procedural import CheckerTexture
 
@@ -31,7 +32,8 @@ def compile_kernels():
     cache_dir)``."""
     cached = kernel_cache.is_warm()
     t0 = time.perf_counter()
-    render_full(warmup_scene(), backend="compiled", progress=False)
+    compiled = Execution(backend="compiled", progress=False)
+    render_full(warmup_scene(), execution=compiled)
     # the adaptive passes' entry (render_pixels) is a kernel of its own
-    render_full(warmup_scene(), backend="compiled", progress=False, target_error=1.0, max_spp=4)
+    render_full(warmup_scene(), execution=compiled, sampling=Sampling(target_error=1.0, max_spp=4))
     return time.perf_counter() - t0, cached, kernel_cache.cache_dir()

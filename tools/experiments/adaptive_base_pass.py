@@ -42,19 +42,21 @@ def main(argv=None):
     for name in args.scenes.split(","):
         sc = ms.SCENES[name][0](work)
         prep = pyrt.PreparedScene(sc)
-        ref = pyrt.render(sc, spp=args.ref_spp, seed=99, prepared=prep, progress=False,
+        ref = pyrt.render(sc, spp=args.ref_spp, seed=99, execution=pyrt.Execution(prepared=prep, progress=False),
                           **ms.PYRT_OPTIONS).astype(np.float64)
         for rnd in range(args.rounds):
             for m in (mins if rnd % 2 == 0 else mins[::-1]):
                 t, c = time.perf_counter(), cpu_seconds()
-                img = pyrt.render(sc, target_error=TARGETS[name], max_spp=4096, min_spp=m, seed=7 + rnd,
-                                  prepared=prep, progress=False, **ms.PYRT_OPTIONS)
+                img = pyrt.render(sc, seed=7 + rnd,
+                                  sampling=pyrt.Sampling(target_error=TARGETS[name], max_spp=4096, min_spp=m),
+                                  execution=pyrt.Execution(prepared=prep, progress=False), **ms.PYRT_OPTIONS)
                 print(json.dumps({"scene": name, "min_spp": m, "wall": round(time.perf_counter() - t, 3),
                                   "cpu": round(cpu_seconds() - c, 3), "target": TARGETS[name],
                                   "relmse": relmse(img.astype(np.float64), ref)}), flush=True)
         for spp in (4, 8, 16):
             t, c = time.perf_counter(), cpu_seconds()
-            img = pyrt.render(sc, spp=spp, seed=5, prepared=prep, progress=False, **ms.PYRT_OPTIONS)
+            img = pyrt.render(sc, spp=spp, seed=5, execution=pyrt.Execution(prepared=prep, progress=False),
+                              **ms.PYRT_OPTIONS)
             print(json.dumps({"scene": name, "fixed_spp": spp, "wall": round(time.perf_counter() - t, 3),
                               "cpu": round(cpu_seconds() - c, 3),
                               "relmse": relmse(img.astype(np.float64), ref)}), flush=True)

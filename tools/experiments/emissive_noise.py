@@ -59,9 +59,10 @@ def render(ps, spp, glossy_samples, seed, emissive_samples=None):
     if emissive_samples is not None:
         ps.emissive_light.n_samples = emissive_samples
     t0 = time.perf_counter()
-    res = pyrt.render_full(ps.scene, seed=seed, max_depth=o.max_depth, progress=False, prepared=ps.prepared,
-                           integrator="glossy", glossy_samples=glossy_samples, transparent_shadows=True,
-                           light_select_depth=o.light_select_depth, chunk_samples=o.chunk_samples)
+    res = pyrt.render_full(ps.scene, seed=seed,
+                           integrator=pyrt.Glossy(max_depth=o.max_depth, samples=glossy_samples, transparent_shadows=True,
+                                                  light_select_depth=o.light_select_depth),
+                           execution=pyrt.Execution(progress=False, prepared=ps.prepared, chunk_samples=o.chunk_samples))
     return res.image, time.perf_counter() - t0
 
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from pyrt.geometry import offsets
 from pyrt.integrators import PreparedScene
-from pyrt.render import render_full
+from pyrt.render import Execution, Whitted, render_full
 from pyrt.apps.acne.truth import LIT, SHADOW, UNSURE
 from pyrt.apps.acne.scenes import Case, build_case, default_matrix, truth_labels
 
@@ -99,9 +99,9 @@ def run_case(case, offset=None, *, width=64, height=48, built=None, prepared=Non
     truth = truth if truth is not None else truth_labels(built)
     strat = offsets.get_strategy(offset)
     timed = _Timed(name=strat.name, origin=strat.origin, tmax=strat.tmax, terminator=strat.terminator, inner=strat)
-    res = render_full(built.scene, spp=1, max_depth=built.max_depth,
-                      offset=timed if backend == "numpy" else offset, progress=False, prepared=prepared,
-                      threads=threads, backend=backend)
+    res = render_full(built.scene, spp=1,
+                      integrator=Whitted(max_depth=built.max_depth, offset=timed if backend == "numpy" else offset),
+                      execution=Execution(progress=False, prepared=prepared, threads=threads, backend=backend))
     lit = res.image.max(axis=2) > 0
     acne = int(np.sum((truth == LIT) & ~lit))
     leak = int(np.sum((truth == SHADOW) & lit))

@@ -19,7 +19,7 @@ from pyrt.core.camera import Camera
 from pyrt.core.transforms import apply_matrix
 from pyrt.core.image_io import encode_png, tonemap_to_display, write_bytes, write_exr
 from pyrt.integrators import PreparedScene
-from pyrt.render import render_full
+from pyrt.render import Execution, Glossy, Output, Sampling, render_full
 from pyrt.lights import LatLongEnvironment, set_environment
 from pyrt.materials import Lambert
 from pyrt.scene import Scene
@@ -219,19 +219,19 @@ class PreviewScene:
             cutoff = o.dielectric_cutoff if glass else 1e-4
             scale = 0.0 if o.glossy_clamp is None else lit_white_radiance(self.scene.lights, self.center)
             clamp = o.glossy_clamp * scale if scale > 0 else None      # (no light to scale it by: no clamp)
-            glass_kw = dict(split_depth=o.split_depth, chunk_samples=o.dielectric_chunk_samples,
-                            batch_rays=o.dielectric_batch_rays or o.batch_rays) if glass else {}
-            res = render_full(self.scene, seed=o.seed, max_depth=depth, aovs=aovs, progress=False,
-                              prepared=self.prepared, threads=o.threads, parallel=o.parallel, integrator="glossy",
-                              transparent_shadows=True, throughput_cutoff=cutoff,
-                              roulette=o.dielectric_roulette and glass,
-                              light_select_depth=o.light_select_depth, glossy_samples=o.glossy_samples,
-                              glossy_depth=o.glossy_depth, glossy_threshold=o.glossy_threshold,
-                              glossy_clamp=clamp,
-                              target_error=o.target_error,
-                              max_spp=(o.max_spp or ADAPTIVE_MAX_SPP) if o.target_error is not None else None,
-                              min_spp=o.min_spp, sampler=o.sampler,
-                              **{"chunk_samples": o.chunk_samples, "batch_rays": o.batch_rays, **glass_kw})
+            integ = Glossy(max_depth=depth, transparent_shadows=True, throughput_cutoff=cutoff,
+                           roulette=o.dielectric_roulette and glass,
+                           light_select_depth=o.light_select_depth, samples=o.glossy_samples, depth=o.glossy_depth,
+                           threshold=o.glossy_threshold, clamp=clamp,
+                           batch_rays=(o.dielectric_batch_rays or o.batch_rays) if glass else o.batch_rays,
+                           **({"split_depth": o.split_depth} if glass else {}))
+            sampling = Sampling(sampler=o.sampler) if o.target_error is None else Sampling(
+                target_error=o.target_error, max_spp=o.max_spp or ADAPTIVE_MAX_SPP, min_spp=o.min_spp,
+                sampler=o.sampler)
+            res = render_full(self.scene, seed=o.seed, integrator=integ, sampling=sampling, output=Output(aovs=aovs),
+                              execution=Execution(progress=False, prepared=self.prepared, threads=o.threads,
+                                                  parallel=o.parallel, chunk_samples=o.dielectric_chunk_samples
+                                                  if glass else o.chunk_samples))
         self.warnings += [str(w.message) for w in caught]
         if self.exposure is None:
             self.exposure, self.white = auto_exposure(res.image, self.model_mask())
