@@ -384,11 +384,11 @@ def from_keywords(integrator, sampling, output, execution, legacy, *, stacklevel
                               f"{group}={type(current).__name__}(...): give them in the {group} object")
         given[group] = {**(current or {}), **options}
     if legacy:
-        new = [_spell(g, {LEGACY[k][1]: v for k, v in legacy.items() if LEGACY[k][0] == g
-                          and f"glossy_{LEGACY[k][1]}" not in ignored and k not in ignored}
-                      | ({"type": given["integrator"]["type"]} if g == "integrator" else {}))
-               for g in moved]
-        warnings.warn(f"{DEPRECATED} {', '.join(legacy)}: spell them " + ", ".join(new)
+        spelled = {g: {LEGACY[k][1]: v for k, v in legacy.items() if LEGACY[k][0] == g and k not in ignored}
+                   for g in moved}
+        new = [_spell(g, dict(options, type=given["integrator"].get("type", "whitted")) if g == "integrator"
+                      else options) for g, options in spelled.items() if options]
+        warnings.warn(f"{DEPRECATED} {', '.join(legacy)}: " + (f"spell them {', '.join(new)}" if new else "drop them")
                       + (f" ({', '.join(ignored)}: options of integrator='glossy', unused by 'whitted')"
                          if ignored else "") + "; the flat keywords go in the next release",
                       DeprecationWarning, stacklevel=stacklevel + 1)
