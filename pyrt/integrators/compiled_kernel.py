@@ -36,18 +36,17 @@ from pyrt.core import unmanaged as U  # noqa: E402
 from pyrt.core.unmanaged import keep_alive  # noqa: E402
 from pyrt.geometry import embree_jit as E  # noqa: E402
 from pyrt.integrators.compiled_layout import (  # noqa: E402
-    TILE, LANES, V_D, V_P, V_NG, V_NS, V_MAG, V_FRONT, V_MAT,
-    V_A, V_L, V_F, V_LIT, V_SIZE,
+    TILE, LANES, V_D, V_P, V_NG, V_NS, V_NV, V_LIFT, V_MAG, V_MAG_LIFT, V_FRONT, V_MAT,
+    V_A, V_L, V_COSO, V_SIZE,
     C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W,
     C_H, C_JITTER, C_K, C_AX, O_SEED, O_SPP,
     O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK,
     O_GRID, F_CUTOFF, F_BG, F_AMBIENT, N_PRIMARY, N_SECONDARY,
     N_SHADOW, N_NONFINITE, STACK, STACK_ROW, T_INF, DIM_LOBE,
-    ADAPTIVE_KEYS, F_ENV, O_ENV, O_AOV, N_AOV, V_T, V_FACE, V_UV, _njit, lane_vec, set_lane_vec)
-from pyrt.integrators.compiled_surface import surface_stage  # noqa: E402
+    ADAPTIVE_KEYS, F_ENV, O_ENV, O_AOV, N_AOV, V_T, _njit, lane_vec, set_lane_vec)
 from pyrt.integrators.compiled_lighting import (  # noqa: E402
     area_bsdf_sample, area_bsdf_stage, area_light_weight, area_mis_stage, area_stage, area_u, bsdf_stage, direct_light,
-    env_hit, env_rounds, light_stage, shadow_fill)
+    env_hit, env_rounds, lambert_stage, light_stage, shadow_add, shadow_fill)
 from pyrt.lights import compiled as LC  # noqa: E402
 from pyrt.lights import compiled_env as CE  # noqa: E402
 from pyrt.materials import compiled as MC  # noqa: E402
@@ -310,23 +309,38 @@ def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, sp
     E.packet_activate(pk, w, n)
     n_prim += n
     E.packet_query(scene, pk, w, True, False)
-    # the hits' surfaces (one vectorised loop), then their materials' albedo and emission (a miss: face 0's, dropped)
-    surface_stage(G, pk, w, V, n, fallback, terminator)
+    # the hits' surfaces, albedo and emission (a miss: face 0 computed and dropped)
     any_diffuse = False
+    lambert = True          # all hits Lambert: the vectorised BSDF stage
     for lane in range(n):
-        geom, _ = E.packet_geom_prim(pk, w, lane)
+        geom, prim = E.packet_geom_prim(pk, w, lane)
         hit = geom != -1
-        m = fmat[int(V[V_FACE * LANES + lane])]
+        geom, prim = (geom, prim) if hit else (0, 0)
+        u, v = E.packet_uv(pk, w, lane)
+        d = lane_vec(V, V_D, lane)
+        p, ng, ns, nv, lift, mag, mag_lift, front, face, uv = J.hit_surface(
+            G, fallback, terminator, geom, prim, u, v, (-d[0], -d[1], -d[2]))
+        m = fmat[face]
         mtag = mats_tag[m]
-        albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, V[V_UV * LANES + lane], V[(V_UV + 1) * LANES + lane])
-        le = emitted(mtag, mats_par, m, albedo, optf, V[V_FRONT * LANES + lane] != 0.0)
+        albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1])
+        le = emitted(mtag, mats_par, m, albedo, optf, front)
         any_diffuse = any_diffuse or (hit and MC.has_diffuse(mtag))
+        lambert = lambert and (mtag == MC.LAMBERT or not hit)
+        set_lane_vec(V, V_P, lane, p)
+        set_lane_vec(V, V_NG, lane, ng)
+        set_lane_vec(V, V_NS, lane, ns)
+        set_lane_vec(V, V_NV, lane, nv)
+        set_lane_vec(V, V_LIFT, lane, lift)
         set_lane_vec(V, V_A, lane, albedo)
         if not hit and etag != 0:
-            d = lane_vec(V, V_D, lane)
             le = CE.missed(etag, erec, edata, d[0], d[1], d[2], True)
         set_lane_vec(V, V_L, lane, le if hit or etag != 0 else bg)
+        V[V_MAG * LANES + lane] = mag
+        V[V_MAG_LIFT * LANES + lane] = mag_lift
+        V[V_FRONT * LANES + lane] = 1.0 if front else 0.0
         V[V_MAT * LANES + lane] = m if hit else -1
+        V[V_COSO * LANES + lane] = dot((-d[0], -d[1], -d[2]), ns)
+        V[V_T * LANES + lane] = E.packet_tfar(pk, w, lane) if hit else math.inf
     # direct light: per light, the packet's shadow rays (geometry, then the BSDF) in one masked query
     pair = 0                # the padded dimension pairs of the area lights' samples
     for j in range(nl if any_diffuse else 0):
@@ -353,18 +367,17 @@ def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, sp
                 else:
                     light_stage(lights_tag, lights_par, j, V, n, terminator)
                 shadow_fill(V, sh, w, n)
-                n_sh = bsdf_stage(mats_tag, mats_par, lights_par, j, V, sh, w, n)
+                if lambert:
+                    n_sh = lambert_stage(lights_par, j, V, sh, w, n)
+                else:
+                    n_sh = bsdf_stage(mats_tag, mats_par, lights_par, j, V, sh, w, n)
                 if n_b > 0 and n_sh > 0:
                     area_mis_stage(ltag, lights_par, j, mats_tag, mats_par, V, n, n_j, n_b)
             if n_sh == 0:
                 continue
             n_shadow += n_sh
             E.packet_query(scene, sh, w, True, True)
-            inv = 1.0 / (n_j if s < n_j else n_b)
-            for lane in range(n):
-                add = V[V_LIT * LANES + lane] != 0.0 and not E.lane_blocked(sh, w, lane)
-                for c in range(3):
-                    V[(V_L + c) * LANES + lane] += V[(V_F + c) * LANES + lane] * inv if add else 0.0
+            shadow_add(V, sh, w, n, 1.0 / (n_j if s < n_j else n_b))
         pair += n_j + n_b if area else 0
     # the specular tree of each sample, then the film
     for lane in range(n):

@@ -27,10 +27,8 @@ V_COSO, V_COSI, V_COSIO, V_S, V_GOK = 32, 33, 34, 35, 36
 V_SO, V_WI, V_TMAX = 37, 40, 43
 #: the camera ray's hit distance (``inf``: a miss; the depth AOV)
 V_T = 44
-#: the camera ray's face (a global face index; a miss: face 0's) and uv (:mod:`pyrt.integrators.compiled_surface`)
-V_FACE, V_UV = 45, 46
 #: fields of the scratch
-V_SIZE = 48
+V_SIZE = 45
 #: camera record layout (float64)
 C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W, C_H, C_JITTER, C_K, C_AX = 0, 3, 6, 9, 12, 13, 14, 15, 16, 17
 #: length of the camera record

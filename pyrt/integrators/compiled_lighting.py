@@ -189,6 +189,41 @@ def shadow_fill(V, sh, w, n):
         E.packet_set_dir(sh, w, lane, wi[0], wi[1], wi[2], V[V_TMAX * LANES + lane])
 
 
+@_stage
+def lambert_stage(lpars, j, V, sh, w, n):
+    """:func:`bsdf_stage` for a packet whose hits are all Lambert (or misses): the same values, in one loop that LLVM
+    vectorises (no material dispatch): ``f = albedo max(cos_i, 0) / pi`` (:func:`pyrt.materials.compiled.f_cos`)."""
+    U.wide_vectors()
+    U.noalias_args()
+    jb = j * LC.RECORD
+    e0, e1, e2 = lpars[jb + 6], lpars[jb + 7], lpars[jb + 8]
+    n_sh = 0
+    for lane in range(n):
+        cos_o, cos_i = V[V_COSO * LANES + lane], V[V_COSI * LANES + lane]
+        k = (cos_i if (cos_o > 0.0) & (cos_i > 0.0) else 0.0) * MC.INV_PI
+        a = lane_vec(V, V_A, lane)
+        f = (a[0] * k, a[1] * k, a[2] * k)
+        s = V[V_S * LANES + lane]
+        ok = (V[V_GOK * LANES + lane] != 0.0) & (max(f[0], f[1], f[2]) > 0.0) & (V[V_MAT * LANES + lane] >= 0.0)
+        set_lane_vec(V, V_F, lane, (f[0] * s * e0, f[1] * s * e1, f[2] * s * e2))
+        V[V_LIT * LANES + lane] = 1.0 if ok else 0.0
+        E.packet_set_active(sh, w, lane, ok)
+        n_sh += ok
+    return n_sh
+
+
+@_stage
+def shadow_add(V, sh, w, n, inv):
+    """After a shadow packet's occlusion query: each lane's light contribution (:data:`V_F` times ``inv``) added to
+    its radiance where its shadow ray was traced and not blocked (one vectorised loop)."""
+    U.wide_vectors()
+    U.noalias_args()
+    for lane in range(n):
+        add = (V[V_LIT * LANES + lane] != 0.0) & ~E.lane_blocked(sh, w, lane)
+        for c in range(3):
+            V[(V_L + c) * LANES + lane] += V[(V_F + c) * LANES + lane] * inv if add else 0.0
+
+
 @_njit
 def bsdf_stage(mats_tag, mats_par, lpars, j, V, sh, w, n):
     """The BSDF part of :func:`direct_light` for lanes ``[0, n)`` after :func:`light_stage`: ``f = f_cos * E``
