@@ -46,7 +46,7 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     ADAPTIVE_KEYS, F_ENV, O_ENV, O_AOV, N_AOV, V_T, _njit, lane_vec, set_lane_vec)
 from pyrt.integrators.compiled_lighting import (  # noqa: E402
     area_bsdf_sample, area_bsdf_stage, area_light_weight, area_mis_stage, area_stage, area_u, bsdf_stage, direct_light,
-    env_hit, env_rounds, lambert_stage, light_stage, shadow_add, shadow_fill)
+    camera_fill, env_hit, env_rounds, lambert_stage, light_stage, shadow_add, shadow_fill)
 from pyrt.lights import compiled as LC  # noqa: E402
 from pyrt.lights import compiled_env as CE  # noqa: E402
 from pyrt.materials import compiled as MC  # noqa: E402
@@ -302,10 +302,9 @@ def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, sp
     fallback = opts[O_FALLBACK] != 0
     terminator = opts[O_TERMINATOR] != 0
     bg = (optf[F_BG], optf[F_BG + 1], optf[F_BG + 2])
+    want_aovs = opts[O_AOV] != 0
     n_prim = n_shadow = n_bad = 0
-    for lane in range(n):
-        d = lane_vec(V, V_D, lane)
-        E.packet_set_dir(pk, w, lane, d[0], d[1], d[2], T_INF)
+    camera_fill(V, pk, w, n)
     E.packet_activate(pk, w, n)
     n_prim += n
     E.packet_query(scene, pk, w, True, False)
@@ -330,17 +329,19 @@ def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, sp
         set_lane_vec(V, V_NG, lane, ng)
         set_lane_vec(V, V_NS, lane, ns)
         set_lane_vec(V, V_NV, lane, nv)
-        set_lane_vec(V, V_LIFT, lane, lift)
+        if terminator:      # read only with the terminator lift (its stores cost: a packet's loops are store-bound)
+            set_lane_vec(V, V_LIFT, lane, lift)
+            V[V_MAG_LIFT * LANES + lane] = mag_lift
         set_lane_vec(V, V_A, lane, albedo)
         if not hit and etag != 0:
             le = CE.missed(etag, erec, edata, d[0], d[1], d[2], True)
         set_lane_vec(V, V_L, lane, le if hit or etag != 0 else bg)
         V[V_MAG * LANES + lane] = mag
-        V[V_MAG_LIFT * LANES + lane] = mag_lift
         V[V_FRONT * LANES + lane] = 1.0 if front else 0.0
         V[V_MAT * LANES + lane] = m if hit else -1
         V[V_COSO * LANES + lane] = dot((-d[0], -d[1], -d[2]), ns)
-        V[V_T * LANES + lane] = E.packet_tfar(pk, w, lane) if hit else math.inf
+        if want_aovs:
+            V[V_T * LANES + lane] = E.packet_tfar(pk, w, lane) if hit else math.inf
     # direct light: per light, the packet's shadow rays (geometry, then the BSDF) in one masked query
     pair = 0                # the padded dimension pairs of the area lights' samples
     for j in range(nl if any_diffuse else 0):
@@ -393,10 +394,10 @@ def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, sp
                 l0, l1, l2 = trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag,
                                          lights_par, erec, edata, opts, optf, keys[lane], dim, stack, top, ray_buf,
                                          cnt, l0, l1, l2)
+                set_lane_vec(V, V_L, lane, (l0, l1, l2))
         if not (math.isfinite(l0) and math.isfinite(l1) and math.isfinite(l2)):
             n_bad += 1
-            l0 = l1 = l2 = 0.0
-        set_lane_vec(V, V_L, lane, (l0, l1, l2))
+            set_lane_vec(V, V_L, lane, (0.0, 0.0, 0.0))
     cnt[N_PRIMARY] += n_prim
     cnt[N_SHADOW] += n_shadow
     cnt[N_NONFINITE] += n_bad

@@ -179,6 +179,17 @@ def light_stage(ltags, lpars, j, V, n, terminator):
 
 
 @_stage
+def camera_fill(V, pk, w, n):
+    """The camera rays' directions (:data:`V_D`) into lanes ``[0, n)`` of the packet ``pk`` (width ``w``; the origin
+    is the camera's, set once), tfar unbounded, each lane a miss until the query: one vectorised loop."""
+    U.wide_vectors()
+    U.noalias_args()
+    for lane in range(n):
+        d = lane_vec(V, V_D, lane)
+        E.packet_set_dir(pk, w, lane, d[0], d[1], d[2], T_INF)
+
+
+@_stage
 def shadow_fill(V, sh, w, n):
     """The shadow rays of :func:`light_stage` from the scratch into lanes ``[0, n)`` of the packet ``sh`` (width
     ``w``; :func:`bsdf_stage` switches them on). A loop of its own: it reads one buffer and writes another."""
