@@ -64,40 +64,44 @@ def _parser():
     sub.add_parser("compile", help="compile the render kernels now (else the first compiled render does, once)")
     r = sub.add_parser("render", help="render a scene file (TOML or JSON)")
     r.add_argument("scene")
+    # the option groups of pyrt.render (pyrt.Whitted / pyrt.Glossy, pyrt.Sampling, pyrt.Execution; docs/rendering.md)
+    sampling = r.add_argument_group("sampling (pyrt.Sampling)")
+    integrator = r.add_argument_group("integrator (pyrt.Whitted / pyrt.Glossy)")
+    execution = r.add_argument_group("execution (pyrt.Execution)")
     r.add_argument("-o", "--output", action="append", required=True,
                    help="output file (.exr linear, .png tone-mapped); may be repeated")
-    r.add_argument("--spp", type=positive_int, help="samples per pixel (overrides the scene)")
-    r.add_argument("--target-error", type=positive_float, metavar="E",
+    sampling.add_argument("--spp", type=positive_int, help="samples per pixel (overrides the scene)")
+    sampling.add_argument("--target-error", type=positive_float, metavar="E",
                    help="adaptive: stop when the estimated relMSE is at most E (e.g. 1e-3)")
-    r.add_argument("--time", type=positive_float, metavar="SECONDS", dest="time_budget",
+    sampling.add_argument("--time", type=positive_float, metavar="SECONDS", dest="time_budget",
                    help="adaptive: stop after about SECONDS of wall time")
-    r.add_argument("--max-spp", type=positive_int, metavar="N", help="adaptive: at most N samples in any pixel")
-    r.add_argument("--min-spp", type=positive_int, metavar="N", help="adaptive: samples of the base pass (even)")
-    r.add_argument("--dask", nargs="?", const=True, default=None, metavar="SCHEDULER",
+    sampling.add_argument("--max-spp", type=positive_int, metavar="N", help="adaptive: at most N samples in any pixel")
+    sampling.add_argument("--min-spp", type=positive_int, metavar="N", help="adaptive: samples of the base pass (even)")
+    execution.add_argument("--dask", nargs="?", const=True, default=None, metavar="SCHEDULER",
                    help="render the chunks on Dask: a scheduler address, or without one a local cluster of "
                         "--dask-workers processes (needs the preview extra)")
-    r.add_argument("--dask-workers", type=positive_int, metavar="N",
+    execution.add_argument("--dask-workers", type=positive_int, metavar="N",
                    help="worker processes of the local cluster of --dask (default 2)")
     r.add_argument("--write-every", type=positive_float, metavar="SECONDS",
                    help="adaptive: rewrite the outputs with the current image after a pass, at most every SECONDS")
-    r.add_argument("--threads", type=positive_int, help="render workers (default: all cores)")
-    r.add_argument("--backend", choices=["auto", "compiled", "numpy"],
+    execution.add_argument("--threads", type=positive_int, help="render workers (default: all cores)")
+    execution.add_argument("--backend", choices=["auto", "compiled", "numpy"],
                    help="compiled tile kernel or NumPy path (default auto: compiled where it covers the scene)")
-    r.add_argument("--parallel", choices=list(PARALLEL),
+    execution.add_argument("--parallel", choices=list(PARALLEL),
                    help="render workers as forked processes or threads (default auto: processes on Linux for renders of at least 16 chunks)")
     r.add_argument("--width", type=positive_int, help="image width in pixels (overrides the scene)")
     r.add_argument("--height", type=positive_int, help="image height in pixels (overrides the scene)")
-    r.add_argument("--seed", type=nonnegative_int)
-    r.add_argument("--max-depth", type=nonnegative_int, help="maximum specular depth (0: direct light only)")
-    r.add_argument("--offset", choices=sorted(STRATEGIES), help="ray-origin offset strategy (default: robust)")
-    r.add_argument("--integrator", type=integrator_spec, metavar="TYPE[:KEY=VALUE,...]",
+    sampling.add_argument("--seed", type=nonnegative_int, help="random seed: the same seed gives the same image")
+    integrator.add_argument("--max-depth", type=nonnegative_int, help="maximum specular depth (0: direct light only)")
+    integrator.add_argument("--offset", choices=sorted(STRATEGIES), help="ray-origin offset strategy (default: robust)")
+    integrator.add_argument("--integrator", type=integrator_spec, metavar="TYPE[:KEY=VALUE,...]",
                    help=f"one of {', '.join(INTEGRATORS)} and its options, as pyrt.Whitted / pyrt.Glossy take them: "
                         "whitted (default): only mirrors and glass spawn rays; glossy: glossy lobes too, e.g. "
                         "glossy:samples=8,depth=1,clamp=4 (an option the integrator does not take is an error)"),
-    r.add_argument("--sampler", choices=list(SAMPLERS),
+    sampling.add_argument("--sampler", choices=list(SAMPLERS),
                    help="the camera hits' light and BSDF samples: padded over each pixel's samples (default) or "
                         "independent")
-    r.add_argument("--transparent-shadows", action=argparse.BooleanOptionalAction, default=None,
+    integrator.add_argument("--transparent-shadows", action=argparse.BooleanOptionalAction, default=None,
                    help="shadow rays pass through glass, Fresnel- and absorption-attenuated (overrides the scene; "
                         "default off)")
     r.add_argument("--tonemap", default="reinhard", choices=TONEMAPS,
