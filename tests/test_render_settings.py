@@ -100,8 +100,11 @@ def test_an_option_that_is_not_used_or_wrong_is_an_error_naming_it(make, names):
 
 
 def test_an_integrator_refuses_another_integrators_parameter():
-    with pytest.raises(TypeError, match="samples"):
+    with pytest.raises(pyrt.RenderError, match=r"Whitted: no option 'samples' \(samples is integrator=pyrt.Glossy"):
         pyrt.Whitted(samples=4)
+    with pytest.raises(pyrt.RenderError, match=r"Output: no option 'threads' \(threads is execution=pyrt.Execution"):
+        pyrt.Output(threads=2)
+    assert pyrt.Glossy(samples=2) == pyrt.Glossy(samples=2) != pyrt.Glossy(samples=3)
 
 
 def test_old_glossy_keywords_beside_whitted_are_checked_and_named_unused():

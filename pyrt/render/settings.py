@@ -55,8 +55,22 @@ def _optional_int(owner, name, value, lo):
     return None if value is None else checks.integer(owner, name, value, RenderError, lo=lo)
 
 
+class _Options:
+    """Base of the option classes: an unknown keyword is a :class:`RenderError` (a ``pyrt.Error``) that names it and,
+    when it is another class's option, that class (``pyrt.Whitted(samples=4)``: ``samples`` is ``Glossy``'s)."""
+
+    def __new__(cls, *args, **options):
+        allowed = [f.name for f in fields(cls)]
+        bad = [k for k in options if k not in allowed]
+        if bad:
+            hint = "; ".join(f"{k} is {_where(k)}" for k in bad if _where(k))
+            raise RenderError(f"{cls.__name__}: no option {', '.join(map(repr, bad))}"
+                              + (f" ({hint})" if hint else "") + f"; its options: {', '.join(allowed)}")
+        return super().__new__(cls)
+
+
 @dataclass(frozen=True, kw_only=True)
-class Whitted:
+class Whitted(_Options):
     """The Whitted integrator (the default): light sampling at every hit, rays only along delta lobes (mirrors,
     glass); :mod:`pyrt.integrators.whitted`.
 
@@ -151,7 +165,7 @@ INTEGRATOR_TYPES = {"whitted": Whitted, "glossy": Glossy}
 
 
 @dataclass(frozen=True, kw_only=True)
-class Sampling:
+class Sampling(_Options):
     """How many samples: a fixed ``spp`` (default: the camera's) or an adaptive target (:mod:`pyrt.render.adaptive`).
 
     Parameters
@@ -199,7 +213,7 @@ class Sampling:
 
 
 @dataclass(frozen=True, kw_only=True)
-class Output:
+class Output(_Options):
     """What a render returns besides the image.
 
     Parameters
@@ -235,7 +249,7 @@ class Output:
 
 
 @dataclass(frozen=True, kw_only=True)
-class Execution:
+class Execution(_Options):
     """Where and how a render runs; none of these changes the image (``chunk_samples`` changes the noise only).
 
     Parameters
