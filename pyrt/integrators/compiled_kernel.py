@@ -25,7 +25,6 @@ from __future__ import annotations
 import math
 
 import numba
-import numpy as np
 from numba import prange
 
 from pyrt.integrators import kernel_cache
@@ -33,17 +32,18 @@ from pyrt.integrators import kernel_cache
 kernel_cache.use_cache_dir()      # before the decorators below (and those of the modules they inline) run
 
 from pyrt.core import unmanaged as U  # noqa: E402
-from pyrt.core.unmanaged import keep_alive  # noqa: E402
 from pyrt.geometry import embree_jit as E  # noqa: E402
 from pyrt.integrators.compiled_layout import (  # noqa: E402
     TILE, LANES, V_D, V_P, V_NG, V_NS, V_NV, V_LIFT, V_MAG, V_MAG_LIFT, V_FRONT, V_MAT,
-    V_A, V_L, V_COSO, V_SIZE,
+    V_A, V_L, V_COSO,
     C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W,
     C_H, C_JITTER, C_K, C_AX, O_SEED, O_SPP,
     O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK,
     O_GRID, F_CUTOFF, F_BG, F_AMBIENT, N_PRIMARY, N_SECONDARY,
     N_SHADOW, N_NONFINITE, STACK, STACK_ROW, T_INF, DIM_LOBE,
-    ADAPTIVE_KEYS, F_ENV, O_ENV, O_AOV, N_AOV, V_T, _njit, lane_vec, set_lane_vec)
+    ADAPTIVE_KEYS, O_ENV, O_AOV, N_AOV, V_T, _njit, buffer_pointers, geometry_pointers, lane_vec, packet_buffers, release,
+    set_lane_vec, table_pointers)
+from pyrt.integrators.compiled_surface import uniform_face, uniform_surface  # noqa: E402
 from pyrt.integrators.compiled_lighting import (  # noqa: E402
     area_bsdf_sample, area_bsdf_stage, area_light_weight, area_mis_stage, area_stage, area_u, bsdf_stage, direct_light,
     camera_fill, env_hit, env_rounds, lambert_stage, light_stage, shadow_add, shadow_fill)
@@ -233,58 +233,6 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
     return r0, r1, r2
 
 
-@_njit
-def geometry_pointers(geo_f, geo_i):
-    """The geometry tables (:class:`pyrt.integrators.compiled.CompiledScene`'s ``geo_f``, ``geo_i``) as the tuple of
-    pointers :func:`hit_surface` reads: vertices, vertex normals, UVs, face normals, face absmax, face extents
-    (float64), faces, mesh face offsets, face materials, face smooth flags (int64)."""
-    return (U.pointer(geo_f[0]), U.pointer(geo_f[1]), U.pointer(geo_f[2]), U.pointer(geo_f[3]), U.pointer(geo_f[4]),
-            U.pointer(geo_f[5]), U.pointer(geo_i[0]), U.pointer(geo_i[1]), U.pointer(geo_i[2]), U.pointer(geo_i[3]))
-
-
-@_njit
-def packet_buffers(width):
-    """The per-call buffers of a kernel entry: the camera and shadow packets (``width`` lanes), the single-ray
-    buffer, the packet scratch, the specular stack, each lane's key, pixel and sample, its pixel's keys and raster
-    corner. Returned as owners: their pointers come from :func:`buffer_pointers`; :func:`release` at the end of the
-    entry keeps them alive until then."""
-    return (E.packet_alloc(width), E.packet_alloc(width), E.ray_alloc(), np.zeros(V_SIZE * LANES),
-            np.zeros(STACK * STACK_ROW), np.zeros(LANES, dtype=np.uint64), np.zeros(2 * LANES, dtype=np.int64),
-            np.zeros(2 * LANES, dtype=np.uint64), np.zeros(2 * LANES))
-
-
-@_njit
-def buffer_pointers(b):
-    """Pointers into :func:`packet_buffers`' owners: packet, shadow packet, ray, scratch, stack, keys, each lane's
-    pixel and sample, its pixel's sample key and padded-sample seed, its raster corner (x at ``[l]``, y at
-    ``[LANES + l]``)."""
-    return (U.pointer(b[0]), U.pointer(b[1]), U.pointer(b[2]), U.pointer(b[3]), U.pointer(b[4]), U.pointer(b[5]),
-            U.pointer(b[6]), U.pointer(b[6][LANES:]), U.pointer(b[7]), U.pointer(b[7][LANES:]), U.pointer(b[8]))
-
-
-@_njit
-def table_pointers(env_data, cam, opts, optf, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, counters):
-    """Pointers into a kernel entry's array arguments (they outlive its loops): the environment's record (in the
-    float options from :data:`F_ENV`) and data, then the arguments' own in order."""
-    return (U.pointer(optf[F_ENV:]), U.pointer(env_data), U.pointer(cam), U.pointer(opts), U.pointer(optf),
-            U.pointer(mats_tag), U.pointer(mats_par), U.pointer(tex_tag), U.pointer(tex_par), U.pointer(lights_tag),
-            U.pointer(lights_par), U.pointer(counters))
-
-
-@_njit
-def release(b):
-    """The last use of :func:`packet_buffers`' owners (Numba frees an array after its last use)."""
-    keep_alive(b[0])
-    keep_alive(b[1])
-    keep_alive(b[2])
-    keep_alive(b[3])
-    keep_alive(b[4])
-    keep_alive(b[5])
-    keep_alive(b[6])
-    keep_alive(b[7])
-    keep_alive(b[8])
-
-
 @numba.njit(nogil=True, cache=True, error_model="numpy")
 def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, spp, n, w, mats_tag, mats_par, tex_tag,
                  tex_par, lights_tag, lights_par, erec, edata, opts, optf, cnt):
@@ -308,40 +256,52 @@ def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, sp
     E.packet_activate(pk, w, n)
     n_prim += n
     E.packet_query(scene, pk, w, True, False)
-    # the hits' surfaces, albedo and emission (a miss: face 0 computed and dropped)
-    any_diffuse = False
-    lambert = True          # all hits Lambert: the vectorised BSDF stage
-    for lane in range(n):
-        geom, prim = E.packet_geom_prim(pk, w, lane)
-        hit = geom != -1
-        geom, prim = (geom, prim) if hit else (0, 0)
-        u, v = E.packet_uv(pk, w, lane)
-        d = lane_vec(V, V_D, lane)
-        p, ng, ns, nv, lift, mag, mag_lift, front, face, uv = J.hit_surface(
-            G, fallback, terminator, geom, prim, u, v, (-d[0], -d[1], -d[2]))
-        m = fmat[face]
-        mtag = mats_tag[m]
-        albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1])
-        le = emitted(mtag, mats_par, m, albedo, optf, front)
-        any_diffuse = any_diffuse or (hit and MC.has_diffuse(mtag))
-        lambert = lambert and (mtag == MC.LAMBERT or not hit)
-        set_lane_vec(V, V_P, lane, p)
-        set_lane_vec(V, V_NG, lane, ng)
-        set_lane_vec(V, V_NS, lane, ns)
-        set_lane_vec(V, V_NV, lane, nv)
-        if terminator:      # read only with the terminator lift (its stores cost: a packet's loops are store-bound)
-            set_lane_vec(V, V_LIFT, lane, lift)
-            V[V_MAG_LIFT * LANES + lane] = mag_lift
-        set_lane_vec(V, V_A, lane, albedo)
-        if not hit and etag != 0:
-            le = CE.missed(etag, erec, edata, d[0], d[1], d[2], True)
-        set_lane_vec(V, V_L, lane, le if hit or etag != 0 else bg)
-        V[V_MAG * LANES + lane] = mag
-        V[V_FRONT * LANES + lane] = 1.0 if front else 0.0
-        V[V_MAT * LANES + lane] = m if hit else -1
-        V[V_COSO * LANES + lane] = dot((-d[0], -d[1], -d[2]), ns)
-        if want_aovs:
-            V[V_T * LANES + lane] = E.packet_tfar(pk, w, lane) if hit else math.inf
+    # the hits' surfaces, albedo and emission: one vectorised loop when every lane hit one face of a material with a
+    # constant albedo (compiled_surface), else per lane (a miss: face 0 computed and dropped)
+    face_u = uniform_face(G[7], pk, w, n)
+    m_u = fmat[max(face_u, 0)]
+    mtag_u = mats_tag[m_u]
+    uniform = face_u >= 0 and MC.albedo_constant(mtag_u, mats_par, m_u)
+    any_diffuse = uniform and MC.has_diffuse(mtag_u)
+    lambert = uniform and mtag_u == MC.LAMBERT      # all hits Lambert: the vectorised BSDF stage
+    if uniform:
+        albedo = MC.albedo_at(mtag_u, mats_par, m_u, tex_tag, tex_par, 0.0, 0.0)
+        uniform_surface(G, face_u, pk, w, V, n, fallback, terminator, m_u, albedo,
+                        emitted(mtag_u, mats_par, m_u, albedo, optf, True),
+                        emitted(mtag_u, mats_par, m_u, albedo, optf, False))
+    else:
+        lambert = True
+        for lane in range(n):
+            geom, prim = E.packet_geom_prim(pk, w, lane)
+            hit = geom != -1
+            geom, prim = (geom, prim) if hit else (0, 0)
+            u, v = E.packet_uv(pk, w, lane)
+            d = lane_vec(V, V_D, lane)
+            p, ng, ns, nv, lift, mag, mag_lift, front, face, uv = J.hit_surface(
+                G, fallback, terminator, geom, prim, u, v, (-d[0], -d[1], -d[2]))
+            m = fmat[face]
+            mtag = mats_tag[m]
+            albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1])
+            le = emitted(mtag, mats_par, m, albedo, optf, front)
+            any_diffuse = any_diffuse or (hit and MC.has_diffuse(mtag))
+            lambert = lambert and (mtag == MC.LAMBERT or not hit)
+            set_lane_vec(V, V_P, lane, p)
+            set_lane_vec(V, V_NG, lane, ng)
+            set_lane_vec(V, V_NS, lane, ns)
+            set_lane_vec(V, V_NV, lane, nv)
+            if terminator:      # read only with the terminator lift (its stores cost: a packet's loops are store-bound)
+                set_lane_vec(V, V_LIFT, lane, lift)
+                V[V_MAG_LIFT * LANES + lane] = mag_lift
+            set_lane_vec(V, V_A, lane, albedo)
+            if not hit and etag != 0:
+                le = CE.missed(etag, erec, edata, d[0], d[1], d[2], True)
+            set_lane_vec(V, V_L, lane, le if hit or etag != 0 else bg)
+            V[V_MAG * LANES + lane] = mag
+            V[V_FRONT * LANES + lane] = 1.0 if front else 0.0
+            V[V_MAT * LANES + lane] = m if hit else -1
+            V[V_COSO * LANES + lane] = dot((-d[0], -d[1], -d[2]), ns)
+            if want_aovs:
+                V[V_T * LANES + lane] = E.packet_tfar(pk, w, lane) if hit else math.inf
     # direct light: per light, the packet's shadow rays (geometry, then the BSDF) in one masked query
     pair = 0                # the padded dimension pairs of the area lights' samples
     for j in range(nl if any_diffuse else 0):
@@ -482,7 +442,16 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
     cur_key, cur_k32 = J.pixel_key(seed, cur_pix), JS.hash32_2(seed, cur_pix)
     for t0 in range(0, n_items, w):
         n = min(w, n_items - t0)
-        for lane in range(n):               # each lane's pixel and sample (counters: no division)
+        first = 0
+        if cur_s + n <= spp:                # one pixel's samples: all but the last lane in a loop without branches
+            xf, yf = float(x0 + cur_x), float(y0 + cur_y)
+            for lane in range(n - 1):
+                lane_pix[lane], lane_s[lane] = cur_pix, cur_s + lane
+                lane_xy[lane], lane_xy[LANES + lane] = xf, yf
+                lane_key[lane], lane_k32[lane] = cur_key, cur_k32
+            cur_s += n - 1
+            first = n - 1
+        for lane in range(first, n):        # each lane's pixel and sample (counters: no division)
             lane_pix[lane], lane_s[lane] = cur_pix, cur_s
             lane_xy[lane], lane_xy[LANES + lane] = float(x0 + cur_x), float(y0 + cur_y)
             lane_key[lane], lane_k32[lane] = cur_key, cur_k32

@@ -1,5 +1,5 @@
 """The compiled tile kernel's data layout: the per-packet scratch, the camera record, the option arrays, the
-specular stack, random dimensions, and the decorators of its functions (:mod:`pyrt.integrators.compiled_kernel`,
+specular stack, random dimensions, the per-call buffers and table pointers, and the decorators of its functions (:mod:`pyrt.integrators.compiled_kernel`,
 :mod:`pyrt.integrators.compiled_lighting`)."""
 from __future__ import annotations
 
@@ -8,6 +8,12 @@ import numba
 from pyrt.integrators import kernel_cache
 
 kernel_cache.use_cache_dir()      # before the decorators below (and those of the modules they inline) run
+
+import numpy as np  # noqa: E402
+
+from pyrt.core import unmanaged as U  # noqa: E402
+from pyrt.core.unmanaged import keep_alive  # noqa: E402
+from pyrt.geometry import embree_jit as E  # noqa: E402
 
 #: pixels per tile side
 TILE = 8
@@ -86,6 +92,60 @@ def set_lane_vec(V, field, lane, x):
     V[field * LANES + lane] = x[0]
     V[(field + 1) * LANES + lane] = x[1]
     V[(field + 2) * LANES + lane] = x[2]
+
+
+# ----------------------------------------------------------------------------------------- buffers
+
+@_njit
+def geometry_pointers(geo_f, geo_i):
+    """The geometry tables (:class:`pyrt.integrators.compiled.CompiledScene`'s ``geo_f``, ``geo_i``) as the tuple of
+    pointers :func:`hit_surface` reads: vertices, vertex normals, UVs, face normals, face absmax, face extents
+    (float64), faces, mesh face offsets, face materials, face smooth flags (int64)."""
+    return (U.pointer(geo_f[0]), U.pointer(geo_f[1]), U.pointer(geo_f[2]), U.pointer(geo_f[3]), U.pointer(geo_f[4]),
+            U.pointer(geo_f[5]), U.pointer(geo_i[0]), U.pointer(geo_i[1]), U.pointer(geo_i[2]), U.pointer(geo_i[3]))
+
+
+@_njit
+def packet_buffers(width):
+    """The per-call buffers of a kernel entry: the camera and shadow packets (``width`` lanes), the single-ray
+    buffer, the packet scratch, the specular stack, each lane's key, pixel and sample, its pixel's keys and raster
+    corner. Returned as owners: their pointers come from :func:`buffer_pointers`; :func:`release` at the end of the
+    entry keeps them alive until then."""
+    return (E.packet_alloc(width), E.packet_alloc(width), E.ray_alloc(), np.zeros(V_SIZE * LANES),
+            np.zeros(STACK * STACK_ROW), np.zeros(LANES, dtype=np.uint64), np.zeros(2 * LANES, dtype=np.int64),
+            np.zeros(2 * LANES, dtype=np.uint64), np.zeros(2 * LANES))
+
+
+@_njit
+def buffer_pointers(b):
+    """Pointers into :func:`packet_buffers`' owners: packet, shadow packet, ray, scratch, stack, keys, each lane's
+    pixel and sample, its pixel's sample key and padded-sample seed, its raster corner (x at ``[l]``, y at
+    ``[LANES + l]``)."""
+    return (U.pointer(b[0]), U.pointer(b[1]), U.pointer(b[2]), U.pointer(b[3]), U.pointer(b[4]), U.pointer(b[5]),
+            U.pointer(b[6]), U.pointer(b[6][LANES:]), U.pointer(b[7]), U.pointer(b[7][LANES:]), U.pointer(b[8]))
+
+
+@_njit
+def table_pointers(env_data, cam, opts, optf, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, counters):
+    """Pointers into a kernel entry's array arguments (they outlive its loops): the environment's record (in the
+    float options from :data:`F_ENV`) and data, then the arguments' own in order."""
+    return (U.pointer(optf[F_ENV:]), U.pointer(env_data), U.pointer(cam), U.pointer(opts), U.pointer(optf),
+            U.pointer(mats_tag), U.pointer(mats_par), U.pointer(tex_tag), U.pointer(tex_par), U.pointer(lights_tag),
+            U.pointer(lights_par), U.pointer(counters))
+
+
+@_njit
+def release(b):
+    """The last use of :func:`packet_buffers`' owners (Numba frees an array after its last use)."""
+    keep_alive(b[0])
+    keep_alive(b[1])
+    keep_alive(b[2])
+    keep_alive(b[3])
+    keep_alive(b[4])
+    keep_alive(b[5])
+    keep_alive(b[6])
+    keep_alive(b[7])
+    keep_alive(b[8])
 
 
 kernel_cache.restore()

@@ -150,6 +150,12 @@ def emission(tag, pars, m, front):
 
 
 @register_jitable(inline="always")
+def albedo_constant(tag, pars, m):
+    """True where :func:`albedo_at` of material ``m`` does not depend on the uv (no texture in its colour slot)."""
+    return not (tag == LAMBERT or tag == BLINN_PHONG or CONDUCTOR <= tag <= METALLIC_ROUGHNESS) or pars[m * RECORD] < 0.0
+
+
+@register_jitable(inline="always")
 def albedo_at(tag, pars, m, tex_tag, tex_par, u, v):
     """The diffuse colour (Lambert albedo, Blinn-Phong kd, the library models' constant ``albedo()``; an RGB tuple)
     of material ``m`` at uv ``(u, v)``; zeros for the others."""
