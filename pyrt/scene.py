@@ -280,8 +280,11 @@ class Scene:
                 or not 0 <= subdivisions <= MAX_SUBDIVISIONS):
             raise SceneError(f"{who}: subdivisions must be an integer in 0..{MAX_SUBDIVISIONS}, got {subdivisions!r}")
         import trimesh
-        m = trimesh.creation.icosphere(subdivisions=int(subdivisions), radius=radius)
-        return self.add_mesh(m, material, transform=transform_matrix(translate=center), smooth=smooth, name=name)
+        # a unit icosphere scaled by the transform: trimesh's own radius= renormalises per level and a tiny radius
+        # (1e-30) came out as NaN vertices (with a RuntimeWarning from trimesh)
+        m = trimesh.creation.icosphere(subdivisions=int(subdivisions), radius=1.0)
+        return self.add_mesh(m, material, transform=transform_matrix(translate=center, scale=radius), smooth=smooth,
+                             name=name)
 
     def add_box(self, center, extents, material, *, name=None):
         """An axis-aligned box of ``extents`` (3 finite numbers > 0, or one for a cube) centred at ``center``

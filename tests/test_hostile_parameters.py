@@ -201,3 +201,18 @@ def test_scene_file_errors_are_one_line_naming_the_table(tmp_path, capsys, mater
     assert err.startswith("pyrt: error: ") and len(err.splitlines()) == 1, err
     assert re.search(message, err), err
     assert not (tmp_path / "o.png").exists()
+
+
+def test_a_tiny_sphere_has_finite_vertices_and_no_warning(tmp_path, recwarn):
+    """trimesh's icosphere(radius=1e-30) renormalised to NaN (a RuntimeWarning from trimesh, then "non-finite vertex
+    coordinates"): spheres are unit icospheres scaled, in the API and in scene files."""
+    scene = _scene()
+    k = scene.add_sphere((0, 0.5, 0), 1e-30, pyrt.Lambert())
+    v = scene.meshes[k].vertices
+    assert np.all(np.isfinite(v)) and 0 < np.abs(v - [0, 0.5, 0]).max() <= 1.1e-30
+    f = tmp_path / "s.toml"
+    f.write_text(SCENE.format(material='type = "lambert"', lights='[[meshes]]\nprimitive = "sphere"\nradius = 1e-30\n'
+                                                                  'material = "m"'))
+    loaded, _ = pyrt.load_scene(str(f))
+    assert all(np.all(np.isfinite(m.vertices)) for m in loaded.meshes)
+    assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)]

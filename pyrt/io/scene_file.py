@@ -245,8 +245,10 @@ def _primitive(kind, params, where, path):
         if sub > MAX_SUBDIVISIONS:
             raise SceneFileError(f"{path}: {where}: subdivisions must be at most {MAX_SUBDIVISIONS} "
                                  f"({20 * 4 ** MAX_SUBDIVISIONS} triangles), got {sub!r}")
-        return trimesh.creation.icosphere(subdivisions=int(sub),
-                                          radius=_positive(params, "radius", 1.0, where, path)), True
+        radius = _positive(params, "radius", 1.0, where, path)
+        m = trimesh.creation.icosphere(subdivisions=int(sub), radius=1.0)     # scaled here: trimesh's radius= gave
+        m.apply_scale(radius)                                                 # NaN vertices for a tiny radius
+        return m, True
     if kind == "box":
         ext = checks.numbers_array(f"{path}: {where}", "extents", params.get("extents", (1.0, 1.0, 1.0)),
                                    SceneFileError)
