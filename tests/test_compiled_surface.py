@@ -1,7 +1,8 @@
-"""pyrt.integrators.compiled_surface: the vectorised stage for packets whose camera rays all hit one triangle gives bit
-for bit the scalar :func:`pyrt.shaders.jit.hit_surface` (the kernel's other packets and the specular tree's single
-rays) on real Embree hits: smooth and flat triangles, front and back faces, with and without the shading-normal
-fallback and the terminator lift; and :func:`uniform_face` finds such packets (and only those)."""
+"""pyrt.integrators.compiled_surface: the vectorised pass over a packet's lanes on one triangle gives bit for bit the
+scalar :func:`pyrt.shaders.jit.hit_surface` (the kernel's other packets and the specular tree's single rays) on real
+Embree hits: smooth and flat triangles, front and back faces, with and without the shading-normal fallback and the
+terminator lift; :func:`packet_faces` counts a packet's triangles and misses. (Packets of several triangles, through
+the kernel: tests/test_compiled_render.py.)"""
 import numba
 import numpy as np
 import pytest
@@ -13,8 +14,13 @@ from pyrt.integrators.compiled import CompiledScene
 from pyrt.integrators.compiled_layout import (
     LANES, V_D, V_P, V_NG, V_NS, V_NV, V_LIFT, V_MAG, V_MAG_LIFT, V_FRONT, V_MAT, V_A, V_L, V_COSO, V_T, V_SIZE,
     T_INF, geometry_pointers)
-from pyrt.integrators.compiled_surface import uniform_face, uniform_surface
+from pyrt.integrators.compiled_surface import MAX_FACES, packet_faces, uniform_surface
+from pyrt.integrators import kernel_cache
 from pyrt.shaders import jit as J
+
+# this module's kernels are cached with the render kernels, keyed on their sources' hash: Numba's own cache key is
+# this file alone and would keep the kernel code it compiled in after an edit of the kernel's modules
+kernel_cache.use_cache_dir()
 
 #: the scratch fields the stage writes, in the order :func:`_packets` compares them
 FIELDS = (V_P, V_P + 1, V_P + 2, V_NG, V_NG + 1, V_NG + 2, V_NS, V_NS + 1, V_NS + 2, V_NV, V_NV + 1, V_NV + 2,
@@ -43,11 +49,14 @@ def _packets(scene, geo_f, geo_i, o, d, fallback, terminator):
             V[V_D * LANES + lane], V[(V_D + 1) * LANES + lane], V[(V_D + 2) * LANES + lane] = d[b + lane]
         E.packet_activate(pk, LANES, LANES)
         E.packet_query(scene, pk, LANES, True, False)
-        face = uniform_face(U.pointer(geo_i[1]), pk, LANES, LANES)
-        faces[b // LANES] = face
-        if face < 0:
+        k, geoms, prims, misses = packet_faces(pk, LANES, LANES)
+        if k != 1 or misses > 0:
             continue
-        uniform_surface(G, face, pk, LANES, Vp, LANES, fallback, terminator, MAT, ALBEDO, LE_FRONT, LE_BACK)
+        face = geo_i[1][geoms[0], 0] + prims[0]
+        faces[b // LANES] = face
+        # masked as for a packet of several faces: every lane is on it, so every lane is written
+        uniform_surface(G, face, geoms[0], prims[0], True, pk, LANES, Vp, LANES, fallback, terminator, MAT, ALBEDO,
+                        LE_FRONT, LE_BACK)
         for lane in range(LANES):
             for k in range(len(FIELDS)):
                 got[b + lane, k] = V[FIELDS[k] * LANES + lane]
@@ -104,12 +113,41 @@ def test_uniform_surface_is_hit_surface_bit_for_bit(fallback, terminator):
     assert np.array_equal(got[rows].view(np.int64), want[rows].view(np.int64))
 
 
-def test_uniform_face_refuses_misses_and_mixed_packets():
+@numba.njit(cache=True)
+def _faces_of(scene, o, d):
+    """packet_faces of one packet of 16 rays (rows of ``d``) from ``o``."""
+    owner = E.packet_alloc(LANES)
+    pk = U.pointer(owner)
+    E.packet_prepare(pk, LANES, o[0], o[1], o[2])
+    for lane in range(LANES):
+        E.packet_set_dir(pk, LANES, lane, d[lane, 0], d[lane, 1], d[lane, 2], T_INF)
+    E.packet_activate(pk, LANES, LANES)
+    E.packet_query(scene, pk, LANES, True, False)
+    r = packet_faces(pk, LANES, LANES)
+    U.keep_alive(owner)
+    return r
+
+
+def test_packet_faces_counts_triangles_and_misses():
     ps = pyrt.PreparedScene(_scene(True))
     cs = CompiledScene(ps)
     o = np.array([0.0, 1.0, 3.0])
     up = np.tile([0.0, 1.0, 0.0], (LANES, 1))                 # all miss
-    mixed = np.tile([0.0, -0.3, -1.0], (LANES, 1))
-    mixed[-1] = (0.0, 1.0, 0.0)                               # one lane misses
-    _, _, faces = _packets(cs.scene, cs.geo_f, cs.geo_i, o, np.vstack([up, mixed]), True, False)
-    assert faces.tolist() == [-1, -1]
+    assert packet_faces_of(cs, o, up)[::3] == (0, LANES)
+    one = np.tile([0.0, -0.3, -1.0], (LANES, 1))
+    one /= np.linalg.norm(one, axis=1, keepdims=True)
+    one[-1] = (0.0, 1.0, 0.0)                                 # one lane misses
+    k, geoms, prims, misses = packet_faces_of(cs, o, one)
+    assert (k, misses) == (1, 1) and geoms[1:] == (-1, -1)
+    pts = np.column_stack([np.linspace(-0.9, -0.1, LANES), np.full(LANES, 0.5), np.full(LANES, 0.3)])
+    fan = pts - o                                           # across the coarse sphere: more triangles than MAX_FACES
+    fan /= np.linalg.norm(fan, axis=1, keepdims=True)
+    assert packet_faces_of(cs, o, fan)[0] == MAX_FACES + 1
+
+
+kernel_cache.restore()
+
+
+def packet_faces_of(cs, o, d):
+    k, geoms, prims, misses = _faces_of(cs.scene, o, d)
+    return int(k), tuple(int(g) for g in geoms), tuple(int(p) for p in prims), int(misses)

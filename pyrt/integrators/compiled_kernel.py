@@ -39,11 +39,11 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W,
     C_H, C_JITTER, C_K, C_AX, O_SEED, O_SPP,
     O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK,
-    O_GRID, F_CUTOFF, F_BG, F_AMBIENT, N_PRIMARY, N_SECONDARY,
+    O_GRID, F_CUTOFF, F_BG, N_PRIMARY, N_SECONDARY,
     N_SHADOW, N_NONFINITE, STACK, STACK_ROW, T_INF, DIM_LOBE,
     ADAPTIVE_KEYS, O_ENV, O_AOV, N_AOV, V_T, _njit, buffer_pointers, geometry_pointers, lane_vec, packet_buffers, release,
     set_lane_vec, table_pointers)
-from pyrt.integrators.compiled_surface import uniform_face, uniform_surface  # noqa: E402
+from pyrt.integrators.compiled_surface import emitted, face_surfaces  # noqa: E402
 from pyrt.integrators.compiled_lighting import (  # noqa: E402
     area_bsdf_sample, area_bsdf_stage, area_light_weight, area_mis_stage, area_stage, area_u, bsdf_stage, direct_light,
     camera_fill, env_hit, env_rounds, lambert_stage, light_stage, shadow_add, shadow_fill)
@@ -66,17 +66,6 @@ def camera_dir(cam, x, y):
     return (inv * (cam[C_FWD] + sx * cam[C_RIGHT] + sy * cam[C_UP]),
             inv * (cam[C_FWD + 1] + sx * cam[C_RIGHT + 1] + sy * cam[C_UP + 1]),
             inv * (cam[C_FWD + 2] + sx * cam[C_RIGHT + 2] + sy * cam[C_UP + 2]))
-
-
-@_njit
-def emitted(mtag, mpars, m, albedo, optf, front):
-    """Emission and ambient light at a hit of material ``m`` (the Whitted integrator's per-material pass), seen
-    from the front (``front``) or the back."""
-    e = MC.emission(mtag, mpars, m, front)
-    if MC.has_diffuse(mtag):
-        return (e[0] + albedo[0] * optf[F_AMBIENT], e[1] + albedo[1] * optf[F_AMBIENT + 1],
-                e[2] + albedo[2] * optf[F_AMBIENT + 2])
-    return e
 
 
 @_njit
@@ -256,20 +245,12 @@ def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, sp
     E.packet_activate(pk, w, n)
     n_prim += n
     E.packet_query(scene, pk, w, True, False)
-    # the hits' surfaces, albedo and emission: one vectorised loop when every lane hit one face of a material with a
-    # constant albedo (compiled_surface), else per lane (a miss: face 0 computed and dropped)
-    face_u = uniform_face(G[7], pk, w, n)
-    m_u = fmat[max(face_u, 0)]
-    mtag_u = mats_tag[m_u]
-    uniform = face_u >= 0 and MC.albedo_constant(mtag_u, mats_par, m_u)
-    any_diffuse = uniform and MC.has_diffuse(mtag_u)
-    lambert = uniform and mtag_u == MC.LAMBERT      # all hits Lambert: the vectorised BSDF stage
-    if uniform:
-        albedo = MC.albedo_at(mtag_u, mats_par, m_u, tex_tag, tex_par, 0.0, 0.0)
-        uniform_surface(G, face_u, pk, w, V, n, fallback, terminator, m_u, albedo,
-                        emitted(mtag_u, mats_par, m_u, albedo, optf, True),
-                        emitted(mtag_u, mats_par, m_u, albedo, optf, False))
-    else:
+    # the hits' surfaces, albedo and emission: vectorised passes when the lanes hit at most a few triangles of
+    # constant-albedo materials (compiled_surface), else lane by lane (a miss: face 0 computed and dropped)
+    by_face, any_diffuse, lambert = face_surfaces(G, mats_tag, mats_par, tex_tag, tex_par, optf, pk, w, V, n,
+                                                  fallback, terminator, etag, erec, edata)
+    if not by_face:
+        any_diffuse = False
         lambert = True
         for lane in range(n):
             geom, prim = E.packet_geom_prim(pk, w, lane)
