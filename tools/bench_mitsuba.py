@@ -89,7 +89,6 @@ import numpy as np
 
 import pyrt
 from pyrt.core.metrics import relmse
-from pyrt.render.adaptive import render_adaptive
 
 import _mitsuba_scenes as ms  # noqa: E402  (tools/_mitsuba_scenes.py)
 from bench import replay_batches, replay_seconds  # noqa: E402  (tools/bench.py: Embree alone on recorded rays)
@@ -191,11 +190,10 @@ class PyrtRunner:
         and replayed through the same binding and thread pool (tools/bench.py): ``(median seconds of ``repeats``
         replays, number of rays)``. No shading, no film, no Python between queries: what the render would cost if
         everything but the ray queries were free."""
-        kw = dict(seed=seed, prepared=self.prepared, progress=False, record_rays=True, **ms.PYRT_OPTIONS)
-        if target_error is None:
-            res = pyrt.render_full(self.scene, spp=spp, **kw)
-        else:
-            res = render_adaptive(self.scene, target_error=target_error, time_budget=600.0, max_spp=4096, **kw)
+        sampling = (pyrt.Sampling(spp=spp) if target_error is None else
+                    pyrt.Sampling(target_error=target_error, time_budget=600.0, max_spp=4096))
+        res = pyrt.render_full(self.scene, seed=seed, sampling=sampling, output=pyrt.Output(record_rays=True),
+                               execution=pyrt.Execution(prepared=self.prepared, progress=False), **ms.PYRT_OPTIONS)
         merged = replay_batches(res.stats.recorded)
         res.stats.recorded = []
         rays = int(sum(o.shape[0] for o, _d, _t in merged.values()))
