@@ -39,6 +39,7 @@ from pyrt.lights import compiled as LC
 from pyrt.lights import compiled_env
 from pyrt.materials import compiled as MC
 from pyrt.textures import compiled as TC
+from pyrt.textures.normal_map import NormalMap
 
 #: ``backend=`` values of :func:`pyrt.render_full`
 BACKENDS = ("auto", "compiled", "numpy")
@@ -49,7 +50,7 @@ _announced = []
 
 
 def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=False, light_select_depth=None,
-                record_rays=False, scene=None, roulette=False):
+                record_rays=False, scene=None, roulette=False, sampler="padded"):
     """The reasons (strings) the compiled kernel cannot render the prepared scene ``ps`` with these options; an
     empty list when it can. The options are those of :func:`pyrt.render_full`. ``ps`` None and ``scene`` given: the
     same decision from the scene alone (what a Dask client decides before its workers prepare the scene; the
@@ -62,6 +63,8 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
         reasons.append(f"integrator {integrator!r}")
     if roulette:
         reasons.append("Russian roulette below throughput_cutoff (roulette=True)")
+    if sampler != "padded":
+        reasons.append(f"sampler {sampler!r} (the kernel's light samples are padded)")
     if not (offset is None or isinstance(offset, str) and offset in OFFSETS):
         reasons.append(f"offset strategy {offset!r}")
     if transparent_shadows and np.any(facts.dielectric):
@@ -78,14 +81,16 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
         reasons.append("nested dielectrics or absorption")
     if (ps.face_gouraud is not None) if ps is not None else facts.gouraud:
         reasons.append("Gouraud shading")
-    if facts.has_normal_maps:
-        reasons.append("normal maps")
+    if facts.has_normal_maps and ((ps.geo.tangent_frames is not None) if ps is not None else facts.vertex_tangents):
+        reasons.append("normal maps on meshes with vertex tangents")
     if ps is not None and ps.accel.buffers != "shared":
         reasons.append("no Embree scene handle (the binding's copied buffers)")
     textures = _TexturePacker()
     for m in scene.materials:
         if m.compiled_record(textures.add) is None:
             reasons.append(f"material {m.label}")
+        elif m.normal_map is not None and textures.add(m.normal_map) is None:
+            reasons.append(f"normal map of material {m.label}")
     for lt in scene.lights:
         if lt.compiled_record() is None or (lt.delta and lt.n_samples != 1):
             reasons.append(f"light {lt.label}")
@@ -106,6 +111,7 @@ class _SceneFacts:
         self.media = NestedMedia.for_scene(mats)
         self.gouraud = bool(scene.gouraud_meshes)
         self.has_normal_maps = any(m.normal_map is not None for m in mats)
+        self.vertex_tangents = any(m.tangents is not None for m in scene.meshes)
 
 
 class _TexturePacker:
@@ -162,8 +168,14 @@ class CompiledScene:
         self.fallback = ps.geo.shading_normal_fallback
         textures = _TexturePacker()
         mats = [m.compiled_record(textures.add) for m in ps.scene.materials]
+        for m, (_, rec) in zip(ps.scene.materials, mats):
+            if m.normal_map is not None:
+                rec[MC.NORMAL_MAP:MC.NORMAL_MAP + 4] = normal_map_fields(m.normal_map, textures.add(m.normal_map))
         self.materials = _table([t for t, _ in mats], [r for _, r in mats], MC.RECORD)
         self.textures = TC.pack_table(textures.tags, textures.records, textures.texels)
+        #: whether the rays carry differentials (a texture reads footprints), whether a material has a normal map
+        self.diffs = any(t == TC.MIP for t in textures.tags)
+        self.normal_maps = any(m.normal_map is not None for m in ps.scene.materials)
         lights = [lt.compiled_record() for lt in ps.scene.lights]
         self.lights = _table([t for t, _ in lights], [r for _, r in lights], LC.RECORD)
         self.n_lights = len(lights)
@@ -178,6 +190,14 @@ class CompiledScene:
         self.scene = embree_jit.scene_handle(ps.accel)
         #: the prepared scene whose Embree scene ``scene`` is (kept alive while these tables are in use)
         self.prepared = ps
+
+
+def normal_map_fields(normal_map, row):
+    """A material record's :data:`pyrt.materials.compiled.NORMAL_MAP` fields for its normal map, the texture table's
+    row ``row``: ``row + 1``, strength, flip green, bend (a texture other than :class:`pyrt.NormalMap`: the class
+    defaults, as :func:`pyrt.textures.normal_map.perturb_normal`)."""
+    nm = normal_map if isinstance(normal_map, NormalMap) else NormalMap
+    return [row + 1.0, nm.strength, 1.0 if nm.flip_green else 0.0, 1.0 if nm.reflection == "bend" else 0.0]
 
 
 def camera_record(cam):
@@ -287,14 +307,16 @@ def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_dept
     return sums, sqs, counters.sum(axis=0), done
 
 
-def render_pixels(cs, cam, P, C, base, *, seed, max_depth, throughput_cutoff, split_depth, terminator):
+def render_pixels(cs, cam, P, C, base, spp_after, *, seed, max_depth, throughput_cutoff, split_depth, terminator):
     """One chunk of an adaptive pass on the compiled kernel (:func:`pyrt.integrators.compiled_kernel.render_pixels`):
     pixels ``P`` with ``C`` (even) new samples each, half to A and half to B, each half's sequence continued at
-    ``base`` (samples per half so far). Returns ``(sums of A + B (k, 3), sums of B (k, 3), counters (4,))``, a
+    ``base`` (samples per half so far); ``spp_after`` (samples per pixel after the pass) scales the ray
+    differentials (:meth:`pyrt.core.camera.Camera.rays_at`). Returns ``(sums of A + B (k, 3), sums of B (k, 3), counters (4,))``, a
     non-finite sample zeroed and counted. Runs on the calling thread (no GIL held: a pool of threads runs the
     pass's chunks side by side)."""
     opts, optf = _options(cs, 0, seed, max_depth, throughput_cutoff, split_depth, terminator)
     P, C, base = (np.ascontiguousarray(a, dtype=np.int64) for a in (P, C, base))
+    dscale = np.maximum(0.125, 1.0 / np.sqrt(np.asarray(spp_after, dtype=np.float64)))
     both, half_b = np.zeros((P.size, 3)), np.zeros((P.size, 3))
     counters = np.zeros(4, dtype=np.int64)
     announce_compile()
@@ -302,7 +324,7 @@ def render_pixels(cs, cam, P, C, base, *, seed, max_depth, throughput_cutoff, sp
         warnings.simplefilter("ignore", NumbaIRAssumptionWarning)     # (as in render_fixed)
         K.render_pixels(cs.scene, camera_record(cam), cs.geo_f, cs.geo_i, cs.materials[0], cs.materials[1],
                         cs.textures[0], cs.textures[1], cs.lights[0], cs.lights[1], cs.env_data, opts, optf, P, C,
-                        base, both, half_b, counters, packet_width())
+                        base, dscale, both, half_b, counters, packet_width())
     return both, half_b, counters
 
 
@@ -321,6 +343,8 @@ def _options(cs, spp, seed, max_depth, throughput_cutoff, split_depth, terminato
     grid = int(round(spp ** 0.5))
     opts[KL.O_GRID] = grid if grid * grid == spp else 0
     opts[KL.O_ENV] = cs.env_tag
+    opts[KL.O_DIFFS] = 1 if cs.diffs else 0
+    opts[KL.O_NMAPS] = 1 if cs.normal_maps else 0
     optf = np.zeros(KL.F_ENV + compiled_env.RECORD)
     optf[KL.F_ENV:] = cs.env_record
     optf[KL.F_CUTOFF] = throughput_cutoff

@@ -41,8 +41,9 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK,
     O_GRID, F_CUTOFF, F_BG, N_PRIMARY, N_SECONDARY,
     N_SHADOW, N_NONFINITE, STACK, STACK_ROW, T_INF, DIM_LOBE,
-    ADAPTIVE_KEYS, O_ENV, O_AOV, N_AOV, V_T, _njit, buffer_pointers, geometry_pointers, lane_vec, packet_buffers, release,
-    set_lane_vec, table_pointers)
+    ADAPTIVE_KEYS, O_ENV, O_AOV, N_AOV, V_T, O_DIFFS, _njit, buffer_pointers, geometry_pointers, lane_vec,
+    packet_buffers, release, set_lane_vec, table_pointers)
+from pyrt.integrators import compiled_diffs as D  # noqa: E402
 from pyrt.integrators.compiled_surface import emitted, face_surfaces  # noqa: E402
 from pyrt.integrators.compiled_lighting import (  # noqa: E402
     area_bsdf_sample, area_bsdf_stage, area_light_weight, area_mis_stage, area_stage, area_u, bsdf_stage, direct_light,
@@ -69,7 +70,7 @@ def camera_dir(cam, x, y):
 
 
 @_njit
-def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, thr, depth, split, cutoff, key, dim, stack, top):
+def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, thr, depth, split, cutoff, key, dim, stack, top, V, lane, diffs):
     """Push the delta lobes of a hit of material ``m`` (reached with throughput ``thr``, a 3-tuple, at bounce
     ``depth``) onto ``stack`` (rows: origin, direction, throughput, depth) from row ``top``; returns ``(top, dim)``
     (:meth:`pyrt.integrators.whitted.Integrator._spawn_specular`: mirror reflections the shading normal sends below
@@ -84,7 +85,7 @@ def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, thr, depth, split, cutoff, 
         w = MC.mirror_weight(mtag, mpars, m, cos_o)
         t = (thr[0] * w[0], thr[1] * w[1], thr[2] * w[2])
         if max(t[0], t[1], t[2]) > cutoff and top < STACK:
-            top = _push(p, ng, mag, stack, top, wr, t, depth + 1)
+            top = _push(p, ng, mag, stack, top, wr, t, depth + 1, V, lane, diffs, ns, wo, 0.0)
         return top, dim
     # glass
     eta = mpars[mb] if front else 1.0 / mpars[mb]
@@ -115,18 +116,18 @@ def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, thr, depth, split, cutoff, 
             wR, wT = 0.0, 0.0
     t = (thr[0] * mpars[mb + 1] * wR, thr[1] * mpars[mb + 2] * wR, thr[2] * mpars[mb + 3] * wR)
     if max(t[0], t[1], t[2]) > cutoff and top < STACK:
-        top = _push(p, ng, mag, stack, top, wr, t, depth + 1)
+        top = _push(p, ng, mag, stack, top, wr, t, depth + 1, V, lane, diffs, ns, wo, 0.0)
     if T > 0.0:
         t = (thr[0] * mpars[mb + 1] * wT, thr[1] * mpars[mb + 2] * wT, thr[2] * mpars[mb + 3] * wT)
         if max(t[0], t[1], t[2]) > cutoff and top < STACK:
-            top = _push(p, ng, mag, stack, top, wt, t, depth + 1)
+            top = _push(p, ng, mag, stack, top, wt, t, depth + 1, V, lane, diffs, ns, wo, eta)
     return top, dim
 
 
 @_njit
-def _push(p, ng, mag, stack, top, d, thr, depth):
+def _push(p, ng, mag, stack, top, d, thr, depth, V, lane, diffs, ns, wo, eta):
     """One spawned ray from the hit at ``p`` on the stack: direction normalised, origin offset to the side it leaves
-    toward."""
+    toward; with ``diffs`` its differentials from lane ``lane`` of ``V`` (``eta`` 0: a reflection, else refraction)."""
     d0, d1, d2 = d
     ln = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
     if ln > 0.0:
@@ -137,15 +138,17 @@ def _push(p, ng, mag, stack, top, d, thr, depth):
     stack[row + 3], stack[row + 4], stack[row + 5] = d0, d1, d2
     stack[row + 6], stack[row + 7], stack[row + 8] = thr
     stack[row + 9] = depth
+    D.push_ray(stack, row, V, lane, diffs, p, ns, wo, (d0, d1, d2), eta)
     return top + 1
 
 
 @numba.njit(nogil=True, cache=True, error_model="numpy")
 def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, erec, edata, opts, optf, key,
-                dim, stack, top, ray_buf, counters, r0, r1, r2):
+                dim, stack, top, ray_buf, counters, r0, r1, r2, V, lane):
     """Trace the specular rays on ``stack`` (and those they spawn) with single-ray queries: the deeper bounces of
-    one camera sample; returns the radiance ``(r0, r1, r2)`` plus theirs. Everything per ray is local; every table,
-    the stack and the ray buffer are pointers (:func:`pyrt.core.unmanaged.pointer`)."""
+    one camera sample (lane ``lane`` of ``V``); returns the radiance ``(r0, r1, r2)`` plus theirs. Everything per ray
+    is local; every table, the stack and the ray buffer are pointers (:func:`pyrt.core.unmanaged.pointer`)."""
+    diffs = opts[O_DIFFS] != 0
     fallback = opts[O_FALLBACK] != 0
     terminator = opts[O_TERMINATOR] != 0
     split, cutoff, max_depth, nl = opts[O_SPLIT], optf[F_CUTOFF], opts[O_MAX_DEPTH], opts[O_NLIGHTS]
@@ -157,6 +160,7 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
         thr = (stack[row + 6], stack[row + 7], stack[row + 8])
         depth = int(stack[row + 9])
         d0, d1, d2 = stack[row + 3], stack[row + 4], stack[row + 5]
+        D.load_ray(stack, row, V, lane, diffs)
         n_sec += 1
         hit, _, prim, geom, u, v, _, _, _ = E.intersect1(scene, stack[row], stack[row + 1], stack[row + 2], d0, d1,
                                                          d2, 0.0, T_INF, ray_buf)
@@ -172,7 +176,7 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
                                                                           wo)
         m = G[8][face]
         mtag = mats_tag[m]
-        albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1])
+        albedo, ns = D.hit_inputs(G, V, lane, opts, face, p, ng, ns, wo, front, uv, mtag, mats_par, m, tex_tag, tex_par)
         le0, le1, le2 = emitted(mtag, mats_par, m, albedo, optf, front)
         if MC.has_diffuse(mtag):
             hkey = J.sample_key(key, n_sec)          # this hit's random numbers (the area lights' samples)
@@ -216,7 +220,7 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
         r2 += thr[2] * le2
         if depth < max_depth and MC.has_delta(mtag):
             top, dim = spawn(p, ng, ns, wo, front, mag, mtag, mats_par, m, thr, depth, split, cutoff, key, dim,
-                             stack, top)
+                             stack, top, V, lane, diffs)
     counters[N_SECONDARY] += n_sec
     counters[N_SHADOW] += n_sh
     return r0, r1, r2
@@ -247,8 +251,9 @@ def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, sp
     E.packet_query(scene, pk, w, True, False)
     # the hits' surfaces, albedo and emission: vectorised passes when the lanes hit at most a few triangles of
     # constant-albedo materials (compiled_surface), else lane by lane (a miss: face 0 computed and dropped)
-    by_face, any_diffuse, lambert = face_surfaces(G, mats_tag, mats_par, tex_tag, tex_par, optf, pk, w, V, n,
-                                                  fallback, terminator, etag, erec, edata)
+    # (not with differentials: the lane-by-lane loop computes them)
+    by_face, any_diffuse, lambert = (False, False, False) if opts[O_DIFFS] != 0 else face_surfaces(
+        G, mats_tag, mats_par, tex_tag, tex_par, optf, pk, w, V, n, fallback, terminator, etag, erec, edata)
     if not by_face:
         any_diffuse = False
         lambert = True
@@ -262,7 +267,8 @@ def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, sp
                 G, fallback, terminator, geom, prim, u, v, (-d[0], -d[1], -d[2]))
             m = fmat[face]
             mtag = mats_tag[m]
-            albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1])
+            albedo, ns = D.hit_inputs(G, V, lane, opts, face, p, ng, ns, (-d[0], -d[1], -d[2]), front, uv, mtag,
+                                      mats_par, m, tex_tag, tex_par)
             le = emitted(mtag, mats_par, m, albedo, optf, front)
             any_diffuse = any_diffuse or (hit and MC.has_diffuse(mtag))
             lambert = lambert and (mtag == MC.LAMBERT or not hit)
@@ -330,11 +336,11 @@ def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, sp
             top, dim = spawn(lane_vec(V, V_P, lane), lane_vec(V, V_NG, lane), lane_vec(V, V_NS, lane),
                              (-d[0], -d[1], -d[2]), V[V_FRONT * LANES + lane] != 0.0,
                              V[V_MAG * LANES + lane], mats_tag[m], mats_par, m, (1.0, 1.0, 1.0), 0, split,
-                             cutoff, keys[lane], DIM_LOBE, stack, 0)
+                             cutoff, keys[lane], DIM_LOBE, stack, 0, V, lane, opts[O_DIFFS] != 0)
             if top > 0:
                 l0, l1, l2 = trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag,
                                          lights_par, erec, edata, opts, optf, keys[lane], dim, stack, top, ray_buf,
-                                         cnt, l0, l1, l2)
+                                         cnt, l0, l1, l2, V, lane)
                 set_lane_vec(V, V_L, lane, (l0, l1, l2))
         if not (math.isfinite(l0) and math.isfinite(l1) and math.isfinite(l2)):
             n_bad += 1
@@ -465,6 +471,7 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
                 u0, u1 = J.uniform_pair(key)
                 ox, oy = J.strata_position(spp_f, rows_f, float(s), u0, u1)
                 set_lane_vec(V, V_D, lane, camera_dir(cam, lane_xy[lane] + ox, lane_xy[LANES + lane] + oy))
+        D.camera_diffs(V, cam, opts, n)
         shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, spp, n, w, mats_tag, mats_par,
                      tex_tag, tex_par, lights_tag, lights_par, erec, edata, opts, optf, cnt)
         film_add(V, lane_pix, n, film_s, film_q)
@@ -485,14 +492,15 @@ def render_tiles(scene, tiles, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, t
 
 @numba.njit(nogil=True, cache=True, error_model="numpy")
 def render_pixels(scene, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, env_data,
-                  opts, optf, P, C, base, both, half_b, counters, width):
+                  opts, optf, P, C, base, dscale, both, half_b, counters, width):
     """One chunk of an adaptive pass (:func:`pyrt.render.chunks.shade_adaptive_chunk`'s estimate): pixel ``P[i]``
     gets ``C[i]`` (even) new samples, the first half to half-buffer A and the second to B, each half continuing its
     Owen-scrambled Sobol' sequence at ``base[i]`` (camera positions
     ``sobol_owen_2d(base + j, hash32(seed, pixel, half))``, bit for bit the NumPy path's: the same camera rays; their
     hits' area-light samples continue a progressive padded set of seed ``hash32(seed, pixel, half, 0x9AD)``).
     The radiance of all the new samples summed into ``both[i]``, of B's into ``half_b[i]``; rays counted into
-    ``counters`` (4,). Single-threaded (the pass's chunks run on a pool of threads: the kernel holds no GIL)."""
+    ``counters`` (4,); ``dscale[i]`` scales pixel ``P[i]``'s differentials (:meth:`pyrt.core.camera.Camera.rays_at`).
+    Single-threaded (the pass's chunks run on a pool of threads: the kernel holds no GIL)."""
     U.wide_vectors()
     bufs = packet_buffers(width)
     pk, sh, ray_buf, V, stack, keys, lane_pix, lane_s, lane_key, lane_k32, lane_xy = buffer_pointers(bufs)
@@ -523,6 +531,7 @@ def render_pixels(scene, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par
             u0, u1 = JS.sobol_owen_2d(idx, JS.hash32_3(seed, pix, is_b))
             row = pix // W
             set_lane_vec(V, V_D, lane, camera_dir(cam, float(pix - row * W) + u0, float(row) + u1))
+            D.camera_lane_diffs(V, cam, opts, lane, dscale[cur_i])
             cur_j += 1
             if cur_j == C[cur_i]:
                 cur_i += 1

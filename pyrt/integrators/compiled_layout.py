@@ -33,16 +33,21 @@ V_COSO, V_COSI, V_COSIO, V_S, V_GOK = 32, 33, 34, 35, 36
 V_SO, V_WI, V_TMAX = 37, 40, 43
 #: the camera ray's hit distance (``inf``: a miss; the depth AOV)
 V_T = 44
+#: ray differentials (:mod:`pyrt.integrators.compiled_diffs`; written only with ``opts[O_DIFFS]``): the ray's offset
+#: rays (x origin, x direction, y origin, y direction), then the hit's dp/dx, dp/dy, dn/dx, dn/dy
+V_RAY, V_DP = 45, 57
 #: fields of the scratch
-V_SIZE = 45
+V_SIZE = 69
 #: camera record layout (float64)
 C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W, C_H, C_JITTER, C_K, C_AX = 0, 3, 6, 9, 12, 13, 14, 15, 16, 17
 #: length of the camera record
 N_CAM = 18
 #: integer options
 O_SEED, O_SPP, O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK, O_GRID, O_ENV, O_AOV = range(11)
+#: 1 when a texture reads footprints (the rays carry differentials), 1 when a material has a normal map
+O_DIFFS, O_NMAPS = 11, 12
 #: length of the integer options
-N_OPTS = 11
+N_OPTS = 13
 #: the AOV sums per pixel (``opts[O_AOV]`` 1): depth, depth weight (samples that hit), normal (3), albedo (3)
 N_AOV = 8
 #: float options
@@ -54,8 +59,9 @@ F_ENV = 8
 N_PRIMARY, N_SECONDARY, N_SHADOW, N_NONFINITE = 0, 1, 2, 3
 #: the largest stack of pending specular rays a sample can need (2 per bounce below the split depth)
 STACK = 64
-#: words of a stack row: origin, direction, throughput, depth
-STACK_ROW = 10
+#: words of a stack row: origin, direction, throughput, depth, then (from :data:`STACK_DIFF`, with ``opts[O_DIFFS]``)
+#: the ray's differentials (x origin, x direction, y origin, y direction)
+STACK_ROW, STACK_DIFF = 22, 10
 #: Embree's "unbounded" tfar (:data:`pyrt.geometry.accel.T_INFINITE`)
 T_INF = 1e37
 #: the first random dimension of the glass lobe choice (0, 1: the pixel position)

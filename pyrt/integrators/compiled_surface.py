@@ -90,7 +90,7 @@ def face_surfaces(G, mats_tag, mats_par, tex_tag, tex_par, optf, pk, w, V, n, fa
         face = foff[geoms[j]] + prims[j]
         m = fmat[face]
         mtag = mats_tag[m]
-        albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, 0.0, 0.0)
+        albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, 0.0, 0.0, (0.0, 0.0, 0.0, 0.0))
         uniform_surface(G, face, geoms[j], prims[j], k > 1 or misses > 0, pk, w, V, n, fallback, terminator, m,
                         albedo, emitted(mtag, mats_par, m, albedo, optf, True),
                         emitted(mtag, mats_par, m, albedo, optf, False))

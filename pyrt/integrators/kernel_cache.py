@@ -28,9 +28,11 @@ import numba
 
 #: the modules whose source the compiled kernels are built from (their hash names the cache directory)
 KERNEL_SOURCES = ("pyrt.shaders.jit", "pyrt.shaders.jit_brdfs", "pyrt.shaders.jit_sampling", "pyrt.core.unmanaged",
-                  "pyrt.geometry.embree_jit", "pyrt.textures.compiled", "pyrt.materials.compiled",
+                  "pyrt.geometry.embree_jit", "pyrt.textures.compiled_mip", "pyrt.textures.compiled",
+                  "pyrt.textures.compiled_normal_map", "pyrt.materials.compiled",
                   "pyrt.materials.compiled_sampling", "pyrt.lights.compiled", "pyrt.lights.compiled_env",
-                  "pyrt.integrators.compiled_layout", "pyrt.integrators.compiled_lighting", "pyrt.integrators.compiled_surface",
+                  "pyrt.integrators.compiled_layout", "pyrt.integrators.compiled_diffs",
+                  "pyrt.integrators.compiled_lighting", "pyrt.integrators.compiled_surface",
                   "pyrt.integrators.compiled_kernel")
 
 _saved = []

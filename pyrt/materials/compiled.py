@@ -25,6 +25,7 @@ COOK_TORRANCE        0-3 albedo slot, 4-6 kd, 7-9 ks, 10 alpha, 11 distribution,
 METALLIC_ROUGHNESS   0-3 albedo slot, 4-6 base colour, 7 metallic, 8 roughness, 9 geometry (also LearnOpenGLPBR)
 EMITTER              4-6 radiance (constant RGB), 7 two-sided (1) or front only (0): an area light's visible mesh
                      (:class:`pyrt.lights.area.AreaEmitter`: emits, reflects nothing)
+(every material)     20-23 its normal map (:data:`NORMAL_MAP`), written by the compiled scene
 ===================  ============================================================================================
 
 The models after BLINN_PHONG have constant parameters only (a textured one is not compiled); their formulas are the
@@ -46,7 +47,10 @@ from pyrt.shaders import jit_brdfs as JB
 from pyrt.textures.compiled import texture_rgb
 
 #: parameters per material record
-RECORD = 20
+RECORD = 24
+#: where every record keeps its normal map (:func:`pyrt.integrators.compiled_diffs.mapped_normal`): the map's row in the
+#: texture table plus one (0: none), its strength, 1 for green = -v (DirectX), 1 to bend reflections above the surface
+NORMAL_MAP = 20
 #: type tags (0 is no material)
 LAMBERT, BLINN_PHONG, MIRROR, GLASS, CONDUCTOR = 1, 2, 3, 4, 5
 #: 1 / pi (a multiplication where a division by pi would cost ~4x; within an ulp of it)
@@ -56,13 +60,14 @@ EMITTER = 13
 
 
 @register_jitable(inline="always")
-def color_slot(pars, m, k, tex_tag, tex_par, u, v):
-    """The colour (an RGB tuple) of the slot at ``k`` of material ``m``'s record at uv ``(u, v)``."""
+def color_slot(pars, m, k, tex_tag, tex_par, u, v, fp):
+    """The colour (an RGB tuple) of the slot at ``k`` of material ``m``'s record at uv ``(u, v)`` with the UV
+    footprint ``fp`` (:func:`pyrt.textures.compiled.texture_rgb`)."""
     b = m * RECORD + k
     t = int(pars[b])
     if t < 0:
         return pars[b + 1], pars[b + 2], pars[b + 3]
-    return texture_rgb(tex_tag, tex_par, t, u, v)
+    return texture_rgb(tex_tag, tex_par, t, u, v, fp)
 
 
 @register_jitable(inline="always")
@@ -151,16 +156,18 @@ def emission(tag, pars, m, front):
 
 @register_jitable(inline="always")
 def albedo_constant(tag, pars, m):
-    """True where :func:`albedo_at` of material ``m`` does not depend on the uv (no texture in its colour slot)."""
-    return not (tag == LAMBERT or tag == BLINN_PHONG or CONDUCTOR <= tag <= METALLIC_ROUGHNESS) or pars[m * RECORD] < 0.0
+    """True where :func:`albedo_at` of material ``m`` does not depend on the uv (no texture in its colour slot) and
+    the material has no normal map (:data:`NORMAL_MAP`): its shading inputs are the surface's alone."""
+    return (not (tag == LAMBERT or tag == BLINN_PHONG or CONDUCTOR <= tag <= METALLIC_ROUGHNESS)
+            or pars[m * RECORD] < 0.0) and pars[m * RECORD + NORMAL_MAP] == 0.0
 
 
 @register_jitable(inline="always")
-def albedo_at(tag, pars, m, tex_tag, tex_par, u, v):
+def albedo_at(tag, pars, m, tex_tag, tex_par, u, v, fp):
     """The diffuse colour (Lambert albedo, Blinn-Phong kd, the library models' constant ``albedo()``; an RGB tuple)
-    of material ``m`` at uv ``(u, v)``; zeros for the others."""
+    of material ``m`` at uv ``(u, v)`` with the UV footprint ``fp`` (zeros: none); zeros for the others."""
     if tag == LAMBERT or tag == BLINN_PHONG or CONDUCTOR <= tag <= METALLIC_ROUGHNESS:
-        return color_slot(pars, m, 0, tex_tag, tex_par, u, v)
+        return color_slot(pars, m, 0, tex_tag, tex_par, u, v, fp)
     return 0.0, 0.0, 0.0
 
 

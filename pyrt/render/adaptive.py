@@ -338,7 +338,7 @@ def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None,
             if timed and time.perf_counter() >= deadline:
                 return None
             if kernel is not None:
-                return kernel(P, C, base)
+                return kernel(P, C, base, spp_after)
             return shade_adaptive_chunk(ps, cam, make, seed, index, key, P, C, base, spp_after, aovs, nonfinite)
 
         with ChunkPool(task, workers if runner is None else 1, processes=processes, prepared=ps) as pool:
@@ -363,7 +363,8 @@ def _compiled_reasons(backend, ps, scene, runner, integ, aovs):
     reasons = compiled.unsupported(ps, integrator=integ["integrator"], offset=integ["offset"],
                                    transparent_shadows=integ["transparent_shadows"],
                                    light_select_depth=integ["light_select_depth"],
-                                   record_rays=integ["record_rays"], scene=scene, roulette=integ["roulette"])
+                                   record_rays=integ["record_rays"], scene=scene, roulette=integ["roulette"],
+                                   sampler=integ["sampler"])
     if runner is not None:
         reasons.append("adaptive passes on Dask workers")
     if aovs:

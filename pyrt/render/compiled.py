@@ -66,14 +66,15 @@ def render_compiled(ps, cam, *, seed, max_depth, throughput_cutoff, offset, spli
 
 def adaptive_task(ps, cam, *, seed, max_depth, throughput_cutoff, offset, split_depth, nonfinite):
     """The compiled twin of :func:`pyrt.render.chunks.shade_adaptive_chunk` for :func:`pyrt.render.adaptive.
-    render_adaptive`: a function ``(P, C, base) -> (stats, P, sums of A + B, sums of B)`` (:class:`PixelSums`) that
-    renders one chunk of a pass with the kernel (the same camera rays as the NumPy path's chunk)."""
+    render_adaptive`: a function ``(P, C, base, spp_after) -> (stats, P, sums of A + B, sums of B)`` (:class:`PixelSums`) that
+    renders one chunk of a pass with the kernel (the same camera rays as the NumPy path's chunk; ``spp_after``, the
+    pixels' samples after the pass, scales their differentials)."""
     cs = compiled.CompiledScene(ps)
     kw = dict(seed=seed, max_depth=max_depth, throughput_cutoff=throughput_cutoff, split_depth=split_depth,
               terminator=offset in (None, "robust"))
 
-    def chunk(P, C, base):
-        both, half_b, counters = compiled.render_pixels(cs, cam, P, C, base, **kw)
+    def chunk(P, C, base, spp_after):
+        both, half_b, counters = compiled.render_pixels(cs, cam, P, C, base, spp_after, **kw)
         if counters[3] and nonfinite == "raise":
             raise FilmError("Film: non-finite radiance in an adaptive pass")
         stats = RenderStats(primary_rays=int(counters[0]), secondary_rays=int(counters[1]),

@@ -215,7 +215,8 @@ def _render_flat(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4
     if check_backend(backend) != "numpy":
         reasons = compiled.unsupported(
             ps, integrator=integrator, offset=offset, transparent_shadows=transparent_shadows,
-            light_select_depth=light_select_depth, record_rays=record_rays, scene=scene, roulette=roulette)
+            light_select_depth=light_select_depth, record_rays=record_rays, scene=scene, roulette=roulette,
+            sampler=sampler)
         if aovs and runner is not None:
             reasons.append("AOVs on Dask workers")
         if reasons and backend == "compiled":

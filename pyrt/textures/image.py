@@ -394,8 +394,8 @@ class ImageTexture(Texture):
         self.channels = self._image.shape[2]
 
     def compiled_record(self):
-        """:func:`pyrt.textures.compiled.image_record`: an RGB image read with the ``nearest`` or ``bilinear`` filter
-        from UV set 0; None otherwise (the footprint filters need ray differentials)."""
+        """:func:`pyrt.textures.compiled.image_record`: an RGB image read with the ``nearest``, ``bilinear`` or
+        ``trilinear`` filter from UV set 0; None otherwise."""
         return _compiled.image_record(self)
 
     @classmethod
@@ -453,6 +453,10 @@ class ImageTexture(Texture):
         :meth:`MipPyramid.build_all`."""
         if self.filter not in _tex.RECONSTRUCT:
             self._pyramid.build_all()
+
+    def mip_levels(self):
+        """Every MIP level, built now: level 0 decoded (:attr:`image`), then the levels trilinear lookups read."""
+        return [self.image] + [self._pyramid[k] for k in range(1, len(self._pyramid))]
 
     @property
     def mip_levels_built(self):
