@@ -222,6 +222,20 @@ DISTANCE_KINDS = ("inverse_square", "inverse_square_eps", "smooth_range", "gltf_
 
 
 @register_jitable(inline="always")
+def wrap_int(i, n):
+    """Python's ``i % n`` (in ``[0, n)``, ``n`` > 0) with the integer division only where ``i`` lies outside
+    ``[-n, 2n)``: a texel index one step past either edge, the common case of wrapped lookups, costs a comparison
+    instead of a 64-bit division (tens of cycles)."""
+    if 0 <= i < n:
+        return i
+    if n <= i < 2 * n:
+        return i - n
+    if -n <= i < 0:
+        return i + n
+    return i % n
+
+
+@register_jitable(inline="always")
 def distance_falloff(kind, r, eps, light_range, kc, kl, kq):
     """``f(r)`` (m^-2) of :func:`pyrt.shaders.lights.distance_falloff`, ``kind`` an index of :data:`DISTANCE_KINDS`;
     0 at ``r >= light_range`` (``inf``: no range) and where the inverse-square kinds diverge."""

@@ -234,3 +234,11 @@ def test_robust_tmax_matches_offsets(rng):
     got = [J.robust_tmax(a, w, end[0], end[1], end[2], True) for a, w in zip(o, wi)]
     np.testing.assert_allclose(got, want, rtol=1e-12)
     assert J.robust_tmax(o[0], wi[0], 0.0, 0.0, 0.0, False) == np.inf
+
+
+def test_wrap_int_is_python_modulo():
+    """J.wrap_int: Python's ``%`` on every index near and far from [0, n) (the division only off the fast range)."""
+    f = numba.njit(lambda i, n: J.wrap_int(i, n))
+    for n in (1, 2, 3, 7, 512):
+        for i in list(range(-3 * n - 2, 3 * n + 3)) + [-10**12 - 1, 10**12 + 7]:
+            assert f(i, n) == i % n

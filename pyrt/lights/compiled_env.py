@@ -43,6 +43,8 @@ import math
 import numpy as np
 from numba.extending import register_jitable
 
+from pyrt.shaders import jit as J
+
 from pyrt.lights.environment import ConstantEnvironment, LatLongEnvironment
 from pyrt.materials.compiled_sampling import power_heuristic, square_to_uniform_sphere
 
@@ -171,20 +173,6 @@ def latlong_uv_to_dir(u, v):
 
 # ----------------------------------------------------------------------------------------- radiance
 
-@register_jitable(inline="always")
-def wrap(i, w):
-    """Python's ``i % w`` (in ``[0, w)``, ``w`` > 0) without an integer division where ``i`` lies within one period
-    of ``[0, w)``, as a map's texel columns do (a 64-bit division is 40-90 cycles; measured: the lat-long lookups'
-    ``%`` made them the environment scene's hottest function)."""
-    if 0 <= i < w:
-        return i
-    if w <= i < 2 * w:
-        return i - w
-    if -w <= i < 0:
-        return i + w
-    return i % w
-
-
 @register_jitable
 def latlong_lookup(tag, rec, data, u, v):
     """The map's texel value (RGB, no intensity) at lat-long ``(u, v)``: :func:`pyrt.shaders.envmap.latlong_lookup`
@@ -196,14 +184,14 @@ def latlong_lookup(tag, rec, data, u, v):
     x = u * w - 0.5
     y = (1.0 - tv) * h - 0.5
     if tag == LATLONG_NEAREST:
-        ix = wrap(int(math.floor(x + 0.5)), w)
+        ix = J.wrap_int(int(math.floor(x + 0.5)), w)
         iy = min(max(int(math.floor(y + 0.5)), 0), h - 1)
         t = o + 3 * (iy * w + ix)
         return data[t], data[t + 1], data[t + 2]
     x0, y0 = math.floor(x), math.floor(y)
     fx, fy = x - x0, y - y0
     ix0, iy0 = int(x0), int(y0)
-    cx0, cx1 = wrap(ix0, w), wrap(ix0 + 1, w)
+    cx0, cx1 = J.wrap_int(ix0, w), J.wrap_int(ix0 + 1, w)
     ry0, ry1 = min(max(iy0, 0), h - 1) * w, min(max(iy0 + 1, 0), h - 1) * w
     w0, w1, w2, w3 = (1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy
     t0, t1, t2, t3 = o + 3 * (ry0 + cx0), o + 3 * (ry0 + cx1), o + 3 * (ry1 + cx0), o + 3 * (ry1 + cx1)
@@ -299,7 +287,7 @@ def _corners(rec, data, k, i):
     h, w = int(rec[R_H]), int(rec[R_W])
     o = int(rec[R_LUM])
     top, bottom = min(max(k - 1, 0), h - 1) * w, min(max(k, 0), h - 1) * w
-    i1 = wrap(i + 1, w)
+    i1 = J.wrap_int(i + 1, w)
     return data[o + top + i], data[o + top + i1], data[o + bottom + i], data[o + bottom + i1]
 
 
@@ -375,7 +363,7 @@ def pdf_table(tag, rec, data, o, integral, x, y, z):
     else:
         xx = u * w - 0.5
         fx = math.floor(xx)
-        i = wrap(int(fx), w)
+        i = J.wrap_int(int(fx), w)
         s = xx - fx
         k = min(max(int(math.floor(v * h - 0.5)) + 1, 0), h)
         v0, v1 = _v_extent(h, k)

@@ -19,6 +19,7 @@ import math
 import numpy as np
 from numba.extending import register_jitable
 
+from pyrt.shaders import jit as J
 from pyrt.shaders.textures import n_mip_levels
 
 #: the wrap modes' codes (:func:`pyrt.shaders.textures.wrap_index`)
@@ -29,10 +30,10 @@ WRAPS = ("repeat", "clamp", "mirror")
 def wrap_index(i, n, mode):
     """:func:`pyrt.shaders.textures.wrap_index` of one index (``mode``: 0 repeat, 1 clamp, 2 mirror)."""
     if mode == 0:
-        return i % n
+        return J.wrap_int(i, n)
     if mode == 1:
         return min(max(i, 0), n - 1)
-    j = i % (2 * n)
+    j = J.wrap_int(i, 2 * n)
     return 2 * n - 1 - j if j >= n else j
 
 
