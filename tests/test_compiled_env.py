@@ -224,6 +224,29 @@ def test_mis_sample_pdf_and_weights_equal_the_light(name, light_kw):
     np.testing.assert_allclose(out[:, 1], w_b, rtol=1e-12, atol=0)
 
 
+@numba.njit
+def _fused_many(tag, rec, data, d, out, sep):
+    for k in range(d.shape[0]):
+        out[k, 0], out[k, 1], out[k, 2], out[k, 3] = CE.radiance_mis_pdf(tag, rec, data, d[k, 0], d[k, 1], d[k, 2])
+        sep[k, 0], sep[k, 1], sep[k, 2] = CE.radiance(tag, rec, data, d[k, 0], d[k, 1], d[k, 2])
+        sep[k, 3] = CE.mis_pdf(tag, rec, data, d[k, 0], d[k, 1], d[k, 2])
+
+
+@pytest.mark.parametrize("light_kw", sorted(LIGHTS))
+@pytest.mark.parametrize("name", NAMES)
+def test_radiance_and_pdf_at_once_equal_the_two_calls(name, light_kw):
+    """``radiance_mis_pdf`` (a BSDF sample's lookup and light density, the direction's (u, v) computed once) gives
+    bit for bit what ``radiance`` and ``mis_pdf`` give."""
+    env = ENVS[name]()
+    tag, rec, data = _pack(env, pyrt.EnvironmentLight(env, **LIGHTS[light_kw]))
+    d = _directions(env, 1500, pdf=True)
+    d = np.ascontiguousarray(d / np.linalg.norm(d, axis=1, keepdims=True))
+    out, sep = np.zeros((d.shape[0], 4)), np.zeros((d.shape[0], 4))
+    _fused_many(tag, rec, data, d, out, sep)
+    np.testing.assert_array_equal(out, sep)
+    assert np.all(np.isfinite(out))
+
+
 def test_missed_rays_see_the_background_only_from_the_camera():
     env = pyrt.LatLongEnvironment(procedural_sky(32, 16), hide_background=True, background=(0.1, 0.2, 0.3))
     tag, rec, data = _pack(env)

@@ -288,6 +288,34 @@ def test_cancel_is_seen_after_one_kernel_call():
     assert np.all(sums[~compiled.pixel_mask(done, cam.width, cam.height)] == 0)
 
 
+def test_second_moment_on_request_only():
+    """``render_fixed(second_moment=True)`` sums the squared radiance per pixel (at 1 spp exactly the square of the
+    sum; at 4 spp at least sum^2 / 4 and at most sum^2 for these non-negative samples) and changes no sum; without
+    it no squares are kept (None). Tasks of several tiles reuse their packet buffers: a subset of tiles in another
+    order gives the same pixels."""
+    from pyrt.integrators import compiled
+
+    ps = pyrt.PreparedScene(_scene(width=48, height=40, spp=4))
+    cs = compiled.CompiledScene(ps)
+    cam = ps.scene.camera
+    kw = dict(seed=3, max_depth=4, throughput_cutoff=1e-4, split_depth=3, terminator=True)
+    for spp in (1, 4):
+        s0, q0, c0, d0 = compiled.render_fixed(cs, cam, spp=spp, **kw)
+        s1, q1, c1, d1 = compiled.render_fixed(cs, cam, spp=spp, second_moment=True, **kw)
+        assert q0 is None and q1.shape == s1.shape
+        assert np.array_equal(s0, s1) and np.array_equal(c0, c1) and d0.all() and d1.all()
+        assert np.all(s1 >= 0) and np.any(s1 > 0)
+        if spp == 1:
+            np.testing.assert_allclose(q1, s1 * s1, rtol=1e-12, atol=0)
+        else:
+            assert np.all(q1 >= s1 * s1 / spp * (1 - 1e-12)) and np.all(q1 <= s1 * s1 * (1 + 1e-12))
+    n = compiled.n_tiles(cam)
+    sub = np.arange(n)[::-2].copy()
+    s2, _q, _c, d2 = compiled.render_fixed(cs, cam, spp=4, tiles=sub, **kw)
+    px = compiled.pixel_mask(d2, cam.width, cam.height)
+    assert np.array_equal(s2[px], s0[px]) and np.all(s2[~px] == 0)
+
+
 def test_aovs_match_the_numpy_path():
     """Depth, shading normal and albedo of the camera hits (pixel centres: the same hits): the NumPy path's AOVs
     (misses: depth inf, zeros); with jittered samples the means over a pixel's hits."""

@@ -24,6 +24,12 @@ class CameraError(Error, ValueError):
     """Invalid camera parameters."""
 
 
+def _cross(a, b):
+    """``np.cross`` of two 3-vectors (the same products and differences, bit for bit) without its general-axis
+    machinery (~40 us a call: the camera's frame is built at every render)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
 def _vec3(name, v):
     a = checks.numbers_array("Camera", name, v, CameraError)
     if a.shape != (3,) or not np.all(np.isfinite(a)):
@@ -68,7 +74,7 @@ class Camera:
         self.position = position
         self.target = target
         self.up = up
-        self._frame()
+        self.frame()
         self.fov, self.width, self.height, self.spp = fov, width, height, spp
         if not isinstance(jitter, (bool, np.bool_)):
             raise CameraError(f"Camera: jitter must be True or False, got {jitter!r}")
@@ -103,33 +109,35 @@ class Camera:
     def up(self, value):
         self._up = _vec3("up", value)
 
-    def _frame(self):
-        """``(forward, right, up_ortho)`` from position, target and up as they are now; CameraError when degenerate."""
+    def frame(self):
+        """``(forward, right, up_ortho)``: the unit frame of the image plane from position, target and up as they are
+        now (what :attr:`forward`, :attr:`right` and :attr:`up_ortho` give one at a time); CameraError when
+        degenerate."""
         fwd = self._target - self._position
         n = np.linalg.norm(fwd)
         if n == 0:
             raise CameraError("Camera: target equals position (zero-length view direction)")
         forward = fwd / n
-        right = np.cross(forward, self._up)
+        right = _cross(forward, self._up)
         if np.linalg.norm(right) < 1e-9 * max(np.linalg.norm(self._up), 1e-300):
             raise CameraError("Camera: up is zero or parallel to the view direction")
         right = right / np.linalg.norm(right)
-        return forward, right, np.cross(right, forward)
+        return forward, right, _cross(right, forward)
 
     @property
     def forward(self):
         """Unit view direction (derived from position and target; read-only)."""
-        return self._frame()[0]
+        return self.frame()[0]
 
     @property
     def right(self):
         """Unit right vector of the image plane (derived; read-only)."""
-        return self._frame()[1]
+        return self.frame()[1]
 
     @property
     def up_ortho(self):
         """Unit up vector of the image plane, orthogonal to forward and right (derived; read-only)."""
-        return self._frame()[2]
+        return self.frame()[2]
 
     def validate(self):
         """Check the parameters as they are now; :class:`CameraError` otherwise.
@@ -140,7 +148,7 @@ class Camera:
         """
         for nm, v in (("position", self.position), ("target", self.target), ("up", self.up)):
             _vec3(nm, v)                  # in place changes (camera.position[1] = nan) are caught here
-        self._frame()
+        self.frame()
         try:
             fov = float(self.fov)
         except (TypeError, ValueError):
@@ -168,7 +176,7 @@ class Camera:
         coef[:, 0] = inv
         np.multiply(sx, inv, out=coef[:, 1])
         np.multiply(sy, inv, out=coef[:, 2])
-        return coef @ np.stack(self._frame())
+        return coef @ np.stack(self.frame())
 
     def pixel_samples(self, pixel_lo, pixel_hi, rng, samples=None):
         """Raster positions for the samples of pixels ``[pixel_lo, pixel_hi)`` (row-major index).

@@ -204,9 +204,7 @@ def camera_record(cam):
     """The kernel's camera record (float64): position, forward, right, up, tan(fov/2), width, height, jitter."""
     rec = np.zeros(KL.N_CAM)
     rec[KL.C_POS:KL.C_POS + 3] = cam.position
-    rec[KL.C_FWD:KL.C_FWD + 3] = cam.forward
-    rec[KL.C_RIGHT:KL.C_RIGHT + 3] = cam.right
-    rec[KL.C_UP:KL.C_UP + 3] = cam.up_ortho
+    rec[KL.C_FWD:KL.C_FWD + 3], rec[KL.C_RIGHT:KL.C_RIGHT + 3], rec[KL.C_UP:KL.C_UP + 3] = cam.frame()
     rec[KL.C_TAN] = cam.tan_half
     rec[KL.C_W], rec[KL.C_H] = cam.width, cam.height
     rec[KL.C_JITTER] = 1.0 if cam.jitter else 0.0
@@ -245,30 +243,33 @@ def n_tiles(cam):
 CALL_SECONDS = 0.25
 #: tiles per thread of the first call of a render (its time sets the later calls' sizes)
 FIRST_CALL_TILES = 8
-#: tiles a thread takes at a time from a call's list (Numba's ``parallel_chunksize``; 0: one static block each):
-#: 4 rather than 1, and 4 calls rather than 16, measured within the noise to 5 % faster on the shadowed bench
-#: scene (quickbench, 2 threads, load 0.1; 16 / static: 36.7 Ms/s, 4 / static 39.8, 2 / 4 tiles 38.8)
-CHUNKSIZE = 4
+#: the kernel's tasks a thread takes at a time from a call's list (Numba's ``parallel_chunksize``; a task is
+#: :data:`pyrt.integrators.compiled_layout.TILES_PER_TASK` tiles): 4 tiles at a time rather than 1, and 4 calls
+#: rather than 16, measured within the noise to 5 % faster on the shadowed bench scene (quickbench, 2 threads, load
+#: 0.1; 16 / static: 36.7 Ms/s, 4 / static 39.8, 2 / 4 tiles 38.8)
+CHUNKSIZE = 1
 #: the fewest kernel calls of a render with enough tiles (so that a progress bar moves)
 MIN_CALLS = 4
 
 
 def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_depth, terminator, threads=None,
-                 cancel=None, progress=None, tiles=None, call_seconds=CALL_SECONDS, aovs=False):
+                 cancel=None, progress=None, tiles=None, call_seconds=CALL_SECONDS, aovs=False, second_moment=False):
     """Render ``spp`` samples per pixel of the compiled scene ``cs`` through the camera ``cam``.
 
     The tiles (``tiles``: a subset, default all in :func:`tile_order`) are rendered in kernel calls of at most
     about ``call_seconds`` each (a progress step each; ``cancel`` is looked at between them). Returns ``(sums
-    (H*W, 3), squared sums (H*W, 3), counters (4,), tiles_done (n_tiles,) bool)``, and with ``aovs`` the AOV sums
+    (H*W, 3), squared sums (H*W, 3) with ``second_moment`` (else None), counters (4,), tiles_done (n_tiles,)
+    bool)``, and with ``aovs`` the AOV sums
     (H*W, :data:`pyrt.integrators.compiled_layout.N_AOV`) after them; counters: primary, secondary, shadow rays,
     non-finite samples (zeroed)."""
     W, H = cam.width, cam.height
     order = tile_order(n_tiles(cam)) if tiles is None else np.asarray(tiles, dtype=np.int64)
     opts, optf = _options(cs, spp, seed, max_depth, throughput_cutoff, split_depth, terminator)
     sums = np.zeros((W * H, 3))
-    sqs = np.zeros((W * H, 3))
+    sqs = np.zeros((W * H if second_moment else 1, 3))
     aov = np.zeros((W * H if aovs else 1, KL.N_AOV))
     opts[KL.O_AOV] = 1 if aovs else 0
+    opts[KL.O_SQ] = 1 if second_moment else 0
     counters = np.zeros((order.size, 4), dtype=np.int64)
     done = np.zeros(n_tiles(cam), dtype=bool)
     cam_rec = camera_record(cam)
@@ -278,7 +279,7 @@ def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_dept
     announce_compile()
     n_threads = numba.get_num_threads()
     per_call = FIRST_CALL_TILES * n_threads
-    loading = not K.render_tiles.signatures        # the first call loads (or compiles) the kernel: not a rate
+    loading = not K.render_tiles.overloads         # the first call loads (or compiles) the kernel: not a rate
     lo, timed_s, timed_tiles = 0, 0.0, 0
     while lo < order.size:
         if cancel is not None and cancel.is_set():
@@ -296,12 +297,13 @@ def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_dept
         if not loading:
             timed_s += time.perf_counter() - t0
             timed_tiles += hi - lo
-            per_call = max(CHUNKSIZE * n_threads, int(call_seconds * timed_tiles / max(timed_s, 1e-9)))
+            per_call = max(KL.TILES_PER_TASK * n_threads, int(call_seconds * timed_tiles / max(timed_s, 1e-9)))
         loading = False
         done[order[lo:hi]] = True
         if progress is not None:
             progress.update(hi - lo)
         lo = hi
+    sqs = sqs if second_moment else None
     if aovs:
         return sums, sqs, counters.sum(axis=0), done, aov
     return sums, sqs, counters.sum(axis=0), done
@@ -363,6 +365,5 @@ def packet_width():
 
 def pixel_mask(tiles_done, W, H):
     """(H*W,) bool: the pixels of the finished tiles."""
-    tx = -(-W // KL.TILE)
-    ys, xs = np.divmod(np.arange(W * H), W)
-    return tiles_done[(ys // KL.TILE) * tx + xs // KL.TILE]
+    grid = np.asarray(tiles_done, dtype=bool).reshape(-(-H // KL.TILE), -(-W // KL.TILE))
+    return np.repeat(np.repeat(grid, KL.TILE, axis=0)[:H], KL.TILE, axis=1)[:, :W].ravel()

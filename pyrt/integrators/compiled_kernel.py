@@ -41,8 +41,8 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK,
     O_GRID, F_CUTOFF, F_BG, N_PRIMARY, N_SECONDARY,
     N_SHADOW, N_NONFINITE, STACK, STACK_ROW, T_INF, DIM_LOBE,
-    ADAPTIVE_KEYS, O_ENV, O_AOV, N_AOV, V_T, O_DIFFS, _njit, buffer_pointers, geometry_pointers, lane_vec,
-    packet_buffers, release, set_lane_vec, table_pointers)
+    ADAPTIVE_KEYS, O_ENV, O_AOV, O_SQ, N_AOV, V_T, O_DIFFS, TILES_PER_TASK, _njit, buffer_pointers,
+    geometry_pointers, lane_vec, packet_buffers, release, set_lane_vec, table_pointers)
 from pyrt.integrators import compiled_diffs as D  # noqa: E402
 from pyrt.integrators.compiled_surface import emitted, face_surfaces  # noqa: E402
 from pyrt.integrators.compiled_lighting import (  # noqa: E402
@@ -351,15 +351,18 @@ def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, sp
 
 
 @_njit
-def film_add(V, lane_pix, n, film_s, film_q):
-    """Lanes ``[0, n)``'s radiance (:data:`V_L`) added to their pixels' sums and squares (rows ``lane_pix[l]``): a
-    pixel's running sums stay in registers over its run of lanes (they come in pixel order) and are stored once per
-    run, the same additions in the same order as one lane at a time (a store per lane made each addition wait for
-    the previous one's store)."""
+def film_add(V, lane_pix, n, film_s, film_q, want_sq):
+    """Lanes ``[0, n)``'s radiance (:data:`V_L`) added to their pixels' sums, and with ``want_sq`` squares (rows
+    ``lane_pix[l]``): a pixel's running sums stay in registers over its run of lanes (they come in pixel order) and
+    are stored once per run, the same additions in the same order as one lane at a time (a store per lane made each
+    addition wait for the previous one's store)."""
     lane = 0
     while lane < n:
         q = lane_pix[lane] * 3
-        s0, s1, s2, q0, q1, q2 = film_s[q], film_s[q + 1], film_s[q + 2], film_q[q], film_q[q + 1], film_q[q + 2]
+        s0, s1, s2 = film_s[q], film_s[q + 1], film_s[q + 2]
+        q0 = q1 = q2 = 0.0
+        if want_sq:
+            q0, q1, q2 = film_q[q], film_q[q + 1], film_q[q + 2]
         while lane < n and lane_pix[lane] * 3 == q:
             l0, l1, l2 = lane_vec(V, V_L, lane)
             s0 += l0
@@ -369,7 +372,9 @@ def film_add(V, lane_pix, n, film_s, film_q):
             q1 += l1 * l1
             q2 += l2 * l2
             lane += 1
-        film_s[q], film_s[q + 1], film_s[q + 2], film_q[q], film_q[q + 1], film_q[q + 2] = s0, s1, s2, q0, q1, q2
+        film_s[q], film_s[q + 1], film_s[q + 2] = s0, s1, s2
+        if want_sq:
+            film_q[q], film_q[q + 1], film_q[q + 2] = q0, q1, q2
 
 
 @_njit
@@ -387,13 +392,16 @@ def add_aovs(V, lane, a, q):
 
 
 @numba.njit(nogil=True, cache=True, error_model="numpy")
-def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par,
+def render_tile(bufs, scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par,
                 env_data, opts, optf, sums, sqs, aovs, counters, width):
     """Render the pixels of tile ``tile`` (row-major over the image's tiles of :data:`TILE` pixels) at the samples
     ``[opts[O_SPP_LO], opts[O_SPP])`` of each pixel's set of ``opts[O_SPP]``, ``width`` samples (a packet) at a time
     in pixel order (one pixel's samples when they fill a packet, several pixels' at low spp): their radiance summed
     into ``sums`` and squared into ``sqs`` (pixel rows of the image), with ``opts[O_AOV]`` the camera hits' AOVs
-    summed into ``aovs`` (:data:`N_AOV` columns), rays counted into ``counters`` (4,).
+    summed into ``aovs`` (:data:`N_AOV` columns), rays counted into ``counters`` (4,). ``bufs``: the calling
+    thread's :func:`pyrt.integrators.compiled_layout.packet_buffers` (allocated once for several tiles: per tile,
+    their allocation and zeroing was a tenth of a 1-spp render's kernel time). With ``opts[O_SQ]`` the squared
+    radiance is summed into ``sqs`` (pixel rows), else ``sqs`` is not touched.
 
     A packet goes through stages, each a short loop over its lanes whose values pass between stages in the
     scratch ``V`` (field-major: one field of all lanes is contiguous), so that the lanes' work overlaps and the
@@ -401,10 +409,10 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
     the specular trees, the film. The per-sample code reads every array through a pointer
     (:func:`pyrt.core.unmanaged.pointer`): it binds no array, so it makes no reference-counting calls."""
     U.wide_vectors()
-    bufs = packet_buffers(width)
     pk, sh, ray_buf, V, stack, keys, lane_pix, lane_s, lane_key, lane_k32, lane_xy = buffer_pointers(bufs)
     film_s, film_q, film_a = U.pointer(sums), U.pointer(sqs), U.pointer(aovs)
     want_aovs = opts[O_AOV] != 0
+    want_sq = opts[O_SQ] != 0
     erec, edata, cam, opts, optf, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, cnt = \
         table_pointers(env_data, cam, opts, optf, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, counters)
     G = geometry_pointers(geo_f, geo_i)
@@ -474,20 +482,24 @@ def render_tile(scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
         D.camera_diffs(V, cam, opts, n)
         shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, spp, n, w, mats_tag, mats_par,
                      tex_tag, tex_par, lights_tag, lights_par, erec, edata, opts, optf, cnt)
-        film_add(V, lane_pix, n, film_s, film_q)
+        film_add(V, lane_pix, n, film_s, film_q, want_sq)
         if want_aovs:
             for lane in range(n):
                 add_aovs(V, lane, film_a, lane_pix[lane] * N_AOV)
-    release(bufs)         # the owners of the pointers live until here
 
 
 @numba.njit(nogil=True, cache=True, error_model="numpy", parallel=True)
 def render_tiles(scene, tiles, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par,
                  env_data, opts, optf, sums, sqs, aovs, counters, width):
-    """:func:`render_tile` for every tile of ``tiles`` (threads over them); ``counters`` (len(tiles), 4)."""
-    for k in prange(tiles.shape[0]):
-        render_tile(scene, tiles[k], cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag,
-                    lights_par, env_data, opts, optf, sums, sqs, aovs, counters[k], width)
+    """:func:`render_tile` for every tile of ``tiles`` (threads over them, :data:`TILES_PER_TASK` consecutive tiles
+    of the list at a time, each such task allocating its packet buffers once); ``counters`` (len(tiles), 4)."""
+    n = tiles.shape[0]
+    for c in prange((n + TILES_PER_TASK - 1) // TILES_PER_TASK):
+        bufs = packet_buffers(width)
+        for k in range(c * TILES_PER_TASK, min(n, (c + 1) * TILES_PER_TASK)):
+            render_tile(bufs, scene, tiles[k], cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag,
+                        lights_par, env_data, opts, optf, sums, sqs, aovs, counters[k], width)
+        release(bufs)     # the owners of the buffers' pointers live until here
 
 
 @numba.njit(nogil=True, cache=True, error_model="numpy")

@@ -44,10 +44,14 @@ C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W, C_H, C_JITTER, C_K, C_AX = 0, 3, 6, 9, 
 N_CAM = 18
 #: integer options
 O_SEED, O_SPP, O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK, O_GRID, O_ENV, O_AOV = range(11)
-#: 1 when a texture reads footprints (the rays carry differentials), 1 when a material has a normal map
-O_DIFFS, O_NMAPS = 11, 12
+#: 1 when a texture reads footprints (the rays carry differentials), 1 when a material has a normal map, 1 when a
+#: fixed-spp render sums the squared radiance too (the film's second moment)
+O_DIFFS, O_NMAPS, O_SQ = 11, 12, 13
 #: length of the integer options
-N_OPTS = 13
+N_OPTS = 14
+#: consecutive tiles of a call's list that one thread renders with one set of packet buffers
+#: (:func:`pyrt.integrators.compiled_kernel.render_tiles`; also the unit of the threads' dynamic scheduling)
+TILES_PER_TASK = 4
 #: the AOV sums per pixel (``opts[O_AOV]`` 1): depth, depth weight (samples that hit), normal (3), albedo (3)
 N_AOV = 8
 #: float options

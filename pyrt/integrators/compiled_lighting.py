@@ -275,9 +275,9 @@ def env_sample(etag, erec, edata, mtag, mpars, m, albedo, p, ng, ns, nv, wo, lif
         x, y, z, w_r, w_g, w_b, pdf_b = CS.sample_f(mtag, mpars, m, albedo, wol[0], wol[1], wol[2], u0, u1)
         wi = CS.to_world((x, y, z), fs, ft, ns)
         ok = pdf_b > 0.0 and max(w_r, w_g, w_b) > 0.0
-        le = CE.radiance(etag, erec, edata, wi[0], wi[1], wi[2])
-        k = CE.mis_weights(erec, CE.mis_pdf(etag, erec, edata, wi[0], wi[1], wi[2]), pdf_b)[1] if ok else 0.0
-        val = (w_r * le[0] * k, w_g * le[1] * k, w_b * le[2] * k)
+        l0, l1, l2, pdf_l = CE.radiance_mis_pdf(etag, erec, edata, wi[0], wi[1], wi[2])
+        k = CE.mis_weights(erec, pdf_l, pdf_b)[1] if ok else 0.0
+        val = (w_r * l0 * k, w_g * l1 * k, w_b * l2 * k)
     else:
         x, y, z, pdf_l = CE.mis_sample(etag, erec, edata, u0, u1)
         wi = (x, y, z)

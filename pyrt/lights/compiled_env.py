@@ -354,8 +354,14 @@ def sample_table(tag, rec, data, o, integral, u0, u1):
 def pdf_table(tag, rec, data, o, integral, x, y, z):
     """Solid-angle density of :func:`sample_table` at the unit direction ``(x, y, z)`` (environment frame):
     :func:`pyrt.shaders.envmap_bilinear.pdf` / :func:`pyrt.shaders.envmap.latlong_pdf`."""
-    h, w = int(rec[R_H]), int(rec[R_W])
     u, v = latlong_dir_to_uv(x, y, z)
+    return pdf_table_uv(tag, rec, data, o, integral, x, y, z, u, v)
+
+
+@register_jitable
+def pdf_table_uv(tag, rec, data, o, integral, x, y, z, u, v):
+    """:func:`pdf_table` with the direction's lat-long coordinates ``(u, v)`` (:func:`latlong_dir_to_uv`) given."""
+    h, w = int(rec[R_H]), int(rec[R_W])
     if tag == LATLONG_NEAREST:
         col = min(max(int(math.floor(u * w)), 0), w - 1)
         row = min(max(int(math.floor(v * h)), 0), h - 1)
@@ -435,6 +441,27 @@ def mis_pdf(tag, rec, data, dx, dy, dz):
     if rec[R_COMPENSATE] != 0.0:
         return pdf_compensated(tag, rec, data, dx, dy, dz)
     return pdf(tag, rec, data, dx, dy, dz)
+
+
+@register_jitable
+def radiance_mis_pdf(tag, rec, data, dx, dy, dz):
+    """``(r, g, b, pdf)``: :func:`radiance` and :func:`mis_pdf` at one unit world direction (what a BSDF sample of
+    the environment light needs), the direction's lat-long coordinates computed once for both: the same values as
+    the two calls."""
+    if tag == CONSTANT:
+        r, g, b = radiance(tag, rec, data, dx, dy, dz)
+        return r, g, b, mis_pdf(tag, rec, data, dx, dy, dz)
+    s = rec[R_INTENSITY]
+    x, y, z = env_to_local(rec, dx, dy, dz)
+    u, v = latlong_dir_to_uv(x, y, z)
+    r, g, b = latlong_lookup(tag, rec, data, u, v)
+    if rec[R_COMPENSATE] == 0.0:
+        p = pdf_table_uv(tag, rec, data, int(rec[R_TABLE]), rec[R_INTEGRAL], x, y, z, u, v)
+    elif rec[R_HAS_C] == 0.0:
+        p = 0.0
+    else:
+        p = pdf_table_uv(tag, rec, data, int(rec[R_C_TABLE]), rec[R_C_INTEGRAL], x, y, z, u, v)
+    return s * r, s * g, s * b, p
 
 
 @register_jitable(inline="always")

@@ -38,11 +38,11 @@ def render_compiled(ps, cam, *, seed, max_depth, throughput_cutoff, offset, spli
     finally:
         bar.close()
     film = Film(W, H, aovs=aovs, nonfinite=nonfinite)
-    px_done = compiled.pixel_mask(done, W, H)
+    px_done = None if done.all() else compiled.pixel_mask(done, W, H)
     film.sum += sums
     if aovs:
         _add_aovs(film, aov[0])
-    film.weight += np.where(px_done, float(S), 0.0)
+    film.weight += float(S) if px_done is None else np.where(px_done, float(S), 0.0)
     stats = RenderStats(primary_rays=int(counters[0]), secondary_rays=int(counters[1]),
                         shadow_rays=int(counters[2]), nonfinite_samples=int(counters[3]), backend="compiled")
     pixels_filled = 0
@@ -58,7 +58,7 @@ def render_compiled(ps, cam, *, seed, max_depth, throughput_cutoff, offset, spli
         pixels_filled = int(filled.sum())
         stats.nonfinite_samples += int(c1[3])
     _finish(stats, film, nonfinite, t_start)
-    n_done = int(px_done.sum())
+    n_done = W * H if px_done is None else int(px_done.sum())
     return RenderResult(image=film.image(), aovs=film.aovs(), stats=stats, film=film, complete=bool(done.all()),
                         chunks_done=int(done.sum()), chunks_total=int(done.size), pixels_done=n_done,
                         pixels_filled=pixels_filled, samples_done=n_done * S)

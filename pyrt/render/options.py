@@ -15,6 +15,7 @@ is named in a warning, with the integrator that traces it (``integrator="glossy"
 from __future__ import annotations
 
 import os
+import re
 import warnings
 
 import numpy as np
@@ -79,13 +80,17 @@ def warn_smooth_lobes(scene, integrator):
                       SmoothLobeWarning, stacklevel=5)
 
 
+#: the two lines of /proc/meminfo that :func:`available_memory` reads (kB)
+_MEMINFO = re.compile(rb"^(MemAvailable|SwapFree):\s+(\d+)", re.M)
+
+
 def available_memory():
     """Bytes of memory a new allocation can use now: Linux's ``MemAvailable`` plus free swap; elsewhere the free
     physical pages; None when neither can be read (then nothing is checked)."""
     try:
-        with open("/proc/meminfo") as fh:
-            info = {ln.split(":")[0]: int(ln.split()[1]) * 1024 for ln in fh if ln.split()[1:2] != []}
-        return info["MemAvailable"] + info.get("SwapFree", 0)
+        with open("/proc/meminfo", "rb") as fh:
+            info = dict(_MEMINFO.findall(fh.read()))
+        return (int(info[b"MemAvailable"]) + int(info.get(b"SwapFree", 0))) * 1024
     except (OSError, KeyError, ValueError, IndexError):
         pass
     try:
