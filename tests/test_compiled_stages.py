@@ -1,7 +1,8 @@
 """The vectorised packet stages against the general ones they stand in for, on random scratch contents (grazing and
 below-horizon cosines, misses, lights that cannot reach the side): :func:`lambert_stage` gives bit for bit what
-:func:`bsdf_stage` gives for Lambert hits (the value, the lit flag, the shadow packet's lanes, the count), and
-:func:`shadow_add` adds what the kernel's per-lane rule adds."""
+:func:`bsdf_stage` gives for Lambert hits (the value, the lit flag, the shadow packet's lanes, the count),
+:func:`shadow_add` adds what the kernel's per-lane rule adds, and the environment stage's two passes (directions
+and prefetches, then lookups) give bit for bit what :func:`env_sample` gives lane by lane."""
 import numba
 import numpy as np
 
@@ -10,9 +11,11 @@ from pyrt.geometry import embree_jit as E
 from pyrt.integrators import kernel_cache
 from pyrt.integrators.compiled_layout import (
     LANES, V_A, V_COSI, V_COSIO, V_COSO, V_F, V_GOK, V_L, V_LIT, V_MAT, V_S, V_SIZE)
-from pyrt.integrators.compiled_lighting import bsdf_stage, lambert_stage, shadow_add
+from pyrt.integrators.compiled_layout import V_D, V_LIFT, V_MAG, V_MAG_LIFT, V_NG, V_NS, V_NV, V_P, lane_vec
+from pyrt.integrators.compiled_lighting import bsdf_stage, env_sample, env_stage, lambert_stage, shadow_add
 from pyrt.lights import compiled as LC
 from pyrt.materials import compiled as MC
+from pyrt.shaders import jit_sampling as JS
 
 kernel_cache.use_cache_dir()      # cached with the render kernels (keyed on their sources' hash)
 
@@ -36,6 +39,38 @@ def _shadow_add(V0, blocked, n, inv):
         E.packet_set_dir(U.pointer(sh), LANES, lane, 0.0, 0.0, 1.0, -np.inf if blocked[lane] else 1.0)
     shadow_add(U.pointer(V), U.pointer(sh), LANES, n, inv)
     return V
+
+
+@numba.njit(cache=True)
+def _env_both(etag, erec, edata, mats_tag, mats_par, V0, n, tech, lane_s, spp, lane_k32, pair):
+    """(scratch, shadow packet, count) of env_stage; (scratch, shadow origins, directions, flags, count) of
+    env_sample lane by lane, from the same scratch."""
+    Va, Vb = V0.copy(), V0.copy()
+    sa = E.packet_alloc(LANES)
+    E.packet_prepare(U.pointer(sa), LANES, 0.0, 0.0, 0.0)
+    na = env_stage(etag, U.pointer(erec), U.pointer(edata), U.pointer(mats_tag), U.pointer(mats_par), U.pointer(Va),
+                   n, True, tech, 1, 2, pair, U.pointer(lane_s), spp, U.pointer(lane_k32), U.pointer(sa), LANES)
+    nb = 0
+    V = U.pointer(Vb)
+    org, wis, oks = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n, dtype=np.bool_)
+    for lane in range(n):
+        x0, x1 = JS.padded_sobol_2d(lane_s[lane], spp, lane_k32[lane], pair)
+        m = int(Vb[V_MAT * LANES + lane])
+        if m >= 0 and MC.has_diffuse(mats_tag[m]):
+            d = lane_vec(V, V_D, lane)
+            ok, o, wi, val = env_sample(etag, U.pointer(erec), U.pointer(edata), mats_tag[m], U.pointer(mats_par), m,
+                                        lane_vec(V, V_A, lane), lane_vec(V, V_P, lane), lane_vec(V, V_NG, lane),
+                                        lane_vec(V, V_NS, lane), lane_vec(V, V_NV, lane), (-d[0], -d[1], -d[2]),
+                                        lane_vec(V, V_LIFT, lane), Vb[V_MAG * LANES + lane],
+                                        Vb[V_MAG_LIFT * LANES + lane], True, x0, (1 + x1) / 2, tech)
+            oks[lane] = ok
+            for c in range(3):
+                org[lane, c], wis[lane, c] = o[c], wi[c]
+                if ok:
+                    Vb[(V_F + c) * LANES + lane] = val[c]
+        Vb[V_LIT * LANES + lane] = 1.0 if oks[lane] else 0.0
+        nb += oks[lane]
+    return Va, sa, na, Vb, org, wis, oks, nb
 
 
 kernel_cache.restore()
@@ -91,3 +126,58 @@ def test_shadow_add_adds_only_traced_unblocked_lanes():
         want[:n][add] += F0[:n][add] * 0.25
         assert np.array_equal(V[(V_L + c) * LANES:(V_L + c + 1) * LANES], want)
     assert np.array_equal(V[:V_L * LANES], V0[:V_L * LANES])   # nothing else written
+
+
+def _unit(rng, n):
+    v = rng.normal(size=(n, 3))
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def test_env_stage_two_passes_equal_env_sample_lane_by_lane():
+    """Random hits (normals, views, points; Lambert, rough gold and no hit) under a sky with a sun, both techniques:
+    the stage's values, lit flags, shadow packet (every byte) and count equal a loop of :func:`env_sample`."""
+    import pyrt
+    from pyrt.integrators import compiled
+
+    s = pyrt.Scene(pyrt.Camera(position=(0, 1, 4), target=(0, 0, 0), width=8, height=8))
+    s.add_plane((0, 0, 0), 4.0, pyrt.Lambert(albedo=(0.6, 0.5, 0.4)))
+    s.add_sphere((0, 0.5, 0), 0.5, pyrt.CookTorrance(metal="gold", roughness=0.4), subdivisions=2)
+    pyrt.set_environment(s, pyrt.LatLongEnvironment(pyrt.procedural_sky(64, 32, sun_direction=(0.5, 0.6, 0.4),
+                                                                         sun_angle=4.0)))
+    ps = pyrt.PreparedScene(s)
+    cs = compiled.CompiledScene(ps)
+    erec = np.ascontiguousarray(cs.env_record)
+    rng = np.random.default_rng(5)
+    lit = []
+    for trial in range(40):
+        n = LANES if trial % 2 else int(rng.integers(1, LANES))
+        V = np.zeros(V_SIZE * LANES)
+        ns = _unit(rng, LANES)
+        ng = ns + 0.2 * _unit(rng, LANES)
+        ng /= np.linalg.norm(ng, axis=1, keepdims=True)
+        d = _unit(rng, LANES)
+        d = np.where(np.sum(d * ng, axis=1, keepdims=True) < 0, d, -d)
+        d[:2] = -ng[:2] + 1e-9                       # head-on views
+        p = rng.uniform(-2, 2, (LANES, 3))
+        for field, x in ((V_NS, ns), (V_NG, ng), (V_NV, ng), (V_D, d), (V_P, p), (V_LIFT, p),
+                         (V_A, rng.uniform(0, 1, (LANES, 3)))):
+            for c in range(3):
+                V[(field + c) * LANES:(field + c + 1) * LANES] = x[:, c]
+        V[V_MAG * LANES:(V_MAG + 1) * LANES] = 1e-6
+        V[V_MAG_LIFT * LANES:(V_MAG_LIFT + 1) * LANES] = 1e-6
+        V[V_MAT * LANES:(V_MAT + 1) * LANES] = rng.integers(-1, 2, LANES)
+        lane_s = rng.integers(0, 16, LANES).astype(np.int64)
+        lane_k32 = rng.integers(0, 2**32, LANES).astype(np.uint64)
+        for tech in (False, True):
+            Va, sa, na, Vb, org, wis, oks, nb = _env_both(cs.env_tag, erec, cs.env_data, cs.materials[0],
+                                                          cs.materials[1], V, n, tech, lane_s, 16, lane_k32, trial)
+            assert na == nb
+            lit.append(na / n)
+            assert np.array_equal(E.packet_valid(sa)[:n] != 0, oks) and not E.packet_valid(sa)[n:].any()
+            f32 = sa.reshape(-1)[:E.LANE_WORDS * LANES].reshape(E.LANE_WORDS, LANES)[:, :n]
+            for c in range(3):                       # the packet's float32 origin and direction of the traced lanes
+                assert np.array_equal(f32[E.ORG_X + c][oks], org[oks, c].astype(np.float32))
+                assert np.array_equal(f32[E.DIR_X + c][oks], wis[oks, c].astype(np.float32))
+            for f in (V_F, V_F + 1, V_F + 2, V_LIT):
+                assert np.array_equal(Va[f * LANES:f * LANES + n], Vb[f * LANES:f * LANES + n])
+    assert 0.1 < np.mean(lit) < 0.95

@@ -223,6 +223,28 @@ def test_wide_vectors_asks_llvm_for_512_bit_vectors():
         assert "zmm" in list(wide.inspect_asm().values())[0]
 
 
+def test_prefetch_changes_nothing():
+    """pyrt.core.unmanaged.prefetch: a prefetch instruction in the code, the same results, and no fault for addresses
+    outside the array (a prefetch never faults)."""
+    from pyrt.core.unmanaged import pointer, prefetch
+
+    @numba.njit(error_model="numpy")
+    def gather(a, idx, pf):
+        p = pointer(a)
+        s = 0.0
+        for k in range(idx.size):
+            if pf:
+                prefetch(p, idx[min(k + 8, idx.size - 1)])
+                prefetch(p, idx[k] + 1 << 40)
+            s += p[idx[k]] * (k + 1)
+        return s
+
+    a = np.random.default_rng(2).random(1 << 16)
+    idx = np.random.default_rng(3).integers(0, a.size, 5000)
+    assert gather(a, idx, True) == gather(a, idx, False)
+    assert "prefetch" in list(gather.inspect_asm().values())[0]
+
+
 def test_robust_tmax_matches_offsets(rng):
     """The compiled kernel's shadow-ray length equals pyrt.geometry.offsets.robust_tmax (the robust strategy)."""
     o = rng.normal(0, 50, (200, 3))

@@ -36,8 +36,11 @@ V_T = 44
 #: ray differentials (:mod:`pyrt.integrators.compiled_diffs`; written only with ``opts[O_DIFFS]``): the ray's offset
 #: rays (x origin, x direction, y origin, y direction), then the hit's dp/dx, dp/dy, dn/dx, dn/dy
 V_RAY, V_DP = 45, 57
+#: the environment stage's lanes between its two passes (:func:`pyrt.integrators.compiled_lighting.env_stage`):
+#: direction, BSDF weight, direction in the environment's frame, density, lat-long (u, v), whether it counts
+V_EWI, V_EW, V_ELOC, V_EPDF, V_EUV, V_EOK = 69, 72, 75, 78, 79, 81
 #: fields of the scratch
-V_SIZE = 69
+V_SIZE = 82
 #: camera record layout (float64)
 C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W, C_H, C_JITTER, C_K, C_AX = 0, 3, 6, 9, 12, 13, 14, 15, 16, 17
 #: length of the camera record

@@ -25,7 +25,8 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     LANES, V_D, V_P, V_NG, V_NS, V_NV,
     V_LIFT, V_MAG, V_MAG_LIFT, V_MAT, V_A, V_F,
     V_LIT, V_COSO, V_COSI, V_COSIO, V_S, V_GOK,
-    V_SO, V_WI, V_TMAX, T_INF, DIM_AREA, MAX_AREA_SAMPLES, V_L, DIM_ENV, N_SHADOW,
+    V_SO, V_WI, V_TMAX, T_INF, DIM_AREA, MAX_AREA_SAMPLES, V_L, DIM_ENV, N_SHADOW, V_EWI, V_EW, V_ELOC, V_EPDF,
+    V_EUV, V_EOK,
     _njit, _stage, lane_vec, set_lane_vec)
 from pyrt.lights import compiled as LC  # noqa: E402
 from pyrt.lights import compiled_env as CE  # noqa: E402
@@ -260,6 +261,58 @@ def bsdf_stage(mats_tag, mats_par, lpars, j, V, sh, w, n):
 
 
 @_stage
+def env_direction(etag, erec, edata, mtag, mpars, m, albedo, ns, wo, u0, u1, bsdf_technique):
+    """The first half of :func:`env_sample`: the sample's direction, ``(ok, wi, w, pdf, local, uv)``: ``ok`` False
+    where the sample has no density (BSDF technique: or no weight), ``w`` the BSDF sample's weight (RGB; zeros for
+    the light technique), ``pdf`` the technique's density, ``local`` and ``uv`` the direction's
+    :func:`pyrt.lights.compiled_env.lookup_coords`, whose texels (and, BSDF technique, light densities) it prefetches
+    for :func:`env_value`."""
+    fs, ft = CS.coordinate_frame(ns[0], ns[1], ns[2])
+    if bsdf_technique:
+        wol = CS.to_local(wo, fs, ft, ns)
+        x, y, z, w_r, w_g, w_b, pdf = CS.sample_f(mtag, mpars, m, albedo, wol[0], wol[1], wol[2], u0, u1)
+        wi = CS.to_world((x, y, z), fs, ft, ns)
+        ok = pdf > 0.0 and max(w_r, w_g, w_b) > 0.0
+    else:
+        x, y, z, pdf = CE.mis_sample(etag, erec, edata, u0, u1)
+        wi = (x, y, z)
+        w_r = w_g = w_b = 0.0
+        ok = pdf > 0.0
+    lx, ly, lz, u, v = CE.lookup_coords(etag, erec, wi[0], wi[1], wi[2])
+    CE.prefetch_lookup(etag, erec, edata, u, v, bsdf_technique)
+    return ok, wi, (w_r, w_g, w_b), pdf, (lx, ly, lz), (u, v)
+
+
+@_stage
+def env_value(etag, erec, edata, mtag, mpars, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift, terminator,
+              bsdf_technique, ok, wi, w, pdf, loc, uv):
+    """The second half of :func:`env_sample`, from :func:`env_direction`'s ``(ok, wi, w, pdf, loc, uv)``: the
+    lookups, the BSDF value (light technique), the MIS weight and the shadow ray's origin, ``(ok, origin, wi,
+    value)``."""
+    if bsdf_technique:
+        l0, l1, l2, pdf_l = CE.radiance_mis_pdf_at(etag, erec, edata, wi[0], wi[1], wi[2], loc[0], loc[1], loc[2],
+                                                   uv[0], uv[1])
+        k = CE.mis_weights(erec, pdf_l, pdf)[1] if ok else 0.0
+        val = (w[0] * l0 * k, w[1] * l1 * k, w[2] * l2 * k)
+    else:
+        le = CE.radiance_at(etag, erec, edata, wi[0], wi[1], wi[2], uv[0], uv[1])
+        ok = ok and max(le[0], le[1], le[2]) > 0.0
+        val = (0.0, 0.0, 0.0)
+        if ok:
+            fs, ft = CS.coordinate_frame(ns[0], ns[1], ns[2])
+            wol = CS.to_local(wo, fs, ft, ns)
+            wil = CS.to_local(wi, fs, ft, ns)
+            f = CS.f_cos_local(mtag, mpars, m, albedo, wol[0], wol[1], wol[2], wil[0], wil[1], wil[2])
+            k = CE.mis_weights(erec, pdf, CS.pdf_wi(mtag, mpars, m, wol[0], wol[1], wol[2], wil[0], wil[1],
+                                                    wil[2]))[0] / pdf
+            val = (f[0] * le[0] * k, f[1] * le[1] * k, f[2] * le[2] * k)
+    cg = dot(wi, ng)
+    ok = ok and (cg > 0.0 or dot(wi, nv) > 0.0) and max(val[0], val[1], val[2]) > 0.0
+    o = J.shadow_origin(p, ng, lift, mag, mag_lift, cg, terminator)
+    return ok, o, wi, val
+
+
+@_stage
 def env_sample(etag, erec, edata, mtag, mpars, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift, terminator, u0,
                u1, bsdf_technique):
     """One sample of the environment light at a hit of material ``m`` (``strategy="mis"``,
@@ -269,32 +322,10 @@ def env_sample(etag, erec, edata, mtag, mpars, m, albedo, p, ng, ns, nv, wo, lif
     weight; ``_add_bsdf_sample``), in the shading frame of ``ns``. Returns ``(ok, origin, wi, value)``: ``ok`` False
     where the sample adds nothing (no density, the wrong side, zero value: no shadow ray); the shadow ray leaves
     ``origin`` along ``wi`` unbounded (the environment is at infinity)."""
-    fs, ft = CS.coordinate_frame(ns[0], ns[1], ns[2])
-    wol = CS.to_local(wo, fs, ft, ns)
-    if bsdf_technique:
-        x, y, z, w_r, w_g, w_b, pdf_b = CS.sample_f(mtag, mpars, m, albedo, wol[0], wol[1], wol[2], u0, u1)
-        wi = CS.to_world((x, y, z), fs, ft, ns)
-        ok = pdf_b > 0.0 and max(w_r, w_g, w_b) > 0.0
-        l0, l1, l2, pdf_l = CE.radiance_mis_pdf(etag, erec, edata, wi[0], wi[1], wi[2])
-        k = CE.mis_weights(erec, pdf_l, pdf_b)[1] if ok else 0.0
-        val = (w_r * l0 * k, w_g * l1 * k, w_b * l2 * k)
-    else:
-        x, y, z, pdf_l = CE.mis_sample(etag, erec, edata, u0, u1)
-        wi = (x, y, z)
-        ok = pdf_l > 0.0
-        le = CE.radiance(etag, erec, edata, x, y, z)
-        ok = ok and max(le[0], le[1], le[2]) > 0.0
-        val = (0.0, 0.0, 0.0)
-        if ok:
-            wil = CS.to_local(wi, fs, ft, ns)
-            f = CS.f_cos_local(mtag, mpars, m, albedo, wol[0], wol[1], wol[2], wil[0], wil[1], wil[2])
-            k = CE.mis_weights(erec, pdf_l, CS.pdf_wi(mtag, mpars, m, wol[0], wol[1], wol[2], wil[0], wil[1],
-                                                      wil[2]))[0] / pdf_l
-            val = (f[0] * le[0] * k, f[1] * le[1] * k, f[2] * le[2] * k)
-    cg = dot(wi, ng)
-    ok = ok and (cg > 0.0 or dot(wi, nv) > 0.0) and max(val[0], val[1], val[2]) > 0.0
-    o = J.shadow_origin(p, ng, lift, mag, mag_lift, cg, terminator)
-    return ok, o, wi, val
+    ok, wi, w, pdf, loc, uv = env_direction(etag, erec, edata, mtag, mpars, m, albedo, ns, wo, u0, u1,
+                                            bsdf_technique)
+    return env_value(etag, erec, edata, mtag, mpars, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift, terminator,
+                     bsdf_technique, ok, wi, w, pdf, loc, uv)
 
 
 @_stage
@@ -305,7 +336,8 @@ def env_stage(etag, erec, edata, mats_tag, mats_par, V, n, terminator, bsdf_tech
     n``), each lane's numbers padded over its pixel's samples (dimension pair ``pair``, as :func:`area_stage`):
     the value into :data:`V_F`, whether it is traced into :data:`V_LIT`, the shadow ray into the packet ``sh``
     (width ``w``, the lane switched on accordingly). Returns the number of shadow rays."""
-    n_sh = 0
+    # two passes: every lane's direction first, its texels prefetched (:func:`env_direction`), then the lookups and
+    # values (:func:`env_value`): the lanes' cache misses overlap (the lookups are memory-bound on large maps)
     for lane in range(n):
         x0, x1 = JS.padded_sobol_2d(lane_s[lane], spp, lane_k32[lane], pair)
         m = int(V[V_MAT * LANES + lane])
@@ -314,11 +346,29 @@ def env_stage(etag, erec, edata, mats_tag, mats_par, V, n, terminator, bsdf_tech
         ok = False
         if m >= 0 and MC.has_diffuse(mtag):
             d = lane_vec(V, V_D, lane)
-            ok, o, wi, val = env_sample(etag, erec, edata, mtag, mats_par, mm, lane_vec(V, V_A, lane),
-                                        lane_vec(V, V_P, lane), lane_vec(V, V_NG, lane), lane_vec(V, V_NS, lane),
-                                        lane_vec(V, V_NV, lane), (-d[0], -d[1], -d[2]), lane_vec(V, V_LIFT, lane),
-                                        V[V_MAG * LANES + lane], V[V_MAG_LIFT * LANES + lane], terminator, x0,
-                                        (s + x1) / count, bsdf_technique)
+            ok, wi, wv, pdf, loc, uv = env_direction(etag, erec, edata, mtag, mats_par, mm, lane_vec(V, V_A, lane),
+                                                     lane_vec(V, V_NS, lane), (-d[0], -d[1], -d[2]), x0,
+                                                     (s + x1) / count, bsdf_technique)
+            set_lane_vec(V, V_EWI, lane, wi)
+            set_lane_vec(V, V_EW, lane, wv)
+            set_lane_vec(V, V_ELOC, lane, loc)
+            V[V_EPDF * LANES + lane] = pdf
+            V[V_EUV * LANES + lane] = uv[0]
+            V[(V_EUV + 1) * LANES + lane] = uv[1]
+        V[V_EOK * LANES + lane] = 1.0 if ok else 0.0
+    n_sh = 0
+    for lane in range(n):
+        ok = V[V_EOK * LANES + lane] != 0.0
+        if ok:
+            mm = int(V[V_MAT * LANES + lane])
+            d = lane_vec(V, V_D, lane)
+            ok, o, wi, val = env_value(etag, erec, edata, mats_tag[mm], mats_par, mm, lane_vec(V, V_A, lane),
+                                       lane_vec(V, V_P, lane), lane_vec(V, V_NG, lane), lane_vec(V, V_NS, lane),
+                                       lane_vec(V, V_NV, lane), (-d[0], -d[1], -d[2]), lane_vec(V, V_LIFT, lane),
+                                       V[V_MAG * LANES + lane], V[V_MAG_LIFT * LANES + lane], terminator,
+                                       bsdf_technique, True, lane_vec(V, V_EWI, lane), lane_vec(V, V_EW, lane),
+                                       V[V_EPDF * LANES + lane], lane_vec(V, V_ELOC, lane),
+                                       (V[V_EUV * LANES + lane], V[(V_EUV + 1) * LANES + lane]))
             if ok:
                 set_lane_vec(V, V_F, lane, val)
                 E.packet_set_origin(sh, w, lane, o[0], o[1], o[2])

@@ -43,6 +43,7 @@ import math
 import numpy as np
 from numba.extending import register_jitable
 
+from pyrt.core import unmanaged as U
 from pyrt.shaders import jit as J
 
 from pyrt.lights.environment import ConstantEnvironment, LatLongEnvironment
@@ -444,16 +445,68 @@ def mis_pdf(tag, rec, data, dx, dy, dz):
 
 
 @register_jitable
+def lookup_coords(tag, rec, dx, dy, dz):
+    """``(x, y, z, u, v)``: the unit world direction ``d`` in the environment's frame and its lat-long coordinates,
+    as :func:`radiance` and :func:`pdf_table` compute them (zeros for a constant environment, which needs none)."""
+    if tag == CONSTANT:
+        return 0.0, 0.0, 0.0, 0.0, 0.0
+    x, y, z = env_to_local(rec, dx, dy, dz)
+    u, v = latlong_dir_to_uv(x, y, z)
+    return x, y, z, u, v
+
+
+@register_jitable
+def radiance_at(tag, rec, data, dx, dy, dz, u, v):
+    """:func:`radiance` of the unit world direction ``d`` whose :func:`lookup_coords` are ``(.., u, v)``: the same
+    values without computing them again."""
+    if tag == CONSTANT:
+        return radiance(tag, rec, data, dx, dy, dz)
+    s = rec[R_INTENSITY]
+    r, g, b = latlong_lookup(tag, rec, data, u, v)
+    return s * r, s * g, s * b
+
+
+@register_jitable
+def prefetch_lookup(tag, rec, data, u, v, density):
+    """Prefetch (:func:`pyrt.core.unmanaged.prefetch`) the texel rows that :func:`latlong_lookup` reads at ``(u, v)``
+    and, with ``density``, the table entries of :func:`pdf_table_uv` (:func:`mis_pdf`'s table); changes nothing."""
+    if tag == CONSTANT:
+        return
+    h, w = int(rec[R_H]), int(rec[R_W])
+    o = int(rec[R_IMAGE])
+    ix = J.wrap_int(int(math.floor(u * w - 0.5)), w)
+    iy = int(math.floor(v * h - 0.5))
+    r0, r1 = min(max(iy, 0), h - 1) * w, min(max(iy + 1, 0), h - 1) * w
+    U.prefetch(data, o + 3 * (r0 + ix))
+    U.prefetch(data, o + 3 * (r0 + ix) + 5)
+    U.prefetch(data, o + 3 * (r1 + ix))
+    U.prefetch(data, o + 3 * (r1 + ix) + 5)
+    if density:
+        k = min(max(iy + 1, 0), h)
+        lum = int(rec[R_LUM])
+        U.prefetch(data, lum + min(max(k - 1, 0), h - 1) * w + ix)
+        U.prefetch(data, lum + min(k, h - 1) * w + ix)
+        table = int(rec[R_TABLE]) if rec[R_COMPENSATE] == 0.0 else int(rec[R_C_TABLE])
+        U.prefetch(data, table + k * w + ix)
+
+
+@register_jitable
 def radiance_mis_pdf(tag, rec, data, dx, dy, dz):
     """``(r, g, b, pdf)``: :func:`radiance` and :func:`mis_pdf` at one unit world direction (what a BSDF sample of
     the environment light needs), the direction's lat-long coordinates computed once for both: the same values as
     the two calls."""
+    x, y, z, u, v = lookup_coords(tag, rec, dx, dy, dz)
+    return radiance_mis_pdf_at(tag, rec, data, dx, dy, dz, x, y, z, u, v)
+
+
+@register_jitable
+def radiance_mis_pdf_at(tag, rec, data, dx, dy, dz, x, y, z, u, v):
+    """:func:`radiance_mis_pdf` of the unit world direction ``d`` whose :func:`lookup_coords` are ``(x, y, z, u,
+    v)``."""
     if tag == CONSTANT:
         r, g, b = radiance(tag, rec, data, dx, dy, dz)
         return r, g, b, mis_pdf(tag, rec, data, dx, dy, dz)
     s = rec[R_INTENSITY]
-    x, y, z = env_to_local(rec, dx, dy, dz)
-    u, v = latlong_dir_to_uv(x, y, z)
     r, g, b = latlong_lookup(tag, rec, data, u, v)
     if rec[R_COMPENSATE] == 0.0:
         p = pdf_table_uv(tag, rec, data, int(rec[R_TABLE]), rec[R_INTEGRAL], x, y, z, u, v)
