@@ -21,6 +21,7 @@ fixed spp, not on Dask workers).
 """
 from __future__ import annotations
 
+import functools
 import sys
 import time
 import warnings
@@ -216,7 +217,13 @@ def camera_record(cam):
 def tile_order(n_tiles):
     """The tiles in a fixed shuffled order: ``prange`` gives each thread one contiguous block of the list, so each
     gets tiles from all over the image (a block of raster-order tiles can be all sky). The image does not depend
-    on the order (every pixel's samples are keyed on the pixel)."""
+    on the order (every pixel's samples are keyed on the pixel). The permutation is made once per tile count
+    (a copy of it each call: a writeable array, the kernel's argument type)."""
+    return _tile_order(int(n_tiles)).copy()
+
+
+@functools.lru_cache(maxsize=16)
+def _tile_order(n_tiles):
     return np.random.default_rng(0x71E5).permutation(n_tiles).astype(np.int64)
 
 

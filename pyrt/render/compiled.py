@@ -39,7 +39,7 @@ def render_compiled(ps, cam, *, seed, max_depth, throughput_cutoff, offset, spli
         bar.close()
     film = Film(W, H, aovs=aovs, nonfinite=nonfinite)
     px_done = None if done.all() else compiled.pixel_mask(done, W, H)
-    film.sum += sums
+    film.sum = sums                 # the kernel's own (H*W, 3) float64 sums: no copy
     if aovs:
         _add_aovs(film, aov[0])
     film.weight += float(S) if px_done is None else np.where(px_done, float(S), 0.0)
