@@ -243,7 +243,8 @@ def median_run(runs):
 
 
 #: the preview phases that make up "prepare" (:attr:`pyrt.apps.preview.batch.AssetReport.prepare_time`)
-PREPARE_PHASES = ("frame", "normals", "scene", "emitters", "geometry", "bvh")
+PREPARE_PHASES = ("frame", "normals", "tangents", "scene", "emitters", "geometry", "bvh", "mip", "irradiance", "tables",
+                  "kernel", "mask")
 
 
 def _number(rep, *keys):

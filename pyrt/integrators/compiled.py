@@ -156,6 +156,7 @@ class CompiledScene:
     """
 
     def __init__(self, ps):
+        t0 = time.perf_counter()
         if ps.compiled_geometry is None:
             geo = ps.geo
             f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)          # noqa: E731
@@ -191,6 +192,27 @@ class CompiledScene:
         self.scene = embree_jit.scene_handle(ps.accel)
         #: the prepared scene whose Embree scene ``scene`` is (kept alive while these tables are in use)
         self.prepared = ps
+        add_time(ps.timings, "tables", time.perf_counter() - t0)
+
+
+def add_time(timings, phase, seconds):
+    """Add ``seconds`` to ``timings[phase]`` (a :attr:`pyrt.PreparedScene.timings` dict; absent counts as 0)."""
+    timings[phase] = timings.get(phase, 0.0) + seconds
+
+
+def load_kernel(cs, kernel, call):
+    """Load ``kernel`` (a render entry of :mod:`pyrt.integrators.compiled_kernel`) from the cache, or compile it on a
+    cold one, by ``call()``, an empty call (no tiles, no pixels), when this process has not loaded it yet; the seconds
+    are added to ``cs.prepared.timings["kernel"]`` (what a preview reports as its ``kernel`` phase: a load from the
+    cache, the same file for every model, or the cold compile), so that no render's time includes them."""
+    if kernel.overloads:
+        return
+    announce_compile()
+    t0 = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NumbaIRAssumptionWarning)        # (as in render_fixed)
+        call()
+    add_time(cs.prepared.timings, "kernel", time.perf_counter() - t0)
 
 
 def normal_map_fields(normal_map, row):
@@ -283,10 +305,11 @@ def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_dept
     width = packet_width()
     if threads is not None:
         numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
-    announce_compile()
+    load_kernel(cs, K.render_tiles, lambda: K.render_tiles(
+        cs.scene, order[:0], cam_rec, cs.geo_f, cs.geo_i, cs.materials[0], cs.materials[1], cs.textures[0],
+        cs.textures[1], cs.lights[0], cs.lights[1], cs.env_data, opts, optf, sums, sqs, aov, counters[:0], width))
     n_threads = numba.get_num_threads()
     per_call = FIRST_CALL_TILES * n_threads
-    loading = not K.render_tiles.overloads         # the first call loads (or compiles) the kernel: not a rate
     lo, timed_s, timed_tiles = 0, 0.0, 0
     while lo < order.size:
         if cancel is not None and cancel.is_set():
@@ -301,11 +324,9 @@ def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_dept
                 K.render_tiles(cs.scene, order[lo:hi], cam_rec, cs.geo_f, cs.geo_i, cs.materials[0], cs.materials[1],
                                cs.textures[0], cs.textures[1], cs.lights[0], cs.lights[1], cs.env_data, opts,
                                optf, sums, sqs, aov, counters[lo:hi], width)
-        if not loading:
-            timed_s += time.perf_counter() - t0
-            timed_tiles += hi - lo
-            per_call = max(KL.TILES_PER_TASK * n_threads, int(call_seconds * timed_tiles / max(timed_s, 1e-9)))
-        loading = False
+        timed_s += time.perf_counter() - t0
+        timed_tiles += hi - lo
+        per_call = max(KL.TILES_PER_TASK * n_threads, int(call_seconds * timed_tiles / max(timed_s, 1e-9)))
         done[order[lo:hi]] = True
         if progress is not None:
             progress.update(hi - lo)
@@ -335,6 +356,13 @@ def render_pixels(cs, cam, P, C, base, spp_after, *, seed, max_depth, throughput
                         cs.textures[0], cs.textures[1], cs.lights[0], cs.lights[1], cs.env_data, opts, optf, P, C,
                         base, dscale, both, half_b, counters, packet_width())
     return both, half_b, counters
+
+
+def load_pixel_kernel(cs, cam):
+    """:func:`load_kernel` for the adaptive passes' entry (:func:`render_pixels`), before their chunks run."""
+    none = np.zeros(0, dtype=np.int64)
+    load_kernel(cs, K.render_pixels, lambda: render_pixels(cs, cam, none, none, none, np.ones(0), seed=0, max_depth=1,
+                                                           throughput_cutoff=0.0, split_depth=None, terminator=True))
 
 
 def _options(cs, spp, seed, max_depth, throughput_cutoff, split_depth, terminator):

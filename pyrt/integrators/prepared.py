@@ -67,7 +67,10 @@ class PreparedScene:
     """
 
     #: Seconds spent preparing: ``"geometry"`` (flat geometry table, float32 range check, the copies into
-    #: Embree) and ``"bvh"`` (Embree's BVH build). Tangents have no phase: they are computed per hit.
+    #: Embree) and ``"bvh"`` (Embree's BVH build); added when they happen: ``"mip_levels"`` and ``"irradiance"``
+    #: (:meth:`before_fork`), ``"tables"`` (packing the compiled kernel's flat tables, per compiled render:
+    #: :class:`pyrt.integrators.compiled.CompiledScene`) and ``"kernel"`` (loading the compiled kernel from its cache,
+    #: or compiling it, once per process: :func:`pyrt.integrators.compiled.load_kernel`).
     timings: dict
 
     def __init__(self, scene, *, threads=None, build_quality="medium"):
@@ -112,7 +115,7 @@ class PreparedScene:
         one copy of them (copy-on-write) instead of holding one each; and the irradiance grid of an environment
         light with the control variate in a scene with Lambertian materials (:func:`pyrt.lights.irradiance.
         irradiance_table`: 0.22 s for a 512 x 256 map, kept by the environment across renders). Once per prepared
-        scene; the seconds it took are ``timings["mip_levels"]`` and ``timings["irradiance"]``."""
+        scene; the seconds it took are ``timings["mip_levels"]`` and (when a grid was built) ``timings["irradiance"]``."""
         if "mip_levels" in self.timings:
             return
         t0 = time.perf_counter()
@@ -134,7 +137,7 @@ class PreparedScene:
                 if env is not None and lt.control_variate and lt.strategy != "preview" \
                         and env.radiance_resolution is not None:
                     irradiance_table(env)
-        self.timings["irradiance"] = time.perf_counter() - t1
+                    self.timings["irradiance"] = time.perf_counter() - t1
 
     def close(self):
         """Release the Embree scene."""

@@ -70,6 +70,7 @@ def adaptive_task(ps, cam, *, seed, max_depth, throughput_cutoff, offset, split_
     renders one chunk of a pass with the kernel (the same camera rays as the NumPy path's chunk; ``spp_after``, the
     pixels' samples after the pass, scales their differentials)."""
     cs = compiled.CompiledScene(ps)
+    compiled.load_pixel_kernel(cs, cam)
     kw = dict(seed=seed, max_depth=max_depth, throughput_cutoff=throughput_cutoff, split_depth=split_depth,
               terminator=offset in (None, "robust"))
 

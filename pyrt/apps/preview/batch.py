@@ -13,7 +13,7 @@ import traceback
 from pyrt.core.image_io import write_bytes
 from pyrt.io.assets import FORMATS, AssetError
 from pyrt.apps.preview.options import BudgetExceeded, PreviewError, PreviewInterrupted, PreviewOptions
-from pyrt.apps.preview.render import PHASES, format_phases, render_preview, write_files
+from pyrt.apps.preview.render import PHASES, PREPARE_PHASES, format_phases, render_preview, write_files
 
 
 # ============================================================================ batches
@@ -33,7 +33,7 @@ class AssetReport:
     outputs: list = field(default_factory=list)
     exposure: float | None = None
     files: dict | None = None           # encoded outputs (Dask mode, before the client writes them)
-    #: seconds per phase (:data:`pyrt.apps.preview.render.PHASES`: load, frame, normals, ..., render, encode, write)
+    #: seconds per phase (:data:`pyrt.apps.preview.render.PHASES`: load, decode, frame, ..., render, encode, write)
     phases: dict = field(default_factory=dict)
     #: what the loader replaced to render the model anyway (a missing texture, MTL, ...): also in ``warnings``
     substitutions: list = field(default_factory=list)
@@ -45,10 +45,10 @@ class AssetReport:
 
     @property
     def prepare_time(self):
-        """Seconds between loading and rendering: up axis and bounds, normals, scene, emitters (the emissive-mesh
-        light's table), geometry tables, BVH."""
-        return float(sum(self.phases.get(k, 0.0) for k in ("frame", "normals", "scene", "emitters", "geometry",
-                                                             "bvh")))
+        """Seconds between loading and rendering: the sum of the :data:`pyrt.apps.preview.render.PREPARE_PHASES` (up
+        axis and bounds, normals, tangents, scene, emitters, geometry tables, BVH, MIP pyramids, irradiance grid,
+        compiled tables and kernel load, the exposure's model mask)."""
+        return float(sum(self.phases.get(k, 0.0) for k in PREPARE_PHASES))
 
 
 def output_name(path, taken=None):

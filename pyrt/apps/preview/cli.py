@@ -19,7 +19,8 @@ from pyrt.core.image_io import TONEMAPS
 from pyrt.io.assets import FORMATS
 from pyrt.io.assets.archive import split_member
 from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, ArgumentParser, check_output_folder, check_outputs,
-                              finite_float, interrupts, nonnegative_int, positive_float, positive_int, run_console)
+                              finite_float, interrupts, nonnegative_int, positive_float, positive_int, process_age,
+                              run_console)
 from pyrt.render.pool import PARALLEL
 from pyrt.apps.preview.options import AXES, PreviewError, PreviewInterrupted, PreviewOptions
 from pyrt.apps.preview.render import format_phases, format_sampling, render_preview, write_files
@@ -116,13 +117,17 @@ def _parser():
     return ap
 
 
-def main(argv=None):
-    """``pyrt-preview MODEL -o out.png`` (one model) or ``pyrt-preview FOLDER/ --out-dir out`` (batch)."""
+def main(argv=None, *, started=None):
+    """``pyrt-preview MODEL -o out.png`` (one model) or ``pyrt-preview FOLDER/ --out-dir out`` (batch).
+
+    ``started``: the seconds the process had run before ``main`` (the interpreter's start and the imports:
+    :func:`pyrt.apps.common.process_age`, what the console script passes), reported as the single model's ``start``
+    phase; None (a call from Python): no such phase."""
     args = _parser().parse_args(argv)
     cancel = threading.Event()
     try:
         with interrupts(cancel, "pyrt-preview", "the view in progress"):
-            return _run(args, cancel)
+            return _run(args, cancel, started)
     except KeyboardInterrupt:
         print("pyrt-preview: aborted", file=sys.stderr)
         return EXIT_INTERRUPTED
@@ -133,7 +138,7 @@ def main(argv=None):
         return EXIT_ERROR
 
 
-def _run(args, cancel):
+def _run(args, cancel, started=None):
     formats = tuple(args.format.split(",")) if args.format else ("png",)
     opts = PreviewOptions(width=args.width, height=args.height, spp=args.spp, fov=args.fov, azimuth=args.azimuth,
                           elevation=args.elevation, up=args.up, framing=args.framing, camera=args.camera, lights=args.lights,
@@ -156,7 +161,7 @@ def _run(args, cancel):
         if not os.path.isfile(paths[0]) and split_member(paths[0]) is None:
             raise PreviewError(f"no such model file: {paths[0]}")
         check_outputs(args.output)
-        return _main_single(paths[0], args.output, opts, args.quiet, cancel)
+        return _main_single(paths[0], args.output, opts, args.quiet, cancel, started)
     out_dir = args.out_dir or "preview_out"
     check_output_folder(out_dir if os.path.exists(out_dir) else os.path.dirname(os.path.abspath(out_dir)))
     dask = None if args.dask is None else (True if args.dask == "local" else args.dask)
@@ -171,7 +176,7 @@ def _run(args, cancel):
     return 0 if all(r.status == "ok" for r in reports) else 1
 
 
-def _main_single(path, outputs, opts, quiet, cancel):
+def _main_single(path, outputs, opts, quiet, cancel, started=None):
     fmts = tuple(sorted({os.path.splitext(out)[1].lower()[1:] for out in outputs}))
     opts = dataclasses.replace(opts, formats=fmts)
     deadline = time.perf_counter() + opts.time_budget if opts.time_budget else None
@@ -196,6 +201,8 @@ def _main_single(path, outputs, opts, quiet, cancel):
             if not quiet:
                 print(f"wrote {p}")
     res.phases["write"] = time.perf_counter() - t_write
+    if started is not None:
+        res.phases["start"] = started
     for w in dict.fromkeys(res.warnings):
         print(f"warning: {w}", file=sys.stderr)
     if not quiet:
@@ -209,5 +216,7 @@ def _main_single(path, outputs, opts, quiet, cancel):
 
 
 def console_main():
-    """The console script: :func:`main` without the interpreter's teardown (:func:`pyrt.apps.common.run_console`)."""
-    run_console(main)
+    """The console script: :func:`main` without the interpreter's teardown (:func:`pyrt.apps.common.run_console`),
+    the process's age on entry reported as the ``start`` phase."""
+    started = process_age()
+    run_console(lambda: main(started=started))

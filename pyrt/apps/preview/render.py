@@ -43,8 +43,9 @@ class PreviewScene:
         self.asset = asset
         self.warnings = list(asset.warnings)
         t0 = time.perf_counter()
-        #: seconds per preparation phase: "frame" (up axis, bounds), "normals", "scene", "emitters" (the emissive-mesh
-        #: light, when the model emits), "geometry", "bvh"
+        #: seconds per preparation phase: "frame" (up axis, bounds), "normals", "tangents", "scene", "emitters" (the
+        #: emissive-mesh light, when the model emits), "geometry", "bvh"; "mask" (the back-face check and the exposure's
+        #: model mask, added by :meth:`render_view`)
         self.timings = {}
         if o.up == "auto":
             self.up_axis, self.up_reason = detect_up_axis(up_axis_sample(asset))
@@ -204,6 +205,7 @@ class PreviewScene:
         """Render one view; the first call fixes the exposure (unless given). Returns a RenderResult."""
         o = self.options
         self._set_view(azimuth)
+        t_mask = time.perf_counter()
         if not self._back_faces_checked:      # once per model, at its first view
             self._back_faces_checked = True
             frac, n = self.back_face_fraction()
@@ -212,6 +214,7 @@ class PreviewScene:
                     f"{self.asset.path}: {100 * frac:.0f}% of the single-sided surface in view is seen from behind "
                     "(faces wound clockwise seen from outside, or normals inverted?): back faces are culled as the "
                     "file asks (glTF doubleSided false), so the model looks hollow; --double-sided renders both sides")
+        t_mask = time.perf_counter() - t_mask
         with _warnings.catch_warnings(record=True) as caught:
             _warnings.simplefilter("always")
             glass = bool(self.prepared.dielectric.any())
@@ -234,9 +237,13 @@ class PreviewScene:
                                                   if glass else o.chunk_samples))
         self.warnings += [str(w.message) for w in caught]
         if self.exposure is None:
-            self.exposure, self.white = auto_exposure(res.image, self.model_mask())
+            t0 = time.perf_counter()
+            mask = self.model_mask()
+            t_mask += time.perf_counter() - t0
+            self.exposure, self.white = auto_exposure(res.image, mask)
             if o.ground:     # the shadow catcher's backdrop stays grey (rig.limit_backdrop)
                 self.exposure, self.white = limit_backdrop(self.exposure, self.white, self.scene.background, o.tonemap)
+        self.timings["mask"] = self.timings.get("mask", 0.0) + t_mask
         return res
 
     def to_display(self, image):
@@ -271,8 +278,8 @@ class PreviewResult:
     render_time: float
     warnings: list
     files: dict = field(default_factory=dict)      # output name -> bytes (encoded files)
-    #: seconds per phase, in order: load, frame, normals, scene, geometry, bvh, render, encode (and "write",
-    #: added by whoever writes the files): see :data:`PHASES`
+    #: seconds per phase, in :data:`PHASES` order (those that happened; "write" and "start" are added by whoever
+    #: writes the files)
     phases: dict = field(default_factory=dict)
     #: the loader's substitutions (:attr:`pyrt.io.assets.Asset.substitutions`; also in ``warnings``)
     substitutions: list = field(default_factory=list)
@@ -305,12 +312,23 @@ def format_sampling(result, target_error=None):
     return f"{text} (mean), estimated relMSE {err:.2g}{target}"
 
 
-#: The phases a preview reports (:attr:`PreviewResult.phases`, the ``pyrt-preview`` summary line, the batch summary):
-#: reading the file; up axis and bounds; welding + crease-angle normals (meshes without normals); materials and
-#: :meth:`pyrt.Scene.add_mesh`; the flat geometry table, float32 range check and handing the arrays to Embree;
-#: Embree's BVH build; rendering every view; tone mapping and encoding the files; writing them. Tangents have no
-#: phase: they are computed per hit from the triangles' UVs.
-PHASES = ("load", "frame", "normals", "scene", "emitters", "geometry", "bvh", "render", "encode", "write")
+#: The phases a preview reports (:attr:`PreviewResult.phases`, the ``pyrt-preview`` summary line, the batch summary),
+#: each where it happened: the interpreter's start and the imports (``pyrt-preview`` only: :func:`pyrt.apps.common.
+#: process_age`); reading the file (its images' decoding apart); decoding the texture images (glTF); up axis and
+#: bounds; welding + crease-angle normals (meshes without normals); vertex tangents generated from the UVs (meshes with
+#: a normal map and no tangents); materials and :meth:`pyrt.Scene.add_mesh`; the emissive-mesh light; the flat
+#: geometry table, float32 range check and handing the arrays to Embree; Embree's BVH build; the MIP pyramids built
+#: ahead of forked render workers (:meth:`pyrt.PreparedScene.before_fork`; with threads a pyramid level is built by
+#: the render that reads it); an environment's irradiance grid; packing the compiled kernel's flat tables and loading
+#: the kernel from its cache (compiled renders); the back-face check and the exposure's model mask; rendering every
+#: view (nothing of the phases before it); tone mapping and encoding the files; writing them.
+PHASES = ("start", "load", "decode", "frame", "normals", "tangents", "scene", "emitters", "geometry", "bvh", "mip",
+          "irradiance", "tables", "kernel", "mask", "render", "encode", "write")
+#: The phases between loading and rendering (:attr:`pyrt.apps.preview.AssetReport.prepare_time` sums them)
+PREPARE_PHASES = ("frame", "normals", "tangents", "scene", "emitters", "geometry", "bvh", "mip", "irradiance", "tables",
+                  "kernel", "mask")
+#: The phases that happen inside the views' renders: :attr:`pyrt.PreparedScene.timings` key -> phase
+_IN_RENDER = {"mip_levels": "mip", "irradiance": "irradiance", "tables": "tables", "kernel": "kernel"}
 
 
 def format_phases(phases):
@@ -399,7 +417,9 @@ def render_preview(model, options=None, *, name="preview", deadline=None, cancel
     t0 = time.perf_counter()
     asset = model if isinstance(model, Asset) else load_asset(model, max_texture=o.texture_budget(), root=o.root)
     load_time = asset.load_time if isinstance(model, Asset) else time.perf_counter() - t0
-    phases = {"load": load_time}
+    phases = {"load": load_time - asset.decode_time}
+    if asset.decode_time > 0:
+        phases["decode"] = asset.decode_time
     if deadline is not None and time.perf_counter() > deadline:
         raise BudgetExceeded(f"time budget exceeded while loading ({load_time:.2f} s)")
     ps = PreviewScene(asset, o)
@@ -425,6 +445,10 @@ def render_preview(model, options=None, *, name="preview", deadline=None, cancel
             spp.append(res.samples_done / max(res.image.shape[0] * res.image.shape[1], 1))
             errors.append(res.estimated_error)
         phases.update(ps.timings)
+        for key, phase in _IN_RENDER.items():       # done during the first view's render: not rendering
+            if ps.prepared.timings.get(key):
+                phases[phase] = ps.prepared.timings[key]
+        t_render -= sum(phases.get(p, 0.0) for p in ("mask", *_IN_RENDER.values()))
         phases["render"] = t_render
         t_enc = time.perf_counter()
         disp = [ps.to_display(im) for im in images]

@@ -112,6 +112,9 @@ class Asset:
     #: load time by :func:`pyrt.io.assets.common.metadata_up_axis`), or None
     stated_up_axis: str | None = None
     load_time: float = 0.0
+    #: the seconds of :attr:`load_time` spent decoding texture images (glTF: :attr:`pyrt.io.assets.gltf_file.GltfFile.
+    #: decode_time`; 0 for formats that do not time it)
+    decode_time: float = 0.0
     #: what was replaced so that the model loads anyway (a missing or unreadable texture -> its factor alone, a
     #: missing MTL -> the default material, ...), one message each; every one is also in :attr:`warnings`
     substitutions: list[str] = field(default_factory=list)
@@ -151,8 +154,9 @@ class Asset:
 
         ``transform`` (4, 4) is applied on top of every instance's world transform (e.g. an up-axis
         change). ``timings`` (a dict, optional) gets the seconds spent added to its ``"normals"`` (welding
-        and crease-angle normals of meshes without normals, generated tangents: :attr:`generate_tangents`) and ``"scene"`` (everything else: materials,
-        :meth:`pyrt.Scene.add_mesh` checks and transforms). Returns the list of scene mesh indices added.
+        and crease-angle normals of meshes without normals), ``"tangents"`` (generated tangents:
+        :attr:`generate_tangents`) and ``"scene"`` (everything else: materials, :meth:`pyrt.Scene.add_mesh` checks and
+        transforms). Returns the list of scene mesh indices added.
         """
         t_start = time.perf_counter()
         t_normals = 0.0
@@ -165,9 +169,11 @@ class Asset:
         plan = merge_plan(self.materials, used) if self.merge_materials else {}
         t0 = time.perf_counter()       # meshes without normals: their crease normals in one call
         prepared.update(_prepare_meshes({i.mesh: self.meshes[i.mesh] for i in self.instances}, crease_angle))
+        t1 = time.perf_counter()
+        t_normals += t1 - t0
         if self.generate_tangents:
             prepared = {i: self._with_tangents(self.meshes[i], p) for i, p in prepared.items()}
-        t_normals += time.perf_counter() - t0
+        t_tangents = time.perf_counter() - t1
         parts = []                     # (material key, record) per instance, in instance order
         for k, inst in enumerate(self.instances):
             geometry, normals, colors, alpha, uv_sets, uv, tangents = prepared[inst.mesh]
@@ -211,7 +217,8 @@ class Asset:
                 scene.add_light(light)
         if timings is not None:
             timings["normals"] = timings.get("normals", 0.0) + t_normals
-            timings["scene"] = timings.get("scene", 0.0) + (time.perf_counter() - t_start - t_normals)
+            timings["tangents"] = timings.get("tangents", 0.0) + t_tangents
+            timings["scene"] = timings.get("scene", 0.0) + (time.perf_counter() - t_start - t_normals - t_tangents)
         return added
 
     def _with_tangents(self, am, prepared):

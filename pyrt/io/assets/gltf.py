@@ -275,6 +275,7 @@ def _load_gltf(path, max_texture=None):
     for msg in g.substitutions:            # missing texture files: each slot rendered with its factor alone
         asset.substitute(msg)
     W.extend(g.reductions)                 # the texture budget's reductions
+    asset.decode_time = g.decode_time
     # meshes: (glTF mesh index, morph weights) -> list of AssetMesh indices (one per triangle primitive)
     mesh_prims = {}
     skin_attrs = {}     # AssetMesh index -> (JOINTS (V, K), WEIGHTS (V, K)) of its primitive, when it has them

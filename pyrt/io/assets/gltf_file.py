@@ -30,6 +30,7 @@ import os
 import re
 import struct
 import tempfile
+import time
 import urllib.parse
 
 import numpy as np
@@ -153,6 +154,8 @@ class GltfFile:
         self._view_cache = {}        # decoded meshopt bufferViews
         #: what the texture budget reduced (one message per image), for the asset's warnings
         self.reductions = []
+        #: seconds spent decoding (and reducing) images: :meth:`prefetch_images` and the decodes of :meth:`image_array`
+        self.decode_time = 0.0
 
     def _glb_chunks(self, data):
         """(JSON chunk, binary chunk or None) of GLB bytes; every length checked against the file."""
@@ -503,8 +506,10 @@ class GltfFile:
         n = min(len(todo), workers or max(2, os.cpu_count() or 1))
         if n < 2:
             return
+        t0 = time.perf_counter()
         with ThreadPoolExecutor(n) as ex:
             futures = [(ii, ex.submit(self._decode, ii, source)) for ii, source in todo]
+        self.decode_time += time.perf_counter() - t0
         for ii, fut in futures:
             if fut.exception() is None:
                 self._prefetched[ii] = fut.result()
@@ -520,6 +525,7 @@ class GltfFile:
         for key in ((ii, None), (ii, bool(srgb))):
             if key in self._img_cache:
                 return self._img_cache[key]
+        t0 = time.perf_counter()
         decoded = self._prefetched.pop(ii, None)
         arr, label = decoded if decoded is not None else self._decode(ii)
         f = reduction_factor(arr.shape, self.max_texture)
@@ -531,6 +537,7 @@ class GltfFile:
                                    f"{arr.shape[0]} (the texture budget, max_texture={self.max_texture}: its MIP "
                                    f"level {f.bit_length() - 1}{', in linear light' if srgb else ''})")
         self._img_cache[(ii, bool(srgb) if f > 1 else None)] = (arr, label)
+        self.decode_time += time.perf_counter() - t0
         return arr, label
 
 
