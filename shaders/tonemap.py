@@ -78,16 +78,21 @@ def pbr_neutral(L, exposure=0.0):
         Display-linear values in [0, 1]; dtype preserved.
     """
     c = np.maximum(L, 0.0) * (2.0 ** exposure)
-    x = np.min(c, axis=-1, keepdims=True)
+    # min / max of the three channels pairwise (exact, as the axis reductions, which are slow over an axis of 3)
+    x = np.minimum(np.minimum(c[..., 0:1], c[..., 1:2]), c[..., 2:3])
     f = np.where(x <= 2 * PBR_NEUTRAL_F90, x - x * x / (4 * PBR_NEUTRAL_F90), PBR_NEUTRAL_F90)
     c = c - f
-    p = np.max(c, axis=-1, keepdims=True)
-    d = 1.0 - PBR_NEUTRAL_KS
-    pn = 1.0 - d * d / (p + d - PBR_NEUTRAL_KS)
-    g = 1.0 / (PBR_NEUTRAL_KD * (p - pn) + 1.0)
-    ratio = np.divide(pn, p, out=np.ones_like(p), where=p > 0)
-    out = np.where(p <= PBR_NEUTRAL_KS, c, c * ratio * g + pn * (1.0 - g))
-    return np.clip(out, 0.0, 1.0).astype(c.dtype, copy=False)
+    p = np.maximum(np.maximum(c[..., 0:1], c[..., 1:2]), c[..., 2:3])
+    # the highlight compression only where it applies (p > K_s, NaN included): the same operations on those pixels
+    hi = ~(p[..., 0] <= PBR_NEUTRAL_KS)
+    if np.any(hi):
+        ch, ph = c[hi], p[hi]
+        d = 1.0 - PBR_NEUTRAL_KS
+        pn = 1.0 - d * d / (ph + d - PBR_NEUTRAL_KS)
+        g = 1.0 / (PBR_NEUTRAL_KD * (ph - pn) + 1.0)
+        ratio = np.divide(pn, ph, out=np.ones_like(ph), where=ph > 0)
+        c[hi] = ch * ratio * g + pn * (1.0 - g)
+    return np.clip(c, 0.0, 1.0, out=c)
 
 
 # ----------------------------------------------------------------------------- ACES (Filament's)

@@ -67,7 +67,9 @@ def test_exr_encoder_failure_keeps_the_previous_file(tmp_path, monkeypatch):
                 fh.write(before[:100])          # half a file, then the encoder dies
             raise RuntimeError("encoder failed")
 
-    monkeypatch.setattr(image_io.OpenEXR, "File", Broken)
+    import OpenEXR           # (image_io imports it where an EXR is written: the module's attribute is what it reads)
+
+    monkeypatch.setattr(OpenEXR, "File", Broken)
     with pytest.raises(RuntimeError, match="encoder failed"):
         pyrt.write_exr(p, OTHER)
     assert p.read_bytes() == before

@@ -7,7 +7,7 @@ import pytest
 from PIL import Image
 
 import pyrt
-from pyrt.core.image_io import encode_png, tonemap_to_display
+from pyrt.core.image_io import PNG_COMPRESS_LEVEL, encode_png, tonemap_to_display
 from pyrt.shaders import color as C
 
 
@@ -22,9 +22,12 @@ def test_write_png_8bit_is_encode_png_of_the_quantised_image(tmp_path, rng):
     data = (tmp_path / "a.png").read_bytes()
     assert data == encode_png(q)
     buf = io.BytesIO()
-    Image.fromarray(q).save(buf, format="PNG")             # what the previewer wrote before: same bytes
+    Image.fromarray(q).save(buf, format="PNG", compress_level=PNG_COMPRESS_LEVEL)     # the previewer's files: same bytes
     assert data == buf.getvalue()
     np.testing.assert_array_equal(np.asarray(Image.open(tmp_path / "a.png")), q)
+    default = io.BytesIO()
+    Image.fromarray(q).save(default, format="PNG")        # Pillow's default level (files before): the same pixels
+    np.testing.assert_array_equal(np.asarray(Image.open(default)), q)
 
 
 def test_write_png_16bit_keeps_16_bits(tmp_path, rng):

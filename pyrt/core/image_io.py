@@ -11,7 +11,6 @@ import struct
 import warnings
 
 import numpy as np
-import OpenEXR
 
 from pyrt.shaders import color
 from pyrt.shaders import tonemap
@@ -54,6 +53,8 @@ def write_exr(path, image, *, aovs=None, half=False):
                     ch[f"{prefix}.{c}"] = a[..., i].astype(dt)
     ch = {k: np.ascontiguousarray(v) for k, v in ch.items()}
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    import OpenEXR      # here, not at the top: a PNG preview never pays its import (~5 ms with Imath)
+
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
 
     def put(tmp):
@@ -254,6 +255,8 @@ def read_exr(path, *, layout="rgb"):
     finally:
         if isinstance(data, mmap.mmap):
             data.close()
+    import OpenEXR      # (as in write_exr: only where an EXR is read)
+
     try:
         with OpenEXR.File(str(path), separate_channels=True) as f:
             chans = {name: ch.pixels for name, ch in f.channels().items()}  # the File clears its dict on exit
@@ -452,6 +455,11 @@ def tonemap_to_display(image, *, tonemap_op="reinhard", exposure=0.0, L_white=No
     return op(img.astype(np.float64), exposure=exposure)
 
 
+#: zlib level of the 8-bit PNGs :func:`encode_png` writes: 1 rather than Pillow's default 6, ~2.8x faster on rendered
+#: images for files ~2 % larger (a 640x480 helmet preview: 13.1 against 36.5 ms of CPU, 250 against 246 kB)
+PNG_COMPRESS_LEVEL = 1
+
+
 def encode_png(pixels):
     """Encode display-ready pixels as PNG file bytes; the one PNG encoder (files and in-memory previews).
 
@@ -459,8 +467,8 @@ def encode_png(pixels):
     ----------
     pixels : (H, W, 3) uint8 or uint16 ndarray
         sRGB-encoded (or any display-ready) values, row 0 at the top. uint8 is written as an 8-bit
-        PNG (Pillow, default settings: deterministic for a given array), uint16 as a 16-bit PNG
-        (pypng; Pillow has no 16-bit RGB mode).
+        PNG (Pillow at zlib level :data:`PNG_COMPRESS_LEVEL`: deterministic for a given array), uint16 as a
+        16-bit PNG (pypng; Pillow has no 16-bit RGB mode).
 
     Returns
     -------
@@ -476,7 +484,7 @@ def encode_png(pixels):
     if a.dtype == np.uint8:
         from PIL import Image
 
-        Image.fromarray(np.ascontiguousarray(a)).save(buf, format="PNG")
+        Image.fromarray(np.ascontiguousarray(a)).save(buf, format="PNG", compress_level=PNG_COMPRESS_LEVEL)
     elif a.dtype == np.uint16:
         import png
 

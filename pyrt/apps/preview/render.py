@@ -58,7 +58,10 @@ class PreviewScene:
         if not self.radius > 0:
             raise PreviewError(f"{asset.path}: the model has zero size")
         self.hull = framing_points(v)           # what the framing fits (the model's projection lies inside)
-        ext = v.max(axis=0) - v.min(axis=0)
+        #: the model's axis-aligned bounds (2, 3) in the scene (after the up axis): the model mask traces only the
+        #: pixels their projection covers (:meth:`model_window`)
+        self.bounds = np.stack([v.min(axis=0), v.max(axis=0)])
+        ext = self.bounds[1] - self.bounds[0]
         #: True for a thin "board" (z extent <= BOARD_DEPTH_RATIO x extent): viewed face-on when azimuth is automatic
         self.board = bool(ext[2] <= BOARD_DEPTH_RATIO * ext[0])
         #: the azimuth of the (first) view in degrees: the option's, or the automatic one (PreviewOptions.azimuth)
@@ -191,15 +194,42 @@ class PreviewScene:
         back = dot(geo.face_normals[face[sel]], d[h[sel]]) > 0
         return float(back.mean()), int(sel.sum())
 
-    def model_mask(self, camera=None):
-        """(H, W) bool: pixel-centre rays that hit the model (not the ground, not the background)."""
+    def model_window(self, camera=None):
+        """``(x0, x1, y0, y1)``: the pixel columns ``[x0, x1)`` and rows ``[y0, y1)`` outside which no pixel-centre ray
+        can reach the model: the bounding rectangle of its bounding box's projected corners, one pixel wider on
+        every side (rounding); the whole image when a corner is not in front of the camera."""
         cam = camera or self.scene.camera
-        ys, xs = np.mgrid[0:cam.height, 0:cam.width]
-        d = cam.directions(xs.ravel() + 0.5, ys.ravel() + 0.5)
-        o = np.broadcast_to(cam.position, d.shape)
-        hits = self.prepared.accel.intersect(o, d)
-        model = hits.hit & np.isin(hits.mesh_id, self.model_meshes)
-        return model.reshape(cam.height, cam.width)
+        corners = np.array([[self.bounds[i, 0], self.bounds[j, 1], self.bounds[k, 2]]
+                            for i in (0, 1) for j in (0, 1) for k in (0, 1)]) - cam.position
+        z = corners @ cam.forward
+        scale = np.max(np.abs(corners)) + 1e-300
+        if not np.all(z > 1e-9 * scale):
+            return 0, cam.width, 0, cam.height
+        th = cam.tan_half
+        # the inverse of Camera.directions: sx = (2 x / W - 1) th W / H, sy = (1 - 2 y / H) th
+        x = ((corners @ cam.right) / z / (th * cam.width / cam.height) + 1.0) * (0.5 * cam.width)
+        y = (1.0 - (corners @ cam.up_ortho) / z / th) * (0.5 * cam.height)
+        x0, x1 = (int(np.clip(f(v), 0, cam.width)) for f, v in ((math.floor, x.min() - 1), (math.ceil, x.max() + 1)))
+        y0, y1 = (int(np.clip(f(v), 0, cam.height)) for f, v in ((math.floor, y.min() - 1), (math.ceil, y.max() + 1)))
+        return x0, max(x0, x1), y0, max(y0, y1)
+
+    def model_mask(self, camera=None):
+        """(H, W) bool: pixel-centre rays that hit the model (not the ground, not the background). Only the pixels of
+        :meth:`model_window` are traced (each ray as :meth:`pyrt.Camera.directions` gives it); the others are False."""
+        cam = camera or self.scene.camera
+        x0, x1, y0, y1 = self.model_window(cam)
+        mask = np.zeros((cam.height, cam.width), dtype=bool)
+        if x1 > x0 and y1 > y0:
+            ys, xs = np.mgrid[y0:y1, x0:x1]
+            xs, ys = xs.ravel() + 0.5, ys.ravel() + 0.5
+            # in blocks of MASK_BLOCK rays: the (n, 3) x (3, 3) product inside Camera.directions then runs on one BLAS
+            # thread (OpenBLAS threads a GEMM from 2^18 multiply-adds on); the same numbers, row for row
+            d = np.concatenate([cam.directions(xs[i:i + MASK_BLOCK], ys[i:i + MASK_BLOCK])
+                                for i in range(0, xs.size, MASK_BLOCK)])
+            hits = self.prepared.accel.intersect(np.broadcast_to(cam.position, d.shape), d)
+            model = hits.hit & np.isin(hits.mesh_id, self.model_meshes)
+            mask[y0:y1, x0:x1] = model.reshape(y1 - y0, x1 - x0)
+        return mask
 
     def render_view(self, azimuth, *, aovs=False):
         """Render one view; the first call fixes the exposure (unless given). Returns a RenderResult."""
@@ -334,6 +364,12 @@ _IN_RENDER = {"mip_levels": "mip", "irradiance": "irradiance", "tables": "tables
 def format_phases(phases):
     """``"load 0.19 s, frame 0.40 s, ..., write 0.01 s"`` for the phases present (in :data:`PHASES` order)."""
     return ", ".join(f"{'BVH' if k == 'bvh' else k} {phases[k]:.2f} s" for k in PHASES if k in phases)
+
+
+#: Rays per call of :meth:`pyrt.Camera.directions` in :meth:`PreviewScene.model_mask`: below OpenBLAS's threshold for
+#: threading the product with the camera frame (threaded, on a loaded 2-core machine the 307,200 rays of a 640x480 view
+#: took 84 ms of CPU against 4.8 ms on one thread)
+MASK_BLOCK = 1 << 14
 
 
 #: Faces the up-axis guess looks at: bigger meshes are subsampled (see :func:`up_axis_sample`)
