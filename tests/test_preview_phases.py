@@ -131,3 +131,20 @@ def test_one_compiled_kernel_serves_scenes_of_every_family():
             assert res.stats.backend == "compiled"
             assert ps.timings["tables"] > 0
     assert len(K.render_tiles.overloads) == 1
+
+
+def test_bench_tool_reads_every_phase_of_a_summary_line(tmp_path):
+    sys.path.insert(0, os.path.join(ROOT, "tools"))
+    import bench_preview_phases as B
+
+    line = ("12 triangles, up +y (gltf defines +y as up), start 0.35 s, load 0.02 s, decode 0.10 s, BVH 0.01 s, "
+            "mask 0.04 s, render 1.50 s, encode 0.03 s, write 0.00 s (total 2.05 s), 4 spp, exposure -0.74 stops")
+    ph = B.parse_phases(line)
+    assert list(ph) == ["start", "load", "decode", "bvh", "mask", "render", "encode", "write"]
+    assert ph["render"] == 1.5 and B.parse_phases("pyrt-preview: error: x") == {}
+    text = B.table({("a.glb", "exe"): [(2.2, {**ph, "exit": 0.15}), (2.4, {**ph, "exit": 0.2})]}, markdown=True)
+    assert text.splitlines()[2].startswith("| a.glb | exe | 2 | 2.30 | 0.35 |")
+    (tmp_path / "m").mkdir()
+    for name in ("b.glb", "a.gltf", "notes.md"):
+        (tmp_path / "m" / name).write_text("")
+    assert [os.path.basename(p) for p in B.collect([str(tmp_path / "m")])] == ["a.gltf", "b.glb"]

@@ -146,8 +146,9 @@ def main(argv=None):
     print(f"\nmedians (s; exit = wall - the phases' sum), load average now {load_average():.2f}")
     print(table(results, a.markdown))
     if a.imports:
-        for exe in exes:
-            total, top = import_profile(os.path.join(os.path.dirname(exe), "python"), a.rounds)
+        for exe in exes:      # the Python beside the executable (a venv's bin/), else this one
+            python = os.path.join(os.path.dirname(exe), "python")
+            total, top = import_profile(python if os.path.exists(python) else sys.executable, a.rounds)
             print(f"\nimports of pyrt.apps.preview.cli ({exe}): {total:.3f} s self time in all; "
                   + ", ".join(f"{k} {v:.3f}" for k, v in top))
 
