@@ -115,7 +115,7 @@ class PreparedScene:
         one copy of them (copy-on-write) instead of holding one each; and the irradiance grid of an environment
         light with the control variate in a scene with Lambertian materials (:func:`pyrt.lights.irradiance.
         irradiance_table`: 0.22 s for a 512 x 256 map, kept by the environment across renders). Once per prepared
-        scene; the seconds it took are ``timings["mip_levels"]`` and (when a grid was built) ``timings["irradiance"]``."""
+        scene; the seconds it took are ``timings["mip_levels"]`` and ``timings["irradiance"]``."""
         if "mip_levels" in self.timings:
             return
         t0 = time.perf_counter()
@@ -137,7 +137,7 @@ class PreparedScene:
                 if env is not None and lt.control_variate and lt.strategy != "preview" \
                         and env.radiance_resolution is not None:
                     irradiance_table(env)
-                    self.timings["irradiance"] = time.perf_counter() - t1
+        self.timings["irradiance"] = time.perf_counter() - t1
 
     def close(self):
         """Release the Embree scene."""
