@@ -64,9 +64,9 @@ def _surface_diffs(geo_f, geo_i, face, p, ng, front, rays, mats, tex, mat, uv):
             dp[i, k] = V[(V_DP + k) * LANES + lane]
             V[(V_DP + k) * LANES + lane] = 0.0
         # the function the kernel calls: the same differentials (stored), the albedo at their footprint
-        a, _ = D.extended_inputs(G, V, lane, True, False, face[i], pi, ngi, ngi, ngi, front[i], (uv[i, 0], uv[i, 1]),
-                                 mt[mat[i]], mp, mat[i], tt, tp)
-        albedo[i, 0], albedo[i, 1], albedo[i, 2] = a
+        a, _, _ = D.extended_inputs(G, V, lane, True, False, face[i], pi, ngi, ngi, ngi, front[i],
+                                    (uv[i, 0], uv[i, 1]), mt[mat[i]], mp, mat[i], tt, tp)
+        albedo[i, 0], albedo[i, 1], albedo[i, 2] = a[0], a[1], a[2]
         for k in range(12):
             if V[(V_DP + k) * LANES + lane] != dp[i, k]:
                 albedo[i, 0] = np.nan

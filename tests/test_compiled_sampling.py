@@ -49,6 +49,9 @@ MATERIALS = {
     "mr_half": lambda: pyrt.MetallicRoughness(base_color=0.6, metallic=0.5, roughness=0.8,
                                               geometry="smith_correlated"),
     "learnopengl": lambda: pyrt.LearnOpenGLPBR(albedo=(0.5, 0.6, 0.7), metallic=0.3, roughness=0.6),
+    "gltf_pbr": lambda: pyrt.GltfPBR.example(),
+    "gltf_pbr_metal": lambda: pyrt.GltfPBR(base_color=(0.9, 0.6, 0.4), metallic=0.7, roughness=0.35, specular=0.5,
+                                           ior=1.33, geometry="smith_correlated"),
 }
 NAMES = sorted(MATERIALS)
 #: one material per sampler for the chi-square test (the cosine families share one sampler; the mixtures differ by
@@ -65,6 +68,8 @@ CHI2 = {
     "mr_dielectric": MATERIALS["mr_dielectric"],
     "mr_metal": lambda: pyrt.MetallicRoughness(base_color=(0.9, 0.7, 0.3), metallic=1.0, roughness=0.5),
     "learnopengl": MATERIALS["learnopengl"],
+    "gltf_pbr": lambda: pyrt.GltfPBR(base_color=(0.8, 0.5, 0.3), metallic=0.4, roughness=0.5, specular=0.7,
+                                     specular_color=(1.0, 0.8, 0.6), ior=1.7),
 }
 
 
@@ -83,15 +88,18 @@ def _sample_many(tag, rec, wo, u, wi, weight, pdf):
         wi[k, 0], wi[k, 1], wi[k, 2] = r[0], r[1], r[2]
         weight[k, 0], weight[k, 1], weight[k, 2] = r[3], r[4], r[5]
         pdf[k] = r[6]
-        d = CS.sample_wi(tag, rec, 0, wo[k, 0], wo[k, 1], wo[k, 2], u[k, 0], u[k, 1])
+        d = CS.sample_wi(tag, rec, 0, albedo, wo[k, 0], wo[k, 1], wo[k, 2], u[k, 0], u[k, 1])
         if d[0] != r[0] or d[1] != r[1] or d[2] != r[2] or d[3] != r[6]:
             pdf[k] = np.nan            # sample_wi and sample_f disagree
 
 
 @numba.njit
 def _pdf_many(tag, rec, wo, wi, out):
+    tex_tag = np.zeros(1, dtype=np.int64)
+    tex_par = np.zeros(8)
+    albedo = MC.albedo_at(tag, rec, 0, tex_tag, tex_par, 0.0, 0.0, (0.0, 0.0, 0.0, 0.0))
     for k in range(wo.shape[0]):
-        out[k] = CS.pdf_wi(tag, rec, 0, wo[k, 0], wo[k, 1], wo[k, 2], wi[k, 0], wi[k, 1], wi[k, 2])
+        out[k] = CS.pdf_wi(tag, rec, 0, albedo, wo[k, 0], wo[k, 1], wo[k, 2], wi[k, 0], wi[k, 1], wi[k, 2])
 
 
 class Compiled:
@@ -193,9 +201,10 @@ def test_every_compiled_family_is_covered():
 
 def test_sample_and_pdf_of_tags_without_a_lobe_are_zero():
     rec = np.zeros(MC.RECORD)
+    a = (0.0,) * 8
     for tag in (MC.MIRROR, MC.GLASS, MC.CONDUCTOR, MC.EMITTER):
-        assert CS.sample_wi(tag, rec, 0, 0.0, 0.6, 0.8, 0.3, 0.4)[3] == 0.0
-        assert CS.pdf_wi(tag, rec, 0, 0.0, 0.6, 0.8, 0.0, -0.6, 0.8) == 0.0
+        assert CS.sample_wi(tag, rec, 0, a, 0.0, 0.6, 0.8, 0.3, 0.4)[3] == 0.0
+        assert CS.pdf_wi(tag, rec, 0, a, 0.0, 0.6, 0.8, 0.0, -0.6, 0.8) == 0.0
 
 
 # ----------------------------------------------------------------------------------------- frames and warps

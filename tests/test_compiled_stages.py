@@ -11,7 +11,7 @@ from pyrt.geometry import embree_jit as E
 from pyrt.integrators import kernel_cache
 from pyrt.integrators.compiled_layout import (
     LANES, V_A, V_COSI, V_COSIO, V_COSO, V_F, V_GOK, V_L, V_LIT, V_MAT, V_S, V_SIZE)
-from pyrt.integrators.compiled_layout import V_D, V_LIFT, V_MAG, V_MAG_LIFT, V_NG, V_NS, V_NV, V_P, lane_vec
+from pyrt.integrators.compiled_layout import V_D, V_LIFT, V_MAG, V_MAG_LIFT, V_NG, V_NS, V_NV, V_P, lane_inputs, lane_vec
 from pyrt.integrators.compiled_lighting import bsdf_stage, env_sample, env_stage, lambert_stage, shadow_add
 from pyrt.lights import compiled as LC
 from pyrt.materials import compiled as MC
@@ -59,7 +59,7 @@ def _env_both(etag, erec, edata, mats_tag, mats_par, V0, n, tech, lane_s, spp, l
         if m >= 0 and MC.has_diffuse(mats_tag[m]):
             d = lane_vec(V, V_D, lane)
             ok, o, wi, val = env_sample(etag, U.pointer(erec), U.pointer(edata), mats_tag[m], U.pointer(mats_par), m,
-                                        lane_vec(V, V_A, lane), lane_vec(V, V_P, lane), lane_vec(V, V_NG, lane),
+                                        lane_inputs(V, lane), lane_vec(V, V_P, lane), lane_vec(V, V_NG, lane),
                                         lane_vec(V, V_NS, lane), lane_vec(V, V_NV, lane), (-d[0], -d[1], -d[2]),
                                         lane_vec(V, V_LIFT, lane), Vb[V_MAG * LANES + lane],
                                         Vb[V_MAG_LIFT * LANES + lane], True, x0, (1 + x1) / 2, tech)

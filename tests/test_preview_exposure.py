@@ -49,22 +49,25 @@ def test_a_dark_metal_model_keeps_a_grey_backdrop(tmp_path):
     assert corner.max() <= 232
 
 
-def test_gltf_extras_keep_a_material_off_the_compiled_path():
-    """A glTF material with occlusion, emission or a normal map has no compiled record (the kernel would drop them;
-    an occlusion texture made the compiled path's record evaluate it on a one-hit context and crash the previewer on
-    TextureTransformMultiTest); without extras it keeps its base model's record."""
+def test_gltf_extras_take_the_gltf_record_or_none():
+    """A glTF material with emission or occlusion packs the GLTF record, which the kernel evaluates per hit
+    (tests/test_compiled_gltf.py); an occlusion the kernel cannot read leaves it without a record (an occlusion
+    texture once made the compiled path's record evaluate it on a one-hit context and crash the previewer on
+    TextureTransformMultiTest: the record evaluates no texture); without extras it keeps its base model's record."""
     from pyrt.io.assets.materials import GltfMaterial
+    from pyrt.materials import compiled as MC
     from pyrt.textures.procedural import CheckerTexture
 
     def pack(tex):
         return None
 
     plain = GltfMaterial(base_color=0.5, metallic=0.0, roughness=0.5)
-    assert plain.compiled_record(pack) is not None
+    assert plain.compiled_record(pack)[0] == MC.METALLIC_ROUGHNESS
     occluded = GltfMaterial(base_color=0.5, metallic=0.0, roughness=0.5, occlusion=CheckerTexture(0.2, 1.0))
     assert occluded.compiled_record(pack) is None
     glowing = GltfMaterial(base_color=0.5, metallic=0.0, roughness=0.5, emission=(1.0, 0.5, 0.2))
-    assert glowing.compiled_record(pack) is None
+    tag, rec = glowing.compiled_record(pack)
+    assert tag == MC.GLTF and list(rec[10:14]) == [-1.0, 1.0, 0.5, 0.2]
 
 
 def test_the_default_tone_map_is_pbr_neutral_and_keeps_a_bright_emitter_s_channels_below_white():

@@ -8,16 +8,18 @@ texture and light: a type tag and a parameter record, packed by each object's ``
 
 What the compiled path covers (everything else renders through the NumPy path, automatically with
 ``backend="auto"``): the Whitted integrator with max depth, throughput cutoff and split depth; Lambert (constant,
-unfiltered-checker or nearest / bilinear image albedo, constant emission), normalised Blinn-Phong, Mirror, Glass
-(one dielectric, no nested media), smooth Conductor and the library models with constant parameters; point and spot
-lights (every spot and distance falloff), directional lights; rectangle, disk and sphere lights (light samples
+unfiltered-checker or nearest / bilinear / trilinear image albedo, constant emission), normalised Blinn-Phong,
+Mirror, Glass (one dielectric, no nested media), smooth Conductor, the library models with constant parameters and
+the glTF metallic-roughness family (textured MetallicRoughness, opaque isotropic GltfPBR, glTF emission and
+occlusion: :mod:`pyrt.materials.gltf_record`); tangent-space normal maps on meshes without vertex tangents; point
+and spot lights (every spot and distance falloff), directional lights; rectangle, disk and sphere lights (light samples
 stratified per hit and padded over a pixel's samples, BSDF samples beside them with MIS) with their visible meshes;
 constant and lat-long environments, seen by missed rays and lighting by ``strategy="mis"``; a constant background
 and ambient term; smooth and flat shading with or without the back-facing-normal fallback; the ``robust`` and
 ``robust_no_terminator`` offsets; fixed spp and adaptive passes (:func:`render_pixels`). Not yet: other
-environments and strategies, emissive-mesh lights, the other materials, filtered textures (ray differentials),
-normal maps, alpha coverage, nested media, transparent shadows, the glossy integrator and ray recording (AOVs:
-fixed spp, not on Dask workers).
+environments and strategies, emissive-mesh lights, the other materials (and vertex colours), anisotropic and
+bicubic texture filters, normal maps on meshes with vertex tangents, alpha coverage, nested media, transparent
+shadows, the glossy integrator and ray recording (AOVs: fixed spp, not on Dask workers).
 """
 from __future__ import annotations
 

@@ -169,18 +169,20 @@ def face_uv_tangents(G, face, ng):
 
 @_njit
 def hit_inputs(G, V, lane, opts, face, p, ng, ns, wo, front, uv, mtag, mats_par, m, tex_tag, tex_par):
-    """What the kernel reads of a hit of material ``m`` beyond :func:`pyrt.shaders.jit.hit_surface`: ``(albedo, ns)``,
-    the albedo at the hit's footprint (with ``diffs``: :func:`surface_diffs` of lane ``lane``'s ray, else none) and
-    the shading normal, perturbed by the material's normal map (with ``nmaps``; :data:`pyrt.materials.compiled.
-    NORMAL_MAP`) the NumPy path's way (:func:`pyrt.textures.normal_map.perturb_normal`). Without either, the albedo
-    alone, inline (the renders without footprints or normal maps make no call)."""
+    """What the kernel reads of a hit of material ``m`` beyond :func:`pyrt.shaders.jit.hit_surface`: ``(albedo, ns,
+    emission)``, the hit's inputs (:func:`pyrt.materials.compiled.albedo_at`) at its footprint (with ``diffs``:
+    :func:`surface_diffs` of lane ``lane``'s ray, else none), the shading normal, perturbed by the material's normal
+    map (with ``nmaps``; :data:`pyrt.materials.compiled.NORMAL_MAP`) the NumPy path's way
+    (:func:`pyrt.textures.normal_map.perturb_normal`), and the emitted radiance
+    (:func:`pyrt.materials.compiled.emission_at`). Without footprints or normal maps, inline (no call)."""
     diffs, nmaps = opts[O_DIFFS] != 0, opts[O_NMAPS] != 0
     if diffs or nmaps:
-        albedo, n = extended_inputs(G, V, lane, diffs, nmaps, face, p, ng, ns, wo, front, uv, mtag, mats_par, m,
-                                    tex_tag, tex_par)
+        albedo, n, e = extended_inputs(G, V, lane, diffs, nmaps, face, p, ng, ns, wo, front, uv, mtag, mats_par, m,
+                                       tex_tag, tex_par)
     else:
         albedo, n = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1], NO_FOOTPRINT), ns
-    return albedo, n
+        e = MC.emission_at(mtag, mats_par, m, front, tex_tag, tex_par, uv[0], uv[1], NO_FOOTPRINT)
+    return albedo, n, e
 
 
 @_own
@@ -203,7 +205,7 @@ def _inputs(G, V, lane, diffs, nmaps, face, p, ng, ns, wo, front, uv, mtag, mats
             dpdu, dpdv = face_uv_tangents(G, face, ng)
             ns = NM.perturb(rgb, mats_par[b + 1], mats_par[b + 2] != 0.0, mats_par[b + 3] != 0.0, ns, ng, wo, front,
                             dpdu, dpdv)
-    return albedo, ns
+    return albedo, ns, MC.emission_at(mtag, mats_par, m, front, tex_tag, tex_par, uv[0], uv[1], fp)
 
 
 @_own

@@ -42,9 +42,9 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     O_GRID, F_CUTOFF, F_BG, N_PRIMARY, N_SECONDARY,
     N_SHADOW, N_NONFINITE, STACK, STACK_ROW, T_INF, DIM_LOBE,
     ADAPTIVE_KEYS, O_ENV, O_AOV, O_SQ, N_AOV, V_T, O_DIFFS, TILES_PER_TASK, _njit, buffer_pointers,
-    geometry_pointers, lane_vec, packet_buffers, release, set_lane_vec, table_pointers)
+    geometry_pointers, lane_vec, packet_buffers, release, set_lane_inputs, set_lane_vec, table_pointers)
 from pyrt.integrators import compiled_diffs as D  # noqa: E402
-from pyrt.integrators.compiled_surface import emitted, face_surfaces  # noqa: E402
+from pyrt.integrators.compiled_surface import face_surfaces, with_ambient  # noqa: E402
 from pyrt.integrators.compiled_lighting import (  # noqa: E402
     area_bsdf_sample, area_bsdf_stage, area_light_weight, area_mis_stage, area_stage, area_u, bsdf_stage, direct_light,
     camera_fill, env_hit, env_rounds, lambert_stage, light_stage, shadow_add, shadow_fill)
@@ -176,8 +176,9 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
                                                                           wo)
         m = G[8][face]
         mtag = mats_tag[m]
-        albedo, ns = D.hit_inputs(G, V, lane, opts, face, p, ng, ns, wo, front, uv, mtag, mats_par, m, tex_tag, tex_par)
-        le0, le1, le2 = emitted(mtag, mats_par, m, albedo, optf, front)
+        albedo, ns, em = D.hit_inputs(G, V, lane, opts, face, p, ng, ns, wo, front, uv, mtag, mats_par, m, tex_tag,
+                                      tex_par)
+        le0, le1, le2 = with_ambient(mtag, em, albedo, optf)
         if MC.has_diffuse(mtag):
             hkey = J.sample_key(key, n_sec)          # this hit's random numbers (the area lights' samples)
             for j in range(nl):
@@ -198,8 +199,8 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
                         ok, tmax, o, wi, f = direct_light(lights_tag, lights_par, j, mtag, mats_par, m, albedo, p, ng,
                                                           ns, nv, wo, lift, mag, mag_lift, terminator, u0, u1)
                         if ok and n_b > 0:
-                            k = area_light_weight(lights_tag[j], lights_par, j, mtag, mats_par, m, p, ns, wo, wi,
-                                                  n_j, n_b)
+                            k = area_light_weight(lights_tag[j], lights_par, j, mtag, mats_par, m, albedo, p, ns, wo,
+                                                  wi, n_j, n_b)
                             f = (f[0] * k, f[1] * k, f[2] * k)
                         inv = 1.0 / n_j
                     else:
@@ -267,9 +268,9 @@ def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, sp
                 G, fallback, terminator, geom, prim, u, v, (-d[0], -d[1], -d[2]))
             m = fmat[face]
             mtag = mats_tag[m]
-            albedo, ns = D.hit_inputs(G, V, lane, opts, face, p, ng, ns, (-d[0], -d[1], -d[2]), front, uv, mtag,
-                                      mats_par, m, tex_tag, tex_par)
-            le = emitted(mtag, mats_par, m, albedo, optf, front)
+            albedo, ns, em = D.hit_inputs(G, V, lane, opts, face, p, ng, ns, (-d[0], -d[1], -d[2]), front, uv, mtag,
+                                          mats_par, m, tex_tag, tex_par)
+            le = with_ambient(mtag, em, albedo, optf)
             any_diffuse = any_diffuse or (hit and MC.has_diffuse(mtag))
             lambert = lambert and (mtag == MC.LAMBERT or not hit)
             set_lane_vec(V, V_P, lane, p)
@@ -279,7 +280,7 @@ def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, sp
             if terminator:      # read only with the terminator lift (its stores cost: a packet's loops are store-bound)
                 set_lane_vec(V, V_LIFT, lane, lift)
                 V[V_MAG_LIFT * LANES + lane] = mag_lift
-            set_lane_vec(V, V_A, lane, albedo)
+            set_lane_inputs(V, lane, albedo, mtag == MC.GLTF)
             if not hit and etag != 0:
                 le = CE.missed(etag, erec, edata, d[0], d[1], d[2], True)
             set_lane_vec(V, V_L, lane, le if hit or etag != 0 else bg)

@@ -39,8 +39,11 @@ V_RAY, V_DP = 45, 57
 #: the environment stage's lanes between its two passes (:func:`pyrt.integrators.compiled_lighting.env_stage`):
 #: direction, BSDF weight, direction in the environment's frame, density, lat-long (u, v), whether it counts
 V_EWI, V_EW, V_ELOC, V_EPDF, V_EUV, V_EOK = 69, 72, 75, 78, 79, 81
+#: the rest of a hit's inputs after its albedo (:func:`pyrt.materials.compiled.albedo_at`): GLTF's base colour,
+#: metallic and roughness (written for GLTF hits only, read only for them: :func:`lane_inputs`)
+V_X = 82
 #: fields of the scratch
-V_SIZE = 82
+V_SIZE = 87
 #: camera record layout (float64)
 C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W, C_H, C_JITTER, C_K, C_AX = 0, 3, 6, 9, 12, 13, 14, 15, 16, 17
 #: length of the camera record
@@ -97,6 +100,26 @@ _stage = numba.njit(nogil=True, cache=True, error_model="numpy")
 def lane_vec(V, field, lane):
     """The 3-vector at ``field`` of lane ``lane`` of the packet scratch."""
     return V[field * LANES + lane], V[(field + 1) * LANES + lane], V[(field + 2) * LANES + lane]
+
+
+@_njit
+def lane_inputs(V, lane):
+    """The hit inputs (an 8-tuple, :func:`pyrt.materials.compiled.albedo_at`) of lane ``lane``: :data:`V_A` and
+    :data:`V_X` (stale for a lane whose material is not GLTF: not read then)."""
+    return (V[V_A * LANES + lane], V[(V_A + 1) * LANES + lane], V[(V_A + 2) * LANES + lane], V[V_X * LANES + lane],
+            V[(V_X + 1) * LANES + lane], V[(V_X + 2) * LANES + lane], V[(V_X + 3) * LANES + lane],
+            V[(V_X + 4) * LANES + lane])
+
+
+@_njit
+def set_lane_inputs(V, lane, a, gltf):
+    """Store the hit inputs ``a`` of lane ``lane``: the albedo, and the rest where ``gltf`` (its material is GLTF)."""
+    V[V_A * LANES + lane] = a[0]
+    V[(V_A + 1) * LANES + lane] = a[1]
+    V[(V_A + 2) * LANES + lane] = a[2]
+    if gltf:
+        for k in range(5):
+            V[(V_X + k) * LANES + lane] = a[3 + k]
 
 
 @_njit

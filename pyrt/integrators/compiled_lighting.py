@@ -27,7 +27,7 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     V_LIT, V_COSO, V_COSI, V_COSIO, V_S, V_GOK,
     V_SO, V_WI, V_TMAX, T_INF, DIM_AREA, MAX_AREA_SAMPLES, V_L, DIM_ENV, N_SHADOW, V_EWI, V_EW, V_ELOC, V_EPDF,
     V_EUV, V_EOK,
-    _njit, _stage, lane_vec, set_lane_vec)
+    _njit, _stage, lane_inputs, lane_vec, set_lane_vec)
 from pyrt.lights import compiled as LC  # noqa: E402
 from pyrt.lights import compiled_env as CE  # noqa: E402
 from pyrt.materials import compiled as MC  # noqa: E402
@@ -249,7 +249,7 @@ def bsdf_stage(mats_tag, mats_par, lpars, j, V, sh, w, n):
         m = int(V[V_MAT * LANES + lane])
         mm = max(m, 0)
         mtag = mats_tag[mm]
-        f = MC.f_cos(mtag, mats_par, mm, lane_vec(V, V_A, lane), V[V_COSO * LANES + lane], V[V_COSI * LANES + lane],
+        f = MC.f_cos(mtag, mats_par, mm, lane_inputs(V, lane), V[V_COSO * LANES + lane], V[V_COSI * LANES + lane],
                      V[V_COSIO * LANES + lane])
         s = V[V_S * LANES + lane]
         ok = V[V_GOK * LANES + lane] != 0.0 and max(f[0], f[1], f[2]) > 0.0 and m >= 0 and MC.has_diffuse(mtag)
@@ -303,7 +303,7 @@ def env_value(etag, erec, edata, mtag, mpars, m, albedo, p, ng, ns, nv, wo, lift
             wol = CS.to_local(wo, fs, ft, ns)
             wil = CS.to_local(wi, fs, ft, ns)
             f = CS.f_cos_local(mtag, mpars, m, albedo, wol[0], wol[1], wol[2], wil[0], wil[1], wil[2])
-            k = CE.mis_weights(erec, pdf, CS.pdf_wi(mtag, mpars, m, wol[0], wol[1], wol[2], wil[0], wil[1],
+            k = CE.mis_weights(erec, pdf, CS.pdf_wi(mtag, mpars, m, albedo, wol[0], wol[1], wol[2], wil[0], wil[1],
                                                     wil[2]))[0] / pdf
             val = (f[0] * le[0] * k, f[1] * le[1] * k, f[2] * le[2] * k)
     cg = dot(wi, ng)
@@ -346,7 +346,7 @@ def env_stage(etag, erec, edata, mats_tag, mats_par, V, n, terminator, bsdf_tech
         ok = False
         if m >= 0 and MC.has_diffuse(mtag):
             d = lane_vec(V, V_D, lane)
-            ok, wi, wv, pdf, loc, uv = env_direction(etag, erec, edata, mtag, mats_par, mm, lane_vec(V, V_A, lane),
+            ok, wi, wv, pdf, loc, uv = env_direction(etag, erec, edata, mtag, mats_par, mm, lane_inputs(V, lane),
                                                      lane_vec(V, V_NS, lane), (-d[0], -d[1], -d[2]), x0,
                                                      (s + x1) / count, bsdf_technique)
             set_lane_vec(V, V_EWI, lane, wi)
@@ -362,7 +362,7 @@ def env_stage(etag, erec, edata, mats_tag, mats_par, V, n, terminator, bsdf_tech
         if ok:
             mm = int(V[V_MAT * LANES + lane])
             d = lane_vec(V, V_D, lane)
-            ok, o, wi, val = env_value(etag, erec, edata, mats_tag[mm], mats_par, mm, lane_vec(V, V_A, lane),
+            ok, o, wi, val = env_value(etag, erec, edata, mats_tag[mm], mats_par, mm, lane_inputs(V, lane),
                                        lane_vec(V, V_P, lane), lane_vec(V, V_NG, lane), lane_vec(V, V_NS, lane),
                                        lane_vec(V, V_NV, lane), (-d[0], -d[1], -d[2]), lane_vec(V, V_LIFT, lane),
                                        V[V_MAG * LANES + lane], V[V_MAG_LIFT * LANES + lane], terminator,
@@ -380,14 +380,14 @@ def env_stage(etag, erec, edata, mats_tag, mats_par, V, n, terminator, bsdf_tech
 
 
 @_stage
-def area_light_weight(ltag, lpars, j, mtag, mpars, m, p, ns, wo, wi, n_l, n_b):
+def area_light_weight(ltag, lpars, j, mtag, mpars, m, albedo, p, ns, wo, wi, n_l, n_b):
     """The power-heuristic weight of a light sample toward ``wi`` of area light ``j`` with ``n_b`` BSDF samples
     beside its ``n_l`` light samples (:func:`pyrt.integrators.direct.area_mis_estimate`'s ``w_light``: the light's
-    density and the BSDF's, in the shading frame of ``ns``)."""
+    density and the BSDF's of the hit's inputs ``albedo``, in the shading frame of ``ns``)."""
     pdf_l = LC.area_pdf_dist(ltag, lpars, j, p[0], p[1], p[2], wi[0], wi[1], wi[2])[0]
     fs, ft = CS.coordinate_frame(ns[0], ns[1], ns[2])
     wol, wil = CS.to_local(wo, fs, ft, ns), CS.to_local(wi, fs, ft, ns)
-    pdf_b = CS.pdf_wi(mtag, mpars, m, wol[0], wol[1], wol[2], wil[0], wil[1], wil[2])
+    pdf_b = CS.pdf_wi(mtag, mpars, m, albedo, wol[0], wol[1], wol[2], wil[0], wil[1], wil[2])
     return CS.power_heuristic(pdf_l, pdf_b, 2.0, float(n_l), float(n_b))
 
 
@@ -423,8 +423,9 @@ def area_mis_stage(ltag, lpars, j, mats_tag, mats_par, V, n, n_l, n_b):
         if V[V_LIT * LANES + lane] != 0.0:
             m = int(V[V_MAT * LANES + lane])
             d = lane_vec(V, V_D, lane)
-            k = area_light_weight(ltag, lpars, j, mats_tag[m], mats_par, m, lane_vec(V, V_P, lane),
-                                  lane_vec(V, V_NS, lane), (-d[0], -d[1], -d[2]), lane_vec(V, V_WI, lane), n_l, n_b)
+            k = area_light_weight(ltag, lpars, j, mats_tag[m], mats_par, m, lane_inputs(V, lane),
+                                  lane_vec(V, V_P, lane), lane_vec(V, V_NS, lane), (-d[0], -d[1], -d[2]),
+                                  lane_vec(V, V_WI, lane), n_l, n_b)
             f = lane_vec(V, V_F, lane)
             set_lane_vec(V, V_F, lane, (f[0] * k, f[1] * k, f[2] * k))
 
@@ -447,7 +448,7 @@ def area_bsdf_stage(ltag, lpars, j, mats_tag, mats_par, V, keys, n, terminator, 
         if m >= 0 and MC.has_diffuse(mtag):
             d = lane_vec(V, V_D, lane)
             ok, o, wi, tmax, val = area_bsdf_sample(
-                ltag, lpars, j, mtag, mats_par, mm, lane_vec(V, V_A, lane), lane_vec(V, V_P, lane),
+                ltag, lpars, j, mtag, mats_par, mm, lane_inputs(V, lane), lane_vec(V, V_P, lane),
                 lane_vec(V, V_NG, lane), lane_vec(V, V_NS, lane), lane_vec(V, V_NV, lane), (-d[0], -d[1], -d[2]),
                 lane_vec(V, V_LIFT, lane), V[V_MAG * LANES + lane], V[V_MAG_LIFT * LANES + lane], terminator, u0, u1,
                 n_l, n_b)

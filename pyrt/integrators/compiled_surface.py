@@ -62,7 +62,12 @@ def packet_faces(pk, w, n):
 def emitted(mtag, mpars, m, albedo, optf, front):
     """Emission and ambient light at a hit of material ``m`` (the Whitted integrator's per-material pass), seen
     from the front (``front``) or the back."""
-    e = MC.emission(mtag, mpars, m, front)
+    return with_ambient(mtag, MC.emission(mtag, mpars, m, front), albedo, optf)
+
+
+@_njit
+def with_ambient(mtag, e, albedo, optf):
+    """The emitted radiance ``e`` plus the ambient term ``albedo ambient`` of a material with a non-delta lobe."""
     if MC.has_diffuse(mtag):
         return (e[0] + albedo[0] * optf[F_AMBIENT], e[1] + albedo[1] * optf[F_AMBIENT + 1],
                 e[2] + albedo[2] * optf[F_AMBIENT + 2])

@@ -329,8 +329,10 @@ class Material:
             cls.lambertian = False
         # a subclass that changes what the material computes but not its compiled record is not compiled (its
         # parent's record would render the parent): derived by construction, as the emits flag below
-        if "compiled_record" not in cls.__dict__ and any(name in cls.__dict__ for name in _SHADING_METHODS):
-            cls.compiled_record = Material.compiled_record
+        if any(name in cls.__dict__ for name in _SHADING_METHODS):
+            for name in ("compiled_record", "compiled_record_extras"):
+                if name not in cls.__dict__:
+                    setattr(cls, name, Material.__dict__[name])
         if "emits" not in cls.__dict__ and cls.emission is not Material.emission:
             # overrides emission() without saying when it is zero (no class from the one defining emission() on
             # declares emits, e.g. a mixin's property beside its emission()): assume it may emit
@@ -379,6 +381,13 @@ class Material:
         (:mod:`pyrt.materials.compiled`), or None when the compiled kernel cannot shade it (the render then takes
         the NumPy path). ``pack_texture(texture)`` adds a texture to the texture table and returns its index, or
         None when the compiled kernel cannot read it. Default None."""
+        return None
+
+    def compiled_record_extras(self, pack_texture, *, emission=0.0, occlusion=None, occlusion_strength=1.0):
+        """:meth:`compiled_record` with glTF's extras on top (:class:`pyrt.io.assets.materials.SurfaceExtras`):
+        ``emission`` (a constant or a texture, emitted radiance) and ``occlusion`` (None or a 1-channel texture
+        scaling :meth:`albedo` by ``1 + occlusion_strength (occ - 1)``); None (the default) where the compiled kernel
+        has no place for them."""
         return None
 
     def f_cos(self, wo, wi, ctx):

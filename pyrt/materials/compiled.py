@@ -25,11 +25,18 @@ COOK_TORRANCE        0-3 albedo slot, 4-6 kd, 7-9 ks, 10 alpha, 11 distribution,
 METALLIC_ROUGHNESS   0-3 albedo slot, 4-6 base colour, 7 metallic, 8 roughness, 9 geometry (also LearnOpenGLPBR)
 EMITTER              4-6 radiance (constant RGB), 7 two-sided (1) or front only (0): an area light's visible mesh
                      (:class:`pyrt.lights.area.AreaEmitter`: emits, reflects nothing)
-(every material)     20-23 its normal map (:data:`NORMAL_MAP`), written by the compiled scene
+GLTF                 glTF's metallic-roughness family with textured parameters, emission and occlusion: the layout
+                     of :mod:`pyrt.materials.gltf_record` (0-23), resolved per hit by :func:`gltf_inputs`
+(every material)     24-27 its normal map (:data:`NORMAL_MAP`), written by the compiled scene
 ===================  ============================================================================================
 
-The models after BLINN_PHONG have constant parameters only (a textured one is not compiled); their formulas are the
-scalar twins in :mod:`pyrt.shaders.jit_brdfs`, held to the NumPy materials' ``f_cos`` by tests/test_jit_brdfs.py.
+The models after BLINN_PHONG but GLTF have constant parameters only (a textured one is not compiled); their formulas
+are the scalar twins in :mod:`pyrt.shaders.jit_brdfs`, held to the NumPy materials' ``f_cos`` by
+tests/test_jit_brdfs.py (GLTF's: tests/test_compiled_gltf.py).
+
+A hit's *inputs* (:func:`albedo_at`) are an 8-tuple: its ``albedo()`` (what the ambient term and the albedo AOV
+read; Lambert's albedo, Blinn-Phong's kd), then GLTF's per-hit base colour, metallic and roughness (zeros for the
+other tags). The BSDF functions take them as ``albedo``.
 
 The kernel reads the record table through its flat data (:func:`pyrt.core.unmanaged.pointer`: material ``m``'s
 record at ``pars[m * RECORD:]``; a pointer binds no array, so the per-sample code pays no reference counting).
@@ -47,16 +54,18 @@ from pyrt.shaders import jit_brdfs as JB
 from pyrt.textures.compiled import texture_rgb
 
 #: parameters per material record
-RECORD = 24
+RECORD = 28
 #: where every record keeps its normal map (:func:`pyrt.integrators.compiled_diffs.mapped_normal`): the map's row in the
 #: texture table plus one (0: none), its strength, 1 for green = -v (DirectX), 1 to bend reflections above the surface
-NORMAL_MAP = 20
+NORMAL_MAP = 24
 #: type tags (0 is no material)
 LAMBERT, BLINN_PHONG, MIRROR, GLASS, CONDUCTOR = 1, 2, 3, 4, 5
 #: 1 / pi (a multiplication where a division by pi would cost ~4x; within an ulp of it)
 INV_PI = 1.0 / math.pi
 PHONG, PHONG_CLASSIC, BLINN_PHONG_CLASSIC, OREN_NAYAR, WARD, COOK_TORRANCE, METALLIC_ROUGHNESS = 6, 7, 8, 9, 10, 11, 12
 EMITTER = 13
+#: glTF's metallic-roughness family with per-hit parameters (:mod:`pyrt.materials.gltf_record`)
+GLTF = 14
 
 
 @register_jitable(inline="always")
@@ -73,7 +82,7 @@ def color_slot(pars, m, k, tex_tag, tex_par, u, v, fp):
 @register_jitable(inline="always")
 def has_diffuse(tag):
     """True for materials lit by the lights (a non-delta lobe)."""
-    return tag == LAMBERT or tag == BLINN_PHONG or PHONG <= tag <= METALLIC_ROUGHNESS
+    return tag == LAMBERT or tag == BLINN_PHONG or PHONG <= tag <= METALLIC_ROUGHNESS or tag == GLTF
 
 
 @register_jitable(inline="always")
@@ -105,6 +114,9 @@ def f_cos(tag, pars, m, albedo, cos_o, cos_i, cos_io):
     c = J.upper_cos(cos_o, cos_i)
     if c == 0.0:
         return 0.0, 0.0, 0.0
+    if tag == GLTF:
+        cos_h, cos_oh = JB.half_cosines(cos_o, cos_i, cos_io)
+        return gltf_f_cos_h(pars, m * RECORD, albedo, cos_o, cos_i, cos_h, cos_oh)
     if tag > BLINN_PHONG:
         return _f_cos_library(tag, pars, m * RECORD, cos_o, cos_i, cos_io)
     if tag == LAMBERT:
@@ -158,17 +170,78 @@ def emission(tag, pars, m, front):
 def albedo_constant(tag, pars, m):
     """True where :func:`albedo_at` of material ``m`` does not depend on the uv (no texture in its colour slot) and
     the material has no normal map (:data:`NORMAL_MAP`): its shading inputs are the surface's alone."""
-    return (not (tag == LAMBERT or tag == BLINN_PHONG or CONDUCTOR <= tag <= METALLIC_ROUGHNESS)
-            or pars[m * RECORD] < 0.0) and pars[m * RECORD + NORMAL_MAP] == 0.0
+    return (not (tag == LAMBERT or tag == BLINN_PHONG or CONDUCTOR <= tag <= METALLIC_ROUGHNESS or tag == GLTF)
+            or (pars[m * RECORD] < 0.0 and tag != GLTF)) and pars[m * RECORD + NORMAL_MAP] == 0.0
 
 
 @register_jitable(inline="always")
 def albedo_at(tag, pars, m, tex_tag, tex_par, u, v, fp):
-    """The diffuse colour (Lambert albedo, Blinn-Phong kd, the library models' constant ``albedo()``; an RGB tuple)
-    of material ``m`` at uv ``(u, v)`` with the UV footprint ``fp`` (zeros: none); zeros for the others."""
+    """The hit's inputs (module notes: an 8-tuple) of material ``m`` at uv ``(u, v)`` with the UV footprint ``fp``
+    (zeros: none): the diffuse colour (Lambert albedo, Blinn-Phong kd, the library models' constant ``albedo()``,
+    GLTF's :func:`gltf_inputs`; zeros for the others), then GLTF's base colour, metallic and roughness."""
+    if tag == GLTF:
+        return gltf_inputs(pars, m * RECORD, tex_tag, tex_par, u, v, fp)
     if tag == LAMBERT or tag == BLINN_PHONG or CONDUCTOR <= tag <= METALLIC_ROUGHNESS:
-        return color_slot(pars, m, 0, tex_tag, tex_par, u, v, fp)
-    return 0.0, 0.0, 0.0
+        a = color_slot(pars, m, 0, tex_tag, tex_par, u, v, fp)
+        return a[0], a[1], a[2], 0.0, 0.0, 0.0, 0.0, 0.0
+    return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+
+
+@register_jitable(inline="always")
+def emission_at(tag, pars, m, front, tex_tag, tex_par, u, v, fp):
+    """:func:`emission`, and GLTF's emission slot at uv ``(u, v)`` (both sides, as ``SurfaceExtras.emission``)."""
+    if tag == GLTF:
+        return scaled_slot(pars, m * RECORD + 10, tex_tag, tex_par, u, v, fp)
+    return emission(tag, pars, m, front)
+
+
+@register_jitable
+def scaled_slot(pars, b, tex_tag, tex_par, u, v, fp):
+    """The colour slot ``[row or -1, r, g, b]`` at ``pars[b:]`` as :mod:`pyrt.materials.gltf_record` reads it: the
+    factor times the texture (``ScaledTexture``), the factor alone without one."""
+    t = int(pars[b])
+    if t < 0:
+        return pars[b + 1], pars[b + 2], pars[b + 3]
+    r, g, bb = texture_rgb(tex_tag, tex_par, t, u, v, fp)
+    return r * pars[b + 1], g * pars[b + 2], bb * pars[b + 3]
+
+
+@register_jitable(inline="always")
+def _scalar(pars, b, rgb):
+    """The scalar slot ``[row or -1, factor, channel]`` at ``pars[b:]``, the texture's lookup ``rgb`` given."""
+    if pars[b] < 0.0:
+        return pars[b + 1]
+    return rgb[int(pars[b + 2])] * pars[b + 1]
+
+
+@register_jitable
+def gltf_inputs(pars, b, tex_tag, tex_par, u, v, fp):
+    """The inputs (an 8-tuple) of the GLTF record at ``pars[b:]``: ``albedo() = base (1 + s (occ - 1))`` (with an
+    occlusion texture), the base colour, metallic and roughness; one lookup per texture row (metallic and roughness
+    from one packed map read it once)."""
+    br, bg, bb = scaled_slot(pars, b, tex_tag, tex_par, u, v, fp)
+    none = (0.0, 0.0, 0.0)
+    t_m, t_r, t_o = int(pars[b + 4]), int(pars[b + 7]), int(pars[b + 14])
+    rgb_m = texture_rgb(tex_tag, tex_par, t_m, u, v, fp) if t_m >= 0 else none
+    rgb_r = rgb_m if t_r == t_m else (texture_rgb(tex_tag, tex_par, t_r, u, v, fp) if t_r >= 0 else none)
+    metal, rough = _scalar(pars, b + 4, rgb_m), _scalar(pars, b + 7, rgb_r)
+    if t_o < 0:
+        return br, bg, bb, br, bg, bb, metal, rough
+    rgb_o = rgb_m if t_o == t_m else (rgb_r if t_o == t_r else texture_rgb(tex_tag, tex_par, t_o, u, v, fp))
+    k = 1.0 + pars[b + 17] * (_scalar(pars, b + 14, rgb_o) - 1.0)
+    return br * k, bg * k, bb * k, br, bg, bb, metal, rough
+
+
+@register_jitable
+def gltf_f_cos_h(pars, b, albedo, cos_o, cos_i, cos_h, cos_oh):
+    """f_cos of the GLTF record at ``pars[b:]`` with the hit's inputs ``albedo`` (:func:`gltf_inputs`), from ``n.h``
+    and ``wo.h``: :func:`pyrt.shaders.jit_brdfs.metallic_roughness_f_cos_h` (``MetallicRoughness.f_cos``) or
+    :func:`pyrt.shaders.jit_brdfs.gltf_pbr_f_cos_h` (``GltfPBR.f_cos``) by the record's model."""
+    if pars[b + 18] == 0.0:
+        return JB.metallic_roughness_f_cos_h(cos_o, cos_i, cos_h, cos_oh, albedo[3], albedo[4], albedo[5], albedo[6],
+                                             albedo[7], int(pars[b + 19]))
+    return JB.gltf_pbr_f_cos_h(cos_o, cos_i, cos_h, cos_oh, albedo[3], albedo[4], albedo[5], albedo[6], albedo[7],
+                               pars[b + 21], pars[b + 22], pars[b + 23], pars[b + 20], int(pars[b + 19]))
 
 
 def constant_slot(value):

@@ -18,7 +18,7 @@ Which sampler each tag of :mod:`pyrt.materials.compiled` uses (the classes' own 
 ==========================================================  =========================================================
 LAMBERT, BLINN_PHONG, PHONG, PHONG_CLASSIC,                 the cosine-weighted hemisphere (:meth:`pyrt.materials.
 BLINN_PHONG_CLASSIC, OREN_NAYAR, WARD                       Material.sample`, :meth:`pyrt.materials.Lambert.sample`)
-COOK_TORRANCE, METALLIC_ROUGHNESS                           the mixture of :class:`pyrt.materials.library.
+COOK_TORRANCE, METALLIC_ROUGHNESS, GLTF                     the mixture of :class:`pyrt.materials.library.
                                                             _MicrofacetSampling`: with probability ``p_spec`` the
                                                             specular lobe (GGX visible normals; the Beckmann NDF for
                                                             the Beckmann and Blinn distributions), else the cosine
@@ -218,17 +218,21 @@ def _lum(r, g, b):
 
 
 @register_jitable
-def mixture(tag, pars, m, woz):
-    """``(p_spec, alpha, distribution)`` of the microfacet mixture of material ``m`` (COOK_TORRANCE or
-    METALLIC_ROUGHNESS; ``pars`` the record table): ``CookTorrance._spec_prob`` / ``MetallicRoughness._spec_prob``,
-    the lobe's ``_alpha`` and its distribution index."""
+def mixture(tag, pars, m, albedo, woz):
+    """``(p_spec, alpha, distribution)`` of the microfacet mixture of material ``m`` (COOK_TORRANCE,
+    METALLIC_ROUGHNESS or GLTF, whose parameters are the hit's inputs ``albedo``; ``pars`` the record table):
+    ``CookTorrance._spec_prob`` / ``MetallicRoughness._spec_prob``, the lobe's ``_alpha`` and its distribution
+    index."""
     b = m * MC.RECORD
     if tag == MC.COOK_TORRANCE:
         s = _lum(pars[b + 7], pars[b + 8], pars[b + 9])
         d = _lum(pars[b + 4], pars[b + 5], pars[b + 6])
         ps = s / (s + d) if s + d > 0.0 else 1.0
         return ps, pars[b + 10], int(pars[b + 11])
-    base_r, base_g, base_b, metal, rough = pars[b + 4], pars[b + 5], pars[b + 6], pars[b + 7], pars[b + 8]
+    if tag == MC.GLTF:
+        base_r, base_g, base_b, metal, rough = albedo[3], albedo[4], albedo[5], albedo[6], albedo[7]
+    else:
+        base_r, base_g, base_b, metal, rough = pars[b + 4], pars[b + 5], pars[b + 6], pars[b + 7], pars[b + 8]
     c = min(max(woz, 0.0), 1.0)
     mm = (1.0 - c) ** 5
     f0r = JB.GLTF_DIELECTRIC_F0 * (1.0 - metal) + base_r * metal
@@ -242,20 +246,21 @@ def mixture(tag, pars, m, woz):
 
 @register_jitable(inline="always")
 def is_microfacet(tag):
-    """True for the tags sampled by the microfacet mixture (COOK_TORRANCE, METALLIC_ROUGHNESS)."""
-    return tag == MC.COOK_TORRANCE or tag == MC.METALLIC_ROUGHNESS
+    """True for the tags sampled by the microfacet mixture (COOK_TORRANCE, METALLIC_ROUGHNESS, GLTF)."""
+    return tag == MC.COOK_TORRANCE or tag == MC.METALLIC_ROUGHNESS or tag == MC.GLTF
 
 
 # ----------------------------------------------------------------------------------------- the switch
 
 @register_jitable
-def sample_wi(tag, pars, m, wox, woy, woz, u0, u1):
-    """Sample material ``m`` (tag ``tag``, record table ``pars``) from the local ``wo``: ``(wix, wiy, wiz, pdf)``,
+def sample_wi(tag, pars, m, albedo, wox, woy, woz, u0, u1):
+    """Sample material ``m`` (tag ``tag``, record table ``pars``, the hit's inputs ``albedo``: :func:`pyrt.materials.
+    compiled.albedo_at`) from the local ``wo``: ``(wix, wiy, wiz, pdf)``,
     the local direction and its solid-angle density as the material's NumPy ``sample(wo, u, ctx)`` returns them
     for ``u = (u0, u1)`` (the cosine hemisphere, or ``_MicrofacetSampling._sample_wi`` and its masked pdf). Tags
     without a non-delta lobe give ``(0, 0, 1, 0)``."""
     if is_microfacet(tag):
-        ps, alpha, dist = mixture(tag, pars, m, woz)
+        ps, alpha, dist = mixture(tag, pars, m, albedo, woz)
         spec = u0 < ps
         if spec:
             v = u0 / (ps if ps > 0.0 else 1.0)
@@ -282,11 +287,11 @@ def sample_wi(tag, pars, m, wox, woy, woz, u0, u1):
 
 
 @register_jitable
-def pdf_wi(tag, pars, m, wox, woy, woz, wix, wiy, wiz):
+def pdf_wi(tag, pars, m, albedo, wox, woy, woz, wix, wiy, wiz):
     """Solid-angle density of :func:`sample_wi` at the local ``wi``: the material's NumPy ``pdf(wo, wi, ctx)``
     (``Material.pdf``, ``_MicrofacetSampling.pdf``); 0 for tags without a non-delta lobe."""
     if is_microfacet(tag):
-        ps, alpha, dist = mixture(tag, pars, m, woz)
+        ps, alpha, dist = mixture(tag, pars, m, albedo, woz)
         return ps * spec_pdf(dist, wox, woy, woz, wix, wiy, wiz, alpha) + (1.0 - ps) * cosine_hemisphere_pdf(wiz)
     if MC.has_diffuse(tag):
         return cosine_hemisphere_pdf(wiz)
@@ -307,6 +312,8 @@ def f_cos_local(tag, pars, m, albedo, wox, woy, woz, wix, wiy, wiz):
         cos_oh = min(max(wox * hx + woy * hy + woz * hz, 0.0), 1.0)
         b = m * MC.RECORD
         p = pars
+        if tag == MC.GLTF:
+            return MC.gltf_f_cos_h(p, b, albedo, woz, wiz, cos_h, cos_oh)
         if tag == MC.COOK_TORRANCE:
             return JB.cook_torrance_f_cos_h(woz, wiz, cos_h, cos_oh, p[b + 4], p[b + 5], p[b + 6], p[b + 7],
                                             p[b + 8], p[b + 9], p[b + 10], int(p[b + 11]), int(p[b + 12]),
@@ -323,7 +330,7 @@ def sample_f(tag, pars, m, albedo, wox, woy, woz, u0, u1):
     and pdf of :func:`sample_wi` and the weight ``f_cos / pdf`` (:func:`f_cos_local`; 0 where the pdf is 0 or either
     direction is at or below the horizon). LAMBERT's weight is its albedo where ``wo`` is above the horizon
     (:meth:`pyrt.materials.Lambert.sample`); ``albedo`` (RGB tuple) is :func:`pyrt.materials.compiled.albedo_at`."""
-    wix, wiy, wiz, pdf = sample_wi(tag, pars, m, wox, woy, woz, u0, u1)
+    wix, wiy, wiz, pdf = sample_wi(tag, pars, m, albedo, wox, woy, woz, u0, u1)
     if tag == MC.LAMBERT:
         if woz > 0.0 and pdf > 0.0:
             return wix, wiy, wiz, albedo[0], albedo[1], albedo[2], pdf

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from pyrt.core.checks import Fixed
-from pyrt.materials import preview as _preview
+from pyrt.materials import gltf_record as _gltf, preview as _preview
 from pyrt.materials.base import DeltaLobe, Material, MaterialError, check_color, check_scalar, is_texture, register
 from pyrt.materials.layering import Layer, adopt_base, finish_sample, split_u, weighted_delta_lobes
 from pyrt.materials.library import MetallicRoughness, _check_choice
@@ -131,6 +131,19 @@ class GltfPBR(MetallicRoughness):
             raise MaterialError(f"{owner}: absorption needs transmission > 0 (an opaque surface encloses no medium)")
         if self.thin and np.any(sigma > 0):
             raise MaterialError(f"{owner}: a thin wall (thin=True) encloses no medium to absorb in; use thin=False")
+
+    def compiled_record(self, pack_texture):
+        """:meth:`compiled_record_extras` without extras."""
+        return self.compiled_record_extras(pack_texture)
+
+    def compiled_record_extras(self, pack_texture, *, emission=0.0, occlusion=None, occlusion_strength=1.0):
+        """:data:`pyrt.materials.compiled.GLTF` (:mod:`pyrt.materials.gltf_record`) of an opaque, isotropic instance
+        with constant ``specular`` and ``specular_color``; None with transmission, anisotropy or those textured."""
+        if self.transmits or self.anisotropic or is_texture(self.specular) or is_texture(self.specular_color):
+            return None
+        return _gltf.gltf_record(self, pack_texture, model=_gltf.GLTF_PBR, geometry=self.geometry,
+                                 specular=self.specular, f0_dielectric=self._f0_dielectric(None), emission=emission,
+                                 occlusion=occlusion, occlusion_strength=occlusion_strength)
 
     @property
     def tint(self):

@@ -13,6 +13,7 @@ import numpy as np
 from pyrt.core.checks import Fixed
 from pyrt.core import checks
 from pyrt.materials import compiled as _compiled
+from pyrt.materials import gltf_record as _gltf
 from pyrt.materials import preview as _preview
 from pyrt.materials.base import Material, MaterialError, check_color, check_scalar, is_texture, register
 from pyrt.shaders import brdfs
@@ -480,12 +481,18 @@ class MetallicRoughness(_MicrofacetSampling, Material):
 
     def compiled_record(self, pack_texture):
         """:data:`pyrt.materials.compiled.METALLIC_ROUGHNESS` with constant parameters (its geometry term: also
-        :class:`pyrt.materials.LearnOpenGLPBR`'s)."""
+        :class:`pyrt.materials.LearnOpenGLPBR`'s); with textured ones :data:`pyrt.materials.compiled.GLTF`
+        (:meth:`compiled_record_extras`)."""
         if any(is_texture(v) for v in (self.base_color, self.metallic, self.roughness)):
-            return None
+            return self.compiled_record_extras(pack_texture)
         return _compiled.library_record(self, _compiled.METALLIC_ROUGHNESS, [
             *_compiled.rgb(self.base_color), float(self.metallic), float(self.roughness),
             _JB.GEOMETRY_TERMS.index(self.geometry)])
+
+    def compiled_record_extras(self, pack_texture, *, emission=0.0, occlusion=None, occlusion_strength=1.0):
+        """:data:`pyrt.materials.compiled.GLTF` with this model's reflection (:mod:`pyrt.materials.gltf_record`)."""
+        return _gltf.gltf_record(self, pack_texture, model=_gltf.MR, geometry=self.geometry, emission=emission,
+                                 occlusion=occlusion, occlusion_strength=occlusion_strength)
 
     def preview_lobes(self, ctx):
         """Split-sum lobes: diffuse ``(1 - m) base (1 - F0)(1 - E5)``, one GGX lobe of albedo ``F0 A + B``."""

@@ -69,11 +69,26 @@ class Texture:
         or None when the compiled kernel cannot read it (the render then takes the NumPy path). Default None."""
         return None
 
+    def compiled_color(self):
+        """``(texture, factor)``: this texture as ``factor`` (three floats) times an RGB texture that may be a row of
+        the compiled kernel's texture table (whether it is: that texture's :meth:`compiled_record`), or None. The
+        materials' textured colour slots read it (:mod:`pyrt.materials.gltf_record`). Default: itself times one
+        when it has 3 channels."""
+        return (self, (1.0, 1.0, 1.0)) if self.channels == 3 else None
+
+    def compiled_scalar(self):
+        """``(texture, channel, factor)``: this 1-channel texture as ``factor`` times channel ``channel`` of an RGB
+        texture that may be a row of the compiled kernel's texture table, or None (the default)."""
+        return None
+
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
-        # a subclass that changes what the texture returns but not its compiled record is not compiled
-        if "compiled_record" not in cls.__dict__ and "evaluate" in cls.__dict__:
-            cls.compiled_record = Texture.compiled_record
+        # a subclass that changes what the texture returns but not its compiled record (or its compiled form as a
+        # factor times a table texture) is not compiled
+        if "evaluate" in cls.__dict__:
+            for name in ("compiled_record", "compiled_color", "compiled_scalar"):
+                if name not in cls.__dict__:
+                    setattr(cls, name, Texture.__dict__[name])
 
     def evaluate(self, ctx):  # pragma: no cover - interface
         """The texture's values at the hits of ``ctx``.

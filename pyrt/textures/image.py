@@ -32,10 +32,7 @@ import numpy as np
 from pyrt.core.checks import Fixed
 from pyrt.core.image_io import ImageFileError, read_image
 from pyrt.geometry.memo import row_memo, rows_cached
-from pyrt.shaders import color as _color
-from pyrt.shaders import ewa as _ewa
-from pyrt.shaders import mip as _mip
-from pyrt.shaders import textures as _tex
+from pyrt.shaders import color as _color, ewa as _ewa, mip as _mip, textures as _tex
 from pyrt.textures import compiled as _compiled
 from pyrt.textures.base import TEXTURES, Texture, TextureError, texcoords
 
@@ -563,8 +560,7 @@ class ChannelTexture(Texture):
         if not 0 <= int(channel) < source.channels:
             raise TextureError(f"texture {name or source.name or source.path}: channel {channel} but the image has "
                                f"{source.channels} channel(s)")
-        self.source = source
-        self.channel = int(channel)
+        self.source, self.channel = source, int(channel)
         self.name = name
         self.texcoord = source.texcoord          # the UV set its source reads
 
@@ -582,6 +578,10 @@ class ChannelTexture(Texture):
     def image(self):
         """The channel's level 0, linear values, (H, W, 1) float32 (read-only)."""
         return self.source.image[:, :, self.channel:self.channel + 1]
+
+    def compiled_scalar(self):
+        """The source's channel (:meth:`Texture.compiled_scalar`)."""
+        return self.source, self.channel, 1.0
 
     def lookup(self, uv, duvdx=None, duvdy=None):
         """The source's :meth:`ImageTexture.lookup`, this channel: (N, 1) float64."""

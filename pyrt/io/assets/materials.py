@@ -28,6 +28,21 @@ class ScaledTexture(Texture):
         v = np.asarray(self.texture.evaluate(ctx), dtype=np.float64).reshape(ctx.n_hits, -1)
         return v * self.factor
 
+    def compiled_color(self):
+        """The inner texture's compiled colour form with its factor times this one (a grey or RGB factor)."""
+        inner = self.texture.compiled_color()
+        if inner is None or self.factor.size not in (1, 3):
+            return None
+        f = np.broadcast_to(self.factor.reshape(-1), (3,))
+        return inner[0], tuple(float(a) * float(b) for a, b in zip(inner[1], f))
+
+    def compiled_scalar(self):
+        """The inner texture's compiled scalar form with its factor times this one (a scalar factor)."""
+        inner = self.texture.compiled_scalar()
+        if inner is None or self.factor.size != 1:
+            return None
+        return inner[0], inner[1], inner[2] * float(self.factor.reshape(-1)[0])
+
 
 class ProductTexture(Texture):
     """Per-hit product of two textures (or a texture and a constant), e.g. vertex colour x base colour."""
@@ -195,11 +210,14 @@ class SurfaceExtras:
         return np.array(self.param(self.emission_value, ctx))
 
     def compiled_record(self, pack_texture):
-        """The base model's compiled record when the extras change nothing (no emission, occlusion or normal map),
-        else None: the compiled path has no place for them (the mixin overrides ``albedo`` and ``emission``, which
-        :class:`pyrt.materials.Material`'s subclass rule does not see on a class that is no Material)."""
-        if self.emits or self.occlusion is not None or self.normal_map is not None:
-            return None
+        """The base model's compiled record when the extras change nothing it shades (no emission or occlusion; a
+        normal map is the compiled scene's, :func:`pyrt.integrators.compiled.normal_map_fields`), else its
+        :meth:`~pyrt.materials.Material.compiled_record_extras` (None where the model has no place for them: the
+        mixin overrides ``albedo`` and ``emission``, which :class:`pyrt.materials.Material`'s subclass rule does not
+        see on a class that is no Material)."""
+        if self.emits or self.occlusion is not None:
+            return self.compiled_record_extras(pack_texture, emission=self.emission_value, occlusion=self.occlusion,
+                                               occlusion_strength=self.occlusion_strength)
         return super().compiled_record(pack_texture)
 
     def preview_lobes(self, ctx):

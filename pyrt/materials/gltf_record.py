@@ -1,0 +1,79 @@
+"""The compiled kernel's record of the glTF metallic-roughness family (:data:`pyrt.materials.compiled.GLTF`).
+
+One record serves :class:`pyrt.materials.MetallicRoughness` with textured parameters and :class:`pyrt.GltfPBR`
+without transmission or anisotropy, each optionally with glTF's emission and occlusion on top
+(:class:`pyrt.io.assets.materials.SurfaceExtras`): the base colour, metallic, roughness, emission and occlusion are
+*slots*, a constant or a factor times a texture of the kernel's texture table (a channel of it for the scalars),
+resolved per hit by :func:`pyrt.materials.compiled.gltf_inputs`. Layout (offsets into the record):
+
+======  ==========================================================================================================
+0-3     base colour: texture row or -1, factor (RGB): ``factor x texture`` (the factor alone without a texture)
+4-6     metallic: texture row or -1, factor, channel of the texture (glTF: 2, B)
+7-9     roughness: texture row or -1, factor, channel (glTF: 1, G)
+10-13   emission (as the base colour; emitted radiance, both sides)
+14-16   occlusion (as metallic; the constant 1 without one), 17 its strength: ``albedo() = base (1 + s (occ - 1))``
+18      the reflection model: :data:`MR` (``MetallicRoughness.f_cos``) or :data:`GLTF_PBR` (``GltfPBR.f_cos``)
+19      the geometry term (:data:`pyrt.shaders.jit_brdfs.GEOMETRY_TERMS` index)
+20      GltfPBR's ``specular``, 21-23 its dielectric F0 ``min(f0(ior) specular_color, 1)``
+======  ==========================================================================================================
+
+:func:`gltf_record` returns None (the render takes the NumPy path) for a texture the kernel cannot read as such a
+slot: a product with vertex colours, a grey image, a UV set other than 0, a filter other than nearest, bilinear and
+trilinear (:meth:`pyrt.textures.Texture.compiled_color`, :meth:`~pyrt.textures.Texture.compiled_scalar`).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from pyrt.materials import compiled as _compiled
+from pyrt.materials.base import is_texture
+from pyrt.shaders import jit_brdfs as _JB
+
+#: the reflection models of field 18
+MR, GLTF_PBR = 0, 1
+
+
+def color_slot(value, pack_texture):
+    """``[row or -1, r, g, b]`` of a constant colour or a factor times a table texture; None when the kernel cannot
+    read the texture."""
+    if not is_texture(value):
+        return _compiled.constant_slot(value)
+    form = value.compiled_color()
+    if form is None:
+        return None
+    row = pack_texture(form[0])
+    return None if row is None else [float(row), *(float(x) for x in form[1])]
+
+
+def scalar_slot(value, pack_texture):
+    """``[row or -1, factor, channel]`` of a constant or a factor times a channel of a table texture; None when the
+    kernel cannot read the texture."""
+    if not is_texture(value):
+        return [-1.0, float(np.asarray(value, dtype=np.float64).reshape(-1)[0]), 0.0]
+    form = value.compiled_scalar()
+    if form is None:
+        return None
+    row = pack_texture(form[0])
+    return None if row is None else [float(row), float(form[2]), float(form[1])]
+
+
+def gltf_record(material, pack_texture, *, model, geometry, specular=1.0, f0_dielectric=0.04, emission=0.0,
+                occlusion=None, occlusion_strength=1.0):
+    """``(GLTF, record)`` of a material with ``base_color``, ``metallic`` and ``roughness`` (constants or textures),
+    the reflection ``model`` (:data:`MR` or :data:`GLTF_PBR`, whose constant ``specular`` and ``f0_dielectric``
+    are used), ``geometry`` (a name of :data:`pyrt.shaders.jit_brdfs.GEOMETRY_TERMS`), ``emission`` (a constant
+    or a texture) and ``occlusion`` (None or a 1-channel texture, with its strength); None when a texture is not
+    readable by the kernel."""
+    slots = [color_slot(material.base_color, pack_texture), scalar_slot(material.metallic, pack_texture),
+             scalar_slot(material.roughness, pack_texture), color_slot(emission, pack_texture),
+             [-1.0, 1.0, 0.0] if occlusion is None else scalar_slot(occlusion, pack_texture)]
+    if any(s is None for s in slots):
+        return None
+    rec = _compiled.empty_record()
+    rec[0:17] = [x for s in slots for x in s]
+    rec[17] = float(occlusion_strength)
+    rec[18] = float(model)
+    rec[19] = _JB.GEOMETRY_TERMS.index(geometry)
+    rec[20] = float(specular)
+    rec[21:24] = np.broadcast_to(np.asarray(f0_dielectric, dtype=np.float64).reshape(-1), (3,))
+    return _compiled.GLTF, rec
