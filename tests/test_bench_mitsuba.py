@@ -262,3 +262,16 @@ def test_adaptive_series_is_skipped_with_a_note_when_render_has_no_target_error(
            "notes": []}
     assert bm.run_adaptive(NoAdaptive(), res, np.zeros((2, 2, 3)), lambda msg: None) == []
     assert any("target_error" in n for n in res["notes"])
+
+
+def test_bench_cpu_counts_work_not_waiting():
+    """tools/bench_cpu.py's premise: the process's CPU time counts a computation and not a wait (a sleep, or a
+    thread waiting for a core on a loaded machine)."""
+    import time
+
+    import bench_cpu
+
+    _, waited = bench_cpu.cpu_seconds(lambda: time.sleep(0.2))
+    x = np.random.default_rng(0).random((400, 400))
+    _, worked = bench_cpu.cpu_seconds(lambda: [x @ x for _ in range(20)])
+    assert waited < 0.05 < worked
