@@ -7,6 +7,8 @@ import pytest
 import pyrt
 from pyrt.textures import compiled as TC
 
+from test_compiled_textures import _image
+
 
 @numba.njit(cache=False)
 def _lookup_all(tags, data, uv, duvdx, duvdy):
@@ -17,12 +19,6 @@ def _lookup_all(tags, data, uv, duvdx, duvdy):
         r = TC.texture_rgb(tags, flat, 0, uv[i, 0], uv[i, 1], fp)
         out[i, 0], out[i, 1], out[i, 2] = r
     return out
-
-
-def _image(rng, h, w, dtype):
-    if dtype == np.uint8:
-        return rng.integers(0, 256, (h, w, 3)).astype(np.uint8)
-    return rng.random((h, w, 3)).astype(dtype) * 4.0
 
 
 def _footprints(rng, n):

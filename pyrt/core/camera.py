@@ -18,16 +18,11 @@ from pyrt.core import checks
 from pyrt.core.rays import RayBatch
 from pyrt.core.sampler import pixel_strata, stratified_samples
 from pyrt.core.errors import Error
+from pyrt.shaders.vec import cross
 
 
 class CameraError(Error, ValueError):
     """Invalid camera parameters."""
-
-
-def _cross(a, b):
-    """``np.cross`` of two 3-vectors (the same products and differences, bit for bit) without its general-axis
-    machinery (~40 us a call: the camera's frame is built at every render)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 def _vec3(name, v):
@@ -118,11 +113,11 @@ class Camera:
         if n == 0:
             raise CameraError("Camera: target equals position (zero-length view direction)")
         forward = fwd / n
-        right = _cross(forward, self._up)
+        right = cross(forward, self._up)
         if np.linalg.norm(right) < 1e-9 * max(np.linalg.norm(self._up), 1e-300):
             raise CameraError("Camera: up is zero or parallel to the view direction")
         right = right / np.linalg.norm(right)
-        return forward, right, _cross(right, forward)
+        return forward, right, cross(right, forward)
 
     @property
     def forward(self):
