@@ -12,6 +12,8 @@ balance heuristic, equal and unequal sample counts):
   ``pdf_compensated`` and ``mis_pdf`` on random and sampled directions; ``mis_weights`` equals the light's;
 - a chi-square test of the compiled samplers against their compiled pdfs, in the map's (u, v) over cells aligned
   with the tables' cells (rejected at p < 1e-4), which fails a sampler held to the wrong table's pdf.
+- the guided table search gives the full search's cells everywhere (bucket edges, just below them, outside
+  [0, 1)); a light sample's carried (u, v) are its direction's up to rounding; the packed data is built once.
 """
 import math
 
@@ -22,6 +24,7 @@ from scipy import stats
 
 import pyrt
 from pyrt.lights import compiled_env as CE
+from pyrt.lights import compiled_tables as CT
 from pyrt.lights.environment import procedural_sky
 
 pytestmark = pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning",
@@ -278,7 +281,76 @@ def test_the_record_layout(rng):
     o = int(rec[CE.R_TABLE])
     dist = env.distribution
     np.testing.assert_array_equal(data[o:o + dist.func.size], dist.func.ravel())
-    assert rec[CE.R_HAS_C] == 1 and int(rec[CE.R_C_TABLE]) + 9 * 16 + 9 * 17 + 10 == data.size
+    # the compensated table: func (9, 16), cdf_cond (9, 17), cdf_marg (10,), the rows' guides (9, 4 + 1) and the
+    # marginal's (2 + 1,)
+    assert (CT.guide_buckets(16), CT.guide_buckets(9)) == (4, 2)
+    assert rec[CE.R_HAS_C] == 1 and int(rec[CE.R_C_TABLE]) + 9 * 16 + 9 * 17 + 10 + 9 * 5 + 3 == data.size
+
+
+def test_the_packed_data_is_built_once_per_map():
+    """A second packing of the same map and tables reuses the data (only the record is new)."""
+    env = pyrt.LatLongEnvironment(procedural_sky(16, 8))
+    light = pyrt.EnvironmentLight(env)
+    _, rec1, data1 = CE.pack_environment(env, light)
+    _, rec2, data2 = CE.pack_environment(env, light)
+    assert data2 is data1 and rec2 is not rec1
+    np.testing.assert_array_equal(rec1, rec2)
+    other = pyrt.LatLongEnvironment(procedural_sky(16, 8))
+    assert CE.pack_environment(other, pyrt.EnvironmentLight(other))[2] is not data1
+
+
+@pytest.mark.parametrize("n", [1, 3, 4, 7, 8, 16, 17, 48, 257, 512, 1000])
+def test_guide_buckets_are_powers_of_two_of_about_four_cells(n):
+    g = CT.guide_buckets(n)
+    assert g & (g - 1) == 0 and (g == 1 or 4 * g <= n < 8 * g)
+
+
+@pytest.mark.parametrize("name", [n for n in NAMES if n != "constant"])
+def test_the_guided_search_finds_the_cells_of_the_full_search(name, rng):
+    """``_find_guided`` (the search from a guide table's bucket) gives the cell of ``_find`` (the whole row's
+    search) for every table of the map: on random ``u``, on every bucket's edge and just below it, at 0 and just
+    below 1, and outside [0, 1) (where it falls back to the full search)."""
+    env = ENVS[name]()
+    tag, rec, data = _pack(env, pyrt.EnvironmentLight(env))
+    rows, w = int(rec[CE.R_ROWS]), int(rec[CE.R_W])
+    gc, gm = CT.guide_buckets(w), CT.guide_buckets(rows)
+    tables = [int(rec[CE.R_TABLE])] + ([int(rec[CE.R_C_TABLE])] if rec[CE.R_HAS_C] else [])
+    for o in tables:
+        o_cond = o + rows * w
+        o_marg = o_cond + rows * (w + 1)
+        o_gc = o_marg + rows + 1
+        o_gm = o_gc + rows * (gc + 1)
+        for g, search in ((gm, [(o_marg, rows, 0.0, o_gm)]),
+                          (gc, [(o_cond + r * (w + 1), w, float(r), o_gc + r * (gc + 1)) for r in range(rows)])):
+            edges = np.arange(g + 1) / g
+            us = np.concatenate([rng.random(64), edges, np.nextafter(edges, 0.0), [np.nextafter(1.0, 0.0), -0.25,
+                                                                                   1.5]])
+            for oo, n, shift, og in search:
+                for u in us:
+                    assert CT._find_guided(data, oo, n, shift, u, og, g) == CT._find(data, oo, n, shift, u), (oo, u)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_a_light_sample_carries_its_lookup_coordinates(name):
+    """``mis_sample_uv``: the direction and pdf of ``mis_sample`` bit for bit, and the environment-frame direction
+    and lat-long (u, v) that ``lookup_coords`` computes from it, up to rounding, away from the poles (the light stage
+    looks the sample's radiance up at these)."""
+    env = ENVS[name]()
+    light = pyrt.EnvironmentLight(env)
+    tag, rec, data = _pack(env, light)
+    for u0, u1 in _us(600):
+        a = CE.mis_sample(tag, rec, data, u0, u1)
+        b = CE.mis_sample_uv(tag, rec, data, u0, u1)
+        assert tuple(b[:4]) == tuple(a)
+        if tag == CE.CONSTANT:
+            assert tuple(b[4:]) == (0.0,) * 5
+            continue
+        c = CE.lookup_coords(tag, rec, *a[:3])
+        np.testing.assert_allclose(b[4:7], c[:3], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(CE.latlong_uv_to_dir(b[7], b[8]), b[4:7], rtol=0, atol=1e-12)
+        if math.hypot(c[0], c[2]) > 1e-6:     # (at a pole every u is the same direction, and acos(y) ill-conditioned)
+            du = abs(c[3] - b[7])
+            assert min(du, 1.0 - du) < 1e-12 and abs(c[4] - b[8]) < 1e-12
 
 
 # ----------------------------------------------------------------------------------------- chi-square

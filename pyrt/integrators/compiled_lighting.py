@@ -265,20 +265,22 @@ def env_direction(etag, erec, edata, mtag, mpars, m, albedo, ns, wo, u0, u1, bsd
     """The first half of :func:`env_sample`: the sample's direction, ``(ok, wi, w, pdf, local, uv)``: ``ok`` False
     where the sample has no density (BSDF technique: or no weight), ``w`` the BSDF sample's weight (RGB; zeros for
     the light technique), ``pdf`` the technique's density, ``local`` and ``uv`` the direction's
-    :func:`pyrt.lights.compiled_env.lookup_coords`, whose texels (and, BSDF technique, light densities) it prefetches
-    for :func:`env_value`."""
+    :func:`pyrt.lights.compiled_env.lookup_coords` (a light sample's as its sampler made them,
+    :func:`pyrt.lights.compiled_env.mis_sample_uv`), whose texels (and, BSDF technique, light densities) it
+    prefetches for :func:`env_value`."""
     fs, ft = CS.coordinate_frame(ns[0], ns[1], ns[2])
     if bsdf_technique:
         wol = CS.to_local(wo, fs, ft, ns)
         x, y, z, w_r, w_g, w_b, pdf = CS.sample_f(mtag, mpars, m, albedo, wol[0], wol[1], wol[2], u0, u1)
         wi = CS.to_world((x, y, z), fs, ft, ns)
         ok = pdf > 0.0 and max(w_r, w_g, w_b) > 0.0
+        lx, ly, lz, u, v = CE.lookup_coords(etag, erec, wi[0], wi[1], wi[2])
     else:
-        x, y, z, pdf = CE.mis_sample(etag, erec, edata, u0, u1)
+        # the light sample's own lat-long coordinates (no atan2 / acos round trip: CE.mis_sample_uv)
+        x, y, z, pdf, lx, ly, lz, u, v = CE.mis_sample_uv(etag, erec, edata, u0, u1)
         wi = (x, y, z)
         w_r = w_g = w_b = 0.0
         ok = pdf > 0.0
-    lx, ly, lz, u, v = CE.lookup_coords(etag, erec, wi[0], wi[1], wi[2])
     CE.prefetch_lookup(etag, erec, edata, u, v, bsdf_technique)
     return ok, wi, (w_r, w_g, w_b), pdf, (lx, ly, lz), (u, v)
 

@@ -30,7 +30,8 @@ import numba
 KERNEL_SOURCES = ("pyrt.shaders.jit", "pyrt.shaders.jit_brdfs", "pyrt.shaders.jit_sampling", "pyrt.core.unmanaged",
                   "pyrt.geometry.embree_jit", "pyrt.textures.compiled_mip", "pyrt.textures.compiled",
                   "pyrt.textures.compiled_normal_map", "pyrt.materials.compiled",
-                  "pyrt.materials.compiled_sampling", "pyrt.lights.compiled", "pyrt.lights.compiled_env",
+                  "pyrt.materials.compiled_sampling", "pyrt.lights.compiled", "pyrt.lights.compiled_tables",
+                  "pyrt.lights.compiled_env",
                   "pyrt.integrators.compiled_layout", "pyrt.integrators.compiled_diffs",
                   "pyrt.integrators.compiled_lighting", "pyrt.integrators.compiled_surface",
                   "pyrt.integrators.compiled_kernel")

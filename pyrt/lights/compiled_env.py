@@ -33,12 +33,18 @@ The record (float64, :data:`RECORD` entries; names are the offsets):
 
 ``data`` (float64, flat): the image ``(H, W, 3)`` row-major; for bilinear maps the clamped luminance ``(H, W)`` (the
 corners of the dual cells); each table as its ``func`` ``(rows, W)``, ``cdf_cond`` ``(rows, W + 1)`` and
-``cdf_marg`` ``(rows + 1,)`` back to back (:class:`pyrt.shaders.distribution.Distribution2D`). A constant
-environment has no data (a one-element array).
+``cdf_marg`` ``(rows + 1,)`` (:class:`pyrt.shaders.distribution.Distribution2D`) followed by the guide tables of
+its searches, ``(rows, G + 1)`` for the rows and ``(Gm + 1,)`` for the marginal (:func:`guide_buckets` of ``W``
+and ``rows``; :func:`guide_table`), back to back. A constant environment has no data (a one-element array).
+
+The packed data of a lat-long map (image, luminance, tables, guides: 8.4 MB for 512 x 256) is built once per
+map and light setting and kept with the environment (:func:`pack_environment` rebuilds it when the image or the
+tables are new objects); the record is built on every call.
 """
 from __future__ import annotations
 
 import math
+import weakref
 
 import numpy as np
 from numba.extending import register_jitable
@@ -46,6 +52,7 @@ from numba.extending import register_jitable
 from pyrt.core import unmanaged as U
 from pyrt.shaders import jit as J
 
+from pyrt.lights.compiled_tables import BELOW_ONE, cell_pdf, guide_table, sample_cells
 from pyrt.lights.environment import ConstantEnvironment, LatLongEnvironment
 from pyrt.materials.compiled_sampling import power_heuristic, square_to_uniform_sphere
 
@@ -61,15 +68,44 @@ R_IMAGE, R_LUM, R_TABLE, R_C_TABLE = 28, 29, 30, 31
 
 INV_2PI2 = 1.0 / (2.0 * math.pi * math.pi)
 INV_4PI = 1.0 / (4.0 * math.pi)
-#: the largest float64 below 1 (``np.nextafter(1, 0)``: the samplers' in-cell offsets are clipped to it)
-BELOW_ONE = 1.0 - 2.0 ** -53
 
 
 # ----------------------------------------------------------------------------------------- packing
 
 def _table(dist):
-    """A :class:`Distribution2D`'s ``func``, ``cdf_cond``, ``cdf_marg`` flattened back to back."""
-    return [np.ravel(dist.func), np.ravel(dist.cdf_cond), np.ravel(dist.cdf_marg)]
+    """A :class:`Distribution2D`'s ``func``, ``cdf_cond``, ``cdf_marg`` and their guide tables flattened back to
+    back (module docstring)."""
+    rows = dist.cdf_cond.shape[0]
+    return [np.ravel(dist.func), np.ravel(dist.cdf_cond), np.ravel(dist.cdf_marg),
+            np.ravel(guide_table(dist.cdf_cond, np.arange(rows, dtype=np.float64))),
+            np.ravel(guide_table(dist.cdf_marg, 0.0))]
+
+
+#: environment -> (image, tables, layout, data) of its last packing (:func:`_packed_data`)
+_PACKED = weakref.WeakKeyDictionary()
+
+
+def _packed_data(env, bilinear, dist, comp):
+    """``(layout, data)`` of a lat-long ``env``'s image and tables (``layout``: the record's offsets), packed once
+    and reused while the environment keeps the same image and table objects."""
+    img = env.image
+    hit = _PACKED.get(env)
+    if hit is not None and hit[0] is img and hit[1] is dist and hit[2] is comp:
+        return hit[3], hit[4]
+    h, w = img.shape[:2]
+    parts = [np.ravel(np.asarray(img, dtype=np.float64))]
+    if bilinear:
+        parts.append(np.ravel(env.bilinear_table.c[:h]))       # the clamped luminance (each cell's bottom corners)
+    parts += _table(dist)
+    if comp is not None:
+        parts += _table(comp)
+    sizes = np.cumsum([0] + [p.size for p in parts])
+    k = 2 if bilinear else 1
+    layout = {R_IMAGE: sizes[0], R_LUM: sizes[1] if bilinear else 0, R_TABLE: sizes[k],
+              R_C_TABLE: sizes[k + 5] if comp is not None else 0}
+    data = np.ascontiguousarray(np.concatenate(parts))
+    _PACKED[env] = (img, dist, comp, layout, data)
+    return layout, data
 
 
 def packable(env):
@@ -110,29 +146,18 @@ def pack_environment(env, light=None):
     h, w = img.shape[:2]
     rec[R_H], rec[R_W] = h, w
     rec[R_F32] = 1.0 if img.dtype == np.float32 else 0.0
-    parts = [np.ravel(np.asarray(img, dtype=np.float64))]
     bilinear = env.filter == "bilinear"
-    if bilinear:
-        parts.append(np.ravel(env.bilinear_table.c[:h]))       # the clamped luminance (each cell's bottom corners)
     dist, comp = env.distribution, env.compensated_distribution
     if bilinear and comp is not None:
         comp = comp.dist
     rec[R_ROWS] = dist.func.shape[0]
     rec[R_INTEGRAL] = dist.integral
-    parts += _table(dist)
     if comp is not None:
         rec[R_HAS_C], rec[R_C_INTEGRAL] = 1.0, comp.integral
-        parts += _table(comp)
-    sizes = np.cumsum([0] + [p.size for p in parts])
-    rec[R_IMAGE] = sizes[0]
-    k = 1
-    if bilinear:
-        rec[R_LUM] = sizes[1]
-        k = 2
-    rec[R_TABLE] = sizes[k]
-    if comp is not None:
-        rec[R_C_TABLE] = sizes[k + 3]
-    return (LATLONG_BILINEAR if bilinear else LATLONG_NEAREST), rec, np.ascontiguousarray(np.concatenate(parts))
+    layout, data = _packed_data(env, bilinear, dist, comp)
+    for key, value in layout.items():
+        rec[key] = value
+    return (LATLONG_BILINEAR if bilinear else LATLONG_NEAREST), rec, data
 
 
 # ----------------------------------------------------------------------------------------- frames and mapping
@@ -166,10 +191,17 @@ def latlong_dir_to_uv(dx, dy, dz):
 @register_jitable(inline="always")
 def latlong_uv_to_dir(u, v):
     """The unit direction of lat-long ``(u, v)``: :func:`pyrt.shaders.envmap.latlong_uv_to_dir`."""
+    x, y, z, _ = latlong_uv_to_dir_st(u, v)
+    return x, y, z
+
+
+@register_jitable(inline="always")
+def latlong_uv_to_dir_st(u, v):
+    """:func:`latlong_uv_to_dir` and ``sin(pi v)`` (the sine it computes), ``(x, y, z, st)``."""
     theta = math.pi * v
     phi = 2.0 * math.pi * u
     st = math.sin(theta)
-    return math.sin(phi) * st, math.cos(theta), -math.cos(phi) * st
+    return math.sin(phi) * st, math.cos(theta), -math.cos(phi) * st, st
 
 
 # ----------------------------------------------------------------------------------------- radiance
@@ -226,59 +258,6 @@ def missed(tag, rec, data, dx, dy, dz, primary):
     return radiance(tag, rec, data, dx, dy, dz)
 
 
-# ----------------------------------------------------------------------------------------- 2-D tables
-
-@register_jitable
-def _find(data, o, n, shift, u):
-    """The cell ``k`` in ``[0, n)`` with ``cdf[k] + shift <= u + shift`` largest (0 if none) of the CDF row at
-    ``data[o:]`` (``shift``: the row's index, as :func:`pyrt.shaders.distribution._sample_cdf_rows` compares its
-    shifted CDF)."""
-    key = u + shift
-    if not data[o] + shift <= key:
-        return 0
-    lo, hi = 0, n - 1
-    while lo < hi:
-        mid = (lo + hi + 1) >> 1
-        if data[o + mid] + shift <= key:
-            lo = mid
-        else:
-            hi = mid - 1
-    return lo
-
-
-@register_jitable
-def _offset(data, o, k, u):
-    """The offset of ``u`` in cell ``k`` of the CDF row at ``data[o:]``, in ``[0, 1)``."""
-    lo = data[o + k]
-    width = data[o + k + 1] - lo
-    f = 0.0
-    if width > 0.0:
-        f = (u - lo) / width
-    return min(max(f, 0.0), BELOW_ONE)
-
-
-@register_jitable
-def sample_cells(data, o, rows, w, u0, u1):
-    """``(row, col, fu, fv)`` of the table at ``data[o:]`` (``rows x w``) for ``u``: the cells and in-cell offsets of
-    :func:`pyrt.shaders.distribution.distribution2d_sample_cells` (the row from ``u1`` by the marginal CDF, the
-    column from ``u0`` by the row's conditional CDF)."""
-    o_cond = o + rows * w
-    o_marg = o_cond + rows * (w + 1)
-    row = _find(data, o_marg, rows, 0.0, u1)
-    fv = _offset(data, o_marg, row, u1)
-    oc = o_cond + row * (w + 1)
-    col = _find(data, oc, w, float(row), u0)
-    return row, col, _offset(data, oc, col, u0), fv
-
-
-@register_jitable(inline="always")
-def cell_pdf(data, o, integral, w, row, col):
-    """``func / integral`` of a cell (1 for an all-zero table): :func:`pyrt.shaders.distribution._cell_pdf`."""
-    if integral <= 0.0:
-        return 1.0
-    return data[o + row * w + col] / integral
-
-
 # ----------------------------------------------------------------------------------------- lat-long sampling
 
 @register_jitable(inline="always")
@@ -318,6 +297,12 @@ def _density_uv(rec, data, o, integral, k, i, s, t):
     if integral <= 0.0:
         return 1.0 / area_scale
     a, b, c, d = _corners(rec, data, k, i)
+    return _density_corners(data, o, integral, w, k, i, s, t, area_scale, a, b, c, d)
+
+
+@register_jitable(inline="always")
+def _density_corners(data, o, integral, w, k, i, s, t, area_scale, a, b, c, d):
+    """:func:`_density_uv` of a table with a positive integral, given the cell's ``area_scale`` and corners."""
     mean = 0.25 * (a + b + c + d)
     bil = (1.0 - s) * (1.0 - t) * a + s * (1.0 - t) * b + (1.0 - s) * t * c + s * t * d
     ratio = bil / mean if mean > 0.0 else 0.0
@@ -329,6 +314,14 @@ def sample_table(tag, rec, data, o, integral, u0, u1):
     """A direction in the environment's frame and its solid-angle density, ``(x, y, z, pdf)``, from the lat-long
     table at ``data[o:]``: :func:`pyrt.shaders.envmap_bilinear.sample` (LATLONG_BILINEAR) or
     :func:`pyrt.shaders.envmap.latlong_sample` (LATLONG_NEAREST)."""
+    x, y, z, p, _, _ = sample_table_uv(tag, rec, data, o, integral, u0, u1)
+    return x, y, z, p
+
+
+@register_jitable
+def sample_table_uv(tag, rec, data, o, integral, u0, u1):
+    """:func:`sample_table` and the direction's lat-long coordinates as sampled, ``(x, y, z, pdf, u, v)`` (what
+    :func:`latlong_dir_to_uv` of the direction gives back up to rounding)."""
     h, w, rows = int(rec[R_H]), int(rec[R_W]), int(rec[R_ROWS])
     k, i, fu, fv = sample_cells(data, o, rows, w, u0, u1)
     if tag == LATLONG_NEAREST:
@@ -336,19 +329,20 @@ def sample_table(tag, rec, data, o, integral, u0, u1):
         v = (k + fv) / h
         p = cell_pdf(data, o, integral, w, k, i)
     else:
-        s, t = fu, fv
+        v0, v1 = _v_extent(h, k)
         if integral > 0.0:
             a, b, c, d = _corners(rec, data, k, i)
             t = sample_linear(fv, a + b, c + d)
             s = sample_linear(fu, (1.0 - t) * a + t * c, (1.0 - t) * b + t * d)
+            p = _density_corners(data, o, integral, w, k, i, s, t, (h + 1) * (v1 - v0), a, b, c, d)
+        else:
+            s, t = fu, fv
+            p = _density_uv(rec, data, o, integral, k, i, s, t)
         u = (i + 0.5 + s) / w
         u = u - math.floor(u)
-        v0, v1 = _v_extent(h, k)
         v = v0 + t * (v1 - v0)
-        p = _density_uv(rec, data, o, integral, k, i, s, t)
-    x, y, z = latlong_uv_to_dir(u, v)
-    st = math.sin(math.pi * v)
-    return x, y, z, (p * INV_2PI2 / st if st > 0.0 else 0.0)
+    x, y, z, st = latlong_uv_to_dir_st(u, v)
+    return x, y, z, (p * INV_2PI2 / st if st > 0.0 else 0.0), u, v
 
 
 @register_jitable
@@ -434,6 +428,27 @@ def mis_sample(tag, rec, data, u0, u1):
     if rec[R_COMPENSATE] != 0.0:
         return sample_compensated(tag, rec, data, u0, u1)
     return sample(tag, rec, data, u0, u1)
+
+
+@register_jitable
+def mis_sample_uv(tag, rec, data, u0, u1):
+    """:func:`mis_sample` with the sampled direction's :func:`lookup_coords` as the sampler made them, ``(wx, wy,
+    wz, pdf, x, y, z, u, v)`` (the direction in the environment's frame and its lat-long ``(u, v)``, zeros for a
+    constant environment): a light sample's radiance is looked up at these ``(u, v)`` instead of converting the
+    direction back (``atan2``, ``acos``); the two differ by rounding only."""
+    if tag == CONSTANT:
+        wx, wy, wz, p = mis_sample(tag, rec, data, u0, u1)
+        return wx, wy, wz, p, 0.0, 0.0, 0.0, 0.0, 0.0
+    if rec[R_COMPENSATE] == 0.0:
+        x, y, z, p, u, v = sample_table_uv(tag, rec, data, int(rec[R_TABLE]), rec[R_INTEGRAL], u0, u1)
+    elif rec[R_HAS_C] == 0.0:
+        x, y, z = square_to_uniform_sphere(u0, u1)
+        p = 0.0
+        u, v = latlong_dir_to_uv(x, y, z)
+    else:
+        x, y, z, p, u, v = sample_table_uv(tag, rec, data, int(rec[R_C_TABLE]), rec[R_C_INTEGRAL], u0, u1)
+    wx, wy, wz = env_to_world(rec, x, y, z)
+    return wx, wy, wz, p, x, y, z, u, v
 
 
 @register_jitable
