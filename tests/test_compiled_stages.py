@@ -2,7 +2,8 @@
 below-horizon cosines, misses, lights that cannot reach the side): :func:`lambert_stage` gives bit for bit what
 :func:`bsdf_stage` gives for Lambert hits (the value, the lit flag, the shadow packet's lanes, the count),
 :func:`shadow_add` adds what the kernel's per-lane rule adds, and the environment stage's two passes (directions
-and prefetches, then lookups) give bit for bit what :func:`env_sample` gives lane by lane."""
+and prefetches, then lookups) give bit for bit what :func:`env_sample` gives lane by lane, the light samples of its
+vectorised stages too."""
 import numba
 import numpy as np
 
@@ -181,3 +182,52 @@ def test_env_stage_two_passes_equal_env_sample_lane_by_lane():
             for f in (V_F, V_F + 1, V_F + 2, V_LIT):
                 assert np.array_equal(Va[f * LANES:f * LANES + n], Vb[f * LANES:f * LANES + n])
     assert 0.1 < np.mean(lit) < 0.95
+
+
+def _light_stage_env(kind):
+    """(tag, record, data) of a packed environment and light for the light-sample stages' tests."""
+    import pyrt
+    from pyrt.lights import compiled_env as CE
+
+    sky = pyrt.procedural_sky(64, 32, sun_direction=(0.5, 0.6, 0.4), sun_angle=4.0)
+    env = {"nearest": lambda: pyrt.LatLongEnvironment(sky, filter="nearest"),
+           "flat": lambda: pyrt.LatLongEnvironment(np.full((8, 16, 3), 0.7, dtype=np.float32)),
+           "constant": lambda: pyrt.ConstantEnvironment((0.3, 0.5, 0.7)),
+           "rotated": lambda: pyrt.LatLongEnvironment(sky, rotate=(-70.0, [0.2, 1.0, 0.1]), intensity=2.0),
+           }.get(kind, lambda: pyrt.LatLongEnvironment(sky))()
+    light = pyrt.EnvironmentLight(env, compensate=kind != "full")
+    tag, rec, data = CE.pack_environment(env, light)
+    return tag, np.ascontiguousarray(rec), data
+
+
+def test_light_sample_stages_equal_the_per_lane_sampler():
+    """The packet's light samples from the two vectorised stages (:mod:`pyrt.integrators.compiled_env_stage`) equal
+    :func:`pyrt.lights.compiled_env.mis_sample_uv` lane by lane, bit for bit (world and environment-frame
+    directions, density, lat-long coordinates), for the compensated and the full table, a rotated map and a flat one
+    (its compensated table holds only rounding residue), on random sample numbers and on 0, 1e-12, 1/2 and just
+    below 1 in both; environments the stages do not serve (nearest filter, a constant map) keep the per-lane code."""
+    from pyrt.integrators import compiled_env_stage as ES
+    from pyrt.integrators.compiled_layout import V_ELOC, V_EPDF, V_EU, V_EUV, V_EWI
+    from pyrt.lights import compiled_env as CE
+
+    for kind in ("nearest", "constant"):
+        tag, rec, _ = _light_stage_env(kind)
+        assert ES.packet_sampling(tag, rec) == (-1, 0.0), kind
+    rng = np.random.default_rng(8)
+    edge = [0.0, 1e-12, 0.5, np.nextafter(1.0, 0.0)]
+    corners = np.array([(a, b) for a in edge for b in edge])
+    for kind in ("compensated", "full", "rotated", "flat"):
+        tag, rec, data = _light_stage_env(kind)
+        o, integral = ES.packet_sampling(tag, rec)
+        assert o == int(rec[CE.R_C_TABLE] if kind != "full" else rec[CE.R_TABLE]) and integral > 0, kind
+        for u in [corners] + [rng.random((LANES, 2)) for _ in range(60)]:
+            V = np.zeros(V_SIZE * LANES)
+            V[V_EU * LANES:(V_EU + 1) * LANES] = u[:, 0]
+            V[(V_EU + 1) * LANES:(V_EU + 2) * LANES] = u[:, 1]
+            ES.light_cells(rec, data, V, o)
+            ES.light_directions(rec, V, integral)
+            for lane in range(LANES):
+                want = CE.mis_sample_uv(tag, rec, data, u[lane, 0], u[lane, 1])
+                got = tuple(V[(f + c) * LANES + lane] for f, k in ((V_EWI, 3), (V_EPDF, 1), (V_ELOC, 3), (V_EUV, 2))
+                            for c in range(k))
+                assert got == tuple(want), (kind, u[lane])

@@ -42,8 +42,11 @@ V_EWI, V_EW, V_ELOC, V_EPDF, V_EUV, V_EOK = 69, 72, 75, 78, 79, 81
 #: the rest of a hit's inputs after its albedo (:func:`pyrt.materials.compiled.albedo_at`): GLTF's base colour,
 #: metallic and roughness (written for GLTF hits only, read only for them: :func:`lane_inputs`)
 V_X = 82
+#: the environment's light samples in the packet stage (:mod:`pyrt.integrators.compiled_env_stage`): the two
+#: sample numbers, the table cell (row, column), the in-cell offsets, the cell's four corner luminances, its func
+V_EU, V_ECELL, V_EFF, V_ECORNER, V_EFN = 87, 89, 91, 93, 97
 #: fields of the scratch
-V_SIZE = 87
+V_SIZE = 98
 #: camera record layout (float64)
 C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W, C_H, C_JITTER, C_K, C_AX = 0, 3, 6, 9, 12, 13, 14, 15, 16, 17
 #: length of the camera record

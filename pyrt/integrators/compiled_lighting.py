@@ -20,13 +20,14 @@ from pyrt.integrators import kernel_cache
 kernel_cache.use_cache_dir()      # before the decorators below run
 
 from pyrt.core import unmanaged as U  # noqa: E402
+from pyrt.integrators import compiled_env_stage as ES  # noqa: E402
 from pyrt.geometry import embree_jit as E  # noqa: E402
 from pyrt.integrators.compiled_layout import (  # noqa: E402
     LANES, V_D, V_P, V_NG, V_NS, V_NV,
     V_LIFT, V_MAG, V_MAG_LIFT, V_MAT, V_A, V_F,
     V_LIT, V_COSO, V_COSI, V_COSIO, V_S, V_GOK,
     V_SO, V_WI, V_TMAX, T_INF, DIM_AREA, MAX_AREA_SAMPLES, V_L, DIM_ENV, N_SHADOW, V_EWI, V_EW, V_ELOC, V_EPDF,
-    V_EUV, V_EOK,
+    V_EUV, V_EOK, V_EU,
     _njit, _stage, lane_inputs, lane_vec, set_lane_vec)
 from pyrt.lights import compiled as LC  # noqa: E402
 from pyrt.lights import compiled_env as CE  # noqa: E402
@@ -337,10 +338,21 @@ def env_stage(etag, erec, edata, mats_tag, mats_par, V, n, terminator, bsdf_tech
     technique: the second random number stratified over the rounds, as the NumPy path's ``u[:, 1] = (s + u) /
     n``), each lane's numbers padded over its pixel's samples (dimension pair ``pair``, as :func:`area_stage`):
     the value into :data:`V_F`, whether it is traced into :data:`V_LIT`, the shadow ray into the packet ``sh``
-    (width ``w``, the lane switched on accordingly). Returns the number of shadow rays."""
+    (width ``w``, the lane switched on accordingly). A lat-long map's light samples come from the vectorised stages of
+    :mod:`pyrt.integrators.compiled_env_stage` (the same numbers as :func:`env_direction`). Returns the number of
+    shadow rays."""
     # two passes: every lane's direction first, its texels prefetched (:func:`env_direction`), then the lookups and
     # values (:func:`env_value`): the lanes' cache misses overlap (the lookups are memory-bound on large maps)
-    for lane in range(n):
+    o_table, integral = (-1, 0.0) if bsdf_technique else ES.packet_sampling(etag, erec)
+    if o_table >= 0:
+        # a lat-long map's light samples for the whole packet in two vectorised stages (compiled_env_stage)
+        for lane in range(LANES):
+            x0, x1 = JS.padded_sobol_2d(lane_s[lane], spp, lane_k32[lane], pair) if lane < n else (0.5, 0.5)
+            V[V_EU * LANES + lane] = x0
+            V[(V_EU + 1) * LANES + lane] = (s + x1) / count
+        ES.light_cells(erec, edata, V, o_table)
+        ES.light_directions(erec, V, integral)
+    for lane in range(n if o_table < 0 else 0):
         x0, x1 = JS.padded_sobol_2d(lane_s[lane], spp, lane_k32[lane], pair)
         m = int(V[V_MAT * LANES + lane])
         mm = max(m, 0)
@@ -357,6 +369,13 @@ def env_stage(etag, erec, edata, mats_tag, mats_par, V, n, terminator, bsdf_tech
             V[V_EPDF * LANES + lane] = pdf
             V[V_EUV * LANES + lane] = uv[0]
             V[(V_EUV + 1) * LANES + lane] = uv[1]
+        V[V_EOK * LANES + lane] = 1.0 if ok else 0.0
+    for lane in range(n if o_table >= 0 else 0):
+        m = int(V[V_MAT * LANES + lane])
+        ok = m >= 0 and MC.has_diffuse(mats_tag[max(m, 0)]) and V[V_EPDF * LANES + lane] > 0.0
+        set_lane_vec(V, V_EW, lane, (0.0, 0.0, 0.0))
+        if ok:
+            CE.prefetch_lookup(etag, erec, edata, V[V_EUV * LANES + lane], V[(V_EUV + 1) * LANES + lane], False)
         V[V_EOK * LANES + lane] = 1.0 if ok else 0.0
     n_sh = 0
     for lane in range(n):
