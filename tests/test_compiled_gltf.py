@@ -250,7 +250,7 @@ def test_glTF_materials_the_kernel_does_not_cover_fall_back_and_say_why(rng):
 @pytest.mark.parametrize("model", ["BoxTextured/BoxTextured.glb", "Duck/Duck.glb"])
 def test_khronos_models_materials_are_compiled(model):
     """Shared Khronos models (skipped when absent): their glTF materials pack into the compiled table, and a render
-    of the model under a point light (both sides of its faces: culling is not compiled) takes the compiled path and
+    of the model under a point light (single-sided as the file says: back faces culled) takes the compiled path and
     matches the NumPy path at pixel centres."""
     path = os.path.join(KHRONOS, model)
     if not os.path.exists(path):
@@ -268,7 +268,6 @@ def test_khronos_models_materials_are_compiled(model):
     s.add_light(pyrt.PointLight(centre + radius * np.array([2.0, 3.0, 2.0]), intensity=20.0 * radius ** 2))
     for m in s.materials:
         assert m.compiled_record(_TexturePacker().add) is not None, m.label
-        m.set_coverage(double_sided=True)       # back-face culling (glTF doubleSided false) is the NumPy path's
     c = pyrt.render_full(s, backend="auto", progress=False, seed=0)
     n = pyrt.render_full(s, backend="numpy", progress=False, seed=0)
     assert c.stats.backend == "compiled", c.stats.fallback_reasons

@@ -157,17 +157,18 @@ def test_blend_is_alpha_front_plus_one_minus_alpha_back(integrator):
     assert (safe & ~q_in & s_in).sum() > 70                                         # the wall's 0.7 shadow
 
 
-def test_double_sided_false_culls_back_faces_but_still_casts_shadows():
+@pytest.mark.parametrize("backend", ["compiled", "numpy"])
+def test_double_sided_false_culls_back_faces_but_still_casts_shadows(backend):
     culled = pyrt.Lambert(albedo=RHO_Q).set_coverage(double_sided=False)
     scene = _scene(culled, flip=True)             # the quad's winding normal faces away from the camera
-    img = _flat(pyrt.render(scene, seed=0))
+    img = _flat(pyrt.render(scene, seed=0, backend=backend))
     o, d = _rays(scene.camera)
     q_in, _, q_safe = _cross_quad(o, d)
     wall, w_safe = _expected_masked_wall(o, d, lambda inside, op: np.where(inside, 0.0, 1.0))
     np.testing.assert_allclose(img[w_safe], wall[w_safe], rtol=1e-5, atol=1e-7)
     assert (q_in & w_safe & (wall[:, 0] == 0)).sum() > 300      # the wall is seen through the culled quad ...
     # ... double-sided (the default), the same back face is seen, shaded with the normal turned to the viewer
-    img2 = _flat(pyrt.render(_scene(pyrt.Lambert(albedo=RHO_Q), flip=True), seed=0))
+    img2 = _flat(pyrt.render(_scene(pyrt.Lambert(albedo=RHO_Q), flip=True), seed=0, backend=backend))
     front = _lambert([RHO_Q] * 3, np.full(o.shape[0], L_TO[2]))
     np.testing.assert_allclose(img2[q_in & q_safe], front[q_in & q_safe], rtol=1e-5, atol=1e-7)
 
@@ -336,11 +337,13 @@ def test_normal_map_on_a_back_face_is_the_front_normal_reversed():
     np.testing.assert_allclose(shading_normal([0, 0, -1.0], False), -n_front, atol=1e-12)
 
 
+@pytest.mark.parametrize("backend", ["auto", "numpy"])
 @pytest.mark.parametrize("kind", ["mask", "cull"])
 @pytest.mark.parametrize("layers", [MAX_LAYERS, MAX_LAYERS + 1])
-def test_layer_bound_is_what_the_docs_say(layers, kind):
+def test_layer_bound_is_what_the_docs_say(layers, kind, backend):
     """Up to MAX_LAYERS cut-out (camera and shadow rays) or culled surfaces are skipped; a ray meeting one more
-    is dropped. (Culled faces still cast shadows: that scene is lit by the ambient term.)"""
+    is dropped. (Culled faces still cast shadows: that scene is lit by the ambient term.) ``auto``: culling on the
+    compiled path."""
     cam = pyrt.Camera(position=(0, 0, 3), target=(0, 0, 0), fov=10, width=4, height=4, spp=1, jitter=False)
     scene = pyrt.Scene(cam, background=BG, ambient=0.0 if kind == "mask" else 0.2)
     if kind == "mask":
@@ -352,7 +355,7 @@ def test_layer_bound_is_what_the_docs_say(layers, kind):
     scene.add_mesh(_quad(z=-1.0, size=20.0), pyrt.Lambert(albedo=RHO_W), smooth=False)
     if kind == "mask":
         scene.add_light(pyrt.DirectionalLight((0, 0, -1), irradiance=E))
-    img = _flat(pyrt.render(scene, seed=0))
+    img = _flat(pyrt.render(scene, seed=0, backend=backend))
     if layers > MAX_LAYERS:
         assert np.all(img == 0.0)
     elif kind == "mask":

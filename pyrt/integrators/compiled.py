@@ -12,14 +12,15 @@ unfiltered-checker or nearest / bilinear / trilinear image albedo, constant emis
 Mirror, Glass (one dielectric, no nested media), smooth Conductor, the library models with constant parameters and
 the glTF metallic-roughness family (textured MetallicRoughness, opaque isotropic GltfPBR, glTF emission and
 occlusion: :mod:`pyrt.materials.gltf_record`); tangent-space normal maps on meshes without vertex tangents; point
-and spot lights (every spot and distance falloff), directional lights; rectangle, disk and sphere lights (light samples
-stratified per hit and padded over a pixel's samples, BSDF samples beside them with MIS) with their visible meshes;
-constant and lat-long environments, seen by missed rays and lighting by ``strategy="mis"``; a constant background
-and ambient term; smooth and flat shading with or without the back-facing-normal fallback; the ``robust`` and
-``robust_no_terminator`` offsets; fixed spp and adaptive passes (:func:`render_pixels`). Not yet: other
-environments and strategies, emissive-mesh lights, the other materials (and vertex colours), anisotropic and
-bicubic texture filters, normal maps on meshes with vertex tangents, alpha coverage, nested media, transparent
-shadows, the glossy integrator and ray recording (AOVs: fixed spp, not on Dask workers).
+and spot lights (every spot and distance falloff), directional lights; rectangle, disk and sphere lights (light
+samples stratified per hit and padded over a pixel's samples, BSDF samples beside them with MIS) with their visible
+meshes; constant and lat-long environments, seen by missed rays and lighting by ``strategy="mis"``; a constant
+background and ambient term; smooth and flat shading with or without the back-facing-normal fallback; the ``robust``
+and ``robust_no_terminator`` offsets; back-face culling (single-sided materials,
+:mod:`pyrt.integrators.compiled_coverage`); fixed spp and adaptive passes (:func:`render_pixels`). Not yet: other
+environments and strategies, emissive-mesh lights, the other materials (and vertex colours), anisotropic and bicubic
+texture filters, normal maps on meshes with vertex tangents, alpha coverage (mask and blend materials), nested
+media, transparent shadows, the glossy integrator and ray recording (AOVs: fixed spp, not on Dask workers).
 """
 from __future__ import annotations
 
@@ -36,7 +37,7 @@ from pyrt.geometry import embree_jit
 from pyrt.integrators import compiled_kernel as K
 from pyrt.integrators import compiled_layout as KL
 from pyrt.integrators import kernel_cache
-from pyrt.integrators.coverage import CoverageTable
+from pyrt.integrators.coverage import MAX_LAYERS, CoverageTable
 from pyrt.integrators.media import NestedMedia
 from pyrt.lights import compiled as LC
 from pyrt.lights import compiled_env
@@ -78,8 +79,8 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
         reasons.append("ray recording")
     if scene.environment is not None and not compiled_env.packable(scene.environment):
         reasons.append(f"environment {type(scene.environment).__name__}")
-    if facts.coverage is not None:
-        reasons.append("alpha coverage or back-face culling")
+    if facts.coverage is not None and facts.coverage.shadows:
+        reasons.append("alpha coverage (mask or blend materials)")
     if facts.media is not None:
         reasons.append("nested dielectrics or absorption")
     if (ps.face_gouraud is not None) if ps is not None else facts.gouraud:
@@ -175,11 +176,14 @@ class CompiledScene:
         for m, (_, rec) in zip(ps.scene.materials, mats):
             if m.normal_map is not None:
                 rec[MC.NORMAL_MAP:MC.NORMAL_MAP + 4] = normal_map_fields(m.normal_map, textures.add(m.normal_map))
+            rec[MC.CULL] = 1.0 if m.culls_back_faces else 0.0
         self.materials = _table([t for t, _ in mats], [r for _, r in mats], MC.RECORD)
         self.textures = TC.pack_table(textures.tags, textures.records, textures.texels)
         #: whether the rays carry differentials (a texture reads footprints), whether a material has a normal map
         self.diffs = any(t == TC.MIP for t in textures.tags)
         self.normal_maps = any(m.normal_map is not None for m in ps.scene.materials)
+        #: whether a material culls back faces (:mod:`pyrt.integrators.compiled_coverage`)
+        self.cull = any(m.culls_back_faces for m in ps.scene.materials)
         lights = [lt.compiled_record() for lt in ps.scene.lights]
         self.lights = _table([t for t, _ in lights], [r for _, r in lights], LC.RECORD)
         self.n_lights = len(lights)
@@ -384,6 +388,8 @@ def _options(cs, spp, seed, max_depth, throughput_cutoff, split_depth, terminato
     opts[KL.O_ENV] = cs.env_tag
     opts[KL.O_DIFFS] = 1 if cs.diffs else 0
     opts[KL.O_NMAPS] = 1 if cs.normal_maps else 0
+    opts[KL.O_CULL] = 1 if cs.cull else 0
+    opts[KL.O_LAYERS] = MAX_LAYERS
     optf = np.zeros(KL.F_ENV + compiled_env.RECORD)
     optf[KL.F_ENV:] = cs.env_record
     optf[KL.F_CUTOFF] = throughput_cutoff

@@ -8,11 +8,12 @@ one masked ``rtcOccluded16`` -> the specular tree (mirror, glass reflection and 
 as a per-sample loop over a small stack with single-ray queries -> per-pixel sums and squared sums in float64.
 
 The estimator is :class:`pyrt.integrators.whitted.Integrator`'s for the scenes :mod:`pyrt.integrators.compiled`
-accepts (delta lights, constant background, no coverage, no nested media): the same hit reconstruction
-(:func:`pyrt.geometry.surface.surface_from_hits`), offsets (:mod:`pyrt.geometry.offsets`, ``robust`` with or
-without the terminator lift: local error bound along ng, float32 rounding one ulp outward, robust shadow tmax),
-light sides, BRDFs, Fresnel and lobe choice. Random numbers are counter-based (:func:`pyrt.shaders.jit.uniform`
-of seed, pixel, sample and dimension), so the image depends on the seed alone, not on the threads.
+accepts (no alpha coverage, no nested media; back faces culled by :mod:`pyrt.integrators.compiled_coverage`): the
+same hit reconstruction (:func:`pyrt.geometry.surface.surface_from_hits`), offsets (:mod:`pyrt.geometry.offsets`,
+``robust`` with or without the terminator lift: local error bound along ng, float32 rounding one ulp outward, robust
+shadow tmax), light sides, BRDFs, Fresnel and lobe choice. Random numbers are counter-based
+(:func:`pyrt.shaders.jit.uniform` of seed, pixel, sample and dimension), so the image depends on the seed alone, not
+on the threads.
 
 A packet's values pass between its stages in a per-tile scratch ``V`` (field-major: field ``f`` of lane ``l`` at
 ``f * LANES + l``, offsets ``V_*``); per-ray values in the specular tree are locals; nothing is allocated per ray.
@@ -39,11 +40,12 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W,
     C_H, C_JITTER, C_K, C_AX, O_SEED, O_SPP,
     O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK,
-    O_GRID, F_CUTOFF, F_BG, N_PRIMARY, N_SECONDARY,
+    O_GRID, F_CUTOFF, F_BG, N_PRIMARY, N_SECONDARY, O_CULL, O_LAYERS,
     N_SHADOW, N_NONFINITE, STACK, STACK_ROW, T_INF, DIM_LOBE,
     ADAPTIVE_KEYS, O_ENV, O_AOV, O_SQ, N_AOV, V_T, O_DIFFS, TILES_PER_TASK, _njit, buffer_pointers,
     geometry_pointers, lane_vec, packet_buffers, release, set_lane_inputs, set_lane_vec, table_pointers)
 from pyrt.integrators import compiled_diffs as D  # noqa: E402
+from pyrt.integrators.compiled_coverage import cull_finish, cull_packet, cull_single  # noqa: E402
 from pyrt.integrators.compiled_surface import face_surfaces, with_ambient  # noqa: E402
 from pyrt.integrators.compiled_lighting import (  # noqa: E402
     area_bsdf_sample, area_bsdf_stage, area_light_weight, area_mis_stage, area_stage, area_u, bsdf_stage, direct_light,
@@ -153,7 +155,8 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
     terminator = opts[O_TERMINATOR] != 0
     split, cutoff, max_depth, nl = opts[O_SPLIT], optf[F_CUTOFF], opts[O_MAX_DEPTH], opts[O_NLIGHTS]
     etag = opts[O_ENV]
-    n_sec = n_sh = 0
+    cull, layers = opts[O_CULL] != 0, opts[O_LAYERS]
+    n_sec = n_sh = n_re = 0
     while top > 0:
         top -= 1
         row = STACK_ROW * top
@@ -164,6 +167,12 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
         n_sec += 1
         hit, _, prim, geom, u, v, _, _, _ = E.intersect1(scene, stack[row], stack[row + 1], stack[row + 2], d0, d1,
                                                          d2, 0.0, T_INF, ray_buf)
+        if cull:                # culled back faces skipped (compiled_coverage); a dropped ray adds nothing
+            hit, prim, geom, u, v, dropped, k = cull_single(scene, G, mats_par, layers, hit, prim, geom, u, v,
+                                                            (d0, d1, d2), ray_buf)
+            n_re += k
+            if dropped:
+                continue
         if not hit:
             bg = CE.missed(etag, erec, edata, d0, d1, d2, False) if etag else (optf[F_BG], optf[F_BG + 1],
                                                                               optf[F_BG + 2])
@@ -222,21 +231,22 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
         if depth < max_depth and MC.has_delta(mtag):
             top, dim = spawn(p, ng, ns, wo, front, mag, mtag, mats_par, m, thr, depth, split, cutoff, key, dim,
                              stack, top, V, lane, diffs)
-    counters[N_SECONDARY] += n_sec
+    counters[N_SECONDARY] += n_sec + n_re
     counters[N_SHADOW] += n_sh
     return r0, r1, r2
 
 
 @numba.njit(nogil=True, cache=True, error_model="numpy")
-def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, spp, n, w, mats_tag, mats_par, tex_tag,
-                 tex_par, lights_tag, lights_par, erec, edata, opts, optf, cnt):
+def shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, spp, n, w, mats_tag, mats_par,
+                 tex_tag, tex_par, lights_tag, lights_par, erec, edata, opts, optf, cnt):
     """Trace and shade a packet of ``n`` camera rays (directions in the scratch ``V`` at :data:`V_D`, lane ``l``'s
     random numbers keyed by ``keys[l]``, its padded light samples by sample ``lane_s[l]`` of its pixel's set of
     ``spp`` (``spp`` <= 0: a progressive set) and the pixel seed ``lane_k32[l]``): the camera packet's query, the
     hits' surfaces, per light the shadow rays in one masked query, the specular tree of each sample; each lane's
     radiance into :data:`V_L` (a non-finite value zeroed and counted), rays counted into ``cnt``. ``erec``,
-    ``edata``: the environment's record and data (:mod:`pyrt.lights.compiled_env`; its tag ``opts[O_ENV]``). Every
-    argument but the numbers and the geometry tuple ``G`` is a pointer."""
+    ``edata``: the environment's record and data (:mod:`pyrt.lights.compiled_env`; its tag ``opts[O_ENV]``); ``cam``
+    the camera record (its position: the packet's origin). Every argument but the numbers and the geometry tuple
+    ``G`` is a pointer."""
     fmat = G[8]
     etag = opts[O_ENV]
     nl = opts[O_NLIGHTS]
@@ -250,6 +260,9 @@ def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, sp
     E.packet_activate(pk, w, n)
     n_prim += n
     E.packet_query(scene, pk, w, True, False)
+    cull = opts[O_CULL] != 0
+    if cull:                # culled back faces skipped: the lanes on one re-traced (compiled_coverage)
+        cnt[N_SECONDARY] += cull_packet(scene, G, mats_par, cam, pk, w, V, n, opts[O_LAYERS])
     # the hits' surfaces, albedo and emission: vectorised passes when the lanes hit at most a few triangles of
     # constant-albedo materials (compiled_surface), else lane by lane (a miss: face 0 computed and dropped)
     # (not with differentials: the lane-by-lane loop computes them)
@@ -290,6 +303,8 @@ def shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, sp
             V[V_COSO * LANES + lane] = dot((-d[0], -d[1], -d[2]), ns)
             if want_aovs:
                 V[V_T * LANES + lane] = E.packet_tfar(pk, w, lane) if hit else math.inf
+    if cull:
+        cull_finish(V, n)
     # direct light: per light, the packet's shadow rays (geometry, then the BSDF) in one masked query
     pair = 0                # the padded dimension pairs of the area lights' samples
     for j in range(nl if any_diffuse else 0):
@@ -481,7 +496,7 @@ def render_tile(bufs, scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_ta
                 ox, oy = J.strata_position(spp_f, rows_f, float(s), u0, u1)
                 set_lane_vec(V, V_D, lane, camera_dir(cam, lane_xy[lane] + ox, lane_xy[LANES + lane] + oy))
         D.camera_diffs(V, cam, opts, n)
-        shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, spp, n, w, mats_tag, mats_par,
+        shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, spp, n, w, mats_tag, mats_par,
                      tex_tag, tex_par, lights_tag, lights_par, erec, edata, opts, optf, cnt)
         film_add(V, lane_pix, n, film_s, film_q, want_sq)
         if want_aovs:
@@ -549,7 +564,7 @@ def render_pixels(scene, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par
             if cur_j == C[cur_i]:
                 cur_i += 1
                 cur_j = 0
-        shade_packet(scene, G, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, -1, n, w, mats_tag, mats_par,
+        shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, -1, n, w, mats_tag, mats_par,
                      tex_tag, tex_par, lights_tag, lights_par, erec, edata, opts, optf, cnt)
         for lane in range(n):
             q = lane_pix[lane]

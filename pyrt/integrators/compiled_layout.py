@@ -29,6 +29,10 @@ V_A, V_L, V_F, V_LIT = 22, 25, 28, 31
 #: the light stage's fields: the cosines ``ns.wo`` (per hit), ``ns.wi`` and ``wi.wo`` (per light), the light's
 #: irradiance scale and whether the light can reach the hit's side (before the BSDF)
 V_COSO, V_COSI, V_COSIO, V_S, V_GOK = 32, 33, 34, 35, 36
+#: back-face culling (:func:`pyrt.integrators.compiled_coverage.cull_packet`): the camera ray's distance to its last
+#: re-trace origin (0: none; -1: dropped), between the camera query and the surface stage's end; it shares
+#: :data:`V_S`, which the light stages write only after that
+V_TB = V_S
 #: the shadow ray: origin, direction, tmax
 V_SO, V_WI, V_TMAX = 37, 40, 43
 #: the camera ray's hit distance (``inf``: a miss; the depth AOV)
@@ -56,8 +60,11 @@ O_SEED, O_SPP, O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBA
 #: 1 when a texture reads footprints (the rays carry differentials), 1 when a material has a normal map, 1 when a
 #: fixed-spp render sums the squared radiance too (the film's second moment)
 O_DIFFS, O_NMAPS, O_SQ = 11, 12, 13
+#: 1 when a material culls back faces (:mod:`pyrt.integrators.compiled_coverage`), and the most culled faces a ray
+#: skips (:data:`pyrt.integrators.coverage.MAX_LAYERS`)
+O_CULL, O_LAYERS = 14, 15
 #: length of the integer options
-N_OPTS = 14
+N_OPTS = 16
 #: consecutive tiles of a call's list that one thread renders with one set of packet buffers
 #: (:func:`pyrt.integrators.compiled_kernel.render_tiles`; also the unit of the threads' dynamic scheduling)
 TILES_PER_TASK = 4

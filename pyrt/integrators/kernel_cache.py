@@ -29,7 +29,7 @@ import numba
 #: the modules whose source the compiled kernels are built from (their hash names the cache directory)
 KERNEL_SOURCES = ("pyrt.shaders.jit", "pyrt.shaders.jit_brdfs", "pyrt.shaders.jit_sampling", "pyrt.core.unmanaged",
                   "pyrt.geometry.embree_jit", "pyrt.textures.compiled_mip", "pyrt.textures.compiled",
-                  "pyrt.textures.compiled_normal_map", "pyrt.materials.compiled",
+                  "pyrt.textures.compiled_normal_map", "pyrt.materials.compiled", "pyrt.integrators.compiled_coverage",
                   "pyrt.materials.compiled_sampling", "pyrt.lights.compiled", "pyrt.lights.compiled_tables",
                   "pyrt.lights.compiled_env",
                   "pyrt.integrators.compiled_layout", "pyrt.integrators.compiled_diffs",

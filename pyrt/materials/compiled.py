@@ -27,7 +27,8 @@ EMITTER              4-6 radiance (constant RGB), 7 two-sided (1) or front only 
                      (:class:`pyrt.lights.area.AreaEmitter`: emits, reflects nothing)
 GLTF                 glTF's metallic-roughness family with textured parameters, emission and occlusion: the layout
                      of :mod:`pyrt.materials.gltf_record` (0-23), resolved per hit by :func:`gltf_inputs`
-(every material)     24-27 its normal map (:data:`NORMAL_MAP`), written by the compiled scene
+(every material)     24-27 its normal map (:data:`NORMAL_MAP`), 28 1 when it culls back faces (:data:`CULL`), written
+                     by the compiled scene
 ===================  ============================================================================================
 
 The models after BLINN_PHONG but GLTF have constant parameters only (a textured one is not compiled); their formulas
@@ -54,10 +55,13 @@ from pyrt.shaders import jit_brdfs as JB
 from pyrt.textures.compiled import texture_rgb
 
 #: parameters per material record
-RECORD = 28
+RECORD = 29
 #: where every record keeps its normal map (:func:`pyrt.integrators.compiled_diffs.mapped_normal`): the map's row in the
 #: texture table plus one (0: none), its strength, 1 for green = -v (DirectX), 1 to bend reflections above the surface
 NORMAL_MAP = 24
+#: where every record says whether camera and secondary rays skip its back faces (1.0:
+#: :attr:`pyrt.materials.Material.culls_back_faces`; :mod:`pyrt.integrators.compiled_coverage`)
+CULL = 28
 #: type tags (0 is no material)
 LAMBERT, BLINN_PHONG, MIRROR, GLASS, CONDUCTOR = 1, 2, 3, 4, 5
 #: 1 / pi (a multiplication where a division by pi would cost ~4x; within an ulp of it)
