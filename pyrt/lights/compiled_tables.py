@@ -56,7 +56,12 @@ def _find(data, o, n, shift, u):
     key = u + shift
     if not data[o] + shift <= key:
         return 0
-    lo, hi = 0, n - 1
+    return _bisect(data, o, shift, key, 0, n - 1)
+
+
+@register_jitable
+def _bisect(data, o, shift, key, lo, hi):
+    """The largest ``k`` in ``[lo, hi]`` with ``data[o + k] + shift <= key``, given that ``lo`` has it."""
     while lo < hi:
         mid = (lo + hi + 1) >> 1
         if data[o + mid] + shift <= key:
@@ -76,13 +81,7 @@ def _find_guided(data, o, n, shift, u, og, g):
     lo, hi = int(data[og + j]), int(data[og + j + 1])
     if not data[o + lo] + shift <= key:
         return _find(data, o, n, shift, u)       # (only for a u outside [0, 1) or NaN: the full search decides)
-    while lo < hi:
-        mid = (lo + hi + 1) >> 1
-        if data[o + mid] + shift <= key:
-            lo = mid
-        else:
-            hi = mid - 1
-    return lo
+    return _bisect(data, o, shift, key, lo, hi)
 
 
 @register_jitable
