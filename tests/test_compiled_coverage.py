@@ -5,7 +5,12 @@ Single-sided materials (``double_sided=False``) seen from behind: a quad whose w
 camera, a single-sided sphere around the whole scene (the camera inside it: every face it sees is a back face),
 mirror rays through both. At pixel centres with the full glass tree both paths trace the same rays (the culled hits
 re-traced from the same pushed origins), so their images, AOVs and ray counts agree pixel by pixel, as in
-tests/test_compiled_render.py. Alpha masks and blending stay on the NumPy path (their fallback reason is checked).
+tests/test_compiled_render.py.
+
+Alpha masks (:data:`pyrt.materials.compiled.MASK`): a leaf quad whose opacity is a checker image (nearest) and a quad
+of constant opacity below the cutoff, seen by camera, mirror and glass rays and crossed by shadow rays: the NumPy
+path's image, AOVs and rays; the leaf's holes show what is behind it and its shadow has holes. What the kernel does
+not cover (blending, an opacity read at a footprint, masks with an environment light) falls back, with its reason.
 """
 import numpy as np
 import pytest
@@ -176,10 +181,91 @@ def test_layer_bound(layers):
         np.testing.assert_allclose(c.image.reshape(-1, 3), np.tile([0.12, 0.06, 0.04], (16, 1)), rtol=1e-6)
 
 
-@pytest.mark.parametrize("mode", ["mask", "blend"])
-def test_alpha_coverage_falls_back_and_says_why(mode):
+# ----------------------------------------------------------------------------------------- alpha masks
+
+N_TEX = 8
+CHECKER = ((np.arange(N_TEX)[:, None] + np.arange(N_TEX)[None, :]) % 2 == 0).astype(np.float64)   # 1 = opaque
+
+
+def _leaf(filter="nearest", mode="mask"):
+    """A Lambert leaf whose opacity is a checker image (1 opaque, 0 a hole)."""
+    tex = pyrt.ImageTexture(CHECKER, filter=filter, srgb=False, name="checker")
+    return pyrt.Lambert(albedo=(0.3, 0.6, 0.2)).set_coverage(opacity=tex, alpha_mode=mode)
+
+
+def _uv_quad(centre, half, flip=False):
+    m = _quad(centre, half, flip)
+    m.visual = trimesh.visual.TextureVisuals(uv=(m.vertices[:, :2] - m.vertices[:, :2].min(axis=0)) / (2 * half))
+    return m
+
+
+def _leaves(width=48, height=36, spp=1, jitter=False):
+    """The objects with a masked leaf quad in front of them, lit from the side as well (its shadow falls on the floor
+    left of the objects, with holes), a second masked quad (constant opacity below the cutoff: invisible) and a
+    single-sided quad seen from behind."""
+    s = _culled_quad(_objects(width=width, height=height, spp=spp, jitter=jitter))
+    s.add_light(pyrt.PointLight((3, 3, 2.5), intensity=20.0))
+    s.add_mesh(_uv_quad((0.2, 0.9, 1.2), 0.45), _leaf(), smooth=False, name="leaf")
+    gone = pyrt.Lambert(albedo=0.9).set_coverage(opacity=0.2, alpha_mode="mask", alpha_cutoff=0.5)
+    s.add_mesh(_quad((-0.6, 0.6, 1.5), 0.3, flip=False), gone, smooth=False, name="gone")
+    return s
+
+
+def test_masks_take_the_compiled_path():
+    assert compiled.unsupported(pyrt.PreparedScene(_leaves(width=8, height=6))) == []
+
+
+@pytest.mark.parametrize("offset", ["robust", "robust_no_terminator"])
+def test_masks_match_the_numpy_path_pixel_by_pixel(offset):
+    """Camera rays through the leaf's holes and the invisible quad, mirror and glass rays through them, shadow rays
+    through the holes (point and spot light): the NumPy path's image and rays."""
+    c, n = _both(_leaves(), seed=0, offset=offset)
+    _close(c.image, n.image)
+    assert c.stats.primary_rays == n.stats.primary_rays
+    assert abs(c.stats.secondary_rays - n.stats.secondary_rays) <= 0.002 * n.stats.secondary_rays
+    assert abs(c.stats.shadow_rays - n.stats.shadow_rays) <= 0.002 * n.stats.shadow_rays
+
+
+def test_mask_aovs_and_adaptive_passes_match_the_numpy_path():
+    c, n = _both(_leaves(width=32, height=24), seed=0, aovs=True)
+    for k in ("depth", "normal", "albedo"):
+        _close(c.aovs[k].reshape(24, 32, -1), n.aovs[k].reshape(24, 32, -1))
+    c, n = _both(_leaves(width=32, height=24), seed=3, sampling=pyrt.Sampling(target_error=2e-3, max_spp=32))
+    assert c.passes == n.passes > 1
+    np.testing.assert_array_equal(c.film.weight, n.film.weight)
+    np.testing.assert_allclose(c.image, n.image, rtol=1e-5, atol=1e-7)
+
+
+def test_leaf_holes_show_what_is_behind_and_its_shadow_has_holes():
+    """The leaf's opaque texels hide what is behind it, its holes show it (the image of the scene without the
+    leaf there), and its shadow on the floor has holes: lit floor pixels that the leaf would shade when opaque."""
+    kw = dict(seed=0, aovs=True)
+    leaf = _render(_leaves(), **kw)
+    s = _leaves()
+    s.materials[-2].set_coverage(alpha_mode="opaque")
+    solid = _render(s, **kw)
+    assert leaf.stats.backend == "compiled"
+    seen = np.abs(leaf.aovs["albedo"] - np.array([0.3, 0.6, 0.2])).max(axis=2) < 1e-6
+    hidden = np.abs(solid.aovs["albedo"] - np.array([0.3, 0.6, 0.2])).max(axis=2) < 1e-6
+    holes = hidden & ~seen
+    assert seen.sum() > 30 and holes.sum() > 30 and not (seen & ~hidden).any()
+    floor = (~hidden) & (np.abs(leaf.image - solid.image).max(axis=2) > 1e-3)     # light through the leaf's holes
+    assert floor.sum() > 20
+
+
+@pytest.mark.parametrize("case", ["blend", "trilinear", "environment"])
+def test_what_masks_do_not_cover_falls_back_and_says_why(case):
     s = _objects(width=8, height=6)
-    s.materials[0].set_coverage(opacity=0.5, alpha_mode=mode)
+    if case == "blend":
+        s.materials[0].set_coverage(opacity=0.5, alpha_mode="blend")
+        reason = "alpha coverage (blend"
+    elif case == "trilinear":
+        s.add_mesh(_uv_quad((0.2, 0.9, 1.2), 0.45), _leaf(filter="trilinear"), smooth=False)
+        reason = "alpha mask of material"
+    else:
+        s.materials[0].set_coverage(opacity=0.5, alpha_mode="mask")
+        pyrt.set_environment(s, pyrt.ConstantEnvironment(0.3))
+        reason = "alpha masks with an environment light"
     r = pyrt.render_full(s, execution=pyrt.Execution(progress=False))
     assert r.stats.backend == "numpy"
-    assert any("alpha coverage" in x for x in r.stats.fallback_reasons), r.stats.fallback_reasons
+    assert any(reason in x for x in r.stats.fallback_reasons), r.stats.fallback_reasons

@@ -100,11 +100,11 @@ def _flat(img):
     return img.reshape(-1, 3).astype(np.float64)
 
 
-@pytest.mark.parametrize("integrator", ["whitted", "glossy"])
-def test_mask_camera_and_shadow_rays_are_exact(integrator):
+@pytest.mark.parametrize("integrator, backend", [("whitted", "compiled"), ("whitted", "numpy"), ("glossy", "auto")])
+def test_mask_camera_and_shadow_rays_are_exact(integrator, backend):
     mat = pyrt.Lambert(albedo=RHO_Q).set_coverage(opacity=_opacity_texture(), alpha_mode="mask")
     scene = _scene(mat)
-    img = _flat(pyrt.render(scene, seed=0, integrator=integrator))
+    img = _flat(pyrt.render(scene, seed=0, integrator=integrator, backend=backend))
     o, d = _rays(scene.camera)
     q_in, q_op, q_safe = _cross_quad(o, d)
     wall, w_safe = _expected_masked_wall(o, d, lambda i, op: np.where(op, 0.0, 1.0))
@@ -118,12 +118,13 @@ def test_mask_camera_and_shadow_rays_are_exact(integrator):
     assert safe.sum() > 0.9 * safe.size
 
 
-def test_mask_secondary_rays_see_the_cutouts():
+@pytest.mark.parametrize("backend", ["compiled", "numpy"])
+def test_mask_secondary_rays_see_the_cutouts(backend):
     """Through a hole: the mirror behind reflects the ray back onto the quad's back (ambient only) or its holes."""
     mat = pyrt.Lambert(albedo=RHO_Q).set_coverage(opacity=_opacity_texture(), alpha_mode="mask")
     ambient = 0.2
     scene = _scene(mat, back="mirror", ambient=ambient)
-    img = _flat(pyrt.render(scene, seed=0))
+    img = _flat(pyrt.render(scene, seed=0, backend=backend))
     o, d = _rays(scene.camera)
     q_in, q_op, q_safe = _cross_quad(o, d)
     P = _wall_point(o, d)

@@ -479,6 +479,13 @@ def packet_tfar(p, w, lane):
 
 
 @numba.njit(nogil=True, cache=True, inline="always")
+def packet_ray(p, w, lane):
+    """Lane ``lane``'s ray as stored (float32): ``(origin, direction, tfar)`` (tfar before a query)."""
+    return ((p[ORG_X * w + lane], p[ORG_Y * w + lane], p[ORG_Z * w + lane]),
+            (p[DIR_X * w + lane], p[DIR_Y * w + lane], p[DIR_Z * w + lane]), p[TFAR * w + lane])
+
+
+@numba.njit(nogil=True, cache=True, inline="always")
 def lane_blocked(p, w, lane):
     """:func:`packet_blocked` with the width given."""
     return p[TFAR * w + lane] == -np.inf

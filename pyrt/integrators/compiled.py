@@ -16,11 +16,12 @@ and spot lights (every spot and distance falloff), directional lights; rectangle
 samples stratified per hit and padded over a pixel's samples, BSDF samples beside them with MIS) with their visible
 meshes; constant and lat-long environments, seen by missed rays and lighting by ``strategy="mis"``; a constant
 background and ambient term; smooth and flat shading with or without the back-facing-normal fallback; the ``robust``
-and ``robust_no_terminator`` offsets; back-face culling (single-sided materials,
-:mod:`pyrt.integrators.compiled_coverage`); fixed spp and adaptive passes (:func:`render_pixels`). Not yet: other
-environments and strategies, emissive-mesh lights, the other materials (and vertex colours), anisotropic and bicubic
-texture filters, normal maps on meshes with vertex tangents, alpha coverage (mask and blend materials), nested
-media, transparent shadows, the glossy integrator and ray recording (AOVs: fixed spp, not on Dask workers).
+and ``robust_no_terminator`` offsets; back-face culling (single-sided materials) and alpha masks (a constant or
+nearest / bilinear opacity, no environment light: :mod:`pyrt.integrators.compiled_coverage`); fixed spp and adaptive
+passes (:func:`render_pixels`). Not yet: other environments and strategies, emissive-mesh lights, the other
+materials (and vertex colours), anisotropic and bicubic texture filters, normal maps on meshes with vertex tangents,
+alpha blending, nested media, transparent shadows, the glossy integrator and ray recording (AOVs: fixed spp, not on
+Dask workers).
 """
 from __future__ import annotations
 
@@ -37,12 +38,14 @@ from pyrt.geometry import embree_jit
 from pyrt.integrators import compiled_kernel as K
 from pyrt.integrators import compiled_layout as KL
 from pyrt.integrators import kernel_cache
-from pyrt.integrators.coverage import MAX_LAYERS, CoverageTable
+from pyrt.integrators.coverage import MAX_LAYERS, MODE_BLEND, MODE_MASK, CoverageTable
 from pyrt.integrators.media import NestedMedia
 from pyrt.lights import compiled as LC
 from pyrt.lights import compiled_env
 from pyrt.materials import compiled as MC
+from pyrt.materials.gltf_record import scalar_slot
 from pyrt.textures import compiled as TC
+from pyrt.textures import is_texture
 from pyrt.textures.normal_map import NormalMap
 
 #: ``backend=`` values of :func:`pyrt.render_full`
@@ -79,8 +82,11 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
         reasons.append("ray recording")
     if scene.environment is not None and not compiled_env.packable(scene.environment):
         reasons.append(f"environment {type(scene.environment).__name__}")
-    if facts.coverage is not None and facts.coverage.shadows:
-        reasons.append("alpha coverage (mask or blend materials)")
+    cover = facts.coverage
+    if cover is not None and np.any(cover.mode == MODE_BLEND):
+        reasons.append("alpha coverage (blend materials)")
+    if cover is not None and np.any(cover.mode == MODE_MASK) and any(lt.environment is not None for lt in scene.lights):
+        reasons.append("alpha masks with an environment light")
     if facts.media is not None:
         reasons.append("nested dielectrics or absorption")
     if (ps.face_gouraud is not None) if ps is not None else facts.gouraud:
@@ -95,6 +101,9 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
             reasons.append(f"material {m.label}")
         elif m.normal_map is not None and textures.add(m.normal_map) is None:
             reasons.append(f"normal map of material {m.label}")
+        elif m.alpha_mode == "mask" and mask_fields(m, textures.add) is None:
+            reasons.append(f"alpha mask of material {m.label} (its opacity is not a constant or a nearest or bilinear "
+                           "image texture)")
     for lt in scene.lights:
         if lt.compiled_record() is None or (lt.delta and lt.n_samples != 1):
             reasons.append(f"light {lt.label}")
@@ -177,13 +186,16 @@ class CompiledScene:
             if m.normal_map is not None:
                 rec[MC.NORMAL_MAP:MC.NORMAL_MAP + 4] = normal_map_fields(m.normal_map, textures.add(m.normal_map))
             rec[MC.CULL] = 1.0 if m.culls_back_faces else 0.0
+            if m.alpha_mode == "mask":
+                rec[MC.MASK:MC.MASK + 5] = mask_fields(m, textures.add)
         self.materials = _table([t for t, _ in mats], [r for _, r in mats], MC.RECORD)
         self.textures = TC.pack_table(textures.tags, textures.records, textures.texels)
         #: whether the rays carry differentials (a texture reads footprints), whether a material has a normal map
         self.diffs = any(t == TC.MIP for t in textures.tags)
         self.normal_maps = any(m.normal_map is not None for m in ps.scene.materials)
-        #: whether a material culls back faces (:mod:`pyrt.integrators.compiled_coverage`)
-        self.cull = any(m.culls_back_faces for m in ps.scene.materials)
+        #: coverage (:data:`pyrt.integrators.compiled_layout.O_COVER`): 2 with an alpha mask, 1 with culling only, 0
+        self.cover = 2 if any(m.alpha_mode == "mask" for m in ps.scene.materials) else (
+            1 if any(m.culls_back_faces for m in ps.scene.materials) else 0)
         lights = [lt.compiled_record() for lt in ps.scene.lights]
         self.lights = _table([t for t, _ in lights], [r for _, r in lights], LC.RECORD)
         self.n_lights = len(lights)
@@ -219,6 +231,18 @@ def load_kernel(cs, kernel, call):
         warnings.simplefilter("ignore", NumbaIRAssumptionWarning)        # (as in render_fixed)
         call()
     add_time(cs.prepared.timings, "kernel", time.perf_counter() - t0)
+
+
+def mask_fields(material, add_texture):
+    """A material record's :data:`pyrt.materials.compiled.MASK` fields for the alpha mask of ``material``: 1,
+    ``alpha_cutoff`` and the opacity's scalar slot (:func:`pyrt.materials.gltf_record.scalar_slot`, its texture
+    added by ``add_texture``); None when the kernel cannot read the opacity (a texture it has no scalar form of, or
+    one read at a footprint: the kernel looks the opacity up without one)."""
+    op = material.opacity
+    if is_texture(op) and op.needs_footprint:
+        return None
+    slot = scalar_slot(op, add_texture)
+    return None if slot is None else [1.0, float(material.alpha_cutoff), *slot]
 
 
 def normal_map_fields(normal_map, row):
@@ -388,7 +412,7 @@ def _options(cs, spp, seed, max_depth, throughput_cutoff, split_depth, terminato
     opts[KL.O_ENV] = cs.env_tag
     opts[KL.O_DIFFS] = 1 if cs.diffs else 0
     opts[KL.O_NMAPS] = 1 if cs.normal_maps else 0
-    opts[KL.O_CULL] = 1 if cs.cull else 0
+    opts[KL.O_COVER] = cs.cover
     opts[KL.O_LAYERS] = MAX_LAYERS
     optf = np.zeros(KL.F_ENV + compiled_env.RECORD)
     optf[KL.F_ENV:] = cs.env_record

@@ -8,12 +8,12 @@ one masked ``rtcOccluded16`` -> the specular tree (mirror, glass reflection and 
 as a per-sample loop over a small stack with single-ray queries -> per-pixel sums and squared sums in float64.
 
 The estimator is :class:`pyrt.integrators.whitted.Integrator`'s for the scenes :mod:`pyrt.integrators.compiled`
-accepts (no alpha coverage, no nested media; back faces culled by :mod:`pyrt.integrators.compiled_coverage`): the
-same hit reconstruction (:func:`pyrt.geometry.surface.surface_from_hits`), offsets (:mod:`pyrt.geometry.offsets`,
-``robust`` with or without the terminator lift: local error bound along ng, float32 rounding one ulp outward, robust
-shadow tmax), light sides, BRDFs, Fresnel and lobe choice. Random numbers are counter-based
-(:func:`pyrt.shaders.jit.uniform` of seed, pixel, sample and dimension), so the image depends on the seed alone, not
-on the threads.
+accepts (no alpha blending, no nested media; culled back faces and alpha masks by
+:mod:`pyrt.integrators.compiled_coverage`): the same hit reconstruction
+(:func:`pyrt.geometry.surface.surface_from_hits`), offsets (:mod:`pyrt.geometry.offsets`, ``robust`` with or without
+the terminator lift: local error bound along ng, float32 rounding one ulp outward, robust shadow tmax), light sides,
+BRDFs, Fresnel and lobe choice. Random numbers are counter-based (:func:`pyrt.shaders.jit.uniform` of seed, pixel,
+sample and dimension), so the image depends on the seed alone, not on the threads.
 
 A packet's values pass between its stages in a per-tile scratch ``V`` (field-major: field ``f`` of lane ``l`` at
 ``f * LANES + l``, offsets ``V_*``); per-ray values in the specular tree are locals; nothing is allocated per ray.
@@ -40,12 +40,13 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W,
     C_H, C_JITTER, C_K, C_AX, O_SEED, O_SPP,
     O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK,
-    O_GRID, F_CUTOFF, F_BG, N_PRIMARY, N_SECONDARY, O_CULL, O_LAYERS,
+    O_GRID, F_CUTOFF, F_BG, N_PRIMARY, N_SECONDARY, O_COVER, O_LAYERS, V_SO, V_WI, V_TMAX,
     N_SHADOW, N_NONFINITE, STACK, STACK_ROW, T_INF, DIM_LOBE,
     ADAPTIVE_KEYS, O_ENV, O_AOV, O_SQ, N_AOV, V_T, O_DIFFS, TILES_PER_TASK, _njit, buffer_pointers,
     geometry_pointers, lane_vec, packet_buffers, release, set_lane_inputs, set_lane_vec, table_pointers)
 from pyrt.integrators import compiled_diffs as D  # noqa: E402
-from pyrt.integrators.compiled_coverage import cull_finish, cull_packet, cull_single  # noqa: E402
+from pyrt.integrators.compiled_coverage import (  # noqa: E402
+    MASKS, cover_finish, cover_packet, cover_single, mask_shadows, shadow_walk)
 from pyrt.integrators.compiled_surface import face_surfaces, with_ambient  # noqa: E402
 from pyrt.integrators.compiled_lighting import (  # noqa: E402
     area_bsdf_sample, area_bsdf_stage, area_light_weight, area_mis_stage, area_stage, area_u, bsdf_stage, direct_light,
@@ -155,7 +156,7 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
     terminator = opts[O_TERMINATOR] != 0
     split, cutoff, max_depth, nl = opts[O_SPLIT], optf[F_CUTOFF], opts[O_MAX_DEPTH], opts[O_NLIGHTS]
     etag = opts[O_ENV]
-    cull, layers = opts[O_CULL] != 0, opts[O_LAYERS]
+    cover, masks, layers = opts[O_COVER] != 0, opts[O_COVER] == MASKS, opts[O_LAYERS]
     n_sec = n_sh = n_re = 0
     while top > 0:
         top -= 1
@@ -167,10 +168,10 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
         n_sec += 1
         hit, _, prim, geom, u, v, _, _, _ = E.intersect1(scene, stack[row], stack[row + 1], stack[row + 2], d0, d1,
                                                          d2, 0.0, T_INF, ray_buf)
-        if cull:                # culled back faces skipped (compiled_coverage); a dropped ray adds nothing
-            hit, prim, geom, u, v, dropped, k = cull_single(scene, G, mats_par, layers, hit, prim, geom, u, v,
-                                                            (d0, d1, d2), ray_buf)
-            n_re += k
+        if cover:               # culled back faces and mask cut-outs skipped (compiled_coverage); dropped: adds nothing
+            hit, prim, geom, u, v, dropped, n_skip = cover_single(scene, G, mats_par, tex_tag, tex_par, layers, masks,
+                                                                  hit, prim, geom, u, v, (d0, d1, d2), ray_buf)
+            n_re += n_skip
             if dropped:
                 continue
         if not hit:
@@ -221,7 +222,12 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
                     if not ok:
                         continue
                     n_sh += 1
-                    if not E.occluded1(scene, o[0], o[1], o[2], wi[0], wi[1], wi[2], 0.0, tmax, ray_buf):
+                    blocked = E.occluded1(scene, o[0], o[1], o[2], wi[0], wi[1], wi[2], 0.0, tmax, ray_buf)
+                    if blocked and masks:       # through the mask cut-outs (compiled_coverage)
+                        blocked, n_walk = shadow_walk(scene, G, mats_par, tex_tag, tex_par, layers, o, wi, tmax,
+                                                      ray_buf)
+                        n_sh += n_walk
+                    if not blocked:
                         le0 += f[0] * inv
                         le1 += f[1] * inv
                         le2 += f[2] * inv
@@ -260,9 +266,10 @@ def shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k3
     E.packet_activate(pk, w, n)
     n_prim += n
     E.packet_query(scene, pk, w, True, False)
-    cull = opts[O_CULL] != 0
-    if cull:                # culled back faces skipped: the lanes on one re-traced (compiled_coverage)
-        cnt[N_SECONDARY] += cull_packet(scene, G, mats_par, cam, pk, w, V, n, opts[O_LAYERS])
+    cover, masks = opts[O_COVER] != 0, opts[O_COVER] == MASKS
+    if cover:               # culled back faces and mask cut-outs skipped: lanes on one re-traced (compiled_coverage)
+        cnt[N_SECONDARY] += cover_packet(scene, G, mats_par, tex_tag, tex_par, cam, pk, w, V, n, opts[O_LAYERS],
+                                         masks)
     # the hits' surfaces, albedo and emission: vectorised passes when the lanes hit at most a few triangles of
     # constant-albedo materials (compiled_surface), else lane by lane (a miss: face 0 computed and dropped)
     # (not with differentials: the lane-by-lane loop computes them)
@@ -303,8 +310,8 @@ def shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k3
             V[V_COSO * LANES + lane] = dot((-d[0], -d[1], -d[2]), ns)
             if want_aovs:
                 V[V_T * LANES + lane] = E.packet_tfar(pk, w, lane) if hit else math.inf
-    if cull:
-        cull_finish(V, n)
+    if cover:
+        cover_finish(V, n)
     # direct light: per light, the packet's shadow rays (geometry, then the BSDF) in one masked query
     pair = 0                # the padded dimension pairs of the area lights' samples
     for j in range(nl if any_diffuse else 0):
@@ -324,6 +331,11 @@ def shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k3
             if s >= n_j:
                 n_sh = area_bsdf_stage(ltag, lights_par, j, mats_tag, mats_par, V, keys, n, terminator, s - n_j, n_j,
                                        n_b, k_b, pair + s, lane_s, spp, lane_k32, sh, w)
+                for lane in range(n if masks else 0):     # the rays mask_shadows may walk (float32 as traced)
+                    s_o, s_wi, s_tmax = E.packet_ray(sh, w, lane)
+                    set_lane_vec(V, V_SO, lane, (float(s_o[0]), float(s_o[1]), float(s_o[2])))
+                    set_lane_vec(V, V_WI, lane, (float(s_wi[0]), float(s_wi[1]), float(s_wi[2])))
+                    V[V_TMAX * LANES + lane] = float(s_tmax)
             else:
                 if area:
                     area_stage(ltag, lights_par, j, V, keys, n, s, n_j, k_j, terminator, pair + s, lane_s, spp,
@@ -341,6 +353,8 @@ def shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k3
                 continue
             n_shadow += n_sh
             E.packet_query(scene, sh, w, True, True)
+            if masks:
+                n_shadow += mask_shadows(scene, G, mats_par, tex_tag, tex_par, sh, w, V, n, opts[O_LAYERS], ray_buf)
             shadow_add(V, sh, w, n, 1.0 / (n_j if s < n_j else n_b))
         pair += n_j + n_b if area else 0
     # the specular tree of each sample, then the film

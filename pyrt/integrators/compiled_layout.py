@@ -29,7 +29,7 @@ V_A, V_L, V_F, V_LIT = 22, 25, 28, 31
 #: the light stage's fields: the cosines ``ns.wo`` (per hit), ``ns.wi`` and ``wi.wo`` (per light), the light's
 #: irradiance scale and whether the light can reach the hit's side (before the BSDF)
 V_COSO, V_COSI, V_COSIO, V_S, V_GOK = 32, 33, 34, 35, 36
-#: back-face culling (:func:`pyrt.integrators.compiled_coverage.cull_packet`): the camera ray's distance to its last
+#: coverage (:func:`pyrt.integrators.compiled_coverage.cover_packet`): the camera ray's distance to its last
 #: re-trace origin (0: none; -1: dropped), between the camera query and the surface stage's end; it shares
 #: :data:`V_S`, which the light stages write only after that
 V_TB = V_S
@@ -60,9 +60,9 @@ O_SEED, O_SPP, O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBA
 #: 1 when a texture reads footprints (the rays carry differentials), 1 when a material has a normal map, 1 when a
 #: fixed-spp render sums the squared radiance too (the film's second moment)
 O_DIFFS, O_NMAPS, O_SQ = 11, 12, 13
-#: 1 when a material culls back faces (:mod:`pyrt.integrators.compiled_coverage`), and the most culled faces a ray
-#: skips (:data:`pyrt.integrators.coverage.MAX_LAYERS`)
-O_CULL, O_LAYERS = 14, 15
+#: coverage (:mod:`pyrt.integrators.compiled_coverage`): 0 none, 1 some material culls back faces, 2 some material
+#: is an alpha mask; and the most surfaces a ray skips (:data:`pyrt.integrators.coverage.MAX_LAYERS`)
+O_COVER, O_LAYERS = 14, 15
 #: length of the integer options
 N_OPTS = 16
 #: consecutive tiles of a call's list that one thread renders with one set of packet buffers

@@ -51,7 +51,8 @@ from pyrt.shaders.vec import dot, take_rows
 
 #: surfaces one ray may skip or split per bounce (cut-out foliage, stacked decals) before it is dropped
 MAX_LAYERS = 32
-_MASK, _BLEND = ALPHA_MODES.index("mask"), ALPHA_MODES.index("blend")
+#: :attr:`CoverageTable.mode` of mask and blend materials
+MODE_MASK, MODE_BLEND = ALPHA_MODES.index("mask"), ALPHA_MODES.index("blend")
 _FIELDS = ("hit", "t", "mesh_id", "prim_id", "u", "v", "ng")
 
 
@@ -216,10 +217,10 @@ class CoverageTable:
             a = np.ones(rec.size)
             if look.size:
                 a[look] = self._opacity(surf, mat, look)
-            skip |= ((mode == _MASK) & (a < self.cutoff[mat])) | ((mode == _BLEND) & (a <= 0.0))
+            skip |= ((mode == MODE_MASK) & (a < self.cutoff[mat])) | ((mode == MODE_BLEND) & (a <= 0.0))
             through = np.flatnonzero(skip)
             if split:
-                si = np.flatnonzero((mode == _BLEND) & (a > 0.0) & (a < 1.0))
+                si = np.flatnonzero((mode == MODE_BLEND) & (a > 0.0) & (a < 1.0))
                 if si.size:
                     w_cont = weight[rec[si]] * (1.0 - a[si])
                     weight[rec[si]] *= a[si]

@@ -27,8 +27,8 @@ EMITTER              4-6 radiance (constant RGB), 7 two-sided (1) or front only 
                      (:class:`pyrt.lights.area.AreaEmitter`: emits, reflects nothing)
 GLTF                 glTF's metallic-roughness family with textured parameters, emission and occlusion: the layout
                      of :mod:`pyrt.materials.gltf_record` (0-23), resolved per hit by :func:`gltf_inputs`
-(every material)     24-27 its normal map (:data:`NORMAL_MAP`), 28 1 when it culls back faces (:data:`CULL`), written
-                     by the compiled scene
+(every material)     24-27 its normal map (:data:`NORMAL_MAP`), 28 1 when it culls back faces (:data:`CULL`), 29-33
+                     its alpha mask (:data:`MASK`), written by the compiled scene
 ===================  ============================================================================================
 
 The models after BLINN_PHONG but GLTF have constant parameters only (a textured one is not compiled); their formulas
@@ -55,13 +55,16 @@ from pyrt.shaders import jit_brdfs as JB
 from pyrt.textures.compiled import texture_rgb
 
 #: parameters per material record
-RECORD = 29
+RECORD = 34
 #: where every record keeps its normal map (:func:`pyrt.integrators.compiled_diffs.mapped_normal`): the map's row in the
 #: texture table plus one (0: none), its strength, 1 for green = -v (DirectX), 1 to bend reflections above the surface
 NORMAL_MAP = 24
 #: where every record says whether camera and secondary rays skip its back faces (1.0:
 #: :attr:`pyrt.materials.Material.culls_back_faces`; :mod:`pyrt.integrators.compiled_coverage`)
 CULL = 28
+#: where every record keeps its alpha mask (:mod:`pyrt.integrators.compiled_coverage`): 1 when ``alpha_mode`` is
+#: ``"mask"``, ``alpha_cutoff``, then the opacity's scalar slot ``[row or -1, factor, channel]``
+MASK = 29
 #: type tags (0 is no material)
 LAMBERT, BLINN_PHONG, MIRROR, GLASS, CONDUCTOR = 1, 2, 3, 4, 5
 #: 1 / pi (a multiplication where a division by pi would cost ~4x; within an ulp of it)
@@ -211,7 +214,7 @@ def scaled_slot(pars, b, tex_tag, tex_par, u, v, fp):
 
 
 @register_jitable(inline="always")
-def _scalar(pars, b, rgb):
+def slot_scalar(pars, b, rgb):
     """The scalar slot ``[row or -1, factor, channel]`` at ``pars[b:]``, the texture's lookup ``rgb`` given."""
     if pars[b] < 0.0:
         return pars[b + 1]
@@ -228,11 +231,11 @@ def gltf_inputs(pars, b, tex_tag, tex_par, u, v, fp):
     t_m, t_r, t_o = int(pars[b + 4]), int(pars[b + 7]), int(pars[b + 14])
     rgb_m = texture_rgb(tex_tag, tex_par, t_m, u, v, fp) if t_m >= 0 else none
     rgb_r = rgb_m if t_r == t_m else (texture_rgb(tex_tag, tex_par, t_r, u, v, fp) if t_r >= 0 else none)
-    metal, rough = _scalar(pars, b + 4, rgb_m), _scalar(pars, b + 7, rgb_r)
+    metal, rough = slot_scalar(pars, b + 4, rgb_m), slot_scalar(pars, b + 7, rgb_r)
     if t_o < 0:
         return br, bg, bb, br, bg, bb, metal, rough
     rgb_o = rgb_m if t_o == t_m else (rgb_r if t_o == t_r else texture_rgb(tex_tag, tex_par, t_o, u, v, fp))
-    k = 1.0 + pars[b + 17] * (_scalar(pars, b + 14, rgb_o) - 1.0)
+    k = 1.0 + pars[b + 17] * (slot_scalar(pars, b + 14, rgb_o) - 1.0)
     return br * k, bg * k, bb * k, br, bg, bb, metal, rough
 
 

@@ -4,12 +4,11 @@ Conventions (the kernels in :mod:`pyrt.shaders.textures` document the maths)
 ----------------------------------------------------------------------------
 - **UV orientation**: ``uv = (0, 0)`` is the bottom-left of the image, ``v`` up (OBJ / trimesh);
   image row 0 is the top, so texel row = ``(1 - v) H``. glTF's ``(0, 0)`` is top-left: flip v.
-- **Colour**: 8/16-bit PNG/JPEG images are sRGB-encoded and are linearised on load when
-  ``srgb`` is true (the default for integer images); EXR and float arrays are linear (default
-  ``srgb=False``). Data textures (roughness, metallic, normal maps) must pass ``srgb=False``.
-  ``decode="gamma2.2"`` decodes with the plain power law ``x ** 2.2`` of the course notes instead of
-  the exact sRGB curve (``decode`` is one of :data:`DECODINGS`; it overrides ``srgb``).
-  Alpha channels are dropped (RGBA -> RGB, grey+alpha -> grey).
+- **Colour**: 8/16-bit PNG/JPEG images are sRGB-encoded and are linearised on load when ``srgb`` is true (the
+  default for integer images); EXR and float arrays are linear (default ``srgb=False``). Data textures (roughness,
+  metallic, normal maps) must pass ``srgb=False``. ``decode="gamma2.2"`` decodes with the plain power law
+  ``x ** 2.2`` of the course notes instead of the exact sRGB curve (``decode`` is one of :data:`DECODINGS`; it
+  overrides ``srgb``). Alpha channels are dropped (RGBA -> RGB, grey+alpha -> grey).
 - **Storage**: 8/16-bit images keep their codes (uint8 / uint16: a quarter / half of float32) and are decoded
   per tap by a table of the 256 / 65536 decoded values (:func:`decode_table`), the same float32 numbers a
   decoded copy would hold, so level 0 reads exactly what it did; MIP levels >= 1 are float32 linear,
@@ -33,7 +32,7 @@ from pyrt.core.checks import Fixed
 from pyrt.core.image_io import ImageFileError, read_image
 from pyrt.geometry.memo import row_memo, rows_cached
 from pyrt.shaders import color as _color, ewa as _ewa, mip as _mip, textures as _tex
-from pyrt.textures import compiled as _compiled
+from pyrt.textures import compiled as _compiled, grey as _grey
 from pyrt.textures.base import TEXTURES, Texture, TextureError, texcoords
 
 
@@ -321,6 +320,7 @@ class ImageTexture(Texture):
     srgb = Fixed('the texels were decoded with it')
     decode = Fixed('the texels were decoded with it')
     channels = Fixed("it is the decoded image's")
+    compiled_scalar = _grey.compiled_scalar     # a grey image: channel 0 of its RGB twin
 
     def __init__(self, source, *, srgb=None, wrap="repeat", filter="trilinear", scale=(1.0, 1.0),
                  offset=(0.0, 0.0), rotation_deg=0.0, channels=None, select=None, footprint_scale=None,

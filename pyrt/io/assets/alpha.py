@@ -65,7 +65,16 @@ class OpacityTexture(Texture):
 
     @property
     def needs_footprint(self):
+        """Whether the texture or the vertex alpha reads a footprint."""
         return footprinted(self.texture, self.vertex)
+
+    def compiled_scalar(self):
+        """The factor times the texture's compiled scalar form (:meth:`pyrt.textures.Texture.compiled_scalar`);
+        None with a vertex alpha or without a texture."""
+        if self.vertex is not None or self.texture is None:
+            return None
+        inner = self.texture.compiled_scalar()
+        return None if inner is None else (inner[0], inner[1], inner[2] * self.factor)
 
     def evaluate(self, ctx):
         """The product (N, 1) at the hits of ``ctx``."""
