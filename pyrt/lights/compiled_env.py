@@ -204,7 +204,7 @@ def latlong_uv_to_dir_st(u, v):
     return sp * st, ct, -cp * st, st
 
 
-@register_jitable(inline="always")
+@register_jitable
 def sincos(x):
     """``(sin x, cos x)`` for ``|x|`` up to a few hundred, within 3e-16 of libm's: Cody-Waite reduction by pi/2 to
     [-pi/4, pi/4] (three parts of pi/2) and Cephes' minimax polynomials, the quadrant applied arithmetically. No
