@@ -26,7 +26,7 @@ INV_PI = 1.0 / math.pi
 
 # ----------------------------------------------------------------------------------------- counter-based RNG
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def mix64(x):
     """SplitMix64's finaliser (Steele et al. 2014): a bijective 64-bit mixer, ``x`` a uint64."""
     x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
@@ -34,7 +34,7 @@ def mix64(x):
     return x ^ (x >> np.uint64(31))
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def key64(seed, pixel, sample):
     """The 64-bit key of one camera sample: ``seed``, ``pixel`` (row-major index) and ``sample`` mixed."""
     h = mix64(np.uint64(seed) + np.uint64(0x9E3779B97F4A7C15))
@@ -42,19 +42,19 @@ def key64(seed, pixel, sample):
     return mix64(h ^ (np.uint64(sample) * np.uint64(0xD1B54A32D192ED03)))
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def pixel_key(seed, pixel):
     """The 64-bit key of a pixel's samples (:func:`sample_key`): ``seed`` and ``pixel`` mixed."""
     return mix64(mix64(np.uint64(seed) + np.uint64(0x9E3779B97F4A7C15)) ^ np.uint64(pixel))
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def sample_key(pix_key, sample):
     """The 64-bit key of sample ``sample`` of the pixel whose key is ``pix_key``: one mix per sample."""
     return mix64(pix_key ^ (np.uint64(sample) * np.uint64(0xD1B54A32D192ED03)))
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def uniform_pair(key):
     """Two floats in [0, 1) with 24 bits each (a sample's position in its pixel): one mix of ``key``."""
     h = mix64(key + np.uint64(0x9E3779B97F4A7C15))
@@ -62,7 +62,7 @@ def uniform_pair(key):
             float((h >> np.uint64(16)) & np.uint64(0xFFFFFF)) * (1.0 / 16777216.0))
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def uniform(key, dim):
     """A float64 in [0, 1) for dimension ``dim`` of the sample whose key is ``key`` (:func:`key64`): 53 bits of
     ``mix64(key + (dim + 1) * golden)``."""
@@ -70,7 +70,7 @@ def uniform(key, dim):
     return float(h >> np.uint64(11)) * (1.0 / 9007199254740992.0)
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def permute(i, n, seed):
     """Element ``i`` of a random permutation of ``range(n)`` chosen by ``seed`` (Kensler 2013, "Correlated
     Multi-Jittered Sampling", ``permute``): a bijection on [0, n) by cycle-walking a 32-bit hash on the next
@@ -109,7 +109,7 @@ def permute(i, n, seed):
     return np.int64((x + p) % np.uint64(n))
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def strata_position(spp, rows, s, u0, u1):
     """Raster offset in [0, 1)^2 of sample ``s`` of a pixel's ``spp`` (all three float64 integers) with the jitter
     ``(u0, u1)``: the equal-area jittered grid of :func:`pyrt.core.sampler.pixel_strata` (``rows = isqrt(spp)``
@@ -123,7 +123,7 @@ def strata_position(spp, rows, s, u0, u1):
     return (s - first + u0) / n_row, (first + u1 * n_row) / spp
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def isqrt(n):
     """``floor(sqrt(n))`` of a non-negative integer, exact (the float root corrected)."""
     k = int(math.sqrt(n))
@@ -136,7 +136,7 @@ def isqrt(n):
 
 # ----------------------------------------------------------------------------------------- BRDFs and Fresnel
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def fr_dielectric(cos_i, eta):
     """Exact unpolarised Fresnel reflectance (:func:`pyrt.shaders.fresnel.fr_dielectric`): ``cos_i`` < 0 flips
     the interface (``eta -> 1/eta``); 1 under total internal reflection."""
@@ -153,19 +153,19 @@ def fr_dielectric(cos_i, eta):
     return 0.5 * (r_par * r_par + r_perp * r_perp)
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def upper_cos(cos_o, cos_i):
     """``cos_i`` where both cosines are positive, else 0 (:func:`pyrt.shaders.brdfs._upper_cos`)."""
     return cos_i if (cos_o > 0.0 and cos_i > 0.0) else 0.0
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def blinn_phong_normalization(exponent):
     """``(e + 2)(e + 4) / (8 pi (2^(-e/2) + e))`` (:func:`pyrt.shaders.brdfs.blinn_phong_normalization`)."""
     return (exponent + 2.0) * (exponent + 4.0) / (8.0 * math.pi * (2.0 ** (-exponent / 2.0) + exponent))
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def blinn_phong_spec(cos_o, cos_i, cos_io, exponent):
     """The specular factor ``c(n) max(n.h, 0)^n`` of :func:`pyrt.shaders.brdfs.blinn_phong_normalized_f_cos_cosines`
     from the cosines ``n.wo``, ``n.wi``, ``wo.wi`` (the half vector never built)."""
@@ -176,7 +176,7 @@ def blinn_phong_spec(cos_o, cos_i, cos_io, exponent):
 
 # ----------------------------------------------------------------------------------------- lights
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def smoothstep(x, edge0, edge1):
     """Hermite smoothstep (:func:`pyrt.shaders.lights.smoothstep`): 0 below ``edge0``, 1 above ``edge1``."""
     denom = edge1 - edge0
@@ -192,7 +192,7 @@ def smoothstep(x, edge0, edge1):
 SPOT_KINDS = ("smoothstep", "gltf", "linear_angle")
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def spot_falloff(kind, cos_theta, cos_inner, cos_outer):
     """The spot cone falloff ``g`` of :data:`pyrt.shaders.lights.SPOT_FALLOFFS`, ``kind`` an index of
     :data:`SPOT_KINDS`: 0 pbrt-v4's smoothstep in cos, 1 glTF's squared linear in cos, 2 Mitsuba's linear in angle."""
@@ -221,7 +221,7 @@ def spot_falloff(kind, cos_theta, cos_inner, cos_outer):
 DISTANCE_KINDS = ("inverse_square", "inverse_square_eps", "smooth_range", "gltf_range", "clq")
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def wrap_int(i, n):
     """Python's ``i % n`` (in ``[0, n)``, ``n`` > 0) with the integer division only where ``i`` lies outside
     ``[-n, 2n)``: a texel index one step past either edge, the common case of wrapped lookups, costs a comparison
@@ -235,7 +235,7 @@ def wrap_int(i, n):
     return i % n
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def distance_falloff(kind, r, eps, light_range, kc, kl, kq):
     """``f(r)`` (m^-2) of :func:`pyrt.shaders.lights.distance_falloff`, ``kind`` an index of :data:`DISTANCE_KINDS`;
     0 at ``r >= light_range`` (``inf``: no range) and where the inverse-square kinds diverge."""
@@ -266,7 +266,7 @@ TINY32 = 2.0 ** -149
 NORMAL32 = 2.0 ** -126
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def float32_step(x, direction):
     """The float32 value of ``x`` (a float64) rounded to nearest, then one float32 ulp further toward the sign
     of ``direction`` (none for 0): one component of :func:`pyrt.geometry.offsets._round_away`
@@ -292,7 +292,7 @@ def float32_step(x, direction):
 MAX32 = 3.4028234663852886e38
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def float32_step_vec(x, direction):
     """:func:`float32_step` written with selects only (no branch): the same bits, for the loops over a packet's
     lanes that the compiler vectorises (a branch per lane stops the vectoriser; in scalar code the branches of
@@ -308,7 +308,7 @@ def float32_step_vec(x, direction):
     return x32 if direction == 0.0 else r
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def gamma(n, eps):
     """pbrt's ``gamma_n = n eps / (1 - n eps)`` for the unit roundoff ``eps``."""
     return n * eps / (1.0 - n * eps)
@@ -321,26 +321,26 @@ def gamma(n, eps):
 # the NumPy path at pixel centres (the shading normal within an ulp: one division for three).
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def dot(a, b):
     """``a . b`` of two 3-tuples (summed left to right, as the NumPy path's ``vec.dot``)."""
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def row3(a, i):
     """Row ``i`` of an (n, 3) table given by its pointer: a 3-tuple."""
     return a[3 * i], a[3 * i + 1], a[3 * i + 2]
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def bary3(b0, b1, b2, x0, x1, x2):
     """``b0 x0 + b1 x1 + b2 x2`` of three 3-tuples."""
     return (b0 * x0[0] + b1 * x1[0] + b2 * x2[0], b0 * x0[1] + b1 * x1[1] + b2 * x2[1],
             b0 * x0[2] + b1 * x1[2] + b2 * x2[2])
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def hit_surface(G, fallback, terminator, geom, prim, u, v, wo):
     """The surface at the hit ``(geom, prim, u, v)`` of a ray leaving toward ``wo`` (-direction)
     (:func:`pyrt.geometry.surface.surface_from_hits`): ``(p, ng, ns, nv, lift, mag, mag_lift, front, face, uv)`` with
@@ -405,7 +405,7 @@ def hit_surface(G, fallback, terminator, geom, prim, u, v, wo):
 SHADOW_MARGIN, LIGHT_END_REL_ERROR = 1e-4, 16.0
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def robust_tmax(o, wi, lx, ly, lz, finite):
     """The ``robust`` shadow-ray length (:func:`pyrt.geometry.offsets.robust_tmax`) from the origin ``o`` along ``wi``
     to the light's point ``(lx, ly, lz)``: ``t_end - max(1e-4 t_end, 16 2^-24 max(|o|, |end|))``, at least half of
@@ -417,7 +417,7 @@ def robust_tmax(o, wi, lx, ly, lz, finite):
     return max(t_end - margin, 0.5 * t_end) if finite else math.inf
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def round_away(base, mag, side, ng):
     """``round_away(base + side mag ng)`` (:func:`pyrt.geometry.offsets.local_bound`): a 3-tuple of float64 values of
     float32 numbers, each one float32 ulp further along the offset."""
@@ -426,7 +426,7 @@ def round_away(base, mag, side, ng):
             float32_step(base[2] + k * ng[2], k * ng[2]))
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def shadow_origin(p, ng, lift, mag, mag_lift, cg, terminator):
     """The origin of a shadow ray leaving the hit ``p`` toward a direction with ``cg = wi . ng``
     (:meth:`pyrt.geometry.offsets.Strategy.shadow`, ``robust``): with the terminator lift the lifted point offset to
@@ -437,7 +437,7 @@ def shadow_origin(p, ng, lift, mag, mag_lift, cg, terminator):
     return round_away(p, mag, 1.0 if cg >= 0.0 else -1.0, ng)
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def round_away_vec(base, mag, side, ng):
     """:func:`round_away` with :func:`float32_step_vec` (selects, no branch): the same bits, for
     the lane loops the compiler vectorises."""

@@ -18,7 +18,7 @@ _M32 = 0xFFFFFFFF
 _H0 = (0x9E3779B9 * 0x85EBCA6B) & _M32
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def _mix(h, k):
     """One key's round of :func:`pyrt.core.sampler.hash32` (``k`` taken modulo 2^32)."""
     m = np.uint64(_M32)
@@ -30,19 +30,19 @@ def _mix(h, k):
     return h ^ (h >> np.uint64(16))
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def _next(h):
     return (h * np.uint64(0x85EBCA6B)) & np.uint64(_M32)
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def hash32_2(a, b):
     """:func:`pyrt.core.sampler.hash32` of the keys ``a, b`` (non-negative integers): a uint64 below 2^32."""
     h = _mix(np.uint64(_H0), a)
     return _mix(_next(h), b)
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def hash32_3(a, b, c):
     """:func:`pyrt.core.sampler.hash32` of the keys ``a, b, c`` (non-negative integers)."""
     h = _mix(np.uint64(_H0), a)
@@ -50,7 +50,7 @@ def hash32_3(a, b, c):
     return _mix(_next(h), c)
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def hash32_4(a, b, c, d):
     """:func:`pyrt.core.sampler.hash32` of the keys ``a, b, c, d`` (non-negative integers)."""
     h = _mix(np.uint64(_H0), a)
@@ -59,7 +59,7 @@ def hash32_4(a, b, c, d):
     return _mix(_next(h), d)
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def reverse_bits32(x):
     """Bit reversal of a 32-bit value (held in a uint64)."""
     m = np.uint64(_M32)
@@ -70,7 +70,7 @@ def reverse_bits32(x):
     return ((x >> np.uint64(16)) | (x << np.uint64(16))) & m
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def laine_karras(x, seed):
     """Burley's Laine-Karras-style permutation of a 32-bit value (``pyrt.core.sampler._laine_karras``)."""
     m = np.uint64(_M32)
@@ -81,7 +81,7 @@ def laine_karras(x, seed):
     return x ^ ((x * np.uint64(0x53A22864)) & m)
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def sobol_owen_2d(index, seed):
     """Point ``index`` (< 2^32) of the Owen-scrambled 2-D Sobol' sequence with scrambling seed ``seed`` (a 32-bit
     value): ``(x, y)`` in [0, 1), bit for bit :func:`pyrt.core.sampler.sobol_owen_2d`."""
@@ -100,7 +100,7 @@ def sobol_owen_2d(index, seed):
     return float(sx) * 2.0 ** -32, float(sy) * 2.0 ** -32
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def padded_sobol_2d(index, n, key, dim):
     """Point of dimension pair ``dim`` for sample ``index`` of a pixel whose set has ``n`` samples and whose seed is
     ``key``: :func:`pyrt.core.sampler.padded_sobol_2d` for one sample, bit for bit: point ``pi(index)`` of the

@@ -29,7 +29,7 @@ N_RANDOM = 10000           # the random rays come first in the ray set
 
 
 # -- kernels (cached: the second run of the suite compiles nothing) -----------------------------------------------
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def _store(out, k, r):
     hit, t, prim, geom, u, v, ngx, ngy, ngz = r
     out[0][k] = hit

@@ -99,8 +99,8 @@ def wide_vectors(typingctx):
     clock that heavy 512-bit code can bring. Measured on the render kernel's vectorised packet stages (light stage,
     camera rays): 512-bit vectors render ~5-10 % faster, the images bit-identical. The call sets the function
     attribute ``"prefer-vector-width"="512"`` on the function being compiled (not on its callers); on a CPU without
-    AVX-512 LLVM uses the widest vectors it has. A function that Numba inlines (``inline="always"``) lends the
-    attribute to its caller: call it only from the functions it is meant for. (llvmlite checks function attributes
+    AVX-512 LLVM uses the widest vectors it has. Call it in the function whose loops it is meant for (a ``_stage``, an
+    entry), not in a helper that LLVM inlines (``forceinline=True``): there it marks only the helper's own copy. (llvmlite checks function attributes
     against a list of known names that has no string attributes: the attribute is added to the set directly.)"""
     def codegen(context, builder, sig, args):
         set.add(builder.function.attributes, _PREFER_512)

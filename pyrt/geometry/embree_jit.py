@@ -309,20 +309,20 @@ def packet_alloc(width):
     return p
 
 
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def packet_width(p):
     """The lane count of a buffer made by :func:`packet_alloc`."""
     return (p.shape[0] - _VALID_WORDS - _ARGS_WORDS) // LANE_WORDS
 
 
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def packet_valid(p):
     """The packet's ``valid`` mask, an int32 view: -1 = active lane, 0 = inactive."""
     w = packet_width(p)
     return p.view(np.int32)[LANE_WORDS * w:LANE_WORDS * w + w]
 
 
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def packet_clear(p):
     """Deactivate every lane and mark it a miss (before filling a packet with :func:`packet_set_ray`).
 
@@ -337,7 +337,7 @@ def packet_clear(p):
 
 
 # -- single rays ---------------------------------------------------------------------------------------------------
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def _set_ray(f, n, lane, ox, oy, oz, dx, dy, dz, tnear, tfar):
     """Write one ray (lane ``lane`` of width ``n``; a single ray is n = 1, lane 0) and reset its hit ids."""
     f[ORG_X * n + lane] = ox
@@ -356,7 +356,7 @@ def _set_ray(f, n, lane, ox, oy, oz, dx, dy, dz, tnear, tfar):
     _set_i32(f, INST_ID * n + lane, _INVALID)
 
 
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def _get_hit(f, n, lane):
     geom = _get_i32(f, GEOM_ID * n + lane)
     if geom == _INVALID:
@@ -366,7 +366,7 @@ def _get_hit(f, n, lane):
             f[NG_X * n + lane], f[NG_Y * n + lane], f[NG_Z * n + lane])
 
 
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def intersect1(scene, ox, oy, oz, dx, dy, dz, tnear, tfar, buf):
     """Closest hit of one ray (``rtcIntersect1``, default arguments: what embreex's ``run`` does).
 
@@ -395,7 +395,7 @@ def intersect1(scene, ox, oy, oz, dx, dy, dz, tnear, tfar, buf):
     return _get_hit(buf, 1, 0)
 
 
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def occluded1(scene, ox, oy, oz, dx, dy, dz, tnear, tfar, buf):
     """True when something blocks the ray within [tnear, tfar] (``rtcOccluded1``; arguments as :func:`intersect1`)."""
     _set_ray(buf, 1, 0, ox, oy, oz, dx, dy, dz, tnear, tfar)
@@ -404,7 +404,7 @@ def occluded1(scene, ox, oy, oz, dx, dy, dz, tnear, tfar, buf):
 
 
 # -- packets ------------------------------------------------------------------------------------------------------
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def packet_set_ray(p, lane, ox, oy, oz, dx, dy, dz, tnear, tfar):
     """Set lane ``lane``'s ray (arguments as :func:`intersect1`), reset its hit ids and activate the lane."""
     w = packet_width(p)
@@ -415,7 +415,7 @@ def packet_set_ray(p, lane, ox, oy, oz, dx, dy, dz, tnear, tfar):
 # -- packets filled field by field (the render kernel's stage loops) ----------------------------------------------
 # These take the buffer ``p`` (a :func:`packet_alloc` array or its :func:`pyrt.core.unmanaged.pointer`) and its
 # width ``w`` explicitly: with a pointer, the per-lane code binds no array (no reference counting at all).
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def packet_prepare(p, w, ox, oy, oz):
     """Write the fields a query never changes once for every lane: origin ``(ox, oy, oz)``, tnear 0, time 0, mask,
     id, flags; instID invalid; every lane inactive. A kernel that traces many packets through the same buffer then
@@ -427,20 +427,20 @@ def packet_prepare(p, w, ox, oy, oz):
         _set_i32(p, LANE_WORDS * w + lane, 0)
 
 
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def packet_activate(p, w, n):
     """Activate lanes ``[0, n)`` and deactivate the others."""
     for lane in range(w):
         _set_i32(p, LANE_WORDS * w + lane, -1 if lane < n else 0)
 
 
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def packet_set_active(p, w, lane, active):
     """Switch lane ``lane`` on or off (``active`` a bool; branch-free)."""
     _set_i32(p, LANE_WORDS * w + lane, -np.int32(active))
 
 
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def packet_set_dir(p, w, lane, dx, dy, dz, tfar):
     """Lane ``lane``'s direction and tfar, and its geomID reset (a miss until a query says otherwise); the other
     fields as :func:`packet_prepare` or an earlier :func:`packet_set_ray` left them. Does not activate the lane."""
@@ -451,7 +451,7 @@ def packet_set_dir(p, w, lane, dx, dy, dz, tfar):
     _set_i32(p, GEOM_ID * w + lane, _INVALID)
 
 
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def packet_set_origin(p, w, lane, ox, oy, oz):
     """Lane ``lane``'s origin (with :func:`packet_set_dir`: a whole ray on a prepared buffer)."""
     p[ORG_X * w + lane] = ox
@@ -459,39 +459,39 @@ def packet_set_origin(p, w, lane, ox, oy, oz):
     p[ORG_Z * w + lane] = oz
 
 
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def packet_geom_prim(p, w, lane):
     """``(geomID, primID)`` of lane ``lane`` after :func:`intersect_packet` (geomID -1 on a miss; primID is then
     whatever the buffer held)."""
     return _get_i32(p, GEOM_ID * w + lane), _get_i32(p, PRIM_ID * w + lane)
 
 
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def packet_uv(p, w, lane):
     """The barycentrics ``(u, v)`` (float32) of lane ``lane``'s hit."""
     return p[U * w + lane], p[V * w + lane]
 
 
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def packet_tfar(p, w, lane):
     """Lane ``lane``'s tfar (float32) after a closest-hit query: the hit's distance along the ray's direction."""
     return p[TFAR * w + lane]
 
 
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def packet_ray(p, w, lane):
     """Lane ``lane``'s ray as stored (float32): ``(origin, direction, tfar)`` (tfar before a query)."""
     return ((p[ORG_X * w + lane], p[ORG_Y * w + lane], p[ORG_Z * w + lane]),
             (p[DIR_X * w + lane], p[DIR_Y * w + lane], p[DIR_Z * w + lane]), p[TFAR * w + lane])
 
 
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def lane_blocked(p, w, lane):
     """:func:`packet_blocked` with the width given."""
     return p[TFAR * w + lane] == -np.inf
 
 
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def packet_query(scene, p, w, coherent, occluded):
     """:func:`intersect_packet` (``occluded`` False) or :func:`occluded_packet` with the width given."""
     args = LANE_WORDS * w + _VALID_WORDS
@@ -513,12 +513,12 @@ def packet_query(scene, p, w, coherent, occluded):
         _rtcIntersect4(v, s, r, a)
 
 
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def _packet_call(scene, p, coherent, occluded):
     packet_query(scene, p, packet_width(p), coherent, occluded)
 
 
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def intersect_packet(scene, p, coherent):
     """Closest hits of the packet's active lanes (``rtcIntersect4/8/16`` by the packet's width).
 
@@ -530,19 +530,19 @@ def intersect_packet(scene, p, coherent):
     _packet_call(scene, p, coherent, False)
 
 
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def occluded_packet(scene, p, coherent):
     """Any-hit test of the packet's active lanes (``rtcOccluded4/8/16``); read with :func:`packet_blocked`."""
     _packet_call(scene, p, coherent, True)
 
 
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def packet_hit(p, lane):
     """Lane ``lane``'s closest hit after :func:`intersect_packet`: the tuple :func:`intersect1` returns."""
     return _get_hit(p, packet_width(p), lane)
 
 
-@numba.njit(nogil=True, cache=True, inline="always")
+@numba.njit(nogil=True, cache=True, forceinline=True)
 def packet_blocked(p, lane):
     """Whether lane ``lane`` was blocked by :func:`occluded_packet` (Embree set its tfar to -inf)."""
     return p[TFAR * packet_width(p) + lane] == -np.inf

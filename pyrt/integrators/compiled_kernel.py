@@ -19,13 +19,14 @@ A packet's values pass between its stages in a per-tile scratch ``V`` (field-maj
 ``f * LANES + l``, offsets ``V_*``); per-ray values in the specular tree are locals; nothing is allocated per ray.
 The per-sample code reads every array through a raw pointer (:func:`pyrt.core.unmanaged.pointer`): Numba's
 reference counting is atomic and a call per binding of an array (measured: it outweighed Embree in the first
-version). Helpers are inlined; the lane loops that vectorise are compiled as functions of their own (``_stage``).
+version). Helpers are inlined by LLVM (``forceinline=True``); the lane loops that vectorise are compiled as functions of their own (``_stage``).
 """
 from __future__ import annotations
 
 import math
 
 import numba
+import numpy as np
 from numba import prange
 
 from pyrt.integrators import kernel_cache
@@ -57,6 +58,11 @@ from pyrt.materials import compiled as MC  # noqa: E402
 from pyrt.shaders import jit as J  # noqa: E402
 from pyrt.shaders import jit_sampling as JS  # noqa: E402
 from pyrt.shaders.jit import dot  # noqa: E402
+
+#: ``shade_packet``'s ``spp`` for the adaptive passes' progressive sample sets, a typed int64: a literal ``-1``
+#: argument would compile ``shade_packet`` a second time for that entry (Numba specialises a call between kernels
+#: on ``Literal[int](-1)``), two minutes of a cold compile
+PROGRESSIVE = np.int64(-1)
 
 
 @_njit
@@ -578,8 +584,8 @@ def render_pixels(scene, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par
             if cur_j == C[cur_i]:
                 cur_i += 1
                 cur_j = 0
-        shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, -1, n, w, mats_tag, mats_par,
-                     tex_tag, tex_par, lights_tag, lights_par, erec, edata, opts, optf, cnt)
+        shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, PROGRESSIVE, n, w, mats_tag,
+                     mats_par, tex_tag, tex_par, lights_tag, lights_par, erec, edata, opts, optf, cnt)
         for lane in range(n):
             q = lane_pix[lane]
             r, is_b = q // 2, q % 2

@@ -97,7 +97,7 @@ ADAPTIVE_KEYS = 1 << 40
 #: the largest number of an area light's samples per hit whose dimensions stay apart
 MAX_AREA_SAMPLES = 1 << 16
 
-_njit = numba.njit(nogil=True, cache=True, error_model="numpy", inline="always")
+_njit = numba.njit(nogil=True, cache=True, error_model="numpy", forceinline=True)
 #: a packet stage whose loop over the lanes should vectorise: compiled as a function of its own (not inlined by
 #: Numba), because LLVM does not vectorise such a loop once it sits inside the kernel's loops (measured: an inlined
 #: light stage stayed scalar, ~60 cycles a lane); compiled alone it vectorises, and LLVM may still inline the

@@ -45,7 +45,7 @@ AREA_SAMPLES = 18
 ENV = 7
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def light_record(pars, j):
     """The fields of light ``j``'s record (``pars`` the record table's flat data,
     :func:`pyrt.core.unmanaged.pointer`: its record at ``j * RECORD``) that :func:`sample_li_record` reads, as a
@@ -59,7 +59,7 @@ def light_record(pars, j):
             pars[b + 10])
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def sample_li_record(tag, kind, rec, px, py, pz):
     """:func:`sample_li` from the light's :func:`light_record` ``rec`` and its distance-falloff kind ``kind``
     (``rec[6]``, or that value as a constant: a loop over many points for one light passes it so, and the falloff's
@@ -77,7 +77,7 @@ def sample_li_record(tag, kind, rec, px, py, pz):
     return wx, wy, wz, dist, s
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def sample_li(tag, pars, j, px, py, pz):
     """Sample light ``j`` (tag ``tag``; ``pars`` the record table's flat data, :func:`pyrt.core.unmanaged.pointer`:
     its record at ``j * RECORD``) from the point ``p``: ``(wx, wy, wz, dist, scale)``, ``w`` the unit direction toward
@@ -99,7 +99,7 @@ def punctual_record(light, tag):
     return tag, rec
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def area_sample(tag, pars, j, px, py, pz, u0, u1):
     """Sample area light ``j`` (tag :data:`RECT`, :data:`DISK` or :data:`SPHERE`) from the point ``p`` with the
     random numbers ``(u0, u1)``: ``(wx, wy, wz, dist, scale)``, the irradiance ``E = scale * L`` (the record's
@@ -188,7 +188,7 @@ def area_pdf_dist(tag, pars, j, px, py, pz, wx, wy, wz):
     return t * t / cos_l / pars[b + 17], t
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def stratum(s, ns, k, x0, x1, perm):
     """Sample ``s`` of a hit's ``ns`` light samples in [0, 1)^2 (:func:`pyrt.core.sampler.stratified_samples`): the
     cell ``(s % k, s // k)`` of the ``k x k`` jittered grid when ``ns = k^2``, else the Latin-hypercube strata ``s``

@@ -162,7 +162,7 @@ def pack_environment(env, light=None):
 
 # ----------------------------------------------------------------------------------------- frames and mapping
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def env_to_local(rec, dx, dy, dz):
     """World direction -> the environment's frame, ``d @ R`` (:meth:`pyrt.lights.environment.Environment.to_local`)."""
     b = R_ROT
@@ -170,7 +170,7 @@ def env_to_local(rec, dx, dy, dz):
             dx * rec[b + 2] + dy * rec[b + 5] + dz * rec[b + 8])
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def env_to_world(rec, dx, dy, dz):
     """The environment's frame -> world, ``d @ R.T`` (:meth:`pyrt.lights.environment.Environment.to_world`)."""
     b = R_ROT
@@ -178,7 +178,7 @@ def env_to_world(rec, dx, dy, dz):
             dx * rec[b + 6] + dy * rec[b + 7] + dz * rec[b + 8])
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def latlong_dir_to_uv(dx, dy, dz):
     """Lat-long ``(u, v)`` of a unit direction: :func:`pyrt.shaders.envmap.latlong_dir_to_uv`."""
     u = math.atan2(dx, -dz) * (0.5 / math.pi)
@@ -188,14 +188,14 @@ def latlong_dir_to_uv(dx, dy, dz):
     return u, math.acos(min(max(dy, -1.0), 1.0)) / math.pi
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def latlong_uv_to_dir(u, v):
     """The unit direction of lat-long ``(u, v)``: :func:`pyrt.shaders.envmap.latlong_uv_to_dir`."""
     x, y, z, _ = latlong_uv_to_dir_st(u, v)
     return x, y, z
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def latlong_uv_to_dir_st(u, v):
     """:func:`latlong_uv_to_dir` and ``sin(pi v)`` (the sine it computes), ``(x, y, z, st)``; the sines and cosines
     by :func:`sincos` (within 3e-16 of libm's)."""
@@ -284,7 +284,7 @@ def missed(tag, rec, data, dx, dy, dz, primary):
 
 # ----------------------------------------------------------------------------------------- lat-long sampling
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def _corners(rec, data, k, i):
     """The luminances ``(a, b, c, d)`` at the corners of dual cell ``(k, i)`` (:class:`pyrt.shaders.
     envmap_bilinear.BilinearTable`: top left, top right, bottom left, bottom right)."""
@@ -295,7 +295,7 @@ def _corners(rec, data, k, i):
     return data[o + top + i], data[o + top + i1], data[o + bottom + i], data[o + bottom + i1]
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def _v_extent(h, k):
     """``(v0, v1)`` of dual-cell row ``k`` (:func:`pyrt.shaders.envmap_bilinear.bilinear_table`)."""
     return min(max((k - 0.5) / h, 0.0), 1.0), min(max((k + 0.5) / h, 0.0), 1.0)
@@ -324,7 +324,7 @@ def _density_uv(rec, data, o, integral, k, i, s, t):
     return _density_corners(data, o, integral, w, k, i, s, t, area_scale, a, b, c, d)
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def _density_corners(data, o, integral, w, k, i, s, t, area_scale, a, b, c, d):
     """:func:`_density_uv` of a table with a positive integral, given the cell's ``area_scale`` and corners."""
     mean = 0.25 * (a + b + c + d)
@@ -556,7 +556,7 @@ def radiance_mis_pdf_at(tag, rec, data, dx, dy, dz, x, y, z, u, v):
     return s * r, s * g, s * b, p
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def mis_weights(rec, pdf_light, pdf_bsdf):
     """``(w_light, w_bsdf)`` of a direction of light density ``pdf_light`` (:func:`mis_pdf`) and BSDF density
     ``pdf_bsdf``: :meth:`pyrt.EnvironmentLight.mis_weights` (the light's heuristic with its sample counts)."""

@@ -112,7 +112,7 @@ def sample_cells(data, o, rows, w, u0, u1):
     return row, col, _offset(data, oc, col, u0), fv
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def cell_pdf(data, o, integral, w, row, col):
     """``func / integral`` of a cell (1 for an all-zero table): :func:`pyrt.shaders.distribution._cell_pdf`."""
     if integral <= 0.0:

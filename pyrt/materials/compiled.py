@@ -75,7 +75,7 @@ EMITTER = 13
 GLTF = 14
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def color_slot(pars, m, k, tex_tag, tex_par, u, v, fp):
     """The colour (an RGB tuple) of the slot at ``k`` of material ``m``'s record at uv ``(u, v)`` with the UV
     footprint ``fp`` (:func:`pyrt.textures.compiled.texture_rgb`)."""
@@ -86,19 +86,19 @@ def color_slot(pars, m, k, tex_tag, tex_par, u, v, fp):
     return texture_rgb(tex_tag, tex_par, t, u, v, fp)
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def has_diffuse(tag):
     """True for materials lit by the lights (a non-delta lobe)."""
     return tag == LAMBERT or tag == BLINN_PHONG or PHONG <= tag <= METALLIC_ROUGHNESS or tag == GLTF
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def has_delta(tag):
     """True for materials that spawn specular rays."""
     return tag == MIRROR or tag == GLASS or tag == CONDUCTOR
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def mirror_weight(tag, pars, m, cos_o):
     """The RGB weight of the one reflection lobe of a mirror-like material ``m`` (not GLASS, whose two lobes the
     kernel's ``spawn`` computes) at ``cos_o = n.wo``: MIRROR's constant reflectance, CONDUCTOR's exact Fresnel
@@ -110,7 +110,7 @@ def mirror_weight(tag, pars, m, cos_o):
     return pars[b], pars[b + 1], pars[b + 2]
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def f_cos(tag, pars, m, albedo, cos_o, cos_i, cos_io):
     """BRDF times cos(theta_i) (an RGB tuple) of material ``m`` (tag ``tag``) for the cosines
     ``n.wo``, ``n.wi``, ``wo.wi`` (shading normal); ``albedo`` (RGB tuple) is the material's diffuse colour at the
@@ -163,7 +163,7 @@ def _f_cos_library(tag, p, b, cos_o, cos_i, cos_io):
     return 0.0, 0.0, 0.0
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def emission(tag, pars, m, front):
     """The radiance (an RGB tuple) material ``m`` emits toward the viewer: LAMBERT's constant emission (both
     sides), EMITTER's radiance from its front (or both sides when two-sided); zeros for the others."""
@@ -173,7 +173,7 @@ def emission(tag, pars, m, front):
     return 0.0, 0.0, 0.0
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def albedo_constant(tag, pars, m):
     """True where :func:`albedo_at` of material ``m`` does not depend on the uv (no texture in its colour slot) and
     the material has no normal map (:data:`NORMAL_MAP`): its shading inputs are the surface's alone."""
@@ -181,7 +181,7 @@ def albedo_constant(tag, pars, m):
             or (pars[m * RECORD] < 0.0 and tag != GLTF)) and pars[m * RECORD + NORMAL_MAP] == 0.0
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def albedo_at(tag, pars, m, tex_tag, tex_par, u, v, fp):
     """The hit's inputs (module notes: an 8-tuple) of material ``m`` at uv ``(u, v)`` with the UV footprint ``fp``
     (zeros: none): the diffuse colour (Lambert albedo, Blinn-Phong kd, the library models' constant ``albedo()``,
@@ -194,7 +194,7 @@ def albedo_at(tag, pars, m, tex_tag, tex_par, u, v, fp):
     return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def emission_at(tag, pars, m, front, tex_tag, tex_par, u, v, fp):
     """:func:`emission`, and GLTF's emission slot at uv ``(u, v)`` (both sides, as ``SurfaceExtras.emission``)."""
     if tag == GLTF:
@@ -213,7 +213,7 @@ def scaled_slot(pars, b, tex_tag, tex_par, u, v, fp):
     return r * pars[b + 1], g * pars[b + 2], bb * pars[b + 3]
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def slot_scalar(pars, b, rgb):
     """The scalar slot ``[row or -1, factor, channel]`` at ``pars[b:]``, the texture's lookup ``rgb`` given."""
     if pars[b] < 0.0:

@@ -50,7 +50,7 @@ U_MAX = 1.0 - 1e-12
 
 # ----------------------------------------------------------------------------------------- frames
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def coordinate_frame(nx, ny, nz):
     """The tangents ``(s, t)`` (two 3-tuples) around the unit normal ``n``: :func:`pyrt.shaders.vec.coordinate_frame`
     (Duff et al. 2017), the same operations in the same order (bit for bit)."""
@@ -60,7 +60,7 @@ def coordinate_frame(nx, ny, nz):
     return (1.0 + sign * nx * nx * a, sign * b, -sign * nx), (b, sign + ny * ny * a, -ny)
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def to_local(v, s, t, n):
     """World vector ``v`` in the frame ``(s, t, n)`` (3-tuples): :func:`pyrt.shaders.vec.to_local` (each component
     ``v.x a.x + v.y a.y + v.z a.z``, summed left to right)."""
@@ -68,7 +68,7 @@ def to_local(v, s, t, n):
             v[0] * n[0] + v[1] * n[1] + v[2] * n[2])
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def to_world(w, s, t, n):
     """Local vector ``w`` in world space: :meth:`pyrt.geometry.SurfaceBatch.to_world` (``w.x s + w.y t + w.z n`` per
     component, summed left to right)."""
@@ -78,7 +78,7 @@ def to_world(w, s, t, n):
 
 # ----------------------------------------------------------------------------------------- warps
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def square_to_uniform_disk_concentric(u0, u1):
     """Shirley-Chiu's concentric map of ``(u0, u1)`` to the unit disk: :func:`pyrt.shaders.sampling.
     square_to_uniform_disk_concentric`."""
@@ -95,14 +95,14 @@ def square_to_uniform_disk_concentric(u0, u1):
     return r * math.cos(theta), r * math.sin(theta)
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def square_to_cosine_hemisphere(u0, u1):
     """Cosine-weighted direction (Malley): :func:`pyrt.shaders.sampling.square_to_cosine_hemisphere`."""
     dx, dy = square_to_uniform_disk_concentric(u0, u1)
     return dx, dy, math.sqrt(max(0.0, 1.0 - (dx * dx + dy * dy)))
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def cosine_hemisphere_pdf(wz):
     """``cos theta / pi`` above the horizon, else 0: :func:`pyrt.shaders.sampling.cosine_hemisphere_pdf`."""
     if wz > 0.0:
@@ -110,7 +110,7 @@ def cosine_hemisphere_pdf(wz):
     return 0.0
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def square_to_uniform_sphere(u0, u1):
     """Uniform direction on the sphere: :func:`pyrt.shaders.sampling.square_to_uniform_sphere` (pdf ``1 / 4 pi``)."""
     z = 1.0 - 2.0 * u0
@@ -170,7 +170,7 @@ def sample_ggx_vndf(wox, woy, woz, u0, u1, alpha):
     return 0.0, 0.0, 1.0
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def sample_beckmann_ndf(u0, u1, alpha):
     """A half vector of density ``D_beckmann(h) (n.h)``: :func:`pyrt.shaders.microfacet.sample_beckmann_ndf`."""
     a2 = max(alpha, JB.ALPHA_MIN) ** 2
@@ -212,7 +212,7 @@ def spec_pdf(distribution, wox, woy, woz, wix, wiy, wiz, alpha):
     return pdf_h / (4.0 * coh) if coh > 0.0 else 0.0
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def _lum(r, g, b):
     return r * LUM_R + g * LUM_G + b * LUM_B
 
@@ -244,7 +244,7 @@ def mixture(tag, pars, m, albedo, woz):
     return ps, rough * rough, 0
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def is_microfacet(tag):
     """True for the tags sampled by the microfacet mixture (COOK_TORRANCE, METALLIC_ROUGHNESS, GLTF)."""
     return tag == MC.COOK_TORRANCE or tag == MC.METALLIC_ROUGHNESS or tag == MC.GLTF

@@ -35,7 +35,7 @@ RECORD = 16
 CHECKER_UV, IMAGE, MIP = 1, 2, 3
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def texture_rgb(tags, pars, t, u, v, fp):
     """Texture ``t`` of the table ``(tags, pars)`` at uv ``(u, v)`` with the UV footprint ``fp`` (a 4-tuple, module
     notes): an RGB tuple. ``pars`` is the record table's

@@ -16,12 +16,12 @@ import math
 from numba.extending import register_jitable
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def _dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@register_jitable(inline="always")
+@register_jitable(forceinline=True)
 def _normalize(a):
     """``a / |a|``; the zero vector stays zero (:func:`pyrt.shaders.vec.normalize`)."""
     n = math.sqrt(_dot(a, a))
