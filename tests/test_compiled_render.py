@@ -124,8 +124,7 @@ def test_auto_falls_back_and_says_why():
 
 
 @pytest.mark.parametrize("options, reason", [
-    (dict(integrator="glossy"), "integrator"), (dict(record_rays=True), "ray recording"),
-    (dict(offset="local_bound"), "offset strategy"), (dict(light_select_depth=1), "light selection"),
+    (dict(record_rays=True), "ray recording"), (dict(offset="local_bound"), "offset strategy"),
     (dict(sampler="independent"), "sampler")])
 def test_options_the_compiled_path_does_not_cover_fall_back(options, reason):
     r = pyrt.render_full(_scene(width=8, height=6), progress=False, **options)

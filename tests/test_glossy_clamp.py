@@ -53,7 +53,9 @@ def _firefly_scene(n=24):
 
 
 def _render(sc, **kw):
-    return pyrt.render_full(sc, spp=4, integrator="glossy", seed=2, progress=False, threads=1, **kw).image
+    """The NumPy reference path (the compiled path's clamp: tests/test_compiled_glossy.py)."""
+    return pyrt.render_full(sc, spp=4, integrator="glossy", seed=2, progress=False, threads=1, backend="numpy",
+                            **kw).image
 
 
 def test_no_clamp_and_an_unreachable_clamp_are_the_same_image():

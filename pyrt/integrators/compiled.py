@@ -7,7 +7,10 @@ texture and light: a type tag and a parameter record, packed by each object's ``
 :mod:`pyrt.integrators.compiled_kernel` and returns per-pixel sums.
 
 What the compiled path covers (everything else renders through the NumPy path, automatically with
-``backend="auto"``): the Whitted integrator with max depth, throughput cutoff and split depth; Lambert (constant,
+``backend="auto"``): the Whitted integrator with max depth, throughput cutoff and split depth, and the glossy
+integrator (glossy rays with MIS against the area lights whose meshes they reach, the glossy clamp:
+:mod:`pyrt.integrators.compiled_hit`; not with an environment light sampled by its map), both with the light choice
+(``light_select_depth``); Lambert (constant,
 unfiltered-checker or nearest / bilinear / trilinear image albedo, constant emission), normalised Blinn-Phong,
 Mirror, Glass (one dielectric, no nested media), smooth Conductor, the library models with constant parameters and
 the glTF metallic-roughness family (textured MetallicRoughness, opaque isotropic GltfPBR, glTF emission and
@@ -20,12 +23,14 @@ and ``robust_no_terminator`` offsets; back-face culling (single-sided materials)
 nearest / bilinear opacity, no environment light: :mod:`pyrt.integrators.compiled_coverage`); fixed spp and adaptive
 passes (:func:`render_pixels`). Not yet: other environments and strategies, emissive-mesh lights, the other
 materials (and vertex colours), anisotropic and bicubic texture filters, normal maps on meshes with vertex tangents,
-alpha blending, nested media, transparent shadows, the glossy integrator and ray recording (AOVs: fixed spp, not on
-Dask workers).
+alpha blending, nested media, transparent shadows, the glossy integrator with an environment light sampled by its
+map, and ray recording (AOVs: fixed spp, not on Dask workers; the glossy integrator and the light choice not on Dask
+workers).
 """
 from __future__ import annotations
 
 import functools
+import math
 import sys
 import time
 import warnings
@@ -38,7 +43,9 @@ from pyrt.geometry import embree_jit
 from pyrt.integrators import compiled_kernel as K
 from pyrt.integrators import compiled_layout as KL
 from pyrt.integrators import kernel_cache
+from pyrt.integrators import light_choice
 from pyrt.integrators.coverage import MAX_LAYERS, MODE_BLEND, MODE_MASK, CoverageTable
+from pyrt.integrators.glossy import ENV_LIGHT_SAMPLED, emitter_lights
 from pyrt.integrators.media import NestedMedia
 from pyrt.lights import compiled as LC
 from pyrt.lights import compiled_env
@@ -56,6 +63,37 @@ OFFSETS = (None, "robust", "robust_no_terminator")
 _announced = []
 
 
+def glossy_reasons(scene):
+    """Why the kernel cannot render ``scene`` with the glossy integrator (:mod:`pyrt.integrators.compiled_hit`)
+    beyond the reasons of the Whitted one; an empty list when it can."""
+    reasons = []
+    if any(lt.environment is not None and lt.strategy in ENV_LIGHT_SAMPLED for lt in scene.lights):
+        reasons.append("the glossy integrator with an environment light sampled by its map")
+    if any(len(lts) > 1 for lts in emitter_lights(scene).values()):
+        reasons.append("the glossy integrator with a visible emitter mesh shared by several area lights")
+    if any(m.has_diffuse and m.transmits for m in scene.materials):
+        reasons.append("the glossy integrator with rough transmission")
+    return reasons
+
+
+def kernel_integrator(scene, integ=None):
+    """The kernel's integer and float options of the integrator settings ``integ`` (the keywords of
+    :func:`pyrt.render.pool.integrator_factory`; None: Whitted): ``((glossy samples, glossy depth, light-select depth),
+    (glossy threshold, glossy clamp))`` (:data:`pyrt.integrators.compiled_layout.O_GLOSSY_N`, ...; 0, 0, -1 and 0,
+    inf: Whitted, no light choice). The light choice needs two delta lights to choose from
+    (:meth:`pyrt.integrators.whitted.Integrator._selects_lights`)."""
+    if integ is None:
+        return (0, 0, -1), (0.0, math.inf)
+    sel = integ["light_select_depth"]
+    if sel is None or sum(light_choice.selectable(lt) for lt in scene.lights) < 2:
+        sel = -1
+    if integ["integrator"] != "glossy":
+        return (0, 0, int(sel)), (0.0, math.inf)
+    clamp = integ["glossy_clamp"]
+    return ((int(integ["glossy_samples"]), int(integ["glossy_depth"]), int(sel)),
+            (float(integ["glossy_threshold"]), math.inf if clamp is None else float(clamp)))
+
+
 def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=False, light_select_depth=None,
                 record_rays=False, scene=None, roulette=False, sampler="padded"):
     """The reasons (strings) the compiled kernel cannot render the prepared scene ``ps`` with these options; an
@@ -66,8 +104,10 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
     reasons = []
     facts = ps if ps is not None else _SceneFacts(scene)
     scene = facts.scene
-    if integrator != "whitted":
+    if integrator not in ("whitted", "glossy"):
         reasons.append(f"integrator {integrator!r}")
+    if integrator == "glossy":
+        reasons += glossy_reasons(scene)
     if roulette:
         reasons.append("Russian roulette below throughput_cutoff (roulette=True)")
     if sampler != "padded":
@@ -76,8 +116,6 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
         reasons.append(f"offset strategy {offset!r}")
     if transparent_shadows and np.any(facts.dielectric):
         reasons.append("transparent shadows")
-    if light_select_depth is not None:
-        reasons.append("light selection (light_select_depth)")
     if record_rays:
         reasons.append("ray recording")
     if scene.environment is not None and not compiled_env.packable(scene.environment):
@@ -167,8 +205,10 @@ class CompiledScene:
         :mod:`pyrt.lights.compiled`).
     """
 
-    def __init__(self, ps):
+    def __init__(self, ps, integ=None):
         t0 = time.perf_counter()
+        #: the integrator's kernel options (:func:`kernel_integrator` of ``integ``, render_full's integrator settings)
+        self.integrator = kernel_integrator(ps.scene, integ)
         if ps.compiled_geometry is None:
             geo = ps.geo
             f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)          # noqa: E731
@@ -182,12 +222,16 @@ class CompiledScene:
         self.fallback = ps.geo.shading_normal_fallback
         textures = _TexturePacker()
         mats = [m.compiled_record(textures.add) for m in ps.scene.materials]
-        for m, (_, rec) in zip(ps.scene.materials, mats):
+        for m, (tag, rec) in zip(ps.scene.materials, mats):
             if m.normal_map is not None:
                 rec[MC.NORMAL_MAP:MC.NORMAL_MAP + 4] = normal_map_fields(m.normal_map, textures.add(m.normal_map))
             rec[MC.CULL] = 1.0 if m.culls_back_faces else 0.0
             if m.alpha_mode == "mask":
                 rec[MC.MASK:MC.MASK + 5] = mask_fields(m, textures.add)
+            rec[MC.GLOSSY] = glossy_field(m, tag)
+        traced = emitter_lights(ps.scene)
+        for k, lts in traced.items():
+            mats[k][1][MC.TRACED] = 1.0 + next(j for j, lt in enumerate(ps.scene.lights) if lt is lts[0])
         self.materials = _table([t for t, _ in mats], [r for _, r in mats], MC.RECORD)
         self.textures = TC.pack_table(textures.tags, textures.records, textures.texels)
         #: whether the rays carry differentials (a texture reads footprints), whether a material has a normal map
@@ -197,6 +241,10 @@ class CompiledScene:
         self.cover = 2 if any(m.alpha_mode == "mask" for m in ps.scene.materials) else (
             1 if any(m.culls_back_faces for m in ps.scene.materials) else 0)
         lights = [lt.compiled_record() for lt in ps.scene.lights]
+        traced_lights = {id(lt) for lts in traced.values() for lt in lts}
+        for lt, (tag, rec) in zip(ps.scene.lights, lights):
+            if tag >= LC.RECT and tag != LC.ENV:
+                rec[LC.TRACED] = 1.0 if id(lt) in traced_lights else 0.0
         self.lights = _table([t for t, _ in lights], [r for _, r in lights], LC.RECORD)
         self.n_lights = len(lights)
         env = ps.scene.environment
@@ -211,6 +259,16 @@ class CompiledScene:
         #: the prepared scene whose Embree scene ``scene`` is (kept alive while these tables are in use)
         self.prepared = ps
         add_time(ps.timings, "tables", time.perf_counter() - t0)
+
+
+def glossy_field(material, tag):
+    """A material record's :data:`pyrt.materials.compiled.GLOSSY` field: its constant
+    :meth:`~pyrt.materials.Material.glossy_alpha` (``inf`` where it has none: a diffuse-like lobe), -1 for GLTF (per
+    hit: :func:`pyrt.materials.compiled.glossy_alpha`)."""
+    if tag == MC.GLTF:
+        return -1.0
+    a = material.glossy_alpha(MC.ONE_HIT) if material.has_diffuse else None
+    return math.inf if a is None else float(np.asarray(a, dtype=np.float64).reshape(-1)[0])
 
 
 def add_time(timings, phase, seconds):
@@ -414,7 +472,9 @@ def _options(cs, spp, seed, max_depth, throughput_cutoff, split_depth, terminato
     opts[KL.O_NMAPS] = 1 if cs.normal_maps else 0
     opts[KL.O_COVER] = cs.cover
     opts[KL.O_LAYERS] = MAX_LAYERS
+    (opts[KL.O_GLOSSY_N], opts[KL.O_GLOSSY_DEPTH], opts[KL.O_SELECT]), (threshold, clamp) = cs.integrator
     optf = np.zeros(KL.F_ENV + compiled_env.RECORD)
+    optf[KL.F_GLOSSY_T], optf[KL.F_GLOSSY_CLAMP] = threshold, clamp
     optf[KL.F_ENV:] = cs.env_record
     optf[KL.F_CUTOFF] = throughput_cutoff
     optf[KL.F_BG:KL.F_BG + 3] = cs.background

@@ -42,16 +42,19 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     C_H, C_JITTER, C_K, C_AX, O_SEED, O_SPP,
     O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK,
     O_GRID, F_CUTOFF, F_BG, N_PRIMARY, N_SECONDARY, O_COVER, O_LAYERS, V_SO, V_WI, V_TMAX,
-    N_SHADOW, N_NONFINITE, STACK, STACK_ROW, T_INF, DIM_LOBE,
+    N_SHADOW, N_NONFINITE, STACK, STACK_ROW, STACK_PDF, T_INF, DIM_LOBE, O_GLOSSY_N, O_GLOSSY_DEPTH, O_SELECT,
+    F_GLOSSY_T, F_GLOSSY_CLAMP, V_GL,
     ADAPTIVE_KEYS, O_ENV, O_AOV, O_SQ, N_AOV, V_T, O_DIFFS, TILES_PER_TASK, _njit, buffer_pointers,
     geometry_pointers, lane_vec, packet_buffers, release, set_lane_inputs, set_lane_vec, table_pointers)
 from pyrt.integrators import compiled_diffs as D  # noqa: E402
 from pyrt.integrators.compiled_coverage import (  # noqa: E402
-    MASKS, cover_finish, cover_packet, cover_single, mask_shadows, shadow_walk)
+    MASKS, cover_finish, cover_packet, cover_single, mask_shadows)
+from pyrt.integrators.compiled_hit import (  # noqa: E402
+    clamp_sampled, emission_weight, hit_light, is_glossy, lane_hit, push, set_aside, spawn_glossy)
 from pyrt.integrators.compiled_surface import face_surfaces, with_ambient  # noqa: E402
 from pyrt.integrators.compiled_lighting import (  # noqa: E402
-    area_bsdf_sample, area_bsdf_stage, area_light_weight, area_mis_stage, area_stage, area_u, bsdf_stage, direct_light,
-    camera_fill, env_hit, env_rounds, lambert_stage, light_stage, shadow_add, shadow_fill)
+    area_bsdf_stage, area_mis_stage, area_stage, bsdf_stage, camera_fill, env_rounds, lambert_stage, light_stage,
+    shadow_add, shadow_fill)
 from pyrt.lights import compiled as LC  # noqa: E402
 from pyrt.lights import compiled_env as CE  # noqa: E402
 from pyrt.materials import compiled as MC  # noqa: E402
@@ -94,7 +97,7 @@ def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, thr, depth, split, cutoff, 
         w = MC.mirror_weight(mtag, mpars, m, cos_o)
         t = (thr[0] * w[0], thr[1] * w[1], thr[2] * w[2])
         if max(t[0], t[1], t[2]) > cutoff and top < STACK:
-            top = _push(p, ng, mag, stack, top, wr, t, depth + 1, V, lane, diffs, ns, wo, 0.0)
+            top = push(p, ng, mag, stack, top, wr, t, depth + 1, V, lane, diffs, ns, wo, 0.0, 0.0)
         return top, dim
     # glass
     eta = mpars[mb] if front else 1.0 / mpars[mb]
@@ -125,42 +128,29 @@ def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, thr, depth, split, cutoff, 
             wR, wT = 0.0, 0.0
     t = (thr[0] * mpars[mb + 1] * wR, thr[1] * mpars[mb + 2] * wR, thr[2] * mpars[mb + 3] * wR)
     if max(t[0], t[1], t[2]) > cutoff and top < STACK:
-        top = _push(p, ng, mag, stack, top, wr, t, depth + 1, V, lane, diffs, ns, wo, 0.0)
+        top = push(p, ng, mag, stack, top, wr, t, depth + 1, V, lane, diffs, ns, wo, 0.0, 0.0)
     if T > 0.0:
         t = (thr[0] * mpars[mb + 1] * wT, thr[1] * mpars[mb + 2] * wT, thr[2] * mpars[mb + 3] * wT)
         if max(t[0], t[1], t[2]) > cutoff and top < STACK:
-            top = _push(p, ng, mag, stack, top, wt, t, depth + 1, V, lane, diffs, ns, wo, eta)
+            top = push(p, ng, mag, stack, top, wt, t, depth + 1, V, lane, diffs, ns, wo, eta, 0.0)
     return top, dim
-
-
-@_njit
-def _push(p, ng, mag, stack, top, d, thr, depth, V, lane, diffs, ns, wo, eta):
-    """One spawned ray from the hit at ``p`` on the stack: direction normalised, origin offset to the side it leaves
-    toward; with ``diffs`` its differentials from lane ``lane`` of ``V`` (``eta`` 0: a reflection, else refraction)."""
-    d0, d1, d2 = d
-    ln = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-    if ln > 0.0:
-        d0, d1, d2 = d0 / ln, d1 / ln, d2 / ln
-    o = J.round_away(p, mag, 1.0 if d0 * ng[0] + d1 * ng[1] + d2 * ng[2] >= 0.0 else -1.0, ng)
-    row = STACK_ROW * top
-    stack[row], stack[row + 1], stack[row + 2] = o
-    stack[row + 3], stack[row + 4], stack[row + 5] = d0, d1, d2
-    stack[row + 6], stack[row + 7], stack[row + 8] = thr
-    stack[row + 9] = depth
-    D.push_ray(stack, row, V, lane, diffs, p, ns, wo, (d0, d1, d2), eta)
-    return top + 1
 
 
 @numba.njit(nogil=True, cache=True, error_model="numpy")
 def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, erec, edata, opts, optf, key,
                 dim, stack, top, ray_buf, counters, r0, r1, r2, V, lane):
-    """Trace the specular rays on ``stack`` (and those they spawn) with single-ray queries: the deeper bounces of
-    one camera sample (lane ``lane`` of ``V``); returns the radiance ``(r0, r1, r2)`` plus theirs. Everything per ray
-    is local; every table, the stack and the ray buffer are pointers (:func:`pyrt.core.unmanaged.pointer`)."""
+    """Trace the rays on ``stack`` (and those they spawn) with single-ray queries: the deeper bounces of one camera
+    sample (lane ``lane`` of ``V``), delta rays and the glossy integrator's BSDF-sampled rays (their density in the
+    row's :data:`STACK_PDF`: the emission they reach is MIS-weighted, the direct light at their hits clamped by
+    ``glossy_clamp`` and lit by one chosen light from bounce ``light_select_depth`` on); returns the radiance
+    ``(r0, r1, r2)`` plus theirs. Everything per ray is local; every table, the stack and the ray buffer are pointers
+    (:func:`pyrt.core.unmanaged.pointer`)."""
     diffs = opts[O_DIFFS] != 0
     fallback = opts[O_FALLBACK] != 0
     terminator = opts[O_TERMINATOR] != 0
     split, cutoff, max_depth, nl = opts[O_SPLIT], optf[F_CUTOFF], opts[O_MAX_DEPTH], opts[O_NLIGHTS]
+    gl_n, gl_depth, select = opts[O_GLOSSY_N], opts[O_GLOSSY_DEPTH], opts[O_SELECT]
+    threshold, limit = optf[F_GLOSSY_T], optf[F_GLOSSY_CLAMP]
     etag = opts[O_ENV]
     cover, masks, layers = opts[O_COVER] != 0, opts[O_COVER] == MASKS, opts[O_LAYERS]
     n_sec = n_sh = n_re = 0
@@ -169,11 +159,12 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
         row = STACK_ROW * top
         thr = (stack[row + 6], stack[row + 7], stack[row + 8])
         depth = int(stack[row + 9])
+        bpdf = stack[row + STACK_PDF]
+        o = (stack[row], stack[row + 1], stack[row + 2])
         d0, d1, d2 = stack[row + 3], stack[row + 4], stack[row + 5]
         D.load_ray(stack, row, V, lane, diffs)
         n_sec += 1
-        hit, _, prim, geom, u, v, _, _, _ = E.intersect1(scene, stack[row], stack[row + 1], stack[row + 2], d0, d1,
-                                                         d2, 0.0, T_INF, ray_buf)
+        hit, _, prim, geom, u, v, _, _, _ = E.intersect1(scene, o[0], o[1], o[2], d0, d1, d2, 0.0, T_INF, ray_buf)
         if cover:               # culled back faces and mask cut-outs skipped (compiled_coverage); dropped: adds nothing
             hit, prim, geom, u, v, dropped, n_skip = cover_single(scene, G, mats_par, tex_tag, tex_par, layers, masks,
                                                                   hit, prim, geom, u, v, (d0, d1, d2), ray_buf)
@@ -194,52 +185,28 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
         mtag = mats_tag[m]
         albedo, ns, em = D.hit_inputs(G, V, lane, opts, face, p, ng, ns, wo, front, uv, mtag, mats_par, m, tex_tag,
                                       tex_par)
+        if bpdf > 0.0:          # the emission a glossy ray reaches: MIS-weighted against the light's samples
+            k = emission_weight(lights_tag, lights_par, mats_par, m, o, (d0, d1, d2), bpdf)
+            em = (em[0] * k, em[1] * k, em[2] * k)
         le0, le1, le2 = with_ambient(mtag, em, albedo, optf)
+        sampled = False
         if MC.has_diffuse(mtag):
-            hkey = J.sample_key(key, n_sec)          # this hit's random numbers (the area lights' samples)
-            for j in range(nl):
-                jb = j * LC.RECORD
-                if lights_tag[j] == LC.ENV:
-                    e = env_hit(scene, etag, erec, edata, mtag, mats_par, m, albedo, p, ng, ns, nv, wo, lift, mag,
-                                mag_lift, terminator, hkey, int(lights_par[jb]), int(lights_par[jb + 1]), ray_buf)
-                    le0, le1, le2 = le0 + e[0], le1 + e[1], le2 + e[2]
-                    n_sh += int(e[3])
-                    continue
-                area = lights_tag[j] >= LC.RECT
-                n_j = int(lights_par[jb + LC.AREA_SAMPLES]) if area else 1
-                n_b = int(lights_par[jb + LC.AREA_SAMPLES + 1]) if area else 0
-                k_j, k_b = J.isqrt(n_j), J.isqrt(n_b)
-                for s in range(n_j + n_b):
-                    if s < n_j:
-                        u0, u1 = area_u(hkey, j, s, n_j, k_j) if area else (0.0, 0.0)
-                        ok, tmax, o, wi, f = direct_light(lights_tag, lights_par, j, mtag, mats_par, m, albedo, p, ng,
-                                                          ns, nv, wo, lift, mag, mag_lift, terminator, u0, u1)
-                        if ok and n_b > 0:
-                            k = area_light_weight(lights_tag[j], lights_par, j, mtag, mats_par, m, albedo, p, ns, wo,
-                                                  wi, n_j, n_b)
-                            f = (f[0] * k, f[1] * k, f[2] * k)
-                        inv = 1.0 / n_j
-                    else:
-                        u0, u1 = area_u(hkey, j + 4096, s - n_j, n_b, k_b)
-                        ok, o, wi, tmax, f = area_bsdf_sample(lights_tag[j], lights_par, j, mtag, mats_par, m, albedo,
-                                                              p, ng, ns, nv, wo, lift, mag, mag_lift, terminator, u0,
-                                                              u1, n_j, n_b)
-                        inv = 1.0 / n_b
-                    if not ok:
-                        continue
-                    n_sh += 1
-                    blocked = E.occluded1(scene, o[0], o[1], o[2], wi[0], wi[1], wi[2], 0.0, tmax, ray_buf)
-                    if blocked and masks:       # through the mask cut-outs (compiled_coverage)
-                        blocked, n_walk = shadow_walk(scene, G, mats_par, tex_tag, tex_par, layers, o, wi, tmax,
-                                                      ray_buf)
-                        n_sh += n_walk
-                    if not blocked:
-                        le0 += f[0] * inv
-                        le1 += f[1] * inv
-                        le2 += f[2] * inv
+            sampled = depth < gl_depth and depth < max_depth and is_glossy(mats_par, m, albedo, threshold)
+            nb = (gl_n if depth == 0 else 1) if sampled else 0
+            l0, l1, l2, n = hit_light(scene, G, lights_tag, lights_par, nl, mats_par, tex_tag, tex_par, etag, erec,
+                                      edata, mtag, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift, terminator,
+                                      J.sample_key(key, n_sec), masks, layers, ray_buf, nb,
+                                      0 <= select <= depth and bpdf > 0.0)
+            n_sh += n
+            if bpdf > 0.0 and limit < math.inf:
+                l0, l1, l2 = clamp_sampled(l0, l1, l2, thr, limit)
+            le0, le1, le2 = le0 + l0, le1 + l1, le2 + l2
         r0 += thr[0] * le0
         r1 += thr[1] * le1
         r2 += thr[2] * le2
+        if sampled:
+            top = spawn_glossy(p, ng, ns, wo, mag, mtag, mats_par, m, albedo, thr, depth, gl_n if depth == 0 else 1,
+                               cutoff, J.sample_key(key, n_sec), stack, top, V, lane, diffs)
         if depth < max_depth and MC.has_delta(mtag):
             top, dim = spawn(p, ng, ns, wo, front, mag, mtag, mats_par, m, thr, depth, split, cutoff, key, dim,
                              stack, top, V, lane, diffs)
@@ -318,6 +285,10 @@ def shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k3
                 V[V_T * LANES + lane] = E.packet_tfar(pk, w, lane) if hit else math.inf
     if cover:
         cover_finish(V, n)
+    # camera hits lit lane by lane (compiled_hit: glossy hits, hits that choose a light) leave the light stages
+    per_lane = (opts[O_GLOSSY_N] > 0 and opts[O_GLOSSY_DEPTH] > 0 and max_depth > 0) or opts[O_SELECT] == 0
+    if per_lane:
+        any_diffuse = set_aside(V, n, mats_tag, mats_par, opts, optf)
     # direct light: per light, the packet's shadow rays (geometry, then the BSDF) in one masked query
     pair = 0                # the padded dimension pairs of the area lights' samples
     for j in range(nl if any_diffuse else 0):
@@ -367,17 +338,25 @@ def shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k3
     for lane in range(n):
         l0, l1, l2 = lane_vec(V, V_L, lane)
         m = int(V[V_MAT * LANES + lane])
+        top, dim = 0, DIM_LOBE
+        if per_lane and V[V_GL * LANES + lane] != 0.0:
+            m = int(V[V_GL * LANES + lane]) - 1
+            V[V_MAT * LANES + lane] = m
+            e0, e1, e2, top, n_sh = lane_hit(scene, G, V, lane, keys[lane], stack, ray_buf, lights_tag, lights_par,
+                                             mats_tag, mats_par, tex_tag, tex_par, etag, erec, edata, opts, optf, m)
+            l0, l1, l2 = l0 + e0, l1 + e1, l2 + e2
+            n_shadow += n_sh
         if m >= 0 and max_depth > 0 and MC.has_delta(mats_tag[m]):
             d = lane_vec(V, V_D, lane)
             top, dim = spawn(lane_vec(V, V_P, lane), lane_vec(V, V_NG, lane), lane_vec(V, V_NS, lane),
                              (-d[0], -d[1], -d[2]), V[V_FRONT * LANES + lane] != 0.0,
                              V[V_MAG * LANES + lane], mats_tag[m], mats_par, m, (1.0, 1.0, 1.0), 0, split,
-                             cutoff, keys[lane], DIM_LOBE, stack, 0, V, lane, opts[O_DIFFS] != 0)
-            if top > 0:
-                l0, l1, l2 = trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag,
-                                         lights_par, erec, edata, opts, optf, keys[lane], dim, stack, top, ray_buf,
-                                         cnt, l0, l1, l2, V, lane)
-                set_lane_vec(V, V_L, lane, (l0, l1, l2))
+                             cutoff, keys[lane], DIM_LOBE, stack, top, V, lane, opts[O_DIFFS] != 0)
+        if top > 0:
+            l0, l1, l2 = trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag,
+                                     lights_par, erec, edata, opts, optf, keys[lane], dim, stack, top, ray_buf,
+                                     cnt, l0, l1, l2, V, lane)
+        set_lane_vec(V, V_L, lane, (l0, l1, l2))
         if not (math.isfinite(l0) and math.isfinite(l1) and math.isfinite(l2)):
             n_bad += 1
             set_lane_vec(V, V_L, lane, (0.0, 0.0, 0.0))

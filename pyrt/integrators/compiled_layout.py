@@ -49,8 +49,11 @@ V_X = 82
 #: the environment's light samples in the packet stage (:mod:`pyrt.integrators.compiled_env_stage`): the two
 #: sample numbers, the table cell (row, column), the in-cell offsets, the cell's four corner luminances, its func
 V_EU, V_ECELL, V_EFF, V_ECORNER, V_EFN = 87, 89, 91, 93, 97
+#: 1 where the camera hit is lit and continued lane by lane (:func:`pyrt.integrators.compiled_hit.hit_light`: a
+#: glossy hit of the glossy integrator, or a hit lit by one chosen light), not by the packet's light stages
+V_GL = 98
 #: fields of the scratch
-V_SIZE = 98
+V_SIZE = 99
 #: camera record layout (float64)
 C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W, C_H, C_JITTER, C_K, C_AX = 0, 3, 6, 9, 12, 13, 14, 15, 16, 17
 #: length of the camera record
@@ -63,8 +66,12 @@ O_DIFFS, O_NMAPS, O_SQ = 11, 12, 13
 #: coverage (:mod:`pyrt.integrators.compiled_coverage`): 0 none, 1 some material culls back faces, 2 some material
 #: is an alpha mask; and the most surfaces a ray skips (:data:`pyrt.integrators.coverage.MAX_LAYERS`)
 O_COVER, O_LAYERS = 14, 15
+#: the glossy integrator (:mod:`pyrt.integrators.glossy`; 0 with Whitted): BSDF samples per glossy camera hit, the
+#: bounces that spawn glossy rays (``glossy_depth``); the bounce from which hits are lit by one chosen delta light
+#: (``light_select_depth``; -1: never)
+O_GLOSSY_N, O_GLOSSY_DEPTH, O_SELECT = 16, 17, 18
 #: length of the integer options
-N_OPTS = 16
+N_OPTS = 19
 #: consecutive tiles of a call's list that one thread renders with one set of packet buffers
 #: (:func:`pyrt.integrators.compiled_kernel.render_tiles`; also the unit of the threads' dynamic scheduling)
 TILES_PER_TASK = 4
@@ -72,16 +79,20 @@ TILES_PER_TASK = 4
 N_AOV = 8
 #: float options
 F_CUTOFF, F_BG, F_AMBIENT = 0, 1, 4
+#: the glossy integrator's ``glossy_threshold`` (lobes of a larger alpha count as diffuse) and ``glossy_clamp``
+#: (``inf``: none)
+F_GLOSSY_T, F_GLOSSY_CLAMP = 7, 8
 #: where the float options hold the environment's record (:data:`pyrt.lights.compiled_env.RECORD` entries; its tag
 #: is ``opts[O_ENV]``, 0: none)
-F_ENV = 8
+F_ENV = 9
 #: ray counters per tile
 N_PRIMARY, N_SECONDARY, N_SHADOW, N_NONFINITE = 0, 1, 2, 3
 #: the largest stack of pending specular rays a sample can need (2 per bounce below the split depth)
 STACK = 64
 #: words of a stack row: origin, direction, throughput, depth, then (from :data:`STACK_DIFF`, with ``opts[O_DIFFS]``)
-#: the ray's differentials (x origin, x direction, y origin, y direction)
-STACK_ROW, STACK_DIFF = 22, 10
+#: the ray's differentials (x origin, x direction, y origin, y direction), then (at :data:`STACK_PDF`) the density
+#: ``n p`` of a BSDF-sampled (glossy) ray's direction, 0 for a delta ray
+STACK_ROW, STACK_DIFF, STACK_PDF = 23, 10, 22
 #: Embree's "unbounded" tfar (:data:`pyrt.geometry.accel.T_INFINITE`)
 T_INF = 1e37
 #: the first random dimension of the glass lobe choice (0, 1: the pixel position)
@@ -89,6 +100,9 @@ DIM_LOBE = 2
 #: the first random dimension of the area lights' samples at a hit (two per sample, :func:`area_u`; below it, one
 #: per light for its Latin-hypercube permutation); each hit of a sample's specular tree has a key of its own
 DIM_AREA = 1 << 20
+#: the random dimension of a hit's choice of one light (``light_select_depth``), the first of its glossy rays' samples
+#: (two per ray, below it one for their Latin-hypercube permutation)
+DIM_CHOOSE, DIM_GLOSSY = 1 << 36, 1 << 37
 #: the first random dimension of the environment light's samples at a hit of the specular tree (four per round)
 DIM_ENV = 1 << 40
 #: adaptive passes key a sample by ``ADAPTIVE_KEYS + 2 index + half`` (:func:`pyrt.shaders.jit.key64`): apart from the

@@ -56,7 +56,24 @@ from pyrt.shaders import sampling
 from pyrt.shaders.vec import dot, put_rows, take_rows
 
 #: environment strategies that light-sample at glossy hits (the others leave the environment to the rays)
-_ENV_LIGHT_SAMPLED = ("uniform", "cosine", "map", "mis")
+ENV_LIGHT_SAMPLED = ("uniform", "cosine", "map", "mis")
+
+
+def emitter_lights(scene):
+    """``{material index: [area lights]}``: the area lights whose visible emitter mesh (:meth:`AreaLight.add_to`, the
+    mesh named ``"<light name>_emitter"``) is in ``scene`` with an emitting material, by that material: the lights
+    glossy rays reach, whose emission they weigh by MIS."""
+    out = {}
+    by_name = {}
+    for lt in scene.lights:
+        if lt.has_mesh and not lt.delta:
+            by_name.setdefault(lt.emitter_mesh_name, []).append(lt)
+    for mesh in scene.meshes:
+        lts = by_name.get(mesh.name)
+        if lts and scene.materials[mesh.material_id].emits:
+            out.setdefault(mesh.material_id, [])
+            out[mesh.material_id] += [lt for lt in lts if lt not in out[mesh.material_id]]
+    return out
 
 
 def mis_weights(n_light, pdf_light, n_bsdf, pdf_bsdf):
@@ -104,22 +121,12 @@ class GlossyIntegrator(Integrator):
                                                      lo=0.0)
         scene = self.scene
         # material index -> the area lights whose visible emitter mesh uses it (see AreaLight.add_to)
-        self.emitter_lights = {}
-        by_name = {}
-        for lt in scene.lights:
-            if lt.has_mesh and not lt.delta:
-                by_name.setdefault(lt.emitter_mesh_name, []).append(lt)
-        for mesh in scene.meshes:
-            lts = by_name.get(mesh.name)
-            if lts and scene.materials[mesh.material_id].emits:
-                self.emitter_lights.setdefault(mesh.material_id, [])
-                self.emitter_lights[mesh.material_id] += [lt for lt in lts
-                                                          if lt not in self.emitter_lights[mesh.material_id]]
+        self.emitter_lights = emitter_lights(scene)
         self.traced_lights = [lt for lts in self.emitter_lights.values() for lt in lts]
         # emissive-mesh lights (Scene.add_emissive_lights): the rays that hit their triangles reach them
         self.mesh_lights = [lt for lt in scene.lights if lt.scene_emitter]
         self.traced_lights += self.mesh_lights
-        env_lights = [lt for lt in scene.lights if lt.environment is not None and lt.strategy in _ENV_LIGHT_SAMPLED]
+        env_lights = [lt for lt in scene.lights if lt.environment is not None and lt.strategy in ENV_LIGHT_SAMPLED]
         self.env_light = env_lights[0] if env_lights else None
 
     def n_glossy(self, depth):

@@ -34,6 +34,7 @@ KERNEL_SOURCES = ("pyrt.shaders.jit", "pyrt.shaders.jit_brdfs", "pyrt.shaders.ji
                   "pyrt.lights.compiled_env",
                   "pyrt.integrators.compiled_layout", "pyrt.integrators.compiled_diffs",
                   "pyrt.integrators.compiled_env_stage", "pyrt.integrators.compiled_lighting",
+                  "pyrt.integrators.compiled_hit",
                   "pyrt.integrators.compiled_surface",
                   "pyrt.integrators.compiled_kernel")
 

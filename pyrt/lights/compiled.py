@@ -13,7 +13,8 @@ RECT       0-2 centre, 3-5 unit normal (the emitting side), 6-8 radiance L (W m^
            9-11 tangent (the width's direction), 12-14 bitangent, 15 width, 16 height, 17 area, 18 samples per hit
 DISK       as RECT with 15 radius (16 unused)
 SPHERE     0-2 centre, 6-8 radiance, 15 radius, 17 area, 18 samples per hit
-           (every area light: 19 BSDF samples per hit, combined with the light samples by the power heuristic)
+           (every area light: 19 BSDF samples per hit, combined with the light samples by the power heuristic;
+           20 1 where its visible emitter mesh is in the scene, :data:`TRACED`)
 ENV        0 light samples, 1 BSDF samples per hit (:class:`pyrt.EnvironmentLight` with ``strategy="mis"``)
 =========  =====================================================================================================
 
@@ -33,7 +34,10 @@ from pyrt.materials.compiled_sampling import coordinate_frame, square_to_uniform
 from pyrt.shaders import jit as J
 
 #: parameters per light record
-RECORD = 20
+RECORD = 21
+#: where an area light's record says that its visible emitter mesh is in the scene: glossy rays reach it, so the
+#: glossy integrator weighs its light samples at glossy hits against them (:mod:`pyrt.integrators.glossy`)
+TRACED = 20
 #: type tags
 POINT, SPOT, DIRECTIONAL = 1, 2, 3
 #: the area lights' tags (every tag from :data:`RECT` on is an area light)

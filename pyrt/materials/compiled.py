@@ -28,7 +28,8 @@ EMITTER              4-6 radiance (constant RGB), 7 two-sided (1) or front only 
 GLTF                 glTF's metallic-roughness family with textured parameters, emission and occlusion: the layout
                      of :mod:`pyrt.materials.gltf_record` (0-23), resolved per hit by :func:`gltf_inputs`
 (every material)     24-27 its normal map (:data:`NORMAL_MAP`), 28 1 when it culls back faces (:data:`CULL`), 29-33
-                     its alpha mask (:data:`MASK`), written by the compiled scene
+                     its alpha mask (:data:`MASK`), 34 its glossy alpha (:data:`GLOSSY`), 35 the area light it is the
+                     visible emitter of (:data:`TRACED`), written by the compiled scene
 ===================  ============================================================================================
 
 The models after BLINN_PHONG but GLTF have constant parameters only (a textured one is not compiled); their formulas
@@ -55,7 +56,7 @@ from pyrt.shaders import jit_brdfs as JB
 from pyrt.textures.compiled import texture_rgb
 
 #: parameters per material record
-RECORD = 34
+RECORD = 36
 #: where every record keeps its normal map (:func:`pyrt.integrators.compiled_diffs.mapped_normal`): the map's row in the
 #: texture table plus one (0: none), its strength, 1 for green = -v (DirectX), 1 to bend reflections above the surface
 NORMAL_MAP = 24
@@ -65,6 +66,13 @@ CULL = 28
 #: where every record keeps its alpha mask (:mod:`pyrt.integrators.compiled_coverage`): 1 when ``alpha_mode`` is
 #: ``"mask"``, ``alpha_cutoff``, then the opacity's scalar slot ``[row or -1, factor, channel]``
 MASK = 29
+#: where every record keeps its non-delta lobe's glossy alpha for the glossy integrator
+#: (:meth:`pyrt.materials.Material.glossy_alpha`; :func:`glossy_alpha`): the constant, ``inf`` for a diffuse-like lobe,
+#: -1 where it is per hit (GLTF: its roughness squared)
+GLOSSY = 34
+#: where every record keeps the area light whose visible emitter mesh it is (:attr:`pyrt.lights.AreaLight.has_mesh`):
+#: the light's row plus one (0: none); glossy rays that reach it weigh its emission by MIS
+TRACED = 35
 #: type tags (0 is no material)
 LAMBERT, BLINN_PHONG, MIRROR, GLASS, CONDUCTOR = 1, 2, 3, 4, 5
 #: 1 / pi (a multiplication where a division by pi would cost ~4x; within an ulp of it)
@@ -260,6 +268,14 @@ def constant_slot(value):
 def empty_record():
     """A zero parameter record."""
     return np.zeros(RECORD)
+
+
+@register_jitable(forceinline=True)
+def glossy_alpha(pars, m, inputs):
+    """Material ``m``'s glossy alpha at a hit of inputs ``inputs`` (:func:`albedo_at`): :data:`GLOSSY`'s constant,
+    or GLTF's per-hit roughness squared (:func:`pyrt.shaders.microfacet.roughness_to_alpha`)."""
+    a = pars[m * RECORD + GLOSSY]
+    return inputs[7] * inputs[7] if a < 0.0 else a
 
 
 class _OneHit:

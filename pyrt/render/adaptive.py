@@ -332,7 +332,7 @@ def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None,
         deadline = t_start + time_budget if time_budget is not None else math.inf
         kernel = None if reasons else adaptive_task(ps, cam, seed=seed, max_depth=max_depth,
                                                     throughput_cutoff=throughput_cutoff, offset=offset,
-                                                    split_depth=split_depth, nonfinite=nonfinite)
+                                                    split_depth=split_depth, nonfinite=nonfinite, integ=integ)
 
         def task(index, key, P, C, base, spp_after, timed):
             if timed and time.perf_counter() >= deadline:

@@ -23,11 +23,12 @@ from pyrt.render.result import RenderResult
 
 
 def render_compiled(ps, cam, *, seed, max_depth, throughput_cutoff, offset, split_depth, threads, cancel, fill,
-                    nonfinite, progress, t_start, aovs=False):
+                    nonfinite, progress, t_start, aovs=False, integ=None):
     """Render ``cam.spp`` samples per pixel of the prepared scene ``ps`` with the compiled kernel; a
     :class:`RenderResult` (with ``aovs`` the film's depth, normal and albedo AOVs). After a cancellation with
-    ``fill``, the tiles not rendered get one sample per pixel."""
-    cs = compiled.CompiledScene(ps)
+    ``fill``, the tiles not rendered get one sample per pixel. ``integ``: the integrator settings (the glossy
+    integrator's and the light choice's, :func:`pyrt.integrators.compiled.kernel_integrator`; None: Whitted)."""
+    cs = compiled.CompiledScene(ps, integ)
     W, H, S = cam.width, cam.height, cam.spp
     kw = dict(seed=seed, max_depth=max_depth, throughput_cutoff=throughput_cutoff, split_depth=split_depth,
               terminator=offset in (None, "robust"), threads=threads)
@@ -64,12 +65,12 @@ def render_compiled(ps, cam, *, seed, max_depth, throughput_cutoff, offset, spli
                         pixels_filled=pixels_filled, samples_done=n_done * S)
 
 
-def adaptive_task(ps, cam, *, seed, max_depth, throughput_cutoff, offset, split_depth, nonfinite):
+def adaptive_task(ps, cam, *, seed, max_depth, throughput_cutoff, offset, split_depth, nonfinite, integ=None):
     """The compiled twin of :func:`pyrt.render.chunks.shade_adaptive_chunk` for :func:`pyrt.render.adaptive.
     render_adaptive`: a function ``(P, C, base, spp_after) -> (stats, P, sums of A + B, sums of B)`` (:class:`PixelSums`) that
     renders one chunk of a pass with the kernel (the same camera rays as the NumPy path's chunk; ``spp_after``, the
     pixels' samples after the pass, scales their differentials)."""
-    cs = compiled.CompiledScene(ps)
+    cs = compiled.CompiledScene(ps, integ)
     compiled.load_pixel_kernel(cs, cam)
     kw = dict(seed=seed, max_depth=max_depth, throughput_cutoff=throughput_cutoff, split_depth=split_depth,
               terminator=offset in (None, "robust"))

@@ -219,6 +219,8 @@ def _render_flat(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4
             sampler=sampler)
         if aovs and runner is not None:
             reasons.append("AOVs on Dask workers")
+        if runner is not None and compiled.kernel_integrator(scene, integ) != compiled.kernel_integrator(scene):
+            reasons.append("the glossy integrator or light selection on Dask workers")
         if reasons and backend == "compiled":
             if own:
                 ps.close()
@@ -242,7 +244,7 @@ def _render_flat(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4
                 return render_compiled(ps, cam, seed=seed, max_depth=max_depth, throughput_cutoff=throughput_cutoff,
                                        offset=offset, split_depth=split_depth, threads=threads, cancel=cancel,
                                        fill=fill, nonfinite=nonfinite, progress=progress, t_start=t_start,
-                                       aovs=aovs)
+                                       aovs=aovs, integ=integ)
             finally:
                 if runner is not None:
                     runner.close()
