@@ -123,18 +123,43 @@ def test_light_choice_needs_two_delta_lights():
     s = _scene()
     integ = dict(integrator="glossy", glossy_samples=4, glossy_depth=2, glossy_threshold=0.4, glossy_clamp=None,
                  light_select_depth=1)
-    assert compiled.kernel_integrator(s, integ) == ((4, 2, 1), (0.4, math.inf))
+    assert compiled.kernel_integrator(s, integ) == ((4, 2, 1, 0), (0.4, math.inf))
     s.lights[:] = [lt for lt in s.lights if not isinstance(lt, pyrt.SpotLight)]
-    assert compiled.kernel_integrator(s, integ)[0] == (4, 2, -1)
-    assert compiled.kernel_integrator(s, None) == ((0, 0, -1), (0.0, math.inf))
+    assert compiled.kernel_integrator(s, integ)[0] == (4, 2, -1, 0)
+    assert compiled.kernel_integrator(s, None) == ((0, 0, -1, 0), (0.0, math.inf))
+
+
+def _env_scene(spp=16):
+    """The scene under a lat-long sky (a bright patch: the map's samples and the glossy rays both find it) lighting
+    by ``strategy="mis"``."""
+    s = _scene(spp=spp, area=False)
+    h, w = 16, 32
+    img = np.full((h, w, 3), 0.2)
+    img[3:6, 20:24] = (8.0, 7.0, 5.0)
+    img[h // 2:] = 0.05
+    env = pyrt.LatLongEnvironment(img)
+    s.environment = env
+    s.add_light(pyrt.EnvironmentLight(env, strategy="mis", n_samples=2))
+    return s
+
+
+def test_glossy_integrator_under_a_sampled_environment_agrees_with_numpy():
+    """At glossy hits the map's samples against the glossy rays, the escaped rays weighted likewise."""
+    s = _env_scene()
+    integ = dict(integrator="glossy", glossy_samples=4, glossy_depth=2, glossy_threshold=0.4, glossy_clamp=None,
+                 light_select_depth=None)
+    assert compiled.kernel_integrator(s, integ)[0] == (4, 2, -1, 2)
+    _assert_agree(s, integrator=pyrt.Glossy(samples=4, depth=2))
 
 
 def test_glossy_reasons():
     s = _scene(spp=1)
     assert compiled.glossy_reasons(s) == []
-    env = pyrt.LatLongEnvironment(np.ones((8, 16, 3)))
-    s.environment = env
-    s.add_light(pyrt.EnvironmentLight(env, strategy="mis"))
-    assert compiled.glossy_reasons(s) == ["the glossy integrator with an environment light sampled by its map"]
+    lt = pyrt.RectLight(center=(0, 2.5, 0), normal=(0, -1, 0), size=(1.0, 0.6), radiance=6.0, name="panel")
+    lt.add_to(s)
+    twin = pyrt.RectLight(center=(0, 2.5, 0), normal=(0, -1, 0), size=(1.0, 0.6), radiance=6.0, name="panel")
+    s.add_light(twin)               # the same emitter mesh name: one mesh for two lights
+    assert compiled.glossy_reasons(s) == [
+        "the glossy integrator with a visible emitter mesh shared by several area lights"]
     r = pyrt.render_full(s, seed=0, execution=pyrt.Execution(progress=False), integrator=pyrt.Glossy())
     assert r.stats.backend == "numpy"

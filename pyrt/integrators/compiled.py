@@ -9,7 +9,7 @@ texture and light: a type tag and a parameter record, packed by each object's ``
 What the compiled path covers (everything else renders through the NumPy path, automatically with
 ``backend="auto"``): the Whitted integrator with max depth, throughput cutoff and split depth, and the glossy
 integrator (glossy rays with MIS against the area lights whose meshes they reach, the glossy clamp:
-:mod:`pyrt.integrators.compiled_hit`; not with an environment light sampled by its map), both with the light choice
+:mod:`pyrt.integrators.compiled_hit`), both with the light choice
 (``light_select_depth``); Lambert (constant,
 unfiltered-checker or nearest / bilinear / trilinear image albedo, constant emission), normalised Blinn-Phong,
 Mirror, Glass (one dielectric, no nested media), smooth Conductor, the library models with constant parameters and
@@ -23,9 +23,8 @@ and ``robust_no_terminator`` offsets; back-face culling (single-sided materials)
 nearest / bilinear opacity, no environment light: :mod:`pyrt.integrators.compiled_coverage`); fixed spp and adaptive
 passes (:func:`render_pixels`). Not yet: other environments and strategies, emissive-mesh lights, the other
 materials (and vertex colours), anisotropic and bicubic texture filters, normal maps on meshes with vertex tangents,
-alpha blending, nested media, transparent shadows, the glossy integrator with an environment light sampled by its
-map, and ray recording (AOVs: fixed spp, not on Dask workers; the glossy integrator and the light choice not on Dask
-workers).
+alpha blending, nested media, transparent shadows and ray recording (AOVs: fixed spp, not on Dask workers; the
+glossy integrator and the light choice not on Dask workers).
 """
 from __future__ import annotations
 
@@ -67,8 +66,6 @@ def glossy_reasons(scene):
     """Why the kernel cannot render ``scene`` with the glossy integrator (:mod:`pyrt.integrators.compiled_hit`)
     beyond the reasons of the Whitted one; an empty list when it can."""
     reasons = []
-    if any(lt.environment is not None and lt.strategy in ENV_LIGHT_SAMPLED for lt in scene.lights):
-        reasons.append("the glossy integrator with an environment light sampled by its map")
     if any(len(lts) > 1 for lts in emitter_lights(scene).values()):
         reasons.append("the glossy integrator with a visible emitter mesh shared by several area lights")
     if any(m.has_diffuse and m.transmits for m in scene.materials):
@@ -78,19 +75,21 @@ def glossy_reasons(scene):
 
 def kernel_integrator(scene, integ=None):
     """The kernel's integer and float options of the integrator settings ``integ`` (the keywords of
-    :func:`pyrt.render.pool.integrator_factory`; None: Whitted): ``((glossy samples, glossy depth, light-select depth),
-    (glossy threshold, glossy clamp))`` (:data:`pyrt.integrators.compiled_layout.O_GLOSSY_N`, ...; 0, 0, -1 and 0,
-    inf: Whitted, no light choice). The light choice needs two delta lights to choose from
+    :func:`pyrt.render.pool.integrator_factory`; None: Whitted): ``((glossy samples, glossy depth, light-select depth,
+    the map samples of the environment light sampled at glossy hits), (glossy threshold, glossy clamp))``
+    (:data:`pyrt.integrators.compiled_layout.O_GLOSSY_N`, ...; 0, 0, -1, 0 and 0, inf: Whitted, no light choice). The
+    light choice needs two delta lights to choose from
     (:meth:`pyrt.integrators.whitted.Integrator._selects_lights`)."""
     if integ is None:
-        return (0, 0, -1), (0.0, math.inf)
+        return (0, 0, -1, 0), (0.0, math.inf)
     sel = integ["light_select_depth"]
     if sel is None or sum(light_choice.selectable(lt) for lt in scene.lights) < 2:
         sel = -1
     if integ["integrator"] != "glossy":
-        return (0, 0, int(sel)), (0.0, math.inf)
+        return (0, 0, int(sel), 0), (0.0, math.inf)
     clamp = integ["glossy_clamp"]
-    return ((int(integ["glossy_samples"]), int(integ["glossy_depth"]), int(sel)),
+    env = [lt for lt in scene.lights if lt.environment is not None and lt.strategy in ENV_LIGHT_SAMPLED]
+    return ((int(integ["glossy_samples"]), int(integ["glossy_depth"]), int(sel), env[0].n_samples if env else 0),
             (float(integ["glossy_threshold"]), math.inf if clamp is None else float(clamp)))
 
 
@@ -472,7 +471,8 @@ def _options(cs, spp, seed, max_depth, throughput_cutoff, split_depth, terminato
     opts[KL.O_NMAPS] = 1 if cs.normal_maps else 0
     opts[KL.O_COVER] = cs.cover
     opts[KL.O_LAYERS] = MAX_LAYERS
-    (opts[KL.O_GLOSSY_N], opts[KL.O_GLOSSY_DEPTH], opts[KL.O_SELECT]), (threshold, clamp) = cs.integrator
+    (opts[KL.O_GLOSSY_N], opts[KL.O_GLOSSY_DEPTH], opts[KL.O_SELECT], opts[KL.O_GLOSSY_ENV]), (threshold, clamp) = \
+        cs.integrator
     optf = np.zeros(KL.F_ENV + compiled_env.RECORD)
     optf[KL.F_GLOSSY_T], optf[KL.F_GLOSSY_CLAMP] = threshold, clamp
     optf[KL.F_ENV:] = cs.env_record

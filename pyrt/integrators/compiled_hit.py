@@ -6,6 +6,8 @@
 
 - every light by its own estimator (delta lights one shadow ray, area lights their light and BSDF samples under
   MIS, the environment light :func:`pyrt.integrators.compiled_lighting.env_hit`);
+- at a glossy hit the environment light by samples of its full map alone, weighted by the power heuristic against
+  the glossy rays (:func:`env_glossy`; :func:`escape_weight` weighs the environment the rays reach);
 - at a glossy hit (one that traces ``nb`` BSDF-sampled rays, :func:`spawn_glossy`) an area light whose visible
   emitter mesh is in the scene (:data:`pyrt.lights.compiled.TRACED`) by its light samples alone, weighted by the power
   heuristic against the ``nb`` glossy rays (which reach its mesh, :func:`emission_weight`); another area light by its
@@ -33,12 +35,13 @@ from pyrt.integrators.compiled_coverage import MASKS, shadow_walk  # noqa: E402
 from pyrt.integrators.compiled_diffs import _own  # noqa: E402
 from pyrt.integrators.compiled_diffs import push_ray  # noqa: E402
 from pyrt.integrators.compiled_layout import (  # noqa: E402
-    DIM_CHOOSE, DIM_GLOSSY, F_CUTOFF, F_GLOSSY_T, LANES, O_COVER, O_DIFFS, O_GLOSSY_DEPTH, O_GLOSSY_N, O_LAYERS,
+    DIM_CHOOSE, DIM_ENV, DIM_GLOSSY, F_CUTOFF, T_INF, F_GLOSSY_T, LANES, O_COVER, O_DIFFS, O_GLOSSY_DEPTH, O_GLOSSY_N, O_LAYERS,
     O_MAX_DEPTH, O_NLIGHTS, O_SELECT, O_TERMINATOR, STACK, STACK_PDF, STACK_ROW, V_D, V_GL, V_LIFT, V_MAG,
     V_MAG_LIFT, V_MAT, V_NG, V_NS, V_NV, V_P, _njit, lane_inputs, lane_vec)
 from pyrt.integrators.compiled_lighting import (  # noqa: E402
     area_bsdf_sample, area_light_weight, area_u, direct_light, env_hit)
 from pyrt.lights import compiled as LC  # noqa: E402
+from pyrt.lights import compiled_env as CE  # noqa: E402
 from pyrt.materials import compiled as MC  # noqa: E402
 from pyrt.materials import compiled_sampling as CS  # noqa: E402
 from pyrt.shaders import jit as J  # noqa: E402
@@ -130,6 +133,15 @@ def hit_light(scene, G, lights_tag, lights_par, nl, mats_par, tex_tag, tex_par, 
     for j in range(nl):
         jb = j * LC.RECORD
         ltag = lights_tag[j]
+        if ltag == LC.ENV and nb > 0:
+            # a glossy hit: the map's samples against the glossy rays (its own BSDF half is left to them), or nothing
+            # from a light that does not sample its map there (escaped glossy rays carry the environment)
+            if lights_par[jb + 2] != 0.0:
+                e = env_glossy(scene, etag, erec, edata, mtag, mats_par, m, albedo, p, ng, ns, nv, wo, lift, mag,
+                               mag_lift, terminator, hkey, int(lights_par[jb]), nb, ray_buf)
+                le0, le1, le2 = le0 + e[0], le1 + e[1], le2 + e[2]
+                n_sh += e[3]
+            continue
         if ltag == LC.ENV:
             e = env_hit(scene, etag, erec, edata, mtag, mats_par, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift,
                         terminator, hkey, int(lights_par[jb]), int(lights_par[jb + 1]), ray_buf)
@@ -169,6 +181,50 @@ def hit_light(scene, G, lights_tag, lights_par, nl, mats_par, tex_tag, tex_par, 
                 le1 += f[1] * inv
                 le2 += f[2] * inv
     return le0, le1, le2, n_sh
+
+
+@_own
+def env_glossy(scene, etag, erec, edata, mtag, mats_par, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift, terminator,
+               key, n_l, nb, ray_buf):
+    """The environment light at a glossy hit (:meth:`pyrt.integrators.glossy.GlossyIntegrator._env_light_sampling`):
+    ``n_l`` samples of the full map (:func:`pyrt.lights.compiled_env.sample`, the second number stratified over
+    them), ``f_cos L / pdf`` each, weighted by the power heuristic of ``n_l`` map samples against the ``nb`` glossy
+    rays; single shadow rays to infinity. Returns ``(r, g, b, shadow rays)``."""
+    fs, ft = CS.coordinate_frame(ns[0], ns[1], ns[2])
+    wol = CS.to_local(wo, fs, ft, ns)
+    l0 = l1 = l2 = 0.0
+    n_sh = 0
+    for s in range(n_l):
+        d = DIM_ENV + 4 * s
+        wx, wy, wz, pdf = CE.sample(etag, erec, edata, J.uniform(key, d), (s + J.uniform(key, d + 1)) / n_l)
+        if not pdf > 0.0:
+            continue
+        wi = (wx, wy, wz)
+        cg = dot(wi, ng)
+        if not (cg > 0.0 or dot(wi, nv) > 0.0):
+            continue
+        L = CE.radiance(etag, erec, edata, wx, wy, wz)
+        f = MC.f_cos(mtag, mats_par, m, albedo, dot(wo, ns), dot(wi, ns), dot(wi, wo))
+        if not max(f[0] * L[0], f[1] * L[1], f[2] * L[2]) > 0.0:
+            continue
+        wil = CS.to_local(wi, fs, ft, ns)
+        pdf_b = CS.pdf_wi(mtag, mats_par, m, albedo, wol[0], wol[1], wol[2], wil[0], wil[1], wil[2])
+        k = CS.power_heuristic(pdf, pdf_b, 2.0, float(n_l), float(nb)) / (pdf * n_l)
+        o = J.shadow_origin(p, ng, lift, mag, mag_lift, cg, terminator)
+        n_sh += 1
+        if not E.occluded1(scene, o[0], o[1], o[2], wx, wy, wz, 0.0, T_INF, ray_buf):
+            l0, l1, l2 = l0 + f[0] * L[0] * k, l1 + f[1] * L[1] * k, l2 + f[2] * L[2] * k
+    return l0, l1, l2, n_sh
+
+
+@_njit
+def escape_weight(etag, erec, edata, n_l, d, pdf):
+    """The MIS weight of the environment a glossy ray (density ``pdf``) reaches along ``d`` when an environment light
+    samples its map at glossy hits with ``n_l`` samples (:meth:`pyrt.integrators.glossy.GlossyIntegrator.
+    _escape_weight`; 1 for a delta ray or without such a light)."""
+    if n_l == 0 or not pdf > 0.0:
+        return 1.0
+    return CS.power_heuristic(pdf, CE.pdf(etag, erec, edata, d[0], d[1], d[2]), 2.0, 1.0, float(n_l))
 
 
 @_njit

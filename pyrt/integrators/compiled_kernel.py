@@ -43,14 +43,14 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK,
     O_GRID, F_CUTOFF, F_BG, N_PRIMARY, N_SECONDARY, O_COVER, O_LAYERS, V_SO, V_WI, V_TMAX,
     N_SHADOW, N_NONFINITE, STACK, STACK_ROW, STACK_PDF, T_INF, DIM_LOBE, O_GLOSSY_N, O_GLOSSY_DEPTH, O_SELECT,
-    F_GLOSSY_T, F_GLOSSY_CLAMP, V_GL,
+    F_GLOSSY_T, F_GLOSSY_CLAMP, V_GL, O_GLOSSY_ENV,
     ADAPTIVE_KEYS, O_ENV, O_AOV, O_SQ, N_AOV, V_T, O_DIFFS, TILES_PER_TASK, _njit, buffer_pointers,
     geometry_pointers, lane_vec, packet_buffers, release, set_lane_inputs, set_lane_vec, table_pointers)
 from pyrt.integrators import compiled_diffs as D  # noqa: E402
 from pyrt.integrators.compiled_coverage import (  # noqa: E402
     MASKS, cover_finish, cover_packet, cover_single, mask_shadows)
 from pyrt.integrators.compiled_hit import (  # noqa: E402
-    clamp_sampled, emission_weight, hit_light, is_glossy, lane_hit, push, set_aside, spawn_glossy)
+    clamp_sampled, emission_weight, escape_weight, hit_light, is_glossy, lane_hit, push, set_aside, spawn_glossy)
 from pyrt.integrators.compiled_surface import face_surfaces, with_ambient  # noqa: E402
 from pyrt.integrators.compiled_lighting import (  # noqa: E402
     area_bsdf_stage, area_mis_stage, area_stage, bsdf_stage, camera_fill, env_rounds, lambert_stage, light_stage,
@@ -174,6 +174,9 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
         if not hit:
             bg = CE.missed(etag, erec, edata, d0, d1, d2, False) if etag else (optf[F_BG], optf[F_BG + 1],
                                                                               optf[F_BG + 2])
+            if bpdf > 0.0:      # an escaped glossy ray: MIS against the map's samples at glossy hits
+                k = escape_weight(etag, erec, edata, opts[O_GLOSSY_ENV], (d0, d1, d2), bpdf)
+                bg = (bg[0] * k, bg[1] * k, bg[2] * k)
             r0 += thr[0] * bg[0]
             r1 += thr[1] * bg[1]
             r2 += thr[2] * bg[2]

@@ -70,8 +70,11 @@ O_COVER, O_LAYERS = 14, 15
 #: bounces that spawn glossy rays (``glossy_depth``); the bounce from which hits are lit by one chosen delta light
 #: (``light_select_depth``; -1: never)
 O_GLOSSY_N, O_GLOSSY_DEPTH, O_SELECT = 16, 17, 18
+#: the light samples per hit of the environment light whose map the glossy integrator samples at glossy hits (0: none;
+#: escaped glossy rays then count the environment with weight 1)
+O_GLOSSY_ENV = 19
 #: length of the integer options
-N_OPTS = 19
+N_OPTS = 20
 #: consecutive tiles of a call's list that one thread renders with one set of packet buffers
 #: (:func:`pyrt.integrators.compiled_kernel.render_tiles`; also the unit of the threads' dynamic scheduling)
 TILES_PER_TASK = 4

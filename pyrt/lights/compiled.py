@@ -15,7 +15,8 @@ DISK       as RECT with 15 radius (16 unused)
 SPHERE     0-2 centre, 6-8 radiance, 15 radius, 17 area, 18 samples per hit
            (every area light: 19 BSDF samples per hit, combined with the light samples by the power heuristic;
            20 1 where its visible emitter mesh is in the scene, :data:`TRACED`)
-ENV        0 light samples, 1 BSDF samples per hit (:class:`pyrt.EnvironmentLight` with ``strategy="mis"``)
+ENV        0 light samples, 1 BSDF samples per hit (:class:`pyrt.EnvironmentLight` with ``strategy="mis"``), 2 1 where
+           the glossy integrator samples its map at glossy hits (0: it leaves the environment to the glossy rays)
 =========  =====================================================================================================
 
 :func:`sample_li` is :meth:`pyrt.lights.PointLight.sample_li` (and the spot's and directional light's) for one

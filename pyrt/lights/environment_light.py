@@ -164,6 +164,7 @@ class EnvironmentLight(Light):
             return None
         rec = np.zeros(_compiled.RECORD)
         rec[0], rec[1] = self.n_samples, self.bsdf_samples
+        rec[2] = 1.0         # the glossy integrator samples its map at glossy hits
         return _compiled.ENV, rec
 
     def sample(self, p, u):
