@@ -14,7 +14,8 @@ the glTF metallic-roughness family (textured MetallicRoughness, opaque isotropic
 occlusion: :mod:`pyrt.materials.gltf_record`); tangent-space normal maps on meshes without vertex tangents; point
 and spot lights (every spot and distance falloff), directional lights; rectangle, disk and sphere lights (light
 samples stratified per hit and padded over a pixel's samples, BSDF samples beside them with MIS) with their visible
-meshes; constant and lat-long environments, seen by missed rays and lighting by ``strategy="mis"``; a constant
+meshes; constant and lat-long environments (and subclasses that declare it, the previewer's studio), seen by missed
+rays and lighting by ``strategy="mis"`` or ``"preview"`` (:mod:`pyrt.integrators.compiled_preview`); a constant
 background and ambient term; smooth and flat shading with or without the back-facing-normal fallback; the ``robust``
 and ``robust_no_terminator`` offsets; back-face culling (single-sided materials) and alpha masks (a constant or
 nearest / bilinear opacity, no environment light: :mod:`pyrt.integrators.compiled_coverage`); fixed spp and adaptive
@@ -41,7 +42,7 @@ from pyrt.integrators import kernel_cache
 from pyrt.integrators.coverage import MAX_LAYERS, MODE_BLEND, MODE_MASK, CoverageTable
 from pyrt.integrators.media import NestedMedia
 from pyrt.lights import compiled as LC
-from pyrt.lights import compiled_env
+from pyrt.lights import compiled_env, compiled_env_preview
 from pyrt.materials import compiled as MC
 from pyrt.materials.gltf_record import scalar_slot
 from pyrt.textures import compiled as TC
@@ -154,6 +155,13 @@ def _table(tags, records, width):
     return np.asarray(tags, dtype=np.int64), np.ascontiguousarray(np.stack(records), dtype=np.float64)
 
 
+def _preview_geometries(mats):
+    """The Smith terms (indices into :data:`pyrt.shaders.jit_brdfs.GEOMETRY_TERMS`) of the packed materials whose
+    split-sum tables the environment preview reads (METALLIC_ROUGHNESS: field 9, GLTF: field 19)."""
+    return {int(rec[9]) if tag == MC.METALLIC_ROUGHNESS else int(rec[19]) for tag, rec in mats
+            if tag in (MC.METALLIC_ROUGHNESS, MC.GLTF)}
+
+
 class CompiledScene:
     """A prepared scene as the compiled kernel's flat tables (build it only when :func:`unsupported` is empty).
 
@@ -202,6 +210,7 @@ class CompiledScene:
         env = ps.scene.environment
         env_light = next((lt for lt in ps.scene.lights if lt.environment is not None), None)
         packed = compiled_env.pack_environment(env, env_light) if env is not None else None
+        packed = compiled_env_preview.pack_preview(env, env_light, packed, _preview_geometries(mats))
         #: the environment (:func:`pyrt.lights.compiled_env.pack_environment`): tag (0: none), record, data
         self.env_tag, self.env_record, self.env_data = packed if packed is not None else (
             0, np.zeros(compiled_env.RECORD), np.zeros(1))
