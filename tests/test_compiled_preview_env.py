@@ -233,6 +233,19 @@ def test_constant_environment_preview():
     assert ci.max() > 0.1
 
 
+def test_adaptive_passes_under_the_studio_match_the_numpy_path():
+    """Jittered samples in adaptive passes: the preview draws no random numbers, so both paths place the same camera
+    samples (tests/test_compiled_adaptive.py), estimate the same errors and give the same image."""
+    scene = _scene(StudioEnvironment(width=64, height=32, intensity=0.9), width=32, height=24)
+    kw = dict(progress=False, seed=3, target_error=5e-3, split_depth=None, max_spp=32)
+    c = pyrt.render_full(scene, backend="compiled", **kw)
+    n = pyrt.render_full(scene, backend="numpy", **kw)
+    assert c.stats.backend == "compiled" and c.stats.fallback_reasons == [] and n.stats.backend == "numpy"
+    assert c.passes == n.passes > 1
+    np.testing.assert_array_equal(c.film.weight, n.film.weight)
+    np.testing.assert_allclose(c.image, n.image, rtol=1e-5, atol=1e-7)
+
+
 # ----------------------------------------------------------------------------------------- coverage
 
 def _previewer_scene():
