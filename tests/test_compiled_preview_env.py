@@ -17,6 +17,7 @@ import pytest
 import pyrt
 from pyrt.apps.preview.studio import STUDIO_PREVIEW_SAMPLES, StudioEnvironment
 from pyrt.integrators.compiled import unsupported
+from pyrt.io.assets.materials import GltfMaterial
 from pyrt.lights import compiled_env as CE
 from pyrt.lights import compiled_env_preview as CP
 from pyrt.lights.environment import LatLongEnvironment, procedural_sky
@@ -24,6 +25,7 @@ from pyrt.materials import preview as MP
 from pyrt.shaders import dfg
 from pyrt.shaders import jit_brdfs as JB
 from pyrt.shaders import jit_preview as JP
+from pyrt.textures import ChannelTexture, ImageTexture
 
 from test_compiled_gltf import _scene as gltf_scene
 
@@ -221,8 +223,13 @@ def test_rotated_sky_renders_as_on_the_numpy_path(method):
 def test_textured_gltf_materials_under_the_studio(rng):
     """tests/test_compiled_gltf.py's scene (a textured GltfMaterial with a packed occlusion-roughness-metallic map and
     occlusion, a textured GltfPBR, a normal-mapped GltfPBRMaterial, a mirror, a point and a directional light, ambient
-    light) lit by the studio too: the split sum with per-hit parameters and the occlusion."""
+    light) lit by the studio too: the split sum with per-hit parameters and the occlusion; and a black glTF sphere
+    with an occlusion map (its specular lobe alone carries the occlusion: the hit's last input)."""
     s = gltf_scene(rng)
+    occ = ImageTexture(rng.uniform(0.1, 1.0, (6, 6, 3)).astype(np.float32), srgb=False, filter="bilinear")
+    s.add_sphere((0.0, 0.3, 1.2), 0.3, GltfMaterial(base_color=0.0, metallic=0.0, roughness=0.4,
+                                                    occlusion=ChannelTexture(occ, 0), occlusion_strength=0.9),
+                 subdivisions=3)
     pyrt.set_environment(s, StudioEnvironment(width=64, height=32, intensity=0.6), lighting="preview",
                          preview_samples=STUDIO_PREVIEW_SAMPLES)
     _assert_equal_images(s, shadow_rays=1)

@@ -10,11 +10,8 @@ with the lobes of :mod:`pyrt.shaders.jit_preview`; every other material with a n
 compiled_sampling.sample_f`) of ``weight x prefiltered(wi, alpha(1 / (K pdf)))`` over samples above the geometric
 surface. The environment's side is :mod:`pyrt.lights.compiled_env_preview`.
 
-The glTF occlusion ``k = 1 + strength (occ - 1)`` the split sum multiplies by is not among the hit's inputs
-(:func:`pyrt.materials.compiled.gltf_inputs` gives ``albedo() = base k``): with a constant occlusion it is computed
-from the record, with an occlusion texture recovered as ``albedo / base`` on the largest base channel (within an ulp
-of ``k``); at a hit whose base colour is black there it is taken as 1 (the NumPy path multiplies the specular lobe
-of such a hit by ``k``: the one place the two paths differ by more than rounding).
+The glTF occlusion ``k = 1 + strength (occ - 1)`` the split sum multiplies by is the last of the hit's inputs
+(:func:`pyrt.materials.compiled.gltf_inputs`).
 
 :func:`preview_stage` lights the camera hits of a packet (lanes ``[0, n)``, added into the scratch's radiance);
 :func:`preview` one hit of the specular tree.
@@ -50,16 +47,7 @@ def split_sum(etag, erec, edata, mtag, mpars, m, albedo, ns, wo):
     else:
         br, bg, bb, metal, rough = albedo[3], albedo[4], albedo[5], albedo[6], albedo[7]
         geometry, model = int(mpars[b + 19]), mpars[b + 18]
-        if mpars[b + 14] < 0.0:
-            occ = 1.0 + mpars[b + 17] * (mpars[b + 15] - 1.0)
-        else:
-            c = 0
-            if bg > br and bg >= bb:
-                c = 1
-            elif bb > br and bb > bg:
-                c = 2
-            base = albedo[3 + c]
-            occ = albedo[c] / base if base > 0.0 else 1.0
+        occ = albedo[8]
     alpha = rough * rough
     mu = JP.view_cosine(wo, ns)
     e5 = CP.diffuse_loss(erec, edata, mu)
