@@ -9,14 +9,17 @@
   tree's hits), without a shadow ray;
 - :func:`pyrt.integrators.compiled.unsupported` no longer lists the studio or its light for the previewer's set-up.
 """
+import os
 import types
 
 import numpy as np
 import pytest
 
 import pyrt
+from pyrt.apps.preview.render import PreviewScene
 from pyrt.apps.preview.studio import STUDIO_PREVIEW_SAMPLES, StudioEnvironment
 from pyrt.integrators.compiled import unsupported
+from pyrt.io.assets import load_asset
 from pyrt.io.assets.materials import GltfMaterial
 from pyrt.lights import compiled_env as CE
 from pyrt.lights import compiled_env_preview as CP
@@ -30,6 +33,7 @@ from pyrt.textures import ChannelTexture, ImageTexture
 from test_compiled_gltf import _scene as gltf_scene
 
 RTOL = 1e-6
+DUCK = "/work/shared/khronos-gltf/Duck/Duck.glb"
 
 
 def _unit(v):
@@ -251,6 +255,20 @@ def test_adaptive_passes_under_the_studio_match_the_numpy_path():
     assert c.passes == n.passes > 1
     np.testing.assert_array_equal(c.film.weight, n.film.weight)
     np.testing.assert_allclose(c.image, n.image, rtol=1e-5, atol=1e-7)
+
+
+@pytest.mark.skipif(not os.path.exists(DUCK), reason="the shared Khronos models are not here")
+def test_the_previewers_duck_renders_as_on_the_numpy_path():
+    """The previewer's own scene (:class:`pyrt.apps.preview.render.PreviewScene`: the studio with the preview light,
+    the key / fill / rim rig, the ground, the backdrop) of the Khronos Duck, rendered with the Whitted integrator at
+    pixel centres: the compiled image is the NumPy path's."""
+    ps = PreviewScene(load_asset(DUCK))
+    ps._set_view(30.0)
+    cam = ps.scene.camera
+    ps.scene.camera = pyrt.Camera(position=cam.position, target=cam.target, up=cam.up, fov=cam.fov, width=64,
+                                  height=48, jitter=False)
+    assert ps.studio_environment and unsupported(None, scene=ps.scene) == []
+    _assert_equal_images(ps.scene, shadow_rays=1)
 
 
 # ----------------------------------------------------------------------------------------- coverage
