@@ -30,6 +30,7 @@ from pyrt.shaders import jit_brdfs as JB
 from pyrt.shaders import jit_preview as JP
 from pyrt.textures import ChannelTexture, ImageTexture
 
+from test_compiled_coverage import _leaves as coverage_leaves
 from test_compiled_gltf import _scene as gltf_scene
 
 RTOL = 1e-6
@@ -269,6 +270,16 @@ def test_the_previewers_duck_renders_as_on_the_numpy_path():
                                   height=48, jitter=False)
     assert ps.studio_environment and unsupported(None, scene=ps.scene) == []
     _assert_equal_images(ps.scene, shadow_rays=1)
+
+
+def test_alpha_masks_under_the_preview():
+    """The preview traces no shadow rays, so masked materials under it take the compiled path (camera and specular
+    rays pass the cut-outs as without an environment light): tests/test_compiled_coverage.py's leaves, the same
+    image."""
+    s = coverage_leaves(width=40, height=30)
+    pyrt.set_environment(s, StudioEnvironment(width=64, height=32, intensity=0.7), lighting="preview")
+    assert unsupported(None, scene=s) == []
+    _assert_equal_images(s, shadow_rays=1)
 
 
 # ----------------------------------------------------------------------------------------- coverage

@@ -18,7 +18,7 @@ meshes; constant and lat-long environments (and subclasses that declare it, the 
 rays and lighting by ``strategy="mis"`` or ``"preview"`` (:mod:`pyrt.integrators.compiled_preview`); a constant
 background and ambient term; smooth and flat shading with or without the back-facing-normal fallback; the ``robust``
 and ``robust_no_terminator`` offsets; back-face culling (single-sided materials) and alpha masks (a constant or
-nearest / bilinear opacity, no environment light: :mod:`pyrt.integrators.compiled_coverage`); fixed spp and adaptive
+nearest / bilinear opacity, no environment light but a preview: :mod:`pyrt.integrators.compiled_coverage`); fixed spp and adaptive
 passes (:func:`render_pixels`). Not yet: other environments and strategies, emissive-mesh lights, the other
 materials (and vertex colours), anisotropic and bicubic texture filters, normal maps on meshes with vertex tangents,
 alpha blending, nested media, transparent shadows, the glossy integrator and ray recording (AOVs: fixed spp, not on
@@ -43,6 +43,7 @@ from pyrt.integrators.coverage import MAX_LAYERS, MODE_BLEND, MODE_MASK, Coverag
 from pyrt.integrators.media import NestedMedia
 from pyrt.lights import compiled as LC
 from pyrt.lights import compiled_env, compiled_env_preview
+from pyrt.lights.environment_light import EnvironmentLight
 from pyrt.materials import compiled as MC
 from pyrt.materials.gltf_record import scalar_slot
 from pyrt.textures import compiled as TC
@@ -86,7 +87,7 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
     cover = facts.coverage
     if cover is not None and np.any(cover.mode == MODE_BLEND):
         reasons.append("alpha coverage (blend materials)")
-    if cover is not None and np.any(cover.mode == MODE_MASK) and any(lt.environment is not None for lt in scene.lights):
+    if cover is not None and np.any(cover.mode == MODE_MASK) and any(_traces_environment(lt) for lt in scene.lights):
         reasons.append("alpha masks with an environment light")
     if facts.media is not None:
         reasons.append("nested dielectrics or absorption")
@@ -112,6 +113,13 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
             reasons.append(f"light {lt.label} (lights with an environment other than the scene's)")
 
     return reasons
+
+
+def _traces_environment(light):
+    """True for a light that traces shadow rays toward an environment (an :class:`pyrt.EnvironmentLight` but with
+    ``strategy="preview"``, which traces none: masks then only cut camera and specular rays, which the kernel
+    covers)."""
+    return light.environment is not None and not (isinstance(light, EnvironmentLight) and light.strategy == "preview")
 
 
 class _SceneFacts:
