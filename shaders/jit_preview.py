@@ -13,7 +13,7 @@ import math
 
 from numba.extending import register_jitable
 
-from .brdfs import GLTF_DIELECTRIC_F0
+from .jit_brdfs import GLTF_DIELECTRIC_F0
 
 #: :mod:`shaders.envmap`'s SH constants (R&H 2001 eq. 3, closed form)
 SH_C0 = 0.5 / math.sqrt(math.pi)
