@@ -163,3 +163,16 @@ def test_glossy_reasons():
         "the glossy integrator with a visible emitter mesh shared by several area lights"]
     r = pyrt.render_full(s, seed=0, execution=pyrt.Execution(progress=False), integrator=pyrt.Glossy())
     assert r.stats.backend == "numpy"
+
+
+def test_glossy_integrator_under_the_preview_environment_agrees_with_numpy():
+    """The previewer's set-up: the studio environment lighting by ``strategy="preview"`` (glossy hits take nothing
+    from it, escaped glossy rays carry it with weight 1), glossy rays, one of the delta lights chosen per glossy-ray
+    hit."""
+    from pyrt.apps.preview.studio import StudioEnvironment
+    s = _scene(area=False)
+    env = StudioEnvironment(intensity=0.5)
+    s.environment = env
+    pyrt.lights.set_environment(s, env, lighting="preview")
+    assert compiled.glossy_reasons(s) == []
+    _assert_agree(s, integrator=pyrt.Glossy(samples=4, depth=2, light_select_depth=1))

@@ -123,7 +123,7 @@ def _inputs_many(rec, tex_tag, tex_par, uv, out, em):
     for k in range(uv.shape[0]):
         a = MC.albedo_at(MC.GLTF, rec, 0, tex_tag, tex_par, uv[k, 0], uv[k, 1], (0.0, 0.0, 0.0, 0.0))
         e = MC.emission_at(MC.GLTF, rec, 0, False, tex_tag, tex_par, uv[k, 0], uv[k, 1], (0.0, 0.0, 0.0, 0.0))
-        for c in range(8):
+        for c in range(9):
             out[k, c] = a[c]
         em[k, 0], em[k, 1], em[k, 2] = e
 
@@ -148,13 +148,14 @@ def test_the_slots_are_the_factors_times_the_numpy_lookups(rng):
     assert tag == MC.GLTF and len(packer.tags) == 3           # the packed map is one row of the table
     tex_tag, tex_par = TC.pack_table(packer.tags, packer.records, packer.texels)
     uv = rng.uniform(-0.5, 1.5, (500, 2))
-    got, em = np.zeros((500, 8)), np.zeros((500, 3))
+    got, em = np.zeros((500, 9)), np.zeros((500, 3))
     _inputs_many(np.ascontiguousarray(rec), tex_tag, tex_par.ravel(), uv, got, em)
     b = base.lookup(uv) * [0.9, 0.8, 0.7]
     o = orm.lookup(uv)
     occ = 1.0 + 0.7 * (o[:, 0] - 1.0)
     np.testing.assert_allclose(got[:, 3:6], b, rtol=1e-6)
     np.testing.assert_allclose(got[:, 0:3], b * occ[:, None], rtol=1e-6)
+    np.testing.assert_allclose(got[:, 8], occ, rtol=1e-6)                  # what the environment preview multiplies
     np.testing.assert_allclose(got[:, 6], 0.6 * o[:, 2], rtol=1e-6)
     np.testing.assert_allclose(got[:, 7], 0.9 * o[:, 1], rtol=1e-6)
     np.testing.assert_allclose(em, emit.lookup(uv) * [2.0, 1.0, 0.5], rtol=1e-6)

@@ -17,10 +17,11 @@ the glTF metallic-roughness family (textured MetallicRoughness, opaque isotropic
 occlusion: :mod:`pyrt.materials.gltf_record`); tangent-space normal maps on meshes without vertex tangents; point
 and spot lights (every spot and distance falloff), directional lights; rectangle, disk and sphere lights (light
 samples stratified per hit and padded over a pixel's samples, BSDF samples beside them with MIS) with their visible
-meshes; constant and lat-long environments, seen by missed rays and lighting by ``strategy="mis"``; a constant
+meshes; constant and lat-long environments (and subclasses that declare it, the previewer's studio), seen by missed
+rays and lighting by ``strategy="mis"`` or ``"preview"`` (:mod:`pyrt.integrators.compiled_preview`); a constant
 background and ambient term; smooth and flat shading with or without the back-facing-normal fallback; the ``robust``
 and ``robust_no_terminator`` offsets; back-face culling (single-sided materials) and alpha masks (a constant or
-nearest / bilinear opacity, no environment light: :mod:`pyrt.integrators.compiled_coverage`); fixed spp and adaptive
+nearest / bilinear opacity, no environment light but a preview: :mod:`pyrt.integrators.compiled_coverage`); fixed spp and adaptive
 passes (:func:`render_pixels`). Not yet: other environments and strategies, emissive-mesh lights, the other
 materials (and vertex colours), anisotropic and bicubic texture filters, normal maps on meshes with vertex tangents,
 alpha blending, nested media, transparent shadows and ray recording (AOVs: fixed spp, not on Dask workers; the
@@ -47,7 +48,8 @@ from pyrt.integrators.coverage import MAX_LAYERS, MODE_BLEND, MODE_MASK, Coverag
 from pyrt.integrators.glossy import ENV_LIGHT_SAMPLED, emitter_lights
 from pyrt.integrators.media import NestedMedia
 from pyrt.lights import compiled as LC
-from pyrt.lights import compiled_env
+from pyrt.lights import compiled_env, compiled_env_preview
+from pyrt.lights.environment_light import EnvironmentLight
 from pyrt.materials import compiled as MC
 from pyrt.materials.gltf_record import scalar_slot
 from pyrt.textures import compiled as TC
@@ -122,7 +124,7 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
     cover = facts.coverage
     if cover is not None and np.any(cover.mode == MODE_BLEND):
         reasons.append("alpha coverage (blend materials)")
-    if cover is not None and np.any(cover.mode == MODE_MASK) and any(lt.environment is not None for lt in scene.lights):
+    if cover is not None and np.any(cover.mode == MODE_MASK) and any(_traces_environment(lt) for lt in scene.lights):
         reasons.append("alpha masks with an environment light")
     if facts.media is not None:
         reasons.append("nested dielectrics or absorption")
@@ -148,6 +150,13 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
             reasons.append(f"light {lt.label} (lights with an environment other than the scene's)")
 
     return reasons
+
+
+def _traces_environment(light):
+    """True for a light that traces shadow rays toward an environment (an :class:`pyrt.EnvironmentLight` but with
+    ``strategy="preview"``, which traces none: masks then only cut camera and specular rays, which the kernel
+    covers)."""
+    return light.environment is not None and not (isinstance(light, EnvironmentLight) and light.strategy == "preview")
 
 
 class _SceneFacts:
@@ -189,6 +198,13 @@ def _table(tags, records, width):
     if not tags:
         return np.zeros(1, dtype=np.int64), np.zeros((1, width))
     return np.asarray(tags, dtype=np.int64), np.ascontiguousarray(np.stack(records), dtype=np.float64)
+
+
+def _preview_geometries(mats):
+    """The Smith terms (indices into :data:`pyrt.shaders.jit_brdfs.GEOMETRY_TERMS`) of the packed materials whose
+    split-sum tables the environment preview reads (METALLIC_ROUGHNESS: field 9, GLTF: field 19)."""
+    return {int(rec[9]) if tag == MC.METALLIC_ROUGHNESS else int(rec[19]) for tag, rec in mats
+            if tag in (MC.METALLIC_ROUGHNESS, MC.GLTF)}
 
 
 class CompiledScene:
@@ -249,6 +265,7 @@ class CompiledScene:
         env = ps.scene.environment
         env_light = next((lt for lt in ps.scene.lights if lt.environment is not None), None)
         packed = compiled_env.pack_environment(env, env_light) if env is not None else None
+        packed = compiled_env_preview.pack_preview(env, env_light, packed, _preview_geometries(mats))
         #: the environment (:func:`pyrt.lights.compiled_env.pack_environment`): tag (0: none), record, data
         self.env_tag, self.env_record, self.env_data = packed if packed is not None else (
             0, np.zeros(compiled_env.RECORD), np.zeros(1))

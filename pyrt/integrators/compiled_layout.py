@@ -44,16 +44,17 @@ V_RAY, V_DP = 45, 57
 #: direction, BSDF weight, direction in the environment's frame, density, lat-long (u, v), whether it counts
 V_EWI, V_EW, V_ELOC, V_EPDF, V_EUV, V_EOK = 69, 72, 75, 78, 79, 81
 #: the rest of a hit's inputs after its albedo (:func:`pyrt.materials.compiled.albedo_at`): GLTF's base colour,
-#: metallic and roughness (written for GLTF hits only, read only for them: :func:`lane_inputs`)
+#: metallic, roughness and occlusion (written for GLTF hits only, read only for them: :func:`lane_inputs`)
 V_X = 82
 #: the environment's light samples in the packet stage (:mod:`pyrt.integrators.compiled_env_stage`): the two
 #: sample numbers, the table cell (row, column), the in-cell offsets, the cell's four corner luminances, its func
-V_EU, V_ECELL, V_EFF, V_ECORNER, V_EFN = 87, 89, 91, 93, 97
-#: 1 where the camera hit is lit and continued lane by lane (:func:`pyrt.integrators.compiled_hit.hit_light`: a
-#: glossy hit of the glossy integrator, or a hit lit by one chosen light), not by the packet's light stages
-V_GL = 98
+V_EU, V_ECELL, V_EFF, V_ECORNER, V_EFN = 88, 90, 92, 94, 98
+#: the material (plus one) of a camera hit that is lit and continued lane by lane (:func:`pyrt.integrators.
+#: compiled_hit.set_aside`: a glossy hit of the glossy integrator, or a hit lit by one chosen light), not by the
+#: packet's light stages; 0 elsewhere
+V_GL = 99
 #: fields of the scratch
-V_SIZE = 99
+V_SIZE = 100
 #: camera record layout (float64)
 C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W, C_H, C_JITTER, C_K, C_AX = 0, 3, 6, 9, 12, 13, 14, 15, 16, 17
 #: length of the camera record
@@ -131,11 +132,11 @@ def lane_vec(V, field, lane):
 
 @_njit
 def lane_inputs(V, lane):
-    """The hit inputs (an 8-tuple, :func:`pyrt.materials.compiled.albedo_at`) of lane ``lane``: :data:`V_A` and
+    """The hit inputs (a 9-tuple, :func:`pyrt.materials.compiled.albedo_at`) of lane ``lane``: :data:`V_A` and
     :data:`V_X` (stale for a lane whose material is not GLTF: not read then)."""
     return (V[V_A * LANES + lane], V[(V_A + 1) * LANES + lane], V[(V_A + 2) * LANES + lane], V[V_X * LANES + lane],
             V[(V_X + 1) * LANES + lane], V[(V_X + 2) * LANES + lane], V[(V_X + 3) * LANES + lane],
-            V[(V_X + 4) * LANES + lane])
+            V[(V_X + 4) * LANES + lane], V[(V_X + 5) * LANES + lane])
 
 
 @_njit
@@ -145,7 +146,7 @@ def set_lane_inputs(V, lane, a, gltf):
     V[(V_A + 1) * LANES + lane] = a[1]
     V[(V_A + 2) * LANES + lane] = a[2]
     if gltf:
-        for k in range(5):
+        for k in range(6):
             V[(V_X + k) * LANES + lane] = a[3 + k]
 
 

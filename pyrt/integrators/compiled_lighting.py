@@ -7,7 +7,7 @@ irradiance scale and shadow ray into the scratch; :func:`shadow_fill` copies the
 :func:`bsdf_stage` evaluates the BSDF and switches on the lanes whose ray is worth tracing. :func:`direct_light` is
 the same estimate for one hit of the specular tree (single rays). The environment light (``strategy="mis"``) has a
 stage of its own, :func:`env_stage` (:func:`env_sample` per lane, one technique at a time: its light samples and
-its BSDF samples, MIS-weighted).
+its BSDF samples, MIS-weighted); ``strategy="preview"`` is :mod:`pyrt.integrators.compiled_preview`'s.
 """
 from __future__ import annotations
 
@@ -21,6 +21,7 @@ kernel_cache.use_cache_dir()      # before the decorators below run
 
 from pyrt.core import unmanaged as U  # noqa: E402
 from pyrt.integrators import compiled_env_stage as ES  # noqa: E402
+from pyrt.integrators import compiled_preview as PV  # noqa: E402
 from pyrt.geometry import embree_jit as E  # noqa: E402
 from pyrt.integrators.compiled_layout import (  # noqa: E402
     LANES, V_D, V_P, V_NG, V_NS, V_NV,
@@ -490,6 +491,9 @@ def env_hit(scene, etag, erec, edata, mtag, mats_par, m, albedo, p, ng, ns, nv, 
     (:func:`env_sample`; round ``s`` draws the light sample's numbers, then the
     BSDF sample's, each second number stratified over its technique's rounds), single shadow rays; returns
     ``(r, g, b, shadow rays)``."""
+    if erec[CE.R_PREVIEW] != 0.0:       # strategy="preview": no samples, no shadow rays
+        e = PV.preview(etag, erec, edata, mtag, mats_par, m, albedo, ng, ns, wo)
+        return e[0], e[1], e[2], 0.0
     a0 = a1 = a2 = 0.0
     b0 = b1 = b2 = 0.0
     n_sh = 0
@@ -520,7 +524,11 @@ def env_rounds(scene, etag, erec, edata, mats_tag, mats_par, V, n, terminator, p
     sample (while the round is below ``n_l``) then the BSDF technique's (below ``n_b``), each a masked occlusion
     query of the packet (:func:`env_stage`); their values divided by their
     technique's count added into :data:`V_L`. Returns the next free padded dimension pair (one per sample drawn,
-    in the NumPy path's order)."""
+    in the NumPy path's order). ``strategy="preview"``: :func:`pyrt.integrators.compiled_preview.preview_stage`
+    (no random numbers: the same ``pair`` returned)."""
+    if erec[CE.R_PREVIEW] != 0.0:
+        PV.preview_stage(etag, erec, edata, mats_tag, mats_par, V, n)
+        return pair
     for s in range(max(n_l, n_b)):
         for tech in range(2):
             count = n_l if tech == 0 else n_b

@@ -27,11 +27,12 @@ import llvmlite
 import numba
 
 #: the modules whose source the compiled kernels are built from (their hash names the cache directory)
-KERNEL_SOURCES = ("pyrt.shaders.jit", "pyrt.shaders.jit_brdfs", "pyrt.shaders.jit_sampling", "pyrt.core.unmanaged",
+KERNEL_SOURCES = ("pyrt.shaders.jit", "pyrt.shaders.jit_brdfs", "pyrt.shaders.jit_sampling", "pyrt.shaders.jit_preview",
+                  "pyrt.core.unmanaged",
                   "pyrt.geometry.embree_jit", "pyrt.textures.compiled_mip", "pyrt.textures.compiled",
                   "pyrt.textures.compiled_normal_map", "pyrt.materials.compiled", "pyrt.integrators.compiled_coverage",
                   "pyrt.materials.compiled_sampling", "pyrt.lights.compiled", "pyrt.lights.compiled_tables",
-                  "pyrt.lights.compiled_env",
+                  "pyrt.lights.compiled_env", "pyrt.lights.compiled_env_preview", "pyrt.integrators.compiled_preview",
                   "pyrt.integrators.compiled_layout", "pyrt.integrators.compiled_diffs",
                   "pyrt.integrators.compiled_env_stage", "pyrt.integrators.compiled_lighting",
                   "pyrt.integrators.compiled_hit",

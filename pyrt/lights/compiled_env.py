@@ -2,7 +2,8 @@
 
 :func:`pack_environment` turns a :class:`pyrt.ConstantEnvironment` or a :class:`pyrt.LatLongEnvironment` (either
 filter) and, optionally, the :class:`pyrt.EnvironmentLight` that lights with it into ``(tag, record, data)``; any
-other environment (cube maps, light probes, subclasses) gives None (the render then takes the NumPy path). The
+other environment (cube maps, light probes, subclasses that do not declare their ``compiled_kind``) gives None (the
+render then takes the NumPy path). The
 functions below are ``numba.extending.register_jitable``: callable from nopython code and from plain Python; each
 is the scalar form of the NumPy method named in its docstring, for ONE direction or ONE ``u``, and
 tests/test_compiled_env.py holds each to it (1e-6 relative; the same ``u`` gives the same direction and pdf) and
@@ -29,6 +30,8 @@ The record (float64, :data:`RECORD` entries; names are the offsets):
                     compensated table exists (0: the light half of MIS has density 0 everywhere)
 ``R_IMAGE``...      offsets into ``data`` of the image (``R_IMAGE``), the luminance (``R_LUM``), the full table
                     (``R_TABLE``) and the compensated table (``R_C_TABLE``)
+``R_PREVIEW``...    ``strategy="preview"``: its method and the offsets of its tables in ``data``
+                    (:mod:`pyrt.lights.compiled_env_preview`, which appends them)
 ==================  =================================================================================================
 
 ``data`` (float64, flat): the image ``(H, W, 3)`` row-major; for bilinear maps the clamped luminance ``(H, W)`` (the
@@ -53,7 +56,6 @@ from pyrt.core import unmanaged as U
 from pyrt.shaders import jit as J
 
 from pyrt.lights.compiled_tables import BELOW_ONE, cell_pdf, guide_table, sample_cells
-from pyrt.lights.environment import ConstantEnvironment, LatLongEnvironment
 from pyrt.materials.compiled_sampling import power_heuristic, square_to_uniform_sphere
 
 #: tags (0: no environment)
@@ -65,6 +67,8 @@ R_H, R_W, R_ROWS, R_F32 = 17, 18, 19, 20
 R_COMPENSATE, R_BETA, R_NL, R_NB = 21, 22, 23, 24
 R_INTEGRAL, R_C_INTEGRAL, R_HAS_C = 25, 26, 27
 R_IMAGE, R_LUM, R_TABLE, R_C_TABLE = 28, 29, 30, 31
+#: the preview's entries (:mod:`pyrt.lights.compiled_env_preview`; all 0 under ``strategy="mis"``)
+R_PREVIEW, R_PK, R_SH, R_MAPS, R_NLEVELS, R_HAM, R_E5, R_DFG = 32, 33, 34, 35, 36, 37, 38, 39
 
 INV_2PI2 = 1.0 / (2.0 * math.pi * math.pi)
 INV_4PI = 1.0 / (4.0 * math.pi)
@@ -109,15 +113,19 @@ def _packed_data(env, bilinear, dist, comp):
 
 
 def packable(env):
-    """True when :func:`pack_environment` gives ``env`` a compiled form: a :class:`pyrt.ConstantEnvironment` or a
-    :class:`pyrt.LatLongEnvironment` (bilinear or nearest) itself, not a subclass."""
-    return type(env) is ConstantEnvironment or (type(env) is LatLongEnvironment
-                                                 and env.filter in ("bilinear", "nearest"))
+    """True when :func:`pack_environment` gives ``env`` a compiled form: its class declares
+    :attr:`pyrt.lights.environment.Environment.compiled_kind` ``"constant"`` (:class:`pyrt.ConstantEnvironment`) or
+    ``"latlong"`` (:class:`pyrt.LatLongEnvironment`, bilinear or nearest, and subclasses that declare it again, such
+    as the previewer's ``StudioEnvironment``, which only builds its prefiltered stack its own way). The attribute is
+    not inherited: a subclass that overrides the radiance or the sampling is not taken for its base (no method
+    comparison: what the kernel reads is declared, not probed); the preview reads every subclass's own SH and
+    prefiltered stack (:mod:`pyrt.lights.compiled_env_preview`)."""
+    return env.compiled_kind == "constant" or (env.compiled_kind == "latlong" and env.filter in ("bilinear", "nearest"))
 
 
 def pack_environment(env, light=None):
     """``(tag, record, data)`` of ``env`` for the compiled kernel (module docstring), or None when it has no compiled
-    form (only :class:`pyrt.ConstantEnvironment` and :class:`pyrt.LatLongEnvironment` themselves, not subclasses).
+    form (:func:`packable`).
 
     ``light``: the :class:`pyrt.EnvironmentLight` lighting with ``env`` (its ``compensate``, ``heuristic``,
     ``n_samples`` and ``bsdf_samples`` go into the record), or None (no compensation, power heuristic, 1 + 1).
@@ -137,7 +145,7 @@ def pack_environment(env, light=None):
         rec[R_BETA] = 2.0 if light.heuristic == "power" else 1.0
         if light.n_samples != light.bsdf_samples:
             rec[R_NL], rec[R_NB] = light.n_samples, light.bsdf_samples
-    if type(env) is ConstantEnvironment:
+    if env.compiled_kind == "constant":
         rec[R_COLOR:R_COLOR + 3] = np.broadcast_to(np.asarray(env.color, dtype=np.float64), (3,))
         return CONSTANT, rec, np.zeros(1)
     if not packable(env):

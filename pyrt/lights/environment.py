@@ -50,7 +50,6 @@ import numpy as np
 
 from pyrt.shaders import envmap as K
 from pyrt.shaders import sampling
-from pyrt.shaders import textures as _tex
 from pyrt.shaders.distribution import compensated_weights
 
 from pyrt.core import checks
@@ -189,6 +188,13 @@ class Environment:
     background = np.zeros(3)
     #: lat-long (H, W) texels that resolve the radiance (:meth:`irradiance`'s quadrature); None: it is constant
     radiance_resolution = (128, 256)
+    #: how the compiled kernel reads the class (:func:`pyrt.lights.compiled_env.packable`): "constant", "latlong" or
+    #: None. Not inherited (a subclass that changes what the kernel reads must not pass for its base): declare it
+    compiled_kind = None
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        cls.compiled_kind = cls.__dict__.get("compiled_kind")
 
     @classmethod
     def example(cls):
@@ -275,12 +281,16 @@ class Environment:
         cached quadrature of :mod:`pyrt.lights.irradiance` (<= 5e-4 relative; constant radiance: ``pi L`` exactly)."""
         return unshadowed_irradiance(self, n)
 
-    def prefiltered(self, d, alpha):
-        """Radiance prefiltered with a GGX lobe of width ``alpha`` (N,) around world directions ``d``."""
+    def prefiltered_maps(self):
+        """:meth:`prefiltered`'s stack, one (H_k, W_k, 3) float64 map per :data:`PREFILTER_ALPHAS` (built once)."""
         if self._prefiltered is None:
             self._prefiltered = self._build_prefiltered()
-        maps = self._prefiltered
-        return self.intensity * K.roughness_map_lookup(maps, PREFILTER_ALPHAS, self.to_local(d), alpha)
+        return self._prefiltered
+
+    def prefiltered(self, d, alpha):
+        """Radiance prefiltered with a GGX lobe of width ``alpha`` (N,) around world directions ``d``."""
+        return self.intensity * K.roughness_map_lookup(self.prefiltered_maps(), PREFILTER_ALPHAS, self.to_local(d),
+                                                       alpha)
 
     def mean_radiance(self):
         """Average radiance over the sphere (3,) (= SH band 0 / sqrt(4 pi) * ...)."""
@@ -327,6 +337,8 @@ ENVIRONMENTS = Registry("environment", Environment)
 class ConstantEnvironment(Environment):
     """Uniform radiance ``color * intensity`` from every direction (the white-furnace environment)."""
 
+    compiled_kind = "constant"
+
     color = checks.Fixed('the cached irradiance coefficients derive from it')
     def __init__(self, color=1.0, *, intensity=1.0, rotate=None, hide_background=False, background=0.0, name=None):
         super().__init__(intensity=intensity, rotate=rotate, hide_background=hide_background,
@@ -355,21 +367,8 @@ class ConstantEnvironment(Environment):
 
 
 def _prefilter_stack(image):
-    """Roughness-indexed stack for :data:`PREFILTER_ALPHAS`: level 0 = the image, then GGX-prefiltered maps.
-
-    Output texels about ``alpha / 2`` wide (``W_o = 2^ceil(log2(4 pi / alpha))``, between 32 and the
-    source width), source read through an exact-box MIP pyramid; 128 Hammersley samples per texel.
-    About 2.5 s for a 256 x 128 source.
-    """
-    img = np.asarray(image, dtype=np.float64)
-    h, w = img.shape[:2]
-    levels = [_tex.build_mip_level(img, lv) for lv in range(_tex.n_mip_levels(img.shape))]
-    maps = [img]
-    for a in PREFILTER_ALPHAS[1:]:
-        wo = int(min(w, max(32, 2 ** math.ceil(math.log2(4.0 * math.pi / a)))))
-        ho = max(16, wo // 2)
-        maps.append(K.prefilter_latlong_ggx(levels, a, (ho, wo), n_samples=128))
-    return maps
+    """:func:`pyrt.shaders.envmap.prefilter_stack` of ``image`` for :data:`PREFILTER_ALPHAS` (128 samples a texel)."""
+    return K.prefilter_stack(image, PREFILTER_ALPHAS)
 
 
 class LatLongTable(Environment):
@@ -415,6 +414,7 @@ class LatLongEnvironment(BilinearSampling, LatLongTable):
     """
 
     image, filter = checks.Fixed("the sampling tables derive from it"), checks.Fixed("the sampling table too")
+    compiled_kind = "latlong"
 
     @classmethod
     def example(cls):

@@ -158,13 +158,16 @@ class EnvironmentLight(Light):
                 raise EnvironmentMapError(f"{self.label}: {nm} must be true or false, got {v!r}")
 
     def compiled_record(self):
-        """:data:`pyrt.lights.compiled.ENV` for ``strategy="mis"`` without the control variate, over an environment the
-        kernel can read (:func:`pyrt.lights.compiled_env.pack_environment`); None otherwise."""
-        if self.strategy != "mis" or self.control_variate or not _compiled_env.packable(self.environment):
+        """:data:`pyrt.lights.compiled.ENV` for ``strategy="mis"`` without the control variate and for
+        ``strategy="preview"`` (either method; the control variate does not apply to it), over an environment the
+        kernel can read (:func:`pyrt.lights.compiled_env.pack_environment`; the preview's tables:
+        :mod:`pyrt.lights.compiled_env_preview`); None otherwise."""
+        mis = self.strategy == "mis" and not self.control_variate
+        if not (mis or self.strategy == "preview") or not _compiled_env.packable(self.environment):
             return None
         rec = np.zeros(_compiled.RECORD)
         rec[0], rec[1] = self.n_samples, self.bsdf_samples
-        rec[2] = 1.0         # the glossy integrator samples its map at glossy hits
+        rec[2] = 1.0 if mis else 0.0     # the glossy integrator samples the map at glossy hits (not the preview's)
         return _compiled.ENV, rec
 
     def sample(self, p, u):

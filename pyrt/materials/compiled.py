@@ -36,9 +36,9 @@ The models after BLINN_PHONG but GLTF have constant parameters only (a textured 
 are the scalar twins in :mod:`pyrt.shaders.jit_brdfs`, held to the NumPy materials' ``f_cos`` by
 tests/test_jit_brdfs.py (GLTF's: tests/test_compiled_gltf.py).
 
-A hit's *inputs* (:func:`albedo_at`) are an 8-tuple: its ``albedo()`` (what the ambient term and the albedo AOV
-read; Lambert's albedo, Blinn-Phong's kd), then GLTF's per-hit base colour, metallic and roughness (zeros for the
-other tags). The BSDF functions take them as ``albedo``.
+A hit's *inputs* (:func:`albedo_at`) are a 9-tuple: its ``albedo()`` (what the ambient term and the albedo AOV
+read; Lambert's albedo, Blinn-Phong's kd), then GLTF's per-hit base colour, metallic, roughness and occlusion factor
+``1 + strength (occ - 1)`` (what the environment preview multiplies; zeros for the other tags). The BSDF functions take them as ``albedo``.
 
 The kernel reads the record table through its flat data (:func:`pyrt.core.unmanaged.pointer`: material ``m``'s
 record at ``pars[m * RECORD:]``; a pointer binds no array, so the per-sample code pays no reference counting).
@@ -191,15 +191,15 @@ def albedo_constant(tag, pars, m):
 
 @register_jitable(forceinline=True)
 def albedo_at(tag, pars, m, tex_tag, tex_par, u, v, fp):
-    """The hit's inputs (module notes: an 8-tuple) of material ``m`` at uv ``(u, v)`` with the UV footprint ``fp``
+    """The hit's inputs (module notes: a 9-tuple) of material ``m`` at uv ``(u, v)`` with the UV footprint ``fp``
     (zeros: none): the diffuse colour (Lambert albedo, Blinn-Phong kd, the library models' constant ``albedo()``,
-    GLTF's :func:`gltf_inputs`; zeros for the others), then GLTF's base colour, metallic and roughness."""
+    GLTF's :func:`gltf_inputs`; zeros for the others), then GLTF's base colour, metallic, roughness and occlusion."""
     if tag == GLTF:
         return gltf_inputs(pars, m * RECORD, tex_tag, tex_par, u, v, fp)
     if tag == LAMBERT or tag == BLINN_PHONG or CONDUCTOR <= tag <= METALLIC_ROUGHNESS:
         a = color_slot(pars, m, 0, tex_tag, tex_par, u, v, fp)
-        return a[0], a[1], a[2], 0.0, 0.0, 0.0, 0.0, 0.0
-    return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        return a[0], a[1], a[2], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
 
 
 @register_jitable(forceinline=True)
@@ -231,8 +231,8 @@ def slot_scalar(pars, b, rgb):
 
 @register_jitable
 def gltf_inputs(pars, b, tex_tag, tex_par, u, v, fp):
-    """The inputs (an 8-tuple) of the GLTF record at ``pars[b:]``: ``albedo() = base (1 + s (occ - 1))`` (with an
-    occlusion texture), the base colour, metallic and roughness; one lookup per texture row (metallic and roughness
+    """The inputs (a 9-tuple) of the GLTF record at ``pars[b:]``: ``albedo() = base k``, ``k = 1 + s (occ - 1)``
+    (with an occlusion texture; else 1), the base colour, metallic, roughness and ``k``; one lookup per texture row (metallic and roughness
     from one packed map read it once)."""
     br, bg, bb = scaled_slot(pars, b, tex_tag, tex_par, u, v, fp)
     none = (0.0, 0.0, 0.0)
@@ -241,10 +241,10 @@ def gltf_inputs(pars, b, tex_tag, tex_par, u, v, fp):
     rgb_r = rgb_m if t_r == t_m else (texture_rgb(tex_tag, tex_par, t_r, u, v, fp) if t_r >= 0 else none)
     metal, rough = slot_scalar(pars, b + 4, rgb_m), slot_scalar(pars, b + 7, rgb_r)
     if t_o < 0:
-        return br, bg, bb, br, bg, bb, metal, rough
+        return br, bg, bb, br, bg, bb, metal, rough, 1.0
     rgb_o = rgb_m if t_o == t_m else (rgb_r if t_o == t_r else texture_rgb(tex_tag, tex_par, t_o, u, v, fp))
     k = 1.0 + pars[b + 17] * (slot_scalar(pars, b + 14, rgb_o) - 1.0)
-    return br * k, bg * k, bb * k, br, bg, bb, metal, rough
+    return br * k, bg * k, bb * k, br, bg, bb, metal, rough, k
 
 
 @register_jitable

@@ -79,6 +79,17 @@ def _e5():
     return t["E5"] if "E5" in t else dfg.schlick_diffuse_loss_table()
 
 
+def specular_tables(geometry):
+    """``(A, B)`` (32, 32) each: the tables :func:`schlick_albedo` reads for the Smith term ``geometry`` (shipped, or
+    built once per process); the compiled preview packs these (:mod:`pyrt.lights.compiled_env_preview`)."""
+    return _ab(geometry)
+
+
+def diffuse_loss_table():
+    """``E5`` (32,): the table :func:`schlick_diffuse_loss` reads."""
+    return _e5()
+
+
 def write_tables(path=TABLES_FILE):
     """Build the shipped tables (:data:`SHIPPED_GEOMETRIES`, E5) and write them to ``path`` (tools/make_tables.py)."""
     arrays = {"E5": dfg.schlick_diffuse_loss_table()}

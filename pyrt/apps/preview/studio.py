@@ -96,6 +96,10 @@ class StudioEnvironment(LatLongEnvironment):
     maximum of the engine's stack at every width (tests/test_preview_studio.py).
     """
 
+    #: the kernel reads it as any lat-long map (:func:`pyrt.lights.compiled_env.packable`): only the prefiltered
+    #: stack's build differs, and the compiled preview packs the stack this class builds
+    compiled_kind = "latlong"
+
     def __init__(self, *, width=256, height=128, intensity=1.0, name="studio"):
         super().__init__(studio_environment_image(width, height), intensity=intensity, name=name)
 
