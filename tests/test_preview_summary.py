@@ -25,7 +25,7 @@ def _line(capsys):
 def test_summary_line_gives_the_spp_of_a_fixed_render(tmp_path, capsys):
     assert P.main([BLOB, "-o", str(tmp_path / "v.png"), "--width", "24", "--height", "18", "--spp", "2"]) == 0
     line = _line(capsys)
-    assert ", 2 spp, exposure" in line and "relMSE" not in line
+    assert (", 2 spp, compiled path, exposure" in line or ", 2 spp, NumPy path, exposure" in line) and "relMSE" not in line
 
 
 def test_summary_line_gives_the_spp_and_error_an_adaptive_render_reached(tmp_path, capsys):
@@ -104,3 +104,22 @@ def test_previewer_reports_precision_warnings_as_its_own_lines(tmp_path):
         ps = P.PreviewScene(pyrt.load_asset(str(path)), P.PreviewOptions(width=8, height=8, spp=1))
         ps.close()
     assert any("float32 steps" in w for w in ps.warnings)
+
+
+def test_summary_line_names_the_render_path(tmp_path, capsys):
+    """A model the compiled kernel covers (an OBJ under the studio rig) says so on the summary line."""
+    obj = tmp_path / "tri.obj"
+    obj.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\n")
+    assert P.main([str(obj), "-o", str(tmp_path / "v.png"), "--width", "16", "--height", "12", "--spp", "1"]) == 0
+    line = _line(capsys)
+    assert ", 1 spp, compiled path, exposure" in line, line
+
+
+def test_backend_option_picks_the_render_path(tmp_path, capsys):
+    obj = tmp_path / "tri.obj"
+    obj.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\n")
+    assert P.main([str(obj), "-o", str(tmp_path / "v.png"), "--width", "16", "--height", "12", "--spp", "1",
+                   "--backend", "numpy"]) == 0
+    assert ", 1 spp, NumPy path, exposure" in _line(capsys)
+    with pytest.raises(P.PreviewError, match="backend must be one of"):
+        P.PreviewOptions(backend="gpu").validate()

@@ -21,6 +21,7 @@ from pyrt.io.assets.archive import split_member
 from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, ArgumentParser, check_output_folder, check_outputs,
                               finite_float, interrupts, nonnegative_int, positive_float, positive_int, process_age,
                               run_console)
+from pyrt.integrators.compiled import BACKENDS
 from pyrt.render.pool import PARALLEL
 from pyrt.apps.preview.options import AXES, PreviewError, PreviewInterrupted, PreviewOptions
 from pyrt.apps.preview.render import format_phases, format_sampling, render_preview, write_files
@@ -92,6 +93,8 @@ def _parser():
     ap.add_argument("--seed", type=nonnegative_int, default=0)
     ap.add_argument("--budget", type=positive_float, help="time budget per asset (s)")
     ap.add_argument("--threads", type=positive_int, help="render workers per asset (default: all cores)")
+    ap.add_argument("--backend", default="auto", choices=list(BACKENDS),
+                    help="render path (default auto: the compiled kernel where it covers the model, else NumPy)")
     ap.add_argument("--parallel", default="auto", choices=list(PARALLEL),
                     help="render workers as forked processes or threads (default auto: processes on Linux for renders of at least 16 chunks)")
     ap.add_argument("--root", metavar="DIR",
@@ -148,6 +151,7 @@ def _run(args, cancel, started=None):
                           exposure=args.exposure,
                           tonemap=args.tonemap, turntable=args.turntable, formats=formats, aovs=args.aovs,
                           seed=args.seed, time_budget=args.budget, threads=args.threads, parallel=args.parallel,
+                          backend=args.backend,
                           bvh_quality=args.bvh_quality, double_sided=args.double_sided, target_error=args.target_error,
                           max_spp=args.max_spp, max_texture=args.max_texture, glossy_clamp=args.glossy_clamp,
                           min_spp=args.min_spp, root=args.root).validate()

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 from pyrt.core.errors import Error
 from pyrt.core.image_io import TONEMAPS
+from pyrt.integrators.compiled import BACKENDS
 from pyrt.render.pool import PARALLEL
 
 
@@ -123,6 +124,9 @@ class PreviewOptions:
     #: what the workers are: pyrt.render_full's parallel ("auto": forked processes on Linux for renders of at least
     #: pyrt.render.pool.PROCESS_MIN_CHUNKS chunks, else threads)
     parallel: str = "auto"
+    #: the render path (pyrt.render_full's backend: "auto" the compiled kernel where it covers the model, "compiled"
+    #: an error where it does not, "numpy" the reference path)
+    backend: str = "auto"
     #: camera samples per render chunk (pyrt.render's chunk_samples, the same 32768 by default): a chunk's working
     #: set is ~4-6 kB per sample and each thread holds one. 16384 keeps the helmet-like model of
     #: tools/make_textured_model.py under 500 MB peak RSS on 2 threads (~450 against ~620 MB) but doubles the
@@ -220,6 +224,8 @@ class PreviewOptions:
                 raise PreviewError(f"{name} must be None or an integer >= 0, got {v!r}")
         if self.parallel not in PARALLEL:
             raise PreviewError(f"parallel must be one of {list(PARALLEL)}, got {self.parallel!r}")
+        if self.backend not in BACKENDS:
+            raise PreviewError(f"backend must be one of {list(BACKENDS)}, got {self.backend!r}")
         if self.bvh_quality not in ("auto", "low", "medium", "high"):
             raise PreviewError(f"bvh_quality must be 'auto', 'low', 'medium' or 'high', got {self.bvh_quality!r}")
         if self.time_budget is not None and not self.time_budget > 0:

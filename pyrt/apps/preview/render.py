@@ -263,6 +263,7 @@ class PreviewScene:
                 sampler=o.sampler)
             res = render_full(self.scene, seed=o.seed, integrator=integ, sampling=sampling, output=Output(aovs=aovs),
                               execution=Execution(progress=False, prepared=self.prepared, threads=o.threads,
+                                                  backend=o.backend,
                                                   parallel=o.parallel, chunk_samples=o.dielectric_chunk_samples
                                                   if glass else o.chunk_samples))
         self.warnings += [str(w.message) for w in caught]
@@ -318,6 +319,8 @@ class PreviewResult:
     #: per view: the estimated relMSE an adaptive render reached (:attr:`pyrt.RenderResult.estimated_error`), None
     #: at a fixed spp
     estimated_errors: list = field(default_factory=list)
+    #: per view: the render path taken (:attr:`pyrt.RenderStats.backend`: ``"compiled"`` or ``"numpy"``)
+    backends: list = field(default_factory=list)
 
     @property
     def mean_spp(self):
@@ -332,14 +335,17 @@ class PreviewResult:
 
 
 def format_sampling(result, target_error=None):
-    """``"4 spp"`` at a fixed spp; ``"5.3 spp (mean), estimated relMSE 9.6e-04 (target 0.001)"`` for adaptive renders
-    (the views' mean spp and their largest estimated error): what the previewer reached."""
+    """``"4 spp, compiled path"`` at a fixed spp; ``"5.3 spp (mean), estimated relMSE 9.6e-04 (target 0.001),
+    compiled path"`` for adaptive renders (the views' mean spp and their largest estimated error): what the previewer
+    reached, and the render path its views took (``NumPy path`` where one took it; none said without views)."""
     text = f"{result.mean_spp:.3g} spp"
     err = result.worst_error
-    if err is None:
-        return text
-    target = "" if target_error is None else f" (target {target_error:g})"
-    return f"{text} (mean), estimated relMSE {err:.2g}{target}"
+    if err is not None:
+        target = "" if target_error is None else f" (target {target_error:g})"
+        text = f"{text} (mean), estimated relMSE {err:.2g}{target}"
+    if result.backends:
+        text += ", NumPy path" if "numpy" in result.backends else ", compiled path"
+    return text
 
 
 #: The phases a preview reports (:attr:`PreviewResult.phases`, the ``pyrt-preview`` summary line, the batch summary),
@@ -462,7 +468,7 @@ def render_preview(model, options=None, *, name="preview", deadline=None, cancel
     try:
         n_views = max(1, o.turntable)
         az = [ps.azimuth + 360.0 * k / n_views for k in range(n_views)] if o.turntable else [ps.azimuth]
-        images, aovs, spp, errors = [], [], [], []
+        images, aovs, spp, errors, backends = [], [], [], [], []
         files = {}
         t_render = 0.0
         last = None
@@ -480,6 +486,7 @@ def render_preview(model, options=None, *, name="preview", deadline=None, cancel
             aovs.append(res.aovs)
             spp.append(res.samples_done / max(res.image.shape[0] * res.image.shape[1], 1))
             errors.append(res.estimated_error)
+            backends.append(res.stats.backend)
         phases.update(ps.timings)
         for key, phase in _IN_RENDER.items():       # done during the first view's render: not rendering
             if ps.prepared.timings.get(key):
@@ -504,7 +511,8 @@ def render_preview(model, options=None, *, name="preview", deadline=None, cancel
                              up_axis=ps.up_axis, up_reason=ps.up_reason, center=ps.center, radius=ps.radius,
                              camera=ps.camera(az[0]), triangles=ps.n_triangles, load_time=load_time,
                              render_time=t_render, warnings=ps.warnings, files=files, phases=phases,
-                             substitutions=list(asset.substitutions), spp=spp, estimated_errors=errors)
+                             substitutions=list(asset.substitutions), spp=spp, estimated_errors=errors,
+                             backends=backends)
     finally:
         ps.close()
 
