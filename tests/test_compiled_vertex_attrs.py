@@ -181,6 +181,46 @@ def test_vertex_colours_equal_the_vertex_colour_texture_on_random_hits():
     assert checked == 7
 
 
+@numba.njit
+def _albedos(geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, mat, face, bu, bv, uv, out):
+    G = geometry_pointers(geo_f, geo_i)
+    for k in range(face.shape[0]):
+        m = mat[k]
+        vc = D.vertex_color(G, mats_par, m, face[k], bu[k], bv[k])
+        a = MC.albedo_at(mats_tag[m], mats_par, m, tex_tag, tex_par, uv[k, 0], uv[k, 1], (0.0, 0.0, 0.0, 0.0), vc)
+        for j in range(9):
+            out[k, j] = a[j]
+
+
+def test_albedo_with_vertex_colours_equals_the_materials_albedo_on_random_hits():
+    """The hit's inputs with its vertex colour (:func:`pyrt.materials.compiled.albedo_at`): the diffuse colour is
+    the material's ``albedo()`` (occlusion included), GLTF's base colour its ``base_color`` evaluated."""
+    rng = np.random.default_rng(9)
+    scene = _vertex_colour_scene()
+    ps = pyrt.PreparedScene(scene)
+    cs = compiled.CompiledScene(ps)
+    mesh, prim, face, bu, bv = _random_hits(ps, rng)
+    mat = ps.geo.face_material[face]
+    tri = ps.geo.faces[face]
+    bary = np.stack([1.0 - bu - bv, bu, bv], axis=1)
+    uv = np.einsum("ij,ijk->ik", bary, ps.geo.uv[tri])
+    out = np.zeros((face.size, 9))
+    _albedos(cs.geo_f, cs.geo_i, cs.materials[0], np.ascontiguousarray(cs.materials[1].ravel()), cs.textures[0],
+             np.ascontiguousarray(cs.textures[1].ravel()), mat, face, bu, bv, uv, out)
+    checked = 0
+    for k, m in enumerate(scene.materials):
+        sel = mat == k
+        if _product(m) is None or not sel.any():
+            continue
+        ctx = types.SimpleNamespace(n_hits=int(sel.sum()), mesh_id=mesh[sel], prim_id=prim[sel], bary=bary[sel],
+                                    uv=uv[sel], face=face[sel], duvdx=None, duvdy=None)
+        np.testing.assert_allclose(out[sel, 0:3], np.asarray(m.albedo(ctx)).reshape(-1, 3), rtol=1e-6, atol=1e-12)
+        if cs.materials[0][k] == MC.GLTF:
+            np.testing.assert_allclose(out[sel, 3:6], m.base_color.evaluate(ctx), rtol=1e-6, atol=1e-12)
+        checked += 1
+    assert checked == 7
+
+
 def test_vertex_tangents_equal_the_surface_batch_on_random_hits():
     rng = np.random.default_rng(5)
     ps, mesh, prim, face, bu, bv, _, _, tan, has = _twins(_tangent_scene(), rng)
