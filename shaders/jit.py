@@ -349,7 +349,7 @@ def hit_surface(G, fallback, terminator, geom, prim, u, v, wo):
     terminator-lifted point (p without ``terminator``) and the local-bound offset magnitudes
     (:func:`pyrt.geometry.offsets.local_bound_magnitude`) at p and at the lifted point. ``G``: the geometry tables'
     pointers (:func:`pyrt.integrators.compiled_kernel.geometry_pointers`)."""
-    verts, normals, uvs, fnorm, fabs, fext, faces, foff, _, fsmooth = G
+    verts, normals, uvs, fnorm, fabs, fext, faces, foff, _, fsmooth, _, _ = G
     face = foff[geom] + prim
     i0, i1, i2 = faces[3 * face], faces[3 * face + 1], faces[3 * face + 2]
     b1, b2 = np.float64(u), np.float64(v)

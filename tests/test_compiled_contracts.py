@@ -25,7 +25,7 @@ def _f_cos_many(tag, rec, wo, wi, out):
     tex_tag = np.zeros(1, dtype=np.int64)
     tex_par = np.zeros(8)
     for k in range(wo.shape[0]):
-        albedo = MC.albedo_at(tag, rec, 0, tex_tag, tex_par, 0.0, 0.0, (0.0, 0.0, 0.0, 0.0))
+        albedo = MC.albedo_at(tag, rec, 0, tex_tag, tex_par, 0.0, 0.0, (0.0, 0.0, 0.0, 0.0), MC.WHITE)
         cos_io = wo[k, 0] * wi[k, 0] + wo[k, 1] * wi[k, 1] + wo[k, 2] * wi[k, 2]
         r = MC.f_cos(tag, rec, 0, albedo, wo[k, 2], wi[k, 2], cos_io)
         out[k, 0], out[k, 1], out[k, 2] = r

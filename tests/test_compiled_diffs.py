@@ -43,7 +43,8 @@ def _hits(seed=3, spp=1):
 @numba.njit(cache=False)
 def _surface_diffs(geo_f, geo_i, face, p, ng, front, rays, mats, tex, mat, uv):
     G = (U.pointer(geo_f[0]), U.pointer(geo_f[1]), U.pointer(geo_f[2]), U.pointer(geo_f[3]), U.pointer(geo_f[4]),
-         U.pointer(geo_f[5]), U.pointer(geo_i[0]), U.pointer(geo_i[1]), U.pointer(geo_i[2]), U.pointer(geo_i[3]))
+         U.pointer(geo_f[5]), U.pointer(geo_i[0]), U.pointer(geo_i[1]), U.pointer(geo_i[2]), U.pointer(geo_i[3]),
+         U.pointer(geo_f[6]), U.pointer(geo_f[7]))
     Va = np.zeros(V_SIZE * LANES)
     V = U.pointer(Va)
     mt, mp, tt, tp = U.pointer(mats[0]), U.pointer(mats[1]), U.pointer(tex[0]), U.pointer(tex[1])
@@ -64,7 +65,7 @@ def _surface_diffs(geo_f, geo_i, face, p, ng, front, rays, mats, tex, mat, uv):
             dp[i, k] = V[(V_DP + k) * LANES + lane]
             V[(V_DP + k) * LANES + lane] = 0.0
         # the function the kernel calls: the same differentials (stored), the albedo at their footprint
-        a, _, _ = D.extended_inputs(G, V, lane, True, False, face[i], pi, ngi, ngi, ngi, front[i],
+        a, _, _ = D.extended_inputs(G, V, lane, True, False, False, face[i], 0.0, 0.0, pi, ngi, ngi, ngi, front[i],
                                     (uv[i, 0], uv[i, 1]), mt[mat[i]], mp, mat[i], tt, tp)
         albedo[i, 0], albedo[i, 1], albedo[i, 2] = a[0], a[1], a[2]
         for k in range(12):

@@ -146,14 +146,16 @@ def test_scenes_without_footprints_or_normal_maps_do_not_carry_them():
         assert (opts[KL.O_DIFFS], opts[KL.O_NMAPS]) == want
 
 
-def test_normal_maps_on_meshes_with_vertex_tangents_fall_back():
+def test_normal_maps_in_scenes_with_vertex_tangents_read_them():
+    """A mesh with vertex tangents: the maps read them there (``O_NMAPS`` 2; tests/test_compiled_vertex_attrs.py)."""
     s = _normal_mapped_scene(width=8, height=6)
     v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0.0]])
     s.add_mesh((v, np.array([[0, 1, 2]])), pyrt.Lambert(albedo=0.5), normals=np.tile([0, 0, 1.0], (3, 1)),
                uv=v[:, :2], tangents=np.tile([1, 0, 0, 1.0], (3, 1)))
+    cs = compiled.CompiledScene(pyrt.PreparedScene(s))
+    assert compiled._options(cs, 1, 0, 8, 1e-4, None, True)[0][KL.O_NMAPS] == 2
     r = pyrt.render_full(s, progress=False)
-    assert r.stats.backend == "numpy"
-    assert "normal maps on meshes with vertex tangents" in r.stats.fallback_reasons
+    assert r.stats.backend == "compiled" and r.stats.fallback_reasons == []
 
 
 @pytest.mark.parametrize("filt", ["anisotropic", "bicubic"])

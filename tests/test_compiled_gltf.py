@@ -23,7 +23,8 @@ import pytest
 
 import pyrt
 from pyrt.integrators.compiled import _TexturePacker, unsupported
-from pyrt.io.assets.materials import GltfMaterial, GltfPBRMaterial, ProductTexture, ScaledTexture, VertexColorTexture
+from pyrt.io.assets.materials import (FaceColorTexture, GltfMaterial, GltfPBRMaterial, ProductTexture, ScaledTexture,
+                                      VertexColorTexture)
 from pyrt.materials import compiled as MC
 from pyrt.materials import compiled_sampling as CS
 from pyrt.materials import gltf_record as GR
@@ -121,7 +122,7 @@ def test_gltf_pbr_with_the_core_parameters_is_the_metallic_roughness_model_at_me
 @numba.njit
 def _inputs_many(rec, tex_tag, tex_par, uv, out, em):
     for k in range(uv.shape[0]):
-        a = MC.albedo_at(MC.GLTF, rec, 0, tex_tag, tex_par, uv[k, 0], uv[k, 1], (0.0, 0.0, 0.0, 0.0))
+        a = MC.albedo_at(MC.GLTF, rec, 0, tex_tag, tex_par, uv[k, 0], uv[k, 1], (0.0, 0.0, 0.0, 0.0), MC.WHITE)
         e = MC.emission_at(MC.GLTF, rec, 0, False, tex_tag, tex_par, uv[k, 0], uv[k, 1], (0.0, 0.0, 0.0, 0.0))
         for c in range(9):
             out[k, c] = a[c]
@@ -163,15 +164,16 @@ def test_the_slots_are_the_factors_times_the_numpy_lookups(rng):
 
 def test_what_the_kernel_cannot_reproduce_has_no_record():
     img = ImageTexture(np.full((4, 4, 3), 0.5, dtype=np.float32), srgb=False, filter="bilinear")
-    vc = VertexColorTexture()
+    vc, fc = VertexColorTexture(), FaceColorTexture()
     none = lambda t: t.compiled_record() and 0          # noqa: E731  (a table that takes what the kernel reads)
     cases = {
         "transmission": pyrt.GltfPBR(transmission=0.5),
         "anisotropy": pyrt.GltfPBR(anisotropy=0.5),
         "textured specular": pyrt.GltfPBR(specular=ChannelTexture(img, 0)),
         "textured specular colour": pyrt.GltfPBR(specular_color=img),
-        "vertex colours": GltfMaterial(base_color=ProductTexture(vc, ScaledTexture(img, 0.5)), metallic=0.0,
-                                       roughness=0.5),
+        "per-face colours": GltfMaterial(base_color=ProductTexture(fc, ScaledTexture(img, 0.5)), metallic=0.0,
+                                         roughness=0.5),
+        "vertex colours twice": GltfMaterial(base_color=ProductTexture(vc, vc), metallic=0.0, roughness=0.5),
         "UV set 1": pyrt.GltfPBR(base_color=ImageTexture(img, texcoord=1)),
         "bicubic": pyrt.MetallicRoughness(base_color=ImageTexture(img, filter="bicubic")),
     }

@@ -47,8 +47,10 @@ def test_summary_line_times_decode_tangents_and_mask_in_phase_order(tmp_path, ca
 
 
 def test_render_phase_excludes_the_mip_pyramids_and_the_mask(tmp_path):
-    """Forked render workers: the pyramids are built before the fork, timed as "mip", not as rendering."""
-    opts = P.PreviewOptions(width=64, height=48, spp=1, parallel="processes", threads=2, chunk_samples=256)
+    """Forked render workers (the NumPy path's: the sample's normal-mapped mesh with vertex tangents would take the
+    compiled one): the pyramids are built before the fork, timed as "mip", not as rendering."""
+    opts = P.PreviewOptions(width=64, height=48, spp=1, parallel="processes", threads=2, chunk_samples=256,
+                            backend="numpy")
     res = P.render_preview(SAMPLE, opts)
     assert res.phases["mip"] > 0 and res.phases["mask"] > 0 and res.phases["decode"] > 0
     assert res.render_time == res.phases["render"] > 0

@@ -108,8 +108,8 @@ def _write(path, uv, tangent=None):
 def _render(path, generate_tangents=True):
     """``generate_tangents=False``: a file without TANGENT renders with each triangle's UV tangents, the reference
     the file's tangents are compared with (with generated ones both sides would be vertex tangents). On the NumPy
-    path: normal maps with vertex tangents are not compiled, so the references must take the same path (the same
-    random numbers) to compare pixel by pixel."""
+    path, as their references (one path, the same random numbers: compared pixel by pixel; the compiled path's
+    vertex tangents: tests/test_compiled_vertex_attrs.py)."""
     cam = pyrt.Camera(position=(0.2, -0.3, 3), target=(0, 0, 0), fov=40, width=32, height=24, spp=2)
     scene = pyrt.Scene(cam, background=(0, 0, 0))
     asset = load_asset(path, generate_tangents=generate_tangents)

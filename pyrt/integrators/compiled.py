@@ -14,7 +14,8 @@ integrator (glossy rays with MIS against the area lights whose meshes they reach
 unfiltered-checker or nearest / bilinear / trilinear image albedo, constant emission), normalised Blinn-Phong,
 Mirror, Glass (one dielectric, no nested media), smooth Conductor, the library models with constant parameters and
 the glTF metallic-roughness family (textured MetallicRoughness, opaque isotropic GltfPBR, glTF emission and
-occlusion: :mod:`pyrt.materials.gltf_record`); tangent-space normal maps on meshes without vertex tangents; point
+occlusion: :mod:`pyrt.materials.gltf_record`), vertex colours in a colour slot 0 (:mod:`pyrt.integrators.
+compiled_vertex`); tangent-space normal maps (in the frame of the mesh's vertex tangents where it has them); point
 and spot lights (every spot and distance falloff), directional lights; rectangle, disk and sphere lights (light
 samples stratified per hit and padded over a pixel's samples, BSDF samples beside them with MIS) with their visible
 meshes; constant and lat-long environments (and subclasses that declare it, the previewer's studio), seen by missed
@@ -23,7 +24,7 @@ background and ambient term; smooth and flat shading with or without the back-fa
 and ``robust_no_terminator`` offsets; back-face culling (single-sided materials) and alpha masks (a constant or
 nearest / bilinear opacity, no environment light but a preview: :mod:`pyrt.integrators.compiled_coverage`); fixed spp and adaptive
 passes (:func:`render_pixels`). Not yet: other environments and strategies, emissive-mesh lights, the other
-materials (and vertex colours), anisotropic and bicubic texture filters, normal maps on meshes with vertex tangents,
+materials (and per-face colours), anisotropic and bicubic texture filters,
 alpha blending, nested media, transparent shadows and ray recording (AOVs: fixed spp, not on Dask workers; the
 glossy integrator and the light choice not on Dask workers).
 """
@@ -42,6 +43,7 @@ import numpy as np
 from pyrt.geometry import embree_jit
 from pyrt.integrators import compiled_kernel as K
 from pyrt.integrators import compiled_layout as KL
+from pyrt.integrators import compiled_vertex as CV
 from pyrt.integrators import kernel_cache
 from pyrt.integrators import light_choice
 from pyrt.integrators.coverage import MAX_LAYERS, MODE_BLEND, MODE_MASK, CoverageTable
@@ -130,13 +132,13 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
         reasons.append("nested dielectrics or absorption")
     if (ps.face_gouraud is not None) if ps is not None else facts.gouraud:
         reasons.append("Gouraud shading")
-    if facts.has_normal_maps and ((ps.geo.tangent_frames is not None) if ps is not None else facts.vertex_tangents):
-        reasons.append("normal maps on meshes with vertex tangents")
     if ps is not None and ps.accel.buffers != "shared":
         reasons.append("no Embree scene handle (the binding's copied buffers)")
     textures = _TexturePacker()
+    records = []
     for m in scene.materials:
-        if m.compiled_record(textures.add) is None:
+        records.append(m.compiled_record(textures.add))
+        if records[-1] is None:
             reasons.append(f"material {m.label}")
         elif m.normal_map is not None and textures.add(m.normal_map) is None:
             reasons.append(f"normal map of material {m.label}")
@@ -148,6 +150,7 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
             reasons.append(f"light {lt.label}")
         elif lt.environment is not None and lt.environment is not scene.environment:
             reasons.append(f"light {lt.label} (lights with an environment other than the scene's)")
+    reasons += CV.vertex_colors(scene.meshes, CV.vertex_color_textures(records, textures.objects))[1]
 
     return reasons
 
@@ -169,8 +172,6 @@ class _SceneFacts:
         self.coverage = CoverageTable.for_scene(mats)
         self.media = NestedMedia.for_scene(mats)
         self.gouraud = bool(scene.gouraud_meshes)
-        self.has_normal_maps = any(m.normal_map is not None for m in mats)
-        self.vertex_tangents = any(m.tangents is not None for m in scene.meshes)
 
 
 class _TexturePacker:
@@ -178,6 +179,8 @@ class _TexturePacker:
 
     def __init__(self):
         self.tags, self.records, self.texels, self._index = [], [], [], {}
+        #: the textures by row
+        self.objects = []
 
     def add(self, texture):
         """The texture's row in the table (added on first sight), or None when the kernel cannot read it."""
@@ -187,6 +190,7 @@ class _TexturePacker:
             if rec is None:
                 return None
             self._index[key] = len(self.tags)
+            self.objects.append(texture)
             self.tags.append(rec[0])
             self.records.append(np.asarray(rec[1], dtype=np.float64))
             self.texels.append(rec[2] if len(rec) > 2 else None)
@@ -233,10 +237,13 @@ class CompiledScene:
                  f64(geo.face_extent[:, None])),
                 (i64(geo.faces), i64(geo.face_offset[:, None]), i64(geo.face_material[:, None]),
                  i64(geo.face_smooth[:, None])))
-        self.geo_f, self.geo_i = ps.compiled_geometry
-        self.fallback = ps.geo.shading_normal_fallback
         textures = _TexturePacker()
         mats = [m.compiled_record(textures.add) for m in ps.scene.materials]
+        vcol = CV.vertex_colors(ps.geo.meshes, CV.vertex_color_textures(mats, textures.objects))[0]
+        #: the geometry tables, then the vertex colours and tangent frames (:mod:`pyrt.integrators.compiled_vertex`)
+        self.geo_f = ps.compiled_geometry[0] + (vcol, CV.tangent_frames(ps.geo))
+        self.geo_i = ps.compiled_geometry[1]
+        self.fallback = ps.geo.shading_normal_fallback
         for m, (tag, rec) in zip(ps.scene.materials, mats):
             if m.normal_map is not None:
                 rec[MC.NORMAL_MAP:MC.NORMAL_MAP + 4] = normal_map_fields(m.normal_map, textures.add(m.normal_map))
@@ -249,9 +256,12 @@ class CompiledScene:
             mats[k][1][MC.TRACED] = 1.0 + next(j for j, lt in enumerate(ps.scene.lights) if lt is lts[0])
         self.materials = _table([t for t, _ in mats], [r for _, r in mats], MC.RECORD)
         self.textures = TC.pack_table(textures.tags, textures.records, textures.texels)
-        #: whether the rays carry differentials (a texture reads footprints), whether a material has a normal map
+        #: whether the rays carry differentials (a texture reads footprints); whether a material has a normal map
+        #: (:data:`pyrt.integrators.compiled_layout.O_NMAPS`: 2 when besides a mesh has vertex tangents)
         self.diffs = any(t == TC.MIP for t in textures.tags)
         self.normal_maps = any(m.normal_map is not None for m in ps.scene.materials)
+        if self.normal_maps and ps.geo.tangent_frames is not None:
+            self.normal_maps = 2
         #: coverage (:data:`pyrt.integrators.compiled_layout.O_COVER`): 2 with an alpha mask, 1 with culling only, 0
         self.cover = 2 if any(m.alpha_mode == "mask" for m in ps.scene.materials) else (
             1 if any(m.culls_back_faces for m in ps.scene.materials) else 0)
@@ -485,7 +495,7 @@ def _options(cs, spp, seed, max_depth, throughput_cutoff, split_depth, terminato
     opts[KL.O_GRID] = grid if grid * grid == spp else 0
     opts[KL.O_ENV] = cs.env_tag
     opts[KL.O_DIFFS] = 1 if cs.diffs else 0
-    opts[KL.O_NMAPS] = 1 if cs.normal_maps else 0
+    opts[KL.O_NMAPS] = int(cs.normal_maps)
     opts[KL.O_COVER] = cs.cover
     opts[KL.O_LAYERS] = MAX_LAYERS
     (opts[KL.O_GLOSSY_N], opts[KL.O_GLOSSY_DEPTH], opts[KL.O_SELECT], opts[KL.O_GLOSSY_ENV]), (threshold, clamp) = \

@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 
 import numba
+import numpy as np
 
 from pyrt.integrators import kernel_cache
 
@@ -31,7 +32,7 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     C_FWD, C_K, C_POS, C_RIGHT, C_UP, LANES, O_DIFFS, O_NMAPS, O_SPP, STACK_DIFF, V_D, V_DP, V_RAY, _njit, lane_vec,
     set_lane_vec)
 from pyrt.materials import compiled as MC  # noqa: E402
-from pyrt.shaders.jit import dot, row3  # noqa: E402
+from pyrt.shaders.jit import bary3, dot, row3  # noqa: E402
 from pyrt.textures import compiled_normal_map as NM  # noqa: E402
 from pyrt.textures.compiled import texture_rgb  # noqa: E402
 
@@ -122,7 +123,7 @@ def surface_diffs(G, V, lane, face, p, ng, front):
     dv/dx, du/dy, dv/dy)`` returned (:func:`pyrt.geometry.surface.surface_from_hits`' differential group: the offset
     rays met on the tangent plane, their least-squares barycentric derivatives, the vertex normals' differences
     turned to the viewer's side; dn zero on flat faces)."""
-    verts, normals, uvs, _, _, _, faces, _, _, fsmooth = G
+    verts, normals, uvs, _, _, _, faces, _, _, fsmooth, _, _ = G
     i0, i1, i2 = faces[3 * face], faces[3 * face + 1], faces[3 * face + 2]
     v0, v1, v2 = row3(verts, i0), row3(verts, i1), row3(verts, i2)
     e1 = (v1[0] - v0[0], v1[1] - v0[1], v1[2] - v0[2])
@@ -157,7 +158,7 @@ def surface_diffs(G, V, lane, face, p, ng, front):
 @_njit
 def face_uv_tangents(G, face, ng):
     """``(dpdu, dpdv)`` of the triangle ``face`` (:func:`pyrt.textures.compiled_normal_map.uv_tangents`)."""
-    verts, _, uvs, _, _, _, faces, _, _, _ = G
+    verts, _, uvs, _, _, _, faces, _, _, _, _, _ = G
     i0, i1, i2 = faces[3 * face], faces[3 * face + 1], faces[3 * face + 2]
     v0, v1, v2 = row3(verts, i0), row3(verts, i1), row3(verts, i2)
     e1 = (v1[0] - v0[0], v1[1] - v0[1], v1[2] - v0[2])
@@ -168,44 +169,82 @@ def face_uv_tangents(G, face, ng):
 
 
 @_njit
-def hit_inputs(G, V, lane, opts, face, p, ng, ns, wo, front, uv, mtag, mats_par, m, tex_tag, tex_par):
-    """What the kernel reads of a hit of material ``m`` beyond :func:`pyrt.shaders.jit.hit_surface`: ``(albedo, ns,
-    emission)``, the hit's inputs (:func:`pyrt.materials.compiled.albedo_at`) at its footprint (with ``diffs``:
-    :func:`surface_diffs` of lane ``lane``'s ray, else none), the shading normal, perturbed by the material's normal
-    map (with ``nmaps``; :data:`pyrt.materials.compiled.NORMAL_MAP`) the NumPy path's way
-    (:func:`pyrt.textures.normal_map.perturb_normal`), and the emitted radiance
-    (:func:`pyrt.materials.compiled.emission_at`). Without footprints or normal maps, inline (no call)."""
+def hit_inputs(G, V, lane, opts, face, bu, bv, p, ng, ns, wo, front, uv, mtag, mats_par, m, tex_tag, tex_par):
+    """What the kernel reads of a hit of material ``m`` at barycentrics ``(bu, bv)`` (Embree's ``u``, ``v``) beyond
+    :func:`pyrt.shaders.jit.hit_surface`: ``(albedo, ns, emission)``, the hit's inputs
+    (:func:`pyrt.materials.compiled.albedo_at`) at its footprint (with ``diffs``: :func:`surface_diffs` of lane
+    ``lane``'s ray, else none) and its vertex colour (:func:`vertex_color`), the shading normal, perturbed by the
+    material's normal map (with ``nmaps``; :data:`pyrt.materials.compiled.NORMAL_MAP`) the NumPy path's way
+    (:func:`pyrt.textures.normal_map.perturb_normal`: the mesh's vertex tangents where it has them), and the emitted
+    radiance (:func:`pyrt.materials.compiled.emission_at`). Without footprints, normal maps or vertex colours,
+    inline (no call)."""
     diffs, nmaps = opts[O_DIFFS] != 0, opts[O_NMAPS] != 0
-    if diffs or nmaps:
-        albedo, n, e = extended_inputs(G, V, lane, diffs, nmaps, face, p, ng, ns, wo, front, uv, mtag, mats_par, m,
-                                       tex_tag, tex_par)
+    if diffs or nmaps or mats_par[m * MC.RECORD + MC.VERTEX_COLOR] != 0.0:
+        albedo, n, e = extended_inputs(G, V, lane, diffs, nmaps, opts[O_NMAPS] == 2, face, bu, bv, p, ng, ns, wo,
+                                       front, uv, mtag, mats_par, m, tex_tag, tex_par)
     else:
-        albedo, n = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1], NO_FOOTPRINT), ns
+        albedo, n = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1], NO_FOOTPRINT, MC.WHITE), ns
         e = MC.emission_at(mtag, mats_par, m, front, tex_tag, tex_par, uv[0], uv[1], NO_FOOTPRINT)
     return albedo, n, e
 
 
 @_own
-def extended_inputs(G, V, lane, diffs, nmaps, face, p, ng, ns, wo, front, uv, mtag, mats_par, m, tex_tag, tex_par):
-    """:func:`hit_inputs` with footprints or normal maps (a function of its own)."""
-    return _inputs(G, V, lane, diffs, nmaps, face, p, ng, ns, wo, front, uv, mtag, mats_par, m, tex_tag, tex_par)
+def extended_inputs(G, V, lane, diffs, nmaps, vtan, face, bu, bv, p, ng, ns, wo, front, uv, mtag, mats_par, m,
+                    tex_tag, tex_par):
+    """:func:`hit_inputs` with footprints, normal maps (``vtan``: some mesh has vertex tangents) or vertex colours (a
+    function of its own)."""
+    return _inputs(G, V, lane, diffs, nmaps, vtan, face, bu, bv, p, ng, ns, wo, front, uv, mtag, mats_par, m,
+                   tex_tag, tex_par)
 
 
 @_njit
-def _inputs(G, V, lane, diffs, nmaps, face, p, ng, ns, wo, front, uv, mtag, mats_par, m, tex_tag, tex_par):
+def _inputs(G, V, lane, diffs, nmaps, vtan, face, bu, bv, p, ng, ns, wo, front, uv, mtag, mats_par, m, tex_tag,
+            tex_par):
     fp = NO_FOOTPRINT
     if diffs:
         fp = surface_diffs(G, V, lane, face, p, ng, front)
-    albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1], fp)
+    vc = vertex_color(G, mats_par, m, face, bu, bv)
+    albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1], fp, vc)
     if nmaps:
         b = m * MC.RECORD + MC.NORMAL_MAP
         t = int(mats_par[b]) - 1
         if t >= 0:
             rgb = texture_rgb(tex_tag, tex_par, t, uv[0], uv[1], fp)
-            dpdu, dpdv = face_uv_tangents(G, face, ng)
+            has, dpdu, dpdv = vertex_tangents(G, face, bu, bv) if vtan else (False, ns, ns)
+            if not has:
+                dpdu, dpdv = face_uv_tangents(G, face, ng)
             ns = NM.perturb(rgb, mats_par[b + 1], mats_par[b + 2] != 0.0, mats_par[b + 3] != 0.0, ns, ng, wo, front,
                             dpdu, dpdv)
     return albedo, ns, MC.emission_at(mtag, mats_par, m, front, tex_tag, tex_par, uv[0], uv[1], fp)
+
+
+@_njit
+def vertex_color(G, mats_par, m, face, bu, bv):
+    """The vertex colour material ``m`` reads at barycentrics ``(bu, bv)`` of triangle ``face``: the colours packed
+    with the geometry (``G[10]``) interpolated as :meth:`pyrt.io.assets.VertexColorTexture.evaluate` does (``b0 c0 +
+    b1 c1 + b2 c2``, ``b0 = 1 - b1 - b2`` in float64); :data:`pyrt.materials.compiled.WHITE` for a material that
+    reads none (:data:`pyrt.materials.compiled.VERTEX_COLOR`)."""
+    if mats_par[m * MC.RECORD + MC.VERTEX_COLOR] == 0.0:
+        return MC.WHITE
+    faces, vcol = G[6], G[10]
+    b1, b2 = np.float64(bu), np.float64(bv)
+    return bary3(1.0 - b1 - b2, b1, b2, row3(vcol, faces[3 * face]), row3(vcol, faces[3 * face + 1]),
+                 row3(vcol, faces[3 * face + 2]))
+
+
+@_njit
+def vertex_tangents(G, face, bu, bv):
+    """``(has, t, b)``: the vertex tangent frames (``G[11]``, ``[t, w (n x t)]`` per vertex) interpolated at
+    barycentrics ``(bu, bv)`` of triangle ``face`` as :func:`pyrt.geometry.surface.surface_from_hits`' ``vtangent``
+    (``b0 f0 + b1 f1 + b2 f2``), and whether the tangent is non-zero (the mesh has them:
+    :meth:`pyrt.geometry.SurfaceBatch.shading_tangents`)."""
+    faces, fr = G[6], G[11]
+    i0, i1, i2 = faces[3 * face], faces[3 * face + 1], faces[3 * face + 2]
+    b1, b2 = np.float64(bu), np.float64(bv)
+    b0 = 1.0 - b1 - b2
+    t = bary3(b0, b1, b2, row3(fr, 2 * i0), row3(fr, 2 * i1), row3(fr, 2 * i2))
+    b = bary3(b0, b1, b2, row3(fr, 2 * i0 + 1), row3(fr, 2 * i1 + 1), row3(fr, 2 * i2 + 1))
+    return t[0] != 0.0 or t[1] != 0.0 or t[2] != 0.0, t, b
 
 
 @_own

@@ -186,8 +186,8 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
                                                                           wo)
         m = G[8][face]
         mtag = mats_tag[m]
-        albedo, ns, em = D.hit_inputs(G, V, lane, opts, face, p, ng, ns, wo, front, uv, mtag, mats_par, m, tex_tag,
-                                      tex_par)
+        albedo, ns, em = D.hit_inputs(G, V, lane, opts, face, u, v, p, ng, ns, wo, front, uv, mtag, mats_par, m,
+                                      tex_tag, tex_par)
         if bpdf > 0.0:          # the emission a glossy ray reaches: MIS-weighted against the light's samples
             k = emission_weight(lights_tag, lights_par, mats_par, m, o, (d0, d1, d2), bpdf)
             em = (em[0] * k, em[1] * k, em[2] * k)
@@ -264,8 +264,8 @@ def shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k3
                 G, fallback, terminator, geom, prim, u, v, (-d[0], -d[1], -d[2]))
             m = fmat[face]
             mtag = mats_tag[m]
-            albedo, ns, em = D.hit_inputs(G, V, lane, opts, face, p, ng, ns, (-d[0], -d[1], -d[2]), front, uv, mtag,
-                                          mats_par, m, tex_tag, tex_par)
+            albedo, ns, em = D.hit_inputs(G, V, lane, opts, face, u, v, p, ng, ns, (-d[0], -d[1], -d[2]), front, uv,
+                                          mtag, mats_par, m, tex_tag, tex_par)
             le = with_ambient(mtag, em, albedo, optf)
             any_diffuse = any_diffuse or (hit and MC.has_diffuse(mtag))
             lambert = lambert and (mtag == MC.LAMBERT or not hit)

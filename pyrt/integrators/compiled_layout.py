@@ -61,8 +61,9 @@ C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W, C_H, C_JITTER, C_K, C_AX = 0, 3, 6, 9, 
 N_CAM = 18
 #: integer options
 O_SEED, O_SPP, O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK, O_GRID, O_ENV, O_AOV = range(11)
-#: 1 when a texture reads footprints (the rays carry differentials), 1 when a material has a normal map, 1 when a
-#: fixed-spp render sums the squared radiance too (the film's second moment)
+#: 1 when a texture reads footprints (the rays carry differentials), 1 when a material has a normal map (2 when
+#: besides a mesh has vertex tangents: the maps read them there), 1 when a fixed-spp render sums the squared radiance
+#: too (the film's second moment)
 O_DIFFS, O_NMAPS, O_SQ = 11, 12, 13
 #: coverage (:mod:`pyrt.integrators.compiled_coverage`): 0 none, 1 some material culls back faces, 2 some material
 #: is an alpha mask; and the most surfaces a ray skips (:data:`pyrt.integrators.coverage.MAX_LAYERS`)
@@ -164,9 +165,13 @@ def set_lane_vec(V, field, lane, x):
 def geometry_pointers(geo_f, geo_i):
     """The geometry tables (:class:`pyrt.integrators.compiled.CompiledScene`'s ``geo_f``, ``geo_i``) as the tuple of
     pointers :func:`hit_surface` reads: vertices, vertex normals, UVs, face normals, face absmax, face extents
-    (float64), faces, mesh face offsets, face materials, face smooth flags (int64)."""
+    (float64), faces, mesh face offsets, face materials, face smooth flags (int64), then the vertex colours (RGB per
+    vertex, read for materials whose base colour multiplies them: :data:`pyrt.materials.compiled.VERTEX_COLOR`) and
+    the vertex tangent frames (``[t, w (n x t)]`` per vertex, :attr:`pyrt.geometry.GeometryTable.tangent_frames`,
+    read by normal maps when ``opts[O_NMAPS]`` is 2) (float64; one dummy row where the scene has none)."""
     return (U.pointer(geo_f[0]), U.pointer(geo_f[1]), U.pointer(geo_f[2]), U.pointer(geo_f[3]), U.pointer(geo_f[4]),
-            U.pointer(geo_f[5]), U.pointer(geo_i[0]), U.pointer(geo_i[1]), U.pointer(geo_i[2]), U.pointer(geo_i[3]))
+            U.pointer(geo_f[5]), U.pointer(geo_i[0]), U.pointer(geo_i[1]), U.pointer(geo_i[2]), U.pointer(geo_i[3]),
+            U.pointer(geo_f[6]), U.pointer(geo_f[7]))
 
 
 @_njit

@@ -95,7 +95,7 @@ def face_surfaces(G, mats_tag, mats_par, tex_tag, tex_par, optf, pk, w, V, n, fa
         face = foff[geoms[j]] + prims[j]
         m = fmat[face]
         mtag = mats_tag[m]
-        albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, 0.0, 0.0, (0.0, 0.0, 0.0, 0.0))
+        albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, 0.0, 0.0, (0.0, 0.0, 0.0, 0.0), MC.WHITE)
         uniform_surface(G, face, geoms[j], prims[j], k > 1 or misses > 0, pk, w, V, n, fallback, terminator, m,
                         albedo, emitted(mtag, mats_par, m, albedo, optf, True),
                         emitted(mtag, mats_par, m, albedo, optf, False))
@@ -124,7 +124,7 @@ def uniform_surface(G, face, geom, prim, masked, pk, w, V, n, fallback, terminat
     vector stores)."""
     U.wide_vectors()
     U.noalias_args()
-    verts, normals, _, fnorm, fabs, fext, faces, _, _, fsmooth = G
+    verts, normals, _, fnorm, fabs, fext, faces, _, _, fsmooth, _, _ = G
     g4 = gamma(4.0, EPS64)
     i0, i1, i2 = faces[3 * face], faces[3 * face + 1], faces[3 * face + 2]
     v0, v1, v2 = row3(verts, i0), row3(verts, i1), row3(verts, i2)

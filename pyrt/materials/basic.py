@@ -48,11 +48,12 @@ class Lambert(IsotropicMaterial):
     def compiled_record(self, pack_texture):
         """:data:`pyrt.materials.compiled.LAMBERT`: the albedo (constant or a texture the kernel reads), a constant
         emission."""
-        albedo = _color_slot(self.albedo_value, pack_texture)
+        albedo, vc = _compiled.vertex_slot(self.albedo_value, pack_texture, _color_slot)
         if albedo is None or is_texture(self.emission_value):
             return None
         rec = _compiled.empty_record()
         rec[0:4] = albedo
+        rec[_compiled.VERTEX_COLOR] = vc
         rec[4:7] = np.broadcast_to(self.emission_value, (3,))
         return _compiled.LAMBERT, rec
 
@@ -101,11 +102,12 @@ class BlinnPhong(IsotropicMaterial):
     def compiled_record(self, pack_texture):
         """:data:`pyrt.materials.compiled.BLINN_PHONG`: kd (constant or a texture the kernel reads), constant ks and
         exponent."""
-        kd = _color_slot(self.kd, pack_texture)
+        kd, vc = _compiled.vertex_slot(self.kd, pack_texture, _color_slot)
         if kd is None or is_texture(self.ks) or is_texture(self.exponent):
             return None
         rec = _compiled.empty_record()
         rec[0:4] = kd
+        rec[_compiled.VERTEX_COLOR] = vc
         rec[4:7] = np.broadcast_to(self.ks, (3,))
         rec[7] = float(self.exponent)
         return _compiled.BLINN_PHONG, rec

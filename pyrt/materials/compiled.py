@@ -29,12 +29,19 @@ GLTF                 glTF's metallic-roughness family with textured parameters, 
                      of :mod:`pyrt.materials.gltf_record` (0-23), resolved per hit by :func:`gltf_inputs`
 (every material)     24-27 its normal map (:data:`NORMAL_MAP`), 28 1 when it culls back faces (:data:`CULL`), 29-33
                      its alpha mask (:data:`MASK`), 34 its glossy alpha (:data:`GLOSSY`), 35 the area light it is the
-                     visible emitter of (:data:`TRACED`), written by the compiled scene
+                     visible emitter of (:data:`TRACED`), written by the compiled scene; 36 the vertex colours its
+                     colour slot 0 (GLTF: the base colour) multiplies by (:data:`VERTEX_COLOR`, :func:`vertex_slot`)
 ===================  ============================================================================================
 
 The models after BLINN_PHONG but GLTF have constant parameters only (a textured one is not compiled); their formulas
 are the scalar twins in :mod:`pyrt.shaders.jit_brdfs`, held to the NumPy materials' ``f_cos`` by
 tests/test_jit_brdfs.py (GLTF's: tests/test_compiled_gltf.py).
+
+A colour slot 0 may be multiplied by the hit's vertex colours (a :class:`pyrt.io.assets.ProductTexture` of
+:class:`pyrt.io.assets.VertexColorTexture` and a constant or texture, as the glTF loader builds glTF's ``COLOR_0``):
+the record's :data:`VERTEX_COLOR` field is then the vertex-colour texture's row in the texture table plus one (a row
+of tag :data:`pyrt.textures.compiled.VERTEX`, never looked up by uv: the colours are packed with the geometry and
+interpolated at the hit, :func:`pyrt.integrators.compiled_diffs.vertex_color`), and the slot holds the other factor.
 
 A hit's *inputs* (:func:`albedo_at`) are a 9-tuple: its ``albedo()`` (what the ambient term and the albedo AOV
 read; Lambert's albedo, Blinn-Phong's kd), then GLTF's per-hit base colour, metallic, roughness and occlusion factor
@@ -53,10 +60,11 @@ from numba.extending import register_jitable
 
 from pyrt.shaders import jit as J
 from pyrt.shaders import jit_brdfs as JB
+from pyrt.textures.base import Texture
 from pyrt.textures.compiled import texture_rgb
 
 #: parameters per material record
-RECORD = 36
+RECORD = 37
 #: where every record keeps its normal map (:func:`pyrt.integrators.compiled_diffs.mapped_normal`): the map's row in the
 #: texture table plus one (0: none), its strength, 1 for green = -v (DirectX), 1 to bend reflections above the surface
 NORMAL_MAP = 24
@@ -73,6 +81,11 @@ GLOSSY = 34
 #: where every record keeps the area light whose visible emitter mesh it is (:attr:`pyrt.lights.AreaLight.has_mesh`):
 #: the light's row plus one (0: none); glossy rays that reach it weigh its emission by MIS
 TRACED = 35
+#: where every record says which vertex colours its colour slot 0 multiplies by: their texture's row plus one (0:
+#: none; module notes)
+VERTEX_COLOR = 36
+#: the vertex colour of a hit whose material reads none (a multiplication by it is exact)
+WHITE = (1.0, 1.0, 1.0)
 #: type tags (0 is no material)
 LAMBERT, BLINN_PHONG, MIRROR, GLASS, CONDUCTOR = 1, 2, 3, 4, 5
 #: 1 / pi (a multiplication where a division by pi would cost ~4x; within an ulp of it)
@@ -186,19 +199,22 @@ def albedo_constant(tag, pars, m):
     """True where :func:`albedo_at` of material ``m`` does not depend on the uv (no texture in its colour slot) and
     the material has no normal map (:data:`NORMAL_MAP`): its shading inputs are the surface's alone."""
     return (not (tag == LAMBERT or tag == BLINN_PHONG or CONDUCTOR <= tag <= METALLIC_ROUGHNESS or tag == GLTF)
-            or (pars[m * RECORD] < 0.0 and tag != GLTF)) and pars[m * RECORD + NORMAL_MAP] == 0.0
+            or (pars[m * RECORD] < 0.0 and tag != GLTF)) and pars[m * RECORD + NORMAL_MAP] == 0.0 \
+        and pars[m * RECORD + VERTEX_COLOR] == 0.0
 
 
 @register_jitable(forceinline=True)
-def albedo_at(tag, pars, m, tex_tag, tex_par, u, v, fp):
+def albedo_at(tag, pars, m, tex_tag, tex_par, u, v, fp, vc):
     """The hit's inputs (module notes: a 9-tuple) of material ``m`` at uv ``(u, v)`` with the UV footprint ``fp``
-    (zeros: none): the diffuse colour (Lambert albedo, Blinn-Phong kd, the library models' constant ``albedo()``,
-    GLTF's :func:`gltf_inputs`; zeros for the others), then GLTF's base colour, metallic, roughness and occlusion."""
+    (zeros: none) and the vertex colour ``vc`` (an RGB tuple, :data:`WHITE` where the material reads none): the
+    diffuse colour (Lambert albedo, Blinn-Phong kd, the library models' constant ``albedo()``, GLTF's
+    :func:`gltf_inputs`; zeros for the others), then GLTF's base colour, metallic, roughness and occlusion. Colour
+    slot 0 times ``vc``, as ``ProductTexture`` multiplies."""
     if tag == GLTF:
-        return gltf_inputs(pars, m * RECORD, tex_tag, tex_par, u, v, fp)
+        return gltf_inputs(pars, m * RECORD, tex_tag, tex_par, u, v, fp, vc)
     if tag == LAMBERT or tag == BLINN_PHONG or CONDUCTOR <= tag <= METALLIC_ROUGHNESS:
         a = color_slot(pars, m, 0, tex_tag, tex_par, u, v, fp)
-        return a[0], a[1], a[2], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        return vc[0] * a[0], vc[1] * a[1], vc[2] * a[2], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
 
 
@@ -230,11 +246,13 @@ def slot_scalar(pars, b, rgb):
 
 
 @register_jitable
-def gltf_inputs(pars, b, tex_tag, tex_par, u, v, fp):
-    """The inputs (a 9-tuple) of the GLTF record at ``pars[b:]``: ``albedo() = base k``, ``k = 1 + s (occ - 1)``
-    (with an occlusion texture; else 1), the base colour, metallic, roughness and ``k``; one lookup per texture row (metallic and roughness
-    from one packed map read it once)."""
+def gltf_inputs(pars, b, tex_tag, tex_par, u, v, fp, vc):
+    """The inputs (a 9-tuple) of the GLTF record at ``pars[b:]`` with the vertex colour ``vc``: ``albedo() = base
+    k``, ``k = 1 + s (occ - 1)`` (with an occlusion texture; else 1), the base colour (its slot times ``vc``),
+    metallic, roughness and ``k``; one lookup per texture row (metallic and roughness from one packed map read it
+    once)."""
     br, bg, bb = scaled_slot(pars, b, tex_tag, tex_par, u, v, fp)
+    br, bg, bb = vc[0] * br, vc[1] * bg, vc[2] * bb
     none = (0.0, 0.0, 0.0)
     t_m, t_r, t_o = int(pars[b + 4]), int(pars[b + 7]), int(pars[b + 14])
     rgb_m = texture_rgb(tex_tag, tex_par, t_m, u, v, fp) if t_m >= 0 else none
@@ -257,6 +275,18 @@ def gltf_f_cos_h(pars, b, albedo, cos_o, cos_i, cos_h, cos_oh):
                                              albedo[7], int(pars[b + 19]))
     return JB.gltf_pbr_f_cos_h(cos_o, cos_i, cos_h, cos_oh, albedo[3], albedo[4], albedo[5], albedo[6], albedo[7],
                                pars[b + 21], pars[b + 22], pars[b + 23], pars[b + 20], int(pars[b + 19]))
+
+
+def vertex_slot(value, pack_texture, slot):
+    """``(colour slot, VERTEX_COLOR field)`` of a colour-slot-0 value: a product with vertex colours
+    (:meth:`pyrt.textures.Texture.compiled_vertex_product`) as the slot of its other factor and its vertex colours'
+    row plus one (module notes), anything else as ``slot(value, pack_texture)`` and 0; the slot None where the kernel
+    cannot read a texture of it."""
+    form = value.compiled_vertex_product() if isinstance(value, Texture) else None
+    if form is None:
+        return slot(value, pack_texture), 0.0
+    row, s = pack_texture(form[0]), slot(form[1], pack_texture)
+    return (None, 0.0) if row is None or s is None else (s, row + 1.0)
 
 
 def constant_slot(value):

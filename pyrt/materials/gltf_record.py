@@ -17,8 +17,11 @@ resolved per hit by :func:`pyrt.materials.compiled.gltf_inputs`. Layout (offsets
 20      GltfPBR's ``specular``, 21-23 its dielectric F0 ``min(f0(ior) specular_color, 1)``
 ======  ==========================================================================================================
 
+A base colour that is a product with vertex colours (glTF's ``COLOR_0``) is the slot of its other factor, the
+vertex colours named by the record's :data:`pyrt.materials.compiled.VERTEX_COLOR` field.
+
 :func:`gltf_record` returns None (the render takes the NumPy path) for a texture the kernel cannot read as such a
-slot: a product with vertex colours, a grey image, a UV set other than 0, a filter other than nearest, bilinear and
+slot: a grey image, a UV set other than 0, a filter other than nearest, bilinear and
 trilinear (:meth:`pyrt.textures.Texture.compiled_color`, :meth:`~pyrt.textures.Texture.compiled_scalar`).
 """
 from __future__ import annotations
@@ -64,7 +67,8 @@ def gltf_record(material, pack_texture, *, model, geometry, specular=1.0, f0_die
     are used), ``geometry`` (a name of :data:`pyrt.shaders.jit_brdfs.GEOMETRY_TERMS`), ``emission`` (a constant
     or a texture) and ``occlusion`` (None or a 1-channel texture, with its strength); None when a texture is not
     readable by the kernel."""
-    slots = [color_slot(material.base_color, pack_texture), scalar_slot(material.metallic, pack_texture),
+    base, vc = _compiled.vertex_slot(material.base_color, pack_texture, color_slot)
+    slots = [base, scalar_slot(material.metallic, pack_texture),
              scalar_slot(material.roughness, pack_texture), color_slot(emission, pack_texture),
              [-1.0, 1.0, 0.0] if occlusion is None else scalar_slot(occlusion, pack_texture)]
     if any(s is None for s in slots):
@@ -72,6 +76,7 @@ def gltf_record(material, pack_texture, *, model, geometry, specular=1.0, f0_die
     rec = _compiled.empty_record()
     rec[0:17] = [x for s in slots for x in s]
     rec[17] = float(occlusion_strength)
+    rec[_compiled.VERTEX_COLOR] = vc
     rec[18] = float(model)
     rec[19] = _JB.GEOMETRY_TERMS.index(geometry)
     rec[20] = float(specular)

@@ -81,12 +81,19 @@ class Texture:
         texture that may be a row of the compiled kernel's texture table, or None (the default)."""
         return None
 
+    def compiled_vertex_product(self):
+        """``(vertex colours, factor)``: this texture as the hit's interpolated vertex colours (a texture whose
+        :meth:`compiled_record` has the tag :data:`pyrt.textures.compiled.VERTEX`) times ``factor`` (a constant or a
+        texture), which the compiled kernel reads in a material's colour slot 0
+        (:data:`pyrt.materials.compiled.VERTEX_COLOR`); None (the default) for any other texture."""
+        return None
+
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
         # a subclass that changes what the texture returns but not its compiled record (or its compiled form as a
         # factor times a table texture) is not compiled
         if "evaluate" in cls.__dict__:
-            for name in ("compiled_record", "compiled_color", "compiled_scalar"):
+            for name in ("compiled_record", "compiled_color", "compiled_scalar", "compiled_vertex_product"):
                 if name not in cls.__dict__:
                     setattr(cls, name, Texture.__dict__[name])
 

@@ -14,6 +14,9 @@ IMAGE          an RGB :class:`pyrt.ImageTexture` with the ``nearest`` or ``bilin
 MIP            an RGB :class:`pyrt.ImageTexture` with the ``trilinear`` filter: the IMAGE fields 0-4 and 6-13, 5 the
                number of MIP levels, 14 the footprint scale; its data block is the levels' offsets in the block then
                every level's texels (:mod:`pyrt.textures.compiled_mip`)
+VERTEX         per-vertex RGB colours bound to meshes (:class:`pyrt.io.assets.VertexColorTexture`); no fields: the
+               colours are packed with the geometry (:mod:`pyrt.integrators.compiled_vertex`) and read only as a
+               material's :data:`pyrt.materials.compiled.VERTEX_COLOR`, never looked up by uv
 =============  ==============================================================================
 
 The table's flat data is the records (``n x RECORD``) followed by the image textures' texels (decoded, float64,
@@ -32,7 +35,7 @@ from pyrt.textures.compiled_mip import WRAPS, MipLevels, bilinear_rgb, mip_recor
 #: parameters per texture record
 RECORD = 16
 #: type tags (0 is no texture)
-CHECKER_UV, IMAGE, MIP = 1, 2, 3
+CHECKER_UV, IMAGE, MIP, VERTEX = 1, 2, 3, 4
 
 
 @register_jitable(forceinline=True)

@@ -1,10 +1,11 @@
 """The compiled form of tangent-space normal maps: the scalar twin of :func:`pyrt.textures.normal_map.perturb_normal`
-for one hit (held to it by tests/test_compiled_normal_map.py).
+for one hit (held to it by tests/test_compiled_diffs.py).
 
 The map's texels are looked up by the caller (a row of the texture table, :func:`pyrt.textures.compiled.texture_rgb`);
 :func:`perturb` decodes them (:func:`pyrt.shaders.textures.decode_normal_map`), mirrors them on back faces, builds
-the tangent frame (:func:`pyrt.shaders.textures.tangent_frame`) from the triangle's UV tangents
-(:func:`uv_tangents`, :func:`pyrt.geometry.uvsets.uv_tangents`), applies them
+the tangent frame (:func:`pyrt.shaders.textures.tangent_frame`) from the tangents the caller gives (the mesh's
+interpolated vertex tangent and bitangent where it has them, :func:`pyrt.integrators.compiled_diffs.vertex_tangents`;
+else the triangle's UV tangents, :func:`uv_tangents`, :func:`pyrt.geometry.uvsets.uv_tangents`), applies them
 (:func:`pyrt.shaders.textures.apply_tangent_normal`), keeps the unperturbed normal where the result faces away from
 the viewer, and with ``bend`` tilts it so that the mirror reflection of ``wo`` stays above the surface
 (:func:`pyrt.shaders.vec.valid_reflection_normal`). Vectors are 3-tuples of float64.

@@ -9,6 +9,7 @@ import numpy as np
 
 from pyrt.materials import BlinnPhong, Clearcoat, Glass, GltfPBR, MetallicRoughness, Sheen, Unlit
 from pyrt.textures import Texture
+from pyrt.textures import compiled as _TC
 from pyrt.textures.base import footprinted, is_texture
 from pyrt.io.assets.common import AssetError, DefaultParams, MTLParams, PBRParams
 
@@ -62,6 +63,16 @@ class ProductTexture(Texture):
             return np.broadcast_to(np.asarray(x, dtype=np.float64), (ctx.n_hits, 3))
         return val(self.a) * val(self.b)
 
+    def compiled_vertex_product(self):
+        """``(vertex colours, other factor)`` where one factor is vertex colours alone
+        (:meth:`VertexColorTexture.compiled_vertex_product`) and the other a constant or a texture without them;
+        None otherwise."""
+        for x, y in ((self.a, self.b), (self.b, self.a)):
+            form = x.compiled_vertex_product() if is_texture(x) else None
+            if form is not None and form[0] is x and not (is_texture(y) and y.compiled_vertex_product() is not None):
+                return x, y
+        return None
+
 
 class VertexColorTexture(Texture):
     """Linear per-vertex colours interpolated with the hit's barycentrics.
@@ -89,6 +100,25 @@ class VertexColorTexture(Texture):
     def bind(self, mesh_id, faces, colors):
         self._bound[int(mesh_id)] = (np.asarray(faces, dtype=np.int64), np.asarray(colors, dtype=np.float64))
         self._table = None
+
+    def bound(self, mesh_id):
+        """``(faces, colors)`` bound to scene mesh ``mesh_id``, or None (its hits get white)."""
+        return self._bound.get(int(mesh_id))
+
+    def compiled_record(self):
+        """RGB vertex colours: a row of tag :data:`pyrt.textures.compiled.VERTEX` (no fields; the kernel reads the
+        colours packed with the geometry, :mod:`pyrt.integrators.compiled_vertex`); None with one channel."""
+        return (_TC.VERTEX, np.zeros(_TC.RECORD)) if self.channels == 3 else None
+
+    def compiled_color(self):
+        """None: the kernel does not look vertex colours up as a texture slot (only as :meth:`compiled_vertex_product`
+        of a material's colour slot 0)."""
+        return None
+
+    def compiled_vertex_product(self):
+        """``(self, 1.0)`` for RGB colours (the kernel interpolates them at the hit as :meth:`evaluate`), else
+        None."""
+        return (self, 1.0) if self.channels == 3 else None
 
     def _tables(self):
         """``(face offset per mesh id (-1: unbound), faces (F, 3) into colours, colours (V, C))`` of every bound
