@@ -86,16 +86,23 @@ def pack_table(tags, records, texels):
     if not tags:
         return np.zeros(1, dtype=np.int64), np.zeros((1, RECORD))
     recs = np.stack([np.asarray(r, dtype=np.float64) for r in records])
-    parts, at = [], recs.size
-    for i, tx in enumerate(texels):
+    sizes = [0 if tx is None else (tx.size if isinstance(tx, MipLevels) else np.size(tx)) for tx in texels]
+    at = recs.size
+    total = at + sum(sizes)
+    # one allocation, each texel written once (converted on the way in): the copies of concatenating made the
+    # table 4x slower (1.6 s for three 2048² pyramids) and held them twice
+    flat = np.zeros(total + (-total % RECORD))
+    flat[:recs.size] = recs.ravel()
+    for i, (tx, n) in enumerate(zip(texels, sizes)):
+        if tx is None:
+            continue
+        flat[i * RECORD + 2] = at
         if isinstance(tx, MipLevels):
-            tx = tx.block()
-        if tx is not None:
-            recs[i, 2] = at
-            parts.append(np.ravel(np.asarray(tx, dtype=np.float64)))
-            at += parts[-1].size
-    flat = np.concatenate([recs.ravel(), *parts, np.zeros(-at % RECORD)])
-    return np.asarray(tags, dtype=np.int64), np.ascontiguousarray(flat.reshape(-1, RECORD))
+            tx.write(flat[at:at + n])
+        else:
+            flat[at:at + n] = np.ravel(tx)
+        at += n
+    return np.asarray(tags, dtype=np.int64), flat.reshape(-1, RECORD)
 
 
 def image_record(tex):

@@ -120,10 +120,26 @@ class MipLevels:
 
     def __init__(self, tex):
         self.tex = tex
+        self._levels = None
 
-    def block(self):
-        """(n,) float64: the levels' offsets in the block, then every level's texels (:meth:`pyrt.ImageTexture.
-        mip_levels`: the whole pyramid is built here)."""
-        levels = self.tex.mip_levels()
-        offsets = np.cumsum([0] + [lev.size for lev in levels[:-1]]) + len(levels)
-        return np.concatenate([offsets.astype(np.float64)] + [np.ravel(lev).astype(np.float64) for lev in levels])
+    def levels(self):
+        """The pyramid's levels (:meth:`pyrt.ImageTexture.mip_levels`: the whole pyramid, built on the first call)."""
+        if self._levels is None:
+            self._levels = self.tex.mip_levels()
+        return self._levels
+
+    @property
+    def size(self):
+        """Words of the block: one offset per level, then every level's texels."""
+        levels = self.levels()
+        return len(levels) + sum(lev.size for lev in levels)
+
+    def write(self, out):
+        """The block into ``out`` ((:attr:`size`,) float64): the levels' offsets in the block, then every level's
+        texels, each converted once on its way in (no intermediate copies: a 2048² map's pyramid is ~17 M words)."""
+        levels = self.levels()
+        at = len(levels)
+        for k, lev in enumerate(levels):
+            out[k] = at
+            out[at:at + lev.size] = np.ravel(lev)
+            at += lev.size
