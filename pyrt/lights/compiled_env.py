@@ -54,6 +54,7 @@ from numba.extending import register_jitable
 
 from pyrt.core import unmanaged as U
 from pyrt.shaders import jit as J
+from pyrt.shaders.jit_preview import latlong_dir_to_uv
 
 from pyrt.lights.compiled_tables import BELOW_ONE, cell_pdf, guide_table, sample_cells
 from pyrt.materials.compiled_sampling import power_heuristic, square_to_uniform_sphere
@@ -184,16 +185,6 @@ def env_to_world(rec, dx, dy, dz):
     b = R_ROT
     return (dx * rec[b] + dy * rec[b + 1] + dz * rec[b + 2], dx * rec[b + 3] + dy * rec[b + 4] + dz * rec[b + 5],
             dx * rec[b + 6] + dy * rec[b + 7] + dz * rec[b + 8])
-
-
-@register_jitable(forceinline=True)
-def latlong_dir_to_uv(dx, dy, dz):
-    """Lat-long ``(u, v)`` of a unit direction: :func:`pyrt.shaders.envmap.latlong_dir_to_uv`."""
-    u = math.atan2(dx, -dz) * (0.5 / math.pi)
-    u = u - math.floor(u)
-    if u >= 1.0:
-        u = 0.0
-    return u, math.acos(min(max(dy, -1.0), 1.0)) / math.pi
 
 
 @register_jitable(forceinline=True)
