@@ -108,6 +108,9 @@ class PreparedScene:
         #: the geometry as the compiled kernel's flat tables (:class:`pyrt.integrators.compiled.CompiledScene`), built
         #: by the first compiled render and kept: the geometry cannot change once its BVH is built
         self.compiled_geometry = None
+        #: the compiled texture table of the last compiled render and what decided it
+        #: (:func:`pyrt.integrators.compiled.texture_table`: reused while the textures' lookups are the same)
+        self.compiled_textures = None
 
     def before_fork(self):
         """Build now what every forked render worker (:class:`pyrt.render.pool.ChunkPool`) would otherwise build
