@@ -13,6 +13,7 @@ import math
 
 from numba.extending import register_jitable
 
+from .jit import wrap_int
 from .jit_brdfs import GLTF_DIELECTRIC_F0
 
 #: :mod:`shaders.envmap`'s SH constants (R&H 2001 eq. 3, closed form)
@@ -59,7 +60,7 @@ def latlong_dir_to_uv(dx, dy, dz):
     return u, math.acos(min(max(dy, -1.0), 1.0)) / math.pi
 
 
-@register_jitable
+@register_jitable(forceinline=True)
 def bilinear_latlong(data, o, h, w, u, v):
     """RGB of the float64 lat-long map ``(h, w, 3)`` at ``data[o:]``, bilinear at lat-long ``(u, v)`` (wrapping in
     u, clamping in v): :func:`shaders.textures.lookup_bilinear` at the texture coordinates ``(u, 1 - v)``."""
@@ -69,7 +70,7 @@ def bilinear_latlong(data, o, h, w, u, v):
     x0, y0 = math.floor(x), math.floor(y)
     fx, fy = x - x0, y - y0
     ix0, iy0 = int(x0), int(y0)
-    cx0, cx1 = ix0 % w, (ix0 + 1) % w
+    cx0, cx1 = wrap_int(ix0, w), wrap_int(ix0 + 1, w)
     ry0, ry1 = min(max(iy0, 0), h - 1) * w, min(max(iy0 + 1, 0), h - 1) * w
     w0, w1, w2, w3 = (1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy
     t0, t1, t2, t3 = o + 3 * (ry0 + cx0), o + 3 * (ry0 + cx1), o + 3 * (ry1 + cx0), o + 3 * (ry1 + cx1)

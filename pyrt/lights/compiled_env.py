@@ -54,7 +54,7 @@ from numba.extending import register_jitable
 
 from pyrt.core import unmanaged as U
 from pyrt.shaders import jit as J
-from pyrt.shaders.jit_preview import latlong_dir_to_uv
+from pyrt.shaders.jit_preview import bilinear_latlong, latlong_dir_to_uv
 
 from pyrt.lights.compiled_tables import BELOW_ONE, cell_pdf, guide_table, sample_cells
 from pyrt.materials.compiled_sampling import power_heuristic, square_to_uniform_sphere
@@ -244,16 +244,7 @@ def latlong_lookup(tag, rec, data, u, v):
         iy = min(max(int(math.floor(y + 0.5)), 0), h - 1)
         t = o + 3 * (iy * w + ix)
         return data[t], data[t + 1], data[t + 2]
-    x0, y0 = math.floor(x), math.floor(y)
-    fx, fy = x - x0, y - y0
-    ix0, iy0 = int(x0), int(y0)
-    cx0, cx1 = J.wrap_int(ix0, w), J.wrap_int(ix0 + 1, w)
-    ry0, ry1 = min(max(iy0, 0), h - 1) * w, min(max(iy0 + 1, 0), h - 1) * w
-    w0, w1, w2, w3 = (1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy
-    t0, t1, t2, t3 = o + 3 * (ry0 + cx0), o + 3 * (ry0 + cx1), o + 3 * (ry1 + cx0), o + 3 * (ry1 + cx1)
-    r = w0 * data[t0] + w1 * data[t1] + w2 * data[t2] + w3 * data[t3]
-    g = w0 * data[t0 + 1] + w1 * data[t1 + 1] + w2 * data[t2 + 1] + w3 * data[t3 + 1]
-    b = w0 * data[t0 + 2] + w1 * data[t1 + 2] + w2 * data[t2 + 2] + w3 * data[t3 + 2]
+    r, g, b = bilinear_latlong(data, o, h, w, u, v)
     if rec[R_F32] != 0.0:
         return np.float64(np.float32(r)), np.float64(np.float32(g)), np.float64(np.float32(b))
     return r, g, b
