@@ -176,3 +176,28 @@ def test_glossy_integrator_under_the_preview_environment_agrees_with_numpy():
     pyrt.lights.set_environment(s, env, lighting="preview")
     assert compiled.glossy_reasons(s) == []
     _assert_agree(s, integrator=pyrt.Glossy(samples=4, depth=2, light_select_depth=1))
+
+
+def test_glossy_image_does_not_depend_on_the_thread_count():
+    """Every glossy ray's numbers are keyed on its sample and hit: one thread and two give the same image."""
+    s = _scene(spp=4)
+    integ = pyrt.Glossy(samples=4, depth=2, light_select_depth=1)
+    a = pyrt.render_full(s, seed=5, execution=pyrt.Execution(backend="compiled", progress=False, threads=1),
+                         integrator=integ).image
+    b = pyrt.render_full(s, seed=5, execution=pyrt.Execution(backend="compiled", progress=False, threads=2),
+                         integrator=integ).image
+    np.testing.assert_array_equal(a, b)
+
+
+def test_compiled_clamp_is_the_numpy_clamp():
+    """compiled_hit.clamp_sampled against pyrt.integrators.whitted.clamp_sampled row by row (rows over the limit and
+    under it, float64)."""
+    from pyrt.integrators.compiled_hit import clamp_sampled as clamp_one
+    from pyrt.integrators.whitted import clamp_sampled
+    rng = np.random.default_rng(7)
+    Ld = rng.uniform(0.0, 10.0, (300, 3))
+    thr = rng.uniform(0.0, 1.0, (300, 3))
+    want = clamp_sampled(Ld, thr, np.ones(300, dtype=bool), 2.0)
+    got = np.array([clamp_one(*Ld[i], tuple(thr[i]), 2.0) for i in range(300)])
+    assert (np.max(thr * Ld, axis=1) > 2.0).any() and (np.max(thr * Ld, axis=1) <= 2.0).any()
+    np.testing.assert_allclose(got, want, rtol=1e-15, atol=0.0)
