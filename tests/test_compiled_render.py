@@ -102,6 +102,27 @@ def test_same_seed_same_image_whatever_the_threads(extra):
     assert not np.array_equal(a.image, c)
 
 
+def test_renders_from_several_python_threads_take_turns():
+    """Two Python threads rendering at once (Dask worker threads, an application's own): Numba's workqueue layer
+    aborts the process when two threads enter a parallel region, so the kernel calls take turns
+    (``compiled.PARALLEL_LOCK``); both images are the single render's, bit for bit."""
+    import threading
+    scene = _scene(width=40, height=30, spp=4, jitter=True)
+    want = pyrt.render(scene, backend="compiled", progress=False, seed=3)
+    out = [None] * 4
+
+    def work(k):
+        out[k] = pyrt.render(scene, backend="compiled", progress=False, seed=3)
+
+    threads = [threading.Thread(target=work, args=(k,)) for k in range(len(out))]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for img in out:
+        np.testing.assert_array_equal(img, want)
+
+
 def test_non_square_spp_is_stratified_and_unbiased():
     """3 samples per pixel (a Latin hypercube): the mean over a constant-radiance image is exact."""
     cam = pyrt.Camera(position=(0, 1, 3), target=(0, 0, 0), width=16, height=12, spp=3)

@@ -33,6 +33,7 @@ from __future__ import annotations
 import functools
 import math
 import sys
+import threading
 import time
 import warnings
 
@@ -420,6 +421,11 @@ FIRST_CALL_TILES = 8
 CHUNKSIZE = 1
 #: the fewest kernel calls of a render with enough tiles (so that a progress bar moves)
 MIN_CALLS = 4
+#: held around every call of the threaded kernel (:func:`pyrt.integrators.compiled_kernel.render_tiles`): Numba's
+#: workqueue threading layer runs one parallel region at a time and aborts the process when a second thread enters
+#: one (two renders on a Dask worker's threads, or any two Python threads), so concurrent renders take turns call
+#: by call (each call uses every thread it was given)
+PARALLEL_LOCK = threading.Lock()
 
 
 def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_depth, terminator, threads=None,
@@ -446,9 +452,10 @@ def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_dept
     width = packet_width()
     if threads is not None:
         numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
-    load_kernel(cs, K.render_tiles, lambda: K.render_tiles(
-        cs.scene, order[:0], cam_rec, cs.geo_f, cs.geo_i, cs.materials[0], cs.materials[1], cs.textures[0],
-        cs.textures[1], cs.lights[0], cs.lights[1], cs.env_data, opts, optf, sums, sqs, aov, counters[:0], width))
+    with PARALLEL_LOCK:
+        load_kernel(cs, K.render_tiles, lambda: K.render_tiles(
+            cs.scene, order[:0], cam_rec, cs.geo_f, cs.geo_i, cs.materials[0], cs.materials[1], cs.textures[0],
+            cs.textures[1], cs.lights[0], cs.lights[1], cs.env_data, opts, optf, sums, sqs, aov, counters[:0], width))
     n_threads = numba.get_num_threads()
     per_call = FIRST_CALL_TILES * n_threads
     lo, timed_s, timed_tiles = 0, 0.0, 0
@@ -461,7 +468,7 @@ def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_dept
             # a compile (first call, cold cache) reports "variable ... is not in scope" for inlined helpers with
             # early returns: an internal check of Numba's, not a fault of the kernel (the tests hold its images)
             warnings.simplefilter("ignore", NumbaIRAssumptionWarning)
-            with numba.parallel_chunksize(CHUNKSIZE):
+            with PARALLEL_LOCK, numba.parallel_chunksize(CHUNKSIZE):
                 K.render_tiles(cs.scene, order[lo:hi], cam_rec, cs.geo_f, cs.geo_i, cs.materials[0], cs.materials[1],
                                cs.textures[0], cs.textures[1], cs.lights[0], cs.lights[1], cs.env_data, opts,
                                optf, sums, sqs, aov, counters[lo:hi], width)
