@@ -390,12 +390,14 @@ def test_adaptive_preview_spends_samples_where_the_image_needs_them(tmp_path, ca
     assert np.isfinite(res.image).all() and res.stop_reason == "target_error"
     assert spp.min() >= 2 and spp.max() <= 8
     assert spp[mask].mean() > spp[~mask].mean()           # the blob's shading and edges, not the backdrop
-    for kw, what in ((dict(target_error=-1.0), "target_error"), (dict(max_spp=8), "max_spp needs target_error"),
-                     (dict(target_error=1e-3, min_spp=3), "min_spp")):
+    for kw, what in ((dict(target_error=-1.0), "target_error"), (dict(max_spp=2, min_spp=4), "max_spp 2 is below"),
+                     (dict(target_error=1e-3, min_spp=3), "min_spp"), (dict(render_budget=0), "render_budget"),
+                     (dict(target_error=None, render_budget=None), "needs target_error or render_budget"),
+                     (dict(spp=0), "spp must be")):
         with pytest.raises(P.PreviewError, match=what):
             P.PreviewOptions(**kw).validate()
-    assert P.main([BLOB, "-o", str(tmp_path / "a.png"), "--max-spp", "8", "--quiet"]) == 2
-    assert "pyrt-preview: error: max_spp needs target_error" in capsys.readouterr().err
+    assert P.main([BLOB, "-o", str(tmp_path / "a.png"), "--max-spp", "2", "--quiet"]) == 2
+    assert "pyrt-preview: error: max_spp 2 is below min_spp 4" in capsys.readouterr().err
     rc = P.main([BLOB, "-o", str(tmp_path / "b.png"), "--width", "24", "--height", "18", "--target-error", "1e-2",
                  "--quiet"])
     assert rc == 0 and (tmp_path / "b.png").exists()

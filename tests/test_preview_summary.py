@@ -37,7 +37,26 @@ def test_summary_line_gives_the_spp_and_error_an_adaptive_render_reached(tmp_pat
     spp = float(part[0].rsplit(", ", 1)[1])
     err = float(part[1].split(" ")[0])
     assert 2 <= spp <= 4 and err > 1e-9          # the target is out of reach: max_spp stops it
-    assert "(target 1e-09)" in line
+    assert "(target 1e-09, stopped by max_spp)" in line
+
+
+def test_the_default_is_adaptive_and_says_why_it_stopped(tmp_path, capsys):
+    """No --spp: adaptive passes to the default target within the render budget; a budget too short for a second
+    pass stops after the base pass and the line says so."""
+    assert P.main([BLOB, "-o", str(tmp_path / "v.png"), "--width", "24", "--height", "18"]) == 0
+    line = _line(capsys)
+    assert f"(target {P.PreviewOptions.target_error:g}" in line and " spp (mean), estimated relMSE " in line
+    assert P.main([BLOB, "-o", str(tmp_path / "w.png"), "--width", "24", "--height", "18", "--target-error", "1e-9",
+                   "--render-budget", "1e-6"]) == 0
+    line = _line(capsys)
+    assert ", 4 spp (mean), " in line and "(target 1e-09, stopped by the render budget)" in line
+
+
+def test_spp_and_an_adaptive_target_exclude_each_other(tmp_path, capsys):
+    assert P.main([BLOB, "-o", str(tmp_path / "v.png"), "--spp", "2", "--target-error", "1e-3"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("pyrt-preview: error: --spp") and err.count("\n") == 1
+    assert not (tmp_path / "v.png").exists()
 
 
 def test_batch_summary_has_spp_error_and_whole_messages(tmp_path):

@@ -23,7 +23,7 @@ from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, ArgumentParser, chec
                               run_console)
 from pyrt.integrators.compiled import BACKENDS
 from pyrt.render.pool import PARALLEL
-from pyrt.apps.preview.options import AXES, PreviewError, PreviewInterrupted, PreviewOptions
+from pyrt.apps.preview.options import ADAPTIVE_MAX_SPP, AXES, PreviewError, PreviewInterrupted, PreviewOptions
 from pyrt.apps.preview.render import format_phases, format_sampling, render_preview, write_files
 from pyrt.apps.preview.batch import collect_inputs, format_summary, preview_batch
 
@@ -40,6 +40,11 @@ def _glossy_clamp(text):
     return None if text == "off" else positive_float(text)
 
 
+def _render_budget(text):
+    """argparse type of ``--render-budget``: ``off`` (None) or a positive number of seconds."""
+    return None if text == "off" else positive_float(text)
+
+
 def _parser():
     ap = ArgumentParser(prog="pyrt-preview", description="Preview 3D models (glTF/GLB, OBJ, PLY, STL, OFF, or a ZIP "
                                  "archive holding one) with a studio rig, auto-framing and auto-exposure.")
@@ -52,12 +57,18 @@ def _parser():
     ap.add_argument("--out-dir", help="output folder (batch mode; default: preview_out)")
     ap.add_argument("--width", type=positive_int, default=640)
     ap.add_argument("--height", type=positive_int, default=480)
-    ap.add_argument("--spp", type=positive_int, default=4, help="samples per pixel (fixed; default 4)")
+    ap.add_argument("--spp", type=positive_int, help="a fixed number of samples per pixel instead of the adaptive "
+                                                      "default (--target-error, --render-budget)")
     ap.add_argument("--target-error", type=positive_float, metavar="E",
-                    help="adaptive sampling to this estimated relMSE instead of --spp (with --max-spp, --min-spp)")
-    ap.add_argument("--max-spp", type=positive_int, metavar="N", help="adaptive: samples per pixel at most (default 16)")
-    ap.add_argument("--min-spp", type=positive_int, default=2, metavar="N",
-                    help="adaptive: the base pass's samples per pixel (even, default 2)")
+                    help=f"adaptive passes until the estimated relMSE is at most E (default {PreviewOptions.target_error:g}), every pixel "
+                         "has --max-spp samples or --render-budget is spent")
+    ap.add_argument("--max-spp", type=positive_int, metavar="N",
+                    help=f"adaptive: samples per pixel at most (default {ADAPTIVE_MAX_SPP})")
+    ap.add_argument("--min-spp", type=positive_int, default=PreviewOptions.min_spp, metavar="N",
+                    help="adaptive: the base pass's samples per pixel (even, default %(default)s)")
+    ap.add_argument("--render-budget", type=_render_budget, default=PreviewOptions.render_budget, metavar="S",
+                    help="adaptive: no pass starts after a view has rendered S seconds (the base pass always "
+                         "completes); 'off': no limit (default %(default)s)")
     ap.add_argument("--fov", type=finite_float, default=35.0, help="vertical field of view (degrees)")
     ap.add_argument("--azimuth", type=finite_float, default=None,
                     help="camera azimuth in degrees (0 = from +z; default: 0 for thin boards, else 35)")
@@ -142,6 +153,8 @@ def main(argv=None, *, started=None):
 
 
 def _run(args, cancel, started=None):
+    if args.spp is not None and (args.target_error is not None or args.max_spp is not None):
+        raise PreviewError("--spp (a fixed count) and --target-error / --max-spp (adaptive passes) exclude each other")
     formats = tuple(args.format.split(",")) if args.format else ("png",)
     opts = PreviewOptions(width=args.width, height=args.height, spp=args.spp, fov=args.fov, azimuth=args.azimuth,
                           elevation=args.elevation, up=args.up, framing=args.framing, camera=args.camera, lights=args.lights,
@@ -152,9 +165,10 @@ def _run(args, cancel, started=None):
                           tonemap=args.tonemap, turntable=args.turntable, formats=formats, aovs=args.aovs,
                           seed=args.seed, time_budget=args.budget, threads=args.threads, parallel=args.parallel,
                           backend=args.backend,
-                          bvh_quality=args.bvh_quality, double_sided=args.double_sided, target_error=args.target_error,
+                          bvh_quality=args.bvh_quality, double_sided=args.double_sided,
+                          target_error=PreviewOptions.target_error if args.target_error is None else args.target_error,
                           max_spp=args.max_spp, max_texture=args.max_texture, glossy_clamp=args.glossy_clamp,
-                          min_spp=args.min_spp, root=args.root).validate()
+                          min_spp=args.min_spp, render_budget=args.render_budget, root=args.root).validate()
     paths = collect_inputs(args.models)
     if not paths:
         raise PreviewError(f"no models found in {' '.join(args.models)} "
@@ -211,7 +225,7 @@ def _main_single(path, outputs, opts, quiet, cancel, started=None):
         print(f"warning: {w}", file=sys.stderr)
     if not quiet:
         print(f"{res.triangles} triangles, up {res.up_axis} ({res.up_reason}), {format_phases(res.phases)} "
-              f"(total {sum(res.phases.values()):.2f} s), {format_sampling(res, opts.target_error)}, "
+              f"(total {sum(res.phases.values()):.2f} s), {format_sampling(res, None if opts.spp else opts.target_error)}, "
               f"exposure {res.exposure:+.2f} stops")
     if cancel.is_set():
         print("pyrt-preview: interrupted after the view had finished; the outputs are complete", file=sys.stderr)

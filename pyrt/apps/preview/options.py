@@ -28,7 +28,8 @@ class PreviewOptions:
 
     width: int = 640
     height: int = 480
-    spp: int = 4
+    #: a fixed number of samples per pixel; None (the default): adaptive passes to ``target_error`` (below)
+    spp: int | None = None
     fov: float = 35.0                    # vertical field of view
     #: camera azimuth around the up axis in degrees (0 = from +z, glTF's front). None: automatic, 35 degrees, or 0
     #: (face-on) for a thin "board" model whose depth (z extent) is at most BOARD_DEPTH_RATIO of its width (x extent)
@@ -108,12 +109,16 @@ class PreviewOptions:
     #: glossy -> sharp -> light paths (a sharp highlight seen in a glossy reflection), a bias (docs/preview.md);
     #: None: unbiased
     glossy_clamp: float | None = 4.0
-    #: adaptive sampling instead of ``spp`` (pyrt.render's target_error / max_spp / min_spp, docs/preview.md):
-    #: passes until the estimated relMSE is at most ``target_error`` or every pixel has ``max_spp``; None: ``spp``
-    #: per pixel. Off by default: which target matches 4 spp differs by model (measured 1e-3 to 8e-3)
-    target_error: float | None = None
+    #: the default quality (``spp`` None): adaptive passes (pyrt.render's target_error / max_spp / min_spp /
+    #: time_budget, docs/preview.md) until the estimated relMSE of the view is at most ``target_error``, every pixel
+    #: has ``max_spp`` samples or ``render_budget`` seconds of the view's render have passed, whichever comes
+    #: first; the base pass (``min_spp`` everywhere) always completes. Chosen on the shared Khronos models
+    #: (tools/preview_quality.py, docs/preview_quality.md): the estimate at 1e-3 gave a true relMSE against
+    #: 128-spp references of at most 2e-3 on every model that reached it
+    target_error: float = 1e-3
     max_spp: int | None = None
-    min_spp: int = 2
+    min_spp: int = 4
+    render_budget: float | None = 1.5
     crease_angle: float = 30.0
     #: render both sides of every model face (False: as the file says, glTF's doubleSided; back faces of single-sided
     #: materials are culled). The previewer warns when most of the single-sided surface a view sees is back faces
@@ -162,7 +167,9 @@ class PreviewOptions:
             raise PreviewError(f"emissive_lights must be 'auto' or 'off', got {self.emissive_lights!r}")
         if self.emissive_selection not in ("power", "oriented"):
             raise PreviewError(f"emissive_selection must be 'power' or 'oriented', got {self.emissive_selection!r}")
-        for name in ("width", "height", "spp", "chunk_samples", "dielectric_chunk_samples", "emissive_samples"):
+        if self.spp is not None and (int(self.spp) != self.spp or self.spp < 1):
+            raise PreviewError(f"spp must be a positive integer or None (adaptive), got {self.spp!r}")
+        for name in ("width", "height", "chunk_samples", "dielectric_chunk_samples", "emissive_samples"):
             v = getattr(self, name)
             if int(v) != v or v < 1:
                 raise PreviewError(f"{name} must be a positive integer, got {v!r}")
@@ -182,12 +189,18 @@ class PreviewOptions:
         if self.target_error is not None and not (isinstance(self.target_error, (int, float))
                                                   and 0 < self.target_error < float("inf")):
             raise PreviewError(f"target_error must be a number > 0, got {self.target_error!r}")
-        if self.max_spp is not None and self.target_error is None:
-            raise PreviewError("max_spp needs target_error (adaptive sampling); use spp for a fixed count")
+        if self.spp is None and self.target_error is None and self.render_budget is None:
+            raise PreviewError("adaptive sampling (spp None) needs target_error or render_budget; give spp for a "
+                               "fixed count")
+        if self.render_budget is not None and not (isinstance(self.render_budget, (int, float))
+                                                   and 0 < self.render_budget < float("inf")):
+            raise PreviewError(f"render_budget must be a number of seconds > 0 or None, got {self.render_budget!r}")
         if self.max_spp is not None and (int(self.max_spp) != self.max_spp or self.max_spp < 1):
             raise PreviewError(f"max_spp must be a positive integer, got {self.max_spp!r}")
         if int(self.min_spp) != self.min_spp or self.min_spp < 2 or self.min_spp % 2:
             raise PreviewError(f"min_spp must be an even integer >= 2, got {self.min_spp!r}")
+        if self.max_spp is not None and self.max_spp < self.min_spp:
+            raise PreviewError(f"max_spp {self.max_spp} is below min_spp {self.min_spp}")
         if not 0 < self.fov < 180:
             raise PreviewError(f"fov must be in (0, 180) degrees, got {self.fov}")
         if not -89.0 <= self.elevation <= 89.0:
@@ -253,8 +266,8 @@ class PreviewOptions:
 #: other surfaces arrives only through glossy rays (Lambertian surfaces get none of it: a documented bias)
 EMISSIVE_POWER_RATIO = 0.25
 
-#: ``max_spp`` of an adaptive preview (``target_error`` given) when it is not given
-ADAPTIVE_MAX_SPP = 16
+#: ``max_spp`` of an adaptive preview (``spp`` None) when it is not given
+ADAPTIVE_MAX_SPP = 64
 
 #: ``azimuth=None`` views a model face-on (azimuth 0) when its z extent is at most this fraction of its x extent
 BOARD_DEPTH_RATIO = 0.25

@@ -143,12 +143,12 @@ class PreviewScene:
             ac = self.asset.cameras[0]
             R = self.up_matrix[:3, :3]
             cam = dataclasses.replace(ac, position=R @ ac.position, forward=R @ ac.forward, up=R @ ac.up)
-            return cam.to_pyrt(o.width, o.height, spp=o.spp)
+            return cam.to_pyrt(o.width, o.height, spp=o.spp or o.min_spp)
         if o.framing == "sphere":
             return frame_camera(self.center, self.radius, fov=o.fov, azimuth=azimuth, elevation=o.elevation,
-                                width=o.width, height=o.height, margin=o.margin, spp=o.spp)
+                                width=o.width, height=o.height, margin=o.margin, spp=o.spp or o.min_spp)
         return frame_points(self.hull, fov=o.fov, azimuth=azimuth, elevation=o.elevation, width=o.width,
-                            height=o.height, margin=o.margin, spp=o.spp)
+                            height=o.height, margin=o.margin, spp=o.spp or o.min_spp)
 
     def _set_view(self, azimuth):
         o = self.options
@@ -258,9 +258,9 @@ class PreviewScene:
                            threshold=o.glossy_threshold, clamp=clamp,
                            batch_rays=(o.dielectric_batch_rays or o.batch_rays) if glass else o.batch_rays,
                            **({"split_depth": o.split_depth} if glass else {}))
-            sampling = Sampling(sampler=o.sampler) if o.target_error is None else Sampling(
-                target_error=o.target_error, max_spp=o.max_spp or ADAPTIVE_MAX_SPP, min_spp=o.min_spp,
-                sampler=o.sampler)
+            sampling = Sampling(sampler=o.sampler) if o.spp is not None else Sampling(
+                target_error=o.target_error, time_budget=o.render_budget, max_spp=o.max_spp or ADAPTIVE_MAX_SPP,
+                min_spp=o.min_spp, sampler=o.sampler)
             res = render_full(self.scene, seed=o.seed, integrator=integ, sampling=sampling, output=Output(aovs=aovs),
                               execution=Execution(progress=False, prepared=self.prepared, threads=o.threads,
                                                   backend=o.backend,
@@ -321,6 +321,9 @@ class PreviewResult:
     estimated_errors: list = field(default_factory=list)
     #: per view: the render path taken (:attr:`pyrt.RenderStats.backend`: ``"compiled"`` or ``"numpy"``)
     backends: list = field(default_factory=list)
+    #: per view: why its adaptive passes stopped (:attr:`pyrt.RenderResult.stop_reason`: ``"target_error"``,
+    #: ``"time_budget"``, ``"max_spp"``), None at a fixed spp
+    stop_reasons: list = field(default_factory=list)
 
     @property
     def mean_spp(self):
@@ -336,16 +339,24 @@ class PreviewResult:
 
 def format_sampling(result, target_error=None):
     """``"4 spp, compiled path"`` at a fixed spp; ``"5.3 spp (mean), estimated relMSE 9.6e-04 (target 0.001),
-    compiled path"`` for adaptive renders (the views' mean spp and their largest estimated error): what the previewer
-    reached, and the render path its views took (``NumPy path`` where one took it; none said without views)."""
+    compiled path"`` for adaptive renders (the views' mean spp and their largest estimated error; ``"target 0.001,
+    stopped by the render budget"`` or ``"by max_spp"`` when some view stopped before the target): what the
+    previewer reached, and the render path its views took (``NumPy path`` where one took it; none said without
+    views)."""
     text = f"{result.mean_spp:.3g} spp"
     err = result.worst_error
     if err is not None:
-        target = "" if target_error is None else f" (target {target_error:g})"
+        stops = set(result.stop_reasons) - {None, "target_error"}
+        why = "".join(f", stopped by {_STOPS.get(r, r)}" for r in sorted(stops))
+        target = "" if target_error is None else f" (target {target_error:g}{why})"
         text = f"{text} (mean), estimated relMSE {err:.2g}{target}"
     if result.backends:
         text += ", NumPy path" if "numpy" in result.backends else ", compiled path"
     return text
+
+
+#: how :func:`format_sampling` names an adaptive view's stop reason
+_STOPS = {"time_budget": "the render budget", "max_spp": "max_spp", "cancelled": "a cancellation"}
 
 
 #: The phases a preview reports (:attr:`PreviewResult.phases`, the ``pyrt-preview`` summary line, the batch summary),
@@ -468,7 +479,7 @@ def render_preview(model, options=None, *, name="preview", deadline=None, cancel
     try:
         n_views = max(1, o.turntable)
         az = [ps.azimuth + 360.0 * k / n_views for k in range(n_views)] if o.turntable else [ps.azimuth]
-        images, aovs, spp, errors, backends = [], [], [], [], []
+        images, aovs, spp, errors, backends, stops = [], [], [], [], [], []
         files = {}
         t_render = 0.0
         last = None
@@ -487,6 +498,7 @@ def render_preview(model, options=None, *, name="preview", deadline=None, cancel
             spp.append(res.samples_done / max(res.image.shape[0] * res.image.shape[1], 1))
             errors.append(res.estimated_error)
             backends.append(res.stats.backend)
+            stops.append(res.stop_reason)
         phases.update(ps.timings)
         for key, phase in _IN_RENDER.items():       # done during the first view's render: not rendering
             if ps.prepared.timings.get(key):
@@ -512,7 +524,7 @@ def render_preview(model, options=None, *, name="preview", deadline=None, cancel
                              camera=ps.camera(az[0]), triangles=ps.n_triangles, load_time=load_time,
                              render_time=t_render, warnings=ps.warnings, files=files, phases=phases,
                              substitutions=list(asset.substitutions), spp=spp, estimated_errors=errors,
-                             backends=backends)
+                             backends=backends, stop_reasons=stops)
     finally:
         ps.close()
 
