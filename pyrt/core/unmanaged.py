@@ -66,6 +66,26 @@ def pointer(typingctx, arr):
 
 
 @intrinsic
+def float32_pointer(typingctx, data):
+    """The words of ``data`` (a float64 :func:`pointer`, or a C-contiguous float64 array: its data) read as float32,
+    from the same address (``types.CPointer(float32)``): ``ptr[k]`` is the float32 at byte ``4 k``.
+
+    Why: one table can then hold float64 records and, after them, float32 payload (the compiled texture table's
+    texels, :mod:`pyrt.textures.compiled`) in one allocation that reaches the kernels as one pointer. Same lifetime
+    rule as :func:`pointer`; no bounds."""
+    if isinstance(data, types.CPointer) and data.dtype == types.float64:
+        def codegen(context, builder, sig, args):
+            return builder.bitcast(args[0], context.get_value_type(types.float32).as_pointer())
+    elif isinstance(data, types.Array) and data.layout == "C" and data.dtype == types.float64:
+        def codegen(context, builder, sig, args):
+            ptr = context.make_array(sig.args[0])(context, builder, args[0]).data
+            return builder.bitcast(ptr, context.get_value_type(types.float32).as_pointer())
+    else:
+        return None
+    return types.CPointer(types.float32)(data), codegen
+
+
+@intrinsic
 def prefetch(typingctx, ptr, index):
     """Ask the CPU to bring the cache line of ``ptr[index]`` (a :func:`pointer`) into its caches (LLVM's
     ``llvm.prefetch``: a read, kept in all levels); no effect on the program's values, and no fault on any address.

@@ -202,8 +202,8 @@ def texture_table(ps, textures):
     """:func:`pyrt.textures.compiled.pack_table` of the textures ``textures`` collected (a :class:`_TexturePacker`),
     reused from the prepared scene ``ps``'s last packing when the records are equal and every texture with texels is
     the same lookup (:attr:`pyrt.ImageTexture.sampling_key`: its texels, pyramid, UV set, filter and transform): the
-    views of a turntable and the renders of one prepared scene pack their pyramids once (three 2048² pyramids: ~1.2 s
-    and ~450 MB of float64 each time)."""
+    views of a turntable and the renders of one prepared scene pack their textures once (Avocado's three 2048² maps,
+    two whole pyramids and one level 0: 185 MB of float32 texels, ~0.17 s in ``pyrt-preview`` each time)."""
     key = _texture_key(textures)
     hit = ps.compiled_textures
     if key is not None and hit is not None and hit[0] == key:

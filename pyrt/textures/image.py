@@ -451,9 +451,9 @@ class ImageTexture(Texture):
         if self.filter not in _tex.RECONSTRUCT:
             self._pyramid.build_all()
 
-    def mip_levels(self):
-        """Every MIP level, built now: level 0 decoded (:attr:`image`), then the levels trilinear lookups read."""
-        return [self.image] + [self._pyramid[k] for k in range(1, len(self._pyramid))]
+    def mip_level(self, level):
+        """MIP level ``level >= 1`` ((H_l, W_l, C) float32 linear values), built now if it is not yet, and kept."""
+        return self._pyramid[level]
 
     @property
     def mip_levels_built(self):
