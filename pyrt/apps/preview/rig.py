@@ -206,6 +206,9 @@ def flat_bases(vertices, faces, hull=None):
     eq = hull.equations
     tri = hull.points[hull.simplices]
     area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    used, f = np.unique(f, return_inverse=True)        # the faces' own vertices (a face sample keeps all of them)
+    f = f.reshape(-1, 3)
+    v = v[used]
     tv = v[f]
     fn = np.cross(tv[:, 1] - tv[:, 0], tv[:, 2] - tv[:, 0])
     fa = 0.5 * np.linalg.norm(fn, axis=1)
@@ -216,6 +219,7 @@ def flat_bases(vertices, faces, hull=None):
     edge = uk[count == 1]                                   # edges of one face: the open boundary
     bnd = np.stack([edge // (v.shape[0] + 1), edge % (v.shape[0] + 1)], axis=1)
     cos_tol, tol = math.cos(math.radians(FLAT_ANGLE)), FLAT_DIST * size
+    f0, f1, f2, b0, b1 = (np.ascontiguousarray(c) for c in (f[:, 0], f[:, 1], f[:, 2], bnd[:, 0], bnd[:, 1]))
     # hull facets grouped by plane (normal to ~FLAT_ANGLE / 2, offset to FLAT_DIST): a planar region is triangulated
     # into many small facets; only groups of at least FLAT_MIN_AREA are looked at
     q = np.column_stack([np.round(eq[:, :3] / math.radians(0.5 * FLAT_ANGLE)), np.round(eq[:, 3] / tol)])
@@ -229,9 +233,11 @@ def flat_bases(vertices, faces, hull=None):
         n /= np.linalg.norm(n)
         d = float(eq[i, 3].mean())
         a = float(g_area[g])
-        on = np.all(np.abs(tv @ n + d) < tol, axis=1) & (np.abs(fn @ n) > cos_tol)
+        near = np.abs(v @ n + d) < tol                # vertices in the plane (once each, not once per face)
+        on = near[f0] & near[f1] & near[f2]           # (not .all(axis=1): slow over an axis of 3)
+        on[on] = np.abs(fn[on] @ n) > cos_tol
         covered = float(fa[on].sum())
-        loop = bnd[np.all(np.abs(v[bnd] @ n + d) < tol, axis=1)]
+        loop = bnd[near[b0] & near[b1]]
         if loop.shape[0] >= 3:
             e1, e2 = _in_plane(n)
             q = v[np.unique(loop)]
