@@ -10,7 +10,8 @@ tests/test_compiled_render.py.
 Alpha masks (:data:`pyrt.materials.compiled.MASK`): a leaf quad whose opacity is a checker image (nearest) and a quad
 of constant opacity below the cutoff, seen by camera, mirror and glass rays and crossed by shadow rays: the NumPy
 path's image, AOVs and rays; the leaf's holes show what is behind it and its shadow has holes. What the kernel does
-not cover (blending, an opacity read at a footprint, masks with an environment light) falls back, with its reason.
+not cover (masks with an environment light) falls back, with its reason; blending and opacities read at a footprint:
+tests/test_compiled_blend.py.
 """
 import numpy as np
 import pytest
@@ -249,19 +250,11 @@ def test_leaf_holes_show_what_is_behind_and_its_shadow_has_holes():
     assert floor.sum() > 20
 
 
-@pytest.mark.parametrize("case", ["blend", "trilinear", "environment"])
-def test_what_masks_do_not_cover_falls_back_and_says_why(case):
+def test_masks_with_an_environment_light_fall_back_and_say_why():
     s = _objects(width=8, height=6)
-    if case == "blend":
-        s.materials[0].set_coverage(opacity=0.5, alpha_mode="blend")
-        reason = "alpha coverage (blend"
-    elif case == "trilinear":
-        s.add_mesh(_uv_quad((0.2, 0.9, 1.2), 0.45), _leaf(filter="trilinear"), smooth=False)
-        reason = "alpha mask of material"
-    else:
-        s.materials[0].set_coverage(opacity=0.5, alpha_mode="mask")
-        pyrt.set_environment(s, pyrt.ConstantEnvironment(0.3))
-        reason = "alpha masks with an environment light"
+    s.materials[0].set_coverage(opacity=0.5, alpha_mode="mask")
+    pyrt.set_environment(s, pyrt.ConstantEnvironment(0.3))
     r = pyrt.render_full(s, execution=pyrt.Execution(progress=False))
     assert r.stats.backend == "numpy"
+    reason = "alpha masks or blend materials with an environment light"
     assert any(reason in x for x in r.stats.fallback_reasons), r.stats.fallback_reasons

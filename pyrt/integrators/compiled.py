@@ -21,11 +21,11 @@ samples stratified per hit and padded over a pixel's samples, BSDF samples besid
 meshes; constant and lat-long environments (and subclasses that declare it, the previewer's studio), seen by missed
 rays and lighting by ``strategy="mis"`` or ``"preview"`` (:mod:`pyrt.integrators.compiled_preview`); a constant
 background and ambient term; smooth and flat shading with or without the back-facing-normal fallback; the ``robust``
-and ``robust_no_terminator`` offsets; back-face culling (single-sided materials) and alpha masks (a constant or
-nearest / bilinear opacity, no environment light but a preview: :mod:`pyrt.integrators.compiled_coverage`); fixed spp and adaptive
-passes (:func:`render_pixels`). Not yet: other environments and strategies, emissive-mesh lights, the other
-materials (and per-face colours), anisotropic and bicubic texture filters,
-alpha blending, nested media, transparent shadows and ray recording (AOVs: fixed spp, not on Dask workers; the
+and ``robust_no_terminator`` offsets; back-face culling (single-sided materials), alpha masks and blending (a
+constant or nearest / bilinear / trilinear opacity, no environment light but a preview:
+:mod:`pyrt.integrators.compiled_coverage`); fixed spp and adaptive passes (:func:`render_pixels`). Not yet: other
+environments and strategies, emissive-mesh lights, the other materials (and per-face colours), anisotropic and
+bicubic texture filters, nested media, transparent shadows and ray recording (AOVs: fixed spp, not on Dask workers; the
 glossy integrator and the light choice not on Dask workers).
 """
 from __future__ import annotations
@@ -42,12 +42,13 @@ from numba.core.errors import NumbaIRAssumptionWarning
 import numpy as np
 
 from pyrt.geometry import embree_jit
+from pyrt.integrators import compiled_coverage as CC
 from pyrt.integrators import compiled_kernel as K
 from pyrt.integrators import compiled_layout as KL
 from pyrt.integrators import compiled_vertex as CV
 from pyrt.integrators import kernel_cache
 from pyrt.integrators import light_choice
-from pyrt.integrators.coverage import MAX_LAYERS, MODE_BLEND, MODE_MASK, CoverageTable
+from pyrt.integrators.coverage import MAX_LAYERS, CoverageTable
 from pyrt.integrators.glossy import ENV_LIGHT_SAMPLED, emitter_lights
 from pyrt.integrators.media import NestedMedia
 from pyrt.lights import compiled as LC
@@ -56,7 +57,7 @@ from pyrt.lights.environment_light import EnvironmentLight
 from pyrt.materials import compiled as MC
 from pyrt.materials.gltf_record import scalar_slot
 from pyrt.textures import compiled as TC
-from pyrt.textures import ImageTexture, is_texture
+from pyrt.textures import ImageTexture
 from pyrt.textures.normal_map import NormalMap
 
 #: ``backend=`` values of :func:`pyrt.render_full`
@@ -125,10 +126,9 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
     if scene.environment is not None and not compiled_env.packable(scene.environment):
         reasons.append(f"environment {type(scene.environment).__name__}")
     cover = facts.coverage
-    if cover is not None and np.any(cover.mode == MODE_BLEND):
-        reasons.append("alpha coverage (blend materials)")
-    if cover is not None and np.any(cover.mode == MODE_MASK) and any(_traces_environment(lt) for lt in scene.lights):
-        reasons.append("alpha masks with an environment light")
+    if cover is not None and cover.shadows and any(_traces_environment(lt) for lt in scene.lights):
+        reasons.append("alpha masks or blend materials with an environment light (its shadow rays would not pass "
+                       "them)")
     if facts.media is not None:
         reasons.append("nested dielectrics or absorption")
     if (ps.face_gouraud is not None) if ps is not None else facts.gouraud:
@@ -143,9 +143,9 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
             reasons.append(f"material {m.label}")
         elif m.normal_map is not None and textures.add(m.normal_map) is None:
             reasons.append(f"normal map of material {m.label}")
-        elif m.alpha_mode == "mask" and mask_fields(m, textures.add) is None:
-            reasons.append(f"alpha mask of material {m.label} (its opacity is not a constant or a nearest or bilinear "
-                           "image texture)")
+        elif m.alpha_mode != "opaque" and coverage_fields(m, textures.add) is None:
+            reasons.append(f"alpha {m.alpha_mode} of material {m.label} (its opacity is not a constant or a factor "
+                           "times a channel of an image texture the kernel reads)")
     for lt in scene.lights:
         if lt.compiled_record() is None or (lt.delta and lt.n_samples != 1):
             reasons.append(f"light {lt.label}")
@@ -276,8 +276,8 @@ class CompiledScene:
             if m.normal_map is not None:
                 rec[MC.NORMAL_MAP:MC.NORMAL_MAP + 4] = normal_map_fields(m.normal_map, textures.add(m.normal_map))
             rec[MC.CULL] = 1.0 if m.culls_back_faces else 0.0
-            if m.alpha_mode == "mask":
-                rec[MC.MASK:MC.MASK + 5] = mask_fields(m, textures.add)
+            if m.alpha_mode != "opaque":
+                rec[MC.MASK:MC.MASK + 5] = coverage_fields(m, textures.add)
             rec[MC.GLOSSY] = glossy_field(m, tag)
         traced = emitter_lights(ps.scene)
         for k, lts in traced.items():
@@ -290,8 +290,9 @@ class CompiledScene:
         self.normal_maps = any(m.normal_map is not None for m in ps.scene.materials)
         if self.normal_maps and ps.geo.tangent_frames is not None:
             self.normal_maps = 2
-        #: coverage (:data:`pyrt.integrators.compiled_layout.O_COVER`): 2 with an alpha mask, 1 with culling only, 0
-        self.cover = 2 if any(m.alpha_mode == "mask" for m in ps.scene.materials) else (
+        #: coverage (:data:`pyrt.integrators.compiled_layout.O_COVER`): 2 with an alpha mask or a blend material, 1
+        #: with culling only, 0
+        self.cover = 2 if any(m.alpha_mode != "opaque" for m in ps.scene.materials) else (
             1 if any(m.culls_back_faces for m in ps.scene.materials) else 0)
         lights = [lt.compiled_record() for lt in ps.scene.lights]
         traced_lights = {id(lt) for lts in traced.values() for lt in lts}
@@ -345,16 +346,14 @@ def load_kernel(cs, kernel, call):
     add_time(cs.prepared.timings, "kernel", time.perf_counter() - t0)
 
 
-def mask_fields(material, add_texture):
-    """A material record's :data:`pyrt.materials.compiled.MASK` fields for the alpha mask of ``material``: 1,
-    ``alpha_cutoff`` and the opacity's scalar slot (:func:`pyrt.materials.gltf_record.scalar_slot`, its texture
-    added by ``add_texture``); None when the kernel cannot read the opacity (a texture it has no scalar form of, or
-    one read at a footprint: the kernel looks the opacity up without one)."""
-    op = material.opacity
-    if is_texture(op) and op.needs_footprint:
-        return None
-    slot = scalar_slot(op, add_texture)
-    return None if slot is None else [1.0, float(material.alpha_cutoff), *slot]
+def coverage_fields(material, add_texture):
+    """A material record's :data:`pyrt.materials.compiled.MASK` fields for the alpha mask or blend of ``material``:
+    :data:`pyrt.integrators.compiled_coverage.MODE_MASK` or ``MODE_BLEND``, ``alpha_cutoff`` and the opacity's scalar
+    slot (:func:`pyrt.materials.gltf_record.scalar_slot`, its texture added by ``add_texture``; a trilinear texture is
+    read at the ray's footprint); None when the kernel cannot read the opacity."""
+    slot = scalar_slot(material.opacity, add_texture)
+    mode = CC.MODE_MASK if material.alpha_mode == "mask" else CC.MODE_BLEND
+    return None if slot is None else [mode, float(material.alpha_cutoff), *slot]
 
 
 def normal_map_fields(normal_map, row):

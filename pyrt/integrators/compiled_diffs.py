@@ -123,7 +123,38 @@ def surface_diffs(G, V, lane, face, p, ng, front):
     dv/dx, du/dy, dv/dy)`` returned (:func:`pyrt.geometry.surface.surface_from_hits`' differential group: the offset
     rays met on the tangent plane, their least-squares barycentric derivatives, the vertex normals' differences
     turned to the viewer's side; dn zero on flat faces)."""
-    verts, normals, uvs, _, _, _, faces, _, _, fsmooth, _, _ = G
+    normals, faces, fsmooth = G[1], G[6], G[9]
+    i0, i1, i2 = faces[3 * face], faces[3 * face + 1], faces[3 * face + 2]
+    dpdx, dpdy, bx1, bx2, by1, by2, fp = _plane_diffs(G, V, lane, face, p, ng)
+    set_lane_vec(V, V_DP, lane, dpdx)
+    set_lane_vec(V, V_DP + 3, lane, dpdy)
+    dndx = dndy = (0.0, 0.0, 0.0)
+    if fsmooth[face] != 0:
+        s = 1.0 if front else -1.0
+        n0, n1, n2 = row3(normals, i0), row3(normals, i1), row3(normals, i2)
+        dn1 = ((n1[0] - n0[0]) * s, (n1[1] - n0[1]) * s, (n1[2] - n0[2]) * s)
+        dn2 = ((n2[0] - n0[0]) * s, (n2[1] - n0[1]) * s, (n2[2] - n0[2]) * s)
+        dndx = (bx1 * dn1[0] + bx2 * dn2[0], bx1 * dn1[1] + bx2 * dn2[1], bx1 * dn1[2] + bx2 * dn2[2])
+        dndy = (by1 * dn1[0] + by2 * dn2[0], by1 * dn1[1] + by2 * dn2[1], by1 * dn1[2] + by2 * dn2[2])
+    set_lane_vec(V, V_DP + 6, lane, dndx)
+    set_lane_vec(V, V_DP + 9, lane, dndy)
+    return fp
+
+
+@_njit
+def uv_footprint(G, V, lane, face, p, ng):
+    """The UV footprint ``(du/dx, dv/dx, du/dy, dv/dy)`` at the point ``p`` of triangle ``face`` (normal ``ng``, either
+    side) of lane ``lane``'s ray, as :func:`surface_diffs` returns it, without storing the hit's differentials (an
+    alpha mask's or blend surface's opacity: :mod:`pyrt.integrators.compiled_coverage`)."""
+    return _plane_diffs(G, V, lane, face, p, ng)[6]
+
+
+@_njit
+def _plane_diffs(G, V, lane, face, p, ng):
+    """``(dp/dx, dp/dy, db1/dx, db2/dx, db1/dy, db2/dy, footprint)`` at the point ``p`` of triangle ``face``: lane
+    ``lane``'s offset rays met on the tangent plane, their least-squares barycentric derivatives and the UV
+    footprint."""
+    verts, uvs, faces = G[0], G[2], G[6]
     i0, i1, i2 = faces[3 * face], faces[3 * face + 1], faces[3 * face + 2]
     v0, v1, v2 = row3(verts, i0), row3(verts, i1), row3(verts, i2)
     e1 = (v1[0] - v0[0], v1[1] - v0[1], v1[2] - v0[2])
@@ -140,19 +171,8 @@ def surface_diffs(G, V, lane, face, p, ng, front):
     by1, by2 = (a22 * r1 - a12 * r2) * inv, (a11 * r2 - a12 * r1) * inv
     du1, dv1 = uvs[2 * i1] - uvs[2 * i0], uvs[2 * i1 + 1] - uvs[2 * i0 + 1]
     du2, dv2 = uvs[2 * i2] - uvs[2 * i0], uvs[2 * i2 + 1] - uvs[2 * i0 + 1]
-    set_lane_vec(V, V_DP, lane, dpdx)
-    set_lane_vec(V, V_DP + 3, lane, dpdy)
-    dndx = dndy = (0.0, 0.0, 0.0)
-    if fsmooth[face] != 0:
-        s = 1.0 if front else -1.0
-        n0, n1, n2 = row3(normals, i0), row3(normals, i1), row3(normals, i2)
-        dn1 = ((n1[0] - n0[0]) * s, (n1[1] - n0[1]) * s, (n1[2] - n0[2]) * s)
-        dn2 = ((n2[0] - n0[0]) * s, (n2[1] - n0[1]) * s, (n2[2] - n0[2]) * s)
-        dndx = (bx1 * dn1[0] + bx2 * dn2[0], bx1 * dn1[1] + bx2 * dn2[1], bx1 * dn1[2] + bx2 * dn2[2])
-        dndy = (by1 * dn1[0] + by2 * dn2[0], by1 * dn1[1] + by2 * dn2[1], by1 * dn1[2] + by2 * dn2[2])
-    set_lane_vec(V, V_DP + 6, lane, dndx)
-    set_lane_vec(V, V_DP + 9, lane, dndy)
-    return bx1 * du1 + bx2 * du2, bx1 * dv1 + bx2 * dv2, by1 * du1 + by2 * du2, by1 * dv1 + by2 * dv2
+    fp = (bx1 * du1 + bx2 * du2, bx1 * dv1 + bx2 * dv2, by1 * du1 + by2 * du2, by1 * dv1 + by2 * dv2)
+    return dpdx, dpdy, bx1, bx2, by1, by2, fp
 
 
 @_njit

@@ -35,9 +35,9 @@ from pyrt.integrators.compiled_coverage import MASKS, shadow_walk  # noqa: E402
 from pyrt.integrators.compiled_diffs import _own  # noqa: E402
 from pyrt.integrators.compiled_diffs import push_ray  # noqa: E402
 from pyrt.integrators.compiled_layout import (  # noqa: E402
-    DIM_CHOOSE, DIM_ENV, DIM_GLOSSY, F_CUTOFF, T_INF, F_GLOSSY_T, LANES, O_COVER, O_DIFFS, O_GLOSSY_DEPTH, O_GLOSSY_N, O_LAYERS,
-    O_MAX_DEPTH, O_NLIGHTS, O_SELECT, O_TERMINATOR, STACK, STACK_PDF, STACK_ROW, V_D, V_GL, V_LIFT, V_MAG,
-    V_MAG_LIFT, V_MAT, V_NG, V_NS, V_NV, V_P, _njit, lane_inputs, lane_vec)
+    DIM_CHOOSE, DIM_ENV, DIM_GLOSSY, F_CUTOFF, T_INF, F_GLOSSY_T, LANES, O_COVER, O_DIFFS, O_GLOSSY_DEPTH, O_GLOSSY_N,
+    O_LAYERS, O_MAX_DEPTH, O_NLIGHTS, O_SELECT, O_TERMINATOR, STACK, STACK_LAYER, STACK_PDF, STACK_ROW, STACK_TB, V_D,
+    V_GL, V_LIFT, V_MAG, V_MAG_LIFT, V_MAT, V_NG, V_NS, V_NV, V_P, _njit, lane_inputs, lane_vec)
 from pyrt.integrators.compiled_lighting import (  # noqa: E402
     area_bsdf_sample, area_light_weight, area_u, direct_light, env_hit)
 from pyrt.lights import compiled as LC  # noqa: E402
@@ -49,14 +49,16 @@ from pyrt.shaders.jit import dot  # noqa: E402
 
 
 @_njit
-def _shadowed(scene, G, mats_par, tex_tag, tex_par, layers, masks, o, wi, tmax, ray_buf):
-    """``(blocked, shadow rays traced)`` of one shadow ray (through the mask cut-outs with ``masks``)."""
+def _transmitted(scene, G, mats_par, tex_tag, tex_par, layers, masks, o, wi, tmax, ray_buf):
+    """``(transmittance, shadow rays traced)`` of one shadow ray: 1 or 0, and with ``masks`` through the mask
+    cut-outs and blend surfaces (:func:`pyrt.integrators.compiled_coverage.shadow_walk`)."""
     blocked = E.occluded1(scene, o[0], o[1], o[2], wi[0], wi[1], wi[2], 0.0, tmax, ray_buf)
     n = 1
+    T = 0.0 if blocked else 1.0
     if blocked and masks:
-        blocked, n_walk = shadow_walk(scene, G, mats_par, tex_tag, tex_par, layers, o, wi, tmax, ray_buf)
+        T, n_walk = shadow_walk(scene, G, mats_par, tex_tag, tex_par, layers, o, wi, tmax, ray_buf)
         n += n_walk
-    return blocked, n
+    return T, n
 
 
 @_njit
@@ -126,10 +128,10 @@ def hit_light(scene, G, lights_tag, lights_par, nl, mats_par, tex_tag, tex_par, 
         ok, tmax, o, wi, f = chosen_light(lights_tag, lights_par, nl, mtag, mats_par, m, albedo, p, ng, ns, nv, wo,
                                           lift, mag, mag_lift, terminator, J.uniform(hkey, DIM_CHOOSE))
         if ok:
-            blocked, n = _shadowed(scene, G, mats_par, tex_tag, tex_par, layers, masks, o, wi, tmax, ray_buf)
+            T, n = _transmitted(scene, G, mats_par, tex_tag, tex_par, layers, masks, o, wi, tmax, ray_buf)
             n_sh += n
-            if not blocked:
-                le0, le1, le2 = le0 + f[0], le1 + f[1], le2 + f[2]
+            if T > 0.0:
+                le0, le1, le2 = le0 + f[0] * T, le1 + f[1] * T, le2 + f[2] * T
     for j in range(nl):
         jb = j * LC.RECORD
         ltag = lights_tag[j]
@@ -174,12 +176,12 @@ def hit_light(scene, G, lights_tag, lights_par, nl, mats_par, tex_tag, tex_par, 
                 inv = 1.0 / n_b
             if not ok:
                 continue
-            blocked, n = _shadowed(scene, G, mats_par, tex_tag, tex_par, layers, masks, o, wi, tmax, ray_buf)
+            T, n = _transmitted(scene, G, mats_par, tex_tag, tex_par, layers, masks, o, wi, tmax, ray_buf)
             n_sh += n
-            if not blocked:
-                le0 += f[0] * inv
-                le1 += f[1] * inv
-                le2 += f[2] * inv
+            if T > 0.0:
+                le0 += f[0] * inv * T
+                le1 += f[1] * inv * T
+                le2 += f[2] * inv * T
     return le0, le1, le2, n_sh
 
 
@@ -298,6 +300,7 @@ def push(p, ng, mag, stack, top, d, thr, depth, V, lane, diffs, ns, wo, eta, pdf
     stack[row + 6], stack[row + 7], stack[row + 8] = thr
     stack[row + 9] = depth
     stack[row + STACK_PDF] = pdf
+    stack[row + STACK_TB], stack[row + STACK_LAYER] = 0.0, 0.0
     push_ray(stack, row, V, lane, diffs, p, ns, wo, (d0, d1, d2), eta)
     return top + 1
 
@@ -344,10 +347,11 @@ def set_aside(V, n, mats_tag, mats_par, opts, optf):
 
 
 @_own
-def lane_hit(scene, G, V, lane, key, stack, ray_buf, lights_tag, lights_par, mats_tag, mats_par, tex_tag, tex_par,
-             etag, erec, edata, opts, optf, m):
+def lane_hit(scene, G, V, lane, key, stack, top, ray_buf, lights_tag, lights_par, mats_tag, mats_par, tex_tag,
+             tex_par, etag, erec, edata, opts, optf, m, weight):
     """A camera hit set aside by :func:`set_aside` (material ``m``, its fields in lane ``lane`` of ``V``; the
-    sample's key ``key``): its direct light (:func:`hit_light`) and its glossy rays pushed on ``stack``
+    sample's key ``key``; its weight ``weight``, a blend surface's coverage, else 1): its direct light
+    (:func:`hit_light`, unweighted) and its glossy rays (throughput ``weight``) pushed on ``stack`` from row ``top``
     (:func:`spawn_glossy`). Returns ``(r, g, b, stack top, shadow rays)``."""
     d = lane_vec(V, V_D, lane)
     wo = (-d[0], -d[1], -d[2])
@@ -364,10 +368,9 @@ def lane_hit(scene, G, V, lane, key, stack, ray_buf, lights_tag, lights_par, mat
     l0, l1, l2, n_sh = hit_light(scene, G, lights_tag, lights_par, opts[O_NLIGHTS], mats_par, tex_tag, tex_par, etag,
                                  erec, edata, mtag, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift, terminator,
                                  hkey, opts[O_COVER] == MASKS, opts[O_LAYERS], ray_buf, nb, opts[O_SELECT] == 0)
-    top = 0
     if glossy:
-        top = spawn_glossy(p, ng, ns, wo, mag, mtag, mats_par, m, albedo, (1.0, 1.0, 1.0), 0, nb, optf[F_CUTOFF],
-                           hkey, stack, 0, V, lane, opts[O_DIFFS] != 0)
+        top = spawn_glossy(p, ng, ns, wo, mag, mtag, mats_par, m, albedo, (weight, weight, weight), 0, nb,
+                           optf[F_CUTOFF], hkey, stack, top, V, lane, opts[O_DIFFS] != 0)
     return l0, l1, l2, top, n_sh
 
 

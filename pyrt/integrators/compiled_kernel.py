@@ -8,8 +8,8 @@ one masked ``rtcOccluded16`` -> the specular tree (mirror, glass reflection and 
 as a per-sample loop over a small stack with single-ray queries -> per-pixel sums and squared sums in float64.
 
 The estimator is :class:`pyrt.integrators.whitted.Integrator`'s for the scenes :mod:`pyrt.integrators.compiled`
-accepts (no alpha blending, no nested media; culled back faces and alpha masks by
-:mod:`pyrt.integrators.compiled_coverage`): the same hit reconstruction
+accepts (no nested media; culled back faces, alpha masks and blend surfaces by
+:mod:`pyrt.integrators.compiled_coverage`, a blend hit's continuation a row of the specular stack): the same hit reconstruction
 (:func:`pyrt.geometry.surface.surface_from_hits`), offsets (:mod:`pyrt.geometry.offsets`, ``robust`` with or without
 the terminator lift: local error bound along ng, float32 rounding one ulp outward, robust shadow tmax), light sides,
 BRDFs, Fresnel and lobe choice. Random numbers are counter-based (:func:`pyrt.shaders.jit.uniform` of seed, pixel,
@@ -42,13 +42,13 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     C_H, C_JITTER, C_K, C_AX, O_SEED, O_SPP,
     O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK,
     O_GRID, F_CUTOFF, F_BG, N_PRIMARY, N_SECONDARY, O_COVER, O_LAYERS, V_SO, V_WI, V_TMAX,
-    N_SHADOW, N_NONFINITE, STACK, STACK_ROW, STACK_PDF, T_INF, DIM_LOBE, O_GLOSSY_N, O_GLOSSY_DEPTH, O_SELECT,
-    F_GLOSSY_T, F_GLOSSY_CLAMP, V_GL, O_GLOSSY_ENV,
+    N_SHADOW, N_NONFINITE, STACK, STACK_ROW, STACK_PDF, STACK_TB, STACK_LAYER, T_INF, DIM_LOBE, O_GLOSSY_N,
+    O_GLOSSY_DEPTH, O_SELECT, F_GLOSSY_T, F_GLOSSY_CLAMP, V_GL, O_GLOSSY_ENV,
     ADAPTIVE_KEYS, O_ENV, O_AOV, O_SQ, N_AOV, V_T, O_DIFFS, TILES_PER_TASK, _njit, buffer_pointers,
     geometry_pointers, lane_vec, packet_buffers, release, set_lane_inputs, set_lane_vec, table_pointers)
 from pyrt.integrators import compiled_diffs as D  # noqa: E402
 from pyrt.integrators.compiled_coverage import (  # noqa: E402
-    MASKS, cover_finish, cover_packet, cover_single, mask_shadows)
+    MASKS, cover_finish, cover_packet, cover_single, lane_through, mask_shadows, split_blend)
 from pyrt.integrators.compiled_hit import (  # noqa: E402
     clamp_sampled, emission_weight, escape_weight, hit_light, is_glossy, lane_hit, push, set_aside, spawn_glossy)
 from pyrt.integrators.compiled_surface import face_surfaces, with_ambient  # noqa: E402
@@ -159,21 +159,24 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
         row = STACK_ROW * top
         thr = (stack[row + 6], stack[row + 7], stack[row + 8])
         depth = int(stack[row + 9])
-        bpdf = stack[row + STACK_PDF]
+        bpdf, tb, layer = stack[row + STACK_PDF], stack[row + STACK_TB], stack[row + STACK_LAYER]
         o = (stack[row], stack[row + 1], stack[row + 2])
         d0, d1, d2 = stack[row + 3], stack[row + 4], stack[row + 5]
         D.load_ray(stack, row, V, lane, diffs)
         n_sec += 1
         hit, _, prim, geom, u, v, _, _, _ = E.intersect1(scene, o[0], o[1], o[2], d0, d1, d2, 0.0, T_INF, ray_buf)
-        if cover:               # culled back faces and mask cut-outs skipped (compiled_coverage); dropped: adds nothing
-            hit, prim, geom, u, v, dropped, n_skip = cover_single(scene, G, mats_par, tex_tag, tex_par, layers, masks,
-                                                                  hit, prim, geom, u, v, (d0, d1, d2), ray_buf)
+        a = 1.0
+        if cover:   # culled faces, cut-outs and a = 0 skipped, blend weight a (compiled_coverage); dropped: nothing
+            hit, prim, geom, u, v, dropped, n_skip, a = cover_single(
+                scene, G, mats_par, tex_tag, tex_par, layers, masks, hit, prim, geom, u, v, (d0, d1, d2), ray_buf,
+                int(layer), V, lane, diffs)
             n_re += n_skip
+            layer += n_skip + 1.0
             if dropped:
                 continue
-        if not hit:
-            bg = CE.missed(etag, erec, edata, d0, d1, d2, False) if etag else (optf[F_BG], optf[F_BG + 1],
-                                                                              optf[F_BG + 2])
+        if not hit:     # (a camera ray's continuation, bounce 0, sees what a camera ray sees)
+            bg = CE.missed(etag, erec, edata, d0, d1, d2, depth == 0) if etag else (optf[F_BG], optf[F_BG + 1],
+                                                                                   optf[F_BG + 2])
             if bpdf > 0.0:      # an escaped glossy ray: MIS against the map's samples at glossy hits
                 k = escape_weight(etag, erec, edata, opts[O_GLOSSY_ENV], (d0, d1, d2), bpdf)
                 bg = (bg[0] * k, bg[1] * k, bg[2] * k)
@@ -184,11 +187,15 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
         wo = (-d0, -d1, -d2)
         p, ng, ns, nv, lift, mag, mag_lift, front, face, uv = J.hit_surface(G, fallback, terminator, geom, prim, u, v,
                                                                           wo)
+        if a < 1.0:             # a blend surface: this hit weighted a, the ray continued past it with 1 - a
+            top, thr = split_blend(stack, top, p, ng, mag, o, (d0, d1, d2), thr, depth, bpdf, tb, layer, a, cutoff,
+                                   V, lane, diffs)
         m = G[8][face]
         mtag = mats_tag[m]
         albedo, ns, em = D.hit_inputs(G, V, lane, opts, face, u, v, p, ng, ns, wo, front, uv, mtag, mats_par, m,
                                       tex_tag, tex_par)
-        if bpdf > 0.0:          # the emission a glossy ray reaches: MIS-weighted against the light's samples
+        if bpdf > 0.0:          # the emission a glossy ray reaches (from its first origin): MIS against light samples
+            o = (o[0] - tb * d0, o[1] - tb * d1, o[2] - tb * d2)
             k = emission_weight(lights_tag, lights_par, mats_par, m, o, (d0, d1, d2), bpdf)
             em = (em[0] * k, em[1] * k, em[2] * k)
         le0, le1, le2 = with_ambient(mtag, em, albedo, optf)
@@ -199,7 +206,7 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
             l0, l1, l2, n = hit_light(scene, G, lights_tag, lights_par, nl, mats_par, tex_tag, tex_par, etag, erec,
                                       edata, mtag, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift, terminator,
                                       J.sample_key(key, n_sec), masks, layers, ray_buf, nb,
-                                      0 <= select <= depth and bpdf > 0.0)
+                                      0 <= select <= depth and (bpdf > 0.0 or depth == 0))
             n_sh += n
             if bpdf > 0.0 and limit < math.inf:
                 l0, l1, l2 = clamp_sampled(l0, l1, l2, thr, limit)
@@ -245,7 +252,7 @@ def shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k3
     cover, masks = opts[O_COVER] != 0, opts[O_COVER] == MASKS
     if cover:               # culled back faces and mask cut-outs skipped: lanes on one re-traced (compiled_coverage)
         cnt[N_SECONDARY] += cover_packet(scene, G, mats_par, tex_tag, tex_par, cam, pk, w, V, n, opts[O_LAYERS],
-                                         masks)
+                                         masks, opts[O_DIFFS] != 0)
     # the hits' surfaces, albedo and emission: vectorised passes when the lanes hit at most a few triangles of
     # constant-albedo materials (compiled_surface), else lane by lane (a miss: face 0 computed and dropped)
     # (not with differentials: the lane-by-lane loop computes them)
@@ -341,19 +348,23 @@ def shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k3
     for lane in range(n):
         l0, l1, l2 = lane_vec(V, V_L, lane)
         m = int(V[V_MAT * LANES + lane])
-        top, dim = 0, DIM_LOBE
+        top, dim, a = 0, DIM_LOBE, 1.0
+        if masks:           # a blend hit: weight a, the ray continued past it with 1 - a (compiled_coverage)
+            top, a = lane_through(V, lane, cam, stack, 0, cutoff, opts[O_DIFFS] != 0)
         if per_lane and V[V_GL * LANES + lane] != 0.0:
             m = int(V[V_GL * LANES + lane]) - 1
             V[V_MAT * LANES + lane] = m
-            e0, e1, e2, top, n_sh = lane_hit(scene, G, V, lane, keys[lane], stack, ray_buf, lights_tag, lights_par,
-                                             mats_tag, mats_par, tex_tag, tex_par, etag, erec, edata, opts, optf, m)
+            e0, e1, e2, top, n_sh = lane_hit(scene, G, V, lane, keys[lane], stack, top, ray_buf, lights_tag,
+                                             lights_par, mats_tag, mats_par, tex_tag, tex_par, etag, erec, edata,
+                                             opts, optf, m, a)
             l0, l1, l2 = l0 + e0, l1 + e1, l2 + e2
             n_shadow += n_sh
+        l0, l1, l2 = l0 * a, l1 * a, l2 * a
         if m >= 0 and max_depth > 0 and MC.has_delta(mats_tag[m]):
             d = lane_vec(V, V_D, lane)
             top, dim = spawn(lane_vec(V, V_P, lane), lane_vec(V, V_NG, lane), lane_vec(V, V_NS, lane),
                              (-d[0], -d[1], -d[2]), V[V_FRONT * LANES + lane] != 0.0,
-                             V[V_MAG * LANES + lane], mats_tag[m], mats_par, m, (1.0, 1.0, 1.0), 0, split,
+                             V[V_MAG * LANES + lane], mats_tag[m], mats_par, m, (a, a, a), 0, split,
                              cutoff, keys[lane], DIM_LOBE, stack, top, V, lane, opts[O_DIFFS] != 0)
         if top > 0:
             l0, l1, l2 = trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag,

@@ -53,8 +53,11 @@ V_EU, V_ECELL, V_EFF, V_ECORNER, V_EFN = 88, 90, 92, 94, 98
 #: compiled_hit.set_aside`: a glossy hit of the glossy integrator, or a hit lit by one chosen light), not by the
 #: packet's light stages; 0 elsewhere
 V_GL = 99
+#: a camera hit on a blend surface (:func:`pyrt.integrators.compiled_coverage.cover_packet`): its weight (the coverage
+#: alpha ``a``, 0 < a < 1; 1 for every other lane) and the layer its continuation past the surface starts at
+V_BW, V_BL = 100, 101
 #: fields of the scratch
-V_SIZE = 100
+V_SIZE = 102
 #: camera record layout (float64)
 C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W, C_H, C_JITTER, C_K, C_AX = 0, 3, 6, 9, 12, 13, 14, 15, 16, 17
 #: length of the camera record
@@ -96,8 +99,10 @@ N_PRIMARY, N_SECONDARY, N_SHADOW, N_NONFINITE = 0, 1, 2, 3
 STACK = 64
 #: words of a stack row: origin, direction, throughput, depth, then (from :data:`STACK_DIFF`, with ``opts[O_DIFFS]``)
 #: the ray's differentials (x origin, x direction, y origin, y direction), then (at :data:`STACK_PDF`) the density
-#: ``n p`` of a BSDF-sampled (glossy) ray's direction, 0 for a delta ray
-STACK_ROW, STACK_DIFF, STACK_PDF = 23, 10, 22
+#: ``n p`` of a BSDF-sampled (glossy) ray's direction, 0 for a delta ray; then (:data:`STACK_TB`, :data:`STACK_LAYER`)
+#: for a blend continuation (:mod:`pyrt.integrators.compiled_coverage`) the distance along the direction from the
+#: ray's first origin to the row's origin and the surfaces the ray has skipped or split so far (0 for a spawned ray)
+STACK_ROW, STACK_DIFF, STACK_PDF, STACK_TB, STACK_LAYER = 25, 10, 22, 23, 24
 #: Embree's "unbounded" tfar (:data:`pyrt.geometry.accel.T_INFINITE`)
 T_INF = 1e37
 #: the first random dimension of the glass lobe choice (0, 1: the pixel position)
