@@ -28,7 +28,7 @@ EMITTER              4-6 radiance (constant RGB), 7 two-sided (1) or front only 
 GLTF                 glTF's metallic-roughness family with textured parameters, emission and occlusion: the layout
                      of :mod:`pyrt.materials.gltf_record` (0-23), resolved per hit by :func:`gltf_inputs`
 (every material)     24-27 its normal map (:data:`NORMAL_MAP`), 28 1 when it culls back faces (:data:`CULL`), 29-33
-                     its alpha mask (:data:`MASK`), 34 its glossy alpha (:data:`GLOSSY`), 35 the area light it is the
+                     its alpha mask or blend (:data:`MASK`), 34 its glossy alpha (:data:`GLOSSY`), 35 the area light it is the
                      visible emitter of (:data:`TRACED`), written by the compiled scene; 36 the vertex colours its
                      colour slot 0 (GLTF: the base colour) multiplies by (:data:`VERTEX_COLOR`, :func:`vertex_slot`)
 ===================  ============================================================================================
@@ -71,8 +71,9 @@ NORMAL_MAP = 24
 #: where every record says whether camera and secondary rays skip its back faces (1.0:
 #: :attr:`pyrt.materials.Material.culls_back_faces`; :mod:`pyrt.integrators.compiled_coverage`)
 CULL = 28
-#: where every record keeps its alpha mask (:mod:`pyrt.integrators.compiled_coverage`): 1 when ``alpha_mode`` is
-#: ``"mask"``, ``alpha_cutoff``, then the opacity's scalar slot ``[row or -1, factor, channel]``
+#: where every record keeps its alpha mask or blend (:mod:`pyrt.integrators.compiled_coverage`): 1 when
+#: ``alpha_mode`` is ``"mask"``, 2 when ``"blend"`` (0: opaque), ``alpha_cutoff``, then the opacity's scalar slot
+#: ``[row or -1, factor, channel]``
 MASK = 29
 #: where every record keeps its non-delta lobe's glossy alpha for the glossy integrator
 #: (:meth:`pyrt.materials.Material.glossy_alpha`; :func:`glossy_alpha`): the constant, ``inf`` for a diffuse-like lobe,
