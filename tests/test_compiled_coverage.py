@@ -178,6 +178,23 @@ def test_layer_bound(layers):
         np.testing.assert_allclose(c.image.reshape(-1, 3), np.tile([0.12, 0.06, 0.04], (16, 1)), rtol=1e-6)
 
 
+def test_a_lane_kept_early_is_not_dropped_by_another_lanes_layer_bound():
+    """One camera packet: its left lanes keep a masked quad's opaque texels at once, its right lanes skip
+    ``MAX_LAYERS`` culled faces first. A lane whose surface is kept is not looked at again (the NumPy path resolves
+    it at its first layer): the left half shows the masked quad, not radiance 0, and both paths agree."""
+    cam = pyrt.Camera(position=(0, 0, 3), target=(0, 0, 0), fov=10, width=4, height=4, spp=1, jitter=False)
+    s = pyrt.Scene(cam, background=(0.1, 0.2, 0.9), ambient=0.2)
+    for i in range(MAX_LAYERS):
+        s.add_mesh(_quad((0.5, 0, -0.01 * i), 0.5, flip=True), _one_sided(0.5), smooth=False)
+    masked = pyrt.Lambert(albedo=(0.2, 0.7, 0.3)).set_coverage(opacity=0.9, alpha_mode="mask")
+    s.add_mesh(_quad((-0.5, 0, 0.1), 0.5, flip=False), masked, smooth=False)
+    s.add_mesh(_quad((0, 0, -1.0), 20.0, flip=False), pyrt.Lambert(albedo=(0.6, 0.3, 0.2)), smooth=False)
+    c, n = _both(s, seed=0)
+    np.testing.assert_allclose(c.image, n.image, rtol=1e-6)
+    np.testing.assert_allclose(c.image[:, :2].reshape(-1, 3), np.tile([0.04, 0.14, 0.06], (8, 1)), rtol=1e-6)
+    np.testing.assert_allclose(c.image[:, 2:].reshape(-1, 3), np.tile([0.12, 0.06, 0.04], (8, 1)), rtol=1e-6)
+
+
 # ----------------------------------------------------------------------------------------- alpha masks
 
 N_TEX = 8
