@@ -84,7 +84,8 @@ def _parser():
                          "ambient with the same mean radiance; ignored with --env)")
     ap.add_argument("--env", help="lat-long environment map (OpenEXR or Radiance .hdr)")
     ap.add_argument("--env-lighting", default="mis", help="environment light strategy (mis, map, bsdf, preview, ...)")
-    ap.add_argument("--env-samples", type=positive_int, default=8, help="environment light samples per hit")
+    ap.add_argument("--env-samples", type=positive_int, default=PreviewOptions.environment_samples,
+                    help="environment light samples per hit (default %(default)s)")
     ap.add_argument("--emissive-lights", default="auto", choices=["auto", "off"],
                     help="auto: the model's emissive surfaces light the scene by shadow rays too when they are a "
                          "light source (power >= 0.25 x the key light onto the model); off: only through glossy rays")

@@ -51,7 +51,11 @@ class PreviewOptions:
     environment: str | None = None       # lat-long map: OpenEXR or Radiance .hdr
     environment_intensity: float = 1.0
     environment_lighting: str = "mis"    # EnvironmentLight strategy ("mis", "preview" = no shadows, no noise, ...)
-    environment_samples: int = 8         # environment light samples per hit
+    #: environment light samples per hit (with environment_lighting "mis": as many BSDF samples). 1: the least
+    #: error for the time (tools/preview_quality.py with a sun-and-sky map at 4 spp, true relMSE x render seconds,
+    #: 1 / 2 / 4 / 8 samples: Duck 3.1 / 3.4 / 5.1 / 8.7e-3, Avocado 1.6 / 2.5 / 4.6 / 7.0e-3; docs/preview.md): the
+    #: pixel's samples stratify the light samples (the padded sampler) and the adaptive passes add where needed
+    environment_samples: int = 1
     #: "auto": the model's emissive meshes are a light source (Scene.add_emissive_lights: every lit hit samples them
     #: with shadow rays, MIS with the glossy rays) when it has emissive materials; "off": they light other surfaces
     #: only through the glossy rays (pyrt.render's default)
