@@ -1,7 +1,9 @@
-"""tools/gltf_compliance.py: its pure parts (folder discovery, licence and author parsing, the defensive reading of
-the preview's report, the table, the sheet layout) on generated folders and tiny images; the child-process runner on
-a broken model (failure and timeout paths, RSS measured); and, when ../shared/khronos-gltf is present, that every
-shared model is found with its licence and that the notes file names only models of the set."""
+"""tools/gltf_compliance.py and its report (tools/_compliance_report.py): the pure parts (folder discovery, licence
+and author parsing, the defensive reading of the preview's report, the table with the render path, spp and
+estimated error, the sheet layout) on generated folders and tiny images; ``--rebuild`` from a results.json without
+those fields; the child-process runner on a broken model (failure and timeout paths, RSS measured); and, when
+../shared/khronos-gltf is present, that every shared model is found with its licence and that the notes file names
+only models of the set."""
 import json
 import os
 import struct
@@ -13,6 +15,7 @@ import pytest
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "tools"))
 import gltf_compliance as G  # noqa: E402
+import _compliance_report as R  # noqa: E402
 
 KHRONOS = os.path.join(ROOT, "..", "shared", "khronos-gltf")
 
@@ -110,10 +113,26 @@ def test_report_fields_are_read_defensively():
     assert (failed.status, failed.load, failed.render, failed.total) == ("failed", None, None, 3.0)
 
 
+def test_render_path_spp_and_error_estimate_are_read_from_the_report():
+    base = {"status": "ok", "triangles": 12, "load_time": 0.5, "render_time": 2.0, "total_time": 3}
+    sampled = {"backend": "compiled", "spp": 9.5, "estimated_error": 1.2e-3, "stop_reason": "time_budget"}
+    r = G.result_from_report(G.Result("m", "p"), {**base, **sampled})
+    assert (r.backend, r.spp, r.estimated_error, r.stop_reason) == ("compiled", 9.5, 1.2e-3, "time_budget")
+    old = G.result_from_report(G.Result("m", "p"), base)                 # a preview that reports none of them
+    assert (old.backend, old.spp, old.estimated_error, old.stop_reason) == (None, None, None, None)
+    odd = G.result_from_report(G.Result("m", "p"), {**base, "backend": "gpu", "spp": 0.0, "estimated_error": None,
+                                                    "stop_reason": 3})
+    assert (odd.backend, odd.spp, odd.estimated_error, odd.stop_reason) == (None, None, None, None)
+    failed = G.result_from_report(G.Result("m", "p"), {**base, **sampled, "status": "failed", "backend": ""})
+    assert (failed.backend, failed.spp, failed.estimated_error) == (None, None, None)
+
+
 def test_table_status_from_run_and_notes():
     ok = G.Result("Duck", "d", status="ok", triangles=4212, load=0.1, render=3.0, total=3.2, process=4.25, rss_mb=259.4,
-                  extensions=["KHR_materials_clearcoat"], warnings=["a", "b"])
-    odd = G.Result("Alpha|Blend", "a", status="ok", triangles=10, load=1.0, prepare=0.5, render=2.0)
+                  extensions=["KHR_materials_clearcoat"], warnings=["a", "b"], backend="compiled", spp=12.34,
+                  estimated_error=9.6e-4, stop_reason="target_error")
+    odd = G.Result("Alpha|Blend", "a", status="ok", triangles=10, load=1.0, prepare=0.5, render=2.0, backend="numpy",
+                   spp=64.0, estimated_error=2.5e-3, stop_reason="max_spp")
     bad = G.Result("Broken", "b", status="failed", error="AssetError: no mesh")
     slow = G.Result("Slow", "s", status="timeout", error="killed after 5 s (--timeout)")
     new = G.Result("New", "n", status="ok")
@@ -122,8 +141,15 @@ def test_table_status_from_run_and_notes():
     lines = G.build_table([ok, odd, bad, slow, new], notes).splitlines()
     assert len(lines) == 7 and lines[1].startswith("|---|")
     cells = [[c.strip() for c in ln.strip("|").split(" | ")] for ln in lines[2:]]
-    assert cells[0] == ["Duck", "materials_clearcoat", "4212", "0.10", "", "3.00", "3.20", "4.25", "259", "2", "ok", ""]
+    assert {ln.count(" | ") for ln in lines[:1] + lines[2:]} == {14} and lines[1].count("|") == 16   # 15 columns
+    assert cells[0] == ["Duck", "materials_clearcoat", "4212", "0.10", "", "3.00", "3.20", "4.25", "259", "compiled",
+                        "12.3", "9.6e-04", "2", "ok", ""]
     assert cells[1][0] == "Alpha\\|Blend" and cells[1][4] == "0.50"
+    assert cells[1][9:12] == ["NumPy", "64", "2.5e-03 (max spp)"]
+    assert cells[2][9:12] == cells[4][9:12] == ["", "", ""]                  # not rendered / not reported: blank
+    budget = G.Result("Big", "b", status="ok", backend="compiled", spp=4.5, estimated_error=3e-3,
+                      stop_reason="time_budget")
+    assert R.build_table([budget], {}).splitlines()[2].split(" | ")[9:12] == ["compiled", "4.5", "3.0e-03 (budget)"]
     assert cells[1][-2:] == ["differs", "MASK renders opaque"]
     assert cells[2][-2:] == ["failed", "AssetError: no mesh"]               # a failed run overrides the note
     assert cells[3][-2:] == ["failed (timeout)", "killed after 5 s (--timeout)"]
@@ -132,6 +158,7 @@ def test_table_status_from_run_and_notes():
                           sheet="s.png")
     assert "![" in md and "(s.png)" in md and "| Duck | see the model README | SCEA |" in md
     assert "1/2 models rendered." in md and "**Duck**: a; b" in md
+    assert "adaptive sampling" in md and "640×480, 4 spp" not in md and "est. relMSE" in md
     ok.loadavg, bad.loadavg = 4.0, 12.5
     assert G._machine([ok, bad], "abc1234") == (f"Renderer: commit abc1234. Machine: {os.cpu_count()} cores, shared; "
                                                 "1-minute load average 4.0–12.5 while the models ran (times are noisy "
@@ -204,3 +231,28 @@ def test_repeated_runs_keep_the_median_run_and_show_the_range():
     assert "ran 2 times" in G.build_markdown([G.median_run(two)], {}, [], sheet=None)
     single = G.median_run([G.Result("Z", "z", status="ok", total=1.5)])
     assert G.build_table([single], {}).splitlines()[2].split(" | ")[6].strip() == "1.50"
+
+
+def test_rebuild_from_results_without_path_spp_and_error(tmp_path, capsys):
+    """``--rebuild`` from a results.json whose results lack the render path, spp and error estimate: blank cells."""
+    old = {"name": "Duck", "path": "Duck.glb", "status": "ok", "error": "", "triangles": 4212, "load": 0.1,
+           "prepare": 0.2, "render": 3.0, "total": 3.4, "process": 4.5, "rss_mb": 259.0, "warnings": [],
+           "extensions": [], "loadavg": 2.0, "render_png": None, "screenshot": None, "runs": [3.4]}
+    new = {**old, "name": "Fox", "backend": "compiled", "spp": 7.5, "estimated_error": 1e-3,
+           "stop_reason": "target_error"}
+    out, docs = tmp_path / "out", tmp_path / "docs"
+    out.mkdir()
+    (out / "results.json").write_text(json.dumps({"command": "c", "revision": "abc1234", "results": [old, new],
+                                                  "credits": [{"model": "Duck", "title": "Duck", "author": "",
+                                                               "licenses": ["SCEA"]}]}))
+    notes = tmp_path / "notes.toml"
+    notes.write_text('[Duck]\nstatus = "ok"\n')
+    assert G.main(["-o", str(out), "--rebuild", "--docs", str(docs), "--notes", str(notes)]) == 0
+    assert (out / "sheet.png").exists() and (docs / "compliance_sheet.png").exists()
+    md = (docs / "compliance.md").read_text()
+    assert md == (out / "compliance.md").read_text().replace("(sheet.png)", "(compliance_sheet.png)")
+    rows = [ln for ln in md.splitlines() if ln.startswith(("| Duck |", "| Fox |")) and ln.count(" | ") == 14]
+    cells = [[c.strip() for c in ln.strip("|").split(" | ")] for ln in rows]
+    assert cells[0][9:14] == ["", "", "", "0", "ok"]
+    assert cells[1][9:14] == ["compiled", "7.5", "1.0e-03", "0", "not reviewed"]
+    assert "| Duck |" in capsys.readouterr().out                      # the table is printed too

@@ -1,6 +1,6 @@
 """What the previewer says it did (issue 33): samples per pixel and estimated error on the summary line and in the
-batch table, whole messages, one-line precision warnings (none for a thin board), folders searched recursively, and
-``--help`` naming what ``-o X.png --turntable N`` writes."""
+batch table, the render path and stop reason its report carries, whole messages, one-line precision warnings (none
+for a thin board), folders searched recursively, and ``--help`` naming what ``-o X.png --turntable N`` writes."""
 from __future__ import annotations
 
 import os
@@ -13,6 +13,7 @@ import pytest
 import pyrt
 from pyrt.apps import preview as P
 from pyrt.apps.preview import batch as P_batch
+from pyrt.apps.preview.render import format_sampling
 from pyrt.geometry.precision import PrecisionWarning
 
 BLOB = os.path.join(os.path.dirname(__file__), "..", "assets", "models", "blob.ply")
@@ -142,3 +143,35 @@ def test_backend_option_picks_the_render_path(tmp_path, capsys):
     assert ", 1 spp, NumPy path, exposure" in _line(capsys)
     with pytest.raises(P.PreviewError, match="backend must be one of"):
         P.PreviewOptions(backend="gpu").validate()
+
+
+def _result(**views):
+    """A :class:`PreviewResult` of two views (no images: what the report reads of it)."""
+    return P.PreviewResult(images=[], aovs=[], azimuths=[0.0, 180.0], exposure=1.0, white=None, up_axis="+y",
+                           up_reason="glTF", center=np.zeros(3), radius=1.0, camera=None, triangles=12,
+                           load_time=0.25, render_time=0.5, warnings=[], **views)
+
+
+@pytest.mark.parametrize("backends, stops, backend, stop", [
+    (["compiled", "compiled"], ["target_error", "target_error"], "compiled", "target_error"),
+    (["compiled", "numpy"], ["target_error", "time_budget"], "numpy", "time_budget"),    # any NumPy view; short stop
+    (["numpy", "numpy"], ["max_spp", "time_budget"], "numpy", "max_spp"),              # the first short stop
+    (["compiled", "compiled"], [None, None], "compiled", None),                       # a fixed spp
+    ([], [], "", None),                                                                # nothing rendered
+])
+def test_preview_result_names_its_render_path_and_stop_reason(backends, stops, backend, stop):
+    res = _result(backends=backends, stop_reasons=stops)
+    assert (res.backend, res.stop_reason) == (backend, stop)
+
+
+def test_asset_report_carries_path_spp_error_and_stop_reason_of_the_views(monkeypatch):
+    res = _result(spp=[4.0, 6.0], estimated_errors=[8e-4, 1.5e-3], backends=["compiled", "numpy"],
+                  stop_reasons=["target_error", "time_budget"])
+    monkeypatch.setattr(P_batch, "render_preview", lambda *args, **kwargs: res)
+    rep = P.preview_asset("m.glb", None, return_files=True)
+    assert rep.status == "ok"
+    assert (rep.spp, rep.estimated_error, rep.backend, rep.stop_reason) == (5.0, 1.5e-3, "numpy", "time_budget")
+    assert P.format_summary([rep]).splitlines()[2].split()[6:8] == ["5", "0.0015"]    # the summary's columns as before
+    assert format_sampling(res, 1e-3) == ("5 spp (mean), estimated relMSE 0.0015 (target 0.001, stopped by the render "
+                                          "budget), NumPy path")
+    assert P_batch.AssetReport(path="x", name="x").backend == ""                     # not rendered: no path

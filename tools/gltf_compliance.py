@@ -7,11 +7,12 @@
 ``DIR`` holds one folder per model (the Khronos glTF-Sample-Assets layout): the ``.glb`` / ``.gltf`` file (at the
 top or in a sub-folder such as ``glTF/``), ``screenshot.*`` (the reference image), ``LICENSE.md`` and
 ``README.md``. Every model is previewed by :func:`pyrt.apps.preview.preview_asset` at the previewer's defaults
-(:class:`pyrt.apps.preview.PreviewOptions`: 640x480, 4 spp, studio rig, glossy integrator) in its own Python
-process, so that its peak memory is measured alone (the summed PSS of the process and its forked render workers,
-sampled by :class:`_usage.TreeMemory`: what the machine holds; the interpreter and the imports included: a model
-that fails while loading peaks at ~120 MB), under a time limit
-(``--timeout``, default 600 s; a model over it is killed and reported failed).
+(:class:`pyrt.apps.preview.PreviewOptions`: 640x480, adaptive sampling: passes until the estimated relMSE of the
+view is 1e-3, at least 4 and at most 64 spp, at most 1.5 s of rendering per view; studio rig, glossy integrator) in
+its own Python process, so that its peak memory is measured alone (the summed PSS of the process and its forked
+render workers, sampled by :class:`_usage.TreeMemory`: what the machine holds; the interpreter and the imports
+included: a model that fails while loading peaks at ~120 MB), under a time limit (``--timeout``, default 600 s; a
+model over it is killed and reported failed).
 
 Writes into ``-o OUT`` (default ``out/compliance``): ``renders/NAME.png`` (pyrt's image), ``results.json`` (all
 measurements), ``sheet.png`` (per model the screenshot beside pyrt's image, 320x240 tiles, names under them) and
@@ -19,14 +20,19 @@ measurements), ``sheet.png`` (per model the screenshot beside pyrt's image, 320x
 ``DOCS/compliance_sheet.png`` (160x120 tiles, kept under 1.5 MB). ``--rebuild`` skips rendering and rebuilds the
 table and sheets from ``OUT/results.json`` and ``OUT/renders`` (after editing the notes file).
 
-The table: model, extensions used, triangles, load / prepare / render seconds, the total inside
-``preview_asset`` and the child process's wall clock (imports and exit included) (the batch summary's ``load_time`` and ``render_time``; ``prepare_time`` or a ``timings`` /
-``phases`` dict when the preview reports one, blank otherwise), peak RSS, warnings, status and "what differs and
-why". The status is ``failed`` (with the error) when the preview failed or timed out; otherwise it comes from
-``tools/gltf_compliance_notes.toml`` (``--notes``), one table per model, filled in by a person who looked at the
-sheet: ``status = "ok"`` or ``"differs"`` and ``why``; a model without notes is ``not reviewed``. Credits: the
-licence of the model's files from LICENSE.md (its SPDX identifiers), the author from the glTF file's
-``asset.copyright`` or, without one, from README.md's legal or licence section.
+The table (:mod:`_compliance_report`): model, extensions used, triangles, load / prepare / render seconds, the
+total inside ``preview_asset`` and the child process's wall clock (imports and exit included) (the batch summary's
+``load_time`` and ``render_time``; ``prepare_time`` or a ``timings`` / ``phases`` dict when the preview reports
+one, blank otherwise), peak RSS, the render path (``compiled``: the compiled kernel; ``NumPy``: the NumPy path,
+where the kernel does not cover the model), spp (the samples per pixel reached, the mean over the pixels), est.
+relMSE (the preview's own estimate of the image's relative mean squared error, the quantity its ``target_error``
+bounds; "(budget)" or "(max spp)" after it when the render budget or the spp cap ended the passes first), warnings,
+status and "what differs and why". A ``results.json`` whose results lack the path, spp or estimate (``--rebuild``)
+gives blank cells there. The status is ``failed`` (with the error) when the preview failed or timed out;
+otherwise it comes from ``tools/gltf_compliance_notes.toml`` (``--notes``), one table per model, filled in by a
+person who looked at the sheet: ``status = "ok"`` or ``"differs"`` and ``why``; a model without notes is ``not
+reviewed``. Credits: the licence of the model's files from LICENSE.md (its SPDX identifiers), the author from the
+glTF file's ``asset.copyright`` or, without one, from README.md's legal or licence section.
 """
 from __future__ import annotations
 
@@ -40,8 +46,8 @@ import subprocess
 import sys
 import time
 
+from _compliance_report import build_markdown, build_table, cell, load_notes
 from _usage import TreeMemory
-import tomllib
 
 import numpy as np
 
@@ -224,6 +230,10 @@ class Result:
     total: float | None = None
     process: float | None = None    # the child process's wall clock: interpreter start, imports, exit included
     rss_mb: float | None = None
+    backend: str | None = None      # the preview's render path: "compiled" | "numpy"
+    spp: float | None = None        # samples per pixel reached (the mean over the pixels)
+    estimated_error: float | None = None   # the preview's estimate of the relMSE (adaptive; the worst view's)
+    stop_reason: str | None = None  # what ended the adaptive passes: "target_error" | "time_budget" | "max_spp" | ...
     warnings: list = field(default_factory=list)
     extensions: list = field(default_factory=list)
     loadavg: float | None = None    # 1-minute load average when the model started
@@ -273,6 +283,10 @@ def result_from_report(res, rep):
         if res.prepare is None and vals:   # AssetReport.prepare_time: the sum of these phases
             res.prepare = float(sum(vals))
         res.render = _number(rep, "render_time", "render")
+        res.backend = rep.get("backend") if rep.get("backend") in ("compiled", "numpy") else None
+        res.spp = _number(rep, "spp") or None            # 0: no view rendered
+        res.estimated_error = _number(rep, "estimated_error")
+        res.stop_reason = rep.get("stop_reason") if isinstance(rep.get("stop_reason"), str) else None
     res.total = _number(rep, "total_time")
     res.warnings = [str(w) for w in rep.get("warnings") or []]
     return res
@@ -320,100 +334,6 @@ def run_model(model, out_dir, timeout):
         if os.path.exists(p):
             os.remove(p)
     return res
-
-
-# ============================================================================ the table
-
-def load_notes(path):
-    """The notes file (TOML, one table per model: ``status`` "ok" | "differs", ``why``) as a dict; {} if absent."""
-    if not path or not os.path.exists(path):
-        return {}
-    with open(path, "rb") as fh:
-        data = tomllib.load(fh)
-    return {k: v for k, v in data.items() if isinstance(v, dict)}
-
-
-def model_status(res, note):
-    """(status, why) of one model: failed runs from the measurement, the rest from the reviewer's note."""
-    if res.status != "ok":
-        return ("failed (timeout)" if res.status == "timeout" else "failed"), res.error
-    if not note:
-        return "not reviewed", ""
-    status = str(note.get("status", "differs" if note.get("why") else "ok"))
-    return status, str(note.get("why", ""))
-
-
-def _cell(x, fmt="{:.2f}"):
-    return "" if x is None else fmt.format(x)
-
-
-def _md(s):
-    return str(s).replace("|", "\\|").replace("\n", " ")
-
-
-def _total_cell(r):
-    """The total (the median run's) and, over several runs, their range."""
-    times = [t for t in r.runs if t is not None]
-    return _cell(r.total) + (f" ({min(times):.2f}–{max(times):.2f})" if len(times) > 1 else "")
-
-
-def build_table(results, notes):
-    """The markdown table, one row per :class:`Result` (missing measurements are blank cells)."""
-    rows = ["| model | extensions | triangles | load s | prepare s | render s | total s | process s | peak MB "
-            "| warnings | status | what differs and why |",
-            "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---|"]
-    for r in results:
-        status, why = model_status(r, notes.get(r.name))
-        ext = ", ".join(e.removeprefix("KHR_") for e in r.extensions)
-        rows.append("| " + " | ".join([
-            _md(r.name), _md(ext), _cell(r.triangles, "{:d}"), _cell(r.load), _cell(r.prepare), _cell(r.render),
-            _total_cell(r), _cell(r.process), _cell(r.rss_mb, "{:.0f}"), str(len(r.warnings)), _md(status),
-            _md(why)]) + " |")
-    return "\n".join(rows)
-
-
-def build_credits(creds):
-    """The credits section (model, author, licence of its files) as markdown."""
-    rows = ["| model | author / copyright | licence (SPDX) |", "|---|---|---|"]
-    for c in creds:
-        rows.append(f"| {_md(c['title'])} | {_md(c['author'] or 'see the model README')} | "
-                    f"{_md(', '.join(c['licenses']) or '—')} |")
-    return "\n".join(rows)
-
-
-def build_markdown(results, notes, creds, *, sheet=None, command="", machine=""):
-    """The whole ``compliance.md``: how it was made, the sheet, the table, the warnings and the credits."""
-    ok = sum(r.status == "ok" for r in results)
-    parts = ["# glTF compliance: pyrt-preview against the Khronos screenshots", "",
-             f"Generated by `{command}`" if command else "Generated by `tools/gltf_compliance.py`.", "",
-             "Each model is rendered by `pyrt-preview` at its defaults (640×480, 4 spp, studio rig, auto-exposure) "
-             "in its own process. Times are seconds inside the preview (the batch summary's load / prepare / render; "
-             "total = the whole `preview_asset` call, PNG encoding included; process = the child process's wall clock, "
-             "what `time pyrt-preview MODEL -o out.png` shows: interpreter start, imports (~1 s) and exit included); "
-             "peak MB is the memory of the process and its forked render workers (their summed proportional set size, "
-             "sampled every 30 ms: shared pages counted once), Python and the imports included. The status and the \"what differs\" notes come from "
-             "`tools/gltf_compliance_notes.toml`, written by a person looking at the sheet; edit it and run the tool "
-             "with `--rebuild` to update this page.", ""]
-    repeats = max((len(r.runs) for r in results), default=1)
-    if repeats > 1:
-        parts += [f"Each model ran {repeats} times, in rounds over all models; a row is the run of median total "
-                  "(its phases, process time and memory), the range of the totals in brackets.", ""]
-    if machine:
-        parts += [machine, ""]
-    if sheet:
-        parts += [f"![pyrt (right of each pair) beside the Khronos screenshot (left)]({sheet})", ""]
-    parts += [build_table(results, notes), "", f"{ok}/{len(results)} models rendered.", ""]
-    warned = [r for r in results if r.warnings]
-    if warned:
-        parts += ["## Warnings", ""]
-        for r in warned:
-            parts += [f"- **{_md(r.name)}**: " + "; ".join(_md(w) for w in r.warnings)]
-        parts += [""]
-    parts += ["## Credits", "",
-              "The models and screenshots are from the Khronos Group's glTF-Sample-Assets "
-              "(github.com/KhronosGroup/glTF-Sample-Assets), unchanged; authors and licences as each model's "
-              "LICENSE.md and README.md state them:", "", build_credits(creds), ""]
-    return "\n".join(parts)
 
 
 # ============================================================================ the contact sheet
@@ -565,8 +485,9 @@ def main(argv=None):
                 r = run_model(m, args.out, args.timeout)
                 runs[k].append(r)
                 print(f"[{k + 1}/{len(models)}{f', round {rnd + 1}' if args.repeats > 1 else ''}] {m.name}: "
-                      f"{r.status} load {_cell(r.load)} prepare {_cell(r.prepare)} "
-                      f"render {_cell(r.render)} total {_cell(r.total)} s, {_cell(r.rss_mb, '{:.0f}')} MB, "
+                      f"{r.status} load {cell(r.load)} prepare {cell(r.prepare)} "
+                      f"render {cell(r.render)} total {cell(r.total)} s, {cell(r.spp, '{:.3g}')} spp "
+                      f"{r.backend or ''}, {cell(r.rss_mb, '{:.0f}')} MB, "
                       f"load avg {r.loadavg:.1f}" + (f" — {r.error}" if r.error else ""), flush=True)
         results = [median_run(rs) for rs in runs]
         with open(results_path, "w") as fh:

@@ -42,6 +42,12 @@ class AssetReport:
     #: adaptive renders: the largest estimated relMSE of a view (:attr:`pyrt.RenderResult.estimated_error`); None at a
     #: fixed spp
     estimated_error: float | None = None
+    #: the views' render path (:attr:`pyrt.apps.preview.render.PreviewResult.backend`): ``"compiled"``, ``"numpy"``
+    #: (some view took the NumPy path) or "" (nothing rendered)
+    backend: str = ""
+    #: adaptive renders: why the passes stopped (:attr:`pyrt.apps.preview.render.PreviewResult.stop_reason`:
+    #: ``"target_error"``, ``"time_budget"``, ``"max_spp"``, ``"cancelled"``); None at a fixed spp
+    stop_reason: str | None = None
 
     @property
     def prepare_time(self):
@@ -95,6 +101,7 @@ def preview_asset(path, out_dir=None, options=None, *, name=None, return_files=F
     rep.warnings, rep.exposure = list(dict.fromkeys(res.warnings)), res.exposure
     rep.phases, rep.substitutions = dict(res.phases), list(res.substitutions)
     rep.spp, rep.estimated_error = res.mean_spp, res.worst_error
+    rep.backend, rep.stop_reason = res.backend, res.stop_reason
     if return_files:
         rep.files = res.files
         rep.outputs = sorted(res.files)

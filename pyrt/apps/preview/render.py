@@ -336,6 +336,22 @@ class PreviewResult:
         errs = [e for e in self.estimated_errors if e is not None]
         return max(errs) if errs else None
 
+    @property
+    def backend(self):
+        """The render path of the views: ``"numpy"`` when any view took the NumPy path, else ``"compiled"``; ""
+        without views."""
+        if not self.backends:
+            return ""
+        return "numpy" if "numpy" in self.backends else "compiled"
+
+    @property
+    def stop_reason(self):
+        """Why the adaptive passes stopped: the reason of the first view that stopped short of the target
+        (``"time_budget"``, ``"max_spp"``, ``"cancelled"``), else ``"target_error"``; None at a fixed spp."""
+        reasons = [r for r in self.stop_reasons if r is not None]
+        short = [r for r in reasons if r != "target_error"]
+        return short[0] if short else (reasons[0] if reasons else None)
+
 
 def format_sampling(result, target_error=None):
     """``"4 spp, compiled path"`` at a fixed spp; ``"5.3 spp (mean), estimated relMSE 9.6e-04 (target 0.001),
@@ -350,8 +366,8 @@ def format_sampling(result, target_error=None):
         why = "".join(f", stopped by {_STOPS.get(r, r)}" for r in sorted(stops))
         target = "" if target_error is None else f" (target {target_error:g}{why})"
         text = f"{text} (mean), estimated relMSE {err:.2g}{target}"
-    if result.backends:
-        text += ", NumPy path" if "numpy" in result.backends else ", compiled path"
+    if result.backend:
+        text += ", NumPy path" if result.backend == "numpy" else ", compiled path"
     return text
 
 
