@@ -379,7 +379,7 @@ def test_adaptive_preview_spends_samples_where_the_image_needs_them(tmp_path, ca
     samples than the flat background; bad combinations are refused with a one-line CLI error (exit 2). (A target
     the render cannot reach within max_spp, 1e-4 here, ends with every pixel at max_spp: no edge is left.)"""
     from pyrt.io.assets import load_asset
-    o = P.PreviewOptions(width=48, height=36, target_error=2.5e-3, max_spp=8, min_spp=2, threads=1)
+    o = P.PreviewOptions(width=48, height=36, target_error=2.5e-3, max_spp=8, min_spp=2, threads=1, render_budget=None)
     ps = P.PreviewScene(load_asset(BLOB), o)
     try:
         res = ps.render_view(ps.azimuth)

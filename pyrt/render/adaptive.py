@@ -280,7 +280,8 @@ def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None,
                     dask_workers=2, split_depth=DEFAULT_SPLIT_DEPTH, light_select_depth=None, parallel="auto",
                     batch_rays=None, sampler="padded", backend="auto"):
     """Render ``scene`` in adaptive passes until the estimated relMSE is at most ``target_error``, the
-    ``time_budget`` (seconds, counted from the call) is spent, or no pixel may take more samples
+    ``time_budget`` (seconds, counted from the call, less the compiled kernel's load: a first run's minutes of
+    compiling do not eat the budget) is spent, or no pixel may take more samples
     (``max_spp``): a :class:`RenderResult` with ``passes``, ``estimated_error``, ``stop_reason`` and the film
     (``film.weight``: the samples each pixel got). See the module docstring for the method.
 
@@ -329,10 +330,12 @@ def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None,
         # the base pass's chunks, times 4: the passes after it add at least as many samples again, usually more
         base_chunks = -(-scene.camera.width * scene.camera.height * min_spp // chunk_samples)
         processes = use_processes(parallel, workers, 4 * base_chunks) and runner is None and bool(reasons)
-        deadline = t_start + time_budget if time_budget is not None else math.inf
+        t_kernel = time.perf_counter()
         kernel = None if reasons else adaptive_task(ps, cam, seed=seed, max_depth=max_depth,
                                                     throughput_cutoff=throughput_cutoff, offset=offset,
                                                     split_depth=split_depth, nonfinite=nonfinite, integ=integ)
+        t_start += time.perf_counter() - t_kernel       # the kernel's load (a first run: its compile) is not budgeted
+        deadline = t_start + time_budget if time_budget is not None else math.inf
 
         def task(index, key, P, C, base, spp_after, timed):
             if timed and time.perf_counter() >= deadline:

@@ -173,8 +173,9 @@ class Sampling(_Options):
     spp : int, optional
         Samples per pixel; excludes the adaptive options. ``render(scene, spp=...)`` is the short form.
     target_error, time_budget, max_spp : float, float, int, optional
-        Adaptive passes until the estimated relMSE is at most ``target_error``, ``time_budget`` seconds have passed,
-        or every pixel that still needs samples has ``max_spp`` (default 65536); at least one of the first two.
+        Adaptive passes until the estimated relMSE is at most ``target_error``, ``time_budget`` seconds have passed
+        (from the call, the compiled kernel's load or first compile not counted), or every pixel that still needs
+        samples has ``max_spp`` (default 65536); at least one of the first two.
     min_spp : int, optional
         The adaptive base pass (even; default 4). Only with an adaptive target.
     on_pass : callable, optional
