@@ -7,7 +7,8 @@ texture and light: a type tag and a parameter record, packed by each object's ``
 :mod:`pyrt.integrators.compiled_kernel` and returns per-pixel sums.
 
 What the compiled path covers (everything else renders through the NumPy path, automatically with
-``backend="auto"``): the Whitted integrator with max depth, throughput cutoff and split depth, and the glossy
+``backend="auto"``): the Whitted integrator with max depth, throughput cutoff (rays below it dropped or continued by
+Russian roulette) and split depth, and the glossy
 integrator (glossy rays with MIS against the area lights whose meshes they reach, the glossy clamp:
 :mod:`pyrt.integrators.compiled_hit`), both with the light choice
 (``light_select_depth``); Lambert (constant,
@@ -113,8 +114,6 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
         reasons.append(f"integrator {integrator!r}")
     if integrator == "glossy":
         reasons += glossy_reasons(scene)
-    if roulette:
-        reasons.append("Russian roulette below throughput_cutoff (roulette=True)")
     if sampler != "padded":
         reasons.append(f"sampler {sampler!r} (the kernel's light samples are padded)")
     if not (offset is None or isinstance(offset, str) and offset in OFFSETS):
@@ -256,6 +255,8 @@ class CompiledScene:
         t0 = time.perf_counter()
         #: the integrator's kernel options (:func:`kernel_integrator` of ``integ``, render_full's integrator settings)
         self.integrator = kernel_integrator(ps.scene, integ)
+        #: Russian roulette below the throughput cutoff (the integrator setting ``roulette``; False without ``integ``)
+        self.roulette = bool(integ is not None and integ["roulette"])
         if ps.compiled_geometry is None:
             geo = ps.geo
             f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)          # noqa: E731
@@ -531,6 +532,7 @@ def _options(cs, spp, seed, max_depth, throughput_cutoff, split_depth, terminato
     opts[KL.O_NMAPS] = int(cs.normal_maps)
     opts[KL.O_COVER] = cs.cover
     opts[KL.O_LAYERS] = MAX_LAYERS
+    opts[KL.O_ROULETTE] = 1 if cs.roulette else 0
     (opts[KL.O_GLOSSY_N], opts[KL.O_GLOSSY_DEPTH], opts[KL.O_SELECT], opts[KL.O_GLOSSY_ENV]), (threshold, clamp) = \
         cs.integrator
     optf = np.zeros(KL.F_ENV + compiled_env.RECORD)

@@ -35,9 +35,10 @@ from pyrt.integrators.compiled_coverage import MASKS, shadow_walk  # noqa: E402
 from pyrt.integrators.compiled_diffs import _own  # noqa: E402
 from pyrt.integrators.compiled_diffs import push_ray  # noqa: E402
 from pyrt.integrators.compiled_layout import (  # noqa: E402
-    DIM_CHOOSE, DIM_ENV, DIM_GLOSSY, F_CUTOFF, T_INF, F_GLOSSY_T, LANES, O_COVER, O_DIFFS, O_GLOSSY_DEPTH, O_GLOSSY_N,
-    O_LAYERS, O_MAX_DEPTH, O_NLIGHTS, O_SELECT, O_TERMINATOR, STACK, STACK_LAYER, STACK_PDF, STACK_ROW, STACK_TB, V_D,
-    V_GL, V_LIFT, V_MAG, V_MAG_LIFT, V_MAT, V_NG, V_NS, V_NV, V_P, _njit, lane_inputs, lane_vec)
+    DIM_CHOOSE, DIM_ENV, DIM_GLOSSY, DIM_ROULETTE, F_CUTOFF, T_INF, F_GLOSSY_T, LANES, O_COVER, O_DIFFS,
+    O_GLOSSY_DEPTH, O_GLOSSY_N, O_LAYERS, O_MAX_DEPTH, O_NLIGHTS, O_ROULETTE, O_SELECT, O_TERMINATOR, STACK,
+    STACK_LAYER, STACK_PDF, STACK_ROW, STACK_TB, V_D, V_GL, V_LIFT, V_MAG, V_MAG_LIFT, V_MAT, V_NG, V_NS, V_NV, V_P,
+    _njit, lane_inputs, lane_vec)
 from pyrt.integrators.compiled_lighting import (  # noqa: E402
     area_bsdf_sample, area_light_weight, area_u, direct_light, env_hit)
 from pyrt.lights import compiled as LC  # noqa: E402
@@ -259,13 +260,31 @@ def glossy_u(key, s, n, k):
     return LC.stratum(s, n, k, J.uniform(key, d), J.uniform(key, d + 1), perm)
 
 
+@_njit
+def survive(t, cutoff, roulette, key, dim):
+    """:func:`pyrt.integrators.roulette.survivors` for one spawned ray of throughput ``t`` (a 3-tuple): ``(alive, t,
+    dim)``. A ray whose largest channel ``m`` is above ``cutoff`` goes on unchanged; with ``roulette`` (and ``cutoff``
+    > 0) one with ``0 < m <= cutoff`` goes on with probability ``q = m / cutoff`` (the number ``uniform(key, dim)``,
+    ``dim`` then advanced by one) and throughput ``t / q``; the others are dropped."""
+    m = max(t[0], t[1], t[2])
+    if m > cutoff:
+        return True, t, dim
+    if not (roulette and cutoff > 0.0 and m > 0.0):
+        return False, t, dim
+    q = m / cutoff
+    if J.uniform(key, dim) < q:
+        return True, (t[0] / q, t[1] / q, t[2] / q), dim + 1
+    return False, t, dim + 1
+
+
 @_own
-def spawn_glossy(p, ng, ns, wo, mag, mtag, mats_par, m, albedo, thr, depth, nb, cutoff, key, stack, top, V, lane,
-                 diffs):
+def spawn_glossy(p, ng, ns, wo, mag, mtag, mats_par, m, albedo, thr, depth, nb, cutoff, roulette, key, stack, top, V,
+                 lane, diffs):
     """Push the ``nb`` glossy rays of a hit (:meth:`pyrt.integrators.glossy.GlossyIntegrator._spawn_glossy`: BSDF
     samples of material ``m``, throughput ``thr * weight / nb``, density ``nb * pdf`` in the row's
     :data:`STACK_PDF`; a reflection below the geometric surface is dropped, as is a ray whose throughput is at most
-    ``cutoff``); returns the new top."""
+    ``cutoff`` unless it survives the ``roulette`` (:func:`survive`, ray ``s``'s number from dimension
+    :data:`DIM_ROULETTE` ``+ s``)); returns the new top."""
     fs, ft = CS.coordinate_frame(ns[0], ns[1], ns[2])
     wol = CS.to_local(wo, fs, ft, ns)
     k = J.isqrt(nb)
@@ -277,8 +296,9 @@ def spawn_glossy(p, ng, ns, wo, mag, mtag, mats_par, m, albedo, thr, depth, nb, 
         wi = CS.to_world((wx, wy, wz), fs, ft, ns)
         if not dot(wi, ng) > 0.0:
             continue
-        t = (thr[0] * r / nb, thr[1] * g / nb, thr[2] * b / nb)
-        if not max(t[0], t[1], t[2]) > cutoff or top >= STACK:
+        alive, t, _ = survive((thr[0] * r / nb, thr[1] * g / nb, thr[2] * b / nb), cutoff, roulette, key,
+                              DIM_ROULETTE + s)
+        if not alive or top >= STACK:
             continue
         top = push(p, ng, mag, stack, top, wi, t, depth + 1, V, lane, diffs, ns, wo, 0.0, nb * pdf)
     return top
@@ -370,7 +390,7 @@ def lane_hit(scene, G, V, lane, key, stack, top, ray_buf, lights_tag, lights_par
                                  hkey, opts[O_COVER] == MASKS, opts[O_LAYERS], ray_buf, nb, opts[O_SELECT] == 0)
     if glossy:
         top = spawn_glossy(p, ng, ns, wo, mag, mtag, mats_par, m, albedo, (weight, weight, weight), 0, nb,
-                           optf[F_CUTOFF], hkey, stack, top, V, lane, opts[O_DIFFS] != 0)
+                           optf[F_CUTOFF], opts[O_ROULETTE] != 0, hkey, stack, top, V, lane, opts[O_DIFFS] != 0)
     return l0, l1, l2, top, n_sh
 
 

@@ -43,14 +43,15 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK,
     O_GRID, F_CUTOFF, F_BG, N_PRIMARY, N_SECONDARY, O_COVER, O_LAYERS, V_SO, V_WI, V_TMAX,
     N_SHADOW, N_NONFINITE, STACK, STACK_ROW, STACK_PDF, STACK_TB, STACK_LAYER, T_INF, DIM_LOBE, O_GLOSSY_N,
-    O_GLOSSY_DEPTH, O_SELECT, F_GLOSSY_T, F_GLOSSY_CLAMP, V_GL, O_GLOSSY_ENV,
+    O_GLOSSY_DEPTH, O_SELECT, F_GLOSSY_T, F_GLOSSY_CLAMP, V_GL, O_GLOSSY_ENV, O_ROULETTE,
     ADAPTIVE_KEYS, O_ENV, O_AOV, O_SQ, N_AOV, V_T, O_DIFFS, TILES_PER_TASK, _njit, buffer_pointers,
     geometry_pointers, lane_vec, packet_buffers, release, set_lane_inputs, set_lane_vec, table_pointers)
 from pyrt.integrators import compiled_diffs as D  # noqa: E402
 from pyrt.integrators.compiled_coverage import (  # noqa: E402
     MASKS, cover_finish, cover_packet, cover_single, lane_through, mask_shadows, split_blend)
 from pyrt.integrators.compiled_hit import (  # noqa: E402
-    clamp_sampled, emission_weight, escape_weight, hit_light, is_glossy, lane_hit, push, set_aside, spawn_glossy)
+    clamp_sampled, emission_weight, escape_weight, hit_light, is_glossy, lane_hit, push, set_aside, spawn_glossy,
+    survive)
 from pyrt.integrators.compiled_surface import face_surfaces, with_ambient  # noqa: E402
 from pyrt.integrators.compiled_lighting import (  # noqa: E402
     area_bsdf_stage, area_mis_stage, area_stage, bsdf_stage, camera_fill, env_rounds, lambert_stage, light_stage,
@@ -82,12 +83,14 @@ def camera_dir(cam, x, y):
 
 
 @_njit
-def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, thr, depth, split, cutoff, key, dim, stack, top, V, lane, diffs):
+def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, thr, depth, split, cutoff, rr, key, dim, stack, top, V, lane,
+          diffs):
     """Push the delta lobes of a hit of material ``m`` (reached with throughput ``thr``, a 3-tuple, at bounce
     ``depth``) onto ``stack`` (rows: origin, direction, throughput, depth) from row ``top``; returns ``(top, dim)``
     (:meth:`pyrt.integrators.whitted.Integrator._spawn_specular`: mirror reflections the shading normal sends below
     the geometric surface are dropped; from the split depth (``split`` >= 0) on a dielectric follows one lobe, chosen
-    by weight)."""
+    by weight; a lobe at or below ``cutoff`` is dropped, or with ``rr`` continues by Russian roulette,
+    :func:`pyrt.integrators.compiled_hit.survive`, its number the sample's next dimension ``dim``)."""
     mb = m * MC.RECORD
     cos_o = dot(wo, ns)
     wr = (2.0 * cos_o * ns[0] - wo[0], 2.0 * cos_o * ns[1] - wo[1], 2.0 * cos_o * ns[2] - wo[2])
@@ -95,8 +98,8 @@ def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, thr, depth, split, cutoff, 
         if not dot(wr, ng) > 0.0:
             return top, dim
         w = MC.mirror_weight(mtag, mpars, m, cos_o)
-        t = (thr[0] * w[0], thr[1] * w[1], thr[2] * w[2])
-        if max(t[0], t[1], t[2]) > cutoff and top < STACK:
+        alive, t, dim = survive((thr[0] * w[0], thr[1] * w[1], thr[2] * w[2]), cutoff, rr, key, dim)
+        if alive and top < STACK:
             top = push(p, ng, mag, stack, top, wr, t, depth + 1, V, lane, diffs, ns, wo, 0.0, 0.0)
         return top, dim
     # glass
@@ -126,12 +129,14 @@ def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, thr, depth, split, cutoff, 
                 wR, wT = 0.0, (wT / (1.0 - p_r) if mt > 0.0 else 0.0)
         else:
             wR, wT = 0.0, 0.0
-    t = (thr[0] * mpars[mb + 1] * wR, thr[1] * mpars[mb + 2] * wR, thr[2] * mpars[mb + 3] * wR)
-    if max(t[0], t[1], t[2]) > cutoff and top < STACK:
+    alive, t, dim = survive((thr[0] * mpars[mb + 1] * wR, thr[1] * mpars[mb + 2] * wR, thr[2] * mpars[mb + 3] * wR),
+                            cutoff, rr, key, dim)
+    if alive and top < STACK:
         top = push(p, ng, mag, stack, top, wr, t, depth + 1, V, lane, diffs, ns, wo, 0.0, 0.0)
     if T > 0.0:
-        t = (thr[0] * mpars[mb + 1] * wT, thr[1] * mpars[mb + 2] * wT, thr[2] * mpars[mb + 3] * wT)
-        if max(t[0], t[1], t[2]) > cutoff and top < STACK:
+        alive, t, dim = survive((thr[0] * mpars[mb + 1] * wT, thr[1] * mpars[mb + 2] * wT,
+                                 thr[2] * mpars[mb + 3] * wT), cutoff, rr, key, dim)
+        if alive and top < STACK:
             top = push(p, ng, mag, stack, top, wt, t, depth + 1, V, lane, diffs, ns, wo, eta, 0.0)
     return top, dim
 
@@ -149,6 +154,7 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
     fallback = opts[O_FALLBACK] != 0
     terminator = opts[O_TERMINATOR] != 0
     split, cutoff, max_depth, nl = opts[O_SPLIT], optf[F_CUTOFF], opts[O_MAX_DEPTH], opts[O_NLIGHTS]
+    rr = opts[O_ROULETTE] != 0
     gl_n, gl_depth, select = opts[O_GLOSSY_N], opts[O_GLOSSY_DEPTH], opts[O_SELECT]
     threshold, limit = optf[F_GLOSSY_T], optf[F_GLOSSY_CLAMP]
     etag = opts[O_ENV]
@@ -216,9 +222,9 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
         r2 += thr[2] * le2
         if sampled:
             top = spawn_glossy(p, ng, ns, wo, mag, mtag, mats_par, m, albedo, thr, depth, gl_n if depth == 0 else 1,
-                               cutoff, J.sample_key(key, n_sec), stack, top, V, lane, diffs)
+                               cutoff, rr, J.sample_key(key, n_sec), stack, top, V, lane, diffs)
         if depth < max_depth and MC.has_delta(mtag):
-            top, dim = spawn(p, ng, ns, wo, front, mag, mtag, mats_par, m, thr, depth, split, cutoff, key, dim,
+            top, dim = spawn(p, ng, ns, wo, front, mag, mtag, mats_par, m, thr, depth, split, cutoff, rr, key, dim,
                              stack, top, V, lane, diffs)
     counters[N_SECONDARY] += n_sec + n_re
     counters[N_SHADOW] += n_sh
@@ -365,7 +371,8 @@ def shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k3
             top, dim = spawn(lane_vec(V, V_P, lane), lane_vec(V, V_NG, lane), lane_vec(V, V_NS, lane),
                              (-d[0], -d[1], -d[2]), V[V_FRONT * LANES + lane] != 0.0,
                              V[V_MAG * LANES + lane], mats_tag[m], mats_par, m, (a, a, a), 0, split,
-                             cutoff, keys[lane], DIM_LOBE, stack, top, V, lane, opts[O_DIFFS] != 0)
+                             cutoff, opts[O_ROULETTE] != 0, keys[lane], DIM_LOBE, stack, top, V, lane,
+                             opts[O_DIFFS] != 0)
         if top > 0:
             l0, l1, l2 = trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag,
                                      lights_par, erec, edata, opts, optf, keys[lane], dim, stack, top, ray_buf,
