@@ -116,3 +116,84 @@ def test_roulette_is_unbiased_on_the_compiled_path():
     _z_agree(rr, vr, full, vf)
     se = np.sqrt(vr.sum() + vf.sum()) / full.size
     assert full.mean() - cut.mean() > 10 * se
+
+
+# -- transparent shadows ------------------------------------------------------------------------------------------
+
+
+def _slab_scene(tint=(0.9, 0.8, 0.6), spp=1, jitter=False):
+    """A glass slab (ior 1.5) 1 above a Lambert floor under a directional light straight down; the camera looks at
+    the floor from below the slab's height, so it sees the slab's shadow and not the slab."""
+    cam = pyrt.Camera(position=(0, 0.9, 2.0), target=(0, 0, 0), fov=40, width=48, height=36, spp=spp, jitter=jitter)
+    s = pyrt.Scene(cam, background=(0.0, 0.0, 0.0))
+    s.add_plane((0, 0, 0), 8.0, pyrt.Lambert(albedo=0.5))
+    s.add_box((0.0, 1.0, 0.0), (1.2, 0.05, 1.2), pyrt.Glass(ior=1.5, tint=tint))
+    s.add_light(pyrt.DirectionalLight(direction=(0, -1, 0), irradiance=3.0))
+    return s
+
+
+def test_transparent_shadows_take_the_compiled_path():
+    s = _glass_scene(spp=1)
+    ps = pyrt.PreparedScene(s)
+    try:
+        assert compiled.unsupported(ps, transparent_shadows=True) == []
+        assert compiled.unsupported(ps, integrator="glossy", transparent_shadows=True, roulette=True) == []
+    finally:
+        ps.close()
+
+
+def test_a_glass_slab_transmits_tint_squared_times_fresnel_squared():
+    """At normal incidence each of the slab's two faces passes ``tint (1 - R)``, ``R = ((1.5 - 1) / 2.5)^2 = 0.04``:
+    the floor in the slab's shadow is ``tint^2 0.96^2`` of the lit floor beside it (pixel centres: exact to float32
+    rounding), and the compiled image is the NumPy path's."""
+    tint = np.array([0.9, 0.8, 0.6])
+    s = _slab_scene(tuple(tint))
+    kw = dict(integrator=pyrt.Whitted(transparent_shadows=True))
+    rc = pyrt.render_full(s, execution=pyrt.Execution(backend="compiled", progress=False), **kw)
+    rn = pyrt.render_full(s, execution=pyrt.Execution(backend="numpy", progress=False), **kw)
+    assert rc.stats.backend == "compiled"
+    np.testing.assert_allclose(rc.image, rn.image, rtol=1e-5, atol=1e-6)
+    opaque = pyrt.render_full(s, execution=pyrt.Execution(backend="compiled", progress=False)).image
+    img = rc.image.astype(np.float64)
+    shadow = (opaque[..., 0] == 0) & (img[..., 0] > 0)   # the floor in the slab's shadow (black when it is opaque)
+    assert shadow.sum() > 200, shadow.sum()
+    lit = opaque.reshape(-1, 3).max(axis=0)               # the floor in the open: the same everywhere
+    np.testing.assert_allclose(img[shadow] / lit, np.broadcast_to(tint ** 2 * 0.96 ** 2, (shadow.sum(), 3)), rtol=1e-5)
+
+
+@pytest.mark.parametrize("integrator", [pyrt.Whitted(transparent_shadows=True),
+                                        pyrt.Glossy(transparent_shadows=True, samples=4, depth=2)])
+def test_transparent_shadows_agree_with_numpy_in_distribution(integrator):
+    """Point, rectangle (light and BSDF samples) lights' shadow rays through the glass sphere and the tinted slab,
+    from camera hits (the packet stages) and the specular tree's and glossy rays' hits (single rays)."""
+    _assert_agree(_glass_scene(), integrator=integrator)
+
+
+def test_transparent_shadows_under_a_sampled_environment_agree_with_numpy():
+    """The environment light's shadow rays (``strategy="mis"``: the packet rounds at camera hits, single rays at the
+    specular tree's hits and, with glossy rays, the map's samples at glossy hits) through glass."""
+    s = _glass_scene()
+    h, w = 16, 32
+    img = np.full((h, w, 3), 0.2)
+    img[3:6, 20:24] = (8.0, 7.0, 5.0)
+    img[h // 2:] = 0.05
+    env = pyrt.LatLongEnvironment(img)
+    s.environment = env
+    s.add_light(pyrt.EnvironmentLight(env, strategy="mis", n_samples=2))
+    _assert_agree(s, integrator=pyrt.Glossy(transparent_shadows=True, samples=4, depth=2))
+
+
+def test_transparent_shadows_through_glass_and_a_blend_surface_match_the_numpy_path():
+    """A blend veil (coverage 0.55) between the light and the slab: the floor in the shadow of both gets
+    ``(1 - 0.55) tint^2 0.96^2`` of the light, pixel by pixel the NumPy path's image (pixel centres)."""
+    s = _slab_scene()
+    s.add_plane((0.0, 1.5, 0.0), 1.0, pyrt.Lambert(albedo=0.3).set_coverage(opacity=0.55, alpha_mode="blend"))
+    kw = dict(integrator=pyrt.Whitted(transparent_shadows=True))
+    rc = pyrt.render_full(s, execution=pyrt.Execution(backend="compiled", progress=False), **kw)
+    rn = pyrt.render_full(s, execution=pyrt.Execution(backend="numpy", progress=False), **kw)
+    assert rc.stats.backend == "compiled"
+    np.testing.assert_allclose(rc.image, rn.image, rtol=1e-5, atol=1e-6)
+    rgb = rc.image.reshape(-1, 3).astype(np.float64)
+    rel = rgb / rgb.max(axis=0)                             # the lit floor is the brightest
+    want = 0.45 * np.array([0.9, 0.8, 0.6]) ** 2 * 0.96 ** 2
+    assert np.count_nonzero(np.all(np.abs(rel - want) < 1e-5 * want + 1e-7, axis=1)) > 50

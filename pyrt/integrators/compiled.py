@@ -26,7 +26,8 @@ and ``robust_no_terminator`` offsets; back-face culling (single-sided materials)
 constant or nearest / bilinear / trilinear opacity, no environment light but a preview:
 :mod:`pyrt.integrators.compiled_coverage`); fixed spp and adaptive passes (:func:`render_pixels`). Not yet: other
 environments and strategies, emissive-mesh lights, the other materials (and per-face colours), anisotropic and
-bicubic texture filters, nested media, transparent shadows and ray recording (AOVs: fixed spp, not on Dask workers; the
+bicubic texture filters, nested media and ray recording (transparent shadows through Glass:
+:mod:`pyrt.integrators.compiled_shadows`; AOVs: fixed spp, not on Dask workers; the
 glossy integrator and the light choice not on Dask workers).
 """
 from __future__ import annotations
@@ -52,6 +53,7 @@ from pyrt.integrators import light_choice
 from pyrt.integrators.coverage import MAX_LAYERS, CoverageTable
 from pyrt.integrators.glossy import ENV_LIGHT_SAMPLED, emitter_lights
 from pyrt.integrators.media import NestedMedia
+from pyrt.integrators.shadows import MAX_INTERFACES
 from pyrt.lights import compiled as LC
 from pyrt.lights import compiled_env, compiled_env_preview
 from pyrt.lights.environment_light import EnvironmentLight
@@ -118,8 +120,6 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
         reasons.append(f"sampler {sampler!r} (the kernel's light samples are padded)")
     if not (offset is None or isinstance(offset, str) and offset in OFFSETS):
         reasons.append(f"offset strategy {offset!r}")
-    if transparent_shadows and np.any(facts.dielectric):
-        reasons.append("transparent shadows")
     if record_rays:
         reasons.append("ray recording")
     if scene.environment is not None and not compiled_env.packable(scene.environment):
@@ -257,6 +257,12 @@ class CompiledScene:
         self.integrator = kernel_integrator(ps.scene, integ)
         #: Russian roulette below the throughput cutoff (the integrator setting ``roulette``; False without ``integ``)
         self.roulette = bool(integ is not None and integ["roulette"])
+        #: transparent shadows (:data:`pyrt.integrators.compiled_layout.O_TRANSPARENT`): the most surfaces a shadow
+        #: ray crosses (as :meth:`pyrt.integrators.whitted.Integrator.visibility`), 0 when off
+        self.transparent = 0
+        if integ is not None and integ["transparent_shadows"] and np.any(ps.dielectric):
+            self.transparent = MAX_LAYERS if any(m.alpha_mode != "opaque" for m in ps.scene.materials) else \
+                MAX_INTERFACES
         if ps.compiled_geometry is None:
             geo = ps.geo
             f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)          # noqa: E731
@@ -533,6 +539,7 @@ def _options(cs, spp, seed, max_depth, throughput_cutoff, split_depth, terminato
     opts[KL.O_COVER] = cs.cover
     opts[KL.O_LAYERS] = MAX_LAYERS
     opts[KL.O_ROULETTE] = 1 if cs.roulette else 0
+    opts[KL.O_TRANSPARENT] = cs.transparent
     (opts[KL.O_GLOSSY_N], opts[KL.O_GLOSSY_DEPTH], opts[KL.O_SELECT], opts[KL.O_GLOSSY_ENV]), (threshold, clamp) = \
         cs.integrator
     optf = np.zeros(KL.F_ENV + compiled_env.RECORD)

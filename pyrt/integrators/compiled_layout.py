@@ -81,8 +81,12 @@ O_GLOSSY_ENV = 19
 #: 1: Russian roulette below the throughput cutoff (``roulette=True``, :func:`pyrt.integrators.compiled_hit.survive`),
 #: 0: such rays are dropped
 O_ROULETTE = 20
+#: transparent shadows (:mod:`pyrt.integrators.compiled_shadows`): the most surfaces a shadow ray crosses
+#: (:data:`pyrt.integrators.shadows.MAX_INTERFACES`, :data:`pyrt.integrators.coverage.MAX_LAYERS` in a scene with
+#: masks); 0: off (dielectrics block)
+O_TRANSPARENT = 21
 #: length of the integer options
-N_OPTS = 21
+N_OPTS = 22
 #: consecutive tiles of a call's list that one thread renders with one set of packet buffers
 #: (:func:`pyrt.integrators.compiled_kernel.render_tiles`; also the unit of the threads' dynamic scheduling)
 TILES_PER_TASK = 4
