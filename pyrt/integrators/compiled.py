@@ -69,6 +69,9 @@ BACKENDS = ("auto", "compiled", "numpy")
 OFFSETS = (None, "robust", "robust_no_terminator")
 
 _announced = []
+#: what :func:`unsupported` adds to the reason of a material it cannot pack that is a dielectric with a non-delta lobe
+_DIELECTRIC_LOBES = (" (a dielectric with a BSDF lobe, e.g. glTF KHR_materials_transmission or rough glass: the "
+                     "kernel's one dielectric is Glass)")
 
 
 def glossy_reasons(scene):
@@ -77,8 +80,9 @@ def glossy_reasons(scene):
     reasons = []
     if any(len(lts) > 1 for lts in emitter_lights(scene).values()):
         reasons.append("the glossy integrator with a visible emitter mesh shared by several area lights")
-    if any(m.has_diffuse and m.transmits for m in scene.materials):
-        reasons.append("the glossy integrator with rough transmission")
+    rough = [m.label for m in scene.materials if m.has_diffuse and m.transmits]
+    if rough:
+        reasons.append(f"the glossy integrator with rough transmission ({', '.join(rough)})")
     return reasons
 
 
@@ -129,7 +133,7 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
         reasons.append("alpha masks or blend materials with an environment light (its shadow rays would not pass "
                        "them)")
     if facts.media is not None:
-        reasons.append("nested dielectrics or absorption")
+        reasons.append(media_reason(facts.media, scene.materials))
     if (ps.face_gouraud is not None) if ps is not None else facts.gouraud:
         reasons.append("Gouraud shading")
     if ps is not None and ps.accel.buffers != "shared":
@@ -139,7 +143,7 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
     for m in scene.materials:
         records.append(m.compiled_record(textures.add))
         if records[-1] is None:
-            reasons.append(f"material {m.label}")
+            reasons.append(f"material {m.label}" + (_DIELECTRIC_LOBES if m.is_dielectric and m.has_diffuse else ""))
         elif m.normal_map is not None and textures.add(m.normal_map) is None:
             reasons.append(f"normal map of material {m.label}")
         elif m.alpha_mode != "opaque" and coverage_fields(m, textures.add) is None:
@@ -153,6 +157,20 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
     reasons += CV.vertex_colors(scene.meshes, CV.vertex_color_textures(records, textures.objects))[1]
 
     return reasons
+
+
+def media_reason(media, materials):
+    """The reason for a scene with interface stacks (:class:`pyrt.integrators.media.NestedMedia`): which dielectrics
+    bound volumes (nested media: more than one) and which absorb (Beer-Lambert, e.g. glTF KHR_materials_volume's
+    attenuation)."""
+    labels = [m.label for m, p in zip(materials, media.participates) if p]
+    absorbing = [m.label for m, p, s in zip(materials, media.participates, media.sigma_a) if p and np.any(s > 0)]
+    parts = []
+    if len(labels) > 1:
+        parts.append(f"{len(labels)} volume dielectrics: {', '.join(labels)}")
+    if absorbing:
+        parts.append(f"absorbing: {', '.join(absorbing)}")
+    return f"nested dielectrics or absorption ({'; '.join(parts)})"
 
 
 def _traces_environment(light):
