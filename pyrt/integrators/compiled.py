@@ -7,7 +7,8 @@ texture and light: a type tag and a parameter record, packed by each object's ``
 :mod:`pyrt.integrators.compiled_kernel` and returns per-pixel sums.
 
 What the compiled path covers (everything else renders through the NumPy path, automatically with
-``backend="auto"``): the Whitted integrator with max depth, throughput cutoff and split depth, and the glossy
+``backend="auto"``): the Whitted integrator with max depth, throughput cutoff (rays below it dropped or continued by
+Russian roulette) and split depth, and the glossy
 integrator (glossy rays with MIS against the area lights whose meshes they reach, the glossy clamp:
 :mod:`pyrt.integrators.compiled_hit`), both with the light choice
 (``light_select_depth``); Lambert (constant,
@@ -25,7 +26,8 @@ and ``robust_no_terminator`` offsets; back-face culling (single-sided materials)
 constant or nearest / bilinear / trilinear opacity, no environment light but a preview:
 :mod:`pyrt.integrators.compiled_coverage`); fixed spp and adaptive passes (:func:`render_pixels`). Not yet: other
 environments and strategies, emissive-mesh lights, the other materials (and per-face colours), anisotropic and
-bicubic texture filters, nested media, transparent shadows and ray recording (AOVs: fixed spp, not on Dask workers; the
+bicubic texture filters, nested media and ray recording (transparent shadows through Glass:
+:mod:`pyrt.integrators.compiled_shadows`; AOVs: fixed spp, not on Dask workers; the
 glossy integrator and the light choice not on Dask workers).
 """
 from __future__ import annotations
@@ -51,6 +53,7 @@ from pyrt.integrators import light_choice
 from pyrt.integrators.coverage import MAX_LAYERS, CoverageTable
 from pyrt.integrators.glossy import ENV_LIGHT_SAMPLED, emitter_lights
 from pyrt.integrators.media import NestedMedia
+from pyrt.integrators.shadows import MAX_INTERFACES
 from pyrt.lights import compiled as LC
 from pyrt.lights import compiled_env, compiled_env_preview
 from pyrt.lights.environment_light import EnvironmentLight
@@ -66,6 +69,9 @@ BACKENDS = ("auto", "compiled", "numpy")
 OFFSETS = (None, "robust", "robust_no_terminator")
 
 _announced = []
+#: what :func:`unsupported` adds to the reason of a material it cannot pack that is a dielectric with a non-delta lobe
+_DIELECTRIC_LOBES = (" (a dielectric with a BSDF lobe, e.g. glTF KHR_materials_transmission or rough glass: the "
+                     "kernel's one dielectric is Glass)")
 
 
 def glossy_reasons(scene):
@@ -74,8 +80,9 @@ def glossy_reasons(scene):
     reasons = []
     if any(len(lts) > 1 for lts in emitter_lights(scene).values()):
         reasons.append("the glossy integrator with a visible emitter mesh shared by several area lights")
-    if any(m.has_diffuse and m.transmits for m in scene.materials):
-        reasons.append("the glossy integrator with rough transmission")
+    rough = [m.label for m in scene.materials if m.has_diffuse and m.transmits]
+    if rough:
+        reasons.append(f"the glossy integrator with rough transmission ({', '.join(rough)})")
     return reasons
 
 
@@ -113,14 +120,10 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
         reasons.append(f"integrator {integrator!r}")
     if integrator == "glossy":
         reasons += glossy_reasons(scene)
-    if roulette:
-        reasons.append("Russian roulette below throughput_cutoff (roulette=True)")
     if sampler != "padded":
         reasons.append(f"sampler {sampler!r} (the kernel's light samples are padded)")
     if not (offset is None or isinstance(offset, str) and offset in OFFSETS):
         reasons.append(f"offset strategy {offset!r}")
-    if transparent_shadows and np.any(facts.dielectric):
-        reasons.append("transparent shadows")
     if record_rays:
         reasons.append("ray recording")
     if scene.environment is not None and not compiled_env.packable(scene.environment):
@@ -130,7 +133,7 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
         reasons.append("alpha masks or blend materials with an environment light (its shadow rays would not pass "
                        "them)")
     if facts.media is not None:
-        reasons.append("nested dielectrics or absorption")
+        reasons.append(media_reason(facts.media, scene.materials))
     if (ps.face_gouraud is not None) if ps is not None else facts.gouraud:
         reasons.append("Gouraud shading")
     if ps is not None and ps.accel.buffers != "shared":
@@ -140,7 +143,7 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
     for m in scene.materials:
         records.append(m.compiled_record(textures.add))
         if records[-1] is None:
-            reasons.append(f"material {m.label}")
+            reasons.append(f"material {m.label}" + (_DIELECTRIC_LOBES if m.is_dielectric and m.has_diffuse else ""))
         elif m.normal_map is not None and textures.add(m.normal_map) is None:
             reasons.append(f"normal map of material {m.label}")
         elif m.alpha_mode != "opaque" and coverage_fields(m, textures.add) is None:
@@ -154,6 +157,20 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
     reasons += CV.vertex_colors(scene.meshes, CV.vertex_color_textures(records, textures.objects))[1]
 
     return reasons
+
+
+def media_reason(media, materials):
+    """The reason for a scene with interface stacks (:class:`pyrt.integrators.media.NestedMedia`): which dielectrics
+    bound volumes (nested media: more than one) and which absorb (Beer-Lambert, e.g. glTF KHR_materials_volume's
+    attenuation)."""
+    labels = [m.label for m, p in zip(materials, media.participates) if p]
+    absorbing = [m.label for m, p, s in zip(materials, media.participates, media.sigma_a) if p and np.any(s > 0)]
+    parts = []
+    if len(labels) > 1:
+        parts.append(f"{len(labels)} volume dielectrics: {', '.join(labels)}")
+    if absorbing:
+        parts.append(f"absorbing: {', '.join(absorbing)}")
+    return f"nested dielectrics or absorption ({'; '.join(parts)})"
 
 
 def _traces_environment(light):
@@ -256,6 +273,14 @@ class CompiledScene:
         t0 = time.perf_counter()
         #: the integrator's kernel options (:func:`kernel_integrator` of ``integ``, render_full's integrator settings)
         self.integrator = kernel_integrator(ps.scene, integ)
+        #: Russian roulette below the throughput cutoff (the integrator setting ``roulette``; False without ``integ``)
+        self.roulette = bool(integ is not None and integ["roulette"])
+        #: transparent shadows (:data:`pyrt.integrators.compiled_layout.O_TRANSPARENT`): the most surfaces a shadow
+        #: ray crosses (as :meth:`pyrt.integrators.whitted.Integrator.visibility`), 0 when off
+        self.transparent = 0
+        if integ is not None and integ["transparent_shadows"] and np.any(ps.dielectric):
+            self.transparent = MAX_LAYERS if any(m.alpha_mode != "opaque" for m in ps.scene.materials) else \
+                MAX_INTERFACES
         if ps.compiled_geometry is None:
             geo = ps.geo
             f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)          # noqa: E731
@@ -531,6 +556,8 @@ def _options(cs, spp, seed, max_depth, throughput_cutoff, split_depth, terminato
     opts[KL.O_NMAPS] = int(cs.normal_maps)
     opts[KL.O_COVER] = cs.cover
     opts[KL.O_LAYERS] = MAX_LAYERS
+    opts[KL.O_ROULETTE] = 1 if cs.roulette else 0
+    opts[KL.O_TRANSPARENT] = cs.transparent
     (opts[KL.O_GLOSSY_N], opts[KL.O_GLOSSY_DEPTH], opts[KL.O_SELECT], opts[KL.O_GLOSSY_ENV]), (threshold, clamp) = \
         cs.integrator
     optf = np.zeros(KL.F_ENV + compiled_env.RECORD)

@@ -26,8 +26,8 @@ dropped (radiance 0, no AOV), as on the NumPy path: with culling alone (``cull_h
 to skip, with masks or blending (``resolve``) when it meets one more surface of a culled, masked or blend material (a
 continuation counts the surfaces of the ray it continues). Shadow rays pass mask surfaces where ``a <
 alpha_cutoff`` and blend surfaces with the factor ``1 - a`` (:func:`pyrt.integrators.shadows.transmittance`: ``a`` at
-the full-resolution texture, shadow rays carry no footprint): a ray the occlusion query reports blocked is re-traced
-as closest hits through them, at most that many; both sides of a culled surface block. The re-traced rays count as
+the full-resolution texture, shadow rays carry no footprint; the walk through them:
+:mod:`pyrt.integrators.compiled_shadows`); both sides of a culled surface block. The re-traced rays count as
 secondary (camera and specular rays) or shadow rays, as the NumPy path counts them.
 
 Nothing here runs unless ``opts[O_COVER]`` is set (1: culling only, 2: masks or blend surfaces too).
@@ -44,8 +44,8 @@ kernel_cache.use_cache_dir()      # before the decorators below run
 from pyrt.geometry import embree_jit as E  # noqa: E402
 from pyrt.integrators import compiled_diffs as D  # noqa: E402
 from pyrt.integrators.compiled_layout import (  # noqa: E402
-    LANES, STACK, STACK_DIFF, STACK_LAYER, STACK_PDF, STACK_ROW, STACK_TB, V_BL, V_BW, V_D, V_F, V_L, V_LIT, V_MAG,
-    V_NG, V_P, V_RAY, V_SO, V_T, V_TB, V_TMAX, V_WI, T_INF, C_POS, _njit, lane_vec, set_lane_vec)
+    LANES, STACK, STACK_DIFF, STACK_LAYER, STACK_PDF, STACK_ROW, STACK_TB, V_BL, V_BW, V_D, V_L, V_MAG, V_NG, V_P,
+    V_RAY, V_T, V_TB, T_INF, C_POS, _njit, lane_vec, set_lane_vec)
 from pyrt.materials import compiled as MC  # noqa: E402
 from pyrt.shaders.jit import EPS32, EPS64, bary3, dot, gamma, round_away, row3  # noqa: E402
 from pyrt.textures.compiled import texture_rgb  # noqa: E402
@@ -260,62 +260,6 @@ def lane_through(V, lane, cam, stack, top, cutoff, diffs):
                          lane_vec(V, V_D, lane), (1.0, 1.0, 1.0), 0, 0.0, 0.0, V[V_BL * LANES + lane], a, cutoff, V,
                          lane, diffs)
     return top, a
-
-
-@_njit
-def shadow_walk(scene, G, mats_par, tex_tag, tex_par, layers, o, wi, tmax, ray_buf):
-    """The transmittance of a shadow ray ``o + t wi``, ``0 < t < tmax``, that the occlusion query found blocked
-    (:func:`pyrt.integrators.shadows.transmittance` with masks and blend surfaces only): closest hits from ``o``; a
-    mask texel below the cutoff is crossed with the factor 1, a blend texel with ``1 - a`` (``a`` at the
-    full-resolution texture), each time the origin pushed past it to the light's side and ``tmax`` shortened to the
-    same end point; anything else blocks (0); 0 after ``layers + 1`` queries. Returns ``(transmittance, queries)``."""
-    fnorm, foff, fmat = G[3], G[7], G[8]
-    ox, oy, oz = o
-    T = 1.0
-    for k in range(layers + 1):
-        hit, _, prim, geom, u, v, _, _, _ = E.intersect1(scene, ox, oy, oz, wi[0], wi[1], wi[2], 0.0, tmax, ray_buf)
-        if not hit:
-            return T, k + 1
-        face = foff[geom] + prim
-        rb = fmat[face] * MC.RECORD
-        mode = mats_par[rb + MC.MASK]
-        if mode == 0.0:
-            return 0.0, k + 1
-        b1, b2 = np.float64(u), np.float64(v)
-        b0 = 1.0 - b1 - b2
-        a = opacity(G, mats_par, tex_tag, tex_par, face, b0, b1, b2, G[0], 0, False)
-        if mode == MODE_MASK:
-            if not a < mats_par[rb + MC.MASK + 1]:
-                return 0.0, k + 1
-        else:
-            T *= 1.0 - a
-            if not T > 0.0:
-                return 0.0, k + 1
-        nx, ny, nz = through(G, face, b0, b1, b2, row3(fnorm, face), wi)
-        tmax = max(tmax - ((nx - ox) * wi[0] + (ny - oy) * wi[1] + (nz - oz) * wi[2]), 0.0)
-        ox, oy, oz = nx, ny, nz
-    return 0.0, layers + 1
-
-
-@numba.njit(nogil=True, cache=True, error_model="numpy")
-def mask_shadows(scene, G, mats_par, tex_tag, tex_par, sh, w, V, n, layers, ray_buf):
-    """After a shadow packet's occlusion query in a scene with masks or blend surfaces: each traced lane
-    (:data:`V_LIT`) that it found blocked walked through them (:func:`shadow_walk`, its ray from :data:`V_SO`,
-    :data:`V_WI`, :data:`V_TMAX`); a lane that gets through is marked unblocked in ``sh`` and its contribution
-    :data:`V_F` multiplied by its transmittance. Returns the closest-hit queries."""
-    n_q = 0
-    for lane in range(n):
-        if V[V_LIT * LANES + lane] == 0.0 or not E.lane_blocked(sh, w, lane):
-            continue
-        wi = lane_vec(V, V_WI, lane)
-        T, k = shadow_walk(scene, G, mats_par, tex_tag, tex_par, layers, lane_vec(V, V_SO, lane), wi,
-                           V[V_TMAX * LANES + lane], ray_buf)
-        n_q += k
-        if T > 0.0:
-            E.packet_set_dir(sh, w, lane, wi[0], wi[1], wi[2], V[V_TMAX * LANES + lane])
-            for c in range(3):
-                V[(V_F + c) * LANES + lane] *= T
-    return n_q
 
 
 kernel_cache.restore()

@@ -30,14 +30,13 @@ from pyrt.integrators import kernel_cache
 
 kernel_cache.use_cache_dir()      # before the decorators below run
 
-from pyrt.geometry import embree_jit as E  # noqa: E402
-from pyrt.integrators.compiled_coverage import MASKS, shadow_walk  # noqa: E402
+from pyrt.integrators.compiled_shadows import shadow_options, shadow_ray  # noqa: E402
 from pyrt.integrators.compiled_diffs import _own  # noqa: E402
 from pyrt.integrators.compiled_diffs import push_ray  # noqa: E402
 from pyrt.integrators.compiled_layout import (  # noqa: E402
-    DIM_CHOOSE, DIM_ENV, DIM_GLOSSY, F_CUTOFF, T_INF, F_GLOSSY_T, LANES, O_COVER, O_DIFFS, O_GLOSSY_DEPTH, O_GLOSSY_N,
-    O_LAYERS, O_MAX_DEPTH, O_NLIGHTS, O_SELECT, O_TERMINATOR, STACK, STACK_LAYER, STACK_PDF, STACK_ROW, STACK_TB, V_D,
-    V_GL, V_LIFT, V_MAG, V_MAG_LIFT, V_MAT, V_NG, V_NS, V_NV, V_P, _njit, lane_inputs, lane_vec)
+    DIM_CHOOSE, DIM_ENV, DIM_GLOSSY, DIM_ROULETTE, F_CUTOFF, T_INF, F_GLOSSY_T, LANES, O_DIFFS, O_GLOSSY_DEPTH,
+    O_GLOSSY_N, O_MAX_DEPTH, O_NLIGHTS, O_ROULETTE, O_SELECT, O_TERMINATOR, STACK, STACK_LAYER, STACK_PDF, STACK_ROW,
+    STACK_TB, V_D, V_GL, V_LIFT, V_MAG, V_MAG_LIFT, V_MAT, V_NG, V_NS, V_NV, V_P, _njit, lane_inputs, lane_vec)
 from pyrt.integrators.compiled_lighting import (  # noqa: E402
     area_bsdf_sample, area_light_weight, area_u, direct_light, env_hit)
 from pyrt.lights import compiled as LC  # noqa: E402
@@ -46,19 +45,6 @@ from pyrt.materials import compiled as MC  # noqa: E402
 from pyrt.materials import compiled_sampling as CS  # noqa: E402
 from pyrt.shaders import jit as J  # noqa: E402
 from pyrt.shaders.jit import dot  # noqa: E402
-
-
-@_njit
-def _transmitted(scene, G, mats_par, tex_tag, tex_par, layers, masks, o, wi, tmax, ray_buf):
-    """``(transmittance, shadow rays traced)`` of one shadow ray: 1 or 0, and with ``masks`` through the mask
-    cut-outs and blend surfaces (:func:`pyrt.integrators.compiled_coverage.shadow_walk`)."""
-    blocked = E.occluded1(scene, o[0], o[1], o[2], wi[0], wi[1], wi[2], 0.0, tmax, ray_buf)
-    n = 1
-    T = 0.0 if blocked else 1.0
-    if blocked and masks:
-        T, n_walk = shadow_walk(scene, G, mats_par, tex_tag, tex_par, layers, o, wi, tmax, ray_buf)
-        n += n_walk
-    return T, n
 
 
 @_njit
@@ -117,21 +103,21 @@ def _choice_weight(lights_tag, lights_par, j, p, ng, nv):
 
 
 @_own
-def hit_light(scene, G, lights_tag, lights_par, nl, mats_par, tex_tag, tex_par, etag, erec, edata, mtag, m, albedo, p,
-              ng, ns, nv, wo, lift, mag, mag_lift, terminator, hkey, masks, layers, ray_buf, nb, choose):
+def hit_light(scene, G, lights_tag, lights_par, nl, mats_tag, mats_par, tex_tag, tex_par, etag, erec, edata, mtag, m,
+              albedo, p, ng, ns, nv, wo, lift, mag, mag_lift, terminator, hkey, sopt, ray_buf, nb, choose):
     """The direct light at one hit (module docstring) of material ``m`` (tag ``mtag``, inputs ``albedo``) whose
     random numbers are keyed by ``hkey``: ``nb`` > 0 at a glossy hit (its glossy rays' count), ``choose`` where one
-    delta light stands for all of them. Returns ``(r, g, b, shadow rays)``."""
+    delta light stands for all of them; shadow rays through see-through surfaces as ``sopt`` says
+    (:func:`pyrt.integrators.compiled_shadows.shadow_ray`). Returns ``(r, g, b, shadow rays)``."""
     le0 = le1 = le2 = 0.0
     n_sh = 0
     if choose:
         ok, tmax, o, wi, f = chosen_light(lights_tag, lights_par, nl, mtag, mats_par, m, albedo, p, ng, ns, nv, wo,
                                           lift, mag, mag_lift, terminator, J.uniform(hkey, DIM_CHOOSE))
         if ok:
-            T, n = _transmitted(scene, G, mats_par, tex_tag, tex_par, layers, masks, o, wi, tmax, ray_buf)
+            t0, t1, t2, n = shadow_ray(scene, G, mats_tag, mats_par, tex_tag, tex_par, sopt, o, wi, tmax, ray_buf)
             n_sh += n
-            if T > 0.0:
-                le0, le1, le2 = le0 + f[0] * T, le1 + f[1] * T, le2 + f[2] * T
+            le0, le1, le2 = le0 + f[0] * t0, le1 + f[1] * t1, le2 + f[2] * t2
     for j in range(nl):
         jb = j * LC.RECORD
         ltag = lights_tag[j]
@@ -139,14 +125,16 @@ def hit_light(scene, G, lights_tag, lights_par, nl, mats_par, tex_tag, tex_par, 
             # a glossy hit: the map's samples against the glossy rays (its own BSDF half is left to them), or nothing
             # from a light that does not sample its map there (escaped glossy rays carry the environment)
             if lights_par[jb + 2] != 0.0:
-                e = env_glossy(scene, etag, erec, edata, mtag, mats_par, m, albedo, p, ng, ns, nv, wo, lift, mag,
-                               mag_lift, terminator, hkey, int(lights_par[jb]), nb, ray_buf)
+                e = env_glossy(scene, G, etag, erec, edata, mtag, mats_tag, mats_par, tex_tag, tex_par, sopt, m, albedo,
+                               p, ng, ns, nv, wo, lift, mag, mag_lift, terminator, hkey, int(lights_par[jb]), nb,
+                               ray_buf)
                 le0, le1, le2 = le0 + e[0], le1 + e[1], le2 + e[2]
                 n_sh += e[3]
             continue
         if ltag == LC.ENV:
-            e = env_hit(scene, etag, erec, edata, mtag, mats_par, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift,
-                        terminator, hkey, int(lights_par[jb]), int(lights_par[jb + 1]), ray_buf)
+            e = env_hit(scene, G, etag, erec, edata, mtag, mats_tag, mats_par, tex_tag, tex_par, sopt, m, albedo, p, ng,
+                        ns, nv, wo, lift, mag, mag_lift, terminator, hkey, int(lights_par[jb]),
+                        int(lights_par[jb + 1]), ray_buf)
             le0, le1, le2 = le0 + e[0], le1 + e[1], le2 + e[2]
             n_sh += int(e[3])
             continue
@@ -176,22 +164,22 @@ def hit_light(scene, G, lights_tag, lights_par, nl, mats_par, tex_tag, tex_par, 
                 inv = 1.0 / n_b
             if not ok:
                 continue
-            T, n = _transmitted(scene, G, mats_par, tex_tag, tex_par, layers, masks, o, wi, tmax, ray_buf)
+            t0, t1, t2, n = shadow_ray(scene, G, mats_tag, mats_par, tex_tag, tex_par, sopt, o, wi, tmax, ray_buf)
             n_sh += n
-            if T > 0.0:
-                le0 += f[0] * inv * T
-                le1 += f[1] * inv * T
-                le2 += f[2] * inv * T
+            le0 += f[0] * inv * t0
+            le1 += f[1] * inv * t1
+            le2 += f[2] * inv * t2
     return le0, le1, le2, n_sh
 
 
 @_own
-def env_glossy(scene, etag, erec, edata, mtag, mats_par, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift, terminator,
-               key, n_l, nb, ray_buf):
+def env_glossy(scene, G, etag, erec, edata, mtag, mats_tag, mats_par, tex_tag, tex_par, sopt, m, albedo, p, ng, ns, nv,
+               wo, lift, mag, mag_lift, terminator, key, n_l, nb, ray_buf):
     """The environment light at a glossy hit (:meth:`pyrt.integrators.glossy.GlossyIntegrator._env_light_sampling`):
     ``n_l`` samples of the full map (:func:`pyrt.lights.compiled_env.sample`, the second number stratified over
     them), ``f_cos L / pdf`` each, weighted by the power heuristic of ``n_l`` map samples against the ``nb`` glossy
-    rays; single shadow rays to infinity. Returns ``(r, g, b, shadow rays)``."""
+    rays; single shadow rays to infinity (:func:`pyrt.integrators.compiled_shadows.shadow_ray`). Returns ``(r, g, b,
+    shadow rays)``."""
     fs, ft = CS.coordinate_frame(ns[0], ns[1], ns[2])
     wol = CS.to_local(wo, fs, ft, ns)
     l0 = l1 = l2 = 0.0
@@ -213,9 +201,9 @@ def env_glossy(scene, etag, erec, edata, mtag, mats_par, m, albedo, p, ng, ns, n
         pdf_b = CS.pdf_wi(mtag, mats_par, m, albedo, wol[0], wol[1], wol[2], wil[0], wil[1], wil[2])
         k = CS.power_heuristic(pdf, pdf_b, 2.0, float(n_l), float(nb)) / (pdf * n_l)
         o = J.shadow_origin(p, ng, lift, mag, mag_lift, cg, terminator)
-        n_sh += 1
-        if not E.occluded1(scene, o[0], o[1], o[2], wx, wy, wz, 0.0, T_INF, ray_buf):
-            l0, l1, l2 = l0 + f[0] * L[0] * k, l1 + f[1] * L[1] * k, l2 + f[2] * L[2] * k
+        t0, t1, t2, n = shadow_ray(scene, G, mats_tag, mats_par, tex_tag, tex_par, sopt, o, wi, T_INF, ray_buf)
+        n_sh += n
+        l0, l1, l2 = l0 + f[0] * L[0] * k * t0, l1 + f[1] * L[1] * k * t1, l2 + f[2] * L[2] * k * t2
     return l0, l1, l2, n_sh
 
 
@@ -259,13 +247,31 @@ def glossy_u(key, s, n, k):
     return LC.stratum(s, n, k, J.uniform(key, d), J.uniform(key, d + 1), perm)
 
 
+@_njit
+def survive(t, cutoff, roulette, key, dim):
+    """:func:`pyrt.integrators.roulette.survivors` for one spawned ray of throughput ``t`` (a 3-tuple): ``(alive, t,
+    dim)``. A ray whose largest channel ``m`` is above ``cutoff`` goes on unchanged; with ``roulette`` (and ``cutoff``
+    > 0) one with ``0 < m <= cutoff`` goes on with probability ``q = m / cutoff`` (the number ``uniform(key, dim)``,
+    ``dim`` then advanced by one) and throughput ``t / q``; the others are dropped."""
+    m = max(t[0], t[1], t[2])
+    if m > cutoff:
+        return True, t, dim
+    if not (roulette and cutoff > 0.0 and m > 0.0):
+        return False, t, dim
+    q = m / cutoff
+    if J.uniform(key, dim) < q:
+        return True, (t[0] / q, t[1] / q, t[2] / q), dim + 1
+    return False, t, dim + 1
+
+
 @_own
-def spawn_glossy(p, ng, ns, wo, mag, mtag, mats_par, m, albedo, thr, depth, nb, cutoff, key, stack, top, V, lane,
-                 diffs):
+def spawn_glossy(p, ng, ns, wo, mag, mtag, mats_par, m, albedo, thr, depth, nb, cutoff, roulette, key, stack, top, V,
+                 lane, diffs):
     """Push the ``nb`` glossy rays of a hit (:meth:`pyrt.integrators.glossy.GlossyIntegrator._spawn_glossy`: BSDF
     samples of material ``m``, throughput ``thr * weight / nb``, density ``nb * pdf`` in the row's
     :data:`STACK_PDF`; a reflection below the geometric surface is dropped, as is a ray whose throughput is at most
-    ``cutoff``); returns the new top."""
+    ``cutoff`` unless it survives the ``roulette`` (:func:`survive`, ray ``s``'s number from dimension
+    :data:`DIM_ROULETTE` ``+ s``)); returns the new top."""
     fs, ft = CS.coordinate_frame(ns[0], ns[1], ns[2])
     wol = CS.to_local(wo, fs, ft, ns)
     k = J.isqrt(nb)
@@ -277,8 +283,9 @@ def spawn_glossy(p, ng, ns, wo, mag, mtag, mats_par, m, albedo, thr, depth, nb, 
         wi = CS.to_world((wx, wy, wz), fs, ft, ns)
         if not dot(wi, ng) > 0.0:
             continue
-        t = (thr[0] * r / nb, thr[1] * g / nb, thr[2] * b / nb)
-        if not max(t[0], t[1], t[2]) > cutoff or top >= STACK:
+        alive, t, _ = survive((thr[0] * r / nb, thr[1] * g / nb, thr[2] * b / nb), cutoff, roulette, key,
+                              DIM_ROULETTE + s)
+        if not alive or top >= STACK:
             continue
         top = push(p, ng, mag, stack, top, wi, t, depth + 1, V, lane, diffs, ns, wo, 0.0, nb * pdf)
     return top
@@ -365,12 +372,12 @@ def lane_hit(scene, G, V, lane, key, stack, top, ray_buf, lights_tag, lights_par
     glossy = camera_glossy(opts) and is_glossy(mats_par, m, albedo, optf[F_GLOSSY_T])
     nb = opts[O_GLOSSY_N] if glossy else 0
     hkey = J.sample_key(key, 0)
-    l0, l1, l2, n_sh = hit_light(scene, G, lights_tag, lights_par, opts[O_NLIGHTS], mats_par, tex_tag, tex_par, etag,
-                                 erec, edata, mtag, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift, terminator,
-                                 hkey, opts[O_COVER] == MASKS, opts[O_LAYERS], ray_buf, nb, opts[O_SELECT] == 0)
+    l0, l1, l2, n_sh = hit_light(scene, G, lights_tag, lights_par, opts[O_NLIGHTS], mats_tag, mats_par, tex_tag,
+                                 tex_par, etag, erec, edata, mtag, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift,
+                                 terminator, hkey, shadow_options(opts), ray_buf, nb, opts[O_SELECT] == 0)
     if glossy:
         top = spawn_glossy(p, ng, ns, wo, mag, mtag, mats_par, m, albedo, (weight, weight, weight), 0, nb,
-                           optf[F_CUTOFF], hkey, stack, top, V, lane, opts[O_DIFFS] != 0)
+                           optf[F_CUTOFF], opts[O_ROULETTE] != 0, hkey, stack, top, V, lane, opts[O_DIFFS] != 0)
     return l0, l1, l2, top, n_sh
 
 

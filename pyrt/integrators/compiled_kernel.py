@@ -4,8 +4,9 @@ One call renders a list of 8 x 8 pixel tiles (``prange`` over them, the tiles sh
 a share of the whole image). Per pixel, its samples go in packets of up to 16 (the samples of one pixel are the
 most coherent rays there are): camera rays -> ``rtcIntersect16`` (COHERENT) -> the hit rebuilt in float64 from the
 triangle's vertices and the barycentrics -> direct light from every light, each light's shadow rays of the packet
-one masked ``rtcOccluded16`` -> the specular tree (mirror, glass reflection and refraction, the split-depth rule)
-as a per-sample loop over a small stack with single-ray queries -> per-pixel sums and squared sums in float64.
+one masked ``rtcOccluded16`` (blocked rays walked through see-through surfaces: :mod:`.compiled_shadows`) -> the
+specular tree (mirror, glass reflection and refraction, the split-depth rule) as a per-sample loop over a small stack
+with single-ray queries -> per-pixel sums and squared sums in float64.
 
 The estimator is :class:`pyrt.integrators.whitted.Integrator`'s for the scenes :mod:`pyrt.integrators.compiled`
 accepts (no nested media; culled back faces, alpha masks and blend surfaces by
@@ -41,16 +42,18 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W,
     C_H, C_JITTER, C_K, C_AX, O_SEED, O_SPP,
     O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK,
-    O_GRID, F_CUTOFF, F_BG, N_PRIMARY, N_SECONDARY, O_COVER, O_LAYERS, V_SO, V_WI, V_TMAX,
+    O_GRID, F_CUTOFF, F_BG, N_PRIMARY, N_SECONDARY, O_COVER, O_LAYERS,
     N_SHADOW, N_NONFINITE, STACK, STACK_ROW, STACK_PDF, STACK_TB, STACK_LAYER, T_INF, DIM_LOBE, O_GLOSSY_N,
-    O_GLOSSY_DEPTH, O_SELECT, F_GLOSSY_T, F_GLOSSY_CLAMP, V_GL, O_GLOSSY_ENV,
+    O_GLOSSY_DEPTH, O_SELECT, F_GLOSSY_T, F_GLOSSY_CLAMP, V_GL, O_GLOSSY_ENV, O_ROULETTE,
     ADAPTIVE_KEYS, O_ENV, O_AOV, O_SQ, N_AOV, V_T, O_DIFFS, TILES_PER_TASK, _njit, buffer_pointers,
     geometry_pointers, lane_vec, packet_buffers, release, set_lane_inputs, set_lane_vec, table_pointers)
 from pyrt.integrators import compiled_diffs as D  # noqa: E402
 from pyrt.integrators.compiled_coverage import (  # noqa: E402
-    MASKS, cover_finish, cover_packet, cover_single, lane_through, mask_shadows, split_blend)
+    MASKS, cover_finish, cover_packet, cover_single, lane_through, split_blend)
+from pyrt.integrators.compiled_shadows import keep_rays, packet_walk, shadow_options, walks  # noqa: E402
 from pyrt.integrators.compiled_hit import (  # noqa: E402
-    clamp_sampled, emission_weight, escape_weight, hit_light, is_glossy, lane_hit, push, set_aside, spawn_glossy)
+    clamp_sampled, emission_weight, escape_weight, hit_light, is_glossy, lane_hit, push, set_aside, spawn_glossy,
+    survive)
 from pyrt.integrators.compiled_surface import face_surfaces, with_ambient  # noqa: E402
 from pyrt.integrators.compiled_lighting import (  # noqa: E402
     area_bsdf_stage, area_mis_stage, area_stage, bsdf_stage, camera_fill, env_rounds, lambert_stage, light_stage,
@@ -82,12 +85,14 @@ def camera_dir(cam, x, y):
 
 
 @_njit
-def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, thr, depth, split, cutoff, key, dim, stack, top, V, lane, diffs):
+def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, thr, depth, split, cutoff, rr, key, dim, stack, top, V, lane,
+          diffs):
     """Push the delta lobes of a hit of material ``m`` (reached with throughput ``thr``, a 3-tuple, at bounce
     ``depth``) onto ``stack`` (rows: origin, direction, throughput, depth) from row ``top``; returns ``(top, dim)``
     (:meth:`pyrt.integrators.whitted.Integrator._spawn_specular`: mirror reflections the shading normal sends below
     the geometric surface are dropped; from the split depth (``split`` >= 0) on a dielectric follows one lobe, chosen
-    by weight)."""
+    by weight; a lobe at or below ``cutoff`` is dropped, or with ``rr`` continues by Russian roulette,
+    :func:`pyrt.integrators.compiled_hit.survive`, its number the sample's next dimension ``dim``)."""
     mb = m * MC.RECORD
     cos_o = dot(wo, ns)
     wr = (2.0 * cos_o * ns[0] - wo[0], 2.0 * cos_o * ns[1] - wo[1], 2.0 * cos_o * ns[2] - wo[2])
@@ -95,8 +100,8 @@ def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, thr, depth, split, cutoff, 
         if not dot(wr, ng) > 0.0:
             return top, dim
         w = MC.mirror_weight(mtag, mpars, m, cos_o)
-        t = (thr[0] * w[0], thr[1] * w[1], thr[2] * w[2])
-        if max(t[0], t[1], t[2]) > cutoff and top < STACK:
+        alive, t, dim = survive((thr[0] * w[0], thr[1] * w[1], thr[2] * w[2]), cutoff, rr, key, dim)
+        if alive and top < STACK:
             top = push(p, ng, mag, stack, top, wr, t, depth + 1, V, lane, diffs, ns, wo, 0.0, 0.0)
         return top, dim
     # glass
@@ -126,12 +131,14 @@ def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, thr, depth, split, cutoff, 
                 wR, wT = 0.0, (wT / (1.0 - p_r) if mt > 0.0 else 0.0)
         else:
             wR, wT = 0.0, 0.0
-    t = (thr[0] * mpars[mb + 1] * wR, thr[1] * mpars[mb + 2] * wR, thr[2] * mpars[mb + 3] * wR)
-    if max(t[0], t[1], t[2]) > cutoff and top < STACK:
+    alive, t, dim = survive((thr[0] * mpars[mb + 1] * wR, thr[1] * mpars[mb + 2] * wR, thr[2] * mpars[mb + 3] * wR),
+                            cutoff, rr, key, dim)
+    if alive and top < STACK:
         top = push(p, ng, mag, stack, top, wr, t, depth + 1, V, lane, diffs, ns, wo, 0.0, 0.0)
     if T > 0.0:
-        t = (thr[0] * mpars[mb + 1] * wT, thr[1] * mpars[mb + 2] * wT, thr[2] * mpars[mb + 3] * wT)
-        if max(t[0], t[1], t[2]) > cutoff and top < STACK:
+        alive, t, dim = survive((thr[0] * mpars[mb + 1] * wT, thr[1] * mpars[mb + 2] * wT,
+                                 thr[2] * mpars[mb + 3] * wT), cutoff, rr, key, dim)
+        if alive and top < STACK:
             top = push(p, ng, mag, stack, top, wt, t, depth + 1, V, lane, diffs, ns, wo, eta, 0.0)
     return top, dim
 
@@ -149,10 +156,12 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
     fallback = opts[O_FALLBACK] != 0
     terminator = opts[O_TERMINATOR] != 0
     split, cutoff, max_depth, nl = opts[O_SPLIT], optf[F_CUTOFF], opts[O_MAX_DEPTH], opts[O_NLIGHTS]
+    rr = opts[O_ROULETTE] != 0
     gl_n, gl_depth, select = opts[O_GLOSSY_N], opts[O_GLOSSY_DEPTH], opts[O_SELECT]
     threshold, limit = optf[F_GLOSSY_T], optf[F_GLOSSY_CLAMP]
     etag = opts[O_ENV]
     cover, masks, layers = opts[O_COVER] != 0, opts[O_COVER] == MASKS, opts[O_LAYERS]
+    sopt = shadow_options(opts)
     n_sec = n_sh = n_re = 0
     while top > 0:
         top -= 1
@@ -203,9 +212,9 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
         if MC.has_diffuse(mtag):
             sampled = depth < gl_depth and depth < max_depth and is_glossy(mats_par, m, albedo, threshold)
             nb = (gl_n if depth == 0 else 1) if sampled else 0
-            l0, l1, l2, n = hit_light(scene, G, lights_tag, lights_par, nl, mats_par, tex_tag, tex_par, etag, erec,
-                                      edata, mtag, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift, terminator,
-                                      J.sample_key(key, n_sec), masks, layers, ray_buf, nb,
+            l0, l1, l2, n = hit_light(scene, G, lights_tag, lights_par, nl, mats_tag, mats_par, tex_tag, tex_par, etag,
+                                      erec, edata, mtag, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift, terminator,
+                                      J.sample_key(key, n_sec), sopt, ray_buf, nb,
                                       0 <= select <= depth and (bpdf > 0.0 or depth == 0))
             n_sh += n
             if bpdf > 0.0 and limit < math.inf:
@@ -216,9 +225,9 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
         r2 += thr[2] * le2
         if sampled:
             top = spawn_glossy(p, ng, ns, wo, mag, mtag, mats_par, m, albedo, thr, depth, gl_n if depth == 0 else 1,
-                               cutoff, J.sample_key(key, n_sec), stack, top, V, lane, diffs)
+                               cutoff, rr, J.sample_key(key, n_sec), stack, top, V, lane, diffs)
         if depth < max_depth and MC.has_delta(mtag):
-            top, dim = spawn(p, ng, ns, wo, front, mag, mtag, mats_par, m, thr, depth, split, cutoff, key, dim,
+            top, dim = spawn(p, ng, ns, wo, front, mag, mtag, mats_par, m, thr, depth, split, cutoff, rr, key, dim,
                              stack, top, V, lane, diffs)
     counters[N_SECONDARY] += n_sec + n_re
     counters[N_SHADOW] += n_sh
@@ -250,6 +259,8 @@ def shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k3
     n_prim += n
     E.packet_query(scene, pk, w, True, False)
     cover, masks = opts[O_COVER] != 0, opts[O_COVER] == MASKS
+    sopt = shadow_options(opts)
+    walk = walks(sopt)
     if cover:               # culled back faces and mask cut-outs skipped: lanes on one re-traced (compiled_coverage)
         cnt[N_SECONDARY] += cover_packet(scene, G, mats_par, tex_tag, tex_par, cam, pk, w, V, n, opts[O_LAYERS],
                                          masks, opts[O_DIFFS] != 0)
@@ -304,9 +315,9 @@ def shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k3
     for j in range(nl if any_diffuse else 0):
         ltag = lights_tag[j]
         if ltag == LC.ENV:
-            pair = env_rounds(scene, etag, erec, edata, mats_tag, mats_par, V, n, terminator, pair, lane_s, spp,
-                              lane_k32, sh, w, int(lights_par[j * LC.RECORD]), int(lights_par[j * LC.RECORD + 1]),
-                              cnt)
+            pair = env_rounds(scene, G, etag, erec, edata, mats_tag, mats_par, tex_tag, tex_par, sopt, V, n,
+                              terminator, pair, lane_s, spp, lane_k32, sh, w, int(lights_par[j * LC.RECORD]),
+                              int(lights_par[j * LC.RECORD + 1]), cnt, ray_buf)
             continue
         area = ltag >= LC.RECT
         n_j = int(lights_par[j * LC.RECORD + LC.AREA_SAMPLES]) if area else 1
@@ -318,11 +329,8 @@ def shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k3
             if s >= n_j:
                 n_sh = area_bsdf_stage(ltag, lights_par, j, mats_tag, mats_par, V, keys, n, terminator, s - n_j, n_j,
                                        n_b, k_b, pair + s, lane_s, spp, lane_k32, sh, w)
-                for lane in range(n if masks else 0):     # the rays mask_shadows may walk (float32 as traced)
-                    s_o, s_wi, s_tmax = E.packet_ray(sh, w, lane)
-                    set_lane_vec(V, V_SO, lane, (float(s_o[0]), float(s_o[1]), float(s_o[2])))
-                    set_lane_vec(V, V_WI, lane, (float(s_wi[0]), float(s_wi[1]), float(s_wi[2])))
-                    V[V_TMAX * LANES + lane] = float(s_tmax)
+                if walk:                                  # the rays packet_walk may walk
+                    keep_rays(sh, w, V, n)
             else:
                 if area:
                     area_stage(ltag, lights_par, j, V, keys, n, s, n_j, k_j, terminator, pair + s, lane_s, spp,
@@ -340,8 +348,8 @@ def shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k3
                 continue
             n_shadow += n_sh
             E.packet_query(scene, sh, w, True, True)
-            if masks:
-                n_shadow += mask_shadows(scene, G, mats_par, tex_tag, tex_par, sh, w, V, n, opts[O_LAYERS], ray_buf)
+            if walk:
+                n_shadow += packet_walk(scene, G, mats_tag, mats_par, tex_tag, tex_par, sopt, sh, w, V, n, ray_buf)
             shadow_add(V, sh, w, n, 1.0 / (n_j if s < n_j else n_b))
         pair += n_j + n_b if area else 0
     # the specular tree of each sample, then the film
@@ -364,8 +372,8 @@ def shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k3
             d = lane_vec(V, V_D, lane)
             top, dim = spawn(lane_vec(V, V_P, lane), lane_vec(V, V_NG, lane), lane_vec(V, V_NS, lane),
                              (-d[0], -d[1], -d[2]), V[V_FRONT * LANES + lane] != 0.0,
-                             V[V_MAG * LANES + lane], mats_tag[m], mats_par, m, (a, a, a), 0, split,
-                             cutoff, keys[lane], DIM_LOBE, stack, top, V, lane, opts[O_DIFFS] != 0)
+                             V[V_MAG * LANES + lane], mats_tag[m], mats_par, m, (a, a, a), 0, split, cutoff,
+                             opts[O_ROULETTE] != 0, keys[lane], DIM_LOBE, stack, top, V, lane, opts[O_DIFFS] != 0)
         if top > 0:
             l0, l1, l2 = trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag,
                                      lights_par, erec, edata, opts, optf, keys[lane], dim, stack, top, ray_buf,

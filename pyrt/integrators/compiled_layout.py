@@ -78,8 +78,15 @@ O_GLOSSY_N, O_GLOSSY_DEPTH, O_SELECT = 16, 17, 18
 #: the light samples per hit of the environment light whose map the glossy integrator samples at glossy hits (0: none;
 #: escaped glossy rays then count the environment with weight 1)
 O_GLOSSY_ENV = 19
+#: 1: Russian roulette below the throughput cutoff (``roulette=True``, :func:`pyrt.integrators.compiled_hit.survive`),
+#: 0: such rays are dropped
+O_ROULETTE = 20
+#: transparent shadows (:mod:`pyrt.integrators.compiled_shadows`): the most surfaces a shadow ray crosses
+#: (:data:`pyrt.integrators.shadows.MAX_INTERFACES`, :data:`pyrt.integrators.coverage.MAX_LAYERS` in a scene with
+#: masks); 0: off (dielectrics block)
+O_TRANSPARENT = 21
 #: length of the integer options
-N_OPTS = 20
+N_OPTS = 22
 #: consecutive tiles of a call's list that one thread renders with one set of packet buffers
 #: (:func:`pyrt.integrators.compiled_kernel.render_tiles`; also the unit of the threads' dynamic scheduling)
 TILES_PER_TASK = 4
@@ -113,6 +120,9 @@ DIM_AREA = 1 << 20
 #: the random dimension of a hit's choice of one light (``light_select_depth``), the first of its glossy rays' samples
 #: (two per ray, below it one for their Latin-hypercube permutation)
 DIM_CHOOSE, DIM_GLOSSY = 1 << 36, 1 << 37
+#: the first random dimension of the Russian roulette of a hit's glossy rays (one per ray; a delta ray's roulette
+#: draws the sample's next dimension after :data:`DIM_LOBE`, as the lobe choice does)
+DIM_ROULETTE = 1 << 38
 #: the first random dimension of the environment light's samples at a hit of the specular tree (four per round)
 DIM_ENV = 1 << 40
 #: adaptive passes key a sample by ``ADAPTIVE_KEYS + 2 index + half`` (:func:`pyrt.shaders.jit.key64`): apart from the

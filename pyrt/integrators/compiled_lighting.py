@@ -22,6 +22,7 @@ kernel_cache.use_cache_dir()      # before the decorators below run
 from pyrt.core import unmanaged as U  # noqa: E402
 from pyrt.integrators import compiled_env_stage as ES  # noqa: E402
 from pyrt.integrators import compiled_preview as PV  # noqa: E402
+from pyrt.integrators.compiled_shadows import keep_rays, packet_walk, shadow_ray, walks  # noqa: E402
 from pyrt.geometry import embree_jit as E  # noqa: E402
 from pyrt.integrators.compiled_layout import (  # noqa: E402
     LANES, V_D, V_P, V_NG, V_NS, V_NV,
@@ -485,12 +486,12 @@ def area_bsdf_stage(ltag, lpars, j, mats_tag, mats_par, V, keys, n, terminator, 
 
 
 @numba.njit(nogil=True, cache=True, error_model="numpy")
-def env_hit(scene, etag, erec, edata, mtag, mats_par, m, albedo, p, ng, ns, nv, wo, lift, mag, mag_lift, terminator,
-            key, n_l, n_b, ray_buf):
+def env_hit(scene, G, etag, erec, edata, mtag, mats_tag, mats_par, tex_tag, tex_par, sopt, m, albedo, p, ng, ns, nv, wo,
+            lift, mag, mag_lift, terminator, key, n_l, n_b, ray_buf):
     """The environment light at one hit of the specular tree: ``n_l`` light and ``n_b`` BSDF samples
     (:func:`env_sample`; round ``s`` draws the light sample's numbers, then the
-    BSDF sample's, each second number stratified over its technique's rounds), single shadow rays; returns
-    ``(r, g, b, shadow rays)``."""
+    BSDF sample's, each second number stratified over its technique's rounds), single shadow rays
+    (:func:`pyrt.integrators.compiled_shadows.shadow_ray`); returns ``(r, g, b, shadow rays)``."""
     if erec[CE.R_PREVIEW] != 0.0:       # strategy="preview": no samples, no shadow rays
         e = PV.preview(etag, erec, edata, mtag, mats_par, m, albedo, ng, ns, wo)
         return e[0], e[1], e[2], 0.0
@@ -508,21 +509,22 @@ def env_hit(scene, etag, erec, edata, mtag, mats_par, m, albedo, p, ng, ns, nv, 
                                         tech == 1)
             if not ok:
                 continue
-            n_sh += 1
-            if not E.occluded1(scene, o[0], o[1], o[2], wi[0], wi[1], wi[2], 0.0, T_INF, ray_buf):
-                if tech == 0:
-                    a0, a1, a2 = a0 + val[0], a1 + val[1], a2 + val[2]
-                else:
-                    b0, b1, b2 = b0 + val[0], b1 + val[1], b2 + val[2]
+            t0, t1, t2, n = shadow_ray(scene, G, mats_tag, mats_par, tex_tag, tex_par, sopt, o, wi, T_INF, ray_buf)
+            n_sh += n
+            if tech == 0:
+                a0, a1, a2 = a0 + val[0] * t0, a1 + val[1] * t1, a2 + val[2] * t2
+            else:
+                b0, b1, b2 = b0 + val[0] * t0, b1 + val[1] * t1, b2 + val[2] * t2
     return a0 / n_l + b0 / n_b, a1 / n_l + b1 / n_b, a2 / n_l + b2 / n_b, float(n_sh)
 
 
 @numba.njit(nogil=True, cache=True, error_model="numpy")
-def env_rounds(scene, etag, erec, edata, mats_tag, mats_par, V, n, terminator, pair, lane_s, spp, lane_k32, sh, w, n_l,
-               n_b, cnt):
+def env_rounds(scene, G, etag, erec, edata, mats_tag, mats_par, tex_tag, tex_par, sopt, V, n, terminator, pair, lane_s,
+               spp, lane_k32, sh, w, n_l, n_b, cnt, ray_buf):
     """The environment light at the packet's camera hits: ``max(n_l, n_b)`` rounds, each the light technique's
     sample (while the round is below ``n_l``) then the BSDF technique's (below ``n_b``), each a masked occlusion
-    query of the packet (:func:`env_stage`); their values divided by their
+    query of the packet (:func:`env_stage`; blocked rays walked through see-through surfaces as ``sopt`` says,
+    :func:`pyrt.integrators.compiled_shadows.packet_walk`); their values divided by their
     technique's count added into :data:`V_L`. Returns the next free padded dimension pair (one per sample drawn,
     in the NumPy path's order). ``strategy="preview"``: :func:`pyrt.integrators.compiled_preview.preview_stage`
     (no random numbers: the same ``pair`` returned)."""
@@ -541,7 +543,12 @@ def env_rounds(scene, etag, erec, edata, mats_tag, mats_par, V, n, terminator, p
             if n_sh == 0:
                 continue
             cnt[N_SHADOW] += n_sh
+            if walks(sopt):
+                keep_rays(sh, w, V, n)
             E.packet_query(scene, sh, w, True, True)
+            if walks(sopt):
+                cnt[N_SHADOW] += packet_walk(scene, G, mats_tag, mats_par, tex_tag, tex_par, sopt, sh, w, V, n,
+                                             ray_buf)
             inv = 1.0 / count
             for lane in range(n):
                 add = V[V_LIT * LANES + lane] != 0.0 and not E.lane_blocked(sh, w, lane)

@@ -121,6 +121,23 @@ def has_delta(tag):
 
 
 @register_jitable(forceinline=True)
+def is_dielectric(tag):
+    """True for the materials of tag ``tag`` that transparent shadows cross (:attr:`pyrt.materials.Material.
+    is_dielectric`): GLASS."""
+    return tag == GLASS
+
+
+@register_jitable(forceinline=True)
+def shadow_transmission(tag, pars, m, cos):
+    """The factor (an RGB tuple) by which a shadow ray's light is multiplied where it crosses the dielectric ``m``
+    at ``cos = |wi . ns|`` (:func:`pyrt.integrators.shadows.transmittance`): ``tint (1 - R)``, ``R`` the Fresnel
+    reflectance for ``eta = ior``."""
+    b = m * RECORD
+    k = 1.0 - J.fr_dielectric(cos, pars[b])
+    return pars[b + 1] * k, pars[b + 2] * k, pars[b + 3] * k
+
+
+@register_jitable(forceinline=True)
 def mirror_weight(tag, pars, m, cos_o):
     """The RGB weight of the one reflection lobe of a mirror-like material ``m`` (not GLASS, whose two lobes the
     kernel's ``spawn`` computes) at ``cos_o = n.wo``: MIRROR's constant reflectance, CONDUCTOR's exact Fresnel

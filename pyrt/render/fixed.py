@@ -219,8 +219,10 @@ def _render_flat(scene, *, spp=None, seed=0, max_depth=8, throughput_cutoff=1e-4
             sampler=sampler)
         if aovs and runner is not None:
             reasons.append("AOVs on Dask workers")
-        if runner is not None and compiled.kernel_integrator(scene, integ) != compiled.kernel_integrator(scene):
-            reasons.append("the glossy integrator or light selection on Dask workers")
+        if runner is not None and (compiled.kernel_integrator(scene, integ) != compiled.kernel_integrator(scene)
+                                   or roulette or transparent_shadows):
+            reasons.append("the glossy integrator, light selection, Russian roulette or transparent shadows on Dask "
+                           "workers")
         if reasons and backend == "compiled":
             if own:
                 ps.close()

@@ -82,7 +82,7 @@ class Whitted(_Options):
         Rays whose throughput falls below this are dropped (or played by Russian roulette). Default 1e-4.
     roulette : bool
         Continue the rays below ``throughput_cutoff`` with probability ``throughput / throughput_cutoff``, weighted
-        by its inverse (unbiased, a little noisier; :mod:`pyrt.integrators.roulette`; NumPy path). Default False.
+        by its inverse (unbiased, a little noisier; :mod:`pyrt.integrators.roulette`). Default False.
     split_depth : int or None
         From this bounce on a dielectric hit follows one of its two delta lobes, chosen by weight and weighted by
         1 / probability (unbiased); None: both at every bounce (Whitted's full tree). Default 3.
