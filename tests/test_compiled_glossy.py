@@ -45,18 +45,23 @@ def _renders(scene, backend, seeds, **kw):
     return a.mean(axis=0), a.var(axis=0, ddof=1) / len(seeds), paths
 
 
-def _assert_agree(scene, R=4, **kw):
-    mc, vc, pc = _renders(scene, "compiled", range(100, 100 + R), **kw)
-    mn, vn, pn = _renders(scene, "numpy", range(200, 200 + R), **kw)
-    assert pc == {"compiled"} and pn == {"numpy"}
-    z = (mc - mn) / np.sqrt(vc + vn + 1e-12)
+def _z_agree(ma, va, mb, vb, rel_tol=0.005):
+    """The per-pixel z-scores of two mean images look standard normal and their mean brightness agrees."""
+    z = (ma - mb) / np.sqrt(va + vb + 1e-12)
     # z of R = 4 renders each is t-like (heavier tails than a normal): loose bounds, but a biased estimator (a
     # missing or doubled MIS weight) shifts the mean z by far more and the mean brightness by percents
     assert abs(z.mean()) < 0.1, z.mean()
     assert 0.75 < z.std() < 1.25, z.std()
     assert (np.abs(z) > 5).mean() < 0.005
-    rel = abs(mc.mean() - mn.mean()) / mn.mean()
-    assert rel < 0.005, rel
+    rel = abs(ma.mean() - mb.mean()) / mb.mean()
+    assert rel < rel_tol, rel
+
+
+def _assert_agree(scene, R=4, **kw):
+    mc, vc, pc = _renders(scene, "compiled", range(100, 100 + R), **kw)
+    mn, vn, pn = _renders(scene, "numpy", range(200, 200 + R), **kw)
+    assert pc == {"compiled"} and pn == {"numpy"}
+    _z_agree(mc, vc, mn, vn)
     return mc, mn
 
 
@@ -132,7 +137,12 @@ def test_light_choice_needs_two_delta_lights():
 def _env_scene(spp=16):
     """The scene under a lat-long sky (a bright patch: the map's samples and the glossy rays both find it) lighting
     by ``strategy="mis"``."""
-    s = _scene(spp=spp, area=False)
+    return _add_sky(_scene(spp=spp, area=False))
+
+
+def _add_sky(s):
+    """``s`` with a 32 x 16 lat-long sky (a bright patch, a dark lower half) as its environment and its
+    ``strategy="mis"`` light (2 samples per hit)."""
     h, w = 16, 32
     img = np.full((h, w, 3), 0.2)
     img[3:6, 20:24] = (8.0, 7.0, 5.0)

@@ -12,30 +12,9 @@ import pyrt
 from pyrt.integrators import compiled
 from pyrt.integrators.compiled_hit import survive
 
+from test_compiled_glossy import _add_sky, _renders, _z_agree  # noqa: E402
+
 KEY = np.uint64(0x1234ABCD)
-
-
-def _renders(scene, backend, seeds, **kw):
-    """Mean image and its squared standard error over renders with ``seeds``; the paths taken."""
-    imgs, paths = [], set()
-    for seed in seeds:
-        r = pyrt.render_full(scene, seed=seed, execution=pyrt.Execution(backend=backend, progress=False), **kw)
-        imgs.append(r.image.astype(np.float64))
-        paths.add(r.stats.backend)
-    a = np.array(imgs)
-    return a.mean(axis=0), a.var(axis=0, ddof=1) / len(seeds), paths
-
-
-def _z_agree(ma, va, mb, vb, rel_tol=0.005):
-    """The per-pixel z-scores of two mean images look standard normal and their mean brightness agrees."""
-    z = (ma - mb) / np.sqrt(va + vb + 1e-12)
-    # z of R = 4 renders each is t-like (heavier tails than a normal): loose bounds; a bias shifts the mean z by far
-    # more and the mean brightness by percents
-    assert abs(z.mean()) < 0.1, z.mean()
-    assert 0.75 < z.std() < 1.25, z.std()
-    assert (np.abs(z) > 5).mean() < 0.005
-    rel = abs(ma.mean() - mb.mean()) / mb.mean()
-    assert rel < rel_tol, rel
 
 
 def _assert_agree(scene, R=4, **kw):
@@ -172,14 +151,7 @@ def test_transparent_shadows_agree_with_numpy_in_distribution(integrator):
 def test_transparent_shadows_under_a_sampled_environment_agree_with_numpy():
     """The environment light's shadow rays (``strategy="mis"``: the packet rounds at camera hits, single rays at the
     specular tree's hits and, with glossy rays, the map's samples at glossy hits) through glass."""
-    s = _glass_scene()
-    h, w = 16, 32
-    img = np.full((h, w, 3), 0.2)
-    img[3:6, 20:24] = (8.0, 7.0, 5.0)
-    img[h // 2:] = 0.05
-    env = pyrt.LatLongEnvironment(img)
-    s.environment = env
-    s.add_light(pyrt.EnvironmentLight(env, strategy="mis", n_samples=2))
+    s = _add_sky(_glass_scene())
     _assert_agree(s, integrator=pyrt.Glossy(transparent_shadows=True, samples=4, depth=2))
 
 
