@@ -48,7 +48,7 @@ class Lambert(IsotropicMaterial):
     def compiled_record(self, pack_texture):
         """:data:`pyrt.materials.compiled.LAMBERT`: the albedo (constant or a texture the kernel reads), a constant
         emission."""
-        albedo, vc = _compiled.vertex_slot(self.albedo_value, pack_texture, _color_slot)
+        albedo, vc = _compiled.vertex_slot(self.albedo_value, pack_texture, _compiled.pack_color_slot)
         if albedo is None or is_texture(self.emission_value):
             return None
         rec = _compiled.empty_record()
@@ -102,7 +102,7 @@ class BlinnPhong(IsotropicMaterial):
     def compiled_record(self, pack_texture):
         """:data:`pyrt.materials.compiled.BLINN_PHONG`: kd (constant or a texture the kernel reads), constant ks and
         exponent."""
-        kd, vc = _compiled.vertex_slot(self.kd, pack_texture, _color_slot)
+        kd, vc = _compiled.vertex_slot(self.kd, pack_texture, _compiled.pack_color_slot)
         if kd is None or is_texture(self.ks) or is_texture(self.exponent):
             return None
         rec = _compiled.empty_record()
@@ -228,10 +228,3 @@ class Glass(Material):
         return lobes
 
 
-def _color_slot(value, pack_texture):
-    """A colour slot of :mod:`pyrt.materials.compiled` for a constant or a texture; None when the texture cannot be
-    read by the compiled kernel."""
-    if not is_texture(value):
-        return _compiled.constant_slot(value)
-    k = pack_texture(value)
-    return None if k is None else [float(k), 0.0, 0.0, 0.0]

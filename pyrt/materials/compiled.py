@@ -60,7 +60,7 @@ from numba.extending import register_jitable
 
 from pyrt.shaders import jit as J
 from pyrt.shaders import jit_brdfs as JB
-from pyrt.textures.base import Texture
+from pyrt.textures.base import Texture, is_texture
 from pyrt.textures.compiled import texture_rgb
 
 #: parameters per material record
@@ -100,12 +100,14 @@ GLTF = 14
 @register_jitable(forceinline=True)
 def color_slot(pars, m, k, tex_tag, tex_par, u, v, fp):
     """The colour (an RGB tuple) of the slot at ``k`` of material ``m``'s record at uv ``(u, v)`` with the UV
-    footprint ``fp`` (:func:`pyrt.textures.compiled.texture_rgb`)."""
+    footprint ``fp``: a constant, or a texture row times its factor (:func:`pyrt.textures.compiled.texture_rgb`,
+    :func:`pack_color_slot`)."""
     b = m * RECORD + k
     t = int(pars[b])
     if t < 0:
         return pars[b + 1], pars[b + 2], pars[b + 3]
-    return texture_rgb(tex_tag, tex_par, t, u, v, fp)
+    r, g, bb = texture_rgb(tex_tag, tex_par, t, u, v, fp)
+    return r * pars[b + 1], g * pars[b + 2], bb * pars[b + 3]
 
 
 @register_jitable(forceinline=True)
@@ -305,6 +307,17 @@ def vertex_slot(value, pack_texture, slot):
         return slot(value, pack_texture), 0.0
     row, s = pack_texture(form[0]), slot(form[1], pack_texture)
     return (None, 0.0) if row is None or s is None else (s, row + 1.0)
+
+
+def pack_color_slot(value, pack_texture):
+    """``[row or -1, r, g, b]`` of a constant colour, a factor times a table texture
+    (:meth:`pyrt.textures.Texture.compiled_color`) or any other texture the table reads (factor one: a grey checker's
+    grey twins); None when the kernel cannot read the texture."""
+    if not is_texture(value):
+        return constant_slot(value)
+    form = value.compiled_color() or (value, (1.0, 1.0, 1.0))
+    row = pack_texture(form[0])
+    return None if row is None else [float(row), *(float(x) for x in form[1])]
 
 
 def constant_slot(value):

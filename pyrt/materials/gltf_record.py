@@ -29,23 +29,12 @@ from __future__ import annotations
 import numpy as np
 
 from pyrt.materials import compiled as _compiled
+from pyrt.materials.compiled import pack_color_slot as color_slot
 from pyrt.materials.base import is_texture
 from pyrt.shaders import jit_brdfs as _JB
 
 #: the reflection models of field 18
 MR, GLTF_PBR = 0, 1
-
-
-def color_slot(value, pack_texture):
-    """``[row or -1, r, g, b]`` of a constant colour or a factor times a table texture; None when the kernel cannot
-    read the texture."""
-    if not is_texture(value):
-        return _compiled.constant_slot(value)
-    form = value.compiled_color()
-    if form is None:
-        return None
-    row = pack_texture(form[0])
-    return None if row is None else [float(row), *(float(x) for x in form[1])]
 
 
 def scalar_slot(value, pack_texture):
