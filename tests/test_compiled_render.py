@@ -226,7 +226,7 @@ def test_library_materials_match_the_numpy_path_pixel_by_pixel(material):
 def test_a_factor_times_a_texture_in_a_colour_slot_matches_the_numpy_path_pixel_by_pixel():
     """OBJ/MTL's ``Kd`` times ``map_Kd`` (:class:`pyrt.io.assets.materials.ScaledTexture`) as Lambert albedo and
     Blinn-Phong kd on the compiled path: the slot's texture row times its factor, the NumPy path's image at pixel
-    centres; the textured wood of the crate OBJ has a record (its emissive glow material still has none)."""
+    centres; MTL's ``Ke`` emission on Blinn-Phong too (the crate OBJ's materials all have records)."""
     from pyrt.io.assets.materials import ScaledTexture
     rng = np.random.default_rng(3)
     img = pyrt.ImageTexture(rng.random((16, 16, 3)).astype(np.float32), filter="bilinear")
@@ -243,8 +243,13 @@ def test_a_factor_times_a_texture_in_a_colour_slot_matches_the_numpy_path_pixel_
     crate = pyrt.load_asset(os.path.join(os.path.dirname(__file__), "..", "assets", "models", "crate.obj"))
     s = pyrt.Scene(pyrt.Camera(position=(0, 0, 5), target=(0, 0, 0)))
     crate.add_to_scene(s)
-    reasons = unsupported(None, scene=s)
-    assert reasons == ["material ObjMaterial(glow)"]        # its emission (MTL Ke) on Blinn-Phong; the wood is in
+    assert unsupported(None, scene=s) == []            # the wood (Kd x map_Kd) and the glow (MTL Ke on Blinn-Phong)
+    from pyrt.io.assets.materials import ObjMaterial
+    scene.materials[3] = ObjMaterial(kd=ScaledTexture(img, 0.6), ks=0.2, exponent=30, emission=(0.3, 0.2, 0.1))
+    c, n = _both(scene, seed=0, split_depth=None)
+    assert c.stats.fallback_reasons == [] and n.image.max() > 0
+    diff = np.abs(c.image.astype(np.float64) - n.image)
+    assert (diff > 1e-5 * (1.0 + np.abs(n.image))).any(axis=2).mean() < 0.002
 
 
 def test_textured_and_anisotropic_library_materials_fall_back():

@@ -101,7 +101,7 @@ class BlinnPhong(IsotropicMaterial):
 
     def compiled_record(self, pack_texture):
         """:data:`pyrt.materials.compiled.BLINN_PHONG`: kd (constant or a texture the kernel reads), constant ks and
-        exponent."""
+        exponent (fields 4-6, 7; 8-10 the emission of :meth:`compiled_record_extras`, zero here)."""
         kd, vc = _compiled.vertex_slot(self.kd, pack_texture, _compiled.pack_color_slot)
         if kd is None or is_texture(self.ks) or is_texture(self.exponent):
             return None
@@ -111,6 +111,15 @@ class BlinnPhong(IsotropicMaterial):
         rec[4:7] = np.broadcast_to(self.ks, (3,))
         rec[7] = float(self.exponent)
         return _compiled.BLINN_PHONG, rec
+
+    def compiled_record_extras(self, pack_texture, *, emission=0.0, occlusion=None, occlusion_strength=1.0):
+        """:meth:`compiled_record` with a constant emission (OBJ/MTL ``Ke``: fields 8-10); None with occlusion or a
+        textured emission."""
+        out = BlinnPhong.compiled_record(self, pack_texture)      # (the extras' mixin overrides compiled_record)
+        if out is None or occlusion is not None or is_texture(emission):
+            return None
+        out[1][8:11] = np.broadcast_to(np.asarray(emission, dtype=np.float64).reshape(-1), (3,))
+        return out
 
     def f_cos_cosines(self, q):
         """:func:`pyrt.shaders.brdfs.blinn_phong_normalized_f_cos_cosines` (a constant exponent stays a float)."""

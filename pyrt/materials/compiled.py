@@ -102,12 +102,7 @@ def color_slot(pars, m, k, tex_tag, tex_par, u, v, fp):
     """The colour (an RGB tuple) of the slot at ``k`` of material ``m``'s record at uv ``(u, v)`` with the UV
     footprint ``fp``: a constant, or a texture row times its factor (:func:`pyrt.textures.compiled.texture_rgb`,
     :func:`pack_color_slot`)."""
-    b = m * RECORD + k
-    t = int(pars[b])
-    if t < 0:
-        return pars[b + 1], pars[b + 2], pars[b + 3]
-    r, g, bb = texture_rgb(tex_tag, tex_par, t, u, v, fp)
-    return r * pars[b + 1], g * pars[b + 2], bb * pars[b + 3]
+    return scaled_slot(pars, m * RECORD + k, tex_tag, tex_par, u, v, fp)
 
 
 @register_jitable(forceinline=True)
@@ -206,11 +201,13 @@ def _f_cos_library(tag, p, b, cos_o, cos_i, cos_io):
 
 @register_jitable(forceinline=True)
 def emission(tag, pars, m, front):
-    """The radiance (an RGB tuple) material ``m`` emits toward the viewer: LAMBERT's constant emission (both
-    sides), EMITTER's radiance from its front (or both sides when two-sided); zeros for the others."""
+    """The radiance (an RGB tuple) material ``m`` emits toward the viewer: LAMBERT's and BLINN_PHONG's constant
+    emission (both sides), EMITTER's radiance from its front (or both sides when two-sided); zeros for the others."""
     b = m * RECORD
     if tag == LAMBERT or (tag == EMITTER and (front or pars[b + 7] != 0.0)):
         return pars[b + 4], pars[b + 5], pars[b + 6]
+    if tag == BLINN_PHONG:
+        return pars[b + 8], pars[b + 9], pars[b + 10]
     return 0.0, 0.0, 0.0
 
 
