@@ -520,18 +520,20 @@ def metallic_roughness_f_cos(cos_o, cos_i, cos_io, base_r, base_g, base_b, metal
 
 @register_jitable
 def gltf_pbr_f_cos_h(cos_o, cos_i, cos_h, cos_oh, base_r, base_g, base_b, metallic, roughness, f0_r, f0_g, f0_b,
-                     specular, geometry):
-    """The opaque, isotropic reflection of :class:`pyrt.GltfPBR` from ``n.h`` and ``wo.h``: twin of
-    :func:`pyrt.shaders.brdfs.gltf_pbr_f_cos` with ``transmission = 0``, ``specular_share = 1``, ``anisotropy = 0``
-    (``(1 - m) ((1 - s max(F_d)) base/pi cos_i + s F_d spec) + m F_m spec``, ``F_d`` Schlick of the dielectric F0
-    ``f0``, ``F_m`` of the base colour, ``spec = D G / (4 cos_o)`` of ``alpha = roughness^2``)."""
+                     specular, transmission, share, geometry):
+    """The isotropic reflection of :class:`pyrt.GltfPBR` from ``n.h`` and ``wo.h``: twin of
+    :func:`pyrt.shaders.brdfs.gltf_pbr_f_cos` with ``anisotropy = 0``
+    (``(1 - m) ((1 - s max(F_d)) (1 - t) base/pi cos_i + k s F_d spec) + m F_m spec``, ``F_d`` Schlick of the
+    dielectric F0 ``f0``, ``F_m`` of the base colour, ``spec = D G / (4 cos_o)`` of ``alpha = roughness^2``, ``t`` the
+    ``transmission``, ``k`` the specular ``share``; ``t = 0``, ``k = 1``: opaque)."""
     c = upper_cos(cos_o, cos_i)
     if c == 0.0:
         return 0.0, 0.0, 0.0
     spec = microfacet_spec_cos_h(cos_o, cos_i, cos_h, cos_oh, roughness * roughness, 0, geometry)
     fd_r, fd_g, fd_b = fr_schlick(cos_oh, f0_r), fr_schlick(cos_oh, f0_g), fr_schlick(cos_oh, f0_b)
-    k = (1.0 - specular * max(fd_r, fd_g, fd_b)) * (c / math.pi)
+    k = (1.0 - specular * max(fd_r, fd_g, fd_b)) * (1.0 - transmission) * (c / math.pi)
     w = 1.0 - metallic
-    return (w * (k * base_r + specular * fd_r * spec) + metallic * fr_schlick(cos_oh, base_r) * spec,
-            w * (k * base_g + specular * fd_g * spec) + metallic * fr_schlick(cos_oh, base_g) * spec,
-            w * (k * base_b + specular * fd_b * spec) + metallic * fr_schlick(cos_oh, base_b) * spec)
+    ks = share * specular
+    return (w * (k * base_r + ks * fd_r * spec) + metallic * fr_schlick(cos_oh, base_r) * spec,
+            w * (k * base_g + ks * fd_g * spec) + metallic * fr_schlick(cos_oh, base_g) * spec,
+            w * (k * base_b + ks * fd_b * spec) + metallic * fr_schlick(cos_oh, base_b) * spec)

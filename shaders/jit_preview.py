@@ -159,13 +159,14 @@ def metallic_roughness_lobes(br, bg, bb, m, e5, a, b):
 
 
 @register_jitable
-def gltf_pbr_lobes(br, bg, bb, m, s, f0r, f0g, f0b, e5, a, b):
-    """:meth:`pyrt.materials.GltfPBR.preview_lobes` of an opaque isotropic hit (specular ``s``, dielectric F0
-    ``f0``): diffuse ``(1 - m)(1 - s (F0m + (1 - F0m) E5)) base`` (``F0m`` the largest channel of ``f0``), the lobe's
-    ``(1 - m) s (f0 A + B) + m (base A + B)``."""
+def gltf_pbr_lobes(br, bg, bb, m, s, f0r, f0g, f0b, t, share, e5, a, b):
+    """:meth:`pyrt.materials.GltfPBR.preview_lobes` of an isotropic hit (specular ``s``, dielectric F0 ``f0``,
+    transmission ``t``, specular share ``share``: ``1 - t`` on a smooth transmitting hit, else 1): diffuse
+    ``(1 - m)(1 - t)(1 - s (F0m + (1 - F0m) E5)) base`` (``F0m`` the largest channel of ``f0``), the lobe's
+    ``(1 - m) s share (f0 A + B) + m (base A + B)``."""
     f0m = max(f0r, f0g, f0b)
-    k = (1.0 - m) * (1.0 - s * (f0m + (1.0 - f0m) * e5))
-    ks = (1.0 - m) * s
+    k = (1.0 - m) * (1.0 - s * (f0m + (1.0 - f0m) * e5)) * (1.0 - t)
+    ks = (1.0 - m) * s * share
     return ((k * br, k * bg, k * bb),
             (ks * (f0r * a + b) + m * (br * a + b), ks * (f0g * a + b) + m * (bg * a + b),
              ks * (f0b * a + b) + m * (bb * a + b)))

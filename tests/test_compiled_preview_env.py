@@ -160,8 +160,10 @@ def test_material_lobes_are_their_numpy_twins(kind):
         elif kind == "learnopengl":
             mat = pyrt.LearnOpenGLPBR(albedo=base, metallic=m, roughness=r)
         else:
+            tr = float(rng.uniform()) if trial % 2 else 0.0     # smooth transmission: its share of the lobes
+            r = 0.0 if tr else r
             mat = pyrt.GltfPBR(base_color=base, metallic=m, roughness=r, specular=float(rng.uniform()),
-                               specular_color=rng.uniform(0, 1, 3), ior=float(rng.uniform(1.2, 2.0)))
+                               specular_color=rng.uniform(0, 1, 3), ior=float(rng.uniform(1.2, 2.0)), transmission=tr)
         wo = _views(rng, 64)
         ctx = _ctx(wo)
         lobes = mat.preview_lobes(ctx)
@@ -173,7 +175,7 @@ def test_material_lobes_are_their_numpy_twins(kind):
         for k in range(wo.shape[0]):
             if kind == "gltf_pbr":
                 f0 = mat._f0_dielectric(None)
-                got = JP.gltf_pbr_lobes(*base, m, mat.specular, *f0, e5[k], a[k], b[k])
+                got = JP.gltf_pbr_lobes(*base, m, mat.specular, *f0, tr, 1.0 - tr, e5[k], a[k], b[k])
             else:
                 got = JP.metallic_roughness_lobes(*base, m, e5[k], a[k], b[k])
             np.testing.assert_allclose(got[0], lobes.diffuse[k], rtol=RTOL, atol=1e-15)

@@ -100,13 +100,13 @@ def test_roulette_is_unbiased_on_the_compiled_path():
 # -- transparent shadows ------------------------------------------------------------------------------------------
 
 
-def _slab_scene(tint=(0.9, 0.8, 0.6), spp=1, jitter=False):
-    """A glass slab (ior 1.5) 1 above a Lambert floor under a directional light straight down; the camera looks at
-    the floor from below the slab's height, so it sees the slab's shadow and not the slab."""
+def _slab_scene(tint=(0.9, 0.8, 0.6), spp=1, jitter=False, material=None):
+    """A glass slab (ior 1.5; or of ``material``) 1 above a Lambert floor under a directional light straight down; the
+    camera looks at the floor from below the slab's height, so it sees the slab's shadow and not the slab."""
     cam = pyrt.Camera(position=(0, 0.9, 2.0), target=(0, 0, 0), fov=40, width=48, height=36, spp=spp, jitter=jitter)
     s = pyrt.Scene(cam, background=(0.0, 0.0, 0.0))
     s.add_plane((0, 0, 0), 8.0, pyrt.Lambert(albedo=0.5))
-    s.add_box((0.0, 1.0, 0.0), (1.2, 0.05, 1.2), pyrt.Glass(ior=1.5, tint=tint))
+    s.add_box((0.0, 1.0, 0.0), (1.2, 0.05, 1.2), material or pyrt.Glass(ior=1.5, tint=tint))
     s.add_light(pyrt.DirectionalLight(direction=(0, -1, 0), irradiance=3.0))
     return s
 
@@ -169,17 +169,105 @@ def test_transparent_shadows_through_glass_and_a_blend_surface_match_the_numpy_p
     rel = rgb / rgb.max(axis=0)                             # the lit floor is the brightest
     want = 0.45 * np.array([0.9, 0.8, 0.6]) ** 2 * 0.96 ** 2
     assert np.count_nonzero(np.all(np.abs(rel - want) < 1e-5 * want + 1e-7, axis=1)) > 50
+# -- smooth glTF transmission -------------------------------------------------------------------------------------
+
+
+def _gltf_glass(thin, **kw):
+    """A smooth transmitting GltfPBR: tinted, partly metallic, partly transmitting, with the specular extension."""
+    return pyrt.GltfPBR(base_color=(0.9, 0.75, 0.5), metallic=0.2, roughness=0.0, transmission=0.85, specular=0.8,
+                        specular_color=(1.0, 0.9, 0.8), ior=1.4, thin=thin, name="thin" if thin else "volume", **kw)
+
+
+def _gltf_glass_scene(thin, spp=1, jitter=False, env=False):
+    """A smooth glTF-transmitting sphere and slab (one material: thin walls or one volume) before a checker floor and
+    a glossy sphere under a point light and a spot light (``env``: the studio-like preview of a lat-long sky too)."""
+    cam = pyrt.Camera(position=(0, 1.3, 4.0), target=(0, 0.5, 0), fov=40, width=40, height=30, spp=spp, jitter=jitter)
+    s = pyrt.Scene(cam, background=(0.5, 0.6, 0.8), ambient=(0.01, 0.01, 0.01))
+    s.add_plane((0, 0, 0), 6.0, pyrt.Lambert(albedo=pyrt.CheckerTexture(0.15, 0.8, scale=6, filtered=False)))
+    s.add_sphere((-0.9, 0.45, -0.3), 0.45, pyrt.CookTorrance(kd=0.1, ks=0.8, roughness=0.3), subdivisions=3)
+    glass = _gltf_glass(thin)
+    s.add_sphere((0.0, 0.5, 0.4), 0.5, glass, subdivisions=3)
+    s.add_box((0.95, 0.4, -0.2), (0.1, 0.8, 0.8), glass)
+    s.add_light(pyrt.PointLight((2, 3, 2), intensity=20.0))
+    s.add_light(pyrt.SpotLight((-2, 3, 1), target=(0, 0, 0), intensity=30.0, inner_angle=15, outer_angle=25))
+    if env:
+        img = np.full((16, 32, 3), 0.2)
+        img[3:6, 20:24] = (8.0, 7.0, 5.0)
+        img[8:] = 0.05
+        s.environment = pyrt.LatLongEnvironment(img)
+        s.add_light(pyrt.EnvironmentLight(s.environment, strategy="preview"))
+    return s
+
+
+@pytest.mark.parametrize("thin", [True, False])
+def test_smooth_gltf_transmission_takes_the_compiled_path(thin):
+    ps = pyrt.PreparedScene(_gltf_glass_scene(thin, env=True))
+    try:
+        assert compiled.unsupported(ps, transparent_shadows=True) == []
+        assert compiled.unsupported(ps, integrator="glossy", transparent_shadows=True, roulette=True) == []
+    finally:
+        ps.close()
+
+
+@pytest.mark.parametrize("env", [False, True])
+@pytest.mark.parametrize("thin", [True, False])
+def test_smooth_gltf_transmission_matches_numpy_at_pixel_centres(thin, env):
+    """Pixel centres, delta lights (and the environment's noise-free preview: its split sum at the transmitting
+    hits), the full tree of delta lobes (``w R`` untinted, ``base w (1 - R) / eta^2`` or a thin wall's ``w F`` and
+    ``base w (1 - max F)``), the reflection's share ``1 - transmission`` and transparent shadows: the compiled image
+    is the NumPy path's pixel by pixel (a few pixels may differ where a ray meets an edge exactly)."""
+    s = _gltf_glass_scene(thin, env=env)
+    kw = dict(integrator=pyrt.Whitted(transparent_shadows=True, split_depth=None, max_depth=6))
+    rc = pyrt.render_full(s, execution=pyrt.Execution(backend="compiled", progress=False), **kw)
+    rn = pyrt.render_full(s, execution=pyrt.Execution(backend="numpy", progress=False), **kw)
+    assert rc.stats.backend == "compiled" and rn.stats.backend == "numpy"
+    close = np.isclose(rc.image, rn.image, rtol=1e-5, atol=1e-6).all(axis=2)
+    assert (~close).mean() < 0.002, np.argwhere(~close)
+    assert rc.image.mean() > 0.05
+
+
+@pytest.mark.parametrize("thin", [True, False])
+def test_smooth_gltf_transmission_agrees_with_numpy_in_distribution(thin):
+    """Jittered samples, glossy rays, the split depth's one lobe per hit, Russian roulette, a rectangle light's
+    light and BSDF samples and a sampled sky's (``strategy="mis"``) through the smooth glTF glass."""
+    s = _add_sky(_gltf_glass_scene(thin, spp=16, jitter=True))
+    pyrt.RectLight(center=(0, 2.5, 0), normal=(0, -1, 0), size=(1.0, 0.6), radiance=6.0).add_to(s)
+    _assert_agree(s, integrator=pyrt.Glossy(transparent_shadows=True, samples=4, depth=2, throughput_cutoff=0.05,
+                                            roulette=True))
+
+
+@pytest.mark.parametrize("thin", [True, False])
+def test_the_shadow_of_a_smooth_gltf_slab_is_the_numpy_paths(thin):
+    """A smooth glTF slab (metallic 0.25, transmission 0.8) instead of the glass: each face passes ``tint (1 - R)``,
+    ``tint = base (1 - metallic) transmission``, ``R = 0.04`` at normal incidence (ior 1.5, thin or not), pixel by
+    pixel the NumPy path's image."""
+    base = np.array([0.9, 0.8, 0.6])
+    s = _slab_scene(material=pyrt.GltfPBR(base_color=tuple(base), metallic=0.25, roughness=0.0, transmission=0.8,
+                                          ior=1.5, thin=thin))
+    kw = dict(integrator=pyrt.Whitted(transparent_shadows=True))
+    rc = pyrt.render_full(s, execution=pyrt.Execution(backend="compiled", progress=False), **kw)
+    rn = pyrt.render_full(s, execution=pyrt.Execution(backend="numpy", progress=False), **kw)
+    assert rc.stats.backend == "compiled"
+    np.testing.assert_allclose(rc.image, rn.image, rtol=1e-5, atol=1e-6)
+    rgb = rc.image.reshape(-1, 3).astype(np.float64)
+    rel = rgb / rgb.max(axis=0)                             # the lit floor is the brightest
+    want = (base * 0.75 * 0.8) ** 2 * 0.96 ** 2
+    assert np.count_nonzero(np.all(np.abs(rel - want) < 1e-5 * want + 1e-7, axis=1)) > 200
+
+
 # -- transmission: what keeps it on the NumPy path ----------------------------------------------------------------
 
 
-def test_transmitting_gltf_and_absorbing_media_are_named_in_the_reasons():
-    """glTF transmission (thin wall and volume) is not compiled yet: the reasons name each such material and say
-    why; absorbing and nested volumes name theirs."""
+def test_rough_textured_and_absorbing_gltf_transmission_are_named_in_the_reasons():
+    """Rough glTF transmission (a BTDF lobe), smooth transmission with a textured base colour and absorbing or nested
+    volumes keep the NumPy path; the reasons name each material and say why."""
     s = _glass_scene(spp=1)
-    s.add_sphere((0.6, 0.3, 0.9), 0.3, pyrt.GltfPBR(base_color=(0.9, 0.5, 0.2), roughness=0.0, transmission=1.0,
-                                                   name="thin"))
+    s.add_sphere((0.6, 0.3, 0.9), 0.3, pyrt.GltfPBR(base_color=(0.9, 0.5, 0.2), roughness=0.3, transmission=1.0,
+                                                   name="rough"))
     s.add_sphere((-0.6, 0.3, 0.9), 0.3, pyrt.GltfPBR(roughness=0.0, transmission=1.0, thin=False,
                                                     absorption=(0.5, 0.1, 0.1), name="vol"))
+    tex = pyrt.ImageTexture(np.full((4, 4, 3), 0.5))
+    s.add_sphere((0.0, 0.3, 1.2), 0.2, pyrt.GltfPBR(base_color=tex, roughness=0.0, transmission=1.0, name="tex"))
     ps = pyrt.PreparedScene(s)
     try:
         r = compiled.unsupported(ps, integrator="glossy", transparent_shadows=True, roulette=True)
@@ -187,8 +275,9 @@ def test_transmitting_gltf_and_absorbing_media_are_named_in_the_reasons():
         ps.close()
     lobes = "(a dielectric with a BSDF lobe, e.g. glTF KHR_materials_transmission or rough glass"
     assert [x for x in r if x.startswith("material")] == [
-        f"material GltfPBR(thin) {lobes}: the kernel's one dielectric is Glass)",
-        f"material GltfPBR(vol) {lobes}: the kernel's one dielectric is Glass)"]
-    assert "the glossy integrator with rough transmission (GltfPBR(thin), GltfPBR(vol))" in r
+        f"material GltfPBR(rough) {lobes}: the kernel's dielectrics are Glass and smooth glTF transmission)",
+        "material GltfPBR(tex) (smooth glTF transmission: the kernel reads it with constant base colour, metallic "
+        "and transmission, isotropic, constant specular)"]
+    assert "the glossy integrator with rough transmission (GltfPBR(rough))" in r
     assert ("nested dielectrics or absorption (2 volume dielectrics: Glass(), GltfPBR(vol); absorbing: GltfPBR(vol))"
             in r)

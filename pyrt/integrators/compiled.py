@@ -14,8 +14,8 @@ integrator (glossy rays with MIS against the area lights whose meshes they reach
 (``light_select_depth``); Lambert (constant,
 unfiltered-checker or nearest / bilinear / trilinear image albedo, constant emission), normalised Blinn-Phong,
 Mirror, Glass (one dielectric, no nested media), smooth Conductor, the library models with constant parameters and
-the glTF metallic-roughness family (textured MetallicRoughness, opaque isotropic GltfPBR, glTF emission and
-occlusion: :mod:`pyrt.materials.gltf_record`), vertex colours in a colour slot 0 (:mod:`pyrt.integrators.
+the glTF metallic-roughness family (textured MetallicRoughness, isotropic GltfPBR opaque or smooth-transmitting, glTF
+emission and occlusion: :mod:`pyrt.materials.gltf_record`), vertex colours in a colour slot 0 (:mod:`pyrt.integrators.
 compiled_vertex`); tangent-space normal maps (in the frame of the mesh's vertex tangents where it has them); point
 and spot lights (every spot and distance falloff), directional lights; rectangle, disk and sphere lights (light
 samples stratified per hit and padded over a pixel's samples, BSDF samples beside them with MIS) with their visible
@@ -71,7 +71,10 @@ OFFSETS = (None, "robust", "robust_no_terminator")
 _announced = []
 #: what :func:`unsupported` adds to the reason of a material it cannot pack that is a dielectric with a non-delta lobe
 _DIELECTRIC_LOBES = (" (a dielectric with a BSDF lobe, e.g. glTF KHR_materials_transmission or rough glass: the "
-                     "kernel's one dielectric is Glass)")
+                     "kernel's dielectrics are Glass and smooth glTF transmission)")
+#: ... and to the reason of a smooth transmitting material it cannot pack
+_SMOOTH_TEXTURED = (" (smooth glTF transmission: the kernel reads it with constant base colour, metallic and "
+                    "transmission, isotropic, constant specular)")
 
 
 def glossy_reasons(scene):
@@ -80,7 +83,7 @@ def glossy_reasons(scene):
     reasons = []
     if any(len(lts) > 1 for lts in emitter_lights(scene).values()):
         reasons.append("the glossy integrator with a visible emitter mesh shared by several area lights")
-    rough = [m.label for m in scene.materials if m.has_diffuse and m.transmits]
+    rough = [m.label for m in scene.materials if m.has_diffuse and m.transmits and not m.smooth_transmission]
     if rough:
         reasons.append(f"the glossy integrator with rough transmission ({', '.join(rough)})")
     return reasons
@@ -143,7 +146,8 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
     for m in scene.materials:
         records.append(m.compiled_record(textures.add))
         if records[-1] is None:
-            reasons.append(f"material {m.label}" + (_DIELECTRIC_LOBES if m.is_dielectric and m.has_diffuse else ""))
+            reasons.append(f"material {m.label}" + (_SMOOTH_TEXTURED if m.smooth_transmission else _DIELECTRIC_LOBES
+                                                     if m.is_dielectric and m.has_diffuse else ""))
         elif m.normal_map is not None and textures.add(m.normal_map) is None:
             reasons.append(f"normal map of material {m.label}")
         elif m.alpha_mode != "opaque" and coverage_fields(m, textures.add) is None:

@@ -93,10 +93,9 @@ def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, thr, depth, split, cutoff, 
     the geometric surface are dropped; from the split depth (``split`` >= 0) on a dielectric follows one lobe, chosen
     by weight; a lobe at or below ``cutoff`` is dropped, or with ``rr`` continues by Russian roulette,
     :func:`pyrt.integrators.compiled_hit.survive`, its number the sample's next dimension ``dim``)."""
-    mb = m * MC.RECORD
     cos_o = dot(wo, ns)
     wr = (2.0 * cos_o * ns[0] - wo[0], 2.0 * cos_o * ns[1] - wo[1], 2.0 * cos_o * ns[2] - wo[2])
-    if mtag != MC.GLASS:                       # mirror-like: one reflection lobe (MC.mirror_weight)
+    if not MC.is_dielectric(mtag, mpars, m):   # mirror-like: one reflection lobe (MC.mirror_weight)
         if not dot(wr, ng) > 0.0:
             return top, dim
         w = MC.mirror_weight(mtag, mpars, m, cos_o)
@@ -104,40 +103,31 @@ def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, thr, depth, split, cutoff, 
         if alive and top < STACK:
             top = push(p, ng, mag, stack, top, wr, t, depth + 1, V, lane, diffs, ns, wo, 0.0, 0.0)
         return top, dim
-    # glass
-    eta = mpars[mb] if front else 1.0 / mpars[mb]
-    R = J.fr_dielectric(cos_o, eta)
+    # a dielectric (GLASS, smooth glTF transmission): reflection and refraction (MC.dielectric_lobes)
+    eta, fr, ft = MC.dielectric_lobes(mtag, mpars, m, cos_o, front)
     sin2_t = max(0.0, 1.0 - cos_o * cos_o) / (eta * eta)
-    if sin2_t >= 1.0:
-        R = 1.0
-    T = 1.0 - R
     cos_t = math.sqrt(max(0.0, 1.0 - sin2_t))
     k = cos_o / eta - cos_t
-    wt = (-wo[0] / eta + k * ns[0], -wo[1] / eta + k * ns[1], -wo[2] / eta + k * ns[2])
-    wR = R
-    wT = T / (eta * eta) if T > 0.0 else 0.0
-    if split >= 0 and depth >= split and T > 0.0:
-        # choose_one_lobe: probability by the lobes' mean weight (the tint is common to both)
-        tint = (mpars[mb + 1] + mpars[mb + 2] + mpars[mb + 3]) / 3.0
-        mr, mt = R * tint, wT * tint
+    wt = (-wo[0] / eta + k * ns[0], -wo[1] / eta + k * ns[1], -wo[2] / eta + k * ns[2]) if eta != 1.0 else \
+        (-wo[0], -wo[1], -wo[2])
+    wR = wT = 1.0
+    mr, mt = (fr[0] + fr[1] + fr[2]) / 3.0, (ft[0] + ft[1] + ft[2]) / 3.0
+    if split >= 0 and depth >= split and mt > 0.0:
+        # choose_one_lobe: probability by the lobes' mean weight
         total = mr + mt
         u = J.uniform(key, dim)
         dim += 1
-        if total > 0.0:
-            p_r = mr / total
-            if u < p_r:
-                wR, wT = (wR / p_r if mr > 0.0 else 0.0), 0.0
-            else:
-                wR, wT = 0.0, (wT / (1.0 - p_r) if mt > 0.0 else 0.0)
+        p_r = mr / total
+        if u < p_r:
+            wR, wT = (1.0 / p_r if mr > 0.0 else 0.0), 0.0
         else:
-            wR, wT = 0.0, 0.0
-    alive, t, dim = survive((thr[0] * mpars[mb + 1] * wR, thr[1] * mpars[mb + 2] * wR, thr[2] * mpars[mb + 3] * wR),
-                            cutoff, rr, key, dim)
+            wR, wT = 0.0, 1.0 / (1.0 - p_r)
+    alive, t, dim = survive((thr[0] * fr[0] * wR, thr[1] * fr[1] * wR, thr[2] * fr[2] * wR), cutoff, rr, key, dim)
     if alive and top < STACK:
         top = push(p, ng, mag, stack, top, wr, t, depth + 1, V, lane, diffs, ns, wo, 0.0, 0.0)
-    if T > 0.0:
-        alive, t, dim = survive((thr[0] * mpars[mb + 1] * wT, thr[1] * mpars[mb + 2] * wT,
-                                 thr[2] * mpars[mb + 3] * wT), cutoff, rr, key, dim)
+    if mt > 0.0:
+        alive, t, dim = survive((thr[0] * ft[0] * wT, thr[1] * ft[1] * wT, thr[2] * ft[2] * wT), cutoff, rr, key,
+                                dim)
         if alive and top < STACK:
             top = push(p, ng, mag, stack, top, wt, t, depth + 1, V, lane, diffs, ns, wo, eta, 0.0)
     return top, dim
@@ -226,7 +216,7 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
         if sampled:
             top = spawn_glossy(p, ng, ns, wo, mag, mtag, mats_par, m, albedo, thr, depth, gl_n if depth == 0 else 1,
                                cutoff, rr, J.sample_key(key, n_sec), stack, top, V, lane, diffs)
-        if depth < max_depth and MC.has_delta(mtag):
+        if depth < max_depth and MC.has_delta(mtag, mats_par, m):
             top, dim = spawn(p, ng, ns, wo, front, mag, mtag, mats_par, m, thr, depth, split, cutoff, rr, key, dim,
                              stack, top, V, lane, diffs)
     counters[N_SECONDARY] += n_sec + n_re
@@ -368,7 +358,7 @@ def shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k3
             l0, l1, l2 = l0 + e0, l1 + e1, l2 + e2
             n_shadow += n_sh
         l0, l1, l2 = l0 * a, l1 * a, l2 * a
-        if m >= 0 and max_depth > 0 and MC.has_delta(mats_tag[m]):
+        if m >= 0 and max_depth > 0 and MC.has_delta(mats_tag[m], mats_par, m):
             d = lane_vec(V, V_D, lane)
             top, dim = spawn(lane_vec(V, V_P, lane), lane_vec(V, V_NG, lane), lane_vec(V, V_NS, lane),
                              (-d[0], -d[1], -d[2]), V[V_FRONT * LANES + lane] != 0.0,

@@ -3,7 +3,8 @@
 The estimator of :func:`pyrt.integrators.direct._environment_preview`, per hit, the same formulas in the same order
 (no shadow rays, no random numbers): Lambert ``albedo / pi E_SH(n_s)``; with ``preview_method="split_sum"`` the
 materials that declare preview lobes (:meth:`pyrt.materials.Material.preview_lobes`: in the kernel the
-METALLIC_ROUGHNESS and GLTF records, i.e. ``MetallicRoughness``, ``LearnOpenGLPBR``, opaque isotropic ``GltfPBR`` and
+METALLIC_ROUGHNESS and GLTF records, i.e. ``MetallicRoughness``, ``LearnOpenGLPBR``, isotropic ``GltfPBR`` (opaque or
+smooth transmitting: the transmission's share of the lobes, :meth:`pyrt.GltfPBR.preview_lobes`) and
 the glTF loader's materials) ``occlusion (diffuse / pi E_SH(n_s) + weight x prefiltered(dominant direction, alpha))``
 with the lobes of :mod:`pyrt.shaders.jit_preview`; every other material with a non-delta lobe (and those, with
 ``"samples"``) the mean over ``preview_samples`` fixed Hammersley BSDF samples (:func:`pyrt.materials.
@@ -55,8 +56,9 @@ def split_sum(etag, erec, edata, mtag, mpars, m, albedo, ns, wo):
     if model == 0.0:
         dif, spec = JP.metallic_roughness_lobes(br, bg, bb, metal, e5, a, bt)
     else:
+        t = mpars[b + MC.TRANSMISSION + 1]        # a smooth transmitting GltfPBR's (0: opaque)
         dif, spec = JP.gltf_pbr_lobes(br, bg, bb, metal, mpars[b + 20], mpars[b + 21], mpars[b + 22], mpars[b + 23],
-                                      e5, a, bt)
+                                      t, 1.0 - t, e5, a, bt)
     e = CP.irradiance_sh(erec, edata, ns[0], ns[1], ns[2])
     d = JP.dominant_direction(wo, ns, alpha)
     p = CP.prefiltered(etag, erec, edata, d[0], d[1], d[2], alpha)

@@ -73,7 +73,7 @@ def walk(scene, G, mats_tag, mats_par, tex_tag, tex_par, sopt, o, wi, tmax, ray_
         m = fmat[face]
         mtag = mats_tag[m]
         rb = m * MC.RECORD
-        if transparent and MC.is_dielectric(mtag):
+        if transparent and MC.is_dielectric(mtag, mats_par, m):
             p, ng, ns, _, _, mag, _, _, _, _ = J.hit_surface(G, sopt[3] != 0, False, geom, prim, u, v, wo)
             f = MC.shadow_transmission(mtag, mats_par, m, abs(dot(wi, ns)))
             t0, t1, t2 = t0 * f[0], t1 * f[1], t2 * f[2]

@@ -208,6 +208,9 @@ class Material:
     #: has a transmission lobe: ``f_cos``/``sample`` give directions below the local horizon (wi_z < 0);
     #: the strict Whitted integrator lights only the viewer's side (rough glass needs the glossy integrator)
     transmits = False
+    #: transmits through its delta lobes alone (:attr:`transmits` without a BSDF lobe below the horizon anywhere:
+    #: smooth glTF transmission); False for rough transmission and for materials that do not transmit
+    smooth_transmission = False
     #: a dielectric without a volume (a thin wall: light crosses it and is outside again, glTF transmission
     #: without ``KHR_materials_volume``): it encloses no medium, so the nested-media stacks ignore it
     thin_walled = False

@@ -31,6 +31,9 @@ GLTF                 glTF's metallic-roughness family with textured parameters, 
                      its alpha mask or blend (:data:`MASK`), 34 its glossy alpha (:data:`GLOSSY`), 35 the area light it is the
                      visible emitter of (:data:`TRACED`), written by the compiled scene; 36 the vertex colours its
                      colour slot 0 (GLTF: the base colour) multiplies by (:data:`VERTEX_COLOR`, :func:`vertex_slot`)
+GLTF (transmission)  37-40 (:data:`TRANSMISSION`) a smooth transmitting ``GltfPBR``'s constant ``w = (1 - metallic)
+                     transmission``, its ``transmission``, 1 for a thin wall (0: a volume) and its ``ior``; zeros
+                     for the opaque ones
 ===================  ============================================================================================
 
 The models after BLINN_PHONG but GLTF have constant parameters only (a textured one is not compiled); their formulas
@@ -64,7 +67,7 @@ from pyrt.textures.base import Texture, is_texture
 from pyrt.textures.compiled import texture_rgb
 
 #: parameters per material record
-RECORD = 37
+RECORD = 41
 #: where every record keeps its normal map (:func:`pyrt.integrators.compiled_diffs.mapped_normal`): the map's row in the
 #: texture table plus one (0: none), its strength, 1 for green = -v (DirectX), 1 to bend reflections above the surface
 NORMAL_MAP = 24
@@ -85,6 +88,9 @@ TRACED = 35
 #: where every record says which vertex colours its colour slot 0 multiplies by: their texture's row plus one (0:
 #: none; module notes)
 VERTEX_COLOR = 36
+#: where a GLTF record keeps its smooth transmission (:func:`dielectric_lobes`, :func:`shadow_transmission`): ``w``,
+#: ``transmission``, thin (1) or volume (0), ``ior``; ``w`` > 0 makes it a dielectric with delta lobes
+TRANSMISSION = 37
 #: the vertex colour of a hit whose material reads none (a multiplication by it is exact)
 WHITE = (1.0, 1.0, 1.0)
 #: type tags (0 is no material)
@@ -112,26 +118,64 @@ def has_diffuse(tag):
 
 
 @register_jitable(forceinline=True)
-def has_delta(tag):
-    """True for materials that spawn specular rays."""
-    return tag == MIRROR or tag == GLASS or tag == CONDUCTOR
+def has_delta(tag, pars, m):
+    """True for the material ``m`` (tag ``tag``) when it spawns specular rays: MIRROR, CONDUCTOR and the dielectrics
+    (:func:`is_dielectric`)."""
+    return tag == MIRROR or tag == CONDUCTOR or is_dielectric(tag, pars, m)
 
 
 @register_jitable(forceinline=True)
-def is_dielectric(tag):
-    """True for the materials of tag ``tag`` that transparent shadows cross (:attr:`pyrt.materials.Material.
-    is_dielectric`): GLASS."""
-    return tag == GLASS
+def is_dielectric(tag, pars, m):
+    """True for the material ``m`` (tag ``tag``) when transparent shadows cross it (:attr:`pyrt.materials.Material.
+    is_dielectric`) and it has the two delta lobes of :func:`dielectric_lobes`: GLASS, and GLTF with ``w > 0``
+    (:data:`TRANSMISSION`)."""
+    return tag == GLASS or (tag == GLTF and pars[m * RECORD + TRANSMISSION] > 0.0)
 
 
 @register_jitable(forceinline=True)
 def shadow_transmission(tag, pars, m, cos):
     """The factor (an RGB tuple) by which a shadow ray's light is multiplied where it crosses the dielectric ``m``
     at ``cos = |wi . ns|`` (:func:`pyrt.integrators.shadows.transmittance`): ``tint (1 - R)``, ``R`` the Fresnel
-    reflectance for ``eta = ior``."""
+    reflectance for ``eta = ior``; GLASS's tint, GLTF's ``base_color w`` (:attr:`pyrt.GltfPBR.tint`, thin or
+    not)."""
     b = m * RECORD
+    if tag == GLTF:
+        k = (1.0 - J.fr_dielectric(cos, pars[b + TRANSMISSION + 3])) * pars[b + TRANSMISSION]
+        return pars[b + 1] * k, pars[b + 2] * k, pars[b + 3] * k
     k = 1.0 - J.fr_dielectric(cos, pars[b])
     return pars[b + 1] * k, pars[b + 2] * k, pars[b + 3] * k
+
+
+@register_jitable(forceinline=True)
+def dielectric_lobes(tag, pars, m, cos_o, front):
+    """The two delta lobes of the dielectric ``m`` (:func:`is_dielectric`) at ``cos_o = n.wo`` > 0 seen from its front
+    (``front``) or back: ``(eta, reflection weight, refraction weight)``, the weights RGB tuples, ``eta`` the relative
+    index the refraction bends by (1: straight through). The refraction weight is 0 under total internal reflection.
+
+    - GLASS (:meth:`pyrt.Glass.delta_lobes`): ``eta = ior`` (``1 / ior`` from the back), ``tint R`` and ``tint (1 -
+      R) / eta^2``, ``R`` the exact Fresnel reflectance (1 under total internal reflection);
+    - GLTF (:meth:`pyrt.GltfPBR.delta_lobes`, constant ``w``, base colour and record fields :data:`TRANSMISSION`): a
+      volume as GLASS but the reflection untinted, ``w R`` and ``base w (1 - R) / eta^2``; a thin wall ``eta = 1``,
+      ``w F`` and ``base w (1 - max F)``, ``F = specular x`` Schlick of the dielectric F0 at ``cos_o``."""
+    b = m * RECORD
+    if tag == GLTF and pars[b + TRANSMISSION + 2] != 0.0:
+        w, s = pars[b + TRANSMISSION], pars[b + 20]
+        f0, f1, f2 = (s * JB.fr_schlick(cos_o, pars[b + 21]), s * JB.fr_schlick(cos_o, pars[b + 22]),
+                      s * JB.fr_schlick(cos_o, pars[b + 23]))
+        t = w * (1.0 - max(f0, f1, f2))
+        return 1.0, (w * f0, w * f1, w * f2), (pars[b + 1] * t, pars[b + 2] * t, pars[b + 3] * t)
+    ior = pars[b + TRANSMISSION + 3] if tag == GLTF else pars[b]
+    eta = ior if front else 1.0 / ior
+    R = J.fr_dielectric(cos_o, eta)
+    if max(0.0, 1.0 - cos_o * cos_o) / (eta * eta) >= 1.0:
+        R = 1.0
+    if tag == GLTF:
+        w = pars[b + TRANSMISSION]
+        t = w * (1.0 - R) / (eta * eta)
+        return eta, (w * R, w * R, w * R), (pars[b + 1] * t, pars[b + 2] * t, pars[b + 3] * t)
+    t = (1.0 - R) / (eta * eta)
+    return eta, (pars[b + 1] * R, pars[b + 2] * R, pars[b + 3] * R), (pars[b + 1] * t, pars[b + 2] * t,
+                                                                     pars[b + 3] * t)
 
 
 @register_jitable(forceinline=True)
@@ -265,7 +309,8 @@ def slot_scalar(pars, b, rgb):
 @register_jitable
 def gltf_inputs(pars, b, tex_tag, tex_par, u, v, fp, vc):
     """The inputs (a 9-tuple) of the GLTF record at ``pars[b:]`` with the vertex colour ``vc``: ``albedo() = base
-    k``, ``k = 1 + s (occ - 1)`` (with an occlusion texture; else 1), the base colour (its slot times ``vc``),
+    k (1 - w)``, ``k = 1 + s (occ - 1)`` (with an occlusion texture; else 1), ``w`` the transmissive share
+    (:data:`TRANSMISSION`, 0 when opaque: :meth:`pyrt.GltfPBR.albedo`), the base colour (its slot times ``vc``),
     metallic, roughness and ``k``; one lookup per texture row (metallic and roughness from one packed map read it
     once)."""
     br, bg, bb = scaled_slot(pars, b, tex_tag, tex_par, u, v, fp)
@@ -275,11 +320,12 @@ def gltf_inputs(pars, b, tex_tag, tex_par, u, v, fp, vc):
     rgb_m = texture_rgb(tex_tag, tex_par, t_m, u, v, fp) if t_m >= 0 else none
     rgb_r = rgb_m if t_r == t_m else (texture_rgb(tex_tag, tex_par, t_r, u, v, fp) if t_r >= 0 else none)
     metal, rough = slot_scalar(pars, b + 4, rgb_m), slot_scalar(pars, b + 7, rgb_r)
+    o = 1.0 - pars[b + TRANSMISSION]
     if t_o < 0:
-        return br, bg, bb, br, bg, bb, metal, rough, 1.0
+        return br * o, bg * o, bb * o, br, bg, bb, metal, rough, 1.0
     rgb_o = rgb_m if t_o == t_m else (rgb_r if t_o == t_r else texture_rgb(tex_tag, tex_par, t_o, u, v, fp))
     k = 1.0 + pars[b + 17] * (slot_scalar(pars, b + 14, rgb_o) - 1.0)
-    return br * k, bg * k, bb * k, br, bg, bb, metal, rough, k
+    return br * k * o, bg * k * o, bb * k * o, br, bg, bb, metal, rough, k
 
 
 @register_jitable
@@ -290,8 +336,10 @@ def gltf_f_cos_h(pars, b, albedo, cos_o, cos_i, cos_h, cos_oh):
     if pars[b + 18] == 0.0:
         return JB.metallic_roughness_f_cos_h(cos_o, cos_i, cos_h, cos_oh, albedo[3], albedo[4], albedo[5], albedo[6],
                                              albedo[7], int(pars[b + 19]))
+    t = pars[b + TRANSMISSION + 1]
     return JB.gltf_pbr_f_cos_h(cos_o, cos_i, cos_h, cos_oh, albedo[3], albedo[4], albedo[5], albedo[6], albedo[7],
-                               pars[b + 21], pars[b + 22], pars[b + 23], pars[b + 20], int(pars[b + 19]))
+                               pars[b + 21], pars[b + 22], pars[b + 23], pars[b + 20], t, 1.0 - t,
+                               int(pars[b + 19]))
 
 
 def vertex_slot(value, pack_texture, slot):

@@ -137,13 +137,14 @@ class GltfPBR(MetallicRoughness):
         return self.compiled_record_extras(pack_texture)
 
     def compiled_record_extras(self, pack_texture, *, emission=0.0, occlusion=None, occlusion_strength=1.0):
-        """:data:`pyrt.materials.compiled.GLTF` (:mod:`pyrt.materials.gltf_record`) of an opaque, isotropic instance
-        with constant ``specular`` and ``specular_color``; None with transmission, anisotropy or those textured."""
-        if self.transmits or self.anisotropic or is_texture(self.specular) or is_texture(self.specular_color):
-            return None
-        return _gltf.gltf_record(self, pack_texture, model=_gltf.GLTF_PBR, geometry=self.geometry,
-                                 specular=self.specular, f0_dielectric=self._f0_dielectric(None), emission=emission,
-                                 occlusion=occlusion, occlusion_strength=occlusion_strength)
+        """:func:`~pyrt.materials.gltf_record.gltf_pbr_record` (None where the kernel cannot read the material)."""
+        return _gltf.gltf_pbr_record(self, pack_texture, emission=emission, occlusion=occlusion,
+                                     occlusion_strength=occlusion_strength)
+
+    @property
+    def smooth_transmission(self):
+        """Transmits through delta lobes alone: a constant ``roughness`` at most :data:`SMOOTH_ROUGHNESS`."""
+        return self.transmits and not is_texture(self.roughness) and float(self.roughness) <= SMOOTH_ROUGHNESS
 
     @property
     def tint(self):

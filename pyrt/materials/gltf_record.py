@@ -1,7 +1,8 @@
 """The compiled kernel's record of the glTF metallic-roughness family (:data:`pyrt.materials.compiled.GLTF`).
 
 One record serves :class:`pyrt.materials.MetallicRoughness` with textured parameters and :class:`pyrt.GltfPBR`
-without transmission or anisotropy, each optionally with glTF's emission and occlusion on top
+without anisotropy, opaque or with smooth transmission (:func:`gltf_pbr_record`), each optionally with glTF's
+emission and occlusion on top
 (:class:`pyrt.io.assets.materials.SurfaceExtras`): the base colour, metallic, roughness, emission and occlusion are
 *slots*, a constant or a factor times a texture of the kernel's texture table (a channel of it for the scalars),
 resolved per hit by :func:`pyrt.materials.compiled.gltf_inputs`. Layout (offsets into the record):
@@ -15,6 +16,7 @@ resolved per hit by :func:`pyrt.materials.compiled.gltf_inputs`. Layout (offsets
 18      the reflection model: :data:`MR` (``MetallicRoughness.f_cos``) or :data:`GLTF_PBR` (``GltfPBR.f_cos``)
 19      the geometry term (:data:`pyrt.shaders.jit_brdfs.GEOMETRY_TERMS` index)
 20      GltfPBR's ``specular``, 21-23 its dielectric F0 ``min(f0(ior) specular_color, 1)``
+37-40   a smooth transmitting GltfPBR's transmission (:data:`pyrt.materials.compiled.TRANSMISSION`; zeros: opaque)
 ======  ==========================================================================================================
 
 A base colour that is a product with vertex colours (glTF's ``COLOR_0``) is the slot of its other factor, the
@@ -71,3 +73,26 @@ def gltf_record(material, pack_texture, *, model, geometry, specular=1.0, f0_die
     rec[20] = float(specular)
     rec[21:24] = np.broadcast_to(np.asarray(f0_dielectric, dtype=np.float64).reshape(-1), (3,))
     return _compiled.GLTF, rec
+
+
+def gltf_pbr_record(material, pack_texture, *, emission=0.0, occlusion=None, occlusion_strength=1.0):
+    """``(GLTF, record)`` of a :class:`pyrt.GltfPBR` (:data:`GLTF_PBR`, its constant ``specular`` and dielectric F0)
+    that is isotropic with constant ``specular`` and ``specular_color``, opaque or of
+    :attr:`~pyrt.GltfPBR.smooth_transmission` with constant ``base_color``, ``metallic`` and ``transmission``: then
+    ``[(1 - metallic) transmission, transmission, thin, ior]`` at :data:`pyrt.materials.compiled.TRANSMISSION`;
+    None otherwise (rough or textured transmission, anisotropy, textured specular) or when a texture is not readable
+    by the kernel."""
+    m = material
+    if m.anisotropic or is_texture(m.specular) or is_texture(m.specular_color):
+        return None
+    if m.transmits and (not m.smooth_transmission or any(is_texture(v) for v in (m.base_color, m.metallic,
+                                                                                   m.transmission))):
+        return None
+    out = gltf_record(m, pack_texture, model=GLTF_PBR, geometry=m.geometry, specular=m.specular,
+                      f0_dielectric=m._f0_dielectric(None), emission=emission, occlusion=occlusion,
+                      occlusion_strength=occlusion_strength)
+    if out is not None and m.transmits:
+        t = float(m.transmission)
+        out[1][_compiled.TRANSMISSION:_compiled.TRANSMISSION + 4] = [(1.0 - float(m.metallic)) * t, t,
+                                                                     1.0 if m.thin else 0.0, float(m.ior_value)]
+    return out
