@@ -160,15 +160,20 @@ def test_transparent_shadows_through_glass_and_a_blend_surface_match_the_numpy_p
     ``(1 - 0.55) tint^2 0.96^2`` of the light, pixel by pixel the NumPy path's image (pixel centres)."""
     s = _slab_scene()
     s.add_plane((0.0, 1.5, 0.0), 1.0, pyrt.Lambert(albedo=0.3).set_coverage(opacity=0.55, alpha_mode="blend"))
+    _shadow_is_numpys(s, 0.45 * np.array([0.9, 0.8, 0.6]) ** 2 * 0.96 ** 2, 50)
+
+
+def _shadow_is_numpys(s, want, n_pixels):
+    """Whitted with transparent shadows on both paths: the same image at pixel centres, and more than ``n_pixels``
+    pixels at ``want`` times the lit floor (the brightest pixels)."""
     kw = dict(integrator=pyrt.Whitted(transparent_shadows=True))
     rc = pyrt.render_full(s, execution=pyrt.Execution(backend="compiled", progress=False), **kw)
     rn = pyrt.render_full(s, execution=pyrt.Execution(backend="numpy", progress=False), **kw)
     assert rc.stats.backend == "compiled"
     np.testing.assert_allclose(rc.image, rn.image, rtol=1e-5, atol=1e-6)
     rgb = rc.image.reshape(-1, 3).astype(np.float64)
-    rel = rgb / rgb.max(axis=0)                             # the lit floor is the brightest
-    want = 0.45 * np.array([0.9, 0.8, 0.6]) ** 2 * 0.96 ** 2
-    assert np.count_nonzero(np.all(np.abs(rel - want) < 1e-5 * want + 1e-7, axis=1)) > 50
+    rel = rgb / rgb.max(axis=0)
+    assert np.count_nonzero(np.all(np.abs(rel - want) < 1e-5 * want + 1e-7, axis=1)) > n_pixels
 # -- smooth glTF transmission -------------------------------------------------------------------------------------
 
 
@@ -244,15 +249,7 @@ def test_the_shadow_of_a_smooth_gltf_slab_is_the_numpy_paths(thin):
     base = np.array([0.9, 0.8, 0.6])
     s = _slab_scene(material=pyrt.GltfPBR(base_color=tuple(base), metallic=0.25, roughness=0.0, transmission=0.8,
                                           ior=1.5, thin=thin))
-    kw = dict(integrator=pyrt.Whitted(transparent_shadows=True))
-    rc = pyrt.render_full(s, execution=pyrt.Execution(backend="compiled", progress=False), **kw)
-    rn = pyrt.render_full(s, execution=pyrt.Execution(backend="numpy", progress=False), **kw)
-    assert rc.stats.backend == "compiled"
-    np.testing.assert_allclose(rc.image, rn.image, rtol=1e-5, atol=1e-6)
-    rgb = rc.image.reshape(-1, 3).astype(np.float64)
-    rel = rgb / rgb.max(axis=0)                             # the lit floor is the brightest
-    want = (base * 0.75 * 0.8) ** 2 * 0.96 ** 2
-    assert np.count_nonzero(np.all(np.abs(rel - want) < 1e-5 * want + 1e-7, axis=1)) > 200
+    _shadow_is_numpys(s, (base * 0.75 * 0.8) ** 2 * 0.96 ** 2, 200)
 
 
 # -- transmission: what keeps it on the NumPy path ----------------------------------------------------------------
