@@ -48,6 +48,27 @@ def _assert_same_pixels(c, n, frac=0.002):
     assert bad.any(axis=2).mean() < frac, f"{bad.any(axis=2).sum()} pixels differ, max {diff.max()}"
 
 
+#: the render options of the pixel-by-pixel comparisons with AOVs
+_AOV_KW = dict(progress=False, seed=0, split_depth=None, aovs=True)
+
+
+def _same_image_and_aov(s, aov, rtol):
+    """Both paths' renders of ``s`` (pixel centres, AOVs): the same pixels, AOV ``aov`` equal to ``rtol``; the
+    compiled result."""
+    c = pyrt.render_full(s, backend="compiled", **_AOV_KW)
+    n = pyrt.render_full(s, backend="numpy", **_AOV_KW)
+    _assert_same_pixels(c, n)
+    np.testing.assert_allclose(c.aovs[aov], n.aovs[aov], rtol=rtol, atol=1e-6)
+    return c
+
+
+def _assert_changes_the_image(s, c, frac):
+    """The compiled render of ``s`` (after a change the test made) differs from ``c`` by more than ``frac`` of its
+    mean: what was compared was not invisible."""
+    other = pyrt.render_full(s, backend="compiled", **_AOV_KW)
+    assert np.abs(other.image.astype(np.float64) - c.image).mean() > frac * c.image.mean()
+
+
 def test_trilinear_textures_match_the_numpy_path_pixel_by_pixel():
     """Seen directly (near to grazing), in mirrors (curved and flat) and through glass: the same footprints, the
     same MIP levels, the same image; and not the image of the textures' level 0 (the footprints matter here)."""
@@ -126,15 +147,10 @@ def test_normal_maps_match_the_numpy_path_pixel_by_pixel():
     image as the NumPy path, and not the image without the maps. The normal AOV is the perturbed normal."""
     s = _normal_mapped_scene()
     assert compiled.unsupported(pyrt.PreparedScene(s)) == []
-    kw = dict(progress=False, seed=0, split_depth=None, aovs=True)
-    c = pyrt.render_full(s, backend="compiled", **kw)
-    n = pyrt.render_full(s, backend="numpy", **kw)
-    _assert_same_pixels(c, n)
-    np.testing.assert_allclose(c.aovs["normal"], n.aovs["normal"], rtol=1e-6, atol=1e-6)
+    c = _same_image_and_aov(s, "normal", 1e-6)
     for m in s.materials:
         m.normal_map = None
-    flat = pyrt.render_full(s, backend="compiled", **kw)
-    assert np.abs(flat.image.astype(np.float64) - c.image).mean() > 0.02 * c.image.mean()
+    _assert_changes_the_image(s, c, 0.02)
 
 
 def test_scenes_without_footprints_or_normal_maps_do_not_carry_them():

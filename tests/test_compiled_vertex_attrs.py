@@ -25,7 +25,7 @@ from pyrt.io.assets.materials import (FaceColorTexture, GltfMaterial, ProductTex
 from pyrt.materials import compiled as MC
 from pyrt.textures import ChannelTexture
 
-from test_compiled_footprints import _assert_same_pixels, _normal_map
+from test_compiled_footprints import _assert_changes_the_image, _normal_map, _same_image_and_aov
 
 KHRONOS = "/work/shared/khronos-gltf"
 
@@ -245,17 +245,12 @@ def test_vertex_colours_match_the_numpy_path_pixel_by_pixel():
     cs = compiled.CompiledScene(ps)
     assert cs.geo_f[6].shape == (ps.geo.vertices.shape[0], 3)
     assert sum(rec[MC.VERTEX_COLOR] > 0 for rec in cs.materials[1]) == 7
-    kw = dict(progress=False, seed=0, split_depth=None, aovs=True)
-    c = pyrt.render_full(s, backend="compiled", **kw)
-    n = pyrt.render_full(s, backend="numpy", **kw)
-    _assert_same_pixels(c, n)
-    np.testing.assert_allclose(c.aovs["albedo"], n.aovs["albedo"], rtol=1e-5, atol=1e-6)
+    c = _same_image_and_aov(s, "albedo", 1e-5)
     for m in s.materials:
         for name in _SLOTS:
             if isinstance(getattr(m, name, None), ProductTexture):
                 setattr(m, name, getattr(m, name).b)
-    plain = pyrt.render_full(s, backend="compiled", **kw)
-    assert np.abs(plain.image.astype(np.float64) - c.image).mean() > 0.05 * c.image.mean()
+    _assert_changes_the_image(s, c, 0.05)
 
 
 def test_vertex_colours_in_adaptive_passes_match_the_numpy_path():
@@ -279,15 +274,10 @@ def test_normal_maps_with_vertex_tangents_match_the_numpy_path_pixel_by_pixel():
     cs = compiled.CompiledScene(ps)
     opts, _ = compiled._options(cs, 1, 0, 8, 1e-4, None, True)
     assert opts[KL.O_NMAPS] == 2
-    kw = dict(progress=False, seed=0, split_depth=None, aovs=True)
-    c = pyrt.render_full(s, backend="compiled", **kw)
-    n = pyrt.render_full(s, backend="numpy", **kw)
-    _assert_same_pixels(c, n)
-    np.testing.assert_allclose(c.aovs["normal"], n.aovs["normal"], rtol=1e-6, atol=1e-6)
+    c = _same_image_and_aov(s, "normal", 1e-6)
     for m in s.meshes:
         m.tangents = None
-    uv_frames = pyrt.render_full(s, backend="compiled", **kw)
-    assert np.abs(uv_frames.image.astype(np.float64) - c.image).mean() > 0.01 * c.image.mean()
+    _assert_changes_the_image(s, c, 0.01)
 
 
 def test_vertex_colours_the_kernel_cannot_read_fall_back_and_say_why():
