@@ -1,4 +1,4 @@
-"""Adaptive passes on the compiled path (:func:`pyrt.integrators.compiled.render_pixels`).
+"""Adaptive passes on the compiled path (:func:`pyrt.integrators.compiled_passes.render_pixels`).
 
 The kernel draws a pass's camera positions from the same Owen-scrambled Sobol' sequences as the NumPy path's
 chunks (:func:`pyrt.render.chunks.shade_adaptive_chunk`), so with delta lights and the full glass tree (nothing
@@ -95,3 +95,85 @@ def test_the_time_budget_does_not_count_the_kernel_load(monkeypatch):
     scene = _scene(width=32, height=24)
     r = pyrt.render_full(scene, progress=False, time_budget=0.6, target_error=1e-12, max_spp=64, min_spp=2, seed=2)
     assert r.stats.backend == "compiled" and r.passes > 1
+
+
+def _pass_inputs(scene, seed=0):
+    """A compiled scene and an uneven pass over a scene's pixels: every third pixel, 2-10 samples each."""
+    from pyrt.integrators import compiled
+    ps = pyrt.PreparedScene(scene)
+    cs = compiled.CompiledScene(ps)
+    rng = np.random.default_rng(seed)
+    n = scene.camera.width * scene.camera.height
+    P = np.arange(0, n, 3)
+    C = 2 * rng.integers(1, 6, P.size)
+    base = rng.integers(0, 4, P.size)
+    return ps, cs, P, C, base, (base * 2 + C).astype(float)
+
+
+def test_a_pass_gives_the_same_sums_however_it_is_cut():
+    """One pass rendered in blocks of 64 samples on one thread, of 4096 on two, and of 1000 with another block order:
+    the same sums bit for bit (a sample's radiance does not depend on the other samples of its packet), every row
+    done; a pass halted after its first kernel call has some rows done, each with the full pass's sums."""
+    from pyrt.integrators import compiled_passes as CP
+    scene = _scene(width=40, height=30)
+    ps, cs, P, C, base, after = _pass_inputs(scene)
+    kw = dict(seed=5, max_depth=8, throughput_cutoff=1e-4, split_depth=None, terminator=True)
+    try:
+        runs = [CP.render_pixels(cs, scene.camera, P, C, base, after, threads=t, block_samples=b, order_seed=o, **kw)
+                for t, b, o in ((1, 64, 0), (2, 4096, 0), (2, 1000, 7))]
+        for both, half_b, counters, done, (n_done, n_blocks) in runs:
+            assert done.all() and n_done == n_blocks
+            np.testing.assert_array_equal(both, runs[0][0])
+            np.testing.assert_array_equal(half_b, runs[0][1])
+            np.testing.assert_array_equal(counters, runs[0][2])
+        assert counters[0] == C.sum() and np.all(np.abs(both).sum(axis=1) > 0)
+        calls = []
+        both, half_b, _c, done, (n_done, n_blocks) = CP.render_pixels(
+            cs, scene.camera, P, C, base, after, threads=1, block_samples=64, halted=lambda: bool(calls.append(1))
+            or len(calls) > 1, **kw)
+        assert 0 < n_done < n_blocks and 0 < done.sum() < done.size
+        np.testing.assert_array_equal(both[done], runs[0][0][done])
+        assert not np.any(both[~done]) and not np.any(half_b[~done])
+    finally:
+        ps.close()
+
+
+def test_the_pass_arithmetic_is_the_numpy_formulas():
+    """:mod:`pyrt.render.pass_math` against the NumPy formulas it replaces: the box mean from cumulative sums, the 3 x 3
+    maximum and the per-pixel error estimate bit for bit, the water-filling total to 1e-12 (a sequential sum where
+    NumPy sums pairwise), the scatter-add exactly."""
+    from pyrt.core.metrics import relmse_per_pixel
+    from pyrt.render import pass_math as PM
+    rng = np.random.default_rng(11)
+    a = rng.random((23, 31)) ** 6
+    H, W, r = a.shape + (2,)
+    c = np.zeros((H + 1, W + 1))
+    np.cumsum(np.cumsum(a, axis=0), axis=1, out=c[1:, 1:])
+    r0, r1 = np.clip(np.arange(H) - r, 0, H), np.clip(np.arange(H) + r + 1, 0, H)
+    c0, c1 = np.clip(np.arange(W) - r, 0, W), np.clip(np.arange(W) + r + 1, 0, W)
+    box = (c[r1][:, c1] - c[r0][:, c1] - c[r1][:, c0] + c[r0][:, c0]) / ((r1 - r0)[:, None] * (c1 - c0)[None, :])
+    np.testing.assert_array_equal(PM.box_smooth(a, r), box)
+    pad = np.pad(a, 1, constant_values=-np.inf)
+    mx = np.max([pad[1 + dy:1 + dy + H, 1 + dx:1 + dx + W] for dy in (-1, 0, 1) for dx in (-1, 0, 1)], axis=0)
+    np.testing.assert_array_equal(PM.max_filter(a, 1), mx)
+    n = 500
+    w = 2.0 * rng.integers(0, 5, n)
+    hw = w / 2
+    hw[::7] = 0.0
+    total = rng.random((n, 3)) * w[:, None]
+    half = total * rng.random((n, 3))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d = (total - half) / (w - hw)[:, None] - half / hw[:, None]
+        want = relmse_per_pixel(d * d / 4.0, total / w[:, None])
+    ok = (w - hw > 0) & (hw > 0)
+    got = PM.pixel_errors(total, w, half, hw, 1e-2)
+    np.testing.assert_array_equal(got[ok], want[ok])
+    assert np.all(np.isnan(got[~ok]))
+    share, have, room = rng.random(n), rng.random(n) * 4, rng.random(n) * 8
+    assert PM.fill_total(3.0, share, have, room) == pytest.approx(np.clip(3.0 * share - have, 0, room).sum(),
+                                                                  rel=1e-12)
+    dst, rows = np.zeros((n, 3)), rng.permutation(n)[:100]
+    PM.add_rows(dst, rows, total[:100])
+    want = np.zeros((n, 3))
+    want[rows] += total[:100]
+    np.testing.assert_array_equal(dst, want)

@@ -158,7 +158,7 @@ def test_scenes_without_footprints_or_normal_maps_do_not_carry_them():
     default and benchmark scenes pay for neither)."""
     for scene, want in ((_scene(), (0, 0)), (_mip_scene(), (1, 0)), (_normal_mapped_scene(), (1, 1))):
         cs = compiled.CompiledScene(pyrt.PreparedScene(scene))
-        opts, _ = compiled._options(cs, 1, 0, 8, 1e-4, None, True)
+        opts, _ = compiled.kernel_options(cs, 1, 0, 8, 1e-4, None, True)
         assert (opts[KL.O_DIFFS], opts[KL.O_NMAPS]) == want
 
 
@@ -169,7 +169,7 @@ def test_normal_maps_in_scenes_with_vertex_tangents_read_them():
     s.add_mesh((v, np.array([[0, 1, 2]])), pyrt.Lambert(albedo=0.5), normals=np.tile([0, 0, 1.0], (3, 1)),
                uv=v[:, :2], tangents=np.tile([1, 0, 0, 1.0], (3, 1)))
     cs = compiled.CompiledScene(pyrt.PreparedScene(s))
-    assert compiled._options(cs, 1, 0, 8, 1e-4, None, True)[0][KL.O_NMAPS] == 2
+    assert compiled.kernel_options(cs, 1, 0, 8, 1e-4, None, True)[0][KL.O_NMAPS] == 2
     r = pyrt.render_full(s, progress=False)
     assert r.stats.backend == "compiled" and r.stats.fallback_reasons == []
 

@@ -272,7 +272,7 @@ def test_normal_maps_with_vertex_tangents_match_the_numpy_path_pixel_by_pixel():
     ps = pyrt.PreparedScene(s)
     assert compiled.unsupported(ps) == []
     cs = compiled.CompiledScene(ps)
-    opts, _ = compiled._options(cs, 1, 0, 8, 1e-4, None, True)
+    opts, _ = compiled.kernel_options(cs, 1, 0, 8, 1e-4, None, True)
     assert opts[KL.O_NMAPS] == 2
     c = _same_image_and_aov(s, "normal", 1e-6)
     for m in s.meshes:

@@ -113,7 +113,11 @@ class Film:
     def add_pixel_sums(self, pixels, sums):
         """Add a :class:`PixelSums` (the reduced samples of some pixels, from :func:`pixel_sums`) to the
         pixels ``pixels`` (unique row-major indices, the order of ``sums``): how an adaptive pass, whose
-        chunks hold scattered pixels, adds a chunk to the film."""
+        chunks hold scattered pixels, adds a chunk to the film. A run of consecutive pixels in order (an adaptive
+        render's base pass) is added as a slice (fancy indexing copies: several times slower)."""
+        pixels = np.asarray(pixels)
+        if pixels.size > 1 and pixels[-1] - pixels[0] + 1 == pixels.size and np.all(np.diff(pixels) == 1):
+            pixels = slice(int(pixels[0]), int(pixels[-1]) + 1)
         self.sum[pixels] += sums.sum
         self.weight[pixels] += sums.weight
         if self.sum_sq is not None and sums.sum_sq is not None:

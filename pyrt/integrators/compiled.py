@@ -24,7 +24,7 @@ rays and lighting by ``strategy="mis"`` or ``"preview"`` (:mod:`pyrt.integrators
 background and ambient term; smooth and flat shading with or without the back-facing-normal fallback; the ``robust``
 and ``robust_no_terminator`` offsets; back-face culling (single-sided materials), alpha masks and blending (a
 constant or nearest / bilinear / trilinear opacity, no environment light but a preview:
-:mod:`pyrt.integrators.compiled_coverage`); fixed spp and adaptive passes (:func:`render_pixels`). Not yet: other
+:mod:`pyrt.integrators.compiled_coverage`); fixed spp and adaptive passes (:func:`pyrt.integrators.compiled_passes.render_pixels`). Not yet: other
 environments and strategies, emissive-mesh lights, the other materials (and per-face colours), anisotropic and
 bicubic texture filters, nested media and ray recording (transparent shadows through Glass:
 :mod:`pyrt.integrators.compiled_shadows`; AOVs: fixed spp, not on Dask workers; the
@@ -468,7 +468,7 @@ def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_dept
     non-finite samples (zeroed)."""
     W, H = cam.width, cam.height
     order = tile_order(n_tiles(cam)) if tiles is None else np.asarray(tiles, dtype=np.int64)
-    opts, optf = _options(cs, spp, seed, max_depth, throughput_cutoff, split_depth, terminator)
+    opts, optf = kernel_options(cs, spp, seed, max_depth, throughput_cutoff, split_depth, terminator)
     sums = np.zeros((W * H, 3))
     sqs = np.zeros((W * H if second_moment else 1, 3))
     aov = np.zeros((W * H if aovs else 1, KL.N_AOV))
@@ -513,35 +513,7 @@ def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_dept
     return sums, sqs, counters.sum(axis=0), done
 
 
-def render_pixels(cs, cam, P, C, base, spp_after, *, seed, max_depth, throughput_cutoff, split_depth, terminator):
-    """One chunk of an adaptive pass on the compiled kernel (:func:`pyrt.integrators.compiled_kernel.render_pixels`):
-    pixels ``P`` with ``C`` (even) new samples each, half to A and half to B, each half's sequence continued at
-    ``base`` (samples per half so far); ``spp_after`` (samples per pixel after the pass) scales the ray
-    differentials (:meth:`pyrt.core.camera.Camera.rays_at`). Returns ``(sums of A + B (k, 3), sums of B (k, 3), counters (4,))``, a
-    non-finite sample zeroed and counted. Runs on the calling thread (no GIL held: a pool of threads runs the
-    pass's chunks side by side)."""
-    opts, optf = _options(cs, 0, seed, max_depth, throughput_cutoff, split_depth, terminator)
-    P, C, base = (np.ascontiguousarray(a, dtype=np.int64) for a in (P, C, base))
-    dscale = np.maximum(0.125, 1.0 / np.sqrt(np.asarray(spp_after, dtype=np.float64)))
-    both, half_b = np.zeros((P.size, 3)), np.zeros((P.size, 3))
-    counters = np.zeros(4, dtype=np.int64)
-    announce_compile()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", NumbaIRAssumptionWarning)     # (as in render_fixed)
-        K.render_pixels(cs.scene, camera_record(cam), cs.geo_f, cs.geo_i, cs.materials[0], cs.materials[1],
-                        cs.textures[0], cs.textures[1], cs.lights[0], cs.lights[1], cs.env_data, opts, optf, P, C,
-                        base, dscale, both, half_b, counters, packet_width())
-    return both, half_b, counters
-
-
-def load_pixel_kernel(cs, cam):
-    """:func:`load_kernel` for the adaptive passes' entry (:func:`render_pixels`), before their chunks run."""
-    none = np.zeros(0, dtype=np.int64)
-    load_kernel(cs, K.render_pixels, lambda: render_pixels(cs, cam, none, none, none, np.ones(0), seed=0, max_depth=1,
-                                                           throughput_cutoff=0.0, split_depth=None, terminator=True))
-
-
-def _options(cs, spp, seed, max_depth, throughput_cutoff, split_depth, terminator):
+def kernel_options(cs, spp, seed, max_depth, throughput_cutoff, split_depth, terminator):
     """The kernel's integer and float option arrays (:data:`pyrt.integrators.compiled_layout.N_OPTS`, ``O_*``,
     ``F_*``)."""
     opts = np.zeros(KL.N_OPTS, dtype=np.int64)

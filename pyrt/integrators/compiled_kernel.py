@@ -530,31 +530,27 @@ def render_tiles(scene, tiles, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, t
 
 
 @numba.njit(nogil=True, cache=True, error_model="numpy")
-def render_pixels(scene, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, env_data,
-                  opts, optf, P, C, base, dscale, both, half_b, counters, width):
-    """One chunk of an adaptive pass (:func:`pyrt.render.chunks.shade_adaptive_chunk`'s estimate): pixel ``P[i]``
-    gets ``C[i]`` (even) new samples, the first half to half-buffer A and the second to B, each half continuing its
-    Owen-scrambled Sobol' sequence at ``base[i]`` (camera positions
-    ``sobol_owen_2d(base + j, hash32(seed, pixel, half))``, bit for bit the NumPy path's: the same camera rays; their
+def pixel_block(bufs, scene, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, env_data,
+                opts, optf, P, C, base, dscale, lo, hi, both, half_b, counters, width):
+    """Rows ``[lo, hi)`` of an adaptive pass (:func:`render_pixels`), packet buffers ``bufs``: pixel ``P[i]`` gets
+    ``C[i]`` (even) new samples, the first half to half-buffer A and the second to B, each half continuing its
+    Owen-scrambled Sobol' sequence at ``base[i]`` (camera positions ``sobol_owen_2d(base + j, hash32(seed, pixel,
+    half))``, bit for bit the NumPy path's: the same camera rays; their
     hits' area-light samples continue a progressive padded set of seed ``hash32(seed, pixel, half, 0x9AD)``).
     The radiance of all the new samples summed into ``both[i]``, of B's into ``half_b[i]``; rays counted into
     ``counters`` (4,); ``dscale[i]`` scales pixel ``P[i]``'s differentials (:meth:`pyrt.core.camera.Camera.rays_at`).
-    Single-threaded (the pass's chunks run on a pool of threads: the kernel holds no GIL)."""
+    A sample's radiance does not depend on the other samples of its packet, nor the sums on how a pass is cut."""
     U.wide_vectors()
-    bufs = packet_buffers(width)
     pk, sh, ray_buf, V, stack, keys, lane_pix, lane_s, lane_key, lane_k32, lane_xy = buffer_pointers(bufs)
     erec, edata, cam, opts, optf, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, cnt = \
         table_pointers(env_data, cam, opts, optf, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, counters)
     G = geometry_pointers(geo_f, geo_i)
     w = width
-    W = int(cam[C_W])
-    seed = opts[O_SEED]
+    W, seed = int(cam[C_W]), opts[O_SEED]
     E.packet_prepare(pk, w, cam[C_POS], cam[C_POS + 1], cam[C_POS + 2])
     E.packet_prepare(sh, w, 0.0, 0.0, 0.0)
-    n_items = 0
-    for i in range(P.shape[0]):
-        n_items += C[i]
-    cur_i = cur_j = 0
+    n_items = np.sum(C[lo:hi])
+    cur_i, cur_j = lo, 0
     for t0 in range(0, n_items, w):
         n = min(w, n_items - t0)
         for lane in range(n):               # each lane's pixel (its row of P in lane_pix), half and index
@@ -584,7 +580,21 @@ def render_pixels(scene, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par
                 x = V[(V_L + c) * LANES + lane]
                 both[r, c] += x
                 half_b[r, c] += x if is_b else 0.0
-    release(bufs)
+
+
+@numba.njit(nogil=True, cache=True, error_model="numpy", parallel=True)
+def render_pixels(scene, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, env_data,
+                  opts, optf, P, C, base, dscale, starts, blocks, both, half_b, counters, width):
+    """Blocks ``blocks`` of an adaptive pass (:func:`pyrt.render.adaptive.render_adaptive`), threads over them:
+    block ``b`` is rows ``[starts[b], starts[b + 1])`` of ``P`` (:func:`pixel_block`, with packet buffers of its own;
+    its rays counted into ``counters[b]``)."""
+    for k in prange(blocks.shape[0]):
+        b = blocks[k]
+        bufs = packet_buffers(width)
+        pixel_block(bufs, scene, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par,
+                    env_data, opts, optf, P, C, base, dscale, starts[b], starts[b + 1], both, half_b, counters[b],
+                    width)
+        release(bufs)     # the owners of the buffers' pointers live until here
 
 
 kernel_cache.restore()

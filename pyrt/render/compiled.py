@@ -15,7 +15,7 @@ import numpy as np
 
 from pyrt.core.errors import RenderError
 from pyrt.core.film import Film, FilmError, PixelSums
-from pyrt.integrators import compiled
+from pyrt.integrators import compiled, compiled_passes
 from pyrt.integrators.prepared import RenderStats
 from pyrt.render.distributed import compiled_tiles
 from pyrt.render.pool import progress_bar
@@ -65,26 +65,32 @@ def render_compiled(ps, cam, *, seed, max_depth, throughput_cutoff, offset, spli
                         pixels_filled=pixels_filled, samples_done=n_done * S)
 
 
-def adaptive_task(ps, cam, *, seed, max_depth, throughput_cutoff, offset, split_depth, nonfinite, integ=None):
+def adaptive_task(ps, cam, *, seed, max_depth, throughput_cutoff, offset, split_depth, nonfinite, threads=None,
+                  integ=None):
     """The compiled twin of :func:`pyrt.render.chunks.shade_adaptive_chunk` for :func:`pyrt.render.adaptive.
-    render_adaptive`: a function ``(P, C, base, spp_after) -> (stats, P, sums of A + B, sums of B)`` (:class:`PixelSums`) that
-    renders one chunk of a pass with the kernel (the same camera rays as the NumPy path's chunk; ``spp_after``, the
-    pixels' samples after the pass, scales their differentials)."""
+    render_adaptive`: a function ``(P, C, base, spp_after, halted, order_seed) -> (stats, rows done, sums of A + B,
+    sums of B, blocks done, blocks)`` (sums as :class:`PixelSums` of the rows done) that renders a whole pass with
+    the kernel's threads (:func:`pyrt.integrators.compiled_passes.render_pixels`: the same camera rays as the NumPy
+    path's chunks; ``spp_after``, the pixels' samples after the pass, scales their differentials; ``halted()`` asked
+    between kernel calls)."""
     cs = compiled.CompiledScene(ps, integ)
-    compiled.load_pixel_kernel(cs, cam)
+    compiled_passes.load_pixel_kernel(cs, cam)
     kw = dict(seed=seed, max_depth=max_depth, throughput_cutoff=throughput_cutoff, split_depth=split_depth,
-              terminator=offset in (None, "robust"))
+              terminator=offset in (None, "robust"), threads=threads)
 
-    def chunk(P, C, base, spp_after):
-        both, half_b, counters = compiled.render_pixels(cs, cam, P, C, base, spp_after, **kw)
+    def run(P, C, base, spp_after, halted, order_seed):
+        both, half_b, counters, done, blocks = compiled_passes.render_pixels(
+            cs, cam, P, C, base, spp_after, halted=halted, order_seed=order_seed, **kw)
         if counters[3] and nonfinite == "raise":
             raise FilmError("Film: non-finite radiance in an adaptive pass")
         stats = RenderStats(primary_rays=int(counters[0]), secondary_rays=int(counters[1]),
                             shadow_rays=int(counters[2]), nonfinite_samples=int(counters[3]), backend="compiled")
         C = np.asarray(C, dtype=np.int64)
+        if not done.all():          # a pass cut short: its rows done
+            P, C, both, half_b = np.asarray(P)[done], C[done], both[done], half_b[done]
         return stats, P, PixelSums(C.astype(np.float64), both, nonfinite=int(counters[3])), \
-            PixelSums((C // 2).astype(np.float64), half_b)
-    return chunk
+            PixelSums((C // 2).astype(np.float64), half_b), blocks
+    return run
 
 
 def _one_sample(cam):
