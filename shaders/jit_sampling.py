@@ -85,6 +85,21 @@ def laine_karras(x, seed):
 def sobol_owen_2d(index, seed):
     """Point ``index`` (< 2^32) of the Owen-scrambled 2-D Sobol' sequence with scrambling seed ``seed`` (a 32-bit
     value): ``(x, y)`` in [0, 1), bit for bit :func:`pyrt.core.sampler.sobol_owen_2d`."""
+    kx, ky = sobol_owen_keys(seed)
+    return sobol_owen_2d_keyed(index, kx, ky)
+
+
+@register_jitable(forceinline=True)
+def sobol_owen_keys(seed):
+    """The two per-dimension scrambling keys :func:`sobol_owen_2d` derives from ``seed``: computed once for the
+    points of one sequence (:func:`sobol_owen_2d_keyed`)."""
+    s = np.uint64(seed) & np.uint64(_M32)
+    return hash32_2(s, 0x68E31DA4), hash32_2(s, 0xB5297A4D)
+
+
+@register_jitable(forceinline=True)
+def sobol_owen_2d_keyed(index, kx, ky):
+    """:func:`sobol_owen_2d` with its scrambling keys ``(kx, ky)`` given (:func:`sobol_owen_keys` of its seed)."""
     i = np.uint64(index) & np.uint64(_M32)
     y = np.uint64(0)
     v = np.uint64(1 << 31)
@@ -94,9 +109,8 @@ def sobol_owen_2d(index, seed):
             y ^= v
         v ^= v >> np.uint64(1)
         k >>= np.uint64(1)
-    s = np.uint64(seed) & np.uint64(_M32)
-    sx = reverse_bits32(laine_karras(i, hash32_2(s, 0x68E31DA4)))
-    sy = reverse_bits32(laine_karras(reverse_bits32(y), hash32_2(s, 0xB5297A4D)))
+    sx = reverse_bits32(laine_karras(i, kx))
+    sy = reverse_bits32(laine_karras(reverse_bits32(y), ky))
     return float(sx) * 2.0 ** -32, float(sy) * 2.0 ** -32
 
 

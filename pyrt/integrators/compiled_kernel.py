@@ -533,49 +533,49 @@ def render_tiles(scene, tiles, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, t
 def pixel_block(bufs, scene, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, env_data,
                 opts, optf, P, C, base, dscale, lo, hi, both, half_b, counters, width):
     """Rows ``[lo, hi)`` of an adaptive pass (:func:`render_pixels`), packet buffers ``bufs``: pixel ``P[i]`` gets
-    ``C[i]`` (even) new samples, the first half to half-buffer A and the second to B, each half continuing its
-    Owen-scrambled Sobol' sequence at ``base[i]`` (camera positions ``sobol_owen_2d(base + j, hash32(seed, pixel,
-    half))``, bit for bit the NumPy path's: the same camera rays; their
-    hits' area-light samples continue a progressive padded set of seed ``hash32(seed, pixel, half, 0x9AD)``).
-    The radiance of all the new samples summed into ``both[i]``, of B's into ``half_b[i]``; rays counted into
-    ``counters`` (4,); ``dscale[i]`` scales pixel ``P[i]``'s differentials (:meth:`pyrt.core.camera.Camera.rays_at`).
-    A sample's radiance does not depend on the other samples of its packet, nor the sums on how a pass is cut."""
+    ``C[i]`` (even) new samples, half to half-buffer A, half to B, each half's Owen-scrambled Sobol' sequence
+    continued at ``base[i]`` (``sobol_owen_2d(base + j, hash32(seed, pixel, half))``: the NumPy path's camera rays;
+    area-light samples continue a progressive padded set of seed ``hash32(seed, pixel, half, 0x9AD)``). Radiance
+    summed into ``both[i]``, B's into ``half_b[i]``, rays into ``counters`` (4,); ``dscale[i]`` scales ``P[i]``'s
+    differentials (:meth:`pyrt.core.camera.Camera.rays_at`). The sums do not depend on how a pass is cut."""
     U.wide_vectors()
     pk, sh, ray_buf, V, stack, keys, lane_pix, lane_s, lane_key, lane_k32, lane_xy = buffer_pointers(bufs)
     erec, edata, cam, opts, optf, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, cnt = \
         table_pointers(env_data, cam, opts, optf, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par, counters)
-    G = geometry_pointers(geo_f, geo_i)
-    w = width
+    G, w = geometry_pointers(geo_f, geo_i), width
     W, seed = int(cam[C_W]), opts[O_SEED]
     E.packet_prepare(pk, w, cam[C_POS], cam[C_POS + 1], cam[C_POS + 2])
     E.packet_prepare(sh, w, 0.0, 0.0, 0.0)
     n_items = np.sum(C[lo:hi])
-    cur_i, cur_j = lo, 0
+    cur_i, cur_j, h, pix, px, py = lo, 0, 0, 0, 0.0, 0.0
+    k32, (kx, ky) = JS.hash32_4(seed, 0, 0, 0x9AD), JS.sobol_owen_keys(0)
     for t0 in range(0, n_items, w):
         n = min(w, n_items - t0)
-        for lane in range(n):               # each lane's pixel (its row of P in lane_pix), half and index
-            pix = P[cur_i]
-            h = C[cur_i] // 2
+        for lane in range(n):       # each lane's row of P and half (in lane_pix), index and keys: hashed once a half
+            if cur_j == 0 or cur_j == h:
+                is_b = 0 if cur_j == 0 else 1
+                if is_b == 0:
+                    pix, h = P[cur_i], C[cur_i] // 2
+                    px, py = float(pix % W), float(pix // W)
+                k32, (kx, ky) = JS.hash32_4(seed, pix, is_b, 0x9AD), JS.sobol_owen_keys(JS.hash32_3(seed, pix, is_b))
             is_b = 1 if cur_j >= h else 0
-            idx = base[cur_i] + cur_j - is_b * h
             lane_pix[lane] = cur_i * 2 + is_b
-            lane_s[lane] = idx
-            lane_k32[lane] = JS.hash32_4(seed, pix, is_b, 0x9AD)
-            key = J.key64(seed, pix, ADAPTIVE_KEYS + idx * 2 + is_b)
-            keys[lane] = key
-            u0, u1 = JS.sobol_owen_2d(idx, JS.hash32_3(seed, pix, is_b))
-            row = pix // W
-            set_lane_vec(V, V_D, lane, camera_dir(cam, float(pix - row * W) + u0, float(row) + u1))
-            D.camera_lane_diffs(V, cam, opts, lane, dscale[cur_i])
+            lane_s[lane] = base[cur_i] + cur_j - is_b * h
+            lane_k32[lane], lane_key[lane], keys[lane] = k32, kx, ky
+            lane_xy[lane], lane_xy[LANES + lane] = px, py
             cur_j += 1
             if cur_j == C[cur_i]:
-                cur_i += 1
-                cur_j = 0
+                cur_i, cur_j = cur_i + 1, 0
+        for lane in range(n):       # camera rays
+            q, idx = lane_pix[lane], lane_s[lane]
+            u0, u1 = JS.sobol_owen_2d_keyed(idx, lane_key[lane], keys[lane])
+            keys[lane] = J.key64(seed, P[q >> 1], ADAPTIVE_KEYS + idx * 2 + (q & 1))
+            set_lane_vec(V, V_D, lane, camera_dir(cam, lane_xy[lane] + u0, lane_xy[LANES + lane] + u1))
+            D.camera_lane_diffs(V, cam, opts, lane, dscale[q >> 1])
         shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, PROGRESSIVE, n, w, mats_tag,
                      mats_par, tex_tag, tex_par, lights_tag, lights_par, erec, edata, opts, optf, cnt)
         for lane in range(n):
-            q = lane_pix[lane]
-            r, is_b = q // 2, q % 2
+            r, is_b = lane_pix[lane] // 2, lane_pix[lane] % 2
             for c in range(3):
                 x = V[(V_L + c) * LANES + lane]
                 both[r, c] += x
