@@ -56,6 +56,7 @@ from pyrt.integrators.media import NestedMedia
 from pyrt.integrators.shadows import MAX_INTERFACES
 from pyrt.lights import compiled as LC
 from pyrt.lights import compiled_env, compiled_env_preview
+from pyrt.lights import compiled_mesh as CM
 from pyrt.lights.environment_light import EnvironmentLight
 from pyrt.materials import compiled as MC
 from pyrt.materials.gltf_record import scalar_slot
@@ -325,10 +326,10 @@ class CompiledScene:
             1 if any(m.culls_back_faces for m in ps.scene.materials) else 0)
         lights = [lt.compiled_record() for lt in ps.scene.lights]
         traced_lights = {id(lt) for lts in traced.values() for lt in lts}
-        for lt, (tag, rec) in zip(ps.scene.lights, lights):
-            if tag >= LC.RECT and tag != LC.ENV:
-                rec[LC.TRACED] = 1.0 if id(lt) in traced_lights else 0.0
-        self.lights = _table([t for t, _ in lights], [r for _, r in lights], LC.RECORD)
+        for lt, packed in zip(ps.scene.lights, lights):
+            if LC.RECT <= packed[0] <= LC.SPHERE:
+                packed[1][LC.TRACED] = 1.0 if id(lt) in traced_lights else 0.0
+        self.lights = CM.pack_table(lights)
         self.n_lights = len(lights)
         env = ps.scene.environment
         env_light = next((lt for lt in ps.scene.lights if lt.environment is not None), None)

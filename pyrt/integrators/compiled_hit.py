@@ -5,7 +5,9 @@
 :meth:`pyrt.integrators.glossy.GlossyIntegrator._direct_light`:
 
 - every light by its own estimator (delta lights one shadow ray, area lights their light and BSDF samples under
-  MIS, the environment light :func:`pyrt.integrators.compiled_lighting.env_hit`);
+  MIS, the environment light :func:`pyrt.integrators.compiled_lighting.env_hit`, the emissive-mesh light
+  :func:`pyrt.integrators.compiled_mesh_stage.mesh_hit`, its samples weighted against the glossy rays at a glossy
+  hit);
 - at a glossy hit the environment light by samples of its full map alone, weighted by the power heuristic against
   the glossy rays (:func:`env_glossy`; :func:`escape_weight` weighs the environment the rays reach);
 - at a glossy hit (one that traces ``nb`` BSDF-sampled rays, :func:`spawn_glossy`) an area light whose visible
@@ -39,6 +41,7 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     STACK_TB, V_D, V_GL, V_LIFT, V_MAG, V_MAG_LIFT, V_MAT, V_NG, V_NS, V_NV, V_P, _njit, lane_inputs, lane_vec)
 from pyrt.integrators.compiled_lighting import (  # noqa: E402
     area_bsdf_sample, area_light_weight, area_u, direct_light, env_hit)
+from pyrt.integrators import compiled_mesh_stage as MS  # noqa: E402
 from pyrt.lights import compiled as LC  # noqa: E402
 from pyrt.lights import compiled_env as CE  # noqa: E402
 from pyrt.materials import compiled as MC  # noqa: E402
@@ -139,6 +142,12 @@ def hit_light(scene, G, lights_tag, lights_par, nl, mats_tag, mats_par, tex_tag,
             n_sh += int(e[3])
             continue
         if choose and selectable(ltag):
+            continue
+        if ltag == LC.MESH:     # the emissive-mesh light: its samples (against the glossy rays at a glossy hit)
+            e = MS.mesh_hit(scene, G, lights_par, j, mtag, mats_tag, mats_par, tex_tag, tex_par, sopt, m, albedo, p, ng,
+                            ns, nv, wo, lift, mag, mag_lift, terminator, hkey, nb, ray_buf)
+            le0, le1, le2 = le0 + e[0], le1 + e[1], le2 + e[2]
+            n_sh += e[3]
             continue
         area = ltag >= LC.RECT
         n_j = int(lights_par[jb + LC.AREA_SAMPLES]) if area else 1
@@ -313,16 +322,20 @@ def push(p, ng, mag, stack, top, d, thr, depth, V, lane, diffs, ns, wo, eta, pdf
 
 
 @_njit
-def emission_weight(lights_tag, lights_par, mats_par, m, o, d, pdf):
-    """The MIS weight of the emission a glossy ray (density ``pdf``) from ``o`` along ``d`` reaches on material
-    ``m``: :meth:`pyrt.integrators.glossy.GlossyIntegrator._emission_weight` (1 where the material is no area light's
-    visible emitter)."""
-    j = int(mats_par[m * MC.RECORD + MC.TRACED]) - 1
-    if j < 0 or not pdf > 0.0:
+def emission_weight(lights_tag, lights_par, nl, mats_par, m, o, d, pdf, p, ng, geom, prim):
+    """The MIS weight of the emission a glossy ray (density ``pdf``) from ``o`` along ``d`` reaches at ``p`` on
+    material ``m`` (scene mesh ``geom``'s triangle ``prim``, geometric normal ``ng``):
+    :meth:`pyrt.integrators.glossy.GlossyIntegrator._emission_weight`, the power heuristic against the samples of the
+    area light whose visible emitter the material is and of the emissive-mesh lights that sample the triangle
+    (:func:`pyrt.integrators.compiled_mesh_stage.emission_weight`); 1 where no light samples it."""
+    if not pdf > 0.0:
         return 1.0
-    n_l = lights_par[j * LC.RECORD + LC.AREA_SAMPLES]
-    p_l = n_l * LC.area_pdf_dist(lights_tag[j], lights_par, j, o[0], o[1], o[2], d[0], d[1], d[2])[0]
-    return CS.power_heuristic(pdf, p_l, 2.0, 1.0, 1.0)
+    j = int(mats_par[m * MC.RECORD + MC.TRACED]) - 1
+    p_area = 0.0
+    if j >= 0:
+        n_l = lights_par[j * LC.RECORD + LC.AREA_SAMPLES]
+        p_area = n_l * LC.area_pdf_dist(lights_tag[j], lights_par, j, o[0], o[1], o[2], d[0], d[1], d[2])[0]
+    return MS.emission_weight(lights_tag, lights_par, nl, o, p, ng, geom, prim, pdf, p_area)
 
 
 @_njit

@@ -37,23 +37,19 @@ kernel_cache.use_cache_dir()      # before the decorators below (and those of th
 from pyrt.core import unmanaged as U  # noqa: E402
 from pyrt.geometry import embree_jit as E  # noqa: E402
 from pyrt.integrators.compiled_layout import (  # noqa: E402
-    TILE, LANES, V_D, V_P, V_NG, V_NS, V_NV, V_LIFT, V_MAG, V_MAG_LIFT, V_FRONT, V_MAT,
-    V_A, V_L, V_COSO,
-    C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W,
-    C_H, C_JITTER, C_K, C_AX, O_SEED, O_SPP,
-    O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS, O_SPP_LO, O_FALLBACK,
-    O_GRID, F_CUTOFF, F_BG, N_PRIMARY, N_SECONDARY, O_COVER, O_LAYERS,
-    N_SHADOW, N_NONFINITE, STACK, STACK_ROW, STACK_PDF, STACK_TB, STACK_LAYER, T_INF, DIM_LOBE, O_GLOSSY_N,
-    O_GLOSSY_DEPTH, O_SELECT, F_GLOSSY_T, F_GLOSSY_CLAMP, V_GL, O_GLOSSY_ENV, O_ROULETTE,
-    ADAPTIVE_KEYS, O_ENV, O_AOV, O_SQ, N_AOV, V_T, O_DIFFS, TILES_PER_TASK, _njit, buffer_pointers,
-    geometry_pointers, lane_vec, packet_buffers, release, set_lane_inputs, set_lane_vec, table_pointers)
-from pyrt.integrators import compiled_diffs as D  # noqa: E402
+    TILE, LANES, V_D, V_P, V_NG, V_NS, V_NV, V_LIFT, V_MAG, V_MAG_LIFT, V_FRONT, V_MAT, V_A, V_L, V_COSO, C_POS, C_FWD,
+    C_RIGHT, C_UP, C_TAN, C_W, C_H, C_JITTER, C_K, C_AX, O_SEED, O_SPP, O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS,
+    O_SPP_LO, O_FALLBACK, O_GRID, F_CUTOFF, F_BG, N_PRIMARY, N_SECONDARY, O_COVER, O_LAYERS, N_SHADOW, N_NONFINITE,
+    STACK, STACK_ROW, STACK_PDF, STACK_TB, STACK_LAYER, T_INF, DIM_LOBE, O_GLOSSY_N, O_GLOSSY_DEPTH, O_SELECT,
+    F_GLOSSY_T, F_GLOSSY_CLAMP, V_GL, O_GLOSSY_ENV, O_ROULETTE, ADAPTIVE_KEYS, O_ENV, O_AOV, O_SQ, N_AOV, V_T, O_DIFFS,
+    TILES_PER_TASK, _njit, buffer_pointers, geometry_pointers, lane_vec, packet_buffers, release, set_lane_inputs,
+    set_lane_vec, table_pointers)
+from pyrt.integrators import compiled_diffs as D, compiled_mesh_stage as MS  # noqa: E402
 from pyrt.integrators.compiled_coverage import (  # noqa: E402
     MASKS, cover_finish, cover_packet, cover_single, lane_through, split_blend)
 from pyrt.integrators.compiled_shadows import keep_rays, packet_walk, shadow_options, walks  # noqa: E402
-from pyrt.integrators.compiled_hit import (  # noqa: E402
-    clamp_sampled, emission_weight, escape_weight, hit_light, is_glossy, lane_hit, push, set_aside, spawn_glossy,
-    survive)
+from pyrt.integrators.compiled_hit import (clamp_sampled, emission_weight, escape_weight, hit_light,  # noqa: E402
+                                           is_glossy, lane_hit, push, set_aside, spawn_glossy, survive)
 from pyrt.integrators.compiled_surface import face_surfaces, with_ambient  # noqa: E402
 from pyrt.integrators.compiled_lighting import (  # noqa: E402
     area_bsdf_stage, area_mis_stage, area_stage, bsdf_stage, camera_fill, env_rounds, lambert_stage, light_stage,
@@ -195,7 +191,7 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
                                       tex_tag, tex_par)
         if bpdf > 0.0:          # the emission a glossy ray reaches (from its first origin): MIS against light samples
             o = (o[0] - tb * d0, o[1] - tb * d1, o[2] - tb * d2)
-            k = emission_weight(lights_tag, lights_par, mats_par, m, o, (d0, d1, d2), bpdf)
+            k = emission_weight(lights_tag, lights_par, nl, mats_par, m, o, (d0, d1, d2), bpdf, p, ng, geom, prim)
             em = (em[0] * k, em[1] * k, em[2] * k)
         le0, le1, le2 = with_ambient(mtag, em, albedo, optf)
         sampled = False
@@ -308,6 +304,10 @@ def shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k3
             pair = env_rounds(scene, G, etag, erec, edata, mats_tag, mats_par, tex_tag, tex_par, sopt, V, n,
                               terminator, pair, lane_s, spp, lane_k32, sh, w, int(lights_par[j * LC.RECORD]),
                               int(lights_par[j * LC.RECORD + 1]), cnt, ray_buf)
+            continue
+        if ltag == LC.MESH:     # the emissive-mesh light's samples (compiled_mesh_stage)
+            pair = MS.mesh_rounds(scene, G, lights_par, j, mats_tag, mats_par, tex_tag, tex_par, sopt, V, keys, n,
+                                  terminator, pair, lane_s, spp, lane_k32, sh, w, cnt, ray_buf)
             continue
         area = ltag >= LC.RECT
         n_j = int(lights_par[j * LC.RECORD + LC.AREA_SAMPLES]) if area else 1

@@ -33,10 +33,11 @@ KERNEL_SOURCES = ("pyrt.shaders.jit", "pyrt.shaders.jit_brdfs", "pyrt.shaders.ji
                   "pyrt.textures.compiled_normal_map", "pyrt.materials.compiled", "pyrt.integrators.compiled_coverage",
                   "pyrt.integrators.compiled_shadows",
                   "pyrt.materials.compiled_sampling", "pyrt.lights.compiled", "pyrt.lights.compiled_tables",
-                  "pyrt.lights.compiled_env", "pyrt.lights.compiled_env_preview", "pyrt.integrators.compiled_preview",
+                  "pyrt.lights.compiled_env", "pyrt.lights.compiled_env_preview", "pyrt.lights.compiled_mesh",
+                  "pyrt.integrators.compiled_preview",
                   "pyrt.integrators.compiled_layout", "pyrt.integrators.compiled_diffs",
                   "pyrt.integrators.compiled_env_stage", "pyrt.integrators.compiled_lighting",
-                  "pyrt.integrators.compiled_hit",
+                  "pyrt.integrators.compiled_mesh_stage", "pyrt.integrators.compiled_hit",
                   "pyrt.integrators.compiled_surface",
                   "pyrt.integrators.compiled_kernel")
 

@@ -196,7 +196,9 @@ class Light:
 
     def compiled_record(self):
         """``(tag, record)``: this light as a row of the compiled kernel's light table (:mod:`pyrt.lights.compiled`),
-        or None when the compiled kernel cannot sample it (the render then takes the NumPy path). Default None."""
+        or ``(tag, record, data)`` for a light with tables of its own (a float64 array the compiled scene appends after
+        the records, :mod:`pyrt.lights.compiled_mesh`), or None when the compiled kernel cannot sample it (the render
+        then takes the NumPy path). Default None."""
         return None
 
     def sample_li(self, p, u):

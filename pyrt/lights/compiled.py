@@ -17,6 +17,8 @@ SPHERE     0-2 centre, 6-8 radiance, 15 radius, 17 area, 18 samples per hit
            20 1 where its visible emitter mesh is in the scene, :data:`TRACED`)
 ENV        0 light samples, 1 BSDF samples per hit (:class:`pyrt.EnvironmentLight` with ``strategy="mis"``), 2 1 where
            the glossy integrator samples its map at glossy hits (0: it leaves the environment to the glossy rays)
+MESH       the emissive triangles of the scene's meshes (:class:`pyrt.EmissiveMeshLight`): 0 where its tables start in
+           the light table's flat data, 1-4 their sizes, 18 samples per hit (:mod:`pyrt.lights.compiled_mesh`)
 =========  =====================================================================================================
 
 :func:`sample_li` is :meth:`pyrt.lights.PointLight.sample_li` (and the spot's and directional light's) for one
@@ -41,13 +43,15 @@ RECORD = 21
 TRACED = 20
 #: type tags
 POINT, SPOT, DIRECTIONAL = 1, 2, 3
-#: the area lights' tags (every tag from :data:`RECT` on is an area light)
+#: the area lights' tags (:data:`RECT` to :data:`SPHERE`; :data:`ENV` and :data:`MESH` after them are not)
 RECT, DISK, SPHERE = 4, 5, 6
 #: where an area light's record holds its samples per hit
 AREA_SAMPLES = 18
 #: the environment light (``strategy="mis"``): record 0 light samples, 1 BSDF samples per hit; the environment
 #: itself is the kernel's (:mod:`pyrt.lights.compiled_env`, packed once per scene)
 ENV = 7
+#: the emissive-mesh light (:mod:`pyrt.lights.compiled_mesh`; not an area light: its tables follow the records)
+MESH = 8
 
 
 @register_jitable(forceinline=True)

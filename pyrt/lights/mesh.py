@@ -51,15 +51,34 @@ from pyrt.geometry.accel import Accel, Hits
 from pyrt.geometry.surface import GeometryTable, MeshData, surface_from_hits
 from pyrt.shaders.vec import cross, dot, take_rows
 
+from pyrt.lights import compiled as LC
+from pyrt.lights import compiled_mesh as CM
 from pyrt.lights.base import LIGHTS, Light, LightError, LightSample
 from pyrt.lights.area import AreaEmitter
 from pyrt.materials import Material
+from pyrt.materials import compiled as MC
 from pyrt.lights.mesh_clusters import ClusterChoice
 
 #: barycentric (b1, b2) of the four points per triangle at which the emission bound is evaluated
 _PROBES = np.array([[1 / 3, 1 / 3], [1 / 6, 1 / 6], [2 / 3, 1 / 6], [1 / 6, 2 / 3]])
 #: triangles per block when the bound is evaluated (bounded memory on big emitters)
 _BLOCK = 1 << 15
+#: where a glTF record (:mod:`pyrt.materials.gltf_record`) keeps its emission slot (a texture row, -1: a constant)
+_GLTF_EMISSION = 10
+
+
+def constant_emission(material):
+    """True when the compiled kernel reads ``material``'s emission as one constant over its surfaces: an opaque
+    material whose compiled record (:meth:`Material.compiled_record`) is Lambert's, Blinn-Phong's, an
+    :class:`AreaEmitter`'s or a glTF record with an untextured emission slot (what :meth:`EmissiveMeshLight.
+    compiled_record` can pack: a radiance per triangle and side)."""
+    if material.alpha_mode != "opaque":
+        return False
+    packed = material.compiled_record(lambda texture: 0)
+    if packed is None:
+        return False
+    tag, rec = packed[0], packed[1]
+    return tag in (MC.LAMBERT, MC.BLINN_PHONG, MC.EMITTER) or (tag == MC.GLTF and rec[_GLTF_EMISSION] < 0)
 
 
 def _emission(materials, ctx):
@@ -246,6 +265,64 @@ class EmissiveMeshLight(Light):
         if not back:
             self._uniform = first if same else None
         return np.maximum(out, 0.0)
+
+    def compiled_record(self):
+        """``(MESH, record, data)``: the light as a row of the compiled kernel's light table and the tables it reads
+        (:mod:`pyrt.lights.compiled_mesh`: its triangles with their radiance from either side, the power CDF, the
+        scene meshes' first light triangles and, with ``selection="oriented"``, the clusters); None when an emitting
+        material's emission is not a constant the kernel reads (:func:`constant_emission`: a textured emission,
+        vertex colours, alpha masks and blending, a material the kernel cannot shade)."""
+        if not all(constant_emission(self._materials[m.material_id]) for m in self._meshes):
+            return None
+        geo = self._geo
+        n_f = self._area.size
+        tri = np.zeros((n_f, CM.TRI_W))
+        for k in range(3):
+            tri[:, 3 * k:3 * k + 3] = take_rows(geo.vertices, geo.faces[:, k])
+        tri[:, CM.T_N:CM.T_N + 3] = geo.face_normals
+        tri[:, CM.T_AREA] = self._area
+        tri[:, CM.T_PMF] = self.pmf
+        tri[:, CM.T_CLUSTER] = -1.0
+        tri[:, CM.T_FRONT:CM.T_FRONT + 3] = self._centroid_radiance(back=False)
+        tri[:, CM.T_BACK:CM.T_BACK + 3] = self._centroid_radiance(back=True)
+        first = np.where(self._local >= 0, np.take(geo.face_offset, np.maximum(self._local, 0)), -1)
+        parts = [tri.ravel(), self._cdf, first.astype(np.float64)]
+        n_k = n_l = 0
+        ch = self._choice
+        if ch is not None:
+            n_k, n_l = ch.clusters, ch.order.size
+            tri[:, CM.T_PMF_IN] = ch.pmf_in
+            tri[:, CM.T_CLUSTER] = ch.tri_cluster
+            cl = np.zeros((n_k, CM.CL_W))
+            cl[:, 0:3] = -2.0 * ch.center
+            cl[:, CM.C_CC] = dot(ch.center, ch.center)
+            cl[:, CM.C_R2] = ch.radius2
+            cl[:, CM.C_POWER] = ch.power
+            cl[:, CM.C_NORMAL:CM.C_NORMAL + 3] = np.where(ch.cut[:, None], ch.normal, 0.0)
+            cl[:, CM.C_OFFSET] = np.where(ch.cut, ch.offset, -np.inf)
+            cl[:, CM.C_START] = ch.start
+            cl[:, CM.C_END] = ch.end
+            parts += [cl.ravel(), ch.seg, ch.order.astype(np.float64)]
+        rec = np.zeros(LC.RECORD)
+        rec[CM.R_TRIS], rec[CM.R_CLUSTERS], rec[CM.R_MESHES], rec[CM.R_LIVE] = n_f, n_k, self._local.size, n_l
+        rec[LC.AREA_SAMPLES] = self.n_samples
+        return LC.MESH, rec, np.concatenate(parts)
+
+    def _centroid_radiance(self, back):
+        """(F, 3) the radiance each triangle emits at its centroid from its front (or ``back``), with the material's
+        sidedness (:func:`_emission`): every point's, for the constant emission :meth:`compiled_record` packs."""
+        geo = self._geo
+        n_f = self._area.size
+        out = np.zeros((n_f, 3))
+        for lo in range(0, n_f, _BLOCK):
+            tri = np.arange(lo, min(n_f, lo + _BLOCK))
+            b = np.full(tri.size, 1.0 / 3.0)
+            y = self._points(tri, 1.0 - b - b, b, b)
+            n = take_rows(geo.face_normals, tri)
+            if back:
+                n = -n
+            out[tri] = _emission(self._materials, self._surface(tri, b, b, y + n, -n, np.ones(tri.size)))
+        return out
 
     def sample_li(self, p, u):
         """A :class:`LightSample` (``E`` and the sample's solid-angle ``pdf``) at the points ``p`` (N, 3)."""
