@@ -20,13 +20,15 @@ compiled_vertex`); tangent-space normal maps (in the frame of the mesh's vertex 
 and spot lights (every spot and distance falloff), directional lights; rectangle, disk and sphere lights (light
 samples stratified per hit and padded over a pixel's samples, BSDF samples beside them with MIS) with their visible
 meshes; constant and lat-long environments (and subclasses that declare it, the previewer's studio), seen by missed
-rays and lighting by ``strategy="mis"`` or ``"preview"`` (:mod:`pyrt.integrators.compiled_preview`); a constant
+rays and lighting by ``strategy="mis"`` or ``"preview"`` (:mod:`pyrt.integrators.compiled_preview`); the emissive-mesh
+light over constant emission (:mod:`pyrt.integrators.compiled_mesh_stage`); a constant
 background and ambient term; smooth and flat shading with or without the back-facing-normal fallback; the ``robust``
 and ``robust_no_terminator`` offsets; back-face culling (single-sided materials), alpha masks and blending (a
 constant or nearest / bilinear / trilinear opacity, no environment light but a preview:
-:mod:`pyrt.integrators.compiled_coverage`); fixed spp and adaptive passes (:func:`pyrt.integrators.compiled_passes.render_pixels`). Not yet: other
-environments and strategies, emissive-mesh lights, the other materials (and per-face colours), anisotropic and
-bicubic texture filters, nested media and ray recording (transparent shadows through Glass:
+:mod:`pyrt.integrators.compiled_coverage`); fixed spp and adaptive passes
+(:func:`pyrt.integrators.compiled_passes.render_pixels`). Not yet: other environments and strategies, emissive-mesh
+lights over textured emission, the other materials (and per-face colours), anisotropic and bicubic texture filters,
+nested media and ray recording (transparent shadows through Glass:
 :mod:`pyrt.integrators.compiled_shadows`; AOVs: fixed spp, not on Dask workers; the
 glossy integrator and the light choice not on Dask workers).
 """
