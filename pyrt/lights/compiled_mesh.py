@@ -3,8 +3,8 @@
 :class:`pyrt.EmissiveMeshLight` packs its record (tag :data:`pyrt.lights.compiled.MESH`) and a block of float64
 tables (:meth:`pyrt.EmissiveMeshLight.compiled_record`); the compiled scene appends the block after the light records
 (the same flat array, :func:`pyrt.core.unmanaged.pointer`) and writes where it starts into the record's field
-:data:`R_DATA`. Record fields: :data:`R_DATA` the block's start, :data:`R_TRIS` light triangles ``F``, :data:`R_CLUSTERS`
-clusters ``K`` (0: ``selection="power"``), :data:`R_MESHES` scene meshes ``M``, :data:`R_LIVE` triangles in clusters
+:data:`R_DATA`. Record fields: :data:`R_DATA` the block's start, :data:`R_TRIS` light triangles ``F``,
+:data:`R_CLUSTERS` clusters ``K`` (0: ``selection="power"``), :data:`R_MESHES` scene meshes ``M``, :data:`R_LIVE` triangles in clusters
 ``L``, :data:`pyrt.lights.compiled.AREA_SAMPLES` samples per hit. The block, in order:
 
 =========  ===========================================================================================================
