@@ -66,14 +66,13 @@ def offsets(pars, j):
 def importance(pars, c, px, py, pz, pp):
     """The unnormalised probability of the cluster whose row starts at ``c`` at the point ``p`` (``pp = |p|^2``):
     ``power / max(|p - c|^2, r^2)``, 0 behind a cluster cut there (:meth:`ClusterChoice.probabilities`)."""
-    d2 = (px * pars[c] + py * pars[c + 1] + pz * pars[c + 2]) + pars[c + C_CC] + pp
-    imp = pars[c + C_POWER] / max(d2, pars[c + C_R2])
     off = pars[c + C_OFFSET]
-    if off > -math.inf:
+    if off > -math.inf:     # (first: no division for the clusters behind the point)
         side = (px * pars[c + C_NORMAL] + py * pars[c + C_NORMAL + 1] + pz * pars[c + C_NORMAL + 2]) - off
         if not side > 0.0:
-            imp = 0.0
-    return imp
+            return 0.0
+    d2 = (px * pars[c] + py * pars[c + 1] + pz * pars[c + 2]) + pars[c + C_CC] + pp
+    return pars[c + C_POWER] / max(d2, pars[c + C_R2])
 
 
 @register_jitable
