@@ -180,3 +180,20 @@ def test_emission_the_kernel_cannot_read_falls_back_and_says_why():
         assert (light.compiled_record() is not None) is ok
         reasons = compiled.unsupported(pyrt.PreparedScene(s))
         assert (f"light {light.label}" in reasons) is not ok, reasons
+
+
+def test_the_previewer_renders_an_emissive_model_on_the_compiled_path(tmp_path):
+    """An OBJ whose lamp emits (MTL ``Ke``): the previewer's oriented emissive-mesh light, its glossy integrator, light
+    choice and sampler, and the compiled path renders it."""
+    from pyrt.apps.preview import PreviewOptions, PreviewScene
+    from test_emissive_lights import _obj
+    o = PreviewOptions(width=32, height=24, spp=1).validate()
+    ps = PreviewScene(pyrt.load_asset(_obj(tmp_path, True)), o)
+    try:
+        assert ps.emissive_light is not None and ps.emissive_light.selection == "oriented"
+        assert compiled.unsupported(ps.prepared, integrator="glossy", transparent_shadows=True,
+                                    light_select_depth=o.light_select_depth, sampler=o.sampler) == []
+        r = ps.render_view(ps.azimuth)
+        assert r.stats.backend == "compiled" and r.image.max() > 0
+    finally:
+        ps.close()
