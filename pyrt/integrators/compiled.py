@@ -75,6 +75,9 @@ _announced = []
 #: what :func:`unsupported` adds to the reason of a material it cannot pack that is a dielectric with a non-delta lobe
 _DIELECTRIC_LOBES = (" (a dielectric with a BSDF lobe, e.g. glTF KHR_materials_transmission or rough glass: the "
                      "kernel's dielectrics are Glass and smooth glTF transmission)")
+#: ... and to the reason of an emissive-mesh light it cannot pack (:meth:`pyrt.EmissiveMeshLight.compiled_record`)
+_MESH_EMISSION = (" (an emitter whose emission is not a constant the kernel reads: textured, vertex colours, alpha "
+                  "masks or blending)")
 #: ... and to the reason of a smooth transmitting material it cannot pack
 _SMOOTH_TEXTURED = (" (smooth glTF transmission: the kernel reads it with constant base colour, metallic and "
                     "transmission, isotropic, constant specular)")
@@ -158,7 +161,7 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
                            "times a channel of an image texture the kernel reads)")
     for lt in scene.lights:
         if lt.compiled_record() is None or (lt.delta and lt.n_samples != 1):
-            reasons.append(f"light {lt.label}")
+            reasons.append(f"light {lt.label}" + (_MESH_EMISSION if lt.scene_emitter else ""))
         elif lt.environment is not None and lt.environment is not scene.environment:
             reasons.append(f"light {lt.label} (lights with an environment other than the scene's)")
     reasons += CV.vertex_colors(scene.meshes, CV.vertex_color_textures(records, textures.objects))[1]
