@@ -197,3 +197,24 @@ def test_the_previewer_renders_an_emissive_model_on_the_compiled_path(tmp_path):
         assert r.stats.backend == "compiled" and r.image.max() > 0
     finally:
         ps.close()
+
+
+def test_transparent_shadows_toward_emitters_match_the_numpy_path():
+    """The light's shadow rays through a tinted glass slab (the camera sees the slab's shadow on the floor, not the
+    slab; a one-sided quad emitter above it): pixel by pixel at pixel centres (the packet stage's shadow rays
+    walked); with the glass sphere, mirror and glossy rays of tests/test_compiled_transmission.py's scene (single
+    shadow rays from the specular tree's and glossy rays' hits) in distribution."""
+    from test_compiled_transmission import _glass_scene, _slab_scene
+    s = _slab_scene()
+    s.add_mesh(quad_mesh(), pyrt.AreaEmitter(4.0), smooth=False, transform=np.diag([2.0, 2.0, 2.0, 1.0]),
+               name="panel")
+    s.add_emissive_lights(n_samples=4, selection="oriented")
+    kw = dict(integrator=pyrt.Whitted(transparent_shadows=True))
+    c = pyrt.render_full(s, execution=pyrt.Execution(backend="compiled", progress=False), **kw)
+    n = pyrt.render_full(s, execution=pyrt.Execution(backend="numpy", progress=False), **kw)
+    assert c.stats.backend == "compiled"
+    _close(c.image, n.image)
+    g = _glass_scene()
+    g.add_box((-0.2, 1.3, -0.6), (0.4, 0.1, 0.3), pyrt.Lambert(albedo=0.1, emission=(5.0, 3.0, 1.0)))
+    g.add_emissive_lights(selection="oriented")
+    _assert_agree(g, integrator=pyrt.Glossy(transparent_shadows=True, samples=4, depth=2, light_select_depth=1))
