@@ -1,7 +1,8 @@
 """The material contracts (tests/test_material_contracts.py) on the compiled kernel's evaluation.
 
 For every registered material whose example packs into the compiled material table (``compiled_record``), the
-kernel's own switch (:func:`pyrt.materials.compiled.f_cos`, compiled here in a small Numba loop over the same
+kernel's own switch (:func:`pyrt.materials.compiled_sampling.f_cos_world` in the shading frame:
+:func:`pyrt.materials.compiled.f_cos`, a clear coat's ``f_cos_local``; compiled here in a small Numba loop over the same
 quadrature and direction sets as the NumPy contracts) must be finite, non-negative and zero below the horizon,
 reciprocal where the material declares it, and conserve energy (white furnace, directional albedo <= 1) — and it
 must equal the material's NumPy ``f_cos`` on the quadrature nodes (1e-6 relative).
@@ -13,6 +14,7 @@ import pytest
 import pyrt
 from material_helpers import LocalCtx, direction
 from pyrt.materials import compiled as MC
+from pyrt.materials import compiled_sampling as CS
 from test_material_contracts import QUAD_DW, QUAD_W, _reciprocity_pair
 
 NAMES = sorted(pyrt.MATERIALS)
@@ -26,8 +28,8 @@ def _f_cos_many(tag, rec, wo, wi, out):
     tex_par = np.zeros(8)
     for k in range(wo.shape[0]):
         albedo = MC.albedo_at(tag, rec, 0, tex_tag, tex_par, 0.0, 0.0, (0.0, 0.0, 0.0, 0.0), MC.WHITE)
-        cos_io = wo[k, 0] * wi[k, 0] + wo[k, 1] * wi[k, 1] + wo[k, 2] * wi[k, 2]
-        r = MC.f_cos(tag, rec, 0, albedo, wo[k, 2], wi[k, 2], cos_io)
+        r = CS.f_cos_world(tag, rec, 0, albedo, (wo[k, 0], wo[k, 1], wo[k, 2]), (wi[k, 0], wi[k, 1], wi[k, 2]),
+                           (0.0, 0.0, 1.0))
         out[k, 0], out[k, 1], out[k, 2] = r
 
 
@@ -41,7 +43,8 @@ def compiled_f_cos(mat, wo, wi):
 
 
 def test_the_compiled_set_is_what_the_kernel_claims():
-    assert {"lambert", "blinn_phong", "phong", "cook_torrance", "metallic_roughness", "oren_nayar"} <= set(COMPILED)
+    assert {"lambert", "blinn_phong", "phong", "cook_torrance", "metallic_roughness", "oren_nayar",
+            "clearcoat"} <= set(COMPILED)
 
 
 @pytest.mark.parametrize("name", COMPILED)

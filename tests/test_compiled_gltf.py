@@ -40,7 +40,7 @@ KHRONOS = "/work/shared/khronos-gltf"
 @numba.njit
 def _f_cos_many(rec, base, metal, rough, wo, wi, out, vector_form):
     for k in range(wo.shape[0]):
-        a = (0.0, 0.0, 0.0, base[k, 0], base[k, 1], base[k, 2], metal[k], rough[k])
+        a = (0.0, 0.0, 0.0, base[k, 0], base[k, 1], base[k, 2], metal[k], rough[k], 1.0, 0.0, 0.0, 0.0, 0.0, 1.0)
         if vector_form:
             r = CS.f_cos_local(MC.GLTF, rec, 0, a, wo[k, 0], wo[k, 1], wo[k, 2], wi[k, 0], wi[k, 1], wi[k, 2])
         else:

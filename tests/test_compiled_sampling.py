@@ -9,6 +9,8 @@ microfacet mixtures: every distribution, ``p_spec`` 0 < p < 1 and 1, roughness 0
 - the pdf of any ``(wo, wi)`` (below the horizon too) equals the NumPy ``pdf`` (same tolerance);
 - the sampled directions follow the compiled pdf: the chi-square harness of tests/test_material_contracts.py
   (200k samples, 12 x 24 cells, rejected at p < 1e-4) run on the compiled sampler and pdf;
+- a clear coat over a GLTF record (its coat's normal the shading normal; tilted: tests/test_compiled_clearcoat.py)
+  likewise;
 - the frame (:func:`coordinate_frame`, :func:`to_local`, :func:`to_world`) is the NumPy path's bit for bit.
 """
 import types
@@ -52,6 +54,8 @@ MATERIALS = {
     "gltf_pbr": lambda: pyrt.GltfPBR.example(),
     "gltf_pbr_metal": lambda: pyrt.GltfPBR(base_color=(0.9, 0.6, 0.4), metallic=0.7, roughness=0.35, specular=0.5,
                                            ior=1.33, geometry="smith_correlated"),
+    "clearcoat": lambda: pyrt.Clearcoat.example(),
+    "clearcoat_smooth": lambda: pyrt.Clearcoat(pyrt.GltfPBR.example(), clearcoat=0.6, roughness=0.03),
 }
 NAMES = sorted(MATERIALS)
 #: one material per sampler for the chi-square test (the cosine families share one sampler; the mixtures differ by
@@ -70,6 +74,8 @@ CHI2 = {
     "learnopengl": MATERIALS["learnopengl"],
     "gltf_pbr": lambda: pyrt.GltfPBR(base_color=(0.8, 0.5, 0.3), metallic=0.4, roughness=0.5, specular=0.7,
                                      specular_color=(1.0, 0.8, 0.6), ior=1.7),
+    "clearcoat": lambda: pyrt.Clearcoat(pyrt.MetallicRoughness(base_color=(0.7, 0.1, 0.1), roughness=0.5),
+                                        clearcoat=0.8, roughness=0.5),
 }
 
 

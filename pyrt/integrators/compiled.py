@@ -64,7 +64,6 @@ from pyrt.materials import compiled as MC
 from pyrt.materials.gltf_record import scalar_slot
 from pyrt.textures import compiled as TC
 from pyrt.textures import ImageTexture
-from pyrt.textures.normal_map import NormalMap
 
 #: ``backend=`` values of :func:`pyrt.render_full`
 BACKENDS = ("auto", "compiled", "numpy")
@@ -261,9 +260,11 @@ def _table(tags, records, width):
 
 def _preview_geometries(mats):
     """The Smith terms (indices into :data:`pyrt.shaders.jit_brdfs.GEOMETRY_TERMS`) of the packed materials whose
-    split-sum tables the environment preview reads (METALLIC_ROUGHNESS: field 9, GLTF: field 19)."""
-    return {int(rec[9]) if tag == MC.METALLIC_ROUGHNESS else int(rec[19]) for tag, rec in mats
-            if tag in (MC.METALLIC_ROUGHNESS, MC.GLTF)}
+    split-sum tables the environment preview reads (METALLIC_ROUGHNESS: field 9, GLTF: field 19; a clear coat's lobe:
+    ``smith_correlated``, index 0)."""
+    terms = {int(rec[9]) if tag == MC.METALLIC_ROUGHNESS else int(rec[19]) for tag, rec in mats
+             if tag in (MC.METALLIC_ROUGHNESS, MC.GLTF)}
+    return terms | {0 for tag, rec in mats if tag == MC.GLTF and rec[MC.COAT] != 0.0}
 
 
 class CompiledScene:
@@ -309,7 +310,7 @@ class CompiledScene:
         self.fallback = ps.geo.shading_normal_fallback
         for m, (tag, rec) in zip(ps.scene.materials, mats):
             if m.normal_map is not None:
-                rec[MC.NORMAL_MAP:MC.NORMAL_MAP + 4] = normal_map_fields(m.normal_map, textures.add(m.normal_map))
+                rec[MC.NORMAL_MAP:MC.NORMAL_MAP + 4] = MC.normal_map_fields(m.normal_map, textures.add(m.normal_map))
             rec[MC.CULL] = 1.0 if m.culls_back_faces else 0.0
             if m.alpha_mode != "opaque":
                 rec[MC.MASK:MC.MASK + 5] = coverage_fields(m, textures.add)
@@ -322,7 +323,8 @@ class CompiledScene:
         #: whether the rays carry differentials (a texture reads footprints); whether a material has a normal map
         #: (:data:`pyrt.integrators.compiled_layout.O_NMAPS`: 2 when besides a mesh has vertex tangents)
         self.diffs = any(t == TC.MIP for t in textures.tags)
-        self.normal_maps = any(m.normal_map is not None for m in ps.scene.materials)
+        self.normal_maps = any(m.normal_map is not None for m in ps.scene.materials) or any(
+            tag == MC.GLTF and rec[MC.COAT + 7] != 0.0 for tag, rec in mats)
         if self.normal_maps and ps.geo.tangent_frames is not None:
             self.normal_maps = 2
         #: coverage (:data:`pyrt.integrators.compiled_layout.O_COVER`): 2 with an alpha mask or a blend material, 1
@@ -389,14 +391,6 @@ def coverage_fields(material, add_texture):
     slot = scalar_slot(material.opacity, add_texture)
     mode = CC.MODE_MASK if material.alpha_mode == "mask" else CC.MODE_BLEND
     return None if slot is None else [mode, float(material.alpha_cutoff), *slot]
-
-
-def normal_map_fields(normal_map, row):
-    """A material record's :data:`pyrt.materials.compiled.NORMAL_MAP` fields for its normal map, the texture table's
-    row ``row``: ``row + 1``, strength, flip green, bend (a texture other than :class:`pyrt.NormalMap`: the class
-    defaults, as :func:`pyrt.textures.normal_map.perturb_normal`)."""
-    nm = normal_map if isinstance(normal_map, NormalMap) else NormalMap
-    return [row + 1.0, nm.strength, 1.0 if nm.flip_green else 0.0, 1.0 if nm.reflection == "bend" else 0.0]
 
 
 def camera_record(cam):

@@ -32,6 +32,7 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     C_FWD, C_K, C_POS, C_RIGHT, C_UP, LANES, O_DIFFS, O_NMAPS, O_SPP, STACK_DIFF, V_D, V_DP, V_RAY, _njit, lane_vec,
     set_lane_vec)
 from pyrt.materials import compiled as MC  # noqa: E402
+from pyrt.materials import compiled_sampling as CS  # noqa: E402
 from pyrt.shaders.jit import bary3, dot, row3  # noqa: E402
 from pyrt.textures import compiled_normal_map as NM  # noqa: E402
 from pyrt.textures.compiled import texture_rgb  # noqa: E402
@@ -226,16 +227,37 @@ def _inputs(G, V, lane, diffs, nmaps, vtan, face, bu, bv, p, ng, ns, wo, front, 
     vc = vertex_color(G, mats_par, m, face, bu, bv)
     albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1], fp, vc)
     if nmaps:
+        n0 = ns
         b = m * MC.RECORD + MC.NORMAL_MAP
         t = int(mats_par[b]) - 1
         if t >= 0:
-            rgb = texture_rgb(tex_tag, tex_par, t, uv[0], uv[1], fp)
-            has, dpdu, dpdv = vertex_tangents(G, face, bu, bv) if vtan else (False, ns, ns)
-            if not has:
-                dpdu, dpdv = face_uv_tangents(G, face, ng)
-            ns = NM.perturb(rgb, mats_par[b + 1], mats_par[b + 2] != 0.0, mats_par[b + 3] != 0.0, ns, ng, wo, front,
-                            dpdu, dpdv)
+            ns = _mapped(G, vtan, face, bu, bv, ng, wo, front, uv, fp, mats_par, b, t, n0, tex_tag, tex_par)
+        bc = m * MC.RECORD + MC.COAT + 7
+        tc = int(mats_par[bc]) - 1
+        if MC.is_coated(mtag, mats_par, m) and (t >= 0 or tc >= 0):
+            # the coat's normal: the normal before the base's map, perturbed by the coat's own map
+            # (pyrt.Clearcoat._coat_frame), in the local frame of the shading normal
+            nc = n0 if tc < 0 else _mapped(G, vtan, face, bu, bv, ng, wo, front, uv, fp, mats_par, bc, tc, n0, tex_tag,
+                                           tex_par)
+            fs, ft = CS.coordinate_frame(ns[0], ns[1], ns[2])
+            x, y, z = CS.to_local(nc, fs, ft, ns)
+            inv = 1.0 / max(math.sqrt(x * x + y * y + z * z), 1e-300)
+            albedo = MC.with_coat_normal(albedo, (x * inv, y * inv, z * inv))
+    if mtag == MC.UNLIT:        # its colour times the vertex colours, as its albedo
+        return albedo, ns, (albedo[0], albedo[1], albedo[2])
     return albedo, ns, MC.emission_at(mtag, mats_par, m, front, tex_tag, tex_par, uv[0], uv[1], fp)
+
+
+@_own
+def _mapped(G, vtan, face, bu, bv, ng, wo, front, uv, fp, mats_par, b, t, ns, tex_tag, tex_par):
+    """``ns`` perturbed by the normal map whose fields are at ``mats_par[b:]`` (:data:`pyrt.materials.compiled.
+    NORMAL_MAP`'s layout), texture row ``t`` (:func:`pyrt.textures.compiled_normal_map.perturb`)."""
+    rgb = texture_rgb(tex_tag, tex_par, t, uv[0], uv[1], fp)
+    has, dpdu, dpdv = vertex_tangents(G, face, bu, bv) if vtan else (False, ns, ns)
+    if not has:
+        dpdu, dpdv = face_uv_tangents(G, face, ng)
+    return NM.perturb(rgb, mats_par[b + 1], mats_par[b + 2] != 0.0, mats_par[b + 3] != 0.0, ns, ng, wo, front, dpdu,
+                      dpdv)
 
 
 @_njit

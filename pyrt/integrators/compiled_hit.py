@@ -203,7 +203,7 @@ def env_glossy(scene, G, etag, erec, edata, mtag, mats_tag, mats_par, tex_tag, t
         if not (cg > 0.0 or dot(wi, nv) > 0.0):
             continue
         L = CE.radiance(etag, erec, edata, wx, wy, wz)
-        f = MC.f_cos(mtag, mats_par, m, albedo, dot(wo, ns), dot(wi, ns), dot(wi, wo))
+        f = CS.f_cos_world(mtag, mats_par, m, albedo, wo, wi, ns)
         if not max(f[0] * L[0], f[1] * L[1], f[2] * L[2]) > 0.0:
             continue
         wil = CS.to_local(wi, fs, ft, ns)

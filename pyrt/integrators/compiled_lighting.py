@@ -57,7 +57,7 @@ def direct_light(ltags, lpars, j, mtag, mpars, m, albedo, p, ng, ns, nv, wo, lif
     wi = (w0, w1, w2)
     cg = dot(wi, ng)
     ok = s > 0.0 and max(lpars[jb + 6], lpars[jb + 7], lpars[jb + 8]) > 0.0 and (cg > 0.0 or dot(wi, nv) > 0.0)
-    f = MC.f_cos(mtag, mpars, m, albedo, dot(wo, ns), dot(wi, ns), dot(wi, wo))
+    f = CS.f_cos_world(mtag, mpars, m, albedo, wo, wi, ns)
     ok = ok and max(f[0], f[1], f[2]) > 0.0
     f = (f[0] * s * lpars[jb + 6], f[1] * s * lpars[jb + 7], f[2] * s * lpars[jb + 8])
     o = J.shadow_origin(p, ng, lift, mag, mag_lift, cg, terminator)
@@ -252,8 +252,13 @@ def bsdf_stage(mats_tag, mats_par, lpars, j, V, sh, w, n):
         m = int(V[V_MAT * LANES + lane])
         mm = max(m, 0)
         mtag = mats_tag[mm]
-        f = MC.f_cos(mtag, mats_par, mm, lane_inputs(V, lane), V[V_COSO * LANES + lane], V[V_COSI * LANES + lane],
-                     V[V_COSIO * LANES + lane])
+        if MC.is_coated(mtag, mats_par, mm):       # the coat's lobe needs the directions
+            d = lane_vec(V, V_D, lane)
+            f = CS.f_cos_world(mtag, mats_par, mm, lane_inputs(V, lane), (-d[0], -d[1], -d[2]),
+                               lane_vec(V, V_WI, lane), lane_vec(V, V_NS, lane))
+        else:
+            f = MC.f_cos(mtag, mats_par, mm, lane_inputs(V, lane), V[V_COSO * LANES + lane],
+                         V[V_COSI * LANES + lane], V[V_COSIO * LANES + lane])
         s = V[V_S * LANES + lane]
         ok = V[V_GOK * LANES + lane] != 0.0 and max(f[0], f[1], f[2]) > 0.0 and m >= 0 and MC.has_diffuse(mtag)
         set_lane_vec(V, V_F, lane, (f[0] * s * e0, f[1] * s * e1, f[2] * s * e2))

@@ -44,7 +44,7 @@ def mesh_light(lpars, j, mtag, mpars, m, albedo, p, ng, ns, nv, wo, lift, mag, m
     wi = (wx, wy, wz)
     cg = dot(wi, ng)
     ok = pdf > 0.0 and max(r, g, b) > 0.0 and (cg > 0.0 or dot(wi, nv) > 0.0)
-    f = MC.f_cos(mtag, mpars, m, albedo, dot(wo, ns), dot(wi, ns), dot(wi, wo))
+    f = CS.f_cos_world(mtag, mpars, m, albedo, wo, wi, ns)
     ok = ok and max(f[0], f[1], f[2]) > 0.0
     k = 1.0 / pdf if ok else 0.0
     f = (f[0] * (r * k), f[1] * (g * k), f[2] * (b * k))

@@ -65,9 +65,28 @@ def split_sum(etag, erec, edata, mtag, mpars, m, albedo, ns, wo):
     r = dif[0] / math.pi * e[0] + spec[0] * p[0]
     g = dif[1] / math.pi * e[1] + spec[1] * p[1]
     bl = dif[2] / math.pi * e[2] + spec[2] * p[2]
+    if MC.is_coated(mtag, mpars, m):
+        r, g, bl = coat_split_sum(etag, erec, edata, mpars, b, albedo, ns, wo, (r, g, bl))
     if mtag == MC.GLTF:          # the occlusion (1 without one: exact)
         return r * occ, g * occ, bl * occ
     return r, g, bl
+
+
+@_own
+def coat_split_sum(etag, erec, edata, mpars, b, albedo, ns, wo, base):
+    """:meth:`pyrt.Clearcoat.preview_lobes` over the base's split sum ``base`` (RGB) at a hit of the coated GLTF record
+    at ``mpars[b:]``: ``base (1 - c F_c) + c F_c (A + B) prefiltered`` of the coat's GGX lobe (height-correlated
+    Smith) about the coat's normal ``n_c`` (its inputs, in the frame of ``ns``; ``F_c`` at ``|n_c.wo|``, the tables at
+    ``mu = n_c.wo`` clamped)."""
+    fs, ft = CS.coordinate_frame(ns[0], ns[1], ns[2])
+    nc = CS.to_world((albedo[11], albedo[12], albedo[13]), fs, ft, ns)
+    cw = CS.coat_weight(mpars, b, albedo, wo[0] * nc[0] + wo[1] * nc[1] + wo[2] * nc[2])
+    alpha = albedo[10]
+    a, bt = CP.specular_ab(erec, edata, 0, JP.view_cosine(wo, nc), alpha)
+    d = JP.dominant_direction(wo, nc, alpha)
+    p = CP.prefiltered(etag, erec, edata, d[0], d[1], d[2], alpha)
+    k, w = 1.0 - cw, cw * (a + bt)
+    return base[0] * k + w * p[0], base[1] * k + w * p[1], base[2] * k + w * p[2]
 
 
 @_own

@@ -25,6 +25,8 @@ COOK_TORRANCE        0-3 albedo slot, 4-6 kd, 7-9 ks, 10 alpha, 11 distribution,
 METALLIC_ROUGHNESS   0-3 albedo slot, 4-6 base colour, 7 metallic, 8 roughness, 9 geometry (also LearnOpenGLPBR)
 EMITTER              4-6 radiance (constant RGB), 7 two-sided (1) or front only (0): an area light's visible mesh
                      (:class:`pyrt.lights.area.AreaEmitter`: emits, reflects nothing)
+UNLIT                0-3 colour slot: :class:`pyrt.Unlit`'s colour, emitted from both sides, its albedo; reflects
+                     nothing (:func:`pyrt.materials.gltf_record.unlit_record`)
 GLTF                 glTF's metallic-roughness family with textured parameters, emission and occlusion: the layout
                      of :mod:`pyrt.materials.gltf_record` (0-23), resolved per hit by :func:`gltf_inputs`
 (every material)     24-27 its normal map (:data:`NORMAL_MAP`), 28 1 when it culls back faces (:data:`CULL`), 29-33
@@ -34,6 +36,10 @@ GLTF                 glTF's metallic-roughness family with textured parameters, 
 GLTF (transmission)  37-40 (:data:`TRANSMISSION`) a smooth transmitting ``GltfPBR``'s constant ``w = (1 - metallic)
                      transmission``, its ``transmission``, 1 for a thin wall (0: a volume) and its ``ior``; zeros
                      for the opaque ones
+GLTF (clear coat)    41-52 (:data:`COAT`) a :class:`pyrt.Clearcoat` over an opaque GLTF base: 41 1 (0: no coat), 42-44
+                     the clear coat's scalar slot ``[row or -1, factor, channel]``, 45-47 the coat roughness's, 48-51
+                     the coat's normal map (as :data:`NORMAL_MAP`; row 0: none), 52 the coat's F0
+                     (:func:`pyrt.materials.gltf_record.clearcoat_record`)
 ===================  ============================================================================================
 
 The models after BLINN_PHONG but GLTF have constant parameters only (a textured one is not compiled); their formulas
@@ -46,9 +52,12 @@ the record's :data:`VERTEX_COLOR` field is then the vertex-colour texture's row 
 of tag :data:`pyrt.textures.compiled.VERTEX`, never looked up by uv: the colours are packed with the geometry and
 interpolated at the hit, :func:`pyrt.integrators.compiled_diffs.vertex_color`), and the slot holds the other factor.
 
-A hit's *inputs* (:func:`albedo_at`) are a 9-tuple: its ``albedo()`` (what the ambient term and the albedo AOV
+A hit's *inputs* (:func:`albedo_at`) are a 14-tuple: its ``albedo()`` (what the ambient term and the albedo AOV
 read; Lambert's albedo, Blinn-Phong's kd), then GLTF's per-hit base colour, metallic, roughness and occlusion factor
-``1 + strength (occ - 1)`` (what the environment preview multiplies; zeros for the other tags). The BSDF functions take them as ``albedo``.
+``1 + strength (occ - 1)`` (what the environment preview multiplies; zeros for the other tags), then a coated GLTF's
+clear coat ``c``, the coat's ``alpha = roughness^2`` and the coat's normal in the local shading frame (``(0, 0, 1)``
+where it is the shading normal; :func:`with_coat_normal`). The BSDF functions take them as ``albedo``; a coated
+GLTF's BSDF is :mod:`pyrt.materials.compiled_sampling`'s (``f_cos_world``, ``f_cos_local``), not :func:`f_cos`.
 
 The kernel reads the record table through its flat data (:func:`pyrt.core.unmanaged.pointer`: material ``m``'s
 record at ``pars[m * RECORD:]``; a pointer binds no array, so the per-sample code pays no reference counting).
@@ -65,9 +74,10 @@ from pyrt.shaders import jit as J
 from pyrt.shaders import jit_brdfs as JB
 from pyrt.textures.base import Texture, is_texture
 from pyrt.textures.compiled import texture_rgb
+from pyrt.textures.normal_map import NormalMap
 
 #: parameters per material record
-RECORD = 41
+RECORD = 53
 #: where every record keeps its normal map (:func:`pyrt.integrators.compiled_diffs.mapped_normal`): the map's row in the
 #: texture table plus one (0: none), its strength, 1 for green = -v (DirectX), 1 to bend reflections above the surface
 NORMAL_MAP = 24
@@ -91,6 +101,9 @@ VERTEX_COLOR = 36
 #: where a GLTF record keeps its smooth transmission (:func:`dielectric_lobes`, :func:`shadow_transmission`): ``w``,
 #: ``transmission``, thin (1) or volume (0), ``ior``; ``w`` > 0 makes it a dielectric with delta lobes
 TRANSMISSION = 37
+#: where a GLTF record keeps its clear coat (module notes; :func:`pyrt.materials.gltf_record.clearcoat_record`): 1 when
+#: coated, the clear coat's and the coat roughness's scalar slots, the coat's normal map fields, the coat's F0
+COAT = 41
 #: the vertex colour of a hit whose material reads none (a multiplication by it is exact)
 WHITE = (1.0, 1.0, 1.0)
 #: type tags (0 is no material)
@@ -101,6 +114,8 @@ PHONG, PHONG_CLASSIC, BLINN_PHONG_CLASSIC, OREN_NAYAR, WARD, COOK_TORRANCE, META
 EMITTER = 13
 #: glTF's metallic-roughness family with per-hit parameters (:mod:`pyrt.materials.gltf_record`)
 GLTF = 14
+#: a surface that shows its colour (:class:`pyrt.Unlit`, glTF ``KHR_materials_unlit``)
+UNLIT = 15
 
 
 @register_jitable(forceinline=True)
@@ -191,10 +206,17 @@ def mirror_weight(tag, pars, m, cos_o):
 
 
 @register_jitable(forceinline=True)
+def is_coated(tag, pars, m):
+    """True for a GLTF material ``m`` under a clear coat (:data:`COAT`)."""
+    return tag == GLTF and pars[m * RECORD + COAT] != 0.0
+
+
+@register_jitable(forceinline=True)
 def f_cos(tag, pars, m, albedo, cos_o, cos_i, cos_io):
     """BRDF times cos(theta_i) (an RGB tuple) of material ``m`` (tag ``tag``) for the cosines
     ``n.wo``, ``n.wi``, ``wo.wi`` (shading normal); ``albedo`` (RGB tuple) is the material's diffuse colour at the
-    hit (:func:`albedo_at`). Zero below either horizon.
+    hit (:func:`albedo_at`). Zero below either horizon. Not for a coated GLTF (:func:`is_coated`), whose coat needs
+    the directions: :func:`pyrt.materials.compiled_sampling.f_cos_world`.
 
     LAMBERT: :func:`pyrt.shaders.brdfs.lambert_f_cos_cosines`; BLINN_PHONG:
     :func:`pyrt.shaders.brdfs.blinn_phong_normalized_f_cos_cosines`."""
@@ -246,8 +268,11 @@ def _f_cos_library(tag, p, b, cos_o, cos_i, cos_io):
 @register_jitable(forceinline=True)
 def emission(tag, pars, m, front):
     """The radiance (an RGB tuple) material ``m`` emits toward the viewer: LAMBERT's and BLINN_PHONG's constant
-    emission (both sides), EMITTER's radiance from its front (or both sides when two-sided); zeros for the others."""
+    emission (both sides), EMITTER's radiance from its front (or both sides when two-sided), UNLIT's constant colour
+    (both sides; a textured one: :func:`emission_at`); zeros for the others."""
     b = m * RECORD
+    if tag == UNLIT:
+        return pars[b + 1], pars[b + 2], pars[b + 3]
     if tag == LAMBERT or (tag == EMITTER and (front or pars[b + 7] != 0.0)):
         return pars[b + 4], pars[b + 5], pars[b + 6]
     if tag == BLINN_PHONG:
@@ -259,31 +284,36 @@ def emission(tag, pars, m, front):
 def albedo_constant(tag, pars, m):
     """True where :func:`albedo_at` of material ``m`` does not depend on the uv (no texture in its colour slot) and
     the material has no normal map (:data:`NORMAL_MAP`): its shading inputs are the surface's alone."""
-    return (not (tag == LAMBERT or tag == BLINN_PHONG or CONDUCTOR <= tag <= METALLIC_ROUGHNESS or tag == GLTF)
+    return (not (tag == LAMBERT or tag == BLINN_PHONG or CONDUCTOR <= tag <= METALLIC_ROUGHNESS or tag == GLTF
+                 or tag == UNLIT)
             or (pars[m * RECORD] < 0.0 and tag != GLTF)) and pars[m * RECORD + NORMAL_MAP] == 0.0 \
         and pars[m * RECORD + VERTEX_COLOR] == 0.0
 
 
 @register_jitable(forceinline=True)
 def albedo_at(tag, pars, m, tex_tag, tex_par, u, v, fp, vc):
-    """The hit's inputs (module notes: a 9-tuple) of material ``m`` at uv ``(u, v)`` with the UV footprint ``fp``
+    """The hit's inputs (module notes: a 14-tuple) of material ``m`` at uv ``(u, v)`` with the UV footprint ``fp``
     (zeros: none) and the vertex colour ``vc`` (an RGB tuple, :data:`WHITE` where the material reads none): the
     diffuse colour (Lambert albedo, Blinn-Phong kd, the library models' constant ``albedo()``, GLTF's
-    :func:`gltf_inputs`; zeros for the others), then GLTF's base colour, metallic, roughness and occlusion. Colour
-    slot 0 times ``vc``, as ``ProductTexture`` multiplies."""
+    :func:`gltf_inputs`; UNLIT's colour; zeros for the others), then GLTF's base colour, metallic, roughness and
+    occlusion. Colour slot 0 times ``vc``, as ``ProductTexture`` multiplies."""
     if tag == GLTF:
         return gltf_inputs(pars, m * RECORD, tex_tag, tex_par, u, v, fp, vc)
-    if tag == LAMBERT or tag == BLINN_PHONG or CONDUCTOR <= tag <= METALLIC_ROUGHNESS:
+    if tag == LAMBERT or tag == BLINN_PHONG or CONDUCTOR <= tag <= METALLIC_ROUGHNESS or tag == UNLIT:
         a = color_slot(pars, m, 0, tex_tag, tex_par, u, v, fp)
-        return vc[0] * a[0], vc[1] * a[1], vc[2] * a[2], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        return (vc[0] * a[0], vc[1] * a[1], vc[2] * a[2], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                1.0)
+    return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
 
 
 @register_jitable(forceinline=True)
 def emission_at(tag, pars, m, front, tex_tag, tex_par, u, v, fp):
-    """:func:`emission`, and GLTF's emission slot at uv ``(u, v)`` (both sides, as ``SurfaceExtras.emission``)."""
+    """:func:`emission`, GLTF's emission slot at uv ``(u, v)`` (both sides, as ``SurfaceExtras.emission``) and UNLIT's
+    colour slot (without its vertex colours: the caller multiplies by them)."""
     if tag == GLTF:
         return scaled_slot(pars, m * RECORD + 10, tex_tag, tex_par, u, v, fp)
+    if tag == UNLIT:
+        return scaled_slot(pars, m * RECORD, tex_tag, tex_par, u, v, fp)
     return emission(tag, pars, m, front)
 
 
@@ -308,10 +338,12 @@ def slot_scalar(pars, b, rgb):
 
 @register_jitable
 def gltf_inputs(pars, b, tex_tag, tex_par, u, v, fp, vc):
-    """The inputs (a 9-tuple) of the GLTF record at ``pars[b:]`` with the vertex colour ``vc``: ``albedo() = base
+    """The inputs (a 14-tuple) of the GLTF record at ``pars[b:]`` with the vertex colour ``vc``: ``albedo() = base
     k (1 - w)``, ``k = 1 + s (occ - 1)`` (with an occlusion texture; else 1), ``w`` the transmissive share
     (:data:`TRANSMISSION`, 0 when opaque: :meth:`pyrt.GltfPBR.albedo`), the base colour (its slot times ``vc``),
-    metallic, roughness and ``k``; one lookup per texture row (metallic and roughness from one packed map read it
+    metallic, roughness and ``k``, then the clear coat ``c`` and the coat's alpha (:data:`COAT`; zeros without a
+    coat) and the coat's normal ``(0, 0, 1)`` (the shading normal; a normal map's hit replaces it:
+    :func:`with_coat_normal`); one lookup per texture row (metallic and roughness from one packed map read it
     once)."""
     br, bg, bb = scaled_slot(pars, b, tex_tag, tex_par, u, v, fp)
     br, bg, bb = vc[0] * br, vc[1] * bg, vc[2] * bb
@@ -321,11 +353,33 @@ def gltf_inputs(pars, b, tex_tag, tex_par, u, v, fp, vc):
     rgb_r = rgb_m if t_r == t_m else (texture_rgb(tex_tag, tex_par, t_r, u, v, fp) if t_r >= 0 else none)
     metal, rough = slot_scalar(pars, b + 4, rgb_m), slot_scalar(pars, b + 7, rgb_r)
     o = 1.0 - pars[b + TRANSMISSION]
+    c, alpha_c = coat_inputs(pars, b, tex_tag, tex_par, u, v, fp)
     if t_o < 0:
-        return br * o, bg * o, bb * o, br, bg, bb, metal, rough, 1.0
+        return br * o, bg * o, bb * o, br, bg, bb, metal, rough, 1.0, c, alpha_c, 0.0, 0.0, 1.0
     rgb_o = rgb_m if t_o == t_m else (rgb_r if t_o == t_r else texture_rgb(tex_tag, tex_par, t_o, u, v, fp))
     k = 1.0 + pars[b + 17] * (slot_scalar(pars, b + 14, rgb_o) - 1.0)
-    return br * k * o, bg * k * o, bb * k * o, br, bg, bb, metal, rough, k
+    return br * k * o, bg * k * o, bb * k * o, br, bg, bb, metal, rough, k, c, alpha_c, 0.0, 0.0, 1.0
+
+
+@register_jitable(forceinline=True)
+def coat_inputs(pars, b, tex_tag, tex_par, u, v, fp):
+    """``(c, alpha)`` of the clear coat of the GLTF record at ``pars[b:]`` (:data:`COAT`): the clear coat and the
+    square of the coat's roughness (:meth:`pyrt.Clearcoat._alpha`), one lookup per texture row; zeros without a
+    coat."""
+    if pars[b + COAT] == 0.0:
+        return 0.0, 0.0
+    none = (0.0, 0.0, 0.0)
+    t_c, t_r = int(pars[b + COAT + 1]), int(pars[b + COAT + 4])
+    rgb_c = texture_rgb(tex_tag, tex_par, t_c, u, v, fp) if t_c >= 0 else none
+    rgb_r = rgb_c if t_r == t_c else (texture_rgb(tex_tag, tex_par, t_r, u, v, fp) if t_r >= 0 else none)
+    r = slot_scalar(pars, b + COAT + 4, rgb_r)
+    return slot_scalar(pars, b + COAT + 1, rgb_c), r * r
+
+
+@register_jitable(forceinline=True)
+def with_coat_normal(a, n):
+    """The hit inputs ``a`` (:func:`albedo_at`) with the coat's normal ``n`` (unit, in the local shading frame)."""
+    return a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10], n[0], n[1], n[2]
 
 
 @register_jitable
@@ -340,6 +394,14 @@ def gltf_f_cos_h(pars, b, albedo, cos_o, cos_i, cos_h, cos_oh):
     return JB.gltf_pbr_f_cos_h(cos_o, cos_i, cos_h, cos_oh, albedo[3], albedo[4], albedo[5], albedo[6], albedo[7],
                                pars[b + 21], pars[b + 22], pars[b + 23], pars[b + 20], t, 1.0 - t,
                                int(pars[b + 19]))
+
+
+def normal_map_fields(normal_map, row):
+    """A record's normal-map fields (:data:`NORMAL_MAP`, a clear coat's at :data:`COAT` ``+ 7``) for ``normal_map``,
+    the texture table's row ``row``: ``row + 1``, strength, flip green, bend (a texture other than
+    :class:`pyrt.NormalMap`: the class defaults, as :func:`pyrt.textures.normal_map.perturb_normal`)."""
+    nm = normal_map if isinstance(normal_map, NormalMap) else NormalMap
+    return [row + 1.0, nm.strength, 1.0 if nm.flip_green else 0.0, 1.0 if nm.reflection == "bend" else 0.0]
 
 
 def vertex_slot(value, pack_texture, slot):
@@ -379,9 +441,15 @@ def empty_record():
 @register_jitable(forceinline=True)
 def glossy_alpha(pars, m, inputs):
     """Material ``m``'s glossy alpha at a hit of inputs ``inputs`` (:func:`albedo_at`): :data:`GLOSSY`'s constant,
-    or GLTF's per-hit roughness squared (:func:`pyrt.shaders.microfacet.roughness_to_alpha`)."""
+    or GLTF's per-hit roughness squared (:func:`pyrt.shaders.microfacet.roughness_to_alpha`), under a clear coat with
+    ``c > 0`` the smaller of it and the coat's alpha (:meth:`pyrt.Clearcoat.glossy_alpha`)."""
     a = pars[m * RECORD + GLOSSY]
-    return inputs[7] * inputs[7] if a < 0.0 else a
+    if a >= 0.0:
+        return a
+    a = inputs[7] * inputs[7]
+    if pars[m * RECORD + COAT] != 0.0 and inputs[9] > 0.0:
+        a = min(a, inputs[10])
+    return a
 
 
 class _OneHit:

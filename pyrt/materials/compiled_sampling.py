@@ -257,8 +257,16 @@ def sample_wi(tag, pars, m, albedo, wox, woy, woz, u0, u1):
     """Sample material ``m`` (tag ``tag``, record table ``pars``, the hit's inputs ``albedo``: :func:`pyrt.materials.
     compiled.albedo_at`) from the local ``wo``: ``(wix, wiy, wiz, pdf)``,
     the local direction and its solid-angle density as the material's NumPy ``sample(wo, u, ctx)`` returns them
-    for ``u = (u0, u1)`` (the cosine hemisphere, or ``_MicrofacetSampling._sample_wi`` and its masked pdf). Tags
-    without a non-delta lobe give ``(0, 0, 1, 0)``."""
+    for ``u = (u0, u1)`` (the cosine hemisphere, or ``_MicrofacetSampling._sample_wi`` and its masked pdf; a coated
+    GLTF: :func:`coat_sample_wi`). Tags without a non-delta lobe give ``(0, 0, 1, 0)``."""
+    if MC.is_coated(tag, pars, m):
+        return coat_sample_wi(tag, pars, m, albedo, wox, woy, woz, u0, u1)
+    return base_sample_wi(tag, pars, m, albedo, wox, woy, woz, u0, u1)
+
+
+@register_jitable
+def base_sample_wi(tag, pars, m, albedo, wox, woy, woz, u0, u1):
+    """:func:`sample_wi` without a clear coat (of a coated GLTF: its base's)."""
     if is_microfacet(tag):
         ps, alpha, dist = mixture(tag, pars, m, albedo, woz)
         spec = u0 < ps
@@ -289,7 +297,16 @@ def sample_wi(tag, pars, m, albedo, wox, woy, woz, u0, u1):
 @register_jitable
 def pdf_wi(tag, pars, m, albedo, wox, woy, woz, wix, wiy, wiz):
     """Solid-angle density of :func:`sample_wi` at the local ``wi``: the material's NumPy ``pdf(wo, wi, ctx)``
-    (``Material.pdf``, ``_MicrofacetSampling.pdf``); 0 for tags without a non-delta lobe."""
+    (``Material.pdf``, ``_MicrofacetSampling.pdf``, :meth:`pyrt.Clearcoat.pdf`); 0 for tags without a non-delta
+    lobe."""
+    if MC.is_coated(tag, pars, m):
+        return coat_pdf(pars, m, albedo, wox, woy, woz, wix, wiy, wiz)
+    return base_pdf_wi(tag, pars, m, albedo, wox, woy, woz, wix, wiy, wiz)
+
+
+@register_jitable
+def base_pdf_wi(tag, pars, m, albedo, wox, woy, woz, wix, wiy, wiz):
+    """:func:`pdf_wi` without a clear coat (of a coated GLTF: its base's)."""
     if is_microfacet(tag):
         ps, alpha, dist = mixture(tag, pars, m, albedo, woz)
         return ps * spec_pdf(dist, wox, woy, woz, wix, wiy, wiz, alpha) + (1.0 - ps) * cosine_hemisphere_pdf(wiz)
@@ -302,7 +319,8 @@ def pdf_wi(tag, pars, m, albedo, wox, woy, woz, wix, wiy, wiz):
 def f_cos_local(tag, pars, m, albedo, wox, woy, woz, wix, wiy, wiz):
     """BRDF times ``cos theta_i`` (RGB) for local vectors: :func:`pyrt.materials.compiled.f_cos` of the three cosines,
     but for the microfacet models from ``n.h`` and ``wo.h`` of the normalised half vector (as their NumPy ``f_cos``
-    computes them: well conditioned where both directions graze the surface)."""
+    computes them: well conditioned where both directions graze the surface); a coated GLTF's with its coat
+    (:func:`coat_f_cos`)."""
     if is_microfacet(tag):
         hx, hy, hz = wox + wix, woy + wiy, woz + wiz
         hl = math.sqrt(hx * hx + hy * hy + hz * hz)
@@ -313,7 +331,10 @@ def f_cos_local(tag, pars, m, albedo, wox, woy, woz, wix, wiy, wiz):
         b = m * MC.RECORD
         p = pars
         if tag == MC.GLTF:
-            return MC.gltf_f_cos_h(p, b, albedo, woz, wiz, cos_h, cos_oh)
+            f = MC.gltf_f_cos_h(p, b, albedo, woz, wiz, cos_h, cos_oh)
+            if p[b + MC.COAT] != 0.0:
+                return coat_f_cos(p, b, albedo, f, wox, woy, woz, wix, wiy, wiz)
+            return f
         if tag == MC.COOK_TORRANCE:
             return JB.cook_torrance_f_cos_h(woz, wiz, cos_h, cos_oh, p[b + 4], p[b + 5], p[b + 6], p[b + 7],
                                             p[b + 8], p[b + 9], p[b + 10], int(p[b + 11]), int(p[b + 12]),
@@ -331,6 +352,11 @@ def sample_f(tag, pars, m, albedo, wox, woy, woz, u0, u1):
     direction is at or below the horizon). LAMBERT's weight is its albedo where ``wo`` is above the horizon
     (:meth:`pyrt.materials.Lambert.sample`); ``albedo`` (RGB tuple) is :func:`pyrt.materials.compiled.albedo_at`."""
     wix, wiy, wiz, pdf = sample_wi(tag, pars, m, albedo, wox, woy, woz, u0, u1)
+    if MC.is_coated(tag, pars, m):      # pyrt.materials.layering.finish_sample: no horizon test of its own
+        if not pdf > 0.0:
+            return wix, wiy, wiz, 0.0, 0.0, 0.0, 0.0
+        fr, fg, fb = f_cos_local(tag, pars, m, albedo, wox, woy, woz, wix, wiy, wiz)
+        return wix, wiy, wiz, fr / pdf, fg / pdf, fb / pdf, pdf
     if tag == MC.LAMBERT:
         if woz > 0.0 and pdf > 0.0:
             return wix, wiy, wiz, albedo[0], albedo[1], albedo[2], pdf
@@ -339,3 +365,106 @@ def sample_f(tag, pars, m, albedo, wox, woy, woz, u0, u1):
         return wix, wiy, wiz, 0.0, 0.0, 0.0, pdf
     fr, fg, fb = f_cos_local(tag, pars, m, albedo, wox, woy, woz, wix, wiy, wiz)
     return wix, wiy, wiz, fr / pdf, fg / pdf, fb / pdf, pdf
+
+
+@register_jitable
+def f_cos_world(tag, pars, m, albedo, wo, wi, ns):
+    """BRDF times ``cos theta_i`` (RGB) of world directions ``wo``, ``wi`` at a hit of shading normal ``ns``:
+    :func:`pyrt.materials.compiled.f_cos` of their cosines, a coated GLTF's (:func:`pyrt.materials.compiled.is_coated`)
+    :func:`f_cos_local` in the frame of ``ns`` (its coat's normal is given in that frame)."""
+    if MC.is_coated(tag, pars, m):
+        fs, ft = coordinate_frame(ns[0], ns[1], ns[2])
+        wol, wil = to_local(wo, fs, ft, ns), to_local(wi, fs, ft, ns)
+        return f_cos_local(tag, pars, m, albedo, wol[0], wol[1], wol[2], wil[0], wil[1], wil[2])
+    return MC.f_cos(tag, pars, m, albedo, wo[0] * ns[0] + wo[1] * ns[1] + wo[2] * ns[2],
+                    wi[0] * ns[0] + wi[1] * ns[1] + wi[2] * ns[2], wi[0] * wo[0] + wi[1] * wo[1] + wi[2] * wo[2])
+
+
+# ----------------------------------------------------------------------------------------- the clear coat
+
+@register_jitable(forceinline=True)
+def coat_frame(albedo):
+    """``(s, t, n)``: the frame of a coated hit's coat normal ``n`` (the inputs' last three, in the local shading
+    frame; :meth:`pyrt.Clearcoat._coat_frame`)."""
+    n = (albedo[11], albedo[12], albedo[13])
+    s, t = coordinate_frame(n[0], n[1], n[2])
+    return s, t, n
+
+
+@register_jitable(forceinline=True)
+def coat_weight(pars, b, albedo, cos_oc):
+    """``c F_c`` at ``|n_c.wo| = |cos_oc|``: :meth:`pyrt.Clearcoat.coat_weight` (``fresnel="view"``)."""
+    return albedo[9] * JB.fr_schlick(abs(cos_oc), pars[b + MC.COAT + 11])
+
+
+@register_jitable(forceinline=True)
+def coat_prob(pars, b, albedo, cos_oc):
+    """The probability of sampling the coat's lobe: ``c F_c``, at least ``c / 4``, at most 0.9
+    (:meth:`pyrt.Clearcoat._coat_prob`)."""
+    return min(max(max(coat_weight(pars, b, albedo, cos_oc), 0.25 * albedo[9]), 0.0), 0.9)
+
+
+@register_jitable
+def coat_f_cos(pars, b, albedo, f, wox, woy, woz, wix, wiy, wiz):
+    """:meth:`pyrt.Clearcoat.f_cos` of the base's ``f`` (RGB) for local ``wo``, ``wi`` of the coated GLTF record at
+    ``pars[b:]``: ``f (1 - c F_c) + c F_c D G / (4 cos_o)`` (GGX, height-correlated Smith, in the coat's frame; with
+    the coat's own normal map 0 where either direction is below the shading frame's horizon)."""
+    s, t, n = coat_frame(albedo)
+    wo_c = to_local((wox, woy, woz), s, t, n)
+    wi_c = to_local((wix, wiy, wiz), s, t, n)
+    cw = coat_weight(pars, b, albedo, wo_c[2])
+    spec = 0.0
+    if wo_c[2] > 0.0 and wi_c[2] > 0.0 and not (pars[b + MC.COAT + 7] != 0.0 and (woz <= 0.0 or wiz <= 0.0)):
+        hx, hy, hz = wo_c[0] + wi_c[0], wo_c[1] + wi_c[1], wo_c[2] + wi_c[2]
+        hl = math.sqrt(hx * hx + hy * hy + hz * hz)
+        inv = 1.0 / hl if hl > 0.0 else 0.0
+        hx, hy, hz = hx * inv, hy * inv, hz * inv
+        cos_oh = min(max(wo_c[0] * hx + wo_c[1] * hy + wo_c[2] * hz, 0.0), 1.0)
+        spec = JB.microfacet_spec_cos_h(wo_c[2], wi_c[2], hz, cos_oh, albedo[10], 0, 0)
+    k, cs = 1.0 - cw, cw * spec
+    return f[0] * k + cs, f[1] * k + cs, f[2] * k + cs
+
+
+@register_jitable
+def coat_pdf(pars, m, albedo, wox, woy, woz, wix, wiy, wiz):
+    """:meth:`pyrt.Clearcoat.pdf`: ``p_coat`` times the GGX visible-normal reflection density in the coat's frame
+    plus ``1 - p_coat`` times the base's (:func:`base_pdf_wi`)."""
+    b = m * MC.RECORD
+    s, t, n = coat_frame(albedo)
+    wo_c = to_local((wox, woy, woz), s, t, n)
+    wi_c = to_local((wix, wiy, wiz), s, t, n)
+    p = coat_prob(pars, b, albedo, wo_c[2])
+    pc = spec_pdf(0, wo_c[0], wo_c[1], wo_c[2], wi_c[0], wi_c[1], wi_c[2], albedo[10]) if woz > 0.0 else 0.0
+    return p * pc + (1.0 - p) * base_pdf_wi(MC.GLTF, pars, m, albedo, wox, woy, woz, wix, wiy, wiz)
+
+
+@register_jitable
+def coat_sample_wi(tag, pars, m, albedo, wox, woy, woz, u0, u1):
+    """:meth:`pyrt.Clearcoat.sample`'s direction and density: the coat's GGX visible normals in its frame with
+    probability ``p_coat`` (``u0`` rescaled in each branch, :func:`pyrt.materials.layering.split_u`), else the base's
+    (:func:`base_sample_wi`); ``(0, 0, 0, 0)`` where the sample is not valid (the coat's reflection below its horizon,
+    ``wo`` below either horizon), else the direction and the mixture's density (:func:`coat_pdf`; 0 where it is
+    not positive)."""
+    b = m * MC.RECORD
+    s, t, n = coat_frame(albedo)
+    wo_c = to_local((wox, woy, woz), s, t, n)
+    p = coat_prob(pars, b, albedo, wo_c[2])
+    take = u0 < p
+    if take:
+        v = u0 / (p if p > 0.0 else 1.0)
+    else:
+        v = (u0 - p) / (1.0 - p if p < 1.0 else 1.0)
+    v = min(max(v, 0.0), U_MAX)
+    if take:
+        hx, hy, hz = sample_ggx_vndf(wo_c[0], wo_c[1], wo_c[2], v, u1, albedo[10])
+        k = 2.0 * (wo_c[0] * hx + wo_c[1] * hy + wo_c[2] * hz)
+        wc = (-wo_c[0] + k * hx, -wo_c[1] + k * hy, -wo_c[2] + k * hz)
+        valid = wc[2] > 0.0 and wo_c[2] > 0.0
+        wix, wiy, wiz = to_world(wc, s, t, n)
+    else:
+        wix, wiy, wiz, _ = base_sample_wi(tag, pars, m, albedo, wox, woy, woz, v, u1)
+        valid = wix != 0.0 or wiy != 0.0 or wiz != 0.0
+    if not (valid and woz > 0.0):
+        return 0.0, 0.0, 0.0, 0.0
+    pdf = coat_pdf(pars, m, albedo, wox, woy, woz, wix, wiy, wiz)
+    return wix, wiy, wiz, pdf if pdf > 0.0 else 0.0

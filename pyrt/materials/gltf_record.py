@@ -1,8 +1,8 @@
 """The compiled kernel's record of the glTF metallic-roughness family (:data:`pyrt.materials.compiled.GLTF`).
 
 One record serves :class:`pyrt.materials.MetallicRoughness` with textured parameters and :class:`pyrt.GltfPBR`
-without anisotropy, opaque or with smooth transmission (:func:`gltf_pbr_record`), each optionally with glTF's
-emission and occlusion on top
+without anisotropy, opaque or with smooth transmission (:func:`gltf_pbr_record`), an opaque one of them under a
+:class:`pyrt.Clearcoat` (:func:`clearcoat_record`), each optionally with glTF's emission and occlusion on top
 (:class:`pyrt.io.assets.materials.SurfaceExtras`): the base colour, metallic, roughness, emission and occlusion are
 *slots*, a constant or a factor times a texture of the kernel's texture table (a channel of it for the scalars),
 resolved per hit by :func:`pyrt.materials.compiled.gltf_inputs`. Layout (offsets into the record):
@@ -17,6 +17,7 @@ resolved per hit by :func:`pyrt.materials.compiled.gltf_inputs`. Layout (offsets
 19      the geometry term (:data:`pyrt.shaders.jit_brdfs.GEOMETRY_TERMS` index)
 20      GltfPBR's ``specular``, 21-23 its dielectric F0 ``min(f0(ior) specular_color, 1)``
 37-40   a smooth transmitting GltfPBR's transmission (:data:`pyrt.materials.compiled.TRANSMISSION`; zeros: opaque)
+41-52   a clear coat (:data:`pyrt.materials.compiled.COAT`; zeros: none)
 ======  ==========================================================================================================
 
 A base colour that is a product with vertex colours (glTF's ``COLOR_0``) is the slot of its other factor, the
@@ -96,3 +97,43 @@ def gltf_pbr_record(material, pack_texture, *, emission=0.0, occlusion=None, occ
         out[1][_compiled.TRANSMISSION:_compiled.TRANSMISSION + 4] = [(1.0 - float(m.metallic)) * t, t,
                                                                      1.0 if m.thin else 0.0, float(m.ior_value)]
     return out
+
+
+def unlit_record(material, pack_texture):
+    """``(UNLIT, record)`` of a :class:`pyrt.Unlit`: its colour as colour slot 0 (a constant, a factor times an RGB
+    image texture, either times vertex colours: :func:`pyrt.materials.compiled.vertex_slot`); None when the kernel
+    cannot read its texture."""
+    slot, vc = _compiled.vertex_slot(material.color, pack_texture, color_slot)
+    if slot is None:
+        return None
+    rec = _compiled.empty_record()
+    rec[0:4] = slot
+    rec[_compiled.VERTEX_COLOR] = vc
+    return _compiled.UNLIT, rec
+
+
+def clearcoat_record(coat, pack_texture):
+    """``(GLTF, record)`` of a :class:`pyrt.Clearcoat` with ``fresnel="view"`` over an opaque base that packs as a GLTF
+    record (its ``compiled_record``, or a constant metallic-roughness model's ``compiled_record_extras`` without
+    extras: the same model as a GLTF record): the base's record with the coat at
+    :data:`pyrt.materials.compiled.COAT` (1, the clear coat's and the coat roughness's scalar slots, the coat's normal
+    map fields, its F0). None otherwise (``fresnel="half"``, a transmitting base, a base the kernel cannot read or
+    one that is no GLTF record, a coat texture or normal map the kernel cannot read)."""
+    base = coat.base
+    if coat.fresnel != "view" or base.transmits:
+        return None
+    out = base.compiled_record(pack_texture)
+    if out is not None and out[0] == _compiled.METALLIC_ROUGHNESS:
+        out = base.compiled_record_extras(pack_texture)
+    if out is None or out[0] != _compiled.GLTF:
+        return None
+    slots = [scalar_slot(coat.clearcoat, pack_texture), scalar_slot(coat.roughness, pack_texture)]
+    nm = [0.0, 0.0, 0.0, 0.0]
+    if coat.coat_normal_map is not None:
+        row = pack_texture(coat.coat_normal_map)
+        nm = None if row is None else _compiled.normal_map_fields(coat.coat_normal_map, row)
+    if nm is None or any(s is None for s in slots):
+        return None
+    rec = np.array(out[1], dtype=np.float64)
+    rec[_compiled.COAT:_compiled.COAT + 12] = [1.0, *slots[0], *slots[1], *nm, coat._f0()]
+    return _compiled.GLTF, rec
