@@ -38,6 +38,26 @@ def cpu_seconds(fn):
     return out, time.process_time() - t
 
 
+def llvm_variant():
+    """``(drjit, mitsuba)`` with Mitsuba's ``llvm_ad_rgb`` variant set (``DRJIT_LIBLLVM_PATH`` defaults to Debian's
+    libLLVM, :data:`bench_mitsuba.LLVM_DEFAULT`)."""
+    os.environ.setdefault("DRJIT_LIBLLVM_PATH", LLVM_DEFAULT)
+    import drjit as dr
+    import mitsuba as mi
+    mi.set_variant("llvm_ad_rgb")
+    return dr, mi
+
+
+def table_writer():
+    """``(out, lines)``: ``out(line)`` prints a line of the report and keeps it in ``lines``."""
+    lines = []
+
+    def out(line=""):
+        print(line, flush=True)
+        lines.append(line)
+    return out, lines
+
+
 def main(argv=None):
     """Command line: the table of CPU nanoseconds per sample and their ratio."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -46,16 +66,8 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--table", default="docs/bench_cpu.md", help="also write the table here ('' : only print it)")
     args = ap.parse_args(argv)
-    lines = []
-
-    def out(line=""):
-        print(line, flush=True)
-        lines.append(line)
-
-    os.environ.setdefault("DRJIT_LIBLLVM_PATH", LLVM_DEFAULT)
-    import drjit as dr
-    import mitsuba as mi
-    mi.set_variant("llvm_ad_rgb")
+    out, lines = table_writer()
+    dr, mi = llvm_variant()
     info = machine()
     out("# pyrt against Mitsuba 3 in CPU time per sample")
     out()

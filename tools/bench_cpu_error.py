@@ -35,8 +35,8 @@ from pyrt.core.metrics import RELMSE_EPS, relmse
 
 import _mitsuba_scenes as ms  # noqa: E402  (tools/_mitsuba_scenes.py)
 from _mitsuba_report import time_to_error  # noqa: E402
-from bench_cpu import cpu_seconds  # noqa: E402
-from bench_mitsuba import LLVM_DEFAULT, machine  # noqa: E402
+from bench_cpu import cpu_seconds, llvm_variant, table_writer  # noqa: E402
+from bench_mitsuba import machine  # noqa: E402
 
 #: Mitsuba llvm's spp whose errors are the levels
 LEVELS = (64, 256)
@@ -52,16 +52,8 @@ def main(argv=None):
     ap.add_argument("--ref-spp", type=int, default=2048)
     ap.add_argument("--table", default="docs/bench_cpu_error.md", help="also write the table here ('': only print)")
     args = ap.parse_args(argv)
-    lines = []
-
-    def out(line=""):
-        print(line, flush=True)
-        lines.append(line)
-
-    os.environ.setdefault("DRJIT_LIBLLVM_PATH", LLVM_DEFAULT)
-    import drjit as dr
-    import mitsuba as mi
-    mi.set_variant("llvm_ad_rgb")
+    out, lines = table_writer()
+    dr, mi = llvm_variant()
     info = machine()
     rows = []
     workdir = tempfile.mkdtemp(prefix="pyrt_bench_cpu_error_")
