@@ -54,8 +54,8 @@ def _twins(tag, rec, inputs, nc, wo, wi, u, f, pdf, smp):
     tex_par = np.zeros(8)
     a0 = MC.albedo_at(tag, rec, 0, tex_tag, tex_par, 0.0, 0.0, (0.0, 0.0, 0.0, 0.0), MC.WHITE)
     for k in range(wo.shape[0]):
-        a = (a0[0], a0[1], a0[2], a0[3], a0[4], a0[5], a0[6], a0[7], a0[8], inputs[k, 0], inputs[k, 1], a0[11],
-             a0[12], a0[13])
+        a = (a0[0], a0[1], a0[2], a0[3], a0[4], a0[5], a0[6], a0[7], a0[8], a0[9], a0[10], a0[11], a0[12],
+             inputs[k, 0], inputs[k, 1], a0[15], a0[16], a0[17])
         a = MC.with_coat_normal(a, (nc[k, 0], nc[k, 1], nc[k, 2]))
         f[k, 0], f[k, 1], f[k, 2] = CS.f_cos_local(tag, rec, 0, a, wo[k, 0], wo[k, 1], wo[k, 2], wi[k, 0], wi[k, 1],
                                                    wi[k, 2])
@@ -130,7 +130,7 @@ def test_the_glossy_alpha_is_the_coats_where_it_coats():
     alpha where ``c > 0`` (:meth:`pyrt.Clearcoat.glossy_alpha`), the base's where ``c = 0``."""
     tag, rec = pyrt.Clearcoat(pyrt.MetallicRoughness(roughness=0.5), roughness=0.1).compiled_record(lambda t: 0)
     rec[MC.GLOSSY] = -1.0
-    base = (0.0,) * 7 + (0.5, 1.0)
+    base = (0.0,) * 7 + (0.5, 1.0, 1.0, 0.04, 0.04, 0.04)
     assert MC.glossy_alpha(rec, 0, base + (1.0, 0.01, 0.0, 0.0, 1.0)) == 0.01
     assert MC.glossy_alpha(rec, 0, base + (0.0, 0.01, 0.0, 0.0, 1.0)) == 0.25
 

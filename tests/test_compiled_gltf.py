@@ -38,9 +38,10 @@ KHRONOS = "/work/shared/khronos-gltf"
 # ----------------------------------------------------------------------------------------- the reflection
 
 @numba.njit
-def _f_cos_many(rec, base, metal, rough, wo, wi, out, vector_form):
+def _f_cos_many(rec, base, metal, rough, wo, wi, out, vector_form, spec=1.0, f0=(0.04, 0.04, 0.04)):
     for k in range(wo.shape[0]):
-        a = (0.0, 0.0, 0.0, base[k, 0], base[k, 1], base[k, 2], metal[k], rough[k], 1.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+        a = (0.0, 0.0, 0.0, base[k, 0], base[k, 1], base[k, 2], metal[k], rough[k], 1.0, spec, f0[0], f0[1], f0[2],
+             0.0, 0.0, 0.0, 0.0, 1.0)
         if vector_form:
             r = CS.f_cos_local(MC.GLTF, rec, 0, a, wo[k, 0], wo[k, 1], wo[k, 2], wi[k, 0], wi[k, 1], wi[k, 2])
         else:
@@ -69,10 +70,9 @@ def _directions(rng, n):
     return np.concatenate([wo, g, other, g]), np.concatenate([wi, other, g, g[::-1]])
 
 
-def _record(model, geometry, specular=1.0, f0=0.04):
+def _record(model, geometry):
     holder = types.SimpleNamespace(base_color=0.5, metallic=0.0, roughness=0.5)
-    tag, rec = GR.gltf_record(holder, lambda t: None, model=model, geometry=geometry, specular=specular,
-                              f0_dielectric=f0)
+    tag, rec = GR.gltf_record(holder, lambda t: None, model=model, geometry=geometry)
     assert tag == MC.GLTF
     return rec
 
@@ -88,19 +88,19 @@ def test_gltf_f_cos_equals_the_numpy_kernel_on_random_and_grazing_inputs(model, 
     metal[1::7] = 1.0
     rough = rng.uniform(0.0, 1.0, n)
     rough[::11] = 0.02
-    f0, spec = np.array([0.06, 0.05, 0.09]), 0.7
-    rec = _record(model, geometry, spec, f0)
+    f0, spec = np.array([0.06, 0.05, 0.09]), 0.7           # the hit's inputs (tests/test_compiled_specular.py)
+    rec = _record(model, geometry)
     if model == GR.MR:
         want = brdfs.gltf_metallic_roughness_f_cos(wo, wi, base, metal, rough, geometry=geometry)
     else:
         want = brdfs.gltf_pbr_f_cos(wo, wi, base, metal, rough, f0_dielectric=f0, specular=spec, geometry=geometry)
     got = np.zeros((n, 3))
-    _f_cos_many(rec, base, metal, rough, wo, wi, got, True)
+    _f_cos_many(rec, base, metal, rough, wo, wi, got, True, spec, tuple(f0))
     np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-12)
     assert np.all(np.isfinite(got)) and np.all(got >= 0) and want.max() > 0
     # the kernel's cosine form (lights): the same away from the mirror-grazing pairs (docs/compiled.md)
     got_c = np.zeros((n, 3))
-    _f_cos_many(rec, base, metal, rough, wo[:4000], wi[:4000], got_c[:4000], False)
+    _f_cos_many(rec, base, metal, rough, wo[:4000], wi[:4000], got_c[:4000], False, spec, tuple(f0))
     np.testing.assert_allclose(got_c[:4000], want[:4000], rtol=1e-6, atol=1e-9)
 
 
@@ -169,8 +169,6 @@ def test_what_the_kernel_cannot_reproduce_has_no_record():
     cases = {
         "transmission": pyrt.GltfPBR(transmission=0.5),
         "anisotropy": pyrt.GltfPBR(anisotropy=0.5),
-        "textured specular": pyrt.GltfPBR(specular=ChannelTexture(img, 0)),
-        "textured specular colour": pyrt.GltfPBR(specular_color=img),
         "per-face colours": GltfMaterial(base_color=ProductTexture(fc, ScaledTexture(img, 0.5)), metallic=0.0,
                                          roughness=0.5),
         "vertex colours twice": GltfMaterial(base_color=ProductTexture(vc, vc), metallic=0.0, roughness=0.5),

@@ -273,8 +273,8 @@ def test_rough_textured_and_absorbing_gltf_transmission_are_named_in_the_reasons
     lobes = "(a dielectric with a BSDF lobe, e.g. glTF KHR_materials_transmission or rough glass"
     assert [x for x in r if x.startswith("material")] == [
         f"material GltfPBR(rough) {lobes}: the kernel's dielectrics are Glass and smooth glTF transmission)",
-        "material GltfPBR(tex) (smooth glTF transmission: the kernel reads it with constant base colour, metallic "
-        "and transmission, isotropic, constant specular)"]
+        "material GltfPBR(tex) (smooth glTF transmission: the kernel reads it with constant base colour, metallic, "
+        "transmission, specular and specular colour, isotropic)"]
     assert "the glossy integrator with rough transmission (GltfPBR(rough))" in r
     assert ("nested dielectrics or absorption (2 volume dielectrics: Glass(), GltfPBR(vol); absorbing: GltfPBR(vol))"
             in r)

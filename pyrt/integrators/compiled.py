@@ -78,8 +78,8 @@ _DIELECTRIC_LOBES = (" (a dielectric with a BSDF lobe, e.g. glTF KHR_materials_t
 _MESH_EMISSION = (" (an emitter whose emission is not a constant the kernel reads: textured, vertex colours, alpha "
                   "masks or blending)")
 #: ... and to the reason of a smooth transmitting material it cannot pack
-_SMOOTH_TEXTURED = (" (smooth glTF transmission: the kernel reads it with constant base colour, metallic and "
-                    "transmission, isotropic, constant specular)")
+_SMOOTH_TEXTURED = (" (smooth glTF transmission: the kernel reads it with constant base colour, metallic, "
+                    "transmission, specular and specular colour, isotropic)")
 
 
 def glossy_reasons(scene):

@@ -56,11 +56,14 @@ V_GL = 99
 #: a camera hit on a blend surface (:func:`pyrt.integrators.compiled_coverage.cover_packet`): its weight (the coverage
 #: alpha ``a``, 0 < a < 1; 1 for every other lane) and the layer its continuation past the surface starts at
 V_BW, V_BL = 100, 101
+#: the rest of a GLTF hit's inputs (:func:`pyrt.materials.compiled.albedo_at`): its specular weight and dielectric F0
+#: (written and read as :data:`V_X`)
+V_XS = 102
 #: the rest of a coated GLTF hit's inputs (:data:`pyrt.materials.compiled.COAT`): its clear coat ``c``, the coat's
 #: alpha and the coat's normal in the shading frame (written and read as :data:`V_X`)
-V_XC = 102
+V_XC = 106
 #: fields of the scratch
-V_SIZE = 107
+V_SIZE = 111
 #: camera record layout (float64)
 C_POS, C_FWD, C_RIGHT, C_UP, C_TAN, C_W, C_H, C_JITTER, C_K, C_AX = 0, 3, 6, 9, 12, 13, 14, 15, 16, 17
 #: length of the camera record
@@ -151,13 +154,14 @@ def lane_vec(V, field, lane):
 
 @_njit
 def lane_inputs(V, lane):
-    """The hit inputs (a 14-tuple, :func:`pyrt.materials.compiled.albedo_at`) of lane ``lane``: :data:`V_A`,
-    :data:`V_X` and :data:`V_XC` (stale for a lane whose material is not GLTF: not read then)."""
+    """The hit inputs (an 18-tuple, :func:`pyrt.materials.compiled.albedo_at`) of lane ``lane``: :data:`V_A`,
+    :data:`V_X`, :data:`V_XS` and :data:`V_XC` (stale for a lane whose material is not GLTF: not read then)."""
     return (V[V_A * LANES + lane], V[(V_A + 1) * LANES + lane], V[(V_A + 2) * LANES + lane], V[V_X * LANES + lane],
             V[(V_X + 1) * LANES + lane], V[(V_X + 2) * LANES + lane], V[(V_X + 3) * LANES + lane],
-            V[(V_X + 4) * LANES + lane], V[(V_X + 5) * LANES + lane], V[V_XC * LANES + lane],
-            V[(V_XC + 1) * LANES + lane], V[(V_XC + 2) * LANES + lane], V[(V_XC + 3) * LANES + lane],
-            V[(V_XC + 4) * LANES + lane])
+            V[(V_X + 4) * LANES + lane], V[(V_X + 5) * LANES + lane], V[V_XS * LANES + lane],
+            V[(V_XS + 1) * LANES + lane], V[(V_XS + 2) * LANES + lane], V[(V_XS + 3) * LANES + lane],
+            V[V_XC * LANES + lane], V[(V_XC + 1) * LANES + lane], V[(V_XC + 2) * LANES + lane],
+            V[(V_XC + 3) * LANES + lane], V[(V_XC + 4) * LANES + lane])
 
 
 @_njit
@@ -169,8 +173,10 @@ def set_lane_inputs(V, lane, a, gltf):
     if gltf:
         for k in range(6):
             V[(V_X + k) * LANES + lane] = a[3 + k]
+        for k in range(4):
+            V[(V_XS + k) * LANES + lane] = a[9 + k]
         for k in range(5):
-            V[(V_XC + k) * LANES + lane] = a[9 + k]
+            V[(V_XC + k) * LANES + lane] = a[13 + k]
 
 
 @_njit

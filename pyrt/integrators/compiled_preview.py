@@ -11,8 +11,8 @@ with the lobes of :mod:`pyrt.shaders.jit_preview`; every other material with a n
 compiled_sampling.sample_f`) of ``weight x prefiltered(wi, alpha(1 / (K pdf)))`` over samples above the geometric
 surface. The environment's side is :mod:`pyrt.lights.compiled_env_preview`.
 
-The glTF occlusion ``k = 1 + strength (occ - 1)`` the split sum multiplies by is the last of the hit's inputs
-(:func:`pyrt.materials.compiled.gltf_inputs`).
+The glTF occlusion ``k = 1 + strength (occ - 1)`` the split sum multiplies by, the specular weight and the dielectric
+F0 of its lobes are the hit's inputs (:func:`pyrt.materials.compiled.gltf_inputs`).
 
 :func:`preview_stage` lights the camera hits of a packet (lanes ``[0, n)``, added into the scratch's radiance);
 :func:`preview` one hit of the specular tree.
@@ -57,8 +57,8 @@ def split_sum(etag, erec, edata, mtag, mpars, m, albedo, ns, wo):
         dif, spec = JP.metallic_roughness_lobes(br, bg, bb, metal, e5, a, bt)
     else:
         t = mpars[b + MC.TRANSMISSION + 1]        # a smooth transmitting GltfPBR's (0: opaque)
-        dif, spec = JP.gltf_pbr_lobes(br, bg, bb, metal, mpars[b + 20], mpars[b + 21], mpars[b + 22], mpars[b + 23],
-                                      t, 1.0 - t, e5, a, bt)
+        dif, spec = JP.gltf_pbr_lobes(br, bg, bb, metal, albedo[9], albedo[10], albedo[11], albedo[12], t, 1.0 - t,
+                                      e5, a, bt)
     e = CP.irradiance_sh(erec, edata, ns[0], ns[1], ns[2])
     d = JP.dominant_direction(wo, ns, alpha)
     p = CP.prefiltered(etag, erec, edata, d[0], d[1], d[2], alpha)
@@ -79,9 +79,9 @@ def coat_split_sum(etag, erec, edata, mpars, b, albedo, ns, wo, base):
     Smith) about the coat's normal ``n_c`` (its inputs, in the frame of ``ns``; ``F_c`` at ``|n_c.wo|``, the tables at
     ``mu = n_c.wo`` clamped)."""
     fs, ft = CS.coordinate_frame(ns[0], ns[1], ns[2])
-    nc = CS.to_world((albedo[11], albedo[12], albedo[13]), fs, ft, ns)
+    nc = CS.to_world((albedo[15], albedo[16], albedo[17]), fs, ft, ns)
     cw = CS.coat_weight(mpars, b, albedo, wo[0] * nc[0] + wo[1] * nc[1] + wo[2] * nc[2])
-    alpha = albedo[10]
+    alpha = albedo[14]
     a, bt = CP.specular_ab(erec, edata, 0, JP.view_cosine(wo, nc), alpha)
     d = JP.dominant_direction(wo, nc, alpha)
     p = CP.prefiltered(etag, erec, edata, d[0], d[1], d[2], alpha)

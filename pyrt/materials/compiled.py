@@ -28,7 +28,7 @@ EMITTER              4-6 radiance (constant RGB), 7 two-sided (1) or front only 
 UNLIT                0-3 colour slot: :class:`pyrt.Unlit`'s colour, emitted from both sides, its albedo; reflects
                      nothing (:func:`pyrt.materials.gltf_record.unlit_record`)
 GLTF                 glTF's metallic-roughness family with textured parameters, emission and occlusion: the layout
-                     of :mod:`pyrt.materials.gltf_record` (0-23), resolved per hit by :func:`gltf_inputs`
+                     of :mod:`pyrt.materials.gltf_record` (0-23, 41-44), resolved per hit by :func:`gltf_inputs`
 (every material)     24-27 its normal map (:data:`NORMAL_MAP`), 28 1 when it culls back faces (:data:`CULL`), 29-33
                      its alpha mask or blend (:data:`MASK`), 34 its glossy alpha (:data:`GLOSSY`), 35 the area light it is the
                      visible emitter of (:data:`TRACED`), written by the compiled scene; 36 the vertex colours its
@@ -36,9 +36,11 @@ GLTF                 glTF's metallic-roughness family with textured parameters, 
 GLTF (transmission)  37-40 (:data:`TRANSMISSION`) a smooth transmitting ``GltfPBR``'s constant ``w = (1 - metallic)
                      transmission``, its ``transmission``, 1 for a thin wall (0: a volume) and its ``ior``; zeros
                      for the opaque ones
-GLTF (clear coat)    41-52 (:data:`COAT`) a :class:`pyrt.Clearcoat` over an opaque GLTF base: 41 1 (0: no coat), 42-44
-                     the clear coat's scalar slot ``[row or -1, factor, channel]``, 45-47 the coat roughness's, 48-51
-                     the coat's normal map (as :data:`NORMAL_MAP`; row 0: none), 52 the coat's F0
+GLTF (specular)      41 ``f0(ior)``, 42-44 the scalar slot of ``GltfPBR.specular`` (:data:`SPECULAR`; 20-23 the colour
+                     slot of its ``specular_color``)
+GLTF (clear coat)    45-56 (:data:`COAT`) a :class:`pyrt.Clearcoat` over an opaque GLTF base: 45 1 (0: no coat), 46-48
+                     the clear coat's scalar slot ``[row or -1, factor, channel]``, 49-51 the coat roughness's, 52-55
+                     the coat's normal map (as :data:`NORMAL_MAP`; row 0: none), 56 the coat's F0
                      (:func:`pyrt.materials.gltf_record.clearcoat_record`)
 ===================  ============================================================================================
 
@@ -52,12 +54,13 @@ the record's :data:`VERTEX_COLOR` field is then the vertex-colour texture's row 
 of tag :data:`pyrt.textures.compiled.VERTEX`, never looked up by uv: the colours are packed with the geometry and
 interpolated at the hit, :func:`pyrt.integrators.compiled_diffs.vertex_color`), and the slot holds the other factor.
 
-A hit's *inputs* (:func:`albedo_at`) are a 14-tuple: its ``albedo()`` (what the ambient term and the albedo AOV
-read; Lambert's albedo, Blinn-Phong's kd), then GLTF's per-hit base colour, metallic, roughness and occlusion factor
-``1 + strength (occ - 1)`` (what the environment preview multiplies; zeros for the other tags), then a coated GLTF's
-clear coat ``c``, the coat's ``alpha = roughness^2`` and the coat's normal in the local shading frame (``(0, 0, 1)``
-where it is the shading normal; :func:`with_coat_normal`). The BSDF functions take them as ``albedo``; a coated
-GLTF's BSDF is :mod:`pyrt.materials.compiled_sampling`'s (``f_cos_world``, ``f_cos_local``), not :func:`f_cos`.
+A hit's *inputs* (:func:`albedo_at`) are an 18-tuple: its ``albedo()`` (what the ambient term and the albedo AOV
+read; Lambert's albedo, Blinn-Phong's kd), then GLTF's per-hit base colour, metallic, roughness, occlusion factor
+``1 + strength (occ - 1)`` (what the environment preview multiplies), specular weight and dielectric F0 (RGB) (zeros
+for the other tags), then a coated GLTF's clear coat ``c``, the coat's ``alpha = roughness^2`` and the coat's normal
+in the local shading frame (``(0, 0, 1)`` where it is the shading normal; :func:`with_coat_normal`). The BSDF
+functions take them as ``albedo``; a coated GLTF's BSDF is :mod:`pyrt.materials.compiled_sampling`'s
+(``f_cos_world``, ``f_cos_local``), not :func:`f_cos`.
 
 The kernel reads the record table through its flat data (:func:`pyrt.core.unmanaged.pointer`: material ``m``'s
 record at ``pars[m * RECORD:]``; a pointer binds no array, so the per-sample code pays no reference counting).
@@ -77,7 +80,7 @@ from pyrt.textures.compiled import texture_rgb
 from pyrt.textures.normal_map import NormalMap
 
 #: parameters per material record
-RECORD = 53
+RECORD = 57
 #: where every record keeps its normal map (:func:`pyrt.integrators.compiled_diffs.mapped_normal`): the map's row in the
 #: texture table plus one (0: none), its strength, 1 for green = -v (DirectX), 1 to bend reflections above the surface
 NORMAL_MAP = 24
@@ -101,9 +104,12 @@ VERTEX_COLOR = 36
 #: where a GLTF record keeps its smooth transmission (:func:`dielectric_lobes`, :func:`shadow_transmission`): ``w``,
 #: ``transmission``, thin (1) or volume (0), ``ior``; ``w`` > 0 makes it a dielectric with delta lobes
 TRANSMISSION = 37
+#: where a GLTF record keeps ``f0(ior)`` and then the scalar slot ``[row or -1, factor, channel]`` of its specular
+#: weight (:func:`gltf_inputs`: the dielectric F0 is ``min(f0(ior) specular_color, 1)``, the colour slot at 20-23)
+SPECULAR = 41
 #: where a GLTF record keeps its clear coat (module notes; :func:`pyrt.materials.gltf_record.clearcoat_record`): 1 when
 #: coated, the clear coat's and the coat roughness's scalar slots, the coat's normal map fields, the coat's F0
-COAT = 41
+COAT = 45
 #: the vertex colour of a hit whose material reads none (a multiplication by it is exact)
 WHITE = (1.0, 1.0, 1.0)
 #: type tags (0 is no material)
@@ -171,12 +177,14 @@ def dielectric_lobes(tag, pars, m, cos_o, front):
       R) / eta^2``, ``R`` the exact Fresnel reflectance (1 under total internal reflection);
     - GLTF (:meth:`pyrt.GltfPBR.delta_lobes`, constant ``w``, base colour and record fields :data:`TRANSMISSION`): a
       volume as GLASS but the reflection untinted, ``w R`` and ``base w (1 - R) / eta^2``; a thin wall ``eta = 1``,
-      ``w F`` and ``base w (1 - max F)``, ``F = specular x`` Schlick of the dielectric F0 at ``cos_o``."""
+      ``w F`` and ``base w (1 - max F)``, ``F = specular x`` Schlick of the dielectric F0 at ``cos_o`` (the
+      constants of :func:`gltf_specular`: a transmitting record's specular slots hold no texture)."""
     b = m * RECORD
     if tag == GLTF and pars[b + TRANSMISSION + 2] != 0.0:
-        w, s = pars[b + TRANSMISSION], pars[b + 20]
-        f0, f1, f2 = (s * JB.fr_schlick(cos_o, pars[b + 21]), s * JB.fr_schlick(cos_o, pars[b + 22]),
-                      s * JB.fr_schlick(cos_o, pars[b + 23]))
+        w, s, f = pars[b + TRANSMISSION], pars[b + SPECULAR + 2], pars[b + SPECULAR]
+        f0, f1, f2 = (s * JB.fr_schlick(cos_o, min(f * pars[b + 21], 1.0)),
+                      s * JB.fr_schlick(cos_o, min(f * pars[b + 22], 1.0)),
+                      s * JB.fr_schlick(cos_o, min(f * pars[b + 23], 1.0)))
         t = w * (1.0 - max(f0, f1, f2))
         return 1.0, (w * f0, w * f1, w * f2), (pars[b + 1] * t, pars[b + 2] * t, pars[b + 3] * t)
     ior = pars[b + TRANSMISSION + 3] if tag == GLTF else pars[b]
@@ -292,18 +300,19 @@ def albedo_constant(tag, pars, m):
 
 @register_jitable(forceinline=True)
 def albedo_at(tag, pars, m, tex_tag, tex_par, u, v, fp, vc):
-    """The hit's inputs (module notes: a 14-tuple) of material ``m`` at uv ``(u, v)`` with the UV footprint ``fp``
+    """The hit's inputs (module notes: an 18-tuple) of material ``m`` at uv ``(u, v)`` with the UV footprint ``fp``
     (zeros: none) and the vertex colour ``vc`` (an RGB tuple, :data:`WHITE` where the material reads none): the
     diffuse colour (Lambert albedo, Blinn-Phong kd, the library models' constant ``albedo()``, GLTF's
-    :func:`gltf_inputs`; UNLIT's colour; zeros for the others), then GLTF's base colour, metallic, roughness and
-    occlusion. Colour slot 0 times ``vc``, as ``ProductTexture`` multiplies."""
+    :func:`gltf_inputs`; UNLIT's colour; zeros for the others), then GLTF's base colour, metallic, roughness,
+    occlusion, specular weight, dielectric F0 and clear coat. Colour slot 0 times ``vc``, as ``ProductTexture``
+    multiplies."""
     if tag == GLTF:
         return gltf_inputs(pars, m * RECORD, tex_tag, tex_par, u, v, fp, vc)
     if tag == LAMBERT or tag == BLINN_PHONG or CONDUCTOR <= tag <= METALLIC_ROUGHNESS or tag == UNLIT:
         a = color_slot(pars, m, 0, tex_tag, tex_par, u, v, fp)
         return (vc[0] * a[0], vc[1] * a[1], vc[2] * a[2], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-                1.0)
-    return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
+                0.0, 0.0, 0.0, 0.0, 1.0)
+    return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
 
 
 @register_jitable(forceinline=True)
@@ -338,11 +347,12 @@ def slot_scalar(pars, b, rgb):
 
 @register_jitable
 def gltf_inputs(pars, b, tex_tag, tex_par, u, v, fp, vc):
-    """The inputs (a 14-tuple) of the GLTF record at ``pars[b:]`` with the vertex colour ``vc``: ``albedo() = base
+    """The inputs (an 18-tuple) of the GLTF record at ``pars[b:]`` with the vertex colour ``vc``: ``albedo() = base
     k (1 - w)``, ``k = 1 + s (occ - 1)`` (with an occlusion texture; else 1), ``w`` the transmissive share
     (:data:`TRANSMISSION`, 0 when opaque: :meth:`pyrt.GltfPBR.albedo`), the base colour (its slot times ``vc``),
-    metallic, roughness and ``k``, then the clear coat ``c`` and the coat's alpha (:data:`COAT`; zeros without a
-    coat) and the coat's normal ``(0, 0, 1)`` (the shading normal; a normal map's hit replaces it:
+    metallic, roughness, ``k``, the specular weight and the dielectric F0 ``min(f0(ior) specular_color, 1)``
+    (:data:`SPECULAR`, ``GltfPBR._f0_dielectric``), then the clear coat ``c`` and the coat's alpha (:data:`COAT`;
+    zeros without a coat) and the coat's normal ``(0, 0, 1)`` (the shading normal; a normal map's hit replaces it:
     :func:`with_coat_normal`); one lookup per texture row (metallic and roughness from one packed map read it
     once)."""
     br, bg, bb = scaled_slot(pars, b, tex_tag, tex_par, u, v, fp)
@@ -352,13 +362,28 @@ def gltf_inputs(pars, b, tex_tag, tex_par, u, v, fp, vc):
     rgb_m = texture_rgb(tex_tag, tex_par, t_m, u, v, fp) if t_m >= 0 else none
     rgb_r = rgb_m if t_r == t_m else (texture_rgb(tex_tag, tex_par, t_r, u, v, fp) if t_r >= 0 else none)
     metal, rough = slot_scalar(pars, b + 4, rgb_m), slot_scalar(pars, b + 7, rgb_r)
+    s, f0r, f0g, f0b = gltf_specular(pars, b, tex_tag, tex_par, u, v, fp)
     o = 1.0 - pars[b + TRANSMISSION]
     c, alpha_c = coat_inputs(pars, b, tex_tag, tex_par, u, v, fp)
     if t_o < 0:
-        return br * o, bg * o, bb * o, br, bg, bb, metal, rough, 1.0, c, alpha_c, 0.0, 0.0, 1.0
+        return (br * o, bg * o, bb * o, br, bg, bb, metal, rough, 1.0, s, f0r, f0g, f0b, c, alpha_c, 0.0, 0.0,
+                1.0)
     rgb_o = rgb_m if t_o == t_m else (rgb_r if t_o == t_r else texture_rgb(tex_tag, tex_par, t_o, u, v, fp))
     k = 1.0 + pars[b + 17] * (slot_scalar(pars, b + 14, rgb_o) - 1.0)
-    return br * k * o, bg * k * o, bb * k * o, br, bg, bb, metal, rough, k, c, alpha_c, 0.0, 0.0, 1.0
+    return (br * k * o, bg * k * o, bb * k * o, br, bg, bb, metal, rough, k, s, f0r, f0g, f0b, c, alpha_c, 0.0, 0.0,
+            1.0)
+
+
+@register_jitable(forceinline=True)
+def gltf_specular(pars, b, tex_tag, tex_par, u, v, fp):
+    """``(specular, F0 r, g, b)`` of the GLTF record at ``pars[b:]`` at uv ``(u, v)``: the specular weight's scalar
+    slot and the dielectric F0 ``min(f0(ior) specular_color, 1)`` (:data:`SPECULAR`, the colour slot at 20-23)."""
+    t_s = int(pars[b + SPECULAR + 1])
+    rgb_s = texture_rgb(tex_tag, tex_par, t_s, u, v, fp) if t_s >= 0 else (0.0, 0.0, 0.0)
+    s = slot_scalar(pars, b + SPECULAR + 1, rgb_s)
+    cr, cg, cb = scaled_slot(pars, b + 20, tex_tag, tex_par, u, v, fp)
+    f = pars[b + SPECULAR]
+    return s, min(f * cr, 1.0), min(f * cg, 1.0), min(f * cb, 1.0)
 
 
 @register_jitable(forceinline=True)
@@ -379,12 +404,14 @@ def coat_inputs(pars, b, tex_tag, tex_par, u, v, fp):
 @register_jitable(forceinline=True)
 def with_coat_normal(a, n):
     """The hit inputs ``a`` (:func:`albedo_at`) with the coat's normal ``n`` (unit, in the local shading frame)."""
-    return a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10], n[0], n[1], n[2]
+    return (a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10], a[11], a[12], a[13], a[14], n[0], n[1],
+            n[2])
 
 
 @register_jitable
 def gltf_f_cos_h(pars, b, albedo, cos_o, cos_i, cos_h, cos_oh):
-    """f_cos of the GLTF record at ``pars[b:]`` with the hit's inputs ``albedo`` (:func:`gltf_inputs`), from ``n.h``
+    """f_cos of the GLTF record at ``pars[b:]`` with the hit's inputs ``albedo`` (:func:`gltf_inputs`: the
+    specular weight and dielectric F0 among them), from ``n.h``
     and ``wo.h``: :func:`pyrt.shaders.jit_brdfs.metallic_roughness_f_cos_h` (``MetallicRoughness.f_cos``) or
     :func:`pyrt.shaders.jit_brdfs.gltf_pbr_f_cos_h` (``GltfPBR.f_cos``) by the record's model."""
     if pars[b + 18] == 0.0:
@@ -392,8 +419,7 @@ def gltf_f_cos_h(pars, b, albedo, cos_o, cos_i, cos_h, cos_oh):
                                              albedo[7], int(pars[b + 19]))
     t = pars[b + TRANSMISSION + 1]
     return JB.gltf_pbr_f_cos_h(cos_o, cos_i, cos_h, cos_oh, albedo[3], albedo[4], albedo[5], albedo[6], albedo[7],
-                               pars[b + 21], pars[b + 22], pars[b + 23], pars[b + 20], t, 1.0 - t,
-                               int(pars[b + 19]))
+                               albedo[10], albedo[11], albedo[12], albedo[9], t, 1.0 - t, int(pars[b + 19]))
 
 
 def normal_map_fields(normal_map, row):
@@ -447,8 +473,8 @@ def glossy_alpha(pars, m, inputs):
     if a >= 0.0:
         return a
     a = inputs[7] * inputs[7]
-    if pars[m * RECORD + COAT] != 0.0 and inputs[9] > 0.0:
-        a = min(a, inputs[10])
+    if pars[m * RECORD + COAT] != 0.0 and inputs[13] > 0.0:
+        a = min(a, inputs[14])
     return a
 
 

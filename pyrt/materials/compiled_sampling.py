@@ -386,7 +386,7 @@ def f_cos_world(tag, pars, m, albedo, wo, wi, ns):
 def coat_frame(albedo):
     """``(s, t, n)``: the frame of a coated hit's coat normal ``n`` (the inputs' last three, in the local shading
     frame; :meth:`pyrt.Clearcoat._coat_frame`)."""
-    n = (albedo[11], albedo[12], albedo[13])
+    n = (albedo[15], albedo[16], albedo[17])
     s, t = coordinate_frame(n[0], n[1], n[2])
     return s, t, n
 
@@ -394,14 +394,14 @@ def coat_frame(albedo):
 @register_jitable(forceinline=True)
 def coat_weight(pars, b, albedo, cos_oc):
     """``c F_c`` at ``|n_c.wo| = |cos_oc|``: :meth:`pyrt.Clearcoat.coat_weight` (``fresnel="view"``)."""
-    return albedo[9] * JB.fr_schlick(abs(cos_oc), pars[b + MC.COAT + 11])
+    return albedo[13] * JB.fr_schlick(abs(cos_oc), pars[b + MC.COAT + 11])
 
 
 @register_jitable(forceinline=True)
 def coat_prob(pars, b, albedo, cos_oc):
     """The probability of sampling the coat's lobe: ``c F_c``, at least ``c / 4``, at most 0.9
     (:meth:`pyrt.Clearcoat._coat_prob`)."""
-    return min(max(max(coat_weight(pars, b, albedo, cos_oc), 0.25 * albedo[9]), 0.0), 0.9)
+    return min(max(max(coat_weight(pars, b, albedo, cos_oc), 0.25 * albedo[13]), 0.0), 0.9)
 
 
 @register_jitable
@@ -420,7 +420,7 @@ def coat_f_cos(pars, b, albedo, f, wox, woy, woz, wix, wiy, wiz):
         inv = 1.0 / hl if hl > 0.0 else 0.0
         hx, hy, hz = hx * inv, hy * inv, hz * inv
         cos_oh = min(max(wo_c[0] * hx + wo_c[1] * hy + wo_c[2] * hz, 0.0), 1.0)
-        spec = JB.microfacet_spec_cos_h(wo_c[2], wi_c[2], hz, cos_oh, albedo[10], 0, 0)
+        spec = JB.microfacet_spec_cos_h(wo_c[2], wi_c[2], hz, cos_oh, albedo[14], 0, 0)
     k, cs = 1.0 - cw, cw * spec
     return f[0] * k + cs, f[1] * k + cs, f[2] * k + cs
 
@@ -434,7 +434,7 @@ def coat_pdf(pars, m, albedo, wox, woy, woz, wix, wiy, wiz):
     wo_c = to_local((wox, woy, woz), s, t, n)
     wi_c = to_local((wix, wiy, wiz), s, t, n)
     p = coat_prob(pars, b, albedo, wo_c[2])
-    pc = spec_pdf(0, wo_c[0], wo_c[1], wo_c[2], wi_c[0], wi_c[1], wi_c[2], albedo[10]) if woz > 0.0 else 0.0
+    pc = spec_pdf(0, wo_c[0], wo_c[1], wo_c[2], wi_c[0], wi_c[1], wi_c[2], albedo[14]) if woz > 0.0 else 0.0
     return p * pc + (1.0 - p) * base_pdf_wi(MC.GLTF, pars, m, albedo, wox, woy, woz, wix, wiy, wiz)
 
 
@@ -456,7 +456,7 @@ def coat_sample_wi(tag, pars, m, albedo, wox, woy, woz, u0, u1):
         v = (u0 - p) / (1.0 - p if p < 1.0 else 1.0)
     v = min(max(v, 0.0), U_MAX)
     if take:
-        hx, hy, hz = sample_ggx_vndf(wo_c[0], wo_c[1], wo_c[2], v, u1, albedo[10])
+        hx, hy, hz = sample_ggx_vndf(wo_c[0], wo_c[1], wo_c[2], v, u1, albedo[14])
         k = 2.0 * (wo_c[0] * hx + wo_c[1] * hy + wo_c[2] * hz)
         wc = (-wo_c[0] + k * hx, -wo_c[1] + k * hy, -wo_c[2] + k * hz)
         valid = wc[2] > 0.0 and wo_c[2] > 0.0

@@ -3,9 +3,10 @@
 One record serves :class:`pyrt.materials.MetallicRoughness` with textured parameters and :class:`pyrt.GltfPBR`
 without anisotropy, opaque or with smooth transmission (:func:`gltf_pbr_record`), an opaque one of them under a
 :class:`pyrt.Clearcoat` (:func:`clearcoat_record`), each optionally with glTF's emission and occlusion on top
-(:class:`pyrt.io.assets.materials.SurfaceExtras`): the base colour, metallic, roughness, emission and occlusion are
-*slots*, a constant or a factor times a texture of the kernel's texture table (a channel of it for the scalars),
-resolved per hit by :func:`pyrt.materials.compiled.gltf_inputs`. Layout (offsets into the record):
+(:class:`pyrt.io.assets.materials.SurfaceExtras`): the base colour, metallic, roughness, emission, occlusion and
+GltfPBR's ``specular`` and ``specular_color`` are *slots*, a constant or a factor times a texture of the kernel's
+texture table (a channel of it for the scalars), resolved per hit by :func:`pyrt.materials.compiled.gltf_inputs`.
+Layout (offsets into the record):
 
 ======  ==========================================================================================================
 0-3     base colour: texture row or -1, factor (RGB): ``factor x texture`` (the factor alone without a texture)
@@ -15,9 +16,11 @@ resolved per hit by :func:`pyrt.materials.compiled.gltf_inputs`. Layout (offsets
 14-16   occlusion (as metallic; the constant 1 without one), 17 its strength: ``albedo() = base (1 + s (occ - 1))``
 18      the reflection model: :data:`MR` (``MetallicRoughness.f_cos``) or :data:`GLTF_PBR` (``GltfPBR.f_cos``)
 19      the geometry term (:data:`pyrt.shaders.jit_brdfs.GEOMETRY_TERMS` index)
-20      GltfPBR's ``specular``, 21-23 its dielectric F0 ``min(f0(ior) specular_color, 1)``
+20-23   GltfPBR's ``specular_color`` (as the base colour; 1 for MetallicRoughness)
 37-40   a smooth transmitting GltfPBR's transmission (:data:`pyrt.materials.compiled.TRANSMISSION`; zeros: opaque)
-41-52   a clear coat (:data:`pyrt.materials.compiled.COAT`; zeros: none)
+41      ``f0(ior)`` (0.04 for MetallicRoughness): the dielectric F0 is ``min(f0(ior) specular_color, 1)`` per hit
+42-44   GltfPBR's ``specular`` (as metallic; the constant 1 for MetallicRoughness)
+45-56   a clear coat (:data:`pyrt.materials.compiled.COAT`; zeros: none)
 ======  ==========================================================================================================
 
 A base colour that is a product with vertex colours (glTF's ``COLOR_0``) is the slot of its other factor, the
@@ -34,6 +37,7 @@ import numpy as np
 from pyrt.materials import compiled as _compiled
 from pyrt.materials.compiled import pack_color_slot as color_slot
 from pyrt.materials.base import is_texture
+from pyrt.shaders import fresnel
 from pyrt.shaders import jit_brdfs as _JB
 
 #: the reflection models of field 18
@@ -52,18 +56,19 @@ def scalar_slot(value, pack_texture):
     return None if row is None else [float(row), float(form[2]), float(form[1])]
 
 
-def gltf_record(material, pack_texture, *, model, geometry, specular=1.0, f0_dielectric=0.04, emission=0.0,
-                occlusion=None, occlusion_strength=1.0):
+def gltf_record(material, pack_texture, *, model, geometry, specular=1.0, specular_color=1.0, f0_ior=0.04,
+                emission=0.0, occlusion=None, occlusion_strength=1.0):
     """``(GLTF, record)`` of a material with ``base_color``, ``metallic`` and ``roughness`` (constants or textures),
-    the reflection ``model`` (:data:`MR` or :data:`GLTF_PBR`, whose constant ``specular`` and ``f0_dielectric``
-    are used), ``geometry`` (a name of :data:`pyrt.shaders.jit_brdfs.GEOMETRY_TERMS`), ``emission`` (a constant
-    or a texture) and ``occlusion`` (None or a 1-channel texture, with its strength); None when a texture is not
-    readable by the kernel."""
+    the reflection ``model`` (:data:`MR` or :data:`GLTF_PBR`, which reads ``specular`` and the dielectric F0
+    ``min(f0_ior specular_color, 1)``, each a constant or a texture), ``geometry`` (a name of
+    :data:`pyrt.shaders.jit_brdfs.GEOMETRY_TERMS`), ``emission`` (a constant or a texture) and ``occlusion`` (None
+    or a 1-channel texture, with its strength); None when a texture is not readable by the kernel."""
     base, vc = _compiled.vertex_slot(material.base_color, pack_texture, color_slot)
     slots = [base, scalar_slot(material.metallic, pack_texture),
              scalar_slot(material.roughness, pack_texture), color_slot(emission, pack_texture),
              [-1.0, 1.0, 0.0] if occlusion is None else scalar_slot(occlusion, pack_texture)]
-    if any(s is None for s in slots):
+    spec = [color_slot(specular_color, pack_texture), scalar_slot(specular, pack_texture)]
+    if any(s is None for s in slots + spec):
         return None
     rec = _compiled.empty_record()
     rec[0:17] = [x for s in slots for x in s]
@@ -71,27 +76,28 @@ def gltf_record(material, pack_texture, *, model, geometry, specular=1.0, f0_die
     rec[_compiled.VERTEX_COLOR] = vc
     rec[18] = float(model)
     rec[19] = _JB.GEOMETRY_TERMS.index(geometry)
-    rec[20] = float(specular)
-    rec[21:24] = np.broadcast_to(np.asarray(f0_dielectric, dtype=np.float64).reshape(-1), (3,))
+    rec[20:24] = spec[0]
+    S = _compiled.SPECULAR
+    rec[S] = float(f0_ior)
+    rec[S + 1:S + 4] = spec[1]
     return _compiled.GLTF, rec
 
 
 def gltf_pbr_record(material, pack_texture, *, emission=0.0, occlusion=None, occlusion_strength=1.0):
-    """``(GLTF, record)`` of a :class:`pyrt.GltfPBR` (:data:`GLTF_PBR`, its constant ``specular`` and dielectric F0)
-    that is isotropic with constant ``specular`` and ``specular_color``, opaque or of
-    :attr:`~pyrt.GltfPBR.smooth_transmission` with constant ``base_color``, ``metallic`` and ``transmission``: then
+    """``(GLTF, record)`` of a :class:`pyrt.GltfPBR` (:data:`GLTF_PBR`, its ``specular`` and ``specular_color``
+    constants or textures, ``f0(ior)``) that is isotropic, opaque or of :attr:`~pyrt.GltfPBR.smooth_transmission`
+    with constant ``base_color``, ``metallic``, ``transmission``, ``specular`` and ``specular_color``: then
     ``[(1 - metallic) transmission, transmission, thin, ior]`` at :data:`pyrt.materials.compiled.TRANSMISSION`;
-    None otherwise (rough or textured transmission, anisotropy, textured specular) or when a texture is not readable
-    by the kernel."""
+    None otherwise (rough or textured transmission, anisotropy) or when a texture is not readable by the kernel."""
     m = material
-    if m.anisotropic or is_texture(m.specular) or is_texture(m.specular_color):
+    if m.anisotropic:
         return None
-    if m.transmits and (not m.smooth_transmission or any(is_texture(v) for v in (m.base_color, m.metallic,
-                                                                                   m.transmission))):
+    if m.transmits and (not m.smooth_transmission or any(is_texture(v) for v in (
+            m.base_color, m.metallic, m.transmission, m.specular, m.specular_color))):
         return None
     out = gltf_record(m, pack_texture, model=GLTF_PBR, geometry=m.geometry, specular=m.specular,
-                      f0_dielectric=m._f0_dielectric(None), emission=emission, occlusion=occlusion,
-                      occlusion_strength=occlusion_strength)
+                      specular_color=m.specular_color, f0_ior=float(fresnel.f0_from_ior(m.ior_value)),
+                      emission=emission, occlusion=occlusion, occlusion_strength=occlusion_strength)
     if out is not None and m.transmits:
         t = float(m.transmission)
         out[1][_compiled.TRANSMISSION:_compiled.TRANSMISSION + 4] = [(1.0 - float(m.metallic)) * t, t,
