@@ -231,7 +231,7 @@ def test_textured_gltf_materials_under_the_studio(rng):
     """tests/test_compiled_gltf.py's scene (a textured GltfMaterial with a packed occlusion-roughness-metallic map and
     occlusion, a textured GltfPBR, a normal-mapped GltfPBRMaterial, a mirror, a point and a directional light, ambient
     light) lit by the studio too: the split sum with per-hit parameters and the occlusion; and a black glTF sphere
-    with an occlusion map (its specular lobe alone carries the occlusion: the hit's last input)."""
+    with an occlusion map (its specular lobe alone carries the occlusion: one of the hit's inputs)."""
     s = gltf_scene(rng)
     occ = ImageTexture(rng.uniform(0.1, 1.0, (6, 6, 3)).astype(np.float32), srgb=False, filter="bilinear")
     s.add_sphere((0.0, 0.3, 1.2), 0.3, GltfMaterial(base_color=0.0, metallic=0.0, roughness=0.4,
