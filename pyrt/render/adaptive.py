@@ -76,12 +76,11 @@ import numpy as np
 from pyrt.core import checks
 from pyrt.core.errors import RenderError
 from pyrt.core.film import Film
-from pyrt.core.metrics import RELMSE_EPS
+from pyrt.core.metrics import relmse_per_pixel
 from pyrt.integrators import compiled
 from pyrt.integrators.prepared import PreparedScene, RenderStats
 from pyrt.integrators.whitted import DEFAULT_SPLIT_DEPTH
 from pyrt.render.chunks import shade_adaptive_chunk
-from pyrt.render import pass_math
 from pyrt.render.compiled import adaptive_task, check_backend
 from pyrt.render.distributed import DaskRunner, adaptive_group
 from pyrt.render.pool import ChunkPool, integrator_factory, merge_stats, progress_bar, use_processes
@@ -150,17 +149,38 @@ def _positive(name, v):
 
 
 def box_smooth(a, radius):
-    """Mean of ``a`` (H, W) over the (2 radius + 1)^2 box around each pixel (the box clipped at the border): from the
-    2-D prefix sums ``c`` of ``a``, ``(c[r1, c1] - c[r0, c1] - c[r1, c0] + c[r0, c0]) / ((r1 - r0)(c1 - c0))``
-    (:func:`pyrt.render.pass_math.box_smooth`, compiled)."""
-    return pass_math.box_smooth(np.ascontiguousarray(a, dtype=np.float64), int(radius))
+    """Mean of ``a`` (H, W) over the (2 radius + 1)^2 box around each pixel (the box clipped at the border)."""
+    H, W = a.shape
+    c = np.zeros((H + 1, W + 1))
+    np.cumsum(np.cumsum(a, axis=0), axis=1, out=c[1:, 1:])
+    r0 = np.clip(np.arange(H) - radius, 0, H)
+    r1 = np.clip(np.arange(H) + radius + 1, 0, H)
+    c0 = np.clip(np.arange(W) - radius, 0, W)
+    c1 = np.clip(np.arange(W) + radius + 1, 0, W)
+    s = c[r1][:, c1] - c[r0][:, c1] - c[r1][:, c0] + c[r0][:, c0]
+    return s / ((r1 - r0)[:, None] * (c1 - c0)[None, :])
 
 
 def pixel_errors(film, half):
     """Per-pixel estimated relMSE of the film's mean (H*W,) from the half-buffers (``half`` holds half B);
     NaN where a pixel has no sample: :func:`pyrt.core.metrics.relmse_per_pixel` of the variance
-    ``(mean_A - mean_B)^2 / 4`` (:func:`pyrt.render.pass_math.pixel_errors`, compiled)."""
-    return pass_math.pixel_errors(film.sum, film.weight, half.sum, half.weight, RELMSE_EPS)
+    ``(mean_A - mean_B)^2 / 4``, computed on every pixel at once (masked rows cost more than the arithmetic)."""
+    wb = half.weight
+    w = film.weight
+    wa = w - wb
+    ok = (wa > 0) & (wb > 0)
+    out = np.full(w.shape[0], np.nan)
+    if not ok.any():
+        return out
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sb = half.sum
+        d = (film.sum - sb) / wa[:, None]                # mean_A
+        d -= sb / wb[:, None]                            # - mean_B
+        d *= d
+        d /= 4.0                                         # the variance of the mean
+        err = relmse_per_pixel(d, film.sum / w[:, None])
+    out[ok] = err[ok]
+    return out
 
 
 def floored_errors(film, err, shape):
@@ -185,9 +205,17 @@ def estimated_error(film, err, shape, floored=None):
 
 
 def max_filter(a, radius):
-    """Maximum of ``a`` (H, W) over the (2 radius + 1)^2 box around each pixel (the box clipped at the border;
-    :func:`pyrt.render.pass_math.max_filter`, compiled)."""
-    return pass_math.max_filter(np.ascontiguousarray(a, dtype=np.float64), int(radius))
+    """Maximum of ``a`` (H, W) over the (2 radius + 1)^2 box around each pixel (the box clipped at the border)."""
+    out = a.copy()
+    H, W = a.shape
+    for dy in range(-radius, radius + 1):
+        for dx in range(-radius, radius + 1):
+            if dy == 0 and dx == 0:
+                continue
+            ys, yd = (slice(dy, H), slice(0, H - dy)) if dy >= 0 else (slice(0, H + dy), slice(-dy, H))
+            xs, xd = (slice(dx, W), slice(0, W - dx)) if dx >= 0 else (slice(0, W + dx), slice(-dx, W))
+            np.maximum(out[yd, xd], a[ys, xs], out=out[yd, xd])
+    return out
 
 
 def allocate(film, err, total_new, max_spp, cap, rng, shape):
@@ -225,7 +253,7 @@ def _water_fill(share, have, room, total):
     lo, hi = 0.0, float(np.max((have[ok] + room[ok]) / share[ok]))   # at hi every pixel is at its cap
     for _ in range(60):
         lam = 0.5 * (lo + hi)
-        got = pass_math.fill_total(lam, share, have, room)
+        got = np.clip(lam * share - have, 0.0, room).sum()
         if abs(got - total) <= 0.005 * total:
             break
         lo, hi = (lam, hi) if got < total else (lo, lam)
@@ -303,12 +331,11 @@ def render_adaptive(scene, *, target_error=None, time_budget=None, max_spp=None,
         base_chunks = -(-scene.camera.width * scene.camera.height * min_spp // chunk_samples)
         processes = use_processes(parallel, workers, 4 * base_chunks) and runner is None and bool(reasons)
         t_kernel = time.perf_counter()
-        pass_math.warm()
         kernel = None if reasons else adaptive_task(ps, cam, seed=seed, max_depth=max_depth,
                                                     throughput_cutoff=throughput_cutoff, offset=offset,
                                                     split_depth=split_depth, nonfinite=nonfinite, threads=workers,
                                                     integ=integ)
-        t_start += time.perf_counter() - t_kernel       # the kernels' load (a first run: their compile) is not budgeted
+        t_start += time.perf_counter() - t_kernel       # the kernel's load (a first run: its compile) is not budgeted
         deadline = t_start + time_budget if time_budget is not None else math.inf
 
         def task(index, key, P, C, base, spp_after, timed):
