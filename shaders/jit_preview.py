@@ -14,6 +14,7 @@ import math
 from numba.extending import register_jitable
 
 from .jit import wrap_int
+from .jit_math import acos, atan2
 from .jit_brdfs import GLTF_DIELECTRIC_F0
 
 #: :mod:`shaders.envmap`'s SH constants (R&H 2001 eq. 3, closed form)
@@ -52,12 +53,12 @@ def sh9_irradiance(data, o, x, y, z):
 
 @register_jitable(forceinline=True)
 def latlong_dir_to_uv(dx, dy, dz):
-    """Lat-long ``(u, v)`` of a unit direction: :func:`shaders.envmap.latlong_dir_to_uv`."""
-    u = math.atan2(dx, -dz) * (0.5 / math.pi)
+    """Lat-long ``(u, v)`` of a unit direction: :func:`shaders.envmap.latlong_dir_to_uv` (by :mod:`.jit_math`'s
+    :func:`~.jit_math.atan2` and :func:`~.jit_math.acos`: no libm call, so a packet stage using it vectorises)."""
+    u = atan2(dx, -dz) * (0.5 / math.pi)
     u = u - math.floor(u)
-    if u >= 1.0:
-        u = 0.0
-    return u, math.acos(min(max(dy, -1.0), 1.0)) / math.pi
+    u = 0.0 if u >= 1.0 else u
+    return u, acos(dy) / math.pi
 
 
 @register_jitable(forceinline=True)

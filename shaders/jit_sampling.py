@@ -121,9 +121,25 @@ def padded_sobol_2d(index, n, key, dim):
     Owen-scrambled Sobol' sequence of ``hash32(key, dim)``, ``pi`` Kensler's permutation
     (:func:`pyrt.shaders.jit.permute`) of that seed's shuffle, or for ``n`` <= 0 (the NumPy function's ``n=None``:
     a progressive set) the nested uniform scramble of the index bits."""
+    return padded_sobol_2d_keyed(index, n, padded_keys(key, dim))
+
+
+@register_jitable(forceinline=True)
+def padded_keys(key, dim):
+    """What :func:`padded_sobol_2d` derives from the pixel's seed ``key`` and the dimension pair ``dim`` alone,
+    ``(shuffle, kx, ky)``: the same for all the pixel's samples (a packet of one pixel's samples hashes them once,
+    :func:`padded_sobol_2d_keyed`)."""
     k = hash32_2(key, dim)
-    shuffle = hash32_2(k, 0x2545F491)
+    kx, ky = sobol_owen_keys(k)
+    return hash32_2(k, 0x2545F491), kx, ky
+
+
+@register_jitable(forceinline=True)
+def padded_sobol_2d_keyed(index, n, keys):
+    """:func:`padded_sobol_2d` of sample ``index`` of ``n`` with the pixel's and dimension pair's
+    :func:`padded_keys` ``keys`` given."""
+    shuffle, kx, ky = keys
     if n <= 0:      # a progressive set: Burley's nested uniform shuffle of the index
         i = np.uint64(index) & np.uint64(_M32)
-        return sobol_owen_2d(reverse_bits32(laine_karras(reverse_bits32(i), shuffle)), k)
-    return sobol_owen_2d(permute(index, n, shuffle), k)
+        return sobol_owen_2d_keyed(reverse_bits32(laine_karras(reverse_bits32(i), shuffle)), kx, ky)
+    return sobol_owen_2d_keyed(permute(index, n, shuffle), kx, ky)

@@ -339,6 +339,31 @@ def test_cancel_is_seen_after_one_kernel_call():
     assert np.all(sums[~compiled.pixel_mask(done, cam.width, cam.height)] == 0)
 
 
+def test_short_render_in_two_calls():
+    """The first call measures the rate; when the rest of the tiles fits in one call of ``call_seconds`` it goes in
+    one call (each call ends with a barrier), else in at least :data:`MIN_CALLS` calls (a progress bar moves)."""
+    from pyrt.integrators import compiled
+
+    class Steps:
+        def __init__(self):
+            self.n = []
+
+        def update(self, n):
+            self.n.append(n)
+
+    ps = pyrt.PreparedScene(_scene(width=160, height=120, spp=1))
+    cs = compiled.CompiledScene(ps)
+    cam = ps.scene.camera
+    kw = dict(spp=1, seed=0, max_depth=4, throughput_cutoff=1e-4, split_depth=3, terminator=True)
+    n = compiled.n_tiles(cam)
+    short, long_ = Steps(), Steps()
+    s0 = compiled.render_fixed(cs, cam, progress=short, call_seconds=1e9, **kw)[0]
+    s1 = compiled.render_fixed(cs, cam, progress=long_, call_seconds=0.0, **kw)[0]
+    assert len(short.n) == 2 and sum(short.n) == n
+    assert len(long_.n) >= compiled.MIN_CALLS and sum(long_.n) == n
+    assert np.array_equal(s0, s1)
+
+
 def test_second_moment_on_request_only():
     """``render_fixed(second_moment=True)`` sums the squared radiance per pixel (at 1 spp exactly the square of the
     sum; at 4 spp at least sum^2 / 4 and at most sum^2 for these non-negative samples) and changes no sum; without

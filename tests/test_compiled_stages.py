@@ -6,13 +6,15 @@ and prefetches, then lookups) give bit for bit what :func:`env_sample` gives lan
 vectorised stages too."""
 import numba
 import numpy as np
+import pytest
 
 from pyrt.core import unmanaged as U
 from pyrt.geometry import embree_jit as E
 from pyrt.integrators import kernel_cache
 from pyrt.integrators.compiled_layout import (
     LANES, V_A, V_COSI, V_COSIO, V_COSO, V_F, V_GOK, V_L, V_LIT, V_MAT, V_S, V_SIZE)
-from pyrt.integrators.compiled_layout import V_D, V_LIFT, V_MAG, V_MAG_LIFT, V_NG, V_NS, V_NV, V_P, lane_inputs, lane_vec
+from pyrt.integrators.compiled_layout import (V_D, V_EU, V_LIFT, V_MAG, V_MAG_LIFT, V_NG, V_NS, V_NV, V_P, lane_inputs,
+                                              lane_vec, padded_numbers)
 from pyrt.integrators.compiled_lighting import bsdf_stage, env_sample, env_stage, lambert_stage, shadow_add
 from pyrt.lights import compiled as LC
 from pyrt.materials import compiled as MC
@@ -43,14 +45,15 @@ def _shadow_add(V0, blocked, n, inv):
 
 
 @numba.njit(cache=True)
-def _env_both(etag, erec, edata, mats_tag, mats_par, V0, n, tech, lane_s, spp, lane_k32, pair):
+def _env_both(etag, erec, edata, mats_tag, mats_par, V0, n, tech, lane_s, spp, lane_k32, pair, lambert):
     """(scratch, shadow packet, count) of env_stage; (scratch, shadow origins, directions, flags, count) of
     env_sample lane by lane, from the same scratch."""
     Va, Vb = V0.copy(), V0.copy()
     sa = E.packet_alloc(LANES)
     E.packet_prepare(U.pointer(sa), LANES, 0.0, 0.0, 0.0)
     na = env_stage(etag, U.pointer(erec), U.pointer(edata), U.pointer(mats_tag), U.pointer(mats_par), U.pointer(Va),
-                   n, True, tech, 1, 2, pair, U.pointer(lane_s), spp, U.pointer(lane_k32), U.pointer(sa), LANES)
+                   n, True, tech, 1, 2, pair, U.pointer(lane_s), spp, U.pointer(lane_k32), U.pointer(sa), LANES,
+                   lambert)
     nb = 0
     V = U.pointer(Vb)
     org, wis, oks = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n, dtype=np.bool_)
@@ -74,7 +77,31 @@ def _env_both(etag, erec, edata, mats_tag, mats_par, V0, n, tech, lane_s, spp, l
     return Va, sa, na, Vb, org, wis, oks, nb
 
 
+@numba.njit(cache=True)
+def _padded(lane_s, spp, lane_k32, pair, n, s, count):
+    V = np.zeros(V_SIZE * LANES)
+    padded_numbers(U.pointer(V), V_EU, U.pointer(lane_s), spp, U.pointer(lane_k32), pair, n, s, count)
+    return V[V_EU * LANES:(V_EU + 2) * LANES].copy()
+
+
 kernel_cache.restore()
+
+
+def test_padded_numbers_equal_padded_sobol_2d_per_lane():
+    """The packet's padded numbers (the per-pixel hashes once per run of one pixel's lanes) are
+    :func:`padded_sobol_2d` lane by lane, bit for bit: one pixel's lanes, runs of several pixels, a pixel seen again
+    after another, a short packet (``(0.5, (s + 0.5) / count)`` past ``n``), a progressive set (``spp`` 0)."""
+    rng = np.random.default_rng(21)
+    for spp, runs, n in ((16, [16], 16), (4, [4, 4, 4, 4], 16), (2, [2, 3, 1, 2, 8], 11), (0, [5, 11], 16)):
+        seeds = rng.integers(0, 2**32, len(runs)).astype(np.uint64)
+        seeds[-1] = seeds[0]                               # a pixel seed seen again after another
+        lane_k32 = np.repeat(seeds, runs).astype(np.uint64)
+        lane_s = rng.integers(0, max(spp, 64), LANES).astype(np.int64) % max(spp, 64)
+        for s_, count in ((0, 1), (2, 3)):
+            got = _padded(lane_s, spp, lane_k32, 7, n, s_, count)
+            for lane in range(LANES):
+                x0, x1 = JS.padded_sobol_2d(lane_s[lane], spp, lane_k32[lane], 7) if lane < n else (0.5, 0.5)
+                assert got[lane] == x0 and got[LANES + lane] == (s_ + x1) / count, (spp, lane)
 
 
 def _scratch(rng):
@@ -134,9 +161,11 @@ def _unit(rng, n):
     return v / np.linalg.norm(v, axis=1, keepdims=True)
 
 
-def test_env_stage_two_passes_equal_env_sample_lane_by_lane():
+@pytest.mark.parametrize("lambert", [False, True], ids=["mixed", "all_lambert"])
+def test_env_stage_two_passes_equal_env_sample_lane_by_lane(lambert):
     """Random hits (normals, views, points; Lambert, rough gold and no hit) under a sky with a sun, both techniques:
-    the stage's values, lit flags, shadow packet (every byte) and count equal a loop of :func:`env_sample`."""
+    the stage's values, lit flags, shadow packet (every byte) and count equal a loop of :func:`env_sample`. A packet of
+    Lambert hits and misses only takes the vectorised Lambert stages (``lambert``): the same bits."""
     import pyrt
     from pyrt.integrators import compiled
 
@@ -166,12 +195,13 @@ def test_env_stage_two_passes_equal_env_sample_lane_by_lane():
                 V[(field + c) * LANES:(field + c + 1) * LANES] = x[:, c]
         V[V_MAG * LANES:(V_MAG + 1) * LANES] = 1e-6
         V[V_MAG_LIFT * LANES:(V_MAG_LIFT + 1) * LANES] = 1e-6
-        V[V_MAT * LANES:(V_MAT + 1) * LANES] = rng.integers(-1, 2, LANES)
+        V[V_MAT * LANES:(V_MAT + 1) * LANES] = rng.integers(-1, 1 if lambert else 2, LANES)
         lane_s = rng.integers(0, 16, LANES).astype(np.int64)
         lane_k32 = rng.integers(0, 2**32, LANES).astype(np.uint64)
         for tech in (False, True):
             Va, sa, na, Vb, org, wis, oks, nb = _env_both(cs.env_tag, erec, cs.env_data, cs.materials[0],
-                                                          cs.materials[1], V, n, tech, lane_s, 16, lane_k32, trial)
+                                                          cs.materials[1], V, n, tech, lane_s, 16, lane_k32, trial,
+                                                          lambert)
             assert na == nb
             lit.append(na / n)
             assert np.array_equal(E.packet_valid(sa)[:n] != 0, oks) and not E.packet_valid(sa)[n:].any()

@@ -437,8 +437,9 @@ def n_tiles(cam):
 
 #: the seconds a kernel call should take at most (a progress step and a look at ``cancel`` between calls; each call
 #: ends with a barrier): the first call renders :data:`FIRST_CALL_TILES` tiles per thread, later calls as many as
-#: the rate measured so far fits in this time, at least 4 calls per render. A Ctrl-C (``cancel``) is seen within
-#: about one call (a 1920 x 1080 render at 64 spp in 4 calls took 27 s to stop)
+#: the rate measured so far fits in this time, at least :data:`MIN_CALLS` calls per render unless the rest fits in
+#: one call. A Ctrl-C (``cancel``) is seen within about one call (a 1920 x 1080 render at 64 spp in 4 calls took
+#: 27 s to stop)
 CALL_SECONDS = 0.25
 #: tiles per thread of the first call of a render (its time sets the later calls' sizes)
 FIRST_CALL_TILES = 8
@@ -447,7 +448,8 @@ FIRST_CALL_TILES = 8
 #: rather than 16, measured within the noise to 5 % faster on the shadowed bench scene (quickbench, 2 threads, load
 #: 0.1; 16 / static: 36.7 Ms/s, 4 / static 39.8, 2 / 4 tiles 38.8)
 CHUNKSIZE = 1
-#: the fewest kernel calls of a render with enough tiles (so that a progress bar moves)
+#: the fewest kernel calls of a render with enough tiles whose rest takes longer than :data:`CALL_SECONDS` after the
+#: first call (so that a progress bar moves)
 MIN_CALLS = 4
 #: held around every call of the threaded kernel (:func:`pyrt.integrators.compiled_kernel.render_tiles`): Numba's
 #: workqueue threading layer runs one parallel region at a time and aborts the process when a second thread enters
@@ -490,7 +492,10 @@ def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_dept
     while lo < order.size:
         if cancel is not None and cancel.is_set():
             break
-        hi = min(order.size, lo + max(1, min(per_call, -(-order.size // MIN_CALLS))))
+        cap = -(-order.size // MIN_CALLS)
+        if timed_tiles and (order.size - lo) * timed_s <= call_seconds * timed_tiles:
+            cap = order.size - lo       # the rest fits in one call: no progress steps needed (each call costs a barrier)
+        hi = min(order.size, lo + max(1, min(per_call, cap)))
         t0 = time.perf_counter()
         with warnings.catch_warnings():
             # a compile (first call, cold cache) reports "variable ... is not in scope" for inlined helpers with

@@ -303,7 +303,7 @@ def shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k3
         if ltag == LC.ENV:
             pair = env_rounds(scene, G, etag, erec, edata, mats_tag, mats_par, tex_tag, tex_par, sopt, V, n,
                               terminator, pair, lane_s, spp, lane_k32, sh, w, int(lights_par[j * LC.RECORD]),
-                              int(lights_par[j * LC.RECORD + 1]), cnt, ray_buf)
+                              int(lights_par[j * LC.RECORD + 1]), cnt, ray_buf, lambert)
             continue
         if ltag == LC.MESH:     # the emissive-mesh light's samples (compiled_mesh_stage)
             pair = MS.mesh_rounds(scene, G, lights_par, j, mats_tag, mats_par, tex_tag, tex_par, sopt, V, keys, n,

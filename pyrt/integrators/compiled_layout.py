@@ -14,6 +14,7 @@ import numpy as np  # noqa: E402
 from pyrt.core import unmanaged as U  # noqa: E402
 from pyrt.core.unmanaged import keep_alive  # noqa: E402
 from pyrt.geometry import embree_jit as E  # noqa: E402
+from pyrt.shaders import jit_sampling as JS  # noqa: E402
 
 #: pixels per tile side
 TILE = 8
@@ -144,6 +145,27 @@ _njit = numba.njit(nogil=True, cache=True, error_model="numpy", forceinline=True
 #: vectorised body. It takes pointers and numbers only, so the call costs no reference counting. Stages and the
 #: tile function ask for 512-bit vectors (:func:`pyrt.core.unmanaged.wide_vectors`).
 _stage = numba.njit(nogil=True, cache=True, error_model="numpy")
+
+
+@_njit
+def padded_numbers(V, field, lane_s, spp, lane_k32, pair, n, s, count):
+    """Each lane's padded sample numbers of dimension pair ``pair`` (:func:`pyrt.shaders.jit_sampling.
+    padded_sobol_2d` of its sample ``lane_s[l]`` of its pixel's ``spp`` and its pixel's seed ``lane_k32[l]``) into
+    the scratch: ``x0`` into ``field``, ``(s + x1) / count`` into ``field + 1`` (round ``s`` of ``count``: the second
+    number stratified over the rounds), ``(0.5, (s + 0.5) / count)`` for the lanes from ``n`` on. The per-pixel hashes
+    (:func:`~pyrt.shaders.jit_sampling.padded_keys`) once per run of lanes of one pixel (a packet of one pixel's
+    samples: once)."""
+    last = lane_k32[0]
+    keys = JS.padded_keys(last, pair)
+    for lane in range(LANES):
+        x0 = x1 = 0.5
+        if lane < n:
+            if lane_k32[lane] != last:
+                last = lane_k32[lane]
+                keys = JS.padded_keys(last, pair)
+            x0, x1 = JS.padded_sobol_2d_keyed(lane_s[lane], spp, keys)
+        V[field * LANES + lane] = x0
+        V[(field + 1) * LANES + lane] = (s + x1) / count
 
 
 @_njit

@@ -30,13 +30,12 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     V_LIT, V_COSO, V_COSI, V_COSIO, V_S, V_GOK,
     V_SO, V_WI, V_TMAX, T_INF, DIM_AREA, MAX_AREA_SAMPLES, V_L, DIM_ENV, N_SHADOW, V_EWI, V_EW, V_ELOC, V_EPDF,
     V_EUV, V_EOK, V_EU,
-    _njit, _stage, lane_inputs, lane_vec, set_lane_vec)
+    _njit, _stage, lane_inputs, lane_vec, padded_numbers, set_lane_vec)
 from pyrt.lights import compiled as LC  # noqa: E402
 from pyrt.lights import compiled_env as CE  # noqa: E402
 from pyrt.materials import compiled as MC  # noqa: E402
 from pyrt.materials import compiled_sampling as CS  # noqa: E402
 from pyrt.shaders import jit as J  # noqa: E402
-from pyrt.shaders import jit_sampling as JS  # noqa: E402
 from pyrt.shaders.jit import dot  # noqa: E402
 
 
@@ -154,8 +153,9 @@ def area_stage(ltag, lpars, j, V, keys, n, s, ns, k, terminator, pair, lane_s, s
     U.wide_vectors()
     jb = j * LC.RECORD
     e_max = max(lpars[jb + 6], lpars[jb + 7], lpars[jb + 8])
+    padded_numbers(V, V_EU, lane_s, spp, lane_k32, pair, n, 0, 1)
     for lane in range(n):
-        x0, x1 = JS.padded_sobol_2d(lane_s[lane], spp, lane_k32[lane], pair)
+        x0, x1 = V[V_EU * LANES + lane], V[(V_EU + 1) * LANES + lane]
         u0, u1 = LC.stratum(s, ns, k, x0, x1, _lhs_perm(keys[lane], j, s, ns, k))
         area_lane(ltag, lpars, j, e_max, V, lane, u0, u1, terminator)
 
@@ -340,27 +340,29 @@ def env_sample(etag, erec, edata, mtag, mpars, m, albedo, p, ng, ns, nv, wo, lif
 
 @_stage
 def env_stage(etag, erec, edata, mats_tag, mats_par, V, n, terminator, bsdf_technique, s, count, pair, lane_s, spp,
-              lane_k32, sh, w):
+              lane_k32, sh, w, lambert):
     """:func:`env_sample` for the camera hits in lanes ``[0, n)`` (round ``s`` of ``count`` samples of one
     technique: the second random number stratified over the rounds, as the NumPy path's ``u[:, 1] = (s + u) /
     n``), each lane's numbers padded over its pixel's samples (dimension pair ``pair``, as :func:`area_stage`):
     the value into :data:`V_F`, whether it is traced into :data:`V_LIT`, the shadow ray into the packet ``sh``
     (width ``w``, the lane switched on accordingly). A lat-long map's light samples come from the vectorised stages of
-    :mod:`pyrt.integrators.compiled_env_stage` (the same numbers as :func:`env_direction`). Returns the number of
-    shadow rays."""
+    :mod:`pyrt.integrators.compiled_env_stage` (the same numbers as :func:`env_direction`); with ``lambert`` (every
+    hit of the packet Lambert) both techniques' samples do (:func:`pyrt.integrators.compiled_env_stage.
+    lambert_env_stage`). Returns the number of shadow
+    rays."""
     # two passes: every lane's direction first, its texels prefetched (:func:`env_direction`), then the lookups and
     # values (:func:`env_value`): the lanes' cache misses overlap (the lookups are memory-bound on large maps)
-    o_table, integral = (-1, 0.0) if bsdf_technique else ES.packet_sampling(etag, erec)
+    o_table, integral = ES.packet_sampling(etag, erec)
+    if lambert and o_table >= 0:
+        return ES.lambert_env_stage(erec, edata, V, n, terminator, bsdf_technique, s, count, pair, lane_s, spp,
+                                    lane_k32, o_table, integral, sh, w)
+    o_table = -1 if bsdf_technique else o_table
+    padded_numbers(V, V_EU, lane_s, spp, lane_k32, pair, n, s, count)
     if o_table >= 0:
         # a lat-long map's light samples for the whole packet in two vectorised stages (compiled_env_stage)
-        for lane in range(LANES):
-            x0, x1 = JS.padded_sobol_2d(lane_s[lane], spp, lane_k32[lane], pair) if lane < n else (0.5, 0.5)
-            V[V_EU * LANES + lane] = x0
-            V[(V_EU + 1) * LANES + lane] = (s + x1) / count
         ES.light_cells(erec, edata, V, o_table)
         ES.light_directions(erec, V, integral)
     for lane in range(n if o_table < 0 else 0):
-        x0, x1 = JS.padded_sobol_2d(lane_s[lane], spp, lane_k32[lane], pair)
         m = int(V[V_MAT * LANES + lane])
         mm = max(m, 0)
         mtag = mats_tag[mm]
@@ -368,8 +370,9 @@ def env_stage(etag, erec, edata, mats_tag, mats_par, V, n, terminator, bsdf_tech
         if m >= 0 and MC.has_diffuse(mtag):
             d = lane_vec(V, V_D, lane)
             ok, wi, wv, pdf, loc, uv = env_direction(etag, erec, edata, mtag, mats_par, mm, lane_inputs(V, lane),
-                                                     lane_vec(V, V_NS, lane), (-d[0], -d[1], -d[2]), x0,
-                                                     (s + x1) / count, bsdf_technique)
+                                                     lane_vec(V, V_NS, lane), (-d[0], -d[1], -d[2]),
+                                                     V[V_EU * LANES + lane], V[(V_EU + 1) * LANES + lane],
+                                                     bsdf_technique)
             set_lane_vec(V, V_EWI, lane, wi)
             set_lane_vec(V, V_EW, lane, wv)
             set_lane_vec(V, V_ELOC, lane, loc)
@@ -466,8 +469,9 @@ def area_bsdf_stage(ltag, lpars, j, mats_tag, mats_par, V, keys, n, terminator, 
     value into :data:`V_F`, whether it is traced into :data:`V_LIT`, the shadow ray into the packet ``sh``
     (width ``w``). Returns the number of shadow rays."""
     n_sh = 0
+    padded_numbers(V, V_EU, lane_s, spp, lane_k32, pair, n, 0, 1)
     for lane in range(n):
-        x0, x1 = JS.padded_sobol_2d(lane_s[lane], spp, lane_k32[lane], pair)
+        x0, x1 = V[V_EU * LANES + lane], V[(V_EU + 1) * LANES + lane]
         u0, u1 = LC.stratum(s, n_b, k_b, x0, x1, _lhs_perm(keys[lane], j + 4096, s, n_b, k_b))
         m = int(V[V_MAT * LANES + lane])
         mm = max(m, 0)
@@ -525,14 +529,15 @@ def env_hit(scene, G, etag, erec, edata, mtag, mats_tag, mats_par, tex_tag, tex_
 
 @numba.njit(nogil=True, cache=True, error_model="numpy")
 def env_rounds(scene, G, etag, erec, edata, mats_tag, mats_par, tex_tag, tex_par, sopt, V, n, terminator, pair, lane_s,
-               spp, lane_k32, sh, w, n_l, n_b, cnt, ray_buf):
+               spp, lane_k32, sh, w, n_l, n_b, cnt, ray_buf, lambert):
     """The environment light at the packet's camera hits: ``max(n_l, n_b)`` rounds, each the light technique's
     sample (while the round is below ``n_l``) then the BSDF technique's (below ``n_b``), each a masked occlusion
     query of the packet (:func:`env_stage`; blocked rays walked through see-through surfaces as ``sopt`` says,
     :func:`pyrt.integrators.compiled_shadows.packet_walk`); their values divided by their
     technique's count added into :data:`V_L`. Returns the next free padded dimension pair (one per sample drawn,
-    in the NumPy path's order). ``strategy="preview"``: :func:`pyrt.integrators.compiled_preview.preview_stage`
-    (no random numbers: the same ``pair`` returned)."""
+    in the NumPy path's order); ``lambert``: every hit of the packet is Lambert (:func:`env_stage`).
+    ``strategy="preview"``: :func:`pyrt.integrators.compiled_preview.preview_stage` (no random numbers: the same
+    ``pair`` returned)."""
     if erec[CE.R_PREVIEW] != 0.0:
         PV.preview_stage(etag, erec, edata, mats_tag, mats_par, V, n)
         return pair
@@ -543,7 +548,7 @@ def env_rounds(scene, G, etag, erec, edata, mats_tag, mats_par, tex_tag, tex_par
                 continue
             E.packet_activate(sh, w, 0)
             n_sh = env_stage(etag, erec, edata, mats_tag, mats_par, V, n, terminator, tech == 1, s, count, pair,
-                             lane_s, spp, lane_k32, sh, w)
+                             lane_s, spp, lane_k32, sh, w, lambert)
             pair += 1
             if n_sh == 0:
                 continue

@@ -21,8 +21,8 @@ kernel_cache.use_cache_dir()      # before the decorators below run
 
 from pyrt.geometry import embree_jit as E  # noqa: E402
 from pyrt.integrators.compiled_layout import (  # noqa: E402
-    LANES, N_SHADOW, T_INF, V_D, V_F, V_LIFT, V_LIT, V_MAG, V_MAG_LIFT, V_MAT, V_NG, V_NS, V_NV, V_P, _njit, _stage,
-    lane_inputs, lane_vec, set_lane_vec)
+    LANES, N_SHADOW, T_INF, V_D, V_EU, V_F, V_LIFT, V_LIT, V_MAG, V_MAG_LIFT, V_MAT, V_NG, V_NS, V_NV, V_P, _njit,
+    _stage, lane_inputs, lane_vec, padded_numbers, set_lane_vec)
 from pyrt.integrators.compiled_lighting import _lhs_perm, area_u, shadow_add  # noqa: E402
 from pyrt.integrators.compiled_shadows import keep_rays, packet_walk, shadow_ray, walks  # noqa: E402
 from pyrt.lights import compiled as LC  # noqa: E402
@@ -30,7 +30,6 @@ from pyrt.lights import compiled_mesh as CM  # noqa: E402
 from pyrt.materials import compiled as MC  # noqa: E402
 from pyrt.materials import compiled_sampling as CS  # noqa: E402
 from pyrt.shaders import jit as J  # noqa: E402
-from pyrt.shaders import jit_sampling as JS  # noqa: E402
 from pyrt.shaders.jit import dot  # noqa: E402
 
 
@@ -60,8 +59,9 @@ def mesh_stage(lpars, j, mats_tag, mats_par, V, keys, n, terminator, s, ns, k, p
     into :data:`V_F`, whether it is traced into :data:`V_LIT`, the shadow ray into the packet ``sh`` (width ``w``, the
     lane switched on accordingly). Returns the number of shadow rays."""
     n_sh = 0
+    padded_numbers(V, V_EU, lane_s, spp, lane_k32, pair, n, 0, 1)
     for lane in range(n):
-        x0, x1 = JS.padded_sobol_2d(lane_s[lane], spp, lane_k32[lane], pair)
+        x0, x1 = V[V_EU * LANES + lane], V[(V_EU + 1) * LANES + lane]
         u0, u1 = LC.stratum(s, ns, k, x0, x1, _lhs_perm(keys[lane], j, s, ns, k))
         m = int(V[V_MAT * LANES + lane])
         mm = max(m, 0)

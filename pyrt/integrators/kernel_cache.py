@@ -27,7 +27,7 @@ import llvmlite
 import numba
 
 #: the modules whose source the compiled kernels are built from (their hash names the cache directory)
-KERNEL_SOURCES = ("pyrt.shaders.jit", "pyrt.shaders.jit_brdfs", "pyrt.shaders.jit_sampling", "pyrt.shaders.jit_preview",
+KERNEL_SOURCES = ("pyrt.shaders.jit", "pyrt.shaders.jit_math", "pyrt.shaders.jit_brdfs", "pyrt.shaders.jit_sampling", "pyrt.shaders.jit_preview",
                   "pyrt.core.unmanaged",
                   "pyrt.geometry.embree_jit", "pyrt.textures.compiled_mip", "pyrt.textures.compiled",
                   "pyrt.textures.compiled_normal_map", "pyrt.materials.compiled", "pyrt.integrators.compiled_coverage",

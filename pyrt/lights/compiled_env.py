@@ -54,6 +54,7 @@ from numba.extending import register_jitable
 
 from pyrt.core import unmanaged as U
 from pyrt.shaders import jit as J
+from pyrt.shaders.jit_math import sincos
 from pyrt.shaders.jit_preview import bilinear_latlong, latlong_dir_to_uv
 
 from pyrt.lights.compiled_tables import BELOW_ONE, cell_pdf, guide_table, sample_cells
@@ -197,34 +198,10 @@ def latlong_uv_to_dir(u, v):
 @register_jitable(forceinline=True)
 def latlong_uv_to_dir_st(u, v):
     """:func:`latlong_uv_to_dir` and ``sin(pi v)`` (the sine it computes), ``(x, y, z, st)``; the sines and cosines
-    by :func:`sincos` (within 3e-16 of libm's)."""
+    by :func:`pyrt.shaders.jit_math.sincos` (within 3e-16 of libm's)."""
     st, ct = sincos(math.pi * v)
     sp, cp = sincos(2.0 * math.pi * u)
     return sp * st, ct, -cp * st, st
-
-
-@register_jitable
-def sincos(x):
-    """``(sin x, cos x)`` for ``|x|`` up to a few hundred, within 3e-16 of libm's: Cody-Waite reduction by pi/2 to
-    [-pi/4, pi/4] (three parts of pi/2) and Cephes' minimax polynomials, the quadrant applied arithmetically. No
-    branch and no call, so a loop of it vectorises (LLVM vectorises no libm call here), and the same arithmetic
-    scalar or vectorised: the environment's per-lane code and its packet stage
-    (:mod:`pyrt.integrators.compiled_env_stage`) give the same directions bit for bit."""
-    j = math.floor(x * 0.6366197723675814 + 0.5)
-    r = ((x - j * 1.5707963267341256) - j * 6.077100506303966e-11) - j * 2.0222662487959506e-21
-    z = r * r
-    s = r + r * z * (-1.66666666666666307295e-1 + z * (8.33333333332211858878e-3 + z * (
-        -1.98412698295895385996e-4 + z * (2.75573136213857245213e-6 + z * (-2.50507477628578072866e-8
-                                                                           + z * 1.58962301576546568060e-10)))))
-    c = 1.0 - 0.5 * z + z * z * (4.16666666666665929218e-2 + z * (-1.38888888888730564116e-3 + z * (
-        2.48015872888517045348e-5 + z * (-2.75573141792967388112e-7 + z * (2.08757008419747316778e-9
-                                                                          + z * -1.13585365213876817300e-11)))))
-    q = j - 4.0 * math.floor(j * 0.25)                 # the quadrant, 0..3
-    odd = q - 2.0 * math.floor(q * 0.5)                # 1 in quadrants 1 and 3: sine and cosine swap
-    sn, cs = s + odd * (c - s), c + odd * (s - c)
-    s_sign = 1.0 - 2.0 * math.floor(q * 0.5)                                    # quadrants 2, 3
-    c_sign = 1.0 - 2.0 * (math.floor((q + 1.0) * 0.5) - 2.0 * math.floor((q + 1.0) * 0.25))   # quadrants 1, 2
-    return s_sign * sn, c_sign * cs
 
 
 # ----------------------------------------------------------------------------------------- radiance
