@@ -21,8 +21,10 @@ import os
 import numba
 import numpy as np
 import pytest
+import trimesh
 
 import pyrt
+from pyrt.geometry.surface import surface_from_hits
 from pyrt.integrators import PreparedScene
 from pyrt.integrators import compiled
 from pyrt.integrators import compiled_diffs as D
@@ -47,7 +49,6 @@ pytestmark = pytest.mark.filterwarnings("ignore:invalid value encountered:Runtim
 def _grid_hits():
     """A prepared grid whose set 1 is set 0 warped (rotated, sheared, tiled, bent: its tangents vary per triangle)
     and the NumPy surface at its camera rays' hits, with differentials."""
-    from pyrt.geometry.surface import surface_from_hits
     cam = pyrt.Camera(position=(0.2, -0.3, 3), target=(0, 0, 0), fov=40, width=24, height=20)
     scene = pyrt.Scene(cam)
     v, f, uv0 = _grid_mesh()
@@ -137,7 +138,6 @@ def test_sets_without_a_mesh_table_read_zeros_and_every_set_gets_its_own_table()
 
 def _sphere_mesh(subdivisions=3):
     """An icosphere's vertices, faces, spherical UV set 0 and a warped set 1 (rotated, tiled, bent)."""
-    import trimesh
     m = trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0)
     v = np.asarray(m.vertices, dtype=np.float64)
     uv0 = np.column_stack([0.5 + np.arctan2(v[:, 1], v[:, 0]) / (2 * np.pi), 0.5 + np.arcsin(v[:, 2]) / np.pi])
