@@ -27,6 +27,7 @@ from pyrt.materials import compiled as MC
 from pyrt.materials import compiled_sampling as CS
 from pyrt.shaders.vec import coordinate_frame
 from pyrt.textures import ChannelTexture
+from pyrt.textures import compiled as TC
 
 from test_compiled_footprints import _normal_map
 from test_compiled_glossy import _add_sky, _assert_agree
@@ -52,7 +53,7 @@ class _TiltedCoat(pyrt.Clearcoat):
 def _twins(tag, rec, inputs, nc, wo, wi, u, f, pdf, smp):
     tex_tag = np.zeros(1, dtype=np.int64)
     tex_par = np.zeros(8)
-    a0 = MC.albedo_at(tag, rec, 0, tex_tag, tex_par, 0.0, 0.0, (0.0, 0.0, 0.0, 0.0), MC.WHITE)
+    a0 = MC.albedo_at(tag, rec, 0, tex_tag, tex_par, 0.0, 0.0, TC.NO_FOOTPRINT, MC.WHITE)
     for k in range(wo.shape[0]):
         a = (a0[0], a0[1], a0[2], a0[3], a0[4], a0[5], a0[6], a0[7], a0[8], a0[9], a0[10], a0[11], a0[12],
              inputs[k, 0], inputs[k, 1], a0[15], a0[16], a0[17])
@@ -258,15 +259,15 @@ def test_coats_agree_with_numpy_in_distribution(env):
 # ----------------------------------------------------------------------------------------- what falls back
 
 def test_coats_the_kernel_cannot_read_are_named_in_the_reasons():
-    """``fresnel="half"``, a transmitting base, a base without a GLTF record (a sheen) and a coat texture of another
-    UV set keep the NumPy path, each coat named."""
+    """``fresnel="half"``, a transmitting base, a base without a GLTF record (a sheen) and a bicubic coat texture
+    keep the NumPy path, each coat named (and the texture with it)."""
     rng = np.random.default_rng(2)
     base = dict(base_color=(0.5, 0.2, 0.1), roughness=0.5)
-    other_uv = pyrt.ImageTexture(_coat_texture(rng).image, srgb=False, texcoord=1)
+    bicubic = pyrt.ImageTexture(_coat_texture(rng).image, srgb=False, filter="bicubic", name="cubic")
     coats = [pyrt.Clearcoat(pyrt.MetallicRoughness(**base), fresnel="half", name="half"),
              pyrt.Clearcoat(pyrt.GltfPBR(**base, transmission=0.5), name="glass"),
              pyrt.Clearcoat(pyrt.Sheen(pyrt.MetallicRoughness(**base)), name="sheen"),
-             pyrt.Clearcoat(pyrt.MetallicRoughness(**base), clearcoat=ChannelTexture(other_uv, 0), name="uv1")]
+             pyrt.Clearcoat(pyrt.MetallicRoughness(**base), clearcoat=ChannelTexture(bicubic, 0), name="cubic")]
     for coat in coats:
         s = pyrt.Scene(pyrt.Camera(width=8, height=8))
         s.add_sphere((0, 0, -3), 1.0, coat, subdivisions=1)
@@ -274,6 +275,9 @@ def test_coats_the_kernel_cannot_read_are_named_in_the_reasons():
         ps = pyrt.PreparedScene(s)
         try:
             assert any(r.startswith(f"material {coat.label}") for r in compiled.unsupported(ps)), coat.label
+            if coat.name == "cubic":
+                assert f"material {coat.label} (texture ImageTexture 'cubic': filter 'bicubic')" in \
+                    compiled.unsupported(ps)
         finally:
             ps.close()
 

@@ -15,6 +15,7 @@ import pyrt
 from material_helpers import LocalCtx, direction
 from pyrt.materials import compiled as MC
 from pyrt.materials import compiled_sampling as CS
+from pyrt.textures import compiled as TC
 from test_material_contracts import QUAD_DW, QUAD_W, _reciprocity_pair
 
 NAMES = sorted(pyrt.MATERIALS)
@@ -27,7 +28,7 @@ def _f_cos_many(tag, rec, wo, wi, out):
     tex_tag = np.zeros(1, dtype=np.int64)
     tex_par = np.zeros(8)
     for k in range(wo.shape[0]):
-        albedo = MC.albedo_at(tag, rec, 0, tex_tag, tex_par, 0.0, 0.0, (0.0, 0.0, 0.0, 0.0), MC.WHITE)
+        albedo = MC.albedo_at(tag, rec, 0, tex_tag, tex_par, 0.0, 0.0, TC.NO_FOOTPRINT, MC.WHITE)
         r = CS.f_cos_world(tag, rec, 0, albedo, (wo[k, 0], wo[k, 1], wo[k, 2]), (wi[k, 0], wi[k, 1], wi[k, 2]),
                            (0.0, 0.0, 1.0))
         out[k, 0], out[k, 1], out[k, 2] = r

@@ -71,7 +71,7 @@ def _surface_diffs(geo_f, geo_i, face, p, ng, front, rays, mats, tex, mat, uv):
         for k in range(12):
             if V[(V_DP + k) * LANES + lane] != dp[i, k]:
                 albedo[i, 0] = np.nan
-        a, b = D.face_uv_tangents(G, face[i], (ng[i, 0], ng[i, 1], ng[i, 2]))
+        a, b = D.face_uv_tangents(G, face[i], (ng[i, 0], ng[i, 1], ng[i, 2]), G[2], 0)
         for k in range(3):
             tan[i, k], tan[i, 3 + k] = a[k], b[k]
     keep = Va[0]

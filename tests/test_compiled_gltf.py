@@ -122,8 +122,8 @@ def test_gltf_pbr_with_the_core_parameters_is_the_metallic_roughness_model_at_me
 @numba.njit
 def _inputs_many(rec, tex_tag, tex_par, uv, out, em):
     for k in range(uv.shape[0]):
-        a = MC.albedo_at(MC.GLTF, rec, 0, tex_tag, tex_par, uv[k, 0], uv[k, 1], (0.0, 0.0, 0.0, 0.0), MC.WHITE)
-        e = MC.emission_at(MC.GLTF, rec, 0, False, tex_tag, tex_par, uv[k, 0], uv[k, 1], (0.0, 0.0, 0.0, 0.0))
+        a = MC.albedo_at(MC.GLTF, rec, 0, tex_tag, tex_par, uv[k, 0], uv[k, 1], TC.NO_FOOTPRINT, MC.WHITE)
+        e = MC.emission_at(MC.GLTF, rec, 0, False, tex_tag, tex_par, uv[k, 0], uv[k, 1], TC.NO_FOOTPRINT)
         for c in range(9):
             out[k, c] = a[c]
         em[k, 0], em[k, 1], em[k, 2] = e
@@ -172,7 +172,6 @@ def test_what_the_kernel_cannot_reproduce_has_no_record():
         "per-face colours": GltfMaterial(base_color=ProductTexture(fc, ScaledTexture(img, 0.5)), metallic=0.0,
                                          roughness=0.5),
         "vertex colours twice": GltfMaterial(base_color=ProductTexture(vc, vc), metallic=0.0, roughness=0.5),
-        "UV set 1": pyrt.GltfPBR(base_color=ImageTexture(img, texcoord=1)),
         "bicubic": pyrt.MetallicRoughness(base_color=ImageTexture(img, filter="bicubic")),
     }
     for what, m in cases.items():

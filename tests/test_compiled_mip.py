@@ -15,7 +15,8 @@ def _lookup_all(tags, data, uv, duvdx, duvdy):
     flat = data.ravel()
     out = np.zeros((uv.shape[0], 3))
     for i in range(uv.shape[0]):
-        fp = (duvdx[i, 0], duvdx[i, 1], duvdy[i, 0], duvdy[i, 1])
+        d = (duvdx[i, 0], duvdx[i, 1], duvdy[i, 0], duvdy[i, 1], 0.0, 0.0, 0.0, 0.0)
+        fp = TC.footprint(d, 0, 0, 0, 0.0, 0.0, 0.0)
         r = TC.texture_rgb(tags, flat, 0, uv[i, 0], uv[i, 1], fp)
         out[i, 0], out[i, 1], out[i, 2] = r
     return out
@@ -75,6 +76,7 @@ def test_the_levels_are_the_pyramids_and_a_two_texture_table_keeps_them_apart(rn
 def _lookup_t(tags, flat, t, uv, duvdx, duvdy):
     out = np.zeros((uv.shape[0], 3))
     for i in range(uv.shape[0]):
-        fp = (duvdx[i, 0], duvdx[i, 1], duvdy[i, 0], duvdy[i, 1])
+        d = (duvdx[i, 0], duvdx[i, 1], duvdy[i, 0], duvdy[i, 1], 0.0, 0.0, 0.0, 0.0)
+        fp = TC.footprint(d, 0, 0, 0, 0.0, 0.0, 0.0)
         out[i, 0], out[i, 1], out[i, 2] = TC.texture_rgb(tags, flat, t, uv[i, 0], uv[i, 1], fp)
     return out

@@ -26,6 +26,7 @@ from pyrt.materials import compiled as MC
 from pyrt.materials import compiled_sampling as CS
 from pyrt.shaders import sampling as S
 from pyrt.shaders import vec
+from pyrt.textures import compiled as TC
 from test_material_contracts import _chi_square_p
 
 pytestmark = pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning",
@@ -88,7 +89,7 @@ def _record(mat):
 def _sample_many(tag, rec, wo, u, wi, weight, pdf):
     tex_tag = np.zeros(1, dtype=np.int64)
     tex_par = np.zeros(8)
-    albedo = MC.albedo_at(tag, rec, 0, tex_tag, tex_par, 0.0, 0.0, (0.0, 0.0, 0.0, 0.0), MC.WHITE)
+    albedo = MC.albedo_at(tag, rec, 0, tex_tag, tex_par, 0.0, 0.0, TC.NO_FOOTPRINT, MC.WHITE)
     for k in range(wo.shape[0]):
         r = CS.sample_f(tag, rec, 0, albedo, wo[k, 0], wo[k, 1], wo[k, 2], u[k, 0], u[k, 1])
         wi[k, 0], wi[k, 1], wi[k, 2] = r[0], r[1], r[2]
@@ -103,7 +104,7 @@ def _sample_many(tag, rec, wo, u, wi, weight, pdf):
 def _pdf_many(tag, rec, wo, wi, out):
     tex_tag = np.zeros(1, dtype=np.int64)
     tex_par = np.zeros(8)
-    albedo = MC.albedo_at(tag, rec, 0, tex_tag, tex_par, 0.0, 0.0, (0.0, 0.0, 0.0, 0.0), MC.WHITE)
+    albedo = MC.albedo_at(tag, rec, 0, tex_tag, tex_par, 0.0, 0.0, TC.NO_FOOTPRINT, MC.WHITE)
     for k in range(wo.shape[0]):
         out[k] = CS.pdf_wi(tag, rec, 0, albedo, wo[k, 0], wo[k, 1], wo[k, 2], wi[k, 0], wi[k, 1], wi[k, 2])
 

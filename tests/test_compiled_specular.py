@@ -51,7 +51,7 @@ def _maps(rng, filt="bilinear"):
 @numba.njit
 def _inputs_many(rec, tex_tag, tex_par, uv, out):
     for k in range(uv.shape[0]):
-        a = MC.albedo_at(MC.GLTF, rec, 0, tex_tag, tex_par, uv[k, 0], uv[k, 1], (0.0, 0.0, 0.0, 0.0), MC.WHITE)
+        a = MC.albedo_at(MC.GLTF, rec, 0, tex_tag, tex_par, uv[k, 0], uv[k, 1], TC.NO_FOOTPRINT, MC.WHITE)
         for c in range(13):
             out[k, c] = a[c]
 

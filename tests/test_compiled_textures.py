@@ -14,7 +14,7 @@ def _lookup_all(tags, data, uv):
     flat = data.ravel()
     out = np.zeros((uv.shape[0], 3))
     for i in range(uv.shape[0]):
-        r = TC.texture_rgb(tags, flat, 0, uv[i, 0], uv[i, 1], (0.0, 0.0, 0.0, 0.0))
+        r = TC.texture_rgb(tags, flat, 0, uv[i, 0], uv[i, 1], TC.NO_FOOTPRINT)
         out[i, 0], out[i, 1], out[i, 2] = r
     return out
 
@@ -43,13 +43,19 @@ def test_lookup_is_the_numpy_lookup(filt, wrap, dtype, rng):
         np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12 if not kw else 1e-6)
 
 
-def test_anisotropic_bicubic_grey_and_other_uv_sets_are_not_compiled():
+def test_anisotropic_bicubic_and_grey_are_not_compiled_and_say_why():
     img = np.ones((4, 4, 3), dtype=np.float32)
     assert pyrt.ImageTexture(img).compiled_record()[0] == TC.MIP                  # trilinear: compiled
     assert pyrt.ImageTexture(img, filter="anisotropic").compiled_record() is None
     assert pyrt.ImageTexture(img, filter="bicubic").compiled_record() is None
     assert pyrt.ImageTexture(img[..., :1], filter="bilinear").compiled_record() is None
-    assert pyrt.ImageTexture(img, filter="bilinear", texcoord=1).compiled_record() is None
+    cubic = pyrt.ImageTexture(img, filter="bicubic", name="b")
+    assert TC.image_refusal(cubic) == "texture ImageTexture 'b': filter 'bicubic'"
+    assert "1 channel(s)" in TC.image_refusal(pyrt.ImageTexture(img[..., :1], filter="bilinear"))
+    assert TC.image_refusal(pyrt.ImageTexture(img)) is None
+    for filt, tag in (("bilinear", TC.IMAGE), ("trilinear", TC.MIP)):         # other UV sets: their set in the record
+        rec = pyrt.ImageTexture(img, filter=filt, texcoord=2).compiled_record()
+        assert rec[0] == tag and rec[1][TC.UV_SET] == 2
 
 
 def test_textured_render_matches_the_numpy_path_pixel_by_pixel(rng):

@@ -24,6 +24,7 @@ from pyrt.io.assets.materials import (FaceColorTexture, GltfMaterial, ProductTex
                                       VertexColorTexture)
 from pyrt.materials import compiled as MC
 from pyrt.textures import ChannelTexture
+from pyrt.textures import compiled as TC
 
 from test_compiled_footprints import _assert_changes_the_image, _normal_map, _same_image_and_aov
 
@@ -187,7 +188,7 @@ def _albedos(geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, mat, face, bu, 
     for k in range(face.shape[0]):
         m = mat[k]
         vc = D.vertex_color(G, mats_par, m, face[k], bu[k], bv[k])
-        a = MC.albedo_at(mats_tag[m], mats_par, m, tex_tag, tex_par, uv[k, 0], uv[k, 1], (0.0, 0.0, 0.0, 0.0), vc)
+        a = MC.albedo_at(mats_tag[m], mats_par, m, tex_tag, tex_par, uv[k, 0], uv[k, 1], TC.NO_FOOTPRINT, vc)
         for j in range(9):
             out[k, j] = a[j]
 

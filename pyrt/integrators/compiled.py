@@ -149,15 +149,17 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
     textures = _TexturePacker()
     records = []
     for m in scene.materials:
+        seen = len(textures.refused)
         records.append(m.compiled_record(textures.add))
         if records[-1] is None:
-            reasons.append(f"material {m.label}" + (_SMOOTH_TEXTURED if m.smooth_transmission else _DIELECTRIC_LOBES
-                                                     if m.is_dielectric and m.has_diffuse else ""))
+            reasons.append(f"material {m.label}" + textures.why(seen) + (
+                _SMOOTH_TEXTURED if m.smooth_transmission else _DIELECTRIC_LOBES
+                if m.is_dielectric and m.has_diffuse else ""))
         elif m.normal_map is not None and textures.add(m.normal_map) is None:
-            reasons.append(f"normal map of material {m.label}")
+            reasons.append(f"normal map of material {m.label}" + textures.why(seen))
         elif m.alpha_mode != "opaque" and coverage_fields(m, textures.add) is None:
             reasons.append(f"alpha {m.alpha_mode} of material {m.label} (its opacity is not a constant or a factor "
-                           "times a channel of an image texture the kernel reads)")
+                           "times a channel of an image texture the kernel reads)" + textures.why(seen))
     for lt in scene.lights:
         if lt.compiled_record() is None or (lt.delta and lt.n_samples != 1):
             reasons.append(f"light {lt.label}" + (_MESH_EMISSION if lt.scene_emitter else ""))
@@ -202,19 +204,23 @@ class _SceneFacts:
 
 
 class _TexturePacker:
-    """Collects texture records (each texture once) for the texture table."""
+    """Collects texture records (each texture once) for the texture table, and the textures it was refused."""
 
     def __init__(self):
         self.tags, self.records, self.texels, self._index = [], [], [], {}
         #: the textures by row
         self.objects = []
+        #: why each texture the kernel cannot read was refused, in the order asked (:meth:`why`)
+        self.refused = []
 
     def add(self, texture):
-        """The texture's row in the table (added on first sight), or None when the kernel cannot read it."""
+        """The texture's row in the table (added on first sight), or None when the kernel cannot read it (the
+        reason kept in :attr:`refused`)."""
         key = id(texture)
         if key not in self._index:
             rec = texture.compiled_record()
             if rec is None:
+                self.refused.append(_refusal(texture))
                 return None
             self._index[key] = len(self.tags)
             self.objects.append(texture)
@@ -223,18 +229,40 @@ class _TexturePacker:
             self.texels.append(rec[2] if len(rec) > 2 else None)
         return self._index[key]
 
+    def why(self, since):
+        """`` (texture ...: why)`` naming the textures refused since :attr:`refused` had ``since`` entries, or
+        ``""`` when none was."""
+        names = list(dict.fromkeys(self.refused[since:]))
+        return f" ({'; '.join(names)})" if names else ""
+
+    def uv_sets(self, geo):
+        """``{k: (V, 2)}``: the UV sets ``k >= 1`` the collected textures read, per vertex of the geometry table
+        ``geo`` (:meth:`pyrt.geometry.GeometryTable.uv_table`; zeros where no mesh has set ``k``, as the NumPy path
+        reads it: :func:`pyrt.geometry.uvsets.uv_set_at_hits`)."""
+        sets = sorted({int(r[TC.UV_SET]) for r in self.records if r[TC.UV_SET] >= 1})
+        tables = {k: geo.uv_table(k) for k in sets}
+        return {k: np.zeros((geo.vertices.shape[0], 2)) if t is None else t for k, t in tables.items()}
+
+
+def _refusal(texture):
+    """Why the kernel cannot read ``texture`` (a phrase naming it): :func:`pyrt.textures.compiled.image_refusal` for
+    an image texture, else its type."""
+    why = TC.image_refusal(texture) if isinstance(texture, ImageTexture) else None
+    return why or f"texture {type(texture).__name__}"
+
 
 def texture_table(ps, textures):
     """:func:`pyrt.textures.compiled.pack_table` of the textures ``textures`` collected (a :class:`_TexturePacker`),
     reused from the prepared scene ``ps``'s last packing when the records are equal and every texture with texels is
-    the same lookup (:attr:`pyrt.ImageTexture.sampling_key`: its texels, pyramid, UV set, filter and transform): the
+    the same lookup (:attr:`pyrt.ImageTexture.sampling_key`: its texels, pyramid, UV set, filter and transform; the
+    UV sets ``k >= 1`` the textures read are packed with them, from the prepared scene's geometry): the
     views of a turntable and the renders of one prepared scene pack their textures once (Avocado's three 2048² maps,
     two whole pyramids and one level 0: 185 MB of float32 texels, ~0.17 s in ``pyrt-preview`` each time)."""
     key = _texture_key(textures)
     hit = ps.compiled_textures
     if key is not None and hit is not None and hit[0] == key:
         return hit[1]
-    table = TC.pack_table(textures.tags, textures.records, textures.texels)
+    table = TC.pack_table(textures.tags, textures.records, textures.texels, textures.uv_sets(ps.geo))
     ps.compiled_textures = None if key is None else (key, table)
     return table
 

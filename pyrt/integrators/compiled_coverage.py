@@ -48,6 +48,7 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     V_RAY, V_T, V_TB, T_INF, C_POS, _njit, lane_vec, set_lane_vec)
 from pyrt.materials import compiled as MC  # noqa: E402
 from pyrt.shaders.jit import EPS32, EPS64, bary3, dot, gamma, round_away, row3  # noqa: E402
+from pyrt.textures import compiled as TC  # noqa: E402
 from pyrt.textures.compiled import texture_rgb  # noqa: E402
 
 #: ``opts[O_COVER]``: some material culls back faces (and none is masked or blended); some material is masked or
@@ -70,10 +71,11 @@ def opacity(G, mats_par, tex_tag, tex_par, face, b0, b1, b2, V, lane, diffs):
         i0, i1, i2 = faces[3 * face], faces[3 * face + 1], faces[3 * face + 2]
         u = b0 * uvs[2 * i0] + b1 * uvs[2 * i1] + b2 * uvs[2 * i2]
         v = b0 * uvs[2 * i0 + 1] + b1 * uvs[2 * i1 + 1] + b2 * uvs[2 * i2 + 1]
-        fp = D.NO_FOOTPRINT
+        d = TC.NO_DIFFS
         if diffs:
             p = bary3(b0, b1, b2, row3(verts, i0), row3(verts, i1), row3(verts, i2))
-            fp = D.uv_footprint(G, V, lane, face, p, row3(fnorm, face))
+            d = D.uv_footprint(G, V, lane, face, p, row3(fnorm, face))
+        fp = TC.footprint(d, i0, i1, i2, b0, b1, b2)
         a = MC.slot_scalar(mats_par, b, texture_rgb(tex_tag, tex_par, int(mats_par[b]), u, v, fp))
     return min(max(a, 0.0), 1.0)
 

@@ -34,11 +34,9 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
 from pyrt.materials import compiled as MC  # noqa: E402
 from pyrt.materials import compiled_sampling as CS  # noqa: E402
 from pyrt.shaders.jit import bary3, dot, row3  # noqa: E402
+from pyrt.textures import compiled as TC  # noqa: E402
 from pyrt.textures import compiled_normal_map as NM  # noqa: E402
 from pyrt.textures.compiled import texture_rgb  # noqa: E402
-
-#: a zero footprint (no differentials)
-NO_FOOTPRINT = (0.0, 0.0, 0.0, 0.0)
 
 #: the entries the kernel calls (:func:`camera_ray_diffs`, :func:`hit_inputs`' work, :func:`push_diffs`,
 #: :func:`load_ray_diffs`) are compiled as functions of their own, not inlined into the kernel's loops: inlined into
@@ -120,10 +118,11 @@ def _offset_point(o, d, ng, d_plane, p):
 @_njit
 def surface_diffs(G, V, lane, face, p, ng, front):
     """The differentials at the hit on triangle ``face`` (point ``p``, viewer-side ``ng``) of lane ``lane``'s ray (its
-    offset rays at :data:`V_RAY`): dp/dx, dp/dy, dn/dx, dn/dy into :data:`V_DP` and the UV footprint ``(du/dx,
-    dv/dx, du/dy, dv/dy)`` returned (:func:`pyrt.geometry.surface.surface_from_hits`' differential group: the offset
-    rays met on the tangent plane, their least-squares barycentric derivatives, the vertex normals' differences
-    turned to the viewer's side; dn zero on flat faces)."""
+    offset rays at :data:`V_RAY`): dp/dx, dp/dy, dn/dx, dn/dy into :data:`V_DP` and ``(du/dx, dv/dx, du/dy, dv/dy,
+    db1/dx, db2/dx, db1/dy, db2/dy)`` returned, the UV footprint and the barycentric derivatives
+    (:func:`pyrt.textures.compiled.footprint`'s ``d``; :func:`pyrt.geometry.surface.surface_from_hits`' differential
+    group: the offset rays met on the tangent plane, their least-squares barycentric derivatives, the vertex normals'
+    differences turned to the viewer's side; dn zero on flat faces)."""
     normals, faces, fsmooth = G[1], G[6], G[9]
     i0, i1, i2 = faces[3 * face], faces[3 * face + 1], faces[3 * face + 2]
     dpdx, dpdy, bx1, bx2, by1, by2, fp = _plane_diffs(G, V, lane, face, p, ng)
@@ -139,15 +138,26 @@ def surface_diffs(G, V, lane, face, p, ng, front):
         dndy = (by1 * dn1[0] + by2 * dn2[0], by1 * dn1[1] + by2 * dn2[1], by1 * dn1[2] + by2 * dn2[2])
     set_lane_vec(V, V_DP + 6, lane, dndx)
     set_lane_vec(V, V_DP + 9, lane, dndy)
-    return fp
+    return fp + (bx1, bx2, by1, by2)
 
 
 @_njit
 def uv_footprint(G, V, lane, face, p, ng):
-    """The UV footprint ``(du/dx, dv/dx, du/dy, dv/dy)`` at the point ``p`` of triangle ``face`` (normal ``ng``, either
-    side) of lane ``lane``'s ray, as :func:`surface_diffs` returns it, without storing the hit's differentials (an
+    """The UV footprint and barycentric derivatives at the point ``p`` of triangle ``face`` (normal ``ng``, either
+    side) of lane ``lane``'s ray, as :func:`surface_diffs` returns them, without storing the hit's differentials (an
     alpha mask's or blend surface's opacity: :mod:`pyrt.integrators.compiled_coverage`)."""
-    return _plane_diffs(G, V, lane, face, p, ng)[6]
+    _, _, bx1, bx2, by1, by2, fp = _plane_diffs(G, V, lane, face, p, ng)
+    return fp + (bx1, bx2, by1, by2)
+
+
+@_njit
+def hit_footprint(G, face, bu, bv, d):
+    """The footprint record (:mod:`pyrt.textures.compiled`) of the hit at barycentrics ``(bu, bv)`` (Embree's ``u``,
+    ``v``) of triangle ``face`` with the differentials ``d`` (:func:`surface_diffs`; :data:`pyrt.textures.compiled.
+    NO_DIFFS` without them); the barycentrics as :func:`pyrt.shaders.jit.hit_surface` forms them."""
+    faces = G[6]
+    b1, b2 = np.float64(bu), np.float64(bv)
+    return TC.footprint(d, faces[3 * face], faces[3 * face + 1], faces[3 * face + 2], 1.0 - b1 - b2, b1, b2)
 
 
 @_njit
@@ -177,15 +187,18 @@ def _plane_diffs(G, V, lane, face, p, ng):
 
 
 @_njit
-def face_uv_tangents(G, face, ng):
-    """``(dpdu, dpdv)`` of the triangle ``face`` (:func:`pyrt.textures.compiled_normal_map.uv_tangents`)."""
-    verts, _, uvs, _, _, _, faces, _, _, _, _, _ = G
-    i0, i1, i2 = faces[3 * face], faces[3 * face + 1], faces[3 * face + 2]
-    v0, v1, v2 = row3(verts, i0), row3(verts, i1), row3(verts, i2)
+def face_uv_tangents(G, face, ng, uvs, o):
+    """``(dpdu, dpdv)`` of the triangle ``face`` in the UV set whose per-vertex table starts at ``uvs[o]`` (set 0:
+    ``G[2]`` from 0; set ``k``: the texture table's, :mod:`pyrt.textures.compiled`)
+    (:func:`pyrt.textures.compiled_normal_map.uv_tangents`)."""
+    verts, faces = G[0], G[6]
+    i0, i1, i2 = o + 2 * faces[3 * face], o + 2 * faces[3 * face + 1], o + 2 * faces[3 * face + 2]
+    j0, j1, j2 = faces[3 * face], faces[3 * face + 1], faces[3 * face + 2]
+    v0, v1, v2 = row3(verts, j0), row3(verts, j1), row3(verts, j2)
     e1 = (v1[0] - v0[0], v1[1] - v0[1], v1[2] - v0[2])
     e2 = (v2[0] - v0[0], v2[1] - v0[1], v2[2] - v0[2])
-    du1 = (uvs[2 * i1] - uvs[2 * i0], uvs[2 * i1 + 1] - uvs[2 * i0 + 1])
-    du2 = (uvs[2 * i2] - uvs[2 * i0], uvs[2 * i2 + 1] - uvs[2 * i0 + 1])
+    du1 = (uvs[i1] - uvs[i0], uvs[i1 + 1] - uvs[i0 + 1])
+    du2 = (uvs[i2] - uvs[i0], uvs[i2 + 1] - uvs[i0 + 1])
     return NM.uv_tangents(e1, e2, du1, du2, ng)
 
 
@@ -204,8 +217,9 @@ def hit_inputs(G, V, lane, opts, face, bu, bv, p, ng, ns, wo, front, uv, mtag, m
         albedo, n, e = extended_inputs(G, V, lane, diffs, nmaps, opts[O_NMAPS] == 2, face, bu, bv, p, ng, ns, wo,
                                        front, uv, mtag, mats_par, m, tex_tag, tex_par)
     else:
-        albedo, n = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1], NO_FOOTPRINT, MC.WHITE), ns
-        e = MC.emission_at(mtag, mats_par, m, front, tex_tag, tex_par, uv[0], uv[1], NO_FOOTPRINT)
+        fp = hit_footprint(G, face, bu, bv, TC.NO_DIFFS)
+        albedo, n = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1], fp, MC.WHITE), ns
+        e = MC.emission_at(mtag, mats_par, m, front, tex_tag, tex_par, uv[0], uv[1], fp)
     return albedo, n, e
 
 
@@ -221,9 +235,10 @@ def extended_inputs(G, V, lane, diffs, nmaps, vtan, face, bu, bv, p, ng, ns, wo,
 @_njit
 def _inputs(G, V, lane, diffs, nmaps, vtan, face, bu, bv, p, ng, ns, wo, front, uv, mtag, mats_par, m, tex_tag,
             tex_par):
-    fp = NO_FOOTPRINT
+    d = TC.NO_DIFFS
     if diffs:
-        fp = surface_diffs(G, V, lane, face, p, ng, front)
+        d = surface_diffs(G, V, lane, face, p, ng, front)
+    fp = hit_footprint(G, face, bu, bv, d)
     vc = vertex_color(G, mats_par, m, face, bu, bv)
     albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, uv[0], uv[1], fp, vc)
     if nmaps:
@@ -251,11 +266,13 @@ def _inputs(G, V, lane, diffs, nmaps, vtan, face, bu, bv, p, ng, ns, wo, front, 
 @_own
 def _mapped(G, vtan, face, bu, bv, ng, wo, front, uv, fp, mats_par, b, t, ns, tex_tag, tex_par):
     """``ns`` perturbed by the normal map whose fields are at ``mats_par[b:]`` (:data:`pyrt.materials.compiled.
-    NORMAL_MAP`'s layout), texture row ``t`` (:func:`pyrt.textures.compiled_normal_map.perturb`)."""
+    NORMAL_MAP`'s layout), texture row ``t`` (:func:`pyrt.textures.compiled_normal_map.perturb`), in the frame of
+    the mesh's vertex tangents where it has them, else of the triangle's tangents in the map's UV set."""
     rgb = texture_rgb(tex_tag, tex_par, t, uv[0], uv[1], fp)
     has, dpdu, dpdv = vertex_tangents(G, face, bu, bv) if vtan else (False, ns, ns)
     if not has:
-        dpdu, dpdv = face_uv_tangents(G, face, ng)
+        o = int(tex_par[t * TC.RECORD + TC.UV_SET])
+        dpdu, dpdv = face_uv_tangents(G, face, ng, G[2] if o == 0 else tex_par, o)
     return NM.perturb(rgb, mats_par[b + 1], mats_par[b + 2] != 0.0, mats_par[b + 3] != 0.0, ns, ng, wo, front, dpdu,
                       dpdv)
 

@@ -28,6 +28,7 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
 from pyrt.lights import compiled_env as CE  # noqa: E402
 from pyrt.materials import compiled as MC  # noqa: E402
 from pyrt.shaders.jit import EPS32, EPS64, bary3, dot, gamma, row3  # noqa: E402
+from pyrt.textures import compiled as TC  # noqa: E402
 
 
 #: the most triangles a packet may hit for :func:`face_surfaces` (each costs one pass of :func:`uniform_surface`)
@@ -95,7 +96,7 @@ def face_surfaces(G, mats_tag, mats_par, tex_tag, tex_par, optf, pk, w, V, n, fa
         face = foff[geoms[j]] + prims[j]
         m = fmat[face]
         mtag = mats_tag[m]
-        albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, 0.0, 0.0, (0.0, 0.0, 0.0, 0.0), MC.WHITE)
+        albedo = MC.albedo_at(mtag, mats_par, m, tex_tag, tex_par, 0.0, 0.0, TC.NO_FOOTPRINT, MC.WHITE)
         uniform_surface(G, face, geoms[j], prims[j], k > 1 or misses > 0, pk, w, V, n, fallback, terminator, m,
                         albedo, emitted(mtag, mats_par, m, albedo, optf, True),
                         emitted(mtag, mats_par, m, albedo, optf, False))

@@ -126,9 +126,9 @@ UNLIT = 15
 
 @register_jitable(forceinline=True)
 def color_slot(pars, m, k, tex_tag, tex_par, u, v, fp):
-    """The colour (an RGB tuple) of the slot at ``k`` of material ``m``'s record at uv ``(u, v)`` with the UV
-    footprint ``fp``: a constant, or a texture row times its factor (:func:`pyrt.textures.compiled.texture_rgb`,
-    :func:`pack_color_slot`)."""
+    """The colour (an RGB tuple) of the slot at ``k`` of material ``m``'s record at uv ``(u, v)`` with the
+    footprint record ``fp`` (:mod:`pyrt.textures.compiled`): a constant, or a texture row times its factor
+    (:func:`pyrt.textures.compiled.texture_rgb`, :func:`pack_color_slot`)."""
     return scaled_slot(pars, m * RECORD + k, tex_tag, tex_par, u, v, fp)
 
 
@@ -300,8 +300,9 @@ def albedo_constant(tag, pars, m):
 
 @register_jitable(forceinline=True)
 def albedo_at(tag, pars, m, tex_tag, tex_par, u, v, fp, vc):
-    """The hit's inputs (module notes: an 18-tuple) of material ``m`` at uv ``(u, v)`` with the UV footprint ``fp``
-    (zeros: none) and the vertex colour ``vc`` (an RGB tuple, :data:`WHITE` where the material reads none): the
+    """The hit's inputs (module notes: an 18-tuple) of material ``m`` at uv ``(u, v)`` (set 0) with the footprint
+    record ``fp`` (:mod:`pyrt.textures.compiled`: the hit's UV footprint, zeros for none, and what a texture of another
+    UV set reads) and the vertex colour ``vc`` (an RGB tuple, :data:`WHITE` where the material reads none): the
     diffuse colour (Lambert albedo, Blinn-Phong kd, the library models' constant ``albedo()``, GLTF's
     :func:`gltf_inputs`; UNLIT's colour; zeros for the others), then GLTF's base colour, metallic, roughness,
     occlusion, specular weight, dielectric F0 and clear coat. Colour slot 0 times ``vc``, as ``ProductTexture``

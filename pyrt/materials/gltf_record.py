@@ -27,7 +27,7 @@ A base colour that is a product with vertex colours (glTF's ``COLOR_0``) is the 
 vertex colours named by the record's :data:`pyrt.materials.compiled.VERTEX_COLOR` field.
 
 :func:`gltf_record` returns None (the render takes the NumPy path) for a texture the kernel cannot read as such a
-slot: a grey image, a UV set other than 0, a filter other than nearest, bilinear and
+slot: a grey image, a filter other than nearest, bilinear and
 trilinear (:meth:`pyrt.textures.Texture.compiled_color`, :meth:`~pyrt.textures.Texture.compiled_scalar`).
 """
 from __future__ import annotations

@@ -19,12 +19,22 @@ VERTEX         per-vertex RGB colours bound to meshes (:class:`pyrt.io.assets.Ve
                material's :data:`pyrt.materials.compiled.VERTEX_COLOR`, never looked up by uv
 =============  ==============================================================================
 
+Field :data:`UV_SET` (16) of every record is the UV set the texture reads: ``k`` as :func:`image_record` writes it,
+then, once packed, 0 for set 0 (the hit's interpolated ``uv``) or where set ``k``'s per-vertex table starts in the
+table's float64 words (:func:`pack_table`).
+
 The table's data is one float64 array (:func:`pack_table`): the records (``n x RECORD``), the MIP records' level
-offsets, then the image textures' texels as float32 words (two to a float64 word; row-major ``(H, W, 3)`` per MIP
-level, the float32 values the NumPy lookups read, so nothing is rounded on the way in). The lookups read the records
-through ``pars`` and the texels through :func:`pyrt.core.unmanaged.float32_pointer` of the same data, indexed in
-float32 words from its start. Lookups take the hit's UV footprint ``fp = (du/dx, dv/dx, du/dy, dv/dy)`` (zeros where
-the ray carries no differentials); only MIP reads it.
+offsets, the UV sets ``k >= 1`` its textures read (per vertex of the scene's geometry, ``(V, 2)`` each:
+:meth:`pyrt.geometry.GeometryTable.uv_table`), then the image textures' texels as float32 words (two to a float64 word;
+row-major ``(H, W, 3)`` per MIP level, the float32 values the NumPy lookups read, so nothing is rounded on the way in).
+The lookups read the records through ``pars`` and the texels through :func:`pyrt.core.unmanaged.float32_pointer` of the
+same data, indexed in float32 words from its start. Lookups take the hit's uv (set 0) and its *footprint record* ``fp``,
+:data:`FP_SIZE` floats: 0-3 set 0's UV footprint ``(du/dx, dv/dx, du/dy, dv/dy)`` (zeros where the ray carries no
+differentials; only MIP reads it), 4-6 the hit triangle's vertex indices, 7-9 its barycentrics ``b0, b1, b2``, 10-13
+their derivatives ``(db1/dx, db2/dx, db1/dy, db2/dy)`` (zeros without differentials; :func:`footprint`). A texture of UV
+set ``k >= 1`` reads its uv and footprint from them and the set's table (:func:`set_uv`: the NumPy path's
+:func:`pyrt.geometry.uvsets.uv_set_at_hits`, in its arithmetic order), so every slot reads its own set through the one
+lookup.
 """
 from __future__ import annotations
 
@@ -37,18 +47,53 @@ from pyrt.core.unmanaged import float32_pointer
 from pyrt.textures.compiled_mip import WRAPS, TexelBlock, bilinear_rgb, mip_record, mip_rgb, wrap_index  # noqa: F401
 
 #: parameters per texture record
-RECORD = 16
+RECORD = 17
 #: type tags (0 is no texture)
 CHECKER_UV, IMAGE, MIP, VERTEX = 1, 2, 3, 4
+#: the record field of the UV set a texture reads (module notes)
+UV_SET = 16
+#: floats in a footprint record (module notes)
+FP_SIZE = 14
+#: the footprint record of no hit (zero footprints; a texture of a UV set k >= 1 reads vertex 0 of its set)
+NO_FOOTPRINT = (0.0,) * FP_SIZE
+#: no differentials: :func:`footprint`'s ``d``
+NO_DIFFS = (0.0,) * 8
+
+
+@register_jitable(forceinline=True)
+def footprint(d, i0, i1, i2, b0, b1, b2):
+    """The footprint record (module notes) of a hit on the triangle of vertices ``i0, i1, i2`` at barycentrics
+    ``(b0, b1, b2)``, with ``d = (du/dx, dv/dx, du/dy, dv/dy, db1/dx, db2/dx, db1/dy, db2/dy)`` (set 0's UV footprint
+    and the barycentric derivatives; :data:`NO_DIFFS` without differentials)."""
+    return (d[0], d[1], d[2], d[3], float(i0), float(i1), float(i2), b0, b1, b2, d[4], d[5], d[6], d[7])
+
+
+@register_jitable
+def set_uv(pars, o, fp):
+    """``(u, v, (du/dx, dv/dx, du/dy, dv/dy))`` of the UV set whose per-vertex table starts at ``pars[o]`` at the hit
+    of the footprint record ``fp``: the set interpolated at the barycentrics (``(b0 uv0 + b1 uv1) + b2 uv2``) and its
+    footprint from the barycentric derivatives and the set's edges (``db1 (uv1 - uv0) + db2 (uv2 - uv0)``), as
+    :func:`pyrt.geometry.uvsets.uv_set_at_hits`."""
+    k0, k1, k2 = o + 2 * int(fp[4]), o + 2 * int(fp[5]), o + 2 * int(fp[6])
+    u0, v0, u1, v1, u2, v2 = pars[k0], pars[k0 + 1], pars[k1], pars[k1 + 1], pars[k2], pars[k2 + 1]
+    b0, b1, b2 = fp[7], fp[8], fp[9]
+    du1, dv1, du2, dv2 = u1 - u0, v1 - v0, u2 - u0, v2 - v0
+    bx1, bx2, by1, by2 = fp[10], fp[11], fp[12], fp[13]
+    return (b0 * u0 + b1 * u1 + u2 * b2, b0 * v0 + b1 * v1 + v2 * b2,
+            (bx1 * du1 + bx2 * du2, bx1 * dv1 + bx2 * dv2, by1 * du1 + by2 * du2, by1 * dv1 + by2 * dv2))
 
 
 @register_jitable(forceinline=True)
 def texture_rgb(tags, pars, t, u, v, fp):
-    """Texture ``t`` of the table ``(tags, pars)`` at uv ``(u, v)`` with the UV footprint ``fp`` (a 4-tuple, module
-    notes): an RGB tuple. ``pars`` is the table's flat data (:func:`pyrt.core.unmanaged.pointer`: row ``t`` at
-    ``t * RECORD``, the texels in its float32 words; a pointer binds no array, so the per-sample code pays no reference
-    counting). Branch-free but for the tag: the cell parity without ``%``."""
+    """Texture ``t`` of the table ``(tags, pars)`` at the hit of set-0 uv ``(u, v)`` and footprint record ``fp``
+    (module notes): an RGB tuple, read in the texture's UV set (:func:`set_uv` for a set ``k >= 1``). ``pars`` is
+    the table's flat data (:func:`pyrt.core.unmanaged.pointer`: row ``t`` at ``t * RECORD``, the texels in its
+    float32 words; a pointer binds no array, so the per-sample code pays no reference counting). Branch-free but
+    for the tag and the set: the cell parity without ``%``."""
     b = t * RECORD
+    fp4 = (fp[0], fp[1], fp[2], fp[3])
+    if pars[b + UV_SET] != 0.0:
+        u, v, fp4 = set_uv(pars, int(pars[b + UV_SET]), fp)
     if tags[t] == CHECKER_UV:
         cells = math.floor(u * pars[b + 6]) + math.floor(v * pars[b + 7])
         odd = cells - 2.0 * math.floor(0.5 * cells)
@@ -57,7 +102,7 @@ def texture_rgb(tags, pars, t, u, v, fp):
     if tags[t] == IMAGE:
         return image_rgb(pars, b, u, v)
     if tags[t] == MIP:
-        return mip_rgb(pars, b, u, v, fp)
+        return mip_rgb(pars, b, u, v, fp4)
     return 0.0, 0.0, 0.0
 
 
@@ -83,20 +128,30 @@ def image_rgb(pars, b, u, v):
     return r, g, bb
 
 
-def pack_table(tags, records, texels):
+def pack_table(tags, records, texels, uv_sets=None):
     """The texture table: ``(tags (n,) int64, data (rows, RECORD) float64)`` (the module notes). ``texels[i]`` is
     None or record ``i``'s :class:`pyrt.textures.compiled_mip.TexelBlock`, written here straight into the table's
-    float32 words (one copy of each level, no float64 or concatenated intermediate); the records' fields 2 (and
-    15 of a MIP record) are set here. One zero row when empty (Numba needs a shape)."""
+    float32 words (one copy of each level, no float64 or concatenated intermediate); ``uv_sets`` ``{k: (V, 2)
+    float64}`` the per-vertex UV sets ``k >= 1`` the records' :data:`UV_SET` fields name (each must be there). The
+    records' fields 2 (and 15 of a MIP record) and :data:`UV_SET` are set here. One zero row when empty (Numba
+    needs a shape)."""
     if not tags:
         return np.zeros(1, dtype=np.int64), np.zeros((1, RECORD))
     recs = np.stack([np.asarray(r, dtype=np.float64) for r in records])
     sizes = [[] if tx is None else tx.level_sizes() for tx in texels]
     n_offsets = sum(len(s) for tag, s in zip(tags, sizes) if tag == MIP)
-    words = recs.size + n_offsets                    # float64 words before the texels
+    sets = sorted({int(k) for k in recs[:, UV_SET] if k >= 1})
+    set_at, at = {}, recs.size + n_offsets
+    for k in sets:
+        set_at[k] = at
+        at += 2 * uv_sets[k].shape[0]
+    words = at                                       # float64 words before the texels
     total = words + (sum(map(sum, sizes)) + 1) // 2
     flat = np.zeros(total + (-total % RECORD))       # calloc: pages are mapped as the texels are written
     flat32 = flat.view(np.float32)
+    for k in sets:
+        flat[set_at[k]:set_at[k] + 2 * uv_sets[k].shape[0]] = np.asarray(uv_sets[k], dtype=np.float64).ravel()
+    recs[:, UV_SET] = [set_at.get(int(k), 0) for k in recs[:, UV_SET]]
     at, lo = 2 * words, recs.size                    # next texel (float32 word), next level offset (float64 word)
     for i, (tag, tx, levels) in enumerate(zip(tags, texels, sizes)):
         if tx is None:
@@ -114,14 +169,17 @@ def pack_table(tags, records, texels):
 
 def image_record(tex):
     """``(IMAGE, record, texels)`` of a :class:`pyrt.ImageTexture` read with the ``nearest`` or ``bilinear`` filter,
-    RGB, from UV set 0 (its level 0 as its texels, a :class:`pyrt.textures.compiled_mip.TexelBlock` of one level);
+    RGB, from any UV set (its level 0 as its texels, a :class:`pyrt.textures.compiled_mip.TexelBlock` of one level);
     ``(MIP, record, texels)`` with the ``trilinear`` filter (:func:`pyrt.textures.compiled_mip.mip_record`); None
-    for any other (bicubic, anisotropic, grey, other UV sets)."""
-    if tex.channels != 3 or tex.texcoord != 0 or tex.filter not in ("nearest", "bilinear", "trilinear"):
+    for any other (:func:`image_refusal` says why)."""
+    if image_refusal(tex) is not None:
         return None
     if tex.filter == "trilinear":
-        return (MIP,) + mip_record(tex, np.zeros(RECORD), transform_fields(tex))
+        out = (MIP,) + mip_record(tex, np.zeros(RECORD), transform_fields(tex))
+        out[1][UV_SET] = tex.texcoord
+        return out
     rec = np.zeros(RECORD)
+    rec[UV_SET] = tex.texcoord
     rec[0], rec[1] = tex.texels.shape[:2]
     rec[3], rec[4] = (WRAPS.index(m) for m in tex.wrap)
     rec[5] = 0.0 if tex.filter == "nearest" else 1.0
@@ -142,3 +200,17 @@ def transform_fields(tex):
         out[1:5] = (c * sx, s * sx, -s * sy, c * sy)
         out[5:7] = tex.offset
     return out
+
+
+def image_refusal(tex):
+    """Why the compiled kernel cannot read the :class:`pyrt.ImageTexture` ``tex`` (a phrase naming it), or None
+    when it can (:func:`image_record`)."""
+    parts = []
+    if tex.channels != 3:
+        parts.append(f"has {tex.channels} channel(s), the kernel reads RGB")
+    if tex.filter not in ("nearest", "bilinear", "trilinear"):
+        parts.append(f"filter {tex.filter!r}")
+    label = tex.name or tex.path
+    name = f" {label!r}" if label else ""
+    return None if not parts else f"texture {type(tex).__name__}{name}: " + ", ".join(parts)
+

@@ -392,7 +392,7 @@ class ImageTexture(Texture):
 
     def compiled_record(self):
         """:func:`pyrt.textures.compiled.image_record`: an RGB image read with the ``nearest``, ``bilinear`` or
-        ``trilinear`` filter from UV set 0; None otherwise."""
+        ``trilinear`` filter from any UV set; None otherwise."""
         return _compiled.image_record(self)
 
     @classmethod
