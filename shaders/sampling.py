@@ -22,9 +22,12 @@ def square_to_uniform_disk_concentric(u):
 
 
 def square_to_cosine_hemisphere(u):
-    """Cosine-weighted hemisphere (Malley's method), pdf = cos(theta) / pi."""
+    """Cosine-weighted hemisphere (Malley's method), pdf = cos(theta) / pi. The height is ``sqrt((1 - r)(1 + r))`` of
+    the concentric map's radius ``r = max(|2 u0 - 1|, |2 u1 - 1|)`` (well conditioned at the rim, where ``1 - |d|^2``
+    of the rounded disk point loses every digit)."""
     d = square_to_uniform_disk_concentric(u)
-    z = np.sqrt(np.maximum(0.0, 1.0 - np.einsum("ij,ij->i", d, d)))
+    r = np.maximum(np.abs(2.0 * u[:, 0] - 1.0), np.abs(2.0 * u[:, 1] - 1.0))
+    z = np.sqrt(np.maximum(0.0, (1.0 - r) * (1.0 + r)))
     return np.concatenate([d, z[:, None]], axis=1)
 
 

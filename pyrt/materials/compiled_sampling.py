@@ -96,9 +96,11 @@ def square_to_uniform_disk_concentric(u0, u1):
 
 @register_jitable(forceinline=True)
 def square_to_cosine_hemisphere(u0, u1):
-    """Cosine-weighted direction (Malley): :func:`pyrt.shaders.sampling.square_to_cosine_hemisphere`."""
+    """Cosine-weighted direction (Malley): :func:`pyrt.shaders.sampling.square_to_cosine_hemisphere` (its height from
+    the disk radius, well conditioned at the rim)."""
     dx, dy = square_to_uniform_disk_concentric(u0, u1)
-    return dx, dy, math.sqrt(max(0.0, 1.0 - (dx * dx + dy * dy)))
+    r = max(abs(2.0 * u0 - 1.0), abs(2.0 * u1 - 1.0))
+    return dx, dy, math.sqrt(max(0.0, (1.0 - r) * (1.0 + r)))
 
 
 @register_jitable(forceinline=True)
