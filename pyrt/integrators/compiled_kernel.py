@@ -337,7 +337,7 @@ def shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k3
             if n_sh == 0:
                 continue
             n_shadow += n_sh
-            E.packet_query(scene, sh, w, True, True)
+            E.packet_query(scene, sh, w, s < n_j, True)
             if walk:
                 n_shadow += packet_walk(scene, G, mats_tag, mats_par, tex_tag, tex_par, sopt, sh, w, V, n, ray_buf)
             shadow_add(V, sh, w, n, 1.0 / (n_j if s < n_j else n_b))

@@ -555,7 +555,7 @@ def env_rounds(scene, G, etag, erec, edata, mats_tag, mats_par, tex_tag, tex_par
             cnt[N_SHADOW] += n_sh
             if walks(sopt):
                 keep_rays(sh, w, V, n)
-            E.packet_query(scene, sh, w, True, True)
+            E.packet_query(scene, sh, w, tech == 0, True)     # BSDF samples: incoherent
             if walks(sopt):
                 cnt[N_SHADOW] += packet_walk(scene, G, mats_tag, mats_par, tex_tag, tex_par, sopt, sh, w, V, n,
                                              ray_buf)
