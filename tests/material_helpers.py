@@ -1,7 +1,9 @@
-"""Shared by the material tests: a fake surface batch in its own local frame and a direction from angles."""
+"""Shared by the material tests: a fake surface batch in its own local frame, directions from angles, and a
+chi-square test of sampled directions against a pdf."""
 import math
 
 import numpy as np
+from scipy import stats
 
 
 class LocalCtx:
@@ -35,3 +37,47 @@ def direction(theta_deg, phi_deg=0.0):
     """The unit vector at polar angle ``theta_deg`` from +z and azimuth ``phi_deg`` (degrees)."""
     t, p = math.radians(theta_deg), math.radians(phi_deg)
     return np.array([math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), math.cos(t)])
+
+
+def unit(v):
+    """``v`` normalised along its last axis."""
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def direction_cos(c, phi):
+    """The unit vector of ``cos theta = c`` (clamped to [-1, 1]) and azimuth ``phi`` (radians)."""
+    s = np.sqrt(max(0.0, 1.0 - c * c))
+    return np.array([s * np.cos(phi), s * np.sin(phi), c])
+
+
+def chi_square_cells_p(pdf_of, wi, valid, c_edges, p_edges):
+    """p-value of a chi-square test of sampled directions ``wi[valid]`` (N, 3) against the density ``pdf_of(w)``
+    ((k, 3) unit directions -> (k,)): counts in the (cos theta, phi) cells of ``c_edges`` x ``p_edges`` against the
+    pdf integrated over each cell (8 x 8 Gauss points); cells expecting fewer than 5 are pooled with the samples
+    outside the cells or not valid and the mass the cells miss. Fails if samples land where the pdf is zero."""
+    n = wi.shape[0]
+    inside = valid & (wi[:, 2] >= c_edges[0]) & (wi[:, 2] <= c_edges[-1])
+    obs, _, _ = np.histogram2d(wi[inside, 2], np.arctan2(wi[inside, 1], wi[inside, 0]), bins=[c_edges, p_edges])
+    g, gw = np.polynomial.legendre.leggauss(8)
+    exp = np.zeros((c_edges.size - 1, p_edges.size - 1))
+    for i in range(exp.shape[0]):
+        c = c_edges[i] + (c_edges[i + 1] - c_edges[i]) * (g + 1) / 2
+        wc = gw * (c_edges[i + 1] - c_edges[i]) / 2
+        for j in range(exp.shape[1]):
+            ph = p_edges[j] + (p_edges[j + 1] - p_edges[j]) * (g + 1) / 2
+            wp = gw * (p_edges[j + 1] - p_edges[j]) / 2
+            cc, pp = np.meshgrid(c, ph, indexing="ij")
+            s = np.sqrt(1 - cc * cc)
+            w = np.stack([s * np.cos(pp), s * np.sin(pp), cc], -1).reshape(-1, 3)
+            exp[i, j] = np.einsum("ab,a,b->", pdf_of(w).reshape(8, 8), wc, wp)
+    exp *= n
+    obs, exp = obs.ravel(), exp.ravel()
+    order = np.argsort(exp)
+    small = exp[order] < 5
+    pooled_o = obs[order][small].sum() + (n - inside.sum())
+    pooled_e = exp[order][small].sum() + max(n - exp.sum(), 0.0)
+    o = np.concatenate([obs[order][~small], [pooled_o]])
+    e = np.concatenate([exp[order][~small], [pooled_e]])
+    keep = e > 0
+    assert np.all(o[~keep] == 0), "samples where the pdf is zero"
+    return stats.chi2.sf(np.sum((o[keep] - e[keep]) ** 2 / e[keep]), keep.sum() - 1)

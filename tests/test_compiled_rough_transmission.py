@@ -21,10 +21,9 @@ import os
 import numba
 import numpy as np
 import pytest
-from scipy import stats
 
 import pyrt
-from material_helpers import LocalCtx, direction
+from material_helpers import LocalCtx, chi_square_cells_p, direction, direction_cos, unit
 from pyrt.integrators import compiled as C
 from pyrt.materials import compiled as MC
 from pyrt.materials import compiled_transmission as CT
@@ -117,23 +116,14 @@ class Compiled:
         return tuple(self._run(wo, np.zeros_like(wo), u)[2:])
 
 
-def _unit(v):
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
-
-
-def _dir(c, phi):
-    s = np.sqrt(max(0.0, 1.0 - c * c))
-    return np.array([s * np.cos(phi), s * np.sin(phi), c])
-
-
 def _pairs(seed=5, n=3000):
     """``wo`` (upper hemisphere, grazing and normal included) and ``wi`` over the whole sphere (grazing on both
     sides, ``wi = -wo`` straight through and ``wi`` mirrored)."""
     rng = np.random.default_rng(seed)
-    wo, wi = _unit(rng.normal(size=(n, 3))), _unit(rng.normal(size=(n, 3)))
+    wo, wi = unit(rng.normal(size=(n, 3))), unit(rng.normal(size=(n, 3)))
     wo[:, 2] = np.abs(wo[:, 2])
-    g = np.array([_dir(c, 0.3) for c in (1.0, 0.999999, 0.5, 1e-3, 1e-6, 0.0)])
-    gi = np.array([_dir(c, 2.0) for c in (1e-6, -1e-6, 1e-3, -1e-3, -0.5, -1.0)])
+    g = np.array([direction_cos(c, 0.3) for c in (1.0, 0.999999, 0.5, 1e-3, 1e-6, 0.0)])
+    gi = np.array([direction_cos(c, 2.0) for c in (1e-6, -1e-6, 1e-3, -1e-3, -0.5, -1.0)])
     wo_g = np.repeat(g, len(gi), axis=0)
     wi_g = np.tile(gi, (len(g), 1))
     return (np.concatenate([wo, wo_g, g, g, wo[:500]]),
@@ -143,10 +133,10 @@ def _pairs(seed=5, n=3000):
 def _wo_u(seed=3, n=3000):
     """``wo`` (N, 3), random and grazing, and ``u`` (N, 2) with extreme values."""
     rng = np.random.default_rng(seed)
-    wo = _unit(rng.normal(size=(n, 3)))
+    wo = unit(rng.normal(size=(n, 3)))
     wo[:, 2] = np.abs(wo[:, 2])
     u = rng.random((n, 2))
-    special_wo = [_dir(c, phi) for c in (1.0, 0.999999, 1e-3, 1e-6, 0.0, -1e-6) for phi in (0.0, 1.3)]
+    special_wo = [direction_cos(c, phi) for c in (1.0, 0.999999, 1e-3, 1e-6, 0.0, -1e-6) for phi in (0.0, 1.3)]
     special_u = [(a, b) for a in (0.0, 1e-9, 0.25, 0.5, 0.8, 1.0 - 1e-16, np.nextafter(1.0, 0.0))
                  for b in (0.0, 0.3, np.nextafter(1.0, 0.0))]
     wo_s = np.array([w for w in special_wo for _ in special_u])
@@ -242,37 +232,13 @@ def test_the_rough_share_switches_at_the_smooth_limit():
 
 def _sphere_chi_square_p(mat, theta_o, n=200_000, nt=24, nphi=24):
     """p-value of the chi-square test of ``mat.sample`` against ``mat.pdf`` over the whole sphere: 200k sampled
-    directions in ``nt x nphi`` (cos theta in [-1, 1], phi) cells against the pdf integrated over each cell (8 x 8
-    Gauss points); cells with expectation < 5 and the invalid samples (pdf 0) pooled with the missing mass."""
+    directions in ``nt x nphi`` (cos theta in [-1, 1], phi) cells against the pdf integrated over each cell
+    (:func:`material_helpers.chi_square_cells_p`); cells with expectation < 5 and the invalid samples (pdf 0) pooled
+    with the missing mass."""
     wo_d = direction(theta_o, 10.0)
     wi, _, pdf = mat.sample(np.tile(wo_d, (n, 1)), np.random.default_rng(4).random((n, 2)))
-    ok = pdf > 0
-    c_edges = np.linspace(-1.0, 1.0, nt + 1)
-    p_edges = np.linspace(-np.pi, np.pi, nphi + 1)
-    obs, _, _ = np.histogram2d(wi[ok, 2], np.arctan2(wi[ok, 1], wi[ok, 0]), bins=[c_edges, p_edges])
-    g, gw = np.polynomial.legendre.leggauss(8)
-    exp = np.zeros((nt, nphi))
-    for i in range(nt):
-        c = c_edges[i] + (c_edges[i + 1] - c_edges[i]) * (g + 1) / 2
-        wc = gw * (c_edges[i + 1] - c_edges[i]) / 2
-        for j in range(nphi):
-            ph = p_edges[j] + (p_edges[j + 1] - p_edges[j]) * (g + 1) / 2
-            wp = gw * (p_edges[j + 1] - p_edges[j]) / 2
-            cc, pp = np.meshgrid(c, ph, indexing="ij")
-            s = np.sqrt(1 - cc * cc)
-            w = np.stack([s * np.cos(pp), s * np.sin(pp), cc], -1).reshape(-1, 3)
-            exp[i, j] = np.einsum("ab,a,b->", mat.pdf(np.tile(wo_d, (w.shape[0], 1)), w).reshape(8, 8), wc, wp)
-    exp *= n
-    obs, exp = obs.ravel(), exp.ravel()
-    order = np.argsort(exp)
-    small = exp[order] < 5
-    pooled_o = obs[order][small].sum() + (n - ok.sum())
-    pooled_e = exp[order][small].sum() + max(n - exp.sum(), 0.0)
-    o = np.concatenate([obs[order][~small], [pooled_o]])
-    e = np.concatenate([exp[order][~small], [pooled_e]])
-    keep = e > 0
-    assert np.all(o[~keep] == 0), "samples where the pdf is zero"
-    return stats.chi2.sf(np.sum((o[keep] - e[keep]) ** 2 / e[keep]), keep.sum() - 1)
+    return chi_square_cells_p(lambda w: mat.pdf(np.tile(wo_d, (w.shape[0], 1)), w), wi, pdf > 0,
+                              np.linspace(-1.0, 1.0, nt + 1), np.linspace(-np.pi, np.pi, nphi + 1))
 
 
 @pytest.mark.parametrize("name", sorted(CHI2))
@@ -318,10 +284,10 @@ def test_white_furnace(thin, theta_o):
 def test_thin_lobe_is_reciprocal():
     """``f(wo, wi) = f(wi', wo')`` with the pair mirrored through the sheet (the light's path reversed)."""
     rng = np.random.default_rng(2)
-    a, b = _unit(rng.normal(size=(2000, 3))), _unit(rng.normal(size=(2000, 3)))
+    a, b = unit(rng.normal(size=(2000, 3))), unit(rng.normal(size=(2000, 3)))
     a[:, 2] = np.abs(a[:, 2]) + 0.05
     b[:, 2] = -np.abs(b[:, 2]) - 0.05
-    a, b = _unit(a), _unit(b)
+    a, b = unit(a), unit(b)
     out_ab, out_ba = np.zeros((2000, 4)), np.zeros((2000, 4))
     flip = np.array([1.0, 1.0, -1.0])
     f0 = np.array([0.05, 0.04, 0.03])
@@ -334,10 +300,10 @@ def test_thin_lobe_is_reciprocal():
 def test_interface_obeys_generalised_reciprocity():
     """The radiance-mode BTDF: ``f(wo, wi) / eta_o^2 = f(wi, wo) / eta_i^2`` (outside index 1, inside ``eta``)."""
     rng = np.random.default_rng(3)
-    a, b = _unit(rng.normal(size=(2000, 3))), _unit(rng.normal(size=(2000, 3)))
+    a, b = unit(rng.normal(size=(2000, 3))), unit(rng.normal(size=(2000, 3)))
     a[:, 2] = np.abs(a[:, 2]) + 0.05
     b[:, 2] = -np.abs(b[:, 2]) - 0.05
-    a, b = _unit(a), _unit(b)
+    a, b = unit(a), unit(b)
     eta = 1.5
     out_ab, out_ba = np.zeros((2000, 4)), np.zeros((2000, 4))
     _lobes_many(a, b, np.zeros((2000, 2)), 0.3, eta, 0.0, np.zeros(3), out_ab, np.zeros((2000, 8)))

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 import pyrt
-from material_helpers import LocalCtx
+from material_helpers import LocalCtx, direction_cos, unit
 from pyrt.geometry.surface import SurfaceBatch
 from pyrt.materials import compiled as MC
 from pyrt.materials import compiled_sampling as CS
@@ -129,22 +129,13 @@ class Compiled:
         return out
 
 
-def _unit(v):
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
-
-
-def _dir(c, phi):
-    s = np.sqrt(max(0.0, 1.0 - c * c))
-    return np.array([s * np.cos(phi), s * np.sin(phi), c])
-
-
 def _wo_u(seed=3, n=3000):
     """``wo`` (N, 3) and ``u`` (N, 2): random (upper hemisphere) and grazing / normal ``wo`` with extreme ``u``."""
     rng = np.random.default_rng(seed)
-    wo = _unit(rng.normal(size=(n, 3)))
+    wo = unit(rng.normal(size=(n, 3)))
     wo[:, 2] = np.abs(wo[:, 2])
     u = rng.random((n, 2))
-    special_wo = [_dir(c, phi) for c in (1.0, 0.999999, 1e-3, 1e-6, 0.0, -1e-6) for phi in (0.0, 1.3)]
+    special_wo = [direction_cos(c, phi) for c in (1.0, 0.999999, 1e-3, 1e-6, 0.0, -1e-6) for phi in (0.0, 1.3)]
     special_u = [(a, b) for a in (0.0, 1e-9, 0.25, 0.5, 1.0 - 1e-16, np.nextafter(1.0, 0.0))
                  for b in (0.0, 0.3, np.nextafter(1.0, 0.0))]
     wo_s = np.array([w for w in special_wo for _ in special_u])
@@ -171,13 +162,13 @@ def test_pdf_equals_the_numpy_pdf(name):
     mat = MATERIALS[name]()
     rng = np.random.default_rng(5)
     n = 3000
-    wo, wi = _unit(rng.normal(size=(n, 3))), _unit(rng.normal(size=(n, 3)))
+    wo, wi = unit(rng.normal(size=(n, 3))), unit(rng.normal(size=(n, 3)))
     wo[: 2 * n // 3, 2] = np.abs(wo[: 2 * n // 3, 2])
     wi[: 2 * n // 3, 2] = np.abs(wi[: 2 * n // 3, 2])
     # the sampler's own directions (the lobe's peak), grazing pairs and wo = +-wi
     swo, su = _wo_u(seed=9, n=500)
     swi = Compiled(mat).sample(swo, su, None)[0]
-    g = np.array([_dir(c, 0.2) for c in (1e-6, 1e-3, 0.0, -1e-6, 1.0)])
+    g = np.array([direction_cos(c, 0.2) for c in (1e-6, 1e-3, 0.0, -1e-6, 1.0)])
     wo = np.concatenate([wo, swo, g, g, g])
     wi = np.concatenate([wi, swi, g, -g, g[::-1]])
     got = Compiled(mat).pdf(wo, wi, None)
@@ -217,10 +208,10 @@ def test_sample_and_pdf_of_tags_without_a_lobe_are_zero():
 # ----------------------------------------------------------------------------------------- frames and warps
 
 def _normals(rng, n=2000):
-    nn = _unit(rng.normal(size=(n, 3)))
+    nn = unit(rng.normal(size=(n, 3)))
     special = [(0, 0, 1), (0, 0, -1), (1, 0, 0), (0, 1, 0), (0.6, 0.8, 0.0), (0.6, 0.0, -0.8),
                (1e-9, 0.0, -1.0), (0.0, 1e-8, 1.0)]
-    return np.concatenate([nn, _unit(np.array(special, dtype=np.float64))])
+    return np.concatenate([nn, unit(np.array(special, dtype=np.float64))])
 
 
 def test_coordinate_frame_is_the_numpy_frame_bit_for_bit(rng):

@@ -10,10 +10,9 @@ import math
 
 import numpy as np
 import pytest
-from scipy import stats
 
 import pyrt
-from material_helpers import LocalCtx, direction
+from material_helpers import LocalCtx, chi_square_cells_p, direction
 from pyrt.materials import CosineQuery, IsotropicMaterial
 from pyrt.shaders.vec import dot
 
@@ -139,42 +138,15 @@ def test_sample_weight_and_pdf_are_consistent(name, theta_o):
 
 
 def _chi_square_p(mat, theta_o):
-    """p-value of the chi-square test of ``mat.sample`` against ``mat.pdf``: histogram of 200k sampled directions over 12 x 24 (cos theta, phi) cells against the pdf integrated
-    over each cell (8 x 8 Gauss points per cell); cells with expectation < 5 are pooled, samples below the
-    horizon form one more cell."""
+    """p-value of the chi-square test of ``mat.sample`` against ``mat.pdf``: histogram of 200k sampled directions over
+    12 x 24 (cos theta, phi) cells of the upper hemisphere against the pdf integrated over each cell
+    (:func:`material_helpers.chi_square_cells_p`); cells with expectation < 5 are pooled with the samples below the
+    horizon."""
     n, nt, nphi = 200_000, 12, 24
     wo_d = direction(theta_o, 10.0)
     wi, _, _ = mat.sample(np.tile(wo_d, (n, 1)), np.random.default_rng(4).random((n, 2)), LocalCtx(n))
-    up = wi[:, 2] > 0
-    c_edges = np.linspace(0.0, 1.0, nt + 1)
-    p_edges = np.linspace(-np.pi, np.pi, nphi + 1)
-    phi = np.arctan2(wi[up, 1], wi[up, 0])
-    obs, _, _ = np.histogram2d(wi[up, 2], phi, bins=[c_edges, p_edges])
-    g, gw = np.polynomial.legendre.leggauss(8)
-    exp = np.zeros((nt, nphi))
-    for i in range(nt):
-        c = c_edges[i] + (c_edges[i + 1] - c_edges[i]) * (g + 1) / 2
-        wc = gw * (c_edges[i + 1] - c_edges[i]) / 2
-        for j in range(nphi):
-            ph = p_edges[j] + (p_edges[j + 1] - p_edges[j]) * (g + 1) / 2
-            wp = gw * (p_edges[j + 1] - p_edges[j]) / 2
-            C, P = np.meshgrid(c, ph, indexing="ij")
-            s = np.sqrt(1 - C * C)
-            w = np.stack([s * np.cos(P), s * np.sin(P), C], -1).reshape(-1, 3)
-            pdf = mat.pdf(np.tile(wo_d, (w.shape[0], 1)), w, LocalCtx(w.shape[0])).reshape(8, 8)
-            exp[i, j] = np.einsum("ab,a,b->", pdf, wc, wp)
-    exp *= n
-    obs, exp = obs.ravel(), exp.ravel()
-    below_obs, below_exp = n - up.sum(), max(n - exp.sum(), 0.0)
-    order = np.argsort(exp)
-    small = exp[order] < 5
-    pooled_o, pooled_e = obs[order][small].sum() + below_obs, exp[order][small].sum() + below_exp
-    o = np.concatenate([obs[order][~small], [pooled_o]])
-    e = np.concatenate([exp[order][~small], [pooled_e]])
-    keep = e > 0
-    assert np.all(o[~keep] == 0), "samples where the pdf is zero"
-    chi2 = np.sum((o[keep] - e[keep]) ** 2 / e[keep])
-    return stats.chi2.sf(chi2, keep.sum() - 1)
+    return chi_square_cells_p(lambda w: mat.pdf(np.tile(wo_d, (w.shape[0], 1)), w, LocalCtx(w.shape[0])), wi,
+                              wi[:, 2] > 0, np.linspace(0.0, 1.0, nt + 1), np.linspace(-np.pi, np.pi, nphi + 1))
 
 
 @pytest.mark.parametrize("name", GLOSSY)
