@@ -412,3 +412,23 @@ def test_aovs_match_the_numpy_path():
     j = pyrt.render_full(_scene(spp=4, jitter=True), backend="compiled", progress=False, aovs=True)
     assert np.isfinite(j.aovs["depth"]).mean() > 0.5
     assert np.all(np.abs(np.linalg.norm(j.aovs["normal"], axis=2)) <= 1.0 + 1e-6)
+
+
+def test_compile_is_announced_once_per_entry_that_is_not_cached(tmp_path, monkeypatch):
+    """The "compiling render kernels" line names the entry being compiled, once per process and entry, and not for an
+    entry already in the cache (a process that finds the fixed-spp entry cached but not the adaptive one says so only
+    when the adaptive one compiles)."""
+    import io
+    from pyrt.integrators import compiled, kernel_cache
+
+    monkeypatch.setattr(compiled, "_announced", [])
+    monkeypatch.setattr(kernel_cache, "cache_dir", lambda: str(tmp_path))
+    (tmp_path / "k").mkdir()
+    (tmp_path / "k" / "compiled_kernel.render_tiles-530.py311.nbi").write_bytes(b"")
+    assert kernel_cache.is_warm(entries=("render_tiles",)) and not kernel_cache.is_warm()
+    out = io.StringIO()
+    compiled.announce_compile("render_tiles", out)
+    assert out.getvalue() == ""
+    compiled.announce_compile("render_pixels", out)
+    compiled.announce_compile("render_pixels", out)
+    assert out.getvalue().count("pyrt: compiling render kernels") == 1 and "adaptive" in out.getvalue()

@@ -403,7 +403,7 @@ def load_kernel(cs, kernel, call):
     cache, the same file for every model, or the cold compile), so that no render's time includes them."""
     if kernel.overloads:
         return
-    announce_compile()
+    announce_compile(kernel.py_func.__name__)
     t0 = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", NumbaIRAssumptionWarning)        # (as in render_fixed)
@@ -447,15 +447,17 @@ def _tile_order(n_tiles):
     return np.random.default_rng(0x71E5).permutation(n_tiles).astype(np.int64)
 
 
-def announce_compile(stream=None):
-    """Say once per process, on stderr, that the kernels are being compiled (a cold cache); the cache is looked at
-    once per process (after that the kernel is loaded or compiled)."""
-    if not _announced:
-        _announced.append(True)
-        if kernel_cache.is_warm():
+def announce_compile(entry, stream=None):
+    """Say once per process and entry (``"render_tiles"``: fixed spp, ``"render_pixels"``: adaptive passes), on
+    stderr, that it is being compiled (not in the cache); the cache is looked at once per process and entry (after
+    that the entry is loaded or compiled)."""
+    if entry not in _announced:
+        _announced.append(entry)
+        if kernel_cache.is_warm(entries=(entry,)):
             return
-        print("pyrt: compiling render kernels, first run only (cached in "
-              f"{kernel_cache.cache_dir()})", file=stream or sys.stderr, flush=True)
+        kind = "the adaptive passes' entry" if entry == "render_pixels" else "the fixed-spp entry"
+        print(f"pyrt: compiling render kernels ({kind}), first run only (cached in {kernel_cache.cache_dir()})",
+              file=stream or sys.stderr, flush=True)
 
 
 def n_tiles(cam):

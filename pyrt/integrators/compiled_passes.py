@@ -48,7 +48,7 @@ def render_pixels(cs, cam, P, C, base, spp_after, *, seed, max_depth, throughput
     width = packet_width()
     if threads is not None:
         numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
-    announce_compile()
+    announce_compile("render_pixels")
     per_call = FIRST_CALL_TILES * numba.get_num_threads()
     lo, timed_s, timed_blocks = 0, 0.0, 0
     while lo < n_blocks:

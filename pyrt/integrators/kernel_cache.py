@@ -76,10 +76,15 @@ def cache_dir():
     return path
 
 
-def is_warm(path=None):
-    """True when the render kernels (the fixed-spp and the adaptive entry) are in the cache (no compilation ahead)."""
+#: the render kernels' entries (:mod:`pyrt.integrators.compiled_kernel`): fixed spp, adaptive passes
+ENTRIES = ("render_tiles", "render_pixels")
+
+
+def is_warm(path=None, entries=ENTRIES):
+    """True when the render kernels' ``entries`` (default both: the fixed-spp and the adaptive one) are in the cache
+    (no compilation ahead)."""
     path = cache_dir() if path is None else path
-    want = {"compiled_kernel.render_tiles", "compiled_kernel.render_pixels"}
+    want = {f"compiled_kernel.{e}" for e in entries}
     for _root, _dirs, files in os.walk(path):
         want -= {w for w in want if any(f.startswith(w) and f.endswith(".nbi") for f in files)}
     return not want
