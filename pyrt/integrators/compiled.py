@@ -396,14 +396,15 @@ def add_time(timings, phase, seconds):
     timings[phase] = timings.get(phase, 0.0) + seconds
 
 
-def load_kernel(cs, kernel, call):
-    """Load ``kernel`` (a render entry of :mod:`pyrt.integrators.compiled_kernel`) from the cache, or compile it on a
-    cold one, by ``call()``, an empty call (no tiles, no pixels), when this process has not loaded it yet; the seconds
+def load_kernel(cs, kernel, call, entry="render_tiles"):
+    """Load ``kernel`` (the render entry ``entry`` of :mod:`pyrt.integrators.compiled_kernel`: ``"render_tiles"`` or
+    ``"render_pixels"``) from the cache, or compile it on a cold one, by ``call()``, an empty call (no tiles, no
+    pixels), when this process has not loaded it yet (:func:`announce_compile` says so when it compiles); the seconds
     are added to ``cs.prepared.timings["kernel"]`` (what a preview reports as its ``kernel`` phase: a load from the
     cache, the same file for every model, or the cold compile), so that no render's time includes them."""
     if kernel.overloads:
         return
-    announce_compile(kernel.py_func.__name__)
+    announce_compile(entry)
     t0 = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", NumbaIRAssumptionWarning)        # (as in render_fixed)
@@ -524,7 +525,7 @@ def render_fixed(cs, cam, *, spp, seed, max_depth, throughput_cutoff, split_dept
             break
         cap = -(-order.size // MIN_CALLS)
         if timed_tiles and (order.size - lo) * timed_s <= call_seconds * timed_tiles:
-            cap = order.size - lo       # the rest fits in one call: no progress steps needed (each call costs a barrier)
+            cap = order.size - lo       # the rest fits in one call (each call ends with a barrier)
         hi = min(order.size, lo + max(1, min(per_call, cap)))
         t0 = time.perf_counter()
         with warnings.catch_warnings():

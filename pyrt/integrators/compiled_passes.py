@@ -79,4 +79,5 @@ def load_pixel_kernel(cs, cam):
         load_kernel(cs, K.render_pixels, lambda: K.render_pixels(
             cs.scene, camera_record(cam), cs.geo_f, cs.geo_i, cs.materials[0], cs.materials[1], cs.textures[0],
             cs.textures[1], cs.lights[0], cs.lights[1], cs.env_data, opts, optf, none, none, none, np.ones(0),
-            np.zeros(1, dtype=np.int64), none, nothing, nothing, np.zeros((0, 4), dtype=np.int64), packet_width()))
+            np.zeros(1, dtype=np.int64), none, nothing, nothing, np.zeros((0, 4), dtype=np.int64), packet_width()),
+            "render_pixels")
