@@ -84,20 +84,26 @@ def _total(pars, o_cl, n_k, px, py, pz, pp):
     return tot
 
 
+@register_jitable(forceinline=True)
+def search_right(pars, o, lo, hi, x):
+    """The first index ``k`` in ``[lo, hi)`` whose ``pars[o + k]`` is above ``x`` (``hi`` if none): numpy's
+    ``searchsorted(..., side="right")`` over the sorted entries ``pars[o + lo:o + hi]``."""
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if pars[o + mid] <= x:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
 @register_jitable
 def choose(pars, j, px, py, pz, u0):
     """Light ``j``'s triangle for the point ``p`` and the number ``u0``: ``(tri, r, prob)``, the number re-used inside
     the triangle (in [0, 1]) and the triangle's probability (0: none can light ``p``)."""
     o, o_cdf, o_map, o_cl, o_seg, o_ord, n_f, n_k, n_m = offsets(pars, j)
     if n_k == 0:            # selection="power": the CDF's search (numpy.searchsorted, side "right")
-        lo, hi = 0, n_f
-        while lo < hi:
-            mid = (lo + hi) >> 1
-            if pars[o_cdf + mid] <= u0:
-                lo = mid + 1
-            else:
-                hi = mid
-        tri = min(lo, n_f - 1)
+        tri = min(search_right(pars, o_cdf, 0, n_f, u0), n_f - 1)
         pm = pars[o + tri * TRI_W + T_PMF]
         r = 0.0
         if pm > 0.0:
@@ -121,14 +127,7 @@ def choose(pars, j, px, py, pz, u0):
     cb = o_cl + k * CL_W
     start, end = int(pars[cb + C_START]), int(pars[cb + C_END])
     x = k + r
-    lo, hi = start, end
-    while lo < hi:          # the first row whose seg is above x (numpy.searchsorted, side "right")
-        mid = (lo + hi) >> 1
-        if pars[o_seg + mid] <= x:
-            lo = mid + 1
-        else:
-            hi = mid
-    row = min(lo, end - 1)
+    row = min(search_right(pars, o_seg, start, end, x), end - 1)     # the first row whose seg is above x
     tri = int(pars[o_ord + row])
     pin = pars[o + tri * TRI_W + T_PMF_IN]
     below = pars[o_seg + row - 1] if row > start else float(k)

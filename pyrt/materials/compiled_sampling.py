@@ -265,17 +265,24 @@ def sample_wi(tag, pars, m, albedo, wox, woy, woz, u0, u1):
     return base_sample_wi(tag, pars, m, albedo, wox, woy, woz, u0, u1)
 
 
+@register_jitable(forceinline=True)
+def split_u(u0, p):
+    """``(take, v)``: whether ``u0`` picks the strategy of probability ``p`` (``u0 < p``) and ``u0`` rescaled to [0, 1)
+    within the branch taken (clamped below 1): :func:`pyrt.materials.layering.split_u` for one sample."""
+    take = u0 < p
+    if take:
+        v = u0 / (p if p > 0.0 else 1.0)
+    else:
+        v = (u0 - p) / (1.0 - p if p < 1.0 else 1.0)
+    return take, min(max(v, 0.0), U_MAX)
+
+
 @register_jitable
 def base_sample_wi(tag, pars, m, albedo, wox, woy, woz, u0, u1):
     """:func:`sample_wi` without a clear coat (of a coated GLTF: its base's)."""
     if is_microfacet(tag):
         ps, alpha, dist = mixture(tag, pars, m, albedo, woz)
-        spec = u0 < ps
-        if spec:
-            v = u0 / (ps if ps > 0.0 else 1.0)
-        else:
-            v = (u0 - ps) / (1.0 - ps if ps < 1.0 else 1.0)
-        v = min(max(v, 0.0), U_MAX)
+        spec, v = split_u(u0, ps)
         if spec:
             if dist == 0:
                 hx, hy, hz = sample_ggx_vndf(wox, woy, woz, v, u1, alpha)
@@ -449,13 +456,7 @@ def coat_sample_wi(tag, pars, m, albedo, wox, woy, woz, u0, u1):
     b = m * MC.RECORD
     s, t, n = coat_frame(albedo)
     wo_c = to_local((wox, woy, woz), s, t, n)
-    p = coat_prob(pars, b, albedo, wo_c[2])
-    take = u0 < p
-    if take:
-        v = u0 / (p if p > 0.0 else 1.0)
-    else:
-        v = (u0 - p) / (1.0 - p if p < 1.0 else 1.0)
-    v = min(max(v, 0.0), U_MAX)
+    take, v = split_u(u0, coat_prob(pars, b, albedo, wo_c[2]))
     if take:
         hx, hy, hz = sample_ggx_vndf(wo_c[0], wo_c[1], wo_c[2], v, u1, albedo[14])
         k = 2.0 * (wo_c[0] * hx + wo_c[1] * hy + wo_c[2] * hz)

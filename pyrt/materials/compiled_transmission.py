@@ -264,9 +264,7 @@ def gltf_sample_f(pars, m, albedo, t, thin, eta, geometry, wox, woy, woz, u0, u1
             return wix, wiy, wiz, 0.0, 0.0, 0.0, pdf
         r, g, b = gltf_f_cos(albedo, t, thin, eta, geometry, wox, woy, woz, wix, wiy, wiz)
         return wix, wiy, wiz, r / pdf, g / pdf, b / pdf, pdf
-    take = u0 < w
-    v = u0 / w if take else (u0 - w) / (1.0 - w if w < 1.0 else 1.0)
-    v = min(max(v, 0.0), CS.U_MAX)
+    take, v = CS.split_u(u0, w)
     if take:
         alpha = albedo[7] * albedo[7]
         if thin:
