@@ -442,11 +442,14 @@ def _sampling_cases():
     nm = pyrt.NormalMap(np.ascontiguousarray(tilt, dtype=np.float32))
     return {"thin_rough": GltfPBR(base_color=(0.9, 0.7, 0.5), roughness=0.5, transmission=0.6, thin=True),
             "volume_rough": GltfPBR(base_color=(0.9, 0.7, 0.5), roughness=0.5, transmission=0.6, thin=False, ior=1.4),
+            # full transmission: the reflection's specular layer is still there and must be sampled
+            "thin_full": GltfPBR(base_color=(0.9, 0.7, 0.5), roughness=0.5, transmission=1.0, thin=True),
+            "volume_full": GltfPBR(base_color=(0.9, 0.7, 0.5), roughness=0.3, transmission=1.0, thin=False, ior=1.5),
             "coat_normal_map": Clearcoat(GltfPBR(base_color=(0.2, 0.5, 0.8), roughness=0.6), clearcoat=0.9,
                                          roughness=0.4, normal_map=nm)}
 
 
-@pytest.mark.parametrize("case", ["thin_rough", "volume_rough", "coat_normal_map"])
+@pytest.mark.parametrize("case", ["thin_rough", "volume_rough", "thin_full", "volume_full", "coat_normal_map"])
 @pytest.mark.parametrize("theta_o", [25.0, 70.0])
 def test_sampling_of_transmission_and_coat_frames_matches_pdf_and_f(case, theta_o):
     """sample(): pdf equals pdf(), weight = f_cos / pdf, E[weight] (transmission x eta^2 for a volume) equals the

@@ -191,6 +191,16 @@ def gltf_shares(albedo, t):
     return (1.0 - albedo[6]) * t, 1.0
 
 
+@register_jitable(forceinline=True)
+def transmission_choice(albedo, w, woz):
+    """The probability that :func:`gltf_sample_f` draws the transmission lobe of weight ``w``
+    (``GltfPBR._transmission_choice``): ``w (1 - specular F(cos_o))``, ``F`` Schlick of the dielectric F0's
+    largest channel (``albedo[10:13]``; specular ``albedo[9]``) at ``cos_o = woz`` clipped to [0, 1]: the specular
+    reflection on top of a fully transmitting hit is drawn too."""
+    f0 = max(albedo[10], albedo[11], albedo[12])
+    return w * (1.0 - albedo[9] * JB.fr_schlick(min(max(woz, 0.0), 1.0), f0))
+
+
 @register_jitable
 def btdf(albedo, thin, eta, wox, woy, woz, wix, wiy, wiz):
     """``GltfPBR._btdf``: :func:`thin_btdf` (``thin``) or the volume's :func:`rough_dielectric_f_cos` below the
@@ -235,23 +245,25 @@ def gltf_f_cos(albedo, t, thin, eta, geometry, wox, woy, woz, wix, wiy, wiz):
 
 @register_jitable
 def gltf_pdf(pars, m, albedo, t, thin, eta, wox, woy, woz, wix, wiy, wiz):
-    """``GltfPBR.pdf``: ``(1 - w)`` times the reflection's mixture density (:func:`pyrt.materials.
-    compiled_sampling.base_pdf_wi` of the GLTF tag, 0 below the horizon) plus ``w`` :func:`btdf_pdf`, ``w`` of
-    :func:`gltf_shares`; ``pars``, ``m`` the material table and row (the GLTF mixture reads the inputs only)."""
+    """``GltfPBR.pdf``: ``(1 - c)`` times the reflection's mixture density (:func:`pyrt.materials.
+    compiled_sampling.base_pdf_wi` of the GLTF tag, 0 below the horizon) plus ``c`` :func:`btdf_pdf`, ``c`` the
+    :func:`transmission_choice` of ``w`` of :func:`gltf_shares`; ``pars``, ``m`` the material table and row (the
+    GLTF mixture reads the inputs only)."""
     w, _ = gltf_shares(albedo, t)
     p = CS.base_pdf_wi(MC.GLTF, pars, m, albedo, wox, woy, woz, wix, wiy, wiz)
     if not w > 0.0:
         return p
     if not wiz > 0.0:
         p = 0.0
-    return (1.0 - w) * p + w * btdf_pdf(albedo, thin, eta, wox, woy, woz, wix, wiy, wiz)
+    c = transmission_choice(albedo, w, woz)
+    return (1.0 - c) * p + c * btdf_pdf(albedo, thin, eta, wox, woy, woz, wix, wiy, wiz)
 
 
 @register_jitable
 def gltf_sample_f(pars, m, albedo, t, thin, eta, geometry, wox, woy, woz, u0, u1):
-    """``GltfPBR.sample`` at one hit: ``(wix, wiy, wiz, w_r, w_g, w_b, pdf)``. With probability ``w`` (of
-    :func:`gltf_shares`; ``u0`` rescaled in each branch and clipped below 1 as :func:`pyrt.materials.layering.
-    split_u`) the transmission lobe's direction (:func:`sample_thin_btdf`, :func:`sample_rough_dielectric`), else
+    """``GltfPBR.sample`` at one hit: ``(wix, wiy, wiz, w_r, w_g, w_b, pdf)``. With probability
+    :func:`transmission_choice` (of ``w`` of :func:`gltf_shares`; ``u0`` rescaled in each branch and clipped below 1
+    as :func:`pyrt.materials.layering.split_u`) the transmission lobe's direction (:func:`sample_thin_btdf`, :func:`sample_rough_dielectric`), else
     the reflection mixture's (:func:`pyrt.materials.compiled_sampling.base_sample_wi`); then
     :func:`pyrt.materials.layering.finish_sample`: zeros where the direction is not valid (``wo`` below the horizon,
     a branch's direction on the wrong side) or its density (:func:`gltf_pdf`) is 0, else the weight
@@ -264,7 +276,7 @@ def gltf_sample_f(pars, m, albedo, t, thin, eta, geometry, wox, woy, woz, u0, u1
             return wix, wiy, wiz, 0.0, 0.0, 0.0, pdf
         r, g, b = gltf_f_cos(albedo, t, thin, eta, geometry, wox, woy, woz, wix, wiy, wiz)
         return wix, wiy, wiz, r / pdf, g / pdf, b / pdf, pdf
-    take, v = CS.split_u(u0, w)
+    take, v = CS.split_u(u0, transmission_choice(albedo, w, woz))
     if take:
         alpha = albedo[7] * albedo[7]
         if thin:

@@ -213,6 +213,16 @@ class GltfPBR(MetallicRoughness):
         smooth = self.param(self.roughness, ctx, 1) <= SMOOTH_ROUGHNESS
         return np.where(smooth, 0.0, w), np.where(smooth, w, 0.0)
 
+    def _transmission_choice(self, wo, ctx, w_rough):
+        """The probability (N,) that :meth:`sample` draws the rough transmission lobe: ``w_rough (1 - specular
+        F(cos_o))``, ``F`` Schlick of the dielectric F0's largest channel at the view's cosine (an estimate of the
+        share of the specular reflection, which stays on top of a fully transmitting surface: with ``w_rough``
+        alone, ``transmission = 1`` and ``metallic = 0`` never drew a reflected direction, and the glossy rays and
+        the environment's BSDF samples missed its highlight). Below 1 wherever the reflection is not zero."""
+        f0 = np.max(np.broadcast_to(self._f0_dielectric(ctx), (ctx.n_hits, 3)), axis=1)
+        f = fresnel.fr_schlick(np.clip(wo[:, 2], 0.0, 1.0), f0)
+        return w_rough * (1.0 - self.param(self.specular, ctx, 1) * f)
+
     def _eta(self, ctx):
         """``eta_t / eta_i`` of the single interface: ``ior`` from the front, ``1 / ior`` from inside."""
         return np.where(ctx.front, self.ior_value, 1.0 / self.ior_value)
@@ -261,16 +271,19 @@ class GltfPBR(MetallicRoughness):
         return brdfs.rough_dielectric_pdf(wo, wi, alpha, self._eta(ctx))
 
     def pdf(self, wo, wi, ctx):
-        """Mixture of the reflection strategies (weight ``1 - w``) and the transmission lobe's (``w``)."""
+        """Mixture of the reflection strategies (weight ``1 - c``) and the transmission lobe's (``c``,
+        :meth:`_transmission_choice`)."""
         w_rough, _ = self._transmission_weights(ctx)
         p = super().pdf(wo, wi, ctx)
         if not np.any(w_rough > 0):
             return p
         p = np.where(wi[:, 2] > 0, p, 0.0)
-        return (1.0 - w_rough) * p + w_rough * self._btdf_pdf(wo, wi, ctx)
+        c = self._transmission_choice(wo, ctx, w_rough)
+        return (1.0 - c) * p + c * self._btdf_pdf(wo, wi, ctx)
 
     def sample(self, wo, u, ctx):
-        """The reflection strategies, or with probability ``w`` the transmission lobe (visible GGX normals)."""
+        """The reflection strategies, or with probability :meth:`_transmission_choice` the transmission lobe (visible
+        GGX normals)."""
         w_rough, _ = self._transmission_weights(ctx)
         if not np.any(w_rough > 0):
             return super().sample(wo, u, ctx)
@@ -286,9 +299,9 @@ class GltfPBR(MetallicRoughness):
         return np.where(valid[:, None], wi, 0.0)
 
     def _mixture_direction(self, wo, u, ctx, w_rough):
-        """``(wi, valid)``: the reflection strategies' direction, or with probability ``w_rough`` the transmission
-        lobe's."""
-        take, uu = split_u(u, w_rough)
+        """``(wi, valid)``: the reflection strategies' direction, or with probability :meth:`_transmission_choice`
+        the transmission lobe's."""
+        take, uu = split_u(u, self._transmission_choice(wo, ctx, w_rough))
         wi = super().sample_direction(wo, uu, ctx)
         alpha = self._alpha(ctx)
         if self.thin:
