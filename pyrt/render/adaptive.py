@@ -149,16 +149,35 @@ def _positive(name, v):
 
 
 def box_smooth(a, radius):
-    """Mean of ``a`` (H, W) over the (2 radius + 1)^2 box around each pixel (the box clipped at the border)."""
+    """Mean of ``a`` (H, W) over the (2 radius + 1)^2 box around each pixel (the box clipped at the border): window
+    sums along the rows, then along the columns (:func:`_window_sums`), over the boxes' pixel counts."""
     H, W = a.shape
-    c = np.zeros((H + 1, W + 1))
-    np.cumsum(np.cumsum(a, axis=0), axis=1, out=c[1:, 1:])
-    r0 = np.clip(np.arange(H) - radius, 0, H)
-    r1 = np.clip(np.arange(H) + radius + 1, 0, H)
-    c0 = np.clip(np.arange(W) - radius, 0, W)
-    c1 = np.clip(np.arange(W) + radius + 1, 0, W)
-    s = c[r1][:, c1] - c[r0][:, c1] - c[r1][:, c0] + c[r0][:, c0]
-    return s / ((r1 - r0)[:, None] * (c1 - c0)[None, :])
+    s = _window_sums(_window_sums(np.asarray(a, dtype=np.float64), radius, 0), radius, 1)
+    s /= _window_counts(H, radius)[:, None]
+    s /= _window_counts(W, radius)[None, :]
+    return s
+
+
+def _window_sums(a, radius, axis):
+    """Sums of ``a`` (H, W) over the windows ``[i - radius, i + radius]`` (clipped) along ``axis``: ``a`` plus its
+    shifts by 1 .. ``radius`` either way, added slice by slice (4 radius vector additions: a cumulative sum, NumPy's
+    ``add.accumulate``, runs one element at a time and cost 30x as much on a 320 x 240 film; the previous form
+    gathered a 2-D cumulative sum's box corners by index arrays, 8x)."""
+    out = np.array(a, dtype=np.float64)
+    n = out.shape[axis]
+    for d in range(1, min(radius, n - 1) + 1):
+        lo, hi = [slice(None)] * 2, [slice(None)] * 2
+        lo[axis], hi[axis] = slice(0, n - d), slice(d, n)
+        lo, hi = tuple(lo), tuple(hi)
+        out[hi] += a[lo]
+        out[lo] += a[hi]
+    return out
+
+
+def _window_counts(n, radius):
+    """The number of indices in each clipped window ``[i - radius, i + radius]`` of ``range(n)``."""
+    i = np.arange(n)
+    return (np.minimum(i + radius + 1, n) - np.maximum(i - radius, 0)).astype(np.float64)
 
 
 def pixel_errors(film, half):
@@ -169,18 +188,20 @@ def pixel_errors(film, half):
     w = film.weight
     wa = w - wb
     ok = (wa > 0) & (wb > 0)
-    out = np.full(w.shape[0], np.nan)
     if not ok.any():
-        return out
+        return np.full(w.shape[0], np.nan)
     with np.errstate(divide="ignore", invalid="ignore"):
         sb = half.sum
-        d = (film.sum - sb) / wa[:, None]                # mean_A
-        d -= sb / wb[:, None]                            # - mean_B
+        d = film.sum - sb
+        d *= (1.0 / wa)[:, None]                         # mean_A
+        t = sb * (1.0 / wb)[:, None]
+        d -= t                                           # - mean_B
         d *= d
-        d /= 4.0                                         # the variance of the mean
-        err = relmse_per_pixel(d, film.sum / w[:, None])
-    out[ok] = err[ok]
-    return out
+        d *= 0.25                                        # the variance of the mean
+        np.multiply(film.sum, (1.0 / w)[:, None], out=t)     # the mean (in place: fresh arrays page-fault)
+        err = relmse_per_pixel(d, t)
+    err[~ok] = np.nan
+    return err
 
 
 def floored_errors(film, err, shape):
@@ -205,17 +226,22 @@ def estimated_error(film, err, shape, floored=None):
 
 
 def max_filter(a, radius):
-    """Maximum of ``a`` (H, W) over the (2 radius + 1)^2 box around each pixel (the box clipped at the border)."""
-    out = a.copy()
-    H, W = a.shape
-    for dy in range(-radius, radius + 1):
-        for dx in range(-radius, radius + 1):
-            if dy == 0 and dx == 0:
-                continue
-            ys, yd = (slice(dy, H), slice(0, H - dy)) if dy >= 0 else (slice(0, H + dy), slice(-dy, H))
-            xs, xd = (slice(dx, W), slice(0, W - dx)) if dx >= 0 else (slice(0, W + dx), slice(-dx, W))
-            np.maximum(out[yd, xd], a[ys, xs], out=out[yd, xd])
-    return out
+    """Maximum of ``a`` (H, W) over the (2 radius + 1)^2 box around each pixel (the box clipped at the border):
+    along the rows, then along the columns (a box's maximum is the maximum of its rows' maxima: the same values as
+    the (2 radius + 1)^2 shifts, in 4 radius)."""
+    out = a
+    for axis in (0, 1):
+        src, out = out, out.copy()
+        n = src.shape[axis]
+        for d in range(1, radius + 1):
+            if d >= n:
+                break
+            a_lo, a_hi = [slice(None)] * 2, [slice(None)] * 2
+            a_lo[axis], a_hi[axis] = slice(0, n - d), slice(d, n)
+            a_lo, a_hi = tuple(a_lo), tuple(a_hi)
+            np.maximum(out[a_hi], src[a_lo], out=out[a_hi])
+            np.maximum(out[a_lo], src[a_hi], out=out[a_lo])
+    return out if out is not a else a.copy()
 
 
 def allocate(film, err, total_new, max_spp, cap, rng, shape):
@@ -244,20 +270,45 @@ def allocate(film, err, total_new, max_spp, cap, rng, shape):
 
 def _water_fill(share, have, room, total):
     """``clip(lam share - have, 0, room)`` (the samples that bring every pixel towards ``lam share`` samples, capped by
-    its ``room``) with ``lam`` such that they add up to ``total`` (bisection to 0.5 %; all the room if that is less).
-    Every pixel below its cap is filled to the same ``lam``: the pixels that need more than their cap do not starve
-    the others, as rescaling only the uncapped pixels did (0 for all of them once the capped ones took the total)."""
+    its ``room``) with ``lam`` such that they add up to ``total`` (to 0.5 %; all the room if that is less). Every
+    pixel below its cap is filled to the same ``lam``: the pixels that need more than their cap do not starve the
+    others, as rescaling only the uncapped pixels did (0 for all of them once the capped ones took the total).
+
+    The sum is piecewise linear and increasing in ``lam``: regula falsi with the Illinois rule (5-8 evaluations on
+    a film's shares where bisection took 15-25), each evaluated in one buffer (fresh temporaries page-faulted:
+    0.6 ms an evaluation on a 320 x 240 film against 0.1)."""
     if room.sum() <= total:
         return room.copy()
     ok = share > 0
+    buf = np.empty_like(share, dtype=np.float64)
+
+    def excess(lam):
+        np.multiply(share, lam, out=buf)
+        np.subtract(buf, have, out=buf)
+        np.clip(buf, 0.0, room, out=buf)
+        return float(buf.sum()) - total
+
     lo, hi = 0.0, float(np.max((have[ok] + room[ok]) / share[ok]))   # at hi every pixel is at its cap
+    f_lo, f_hi = excess(lo), excess(hi)
+    side = 0
     for _ in range(60):
-        lam = 0.5 * (lo + hi)
-        got = np.clip(lam * share - have, 0.0, room).sum()
-        if abs(got - total) <= 0.005 * total:
+        lam = hi - f_hi * (hi - lo) / (f_hi - f_lo) if f_hi != f_lo else 0.5 * (lo + hi)
+        if not lo < lam < hi:
+            lam = 0.5 * (lo + hi)
+        got = excess(lam)
+        if abs(got) <= 0.005 * total:
             break
-        lo, hi = (lam, hi) if got < total else (lo, lam)
-    return np.clip(lam * share - have, 0.0, room)
+        if got < 0.0:
+            lo, f_lo = lam, got
+            if side < 0:
+                f_hi *= 0.5
+            side = -1
+        else:
+            hi, f_hi = lam, got
+            if side > 0:
+                f_lo *= 0.5
+            side = 1
+    return buf
 
 
 def _chunks(counts, chunk_samples):
