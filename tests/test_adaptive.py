@@ -12,7 +12,7 @@ import pyrt
 from pyrt.core.metrics import relmse
 from pyrt.core.sampler import isqrt_array, sobol_owen_2d, strata_points
 from pyrt.apps.cli import main
-from pyrt.render import adaptive as A
+from pyrt.render import adaptive as A, image_maps
 
 
 def _scene(w=24, h=16, env=False):
@@ -288,10 +288,10 @@ def test_water_fill_fills_every_uncapped_pixel_to_one_level():
     share /= share.sum()
     have = np.full(6, 4.0)
     room = np.full(6, 12.0)
-    new = A._water_fill(share, have, room, 40.0)
+    new = image_maps.water_fill(share, have, room, 40.0)
     assert new.sum() == pytest.approx(40.0, rel=0.01)
     assert np.all(new[:2] == 12.0)
     level = (have + new)[2:] / share[2:]
     filled = new[2:] > 0
     assert filled.sum() >= 2 and np.allclose(level[filled], level[filled][0])
-    assert np.all(A._water_fill(share, have, room, 1000.0) == room)     # more asked than room: all of it
+    assert np.all(image_maps.water_fill(share, have, room, 1000.0) == room)     # more asked than room: all of it

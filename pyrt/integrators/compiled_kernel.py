@@ -37,13 +37,13 @@ kernel_cache.use_cache_dir()      # before the decorators below (and those of th
 from pyrt.core import unmanaged as U  # noqa: E402
 from pyrt.geometry import embree_jit as E  # noqa: E402
 from pyrt.integrators.compiled_layout import (  # noqa: E402
-    TILE, LANES, V_D, V_P, V_NG, V_NS, V_NV, V_LIFT, V_MAG, V_MAG_LIFT, V_FRONT, V_MAT, V_A, V_L, V_COSO, C_POS, C_FWD,
+    TILE, LANES, V_D, V_P, V_NG, V_NS, V_NV, V_LIFT, V_MAG, V_MAG_LIFT, V_FRONT, V_MAT, V_L, V_COSO, C_POS, C_FWD,
     C_RIGHT, C_UP, C_TAN, C_W, C_H, C_JITTER, C_K, C_AX, O_SEED, O_SPP, O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS,
     O_SPP_LO, O_FALLBACK, O_GRID, F_CUTOFF, F_BG, N_PRIMARY, N_SECONDARY, O_COVER, O_LAYERS, N_SHADOW, N_NONFINITE,
     STACK, STACK_ROW, STACK_PDF, STACK_TB, STACK_LAYER, T_INF, DIM_LOBE, O_GLOSSY_N, O_GLOSSY_DEPTH, O_SELECT,
     F_GLOSSY_T, F_GLOSSY_CLAMP, V_GL, O_GLOSSY_ENV, O_ROULETTE, ADAPTIVE_KEYS, O_ENV, O_AOV, O_SQ, N_AOV, V_T, O_DIFFS,
-    TILES_PER_TASK, _njit, buffer_pointers, geometry_pointers, lane_vec, packet_buffers, release, set_lane_inputs,
-    set_lane_vec, table_pointers)
+    TILES_PER_TASK, _njit, add_aovs, buffer_pointers, film_add, geometry_pointers, lane_vec, packet_buffers, pass_add,
+    release, set_lane_inputs, set_lane_vec, table_pointers)
 from pyrt.integrators import compiled_diffs as D, compiled_mesh_stage as MS  # noqa: E402
 from pyrt.integrators.compiled_coverage import (  # noqa: E402
     MASKS, cover_finish, cover_packet, cover_single, lane_through, split_blend)
@@ -377,47 +377,6 @@ def shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k3
     cnt[N_NONFINITE] += n_bad
 
 
-@_njit
-def film_add(V, lane_pix, n, film_s, film_q, want_sq):
-    """Lanes ``[0, n)``'s radiance (:data:`V_L`) added to their pixels' sums, and with ``want_sq`` squares (rows
-    ``lane_pix[l]``): a pixel's running sums stay in registers over its run of lanes (they come in pixel order) and
-    are stored once per run, the same additions in the same order as one lane at a time (a store per lane made each
-    addition wait for the previous one's store)."""
-    lane = 0
-    while lane < n:
-        q = lane_pix[lane] * 3
-        s0, s1, s2 = film_s[q], film_s[q + 1], film_s[q + 2]
-        q0 = q1 = q2 = 0.0
-        if want_sq:
-            q0, q1, q2 = film_q[q], film_q[q + 1], film_q[q + 2]
-        while lane < n and lane_pix[lane] * 3 == q:
-            l0, l1, l2 = lane_vec(V, V_L, lane)
-            s0 += l0
-            s1 += l1
-            s2 += l2
-            q0 += l0 * l0
-            q1 += l1 * l1
-            q2 += l2 * l2
-            lane += 1
-        film_s[q], film_s[q + 1], film_s[q + 2] = s0, s1, s2
-        if want_sq:
-            film_q[q], film_q[q + 1], film_q[q + 2] = q0, q1, q2
-
-
-@_njit
-def add_aovs(V, lane, a, q):
-    """Lane ``lane``'s first-hit AOVs added to the pixel's row ``a[q:q + N_AOV]``: depth and a count where the
-    camera ray hit, the shading normal and the albedo (zeros on a miss), as :meth:`pyrt.core.film.Film.add_block`."""
-    t = V[V_T * LANES + lane]
-    if math.isfinite(t):
-        a[q] += t
-        a[q + 1] += 1.0
-        ns, alb = lane_vec(V, V_NS, lane), lane_vec(V, V_A, lane)
-        for c in range(3):
-            a[q + 2 + c] += ns[c]
-            a[q + 5 + c] += alb[c]
-
-
 @numba.njit(nogil=True, cache=True, error_model="numpy")
 def render_tile(bufs, scene, tile, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex_par, lights_tag, lights_par,
                 env_data, opts, optf, sums, sqs, aovs, counters, width):
@@ -566,20 +525,20 @@ def pixel_block(bufs, scene, cam, geo_f, geo_i, mats_tag, mats_par, tex_tag, tex
             cur_j += 1
             if cur_j == C[cur_i]:
                 cur_i, cur_j = cur_i + 1, 0
-        for lane in range(n):       # camera rays
+        for lane in range(n):       # the samples' raster positions and the lanes' keys (Sobol' bits: scalar)
             q, idx = lane_pix[lane], lane_s[lane]
             u0, u1 = JS.sobol_owen_2d_keyed(idx, lane_key[lane], keys[lane])
             keys[lane] = J.key64(seed, P[q >> 1], ADAPTIVE_KEYS + idx * 2 + (q & 1))
-            set_lane_vec(V, V_D, lane, camera_dir(cam, lane_xy[lane] + u0, lane_xy[LANES + lane] + u1))
-            D.camera_lane_diffs(V, cam, opts, lane, dscale[q >> 1])
+            lane_xy[lane] += u0
+            lane_xy[LANES + lane] += u1
+        for lane in range(n):       # camera rays: arithmetic only, no branch (vectorised, as render_tile's)
+            set_lane_vec(V, V_D, lane, camera_dir(cam, lane_xy[lane], lane_xy[LANES + lane]))
+        if opts[O_DIFFS] != 0:
+            for lane in range(n):
+                D.camera_lane_diffs(V, cam, opts, lane, dscale[lane_pix[lane] >> 1])
         shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k32, PROGRESSIVE, n, w, mats_tag,
                      mats_par, tex_tag, tex_par, lights_tag, lights_par, erec, edata, opts, optf, cnt)
-        for lane in range(n):
-            r, is_b = lane_pix[lane] // 2, lane_pix[lane] % 2
-            for c in range(3):
-                x = V[(V_L + c) * LANES + lane]
-                both[r, c] += x
-                half_b[r, c] += x if is_b else 0.0
+        pass_add(V, lane_pix, n, both, half_b)
 
 
 @numba.njit(nogil=True, cache=True, error_model="numpy", parallel=True)

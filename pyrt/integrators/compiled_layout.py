@@ -1,7 +1,10 @@
 """The compiled tile kernel's data layout: the per-packet scratch, the camera record, the option arrays, the
-specular stack, random dimensions, the per-call buffers and table pointers, and the decorators of its functions (:mod:`pyrt.integrators.compiled_kernel`,
-:mod:`pyrt.integrators.compiled_lighting`)."""
+specular stack, random dimensions, the per-call buffers and table pointers, the packets' additions to the film
+(fixed spp) and to an adaptive pass's sums, and the decorators of its functions
+(:mod:`pyrt.integrators.compiled_kernel`, :mod:`pyrt.integrators.compiled_lighting`)."""
 from __future__ import annotations
+
+import math
 
 import numba
 
@@ -265,6 +268,73 @@ def release(b):
     keep_alive(b[6])
     keep_alive(b[7])
     keep_alive(b[8])
+
+
+@_njit
+def film_add(V, lane_pix, n, film_s, film_q, want_sq):
+    """Lanes ``[0, n)``'s radiance (:data:`V_L`) added to their pixels' sums, and with ``want_sq`` squares (rows
+    ``lane_pix[l]``): a pixel's running sums stay in registers over its run of lanes (they come in pixel order) and
+    are stored once per run, the same additions in the same order as one lane at a time (a store per lane made each
+    addition wait for the previous one's store)."""
+    lane = 0
+    while lane < n:
+        q = lane_pix[lane] * 3
+        s0, s1, s2 = film_s[q], film_s[q + 1], film_s[q + 2]
+        q0 = q1 = q2 = 0.0
+        if want_sq:
+            q0, q1, q2 = film_q[q], film_q[q + 1], film_q[q + 2]
+        while lane < n and lane_pix[lane] * 3 == q:
+            l0, l1, l2 = lane_vec(V, V_L, lane)
+            s0 += l0
+            s1 += l1
+            s2 += l2
+            q0 += l0 * l0
+            q1 += l1 * l1
+            q2 += l2 * l2
+            lane += 1
+        film_s[q], film_s[q + 1], film_s[q + 2] = s0, s1, s2
+        if want_sq:
+            film_q[q], film_q[q + 1], film_q[q + 2] = q0, q1, q2
+
+
+@_njit
+def add_aovs(V, lane, a, q):
+    """Lane ``lane``'s first-hit AOVs added to the pixel's row ``a[q:q + N_AOV]``: depth and a count where the
+    camera ray hit, the shading normal and the albedo (zeros on a miss), as :meth:`pyrt.core.film.Film.add_block`."""
+    t = V[V_T * LANES + lane]
+    if math.isfinite(t):
+        a[q] += t
+        a[q + 1] += 1.0
+        ns, alb = lane_vec(V, V_NS, lane), lane_vec(V, V_A, lane)
+        for c in range(3):
+            a[q + 2 + c] += ns[c]
+            a[q + 5 + c] += alb[c]
+
+
+@_njit
+def pass_add(V, lane_pix, n, both, half_b):
+    """Lanes ``[0, n)``'s radiance (:data:`V_L`) added to the pass's sums: row ``q >> 1`` of ``both`` and, for half
+    B (``q & 1``), of ``half_b``, ``q = lane_pix[l]``. A row's running sums stay in registers over its run of lanes
+    (they come in row and half order), the same additions in the same order as one lane at a time
+    (:func:`film_add`)."""
+    lane = 0
+    while lane < n:
+        q = lane_pix[lane]
+        r, is_b = q >> 1, (q & 1) != 0
+        s0, s1, s2 = both[r, 0], both[r, 1], both[r, 2]
+        b0, b1, b2 = half_b[r, 0], half_b[r, 1], half_b[r, 2]
+        while lane < n and lane_pix[lane] == q:
+            x0, x1, x2 = lane_vec(V, V_L, lane)
+            s0 += x0
+            s1 += x1
+            s2 += x2
+            b0 += x0
+            b1 += x1
+            b2 += x2
+            lane += 1
+        both[r, 0], both[r, 1], both[r, 2] = s0, s1, s2
+        if is_b:
+            half_b[r, 0], half_b[r, 1], half_b[r, 2] = b0, b1, b2
 
 
 kernel_cache.restore()
