@@ -11,7 +11,7 @@ Public API::
 """
 from pyrt.core.errors import Error, RenderError
 from pyrt.core.camera import Camera, CameraError
-from pyrt.geometry.surface import GeometryError
+from pyrt.geometry.mesh_data import GeometryError
 from pyrt.integrators import PreparedScene, RenderStats
 from pyrt.render import RenderResult, render, render_full
 from pyrt.render import Execution, Glossy, Output, Sampling, Whitted

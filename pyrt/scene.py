@@ -12,7 +12,8 @@ import numpy as np
 from pyrt.core import checks
 from pyrt.core.camera import Camera
 from pyrt.geometry.normals import crease_normals
-from pyrt.geometry.surface import GeometryError, GeometryTable, MeshData, validate_mesh
+from pyrt.geometry.mesh_data import GeometryError, MeshData, validate_mesh
+from pyrt.geometry.surface import GeometryTable
 from pyrt.lights.base import Light
 from pyrt.lights.mesh import EmissiveMeshLight
 from pyrt.materials import Material

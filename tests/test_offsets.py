@@ -11,7 +11,8 @@ import trimesh
 import pyrt
 from pyrt.geometry import offsets
 from pyrt.geometry.accel import Accel
-from pyrt.geometry.surface import GeometryTable, MeshData, SurfaceBatch, surface_from_hits
+from pyrt.geometry.mesh_data import MeshData
+from pyrt.geometry.surface import GeometryTable, SurfaceBatch, surface_from_hits
 
 EPS32 = 2.0 ** -24
 

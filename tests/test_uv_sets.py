@@ -15,7 +15,8 @@ import pytest
 import trimesh
 
 import pyrt
-from pyrt.geometry.surface import GeometryError, surface_from_hits
+from pyrt.geometry.mesh_data import GeometryError
+from pyrt.geometry.surface import surface_from_hits
 from pyrt.integrators import PreparedScene
 from pyrt.io.assets import load_asset
 from pyrt.io.assets.gltf_write import embedded_gltf

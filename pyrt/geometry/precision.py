@@ -34,7 +34,7 @@ import warnings
 
 import numpy as np
 
-from pyrt.geometry.surface import GeometryError
+from pyrt.geometry.mesh_data import GeometryError
 from pyrt.shaders.vec import cross
 
 #: largest finite float32

@@ -16,80 +16,11 @@ derivatives, which give the UV and normal derivatives without needing a UV param
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-import warnings
-
 import numpy as np
 
 from pyrt.geometry.offsets import terminator_lift
 from pyrt.geometry.uvsets import combine_rows as _combine, concat_uv_set, interpolate_uv, uv_set_at_hits, uv_tangents
 from pyrt.shaders.vec import coordinate_frame, cross, dot, max_component, normalize, put_rows, scale_rows, take_rows, to_local
-from pyrt.core.errors import Error
-
-
-class GeometryError(Error, ValueError):
-    """A mesh cannot be rendered (non-finite vertices, bad indices, no valid triangle)."""
-
-
-@dataclass
-class MeshData:
-    """One mesh in world space (float64), after validation."""
-
-    vertices: np.ndarray          # (V, 3) world space
-    faces: np.ndarray             # (F, 3) int64
-    normals: np.ndarray | None    # (V, 3) unit world-space vertex normals or None (flat)
-    uv: np.ndarray | None         # (V, 2) or None
-    vertices_object: np.ndarray   # (V, 3) object space (for 3D procedural textures)
-    material_id: int
-    smooth: bool
-    name: str
-    uv_sets: dict | None = None   # {k: (V, 2)} UV sets k >= 1 a material reads (pyrt.geometry.uvsets)
-    tangents: np.ndarray | None = None   # (V, 4) unit world-space vertex tangents + bitangent sign (glTF TANGENT)
-
-
-def validate_mesh(vertices, faces, name):
-    """Check a mesh and drop degenerate triangles.
-
-    Non-finite vertices and out-of-range indices raise :class:`GeometryError` naming the mesh.
-    Zero-area triangles (including repeated indices) are *skipped with a warning*: they cannot be
-    hit and have no normal. Returns ``(vertices float64, faces int64 with degenerate rows removed)``.
-    """
-    v = np.asarray(vertices, dtype=np.float64)
-    f = np.asarray(faces)
-    if f.size == 0:     # an OBJ of points or lines only: say what is missing, not a shape
-        raise GeometryError(f"mesh {name!r} has no triangles")
-    if v.ndim != 2 or v.shape[1] != 3 or v.shape[0] == 0:
-        raise GeometryError(f"mesh {name!r}: vertices must have shape (V, 3), got {v.shape}")
-    if f.ndim != 2 or f.shape[1] != 3:
-        raise GeometryError(f"mesh {name!r}: faces must have shape (F, 3), got {f.shape}")
-    if not np.issubdtype(f.dtype, np.integer):
-        raise GeometryError(f"mesh {name!r}: faces must be integer indices, got {f.dtype}")
-    bad = ~np.all(np.isfinite(v), axis=1)
-    if np.any(bad):
-        raise GeometryError(f"mesh {name!r}: {int(bad.sum())} non-finite vertex coordinates (NaN or Inf): "
-                            f"vertices are not finite, first at index {int(np.flatnonzero(bad)[0])}")
-    f = f.astype(np.int64)
-    if f.min() < 0 or f.max() >= v.shape[0]:
-        raise GeometryError(f"mesh {name!r}: face indices out of range [0, {v.shape[0]})")
-    degenerate = degenerate_faces(v, f)
-    if np.all(degenerate):
-        raise GeometryError(f"mesh {name!r}: all {f.shape[0]} triangles are degenerate (zero area)")
-    if np.any(degenerate):
-        warnings.warn(f"mesh {name!r}: skipping {int(degenerate.sum())} degenerate (zero-area) triangles",
-                      stacklevel=3)
-        f = f[~degenerate]
-    return v, f
-
-
-def degenerate_faces(vertices, faces):
-    """(F,) bool: the triangles :func:`validate_mesh` skips, those whose doubled area ``|e1 x e2|`` is at most
-    ``(eps32 max|v|)^2`` (zero once float32 rounding is near; repeated indices included)."""
-    v = np.asarray(vertices, dtype=np.float64)
-    f = np.asarray(faces, dtype=np.int64)
-    p0 = take_rows(v, f[:, 0])
-    area2 = np.linalg.norm(cross(take_rows(v, f[:, 1]) - p0, take_rows(v, f[:, 2]) - p0), axis=1)
-    scale = np.max(np.abs(v)) if v.size else 1.0
-    return area2 <= (np.finfo(np.float32).eps * max(scale, 1e-30)) ** 2
 
 
 def _vertex_tangent_frames(m):
@@ -104,8 +35,15 @@ def _vertex_tangent_frames(m):
     return out
 
 
+def _joined(arrays):
+    """The arrays concatenated along axis 0; a single one as it is (no copy)."""
+    return arrays[0] if len(arrays) == 1 else np.concatenate(arrays)
+
+
 class GeometryTable:
-    """All meshes of a scene concatenated (float64), indexed by (mesh id, triangle id).
+    """All meshes of a scene concatenated (float64), indexed by (mesh id, triangle id). A single mesh's arrays are
+    used as they are; with several, each mesh's arrays become views of its rows of the joined ones (one copy of the
+    geometry in memory, the same values).
 
     ``shading_normal_fallback`` (default True): :func:`surface_from_hits` replaces an interpolated
     normal facing away from the viewer by the geometric normal; False keeps it (such hits shade
@@ -120,18 +58,21 @@ class GeometryTable:
         nf = [m.faces.shape[0] for m in self.meshes]
         self.vertex_offset = np.concatenate([[0], np.cumsum(nv)[:-1]]).astype(np.int64)
         self.face_offset = np.concatenate([[0], np.cumsum(nf)[:-1]]).astype(np.int64)
-        self.vertices = np.concatenate([m.vertices for m in self.meshes])
-        self.vertices_object = np.concatenate([m.vertices_object for m in self.meshes])
-        self.faces = np.concatenate([m.faces + off for m, off in zip(self.meshes, self.vertex_offset)])
-        self.face_mesh = np.repeat(np.arange(len(self.meshes)), nf)
+        # one mesh's arrays are used as they are (concatenating a single array copies it); nothing writes into them
+        self.vertices = _joined([m.vertices for m in self.meshes])
+        self.vertices_object = _joined([m.vertices_object for m in self.meshes])
+        self.faces = _joined([m.faces + off if off else m.faces for m, off in zip(self.meshes, self.vertex_offset)
+                              ]).astype(np.int64, copy=False)
+        self.face_mesh = np.repeat(np.arange(len(self.meshes)), nf) if len(nf) > 1 else np.zeros(nf[0], np.int64)
         self.face_material = np.repeat([m.material_id for m in self.meshes], nf).astype(np.int64)
         smooth = [m.smooth and m.normals is not None for m in self.meshes]
         self.face_smooth = np.repeat(smooth, nf)
-        self.normals = np.concatenate([m.normals if m.normals is not None else np.zeros_like(m.vertices)
-                                       for m in self.meshes])
+        self.normals = _joined([m.normals if m.normals is not None else np.zeros_like(m.vertices)
+                                for m in self.meshes])
         self.face_has_uv = np.repeat([m.uv is not None for m in self.meshes], nf)
-        self.uv = np.concatenate([m.uv if m.uv is not None else np.zeros((m.vertices.shape[0], 2))
-                                  for m in self.meshes])
+        self.uv = _joined([m.uv if m.uv is not None else np.zeros((m.vertices.shape[0], 2)) for m in self.meshes])
+        if len(self.meshes) > 1:
+            self._share_rows(nv, nf)
         self._uv_tables = {}
         #: (V, 6) per vertex: the unit world tangent and the bitangent ``w (n x t)`` of meshes with vertex tangents
         #: (:meth:`SurfaceBatch.shading_tangents`), zeros elsewhere; None when no mesh has them
@@ -149,6 +90,21 @@ class GeometryTable:
         self.face_normals = normalize(cross(p1 - p0, p2 - p0))
         self.face_extent = max_component(np.maximum(np.maximum(p0, p1), p2) - np.minimum(np.minimum(p0, p1), p2))
         self.face_absmax = np.maximum(np.maximum(np.abs(p0), np.abs(p1)), np.abs(p2))
+
+    def _share_rows(self, nv, nf):
+        """Point every mesh's vertex arrays (and the first mesh's faces) at its rows of the joined arrays, which hold
+        the same values: the scene keeps one copy of its geometry, not two (a model and the previewer's ground:
+        0.3 GB of the 5.24 M-triangle mesh of tools/big_mesh.py)."""
+        for m, vo, fo, n_v, n_f in zip(self.meshes, self.vertex_offset, self.face_offset, nv, nf):
+            rows = slice(int(vo), int(vo) + n_v)
+            m.vertices = self.vertices[rows]
+            m.vertices_object = self.vertices_object[rows]
+            if m.normals is not None:
+                m.normals = self.normals[rows]
+            if m.uv is not None:
+                m.uv = self.uv[rows]
+            if vo == 0:
+                m.faces = self.faces[int(fo):int(fo) + n_f]
 
     def uv_table(self, k):
         """UV set ``k`` of every vertex, (V, 2) float64 (set 0: :attr:`uv`; zeros for meshes without set ``k``), or

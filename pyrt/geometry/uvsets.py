@@ -1,6 +1,6 @@
 """Texture-coordinate sets beyond the first (glTF ``TEXCOORD_1``, ...) and the per-set surface formulas.
 
-A mesh always has UV set 0 (:attr:`MeshData.uv <pyrt.geometry.surface.MeshData>`, the fields ``uv``,
+A mesh always has UV set 0 (:attr:`MeshData.uv <pyrt.geometry.mesh_data.MeshData>`, the fields ``uv``,
 ``duvdx``, ``duvdy``, ``dpdu``, ``dpdv`` of a :class:`~pyrt.geometry.surface.SurfaceBatch`); further sets are
 kept in ``MeshData.uv_sets`` ``{k: (V, 2)}`` only when a material reads them (the asset loaders drop unused
 sets). :meth:`GeometryTable.uv_table <pyrt.geometry.surface.GeometryTable.uv_table>` concatenates set ``k``

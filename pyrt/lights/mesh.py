@@ -48,7 +48,8 @@ import numpy as np
 
 from pyrt.core.checks import Fixed
 from pyrt.geometry.accel import Accel, Hits
-from pyrt.geometry.surface import GeometryTable, MeshData, surface_from_hits
+from pyrt.geometry.mesh_data import MeshData
+from pyrt.geometry.surface import GeometryTable, surface_from_hits
 from pyrt.shaders.vec import cross, dot, take_rows
 
 from pyrt.lights import compiled as LC

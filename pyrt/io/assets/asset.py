@@ -16,7 +16,7 @@ from pyrt.geometry.tangents import vertex_tangents
 from pyrt.geometry.normals import crease_normals
 from pyrt.lights import DirectionalLight, PointLight, SpotLight
 from pyrt.io.assets.common import DEFAULT_CREASE_ANGLE, AssetError, DefaultParams, PBRParams
-from pyrt.geometry.surface import degenerate_faces
+from pyrt.geometry.mesh_data import degenerate_faces
 from pyrt.io.assets.alpha import apply_coverage, uses_alpha
 from pyrt.io.assets.materials import FaceColorTexture, VertexColorTexture, to_pyrt_material
 from pyrt.io.assets.merge import merge_plan
