@@ -8,7 +8,7 @@ import warnings
 import numpy as np
 
 from pyrt.core.errors import Error
-from pyrt.shaders.vec import cross, take_rows
+from pyrt.shaders.vec import cross, norm, take_rows
 
 
 class GeometryError(Error, ValueError):
@@ -71,6 +71,6 @@ def degenerate_faces(vertices, faces):
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces, dtype=np.int64)
     p0 = take_rows(v, f[:, 0])
-    area2 = np.linalg.norm(cross(take_rows(v, f[:, 1]) - p0, take_rows(v, f[:, 2]) - p0), axis=1)
+    area2 = norm(cross(take_rows(v, f[:, 1]) - p0, take_rows(v, f[:, 2]) - p0))
     scale = np.max(np.abs(v)) if v.size else 1.0
     return area2 <= (np.finfo(np.float32).eps * max(scale, 1e-30)) ** 2
