@@ -559,3 +559,19 @@ def test_previewer_lets_light_through_glass_and_casts_a_shadow_under_an_opaque_t
     shadow = ratio["opaque"] < 0.7
     assert shadow.sum() > 10
     assert np.nanmean(ratio["glass"][shadow]) > 0.75, np.nanmean(ratio["glass"][shadow])
+
+
+@pytest.mark.parametrize("n", [1, 3, 4])
+def test_rough_transmission_samples_any_number_of_hits(n):
+    """The transmission lobe's sampling probability is one per hit for every batch size (three hits once made a
+    3 x 3 Fresnel table: a (3,) F0 read as RGB), and sample() equals the per-hit samples."""
+    m = GltfPBR(base_color=(0.9, 0.7, 0.5), roughness=0.5, transmission=1.0, thin=True, specular=0.8)
+    rng = np.random.default_rng(n)
+    wo = np.stack([direction(t, 20.0) for t in rng.uniform(0.0, 85.0, n)])
+    u = rng.random((n, 2))
+    wi, weight, pdf = m.sample(wo, u, LocalCtx(n))
+    assert wi.shape == (n, 3) and weight.shape == (n, 3) and pdf.shape == (n,)
+    for k in range(n):
+        one = m.sample(wo[k:k + 1], u[k:k + 1], LocalCtx(1))
+        np.testing.assert_allclose(one[0][0], wi[k], rtol=1e-12)
+        np.testing.assert_allclose(one[2][0], pdf[k], rtol=1e-12)
