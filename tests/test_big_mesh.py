@@ -241,3 +241,53 @@ def test_crease_normals_of_many_meshes_in_one_call_equal_one_call_each():
     # a box's corners keep three normals each (flat faces at 90 degrees), the shared face's corners too
     assert batched[1][1].shape == (24, 3)
     np.testing.assert_allclose(batched[4][1], np.tile([0, 0, 1], (3, 1)), atol=1e-12)   # not bent toward mesh 5
+
+
+def test_geometry_table_holds_one_copy_of_the_geometry():
+    """A scene's joined geometry table is the only copy of its meshes' arrays: one mesh's arrays are the table's,
+    several meshes' arrays become views of their rows (the first mesh's faces too), with the values they had; a
+    second table from the same meshes equals the first."""
+    import pyrt
+
+    s = pyrt.Scene(pyrt.Camera())
+    s.add_sphere((0, 1, 0), 1.0, pyrt.Lambert(0.5), subdivisions=3)
+    one = s.geometry_table()
+    m = s.meshes[0]
+    for name in ("vertices", "vertices_object", "faces", "normals"):
+        assert np.shares_memory(getattr(one, name), getattr(m, name)), name
+    s.add_plane((0, 0, 0), 4.0, pyrt.Lambert(0.7))
+    before = [{k: np.array(getattr(mm, k)) for k in ("vertices", "vertices_object", "faces", "normals")}
+              for mm in s.meshes]
+    geo = s.geometry_table()
+    for k, (mm, was) in enumerate(zip(s.meshes, before)):
+        for name in ("vertices", "vertices_object", "normals"):
+            if was[name].ndim:
+                assert np.shares_memory(getattr(mm, name), getattr(geo, name)), (k, name)
+                assert np.array_equal(getattr(mm, name), was[name]), (k, name)
+        assert np.array_equal(mm.faces, was["faces"])
+    assert np.shares_memory(s.meshes[0].faces, geo.faces)
+    again = s.geometry_table()
+    for name in ("vertices", "vertices_object", "faces", "normals", "uv", "face_normals", "face_absmax"):
+        assert np.array_equal(getattr(again, name), getattr(geo, name)), name
+
+
+def test_preview_forgets_the_loaders_meshes_and_keeps_what_it_reports(tmp_path):
+    """render_preview drops the asset's meshes once the scene holds the model (PreviewScene.forget_model_arrays):
+    the triangle count, warnings and the image stay; an Asset the caller passed keeps its meshes."""
+    import pyrt
+    from pyrt.apps.preview import PreviewOptions, render_preview
+    from pyrt.apps.preview.render import PreviewScene
+
+    v, f = big_mesh.make_mesh(2)
+    big_mesh.write_ply(tmp_path / "m.ply", v, f)
+    o = PreviewOptions(width=32, height=24, spp=1)
+    ps = PreviewScene(pyrt.load_asset(str(tmp_path / "m.ply")), o)
+    n = ps.n_triangles
+    ps.forget_model_arrays()
+    assert ps.asset.meshes == [] and ps.n_triangles == n == f.shape[0]
+    asset = pyrt.load_asset(str(tmp_path / "m.ply"))
+    res = render_preview(asset, o)
+    assert res.triangles == f.shape[0] and len(asset.meshes) == 1
+    by_path = render_preview(str(tmp_path / "m.ply"), o)
+    assert by_path.triangles == f.shape[0]
+    assert np.array_equal(np.asarray(by_path.images[0]), np.asarray(res.images[0]))
