@@ -67,9 +67,9 @@ def water_fill(share, have, room, total):
     pixel below its cap is filled to the same ``lam``: the pixels that need more than their cap do not starve the
     others, as rescaling only the uncapped pixels did (0 for all of them once the capped ones took the total).
 
-    The sum is piecewise linear and increasing in ``lam``: regula falsi with the Illinois rule (5-8 evaluations on
-    a film's shares where bisection took 15-25), each evaluated in one buffer (fresh temporaries page-faulted:
-    0.6 ms an evaluation on a 320 x 240 film against 0.1)."""
+    The sum is piecewise linear and increasing in ``lam``: regula falsi with the Illinois rule (on the diffuse bench
+    scene's passes ~7 evaluations where bisection took ~21; 13-23 on random shares), each evaluated in one buffer
+    (fresh temporaries page-faulted: 0.6 ms an evaluation on a 320 x 240 film against 0.1)."""
     if room.sum() <= total:
         return room.copy()
     ok = share > 0
