@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from pyrt.core.metrics import RELMSE_EPS, estimated_relmse, relmse
+from pyrt.core.metrics import RELMSE_EPS, estimated_relmse, relmse, relmse_per_pixel
 
 
 def test_relmse_closed_form():
@@ -24,3 +24,14 @@ def test_estimated_relmse_matches_true_error_of_gaussian_noise():
     img = ref + rng.normal(size=ref.shape) * np.sqrt(var)
     est = estimated_relmse(var, ref)
     assert relmse(img, ref) == pytest.approx(est, rel=0.03)   # 60000 squared normals: rel. s.e. 0.6 %
+
+
+def test_relmse_per_pixel_is_the_channel_mean_of_variance_over_mean_squared():
+    """``relmse_per_pixel`` equals ``mean_c v / (m^2 + eps)`` for (N, 3) and (H, W, 3) arrays and channel-major views
+    (the adaptive passes' buffers), to the last bits of the channel sums."""
+    rng = np.random.default_rng(4)
+    for shape in ((1000, 3), (4, 5, 3)):
+        v, m = rng.random(shape), rng.random(shape) - 0.5
+        np.testing.assert_allclose(relmse_per_pixel(v, m), np.mean(v / (m * m + RELMSE_EPS), axis=-1), rtol=1e-15)
+    v, m = rng.random((3, 200)).T, rng.random((3, 200)).T
+    np.testing.assert_allclose(relmse_per_pixel(v, m, eps=0.5), np.mean(v / (m * m + 0.5), axis=-1), rtol=1e-15)

@@ -33,13 +33,13 @@ def relmse_per_pixel(variance, mean, eps=RELMSE_EPS):
     """Per-pixel relative error ``mean over channels of variance / (mean^2 + eps)`` ((N, 3) -> (N,))."""
     v = np.asarray(variance, dtype=np.float64)
     m = np.asarray(mean, dtype=np.float64)
-    r = m * m
-    r += eps
-    np.divide(v, r, out=r)
-    acc = r[..., 0].copy()
-    for c in range(1, r.shape[-1]):                 # channel by channel: the sums np.mean makes, without its
-        acc += r[..., c]                            # strided reduction (the adaptive renderer calls it per pass)
-    acc /= r.shape[-1]
+    acc, r = np.zeros(v.shape[:-1]), np.empty(v.shape[:-1])
+    for c in range(v.shape[-1]):                    # channel by channel in two buffers: the sums np.mean makes,
+        np.multiply(m[..., c], m[..., c], out=r)    # without its strided reduction or an (N, 3) temporary (the
+        r += eps                                    # adaptive renderer calls it per pass)
+        np.divide(v[..., c], r, out=r)
+        acc += r
+    acc /= v.shape[-1]
     return acc
 
 

@@ -220,8 +220,9 @@ class GltfPBR(MetallicRoughness):
         alone, ``transmission = 1`` and ``metallic = 0`` never drew a reflected direction, and the glossy rays and
         the environment's BSDF samples missed its highlight). Below 1 wherever the reflection is not zero."""
         f0 = np.max(np.broadcast_to(self._f0_dielectric(ctx), (wo.shape[0], 3)), axis=1)
-        f = f0 + (1.0 - f0) * (1.0 - np.clip(wo[:, 2], 0.0, 1.0)) ** 5      # Schlick (fr_schlick reads a (3,) f0
-        return w_rough * (1.0 - self.param(self.specular, ctx, 1) * f)        # as RGB: three hits made a 3 x 3)
+        # (N, 1): fr_schlick reads an (N,) f0 of three hits as RGB (a 3 x 3 table)
+        f = fresnel.fr_schlick(np.clip(wo[:, 2], 0.0, 1.0), f0[:, None])[:, 0]
+        return w_rough * (1.0 - self.param(self.specular, ctx, 1) * f)
 
     def _eta(self, ctx):
         """``eta_t / eta_i`` of the single interface: ``ior`` from the front, ``1 / ior`` from inside."""
