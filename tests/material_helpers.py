@@ -81,3 +81,20 @@ def chi_square_cells_p(pdf_of, wi, valid, c_edges, p_edges):
     keep = e > 0
     assert np.all(o[~keep] == 0), "samples where the pdf is zero"
     return stats.chi2.sf(np.sum((o[keep] - e[keep]) ** 2 / e[keep]), keep.sum() - 1)
+
+
+def wo_u_cases(seed=3, n=3000):
+    """``wo`` (N, 3) and ``u`` (N, 2) for the compiled samplers' twin tests: ``n`` random (upper hemisphere), then
+    normal, grazing and just-below-horizon ``wo`` with extreme ``u`` (0, 1e-9, the branch thresholds, the largest
+    float below 1), then the grazing ones again with random ``u``."""
+    rng = np.random.default_rng(seed)
+    wo = unit(rng.normal(size=(n, 3)))
+    wo[:, 2] = np.abs(wo[:, 2])
+    u = rng.random((n, 2))
+    special_wo = [direction_cos(c, phi) for c in (1.0, 0.999999, 1e-3, 1e-6, 0.0, -1e-6) for phi in (0.0, 1.3)]
+    special_u = [(a, b) for a in (0.0, 1e-9, 0.25, 0.5, 0.8, 1.0 - 1e-16, np.nextafter(1.0, 0.0))
+                 for b in (0.0, 0.3, np.nextafter(1.0, 0.0))]
+    wo_s = np.array([w for w in special_wo for _ in special_u])
+    u_s = np.array([x for _ in special_wo for x in special_u])
+    grazing = np.repeat(np.array(special_wo), 40, axis=0)
+    return np.concatenate([wo, wo_s, grazing]), np.concatenate([u, u_s, rng.random((grazing.shape[0], 2))])

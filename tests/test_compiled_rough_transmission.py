@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 import pyrt
-from material_helpers import LocalCtx, chi_square_cells_p, direction, direction_cos, unit
+from material_helpers import LocalCtx, chi_square_cells_p, direction, direction_cos, unit, wo_u_cases
 from pyrt.integrators import compiled as C
 from pyrt.materials import compiled as MC
 from pyrt.materials import compiled_transmission as CT
@@ -130,21 +130,6 @@ def _pairs(seed=5, n=3000):
             np.concatenate([wi, wi_g, -g, g * [1.0, 1.0, -1.0], -wo[:500]]))
 
 
-def _wo_u(seed=3, n=3000):
-    """``wo`` (N, 3), random and grazing, and ``u`` (N, 2) with extreme values."""
-    rng = np.random.default_rng(seed)
-    wo = unit(rng.normal(size=(n, 3)))
-    wo[:, 2] = np.abs(wo[:, 2])
-    u = rng.random((n, 2))
-    special_wo = [direction_cos(c, phi) for c in (1.0, 0.999999, 1e-3, 1e-6, 0.0, -1e-6) for phi in (0.0, 1.3)]
-    special_u = [(a, b) for a in (0.0, 1e-9, 0.25, 0.5, 0.8, 1.0 - 1e-16, np.nextafter(1.0, 0.0))
-                 for b in (0.0, 0.3, np.nextafter(1.0, 0.0))]
-    wo_s = np.array([w for w in special_wo for _ in special_u])
-    u_s = np.array([x for _ in special_wo for x in special_u])
-    grazing = np.repeat(np.array(special_wo), 40, axis=0)
-    return np.concatenate([wo, wo_s, grazing]), np.concatenate([u, u_s, rng.random((grazing.shape[0], 2))])
-
-
 # ----------------------------------------------------------------------------------------- the lobes' twins
 
 @numba.njit
@@ -207,7 +192,7 @@ def test_f_cos_and_pdf_equal_gltf_pbr(name):
 @pytest.mark.parametrize("name", NAMES)
 def test_same_u_gives_the_gltf_pbr_direction_weight_and_pdf(name):
     mat = MATERIALS[name]()
-    wo, u = _wo_u()
+    wo, u = wo_u_cases()
     wi, weight, pdf = Compiled(mat).sample(wo, u)
     want_wi, want_w, want_pdf = mat.sample(wo, u, LocalCtx(wo.shape[0]))
     ok = want_pdf > 0        # where NumPy's opaque sampler keeps an invalid lane's direction, the twin's is zero
@@ -282,13 +267,19 @@ def test_white_furnace(thin, theta_o):
         assert np.all(np.abs(weight.mean(axis=0) - (up + down)) < 4 * se + 1e-3), (t, weight.mean(axis=0), up + down)
 
 
-def test_thin_lobe_is_reciprocal():
-    """``f(wo, wi) = f(wi', wo')`` with the pair mirrored through the sheet (the light's path reversed)."""
-    rng = np.random.default_rng(2)
-    a, b = unit(rng.normal(size=(2000, 3))), unit(rng.normal(size=(2000, 3)))
+def _across(seed, n=2000):
+    """``n`` random pairs of unit directions on either side of the surface: ``a`` above, ``b`` below (both at least
+    ~0.05 off the horizon before normalising)."""
+    rng = np.random.default_rng(seed)
+    a, b = unit(rng.normal(size=(n, 3))), unit(rng.normal(size=(n, 3)))
     a[:, 2] = np.abs(a[:, 2]) + 0.05
     b[:, 2] = -np.abs(b[:, 2]) - 0.05
-    a, b = unit(a), unit(b)
+    return unit(a), unit(b)
+
+
+def test_thin_lobe_is_reciprocal():
+    """``f(wo, wi) = f(wi', wo')`` with the pair mirrored through the sheet (the light's path reversed)."""
+    a, b = _across(2)
     out_ab, out_ba = np.zeros((2000, 4)), np.zeros((2000, 4))
     flip = np.array([1.0, 1.0, -1.0])
     f0 = np.array([0.05, 0.04, 0.03])
@@ -300,11 +291,7 @@ def test_thin_lobe_is_reciprocal():
 
 def test_interface_obeys_generalised_reciprocity():
     """The radiance-mode BTDF: ``f(wo, wi) / eta_o^2 = f(wi, wo) / eta_i^2`` (outside index 1, inside ``eta``)."""
-    rng = np.random.default_rng(3)
-    a, b = unit(rng.normal(size=(2000, 3))), unit(rng.normal(size=(2000, 3)))
-    a[:, 2] = np.abs(a[:, 2]) + 0.05
-    b[:, 2] = -np.abs(b[:, 2]) - 0.05
-    a, b = unit(a), unit(b)
+    a, b = _across(3)
     eta = 1.5
     out_ab, out_ba = np.zeros((2000, 4)), np.zeros((2000, 4))
     _lobes_many(a, b, np.zeros((2000, 2)), 0.3, eta, 0.0, np.zeros(3), out_ab, np.zeros((2000, 8)))

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 import pyrt
-from material_helpers import LocalCtx, direction_cos, unit
+from material_helpers import LocalCtx, direction_cos, unit, wo_u_cases
 from pyrt.geometry.surface import SurfaceBatch
 from pyrt.materials import compiled as MC
 from pyrt.materials import compiled_sampling as CS
@@ -129,25 +129,10 @@ class Compiled:
         return out
 
 
-def _wo_u(seed=3, n=3000):
-    """``wo`` (N, 3) and ``u`` (N, 2): random (upper hemisphere) and grazing / normal ``wo`` with extreme ``u``."""
-    rng = np.random.default_rng(seed)
-    wo = unit(rng.normal(size=(n, 3)))
-    wo[:, 2] = np.abs(wo[:, 2])
-    u = rng.random((n, 2))
-    special_wo = [direction_cos(c, phi) for c in (1.0, 0.999999, 1e-3, 1e-6, 0.0, -1e-6) for phi in (0.0, 1.3)]
-    special_u = [(a, b) for a in (0.0, 1e-9, 0.25, 0.5, 1.0 - 1e-16, np.nextafter(1.0, 0.0))
-                 for b in (0.0, 0.3, np.nextafter(1.0, 0.0))]
-    wo_s = np.array([w for w in special_wo for _ in special_u])
-    u_s = np.array([x for _ in special_wo for x in special_u])
-    grazing = np.repeat(np.array(special_wo), 40, axis=0)          # grazing wo with random u
-    return np.concatenate([wo, wo_s, grazing]), np.concatenate([u, u_s, rng.random((grazing.shape[0], 2))])
-
-
 @pytest.mark.parametrize("name", NAMES)
 def test_same_u_gives_the_numpy_direction_weight_and_pdf(name):
     mat = MATERIALS[name]()
-    wo, u = _wo_u()
+    wo, u = wo_u_cases()
     wi, weight, pdf = Compiled(mat).sample(wo, u, None)
     assert not np.any(np.isnan(pdf)), "sample_wi and sample_f disagree"
     want_wi, want_w, want_pdf = mat.sample(wo, u, LocalCtx(wo.shape[0]))
@@ -166,7 +151,7 @@ def test_pdf_equals_the_numpy_pdf(name):
     wo[: 2 * n // 3, 2] = np.abs(wo[: 2 * n // 3, 2])
     wi[: 2 * n // 3, 2] = np.abs(wi[: 2 * n // 3, 2])
     # the sampler's own directions (the lobe's peak), grazing pairs and wo = +-wi
-    swo, su = _wo_u(seed=9, n=500)
+    swo, su = wo_u_cases(seed=9, n=500)
     swi = Compiled(mat).sample(swo, su, None)[0]
     g = np.array([direction_cos(c, 0.2) for c in (1e-6, 1e-3, 0.0, -1e-6, 1.0)])
     wo = np.concatenate([wo, swo, g, g, g])
