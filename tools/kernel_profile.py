@@ -96,26 +96,33 @@ def main(argv=None):
     ap.add_argument("scene", choices=sorted(ms.SCENES), help="a scene of tools/bench_mitsuba.py")
     ap.add_argument("--spp", type=int, default=16)
     ap.add_argument("--renders", type=int, default=6)
+    ap.add_argument("--target-error", type=float, default=None,
+                    help="render adaptively to this relMSE instead (the adaptive passes' kernel entry)")
     ap.add_argument("--object", default=None, help="also write the kernel's object code here (for objdump -d)")
     args = ap.parse_args(argv)
     scene = ms.SCENES[args.scene][0](tempfile.mkdtemp())
     prepared = pyrt.PreparedScene(scene)
 
     def render(spp, seed):
-        return pyrt.render_full(scene, spp=spp, seed=seed, execution=pyrt.Execution(
-            prepared=prepared, progress=False, threads=1), **ms.PYRT_OPTIONS)
+        sampling = None if args.target_error is None or spp == 1 else pyrt.Sampling(
+            target_error=args.target_error, time_budget=600.0, max_spp=4096)
+        return pyrt.render_full(scene, spp=None if sampling else spp, seed=seed, sampling=sampling,
+                                execution=pyrt.Execution(prepared=prepared, progress=False, threads=1),
+                                **ms.PYRT_OPTIONS)
 
     render(1, 0)
+    if args.target_error is not None:
+        render(args.spp, 0)         # the adaptive entry loaded before the map is written
     n = write_map(f"/tmp/perf-{os.getpid()}.map", args.object)
     if not n:
         raise SystemExit("kernel_profile: error: no kernel loaded from the cache (render once first, then profile)")
-    t = time.process_time()
+    t, samples = time.process_time(), 0
     for seed in range(args.renders):
-        render(args.spp, seed)
-    cam = scene.camera
-    per = (time.process_time() - t) / (args.renders * args.spp * cam.width * cam.height)
-    print(f"{args.scene}: {per * 1e9:.1f} CPU ns per sample ({args.renders} renders at {args.spp} spp, one thread); "
-          f"{n} kernel symbols in /tmp/perf-{os.getpid()}.map")
+        samples += render(args.spp, seed).samples_done
+    what = f"at {args.spp} spp" if args.target_error is None else f"adaptive to {args.target_error:g}"
+    per = (time.process_time() - t) / samples
+    print(f"{args.scene}: {per * 1e9:.1f} CPU ns per sample ({args.renders} renders {what}, one thread, "
+          f"{samples / args.renders:.0f} samples a render); {n} kernel symbols in /tmp/perf-{os.getpid()}.map")
 
 
 if __name__ == "__main__":

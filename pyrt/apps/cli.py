@@ -20,6 +20,7 @@ from pyrt.core.image_io import TONEMAPS
 from pyrt.geometry.offsets import STRATEGIES
 from pyrt.render import INTEGRATORS, SAMPLERS
 from pyrt.render.settings import INTEGRATOR_TYPES
+from pyrt.integrators import kernel_cache
 from pyrt.render.pool import PARALLEL
 from pyrt.apps.common import (EXIT_ERROR, EXIT_INTERRUPTED, ArgumentParser, check_outputs, finite_float, interrupts,
                               nonnegative_int, positive_float, positive_int, run_console)
@@ -61,7 +62,10 @@ def _parser():
     ap = ArgumentParser(prog="pyrt", description="pyrt: Embree + NumPy renderer")
     ap.add_argument("--debug", action="store_true", help="print the traceback of an error")
     sub = ap.add_subparsers(dest="cmd", required=True)
-    sub.add_parser("compile", help="compile the render kernels now (else the first compiled render does, once)")
+    c = sub.add_parser("compile", help="compile the render kernels now (else the first compiled render does, once)")
+    c.add_argument("--prune", action="store_true",
+                   help="also remove the kernel caches of other pyrt, Numba or Python versions now (a compile removes "
+                        "those unused for 30 days)")
     r = sub.add_parser("render", help="render a scene file (TOML or JSON)")
     r.add_argument("scene")
     # the option groups of pyrt.render (pyrt.Whitted / pyrt.Glossy, pyrt.Sampling, pyrt.Execution; docs/rendering.md)
@@ -168,6 +172,10 @@ def _compile(args):
         print(f"pyrt: error: {exc}", file=sys.stderr)
         return EXIT_ERROR
     print(f"pyrt: render kernels {'loaded from the cache' if cached else 'compiled'} in {seconds:.1f} s ({where})")
+    if args.prune:
+        removed = kernel_cache.prune(days=0, path=where)
+        freed = sum(size for _path, size in removed) / 2**20
+        print(f"pyrt: removed {len(removed)} other kernel cache(s), {freed:.0f} MB")
     return 0
 
 

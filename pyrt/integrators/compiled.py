@@ -451,11 +451,15 @@ def _tile_order(n_tiles):
 def announce_compile(entry, stream=None):
     """Say once per process and entry (``"render_tiles"``: fixed spp, ``"render_pixels"``: adaptive passes), on
     stderr, that it is being compiled (not in the cache); the cache is looked at once per process and entry (after
-    that the entry is loaded or compiled)."""
+    that the entry is loaded or compiled). Marks the cache directory used and, before a compile, removes the ones
+    of other sources unused for :data:`pyrt.integrators.kernel_cache.STALE_DAYS` days
+    (:func:`pyrt.integrators.kernel_cache.prune`)."""
     if entry not in _announced:
         _announced.append(entry)
+        kernel_cache.mark_used()
         if kernel_cache.is_warm(entries=(entry,)):
             return
+        kernel_cache.prune()
         kind = "the adaptive passes' entry" if entry == "render_pixels" else "the fixed-spp entry"
         print(f"pyrt: compiling render kernels ({kind}), first run only (cached in {kernel_cache.cache_dir()})",
               file=stream or sys.stderr, flush=True)

@@ -4,7 +4,10 @@ Numba caches a compiled function next to its source (or in ``NUMBA_CACHE_DIR``) 
 that inlines functions of *other* files keeps its stale machine code when only those change (two different
 images from one source tree were seen). So the kernels are cached in a directory of their own whose name is a hash
 of every kernel source file, Numba's and llvmlite's versions and Python's (:func:`cache_dir`): any edit, upgrade or
-other interpreter starts a fresh cache, and a stale one is never read.
+other interpreter starts a fresh cache, and a stale one is never read. Each directory holds ~40-120 MB, so the ones
+left by other sources are removed when a compile starts in a new one and they have not been used for
+:data:`STALE_DAYS` days (:func:`prune`; a load or compile touches its directory's :data:`STAMP`, so another
+installation in use keeps its own); ``pyrt compile --prune`` removes every other one at once.
 
 The base directory is ``NUMBA_CACHE_DIR`` when set (Numba's own rule), else ``$XDG_CACHE_HOME/pyrt`` (default
 ``~/.cache/pyrt``), else a temporary directory when neither is writable. :func:`use_cache_dir` points Numba there
@@ -16,12 +19,16 @@ made a render 5.6x slower on a loaded 2-core machine; the workqueue did not).
 """
 from __future__ import annotations
 
+import functools
 import getpass
 import hashlib
 import importlib.util
 import os
+import re
+import shutil
 import sys
 import tempfile
+import time
 
 import llvmlite
 import numba
@@ -43,7 +50,14 @@ KERNEL_SOURCES = ("pyrt.shaders.jit", "pyrt.shaders.jit_math", "pyrt.shaders.jit
 
 _saved = []
 
+#: days after its last use that another sources' kernel directory is removed by a compile (:func:`prune`)
+STALE_DAYS = 30
+#: the file whose modification time says when a kernel directory was last loaded from or compiled into
+STAMP = ".last-used"
+_KERNEL_DIR = re.compile(r"kernels-[0-9a-f]{16}")
 
+
+@functools.lru_cache(maxsize=1)
 def source_hash():
     """SHA-256 (hex) of the kernel sources, Numba's, llvmlite's and Python's versions."""
     h = hashlib.sha256()
@@ -74,6 +88,65 @@ def cache_dir():
         path = os.path.join(tempfile.gettempdir(), f"pyrt-{getpass.getuser()}", "kernels-" + source_hash()[:16])
         os.makedirs(path, exist_ok=True)
     return path
+
+
+def mark_used(path=None):
+    """Touch the :data:`STAMP` of the kernel directory ``path`` (default :func:`cache_dir`): it is in use."""
+    path = cache_dir() if path is None else path
+    try:
+        with open(os.path.join(path, STAMP), "a"):
+            pass
+        os.utime(os.path.join(path, STAMP))
+    except OSError:
+        pass
+
+
+def last_used(path):
+    """When the kernel directory ``path`` was last used (seconds since the epoch): its :data:`STAMP`'s time, else
+    the directory's own."""
+    try:
+        return os.path.getmtime(os.path.join(path, STAMP))
+    except OSError:
+        return os.path.getmtime(path)
+
+
+def _size(path):
+    total = 0
+    for root, _dirs, files in os.walk(path):
+        for f in files:
+            try:
+                total += os.path.getsize(os.path.join(root, f))
+            except OSError:
+                pass
+    return total
+
+
+def prune(days=STALE_DAYS, path=None, now=None):
+    """Remove the kernel directories beside ``path`` (default :func:`cache_dir`; only names ``kernels-`` + 16 hex
+    digits, never ``path`` itself) last used more than ``days`` days ago (0: all of them). Returns ``[(directory,
+    bytes)]`` of those removed."""
+    path = os.path.abspath(cache_dir() if path is None else path)
+    base = os.path.dirname(path)
+    now = time.time() if now is None else now
+    removed = []
+    try:
+        names = sorted(os.listdir(base))
+    except OSError:
+        return removed
+    for name in names:
+        other = os.path.join(base, name)
+        if not _KERNEL_DIR.fullmatch(name) or other == path or not os.path.isdir(other):
+            continue
+        try:
+            if now - last_used(other) < days * 86400.0:
+                continue
+        except OSError:
+            continue
+        size = _size(other)
+        shutil.rmtree(other, ignore_errors=True)
+        if not os.path.exists(other):
+            removed.append((other, size))
+    return removed
 
 
 #: the render kernels' entries (:mod:`pyrt.integrators.compiled_kernel`): fixed spp, adaptive passes
