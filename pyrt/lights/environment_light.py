@@ -54,10 +54,11 @@ varies by 66 % / 47 % (relative standard deviation over the table's texels). Rea
 exact table) the plain relMSE of both scenes is lower (1.5x, 5.6x, each against its own reference) and the variate
 nearly neutral (relMSE x time 0.95-0.96x and 1.02-1.06x).
 
-Defaults (``n_samples = bsdf_samples = 4``, ``compensate=True``, power heuristic) were picked from
-``tools/estimator_chart.py``: relMSE x render time at equal shadow rays per pixel, against one light and one
-BSDF sample per hit without compensation (the default before), was 0.44x under a sky with a sun and 0.57x
-under a smooth studio map (5 interleaved repeats); the balance heuristic was no better (1.03-1.10x).
+Defaults (``n_samples = bsdf_samples =`` :data:`DEFAULT_SAMPLES` ``= 2``, ``compensate=True``, power heuristic)
+were picked from ``tools/estimator_chart.py``: relMSE x render time at equal shadow rays per pixel against one
+light and one BSDF sample per hit without compensation, with the padded camera-hit samples, 0.63x under a sky with a
+sun and 0.85x under a smooth studio map (4 + 4: 0.99x and 1.02x; see :data:`DEFAULT_SAMPLES`); the balance
+heuristic was no better (1.03-1.10x, measured with 4 + 4).
 """
 from __future__ import annotations
 
