@@ -12,7 +12,7 @@ import pyrt
 from pyrt.core.metrics import relmse
 from pyrt.core.sampler import isqrt_array, sobol_owen_2d, strata_points
 from pyrt.apps.cli import main
-from pyrt.render import adaptive as A, image_maps
+from pyrt.render import adaptive as A, image_maps, pass_plan as PP
 
 
 def _scene(w=24, h=16, env=False):
@@ -82,17 +82,17 @@ def test_allocation_respects_caps_and_is_even():
     film.weight[:] = 8
     film.weight[0] = 60
     err = np.linspace(0.0, 1.0, 32)
-    counts = A.allocate(film, err, 400.0, 64, 16, np.random.default_rng(0), (4, 8))
+    counts = PP.allocate(film, err, 400.0, 64, 16, np.random.default_rng(0), (4, 8))
     assert np.all(counts % 2 == 0)
     assert np.all(counts <= 16)                                   # per-pass cap
     assert counts[0] <= 4                                         # max_spp 64 - 60
-    assert np.all(counts <= A.GROWTH * film.weight)
+    assert np.all(counts <= PP.GROWTH * film.weight)
     assert counts.sum() > 0
 
 
 def test_box_smooth_matches_brute_force():
     a = np.random.default_rng(1).random((7, 9))
-    s = A.box_smooth(a, 2)
+    s = image_maps.box_smooth(a, 2)
     for i, j in [(0, 0), (3, 4), (6, 8), (2, 7)]:
         assert s[i, j] == pytest.approx(a[max(0, i - 2):i + 3, max(0, j - 2):j + 3].mean())
 
@@ -255,7 +255,7 @@ def test_estimate_is_calibrated_where_only_edges_are_noisy():
 def test_max_filter_matches_brute_force():
     a = np.random.default_rng(3).random((7, 9))
     for radius in (1, 2):
-        m = A.max_filter(a, radius)
+        m = image_maps.max_filter(a, radius)
         for i in range(7):
             for j in range(9):
                 assert m[i, j] == a[max(0, i - radius):i + radius + 1, max(0, j - radius):j + radius + 1].max()
@@ -271,7 +271,7 @@ def test_allocation_reaches_edge_pixels_whose_estimate_is_zero():
     err = np.zeros((H, W))
     err[30] = 0.05                                      # the edge
     err[30, 10:15] = 0.0                                # missed by chance
-    counts = A.allocate(film, err.ravel(), film.weight.sum() / 4, 1 << 16, 1 << 15,
+    counts = PP.allocate(film, err.ravel(), film.weight.sum() / 4, 1 << 16, 1 << 15,
                         np.random.default_rng(0), (H, W)).reshape(H, W)
     assert abs(counts.sum() - film.weight.sum() / 4) <= 0.02 * film.weight.sum() / 4    # the pass's total
     detected = counts[30, 20:28].mean()
@@ -308,17 +308,17 @@ def test_plan_samples_takes_the_fewest_the_corrected_prediction_needs():
     share, room = np.full(n_pix, 1.0 / n_pix), np.full(n_pix, 3 * n)
     est, target = a / n, 2.5e-4
     for k in (1.0, 1.3):
-        goal = est * (A.PLAN_MARGIN * target / est) ** (1.0 / k)
+        goal = est * (PP.PLAN_MARGIN * target / est) ** (1.0 / k)
         want = n_pix * (a / goal - n)
-        got = A.plan_samples(floored, w, share, room, est, target, k, 0.01 * n_pix * n, 2 * n_pix * n)
+        got = PP.plan_samples(floored, w, share, room, est, target, k, 0.01 * n_pix * n, 2 * n_pix * n)
         assert got == pytest.approx(want, rel=1e-3)
-        assert A.predicted_error(floored, w, np.full(n_pix, got / n_pix)) == pytest.approx(goal, rel=1e-3)
-    k1 = A.plan_samples(floored, w, share, room, est, target, 1.0, 0.0, 2 * n_pix * n)
-    k2 = A.plan_samples(floored, w, share, room, est, target, 1.3, 0.0, 2 * n_pix * n)
+        assert PP.predicted_error(floored, w, np.full(n_pix, got / n_pix)) == pytest.approx(goal, rel=1e-3)
+    k1 = PP.plan_samples(floored, w, share, room, est, target, 1.0, 0.0, 2 * n_pix * n)
+    k2 = PP.plan_samples(floored, w, share, room, est, target, 1.3, 0.0, 2 * n_pix * n)
     assert k2 < k1
-    assert A.plan_samples(floored, w, share, room, est, 0.9 * est, 1.0, 0.5 * n_pix * n, 2 * n_pix * n) == \
+    assert PP.plan_samples(floored, w, share, room, est, 0.9 * est, 1.0, 0.5 * n_pix * n, 2 * n_pix * n) == \
         0.5 * n_pix * n                                             # the floor: at least lo
-    assert A.plan_samples(floored, w, share, room, est, 1e-6, 1.0, 0.0, 2 * n_pix * n) is None   # out of reach
+    assert PP.plan_samples(floored, w, share, room, est, 1e-6, 1.0, 0.0, 2 * n_pix * n) is None   # out of reach
 
 
 def test_passes_after_the_first_stop_near_the_target():
@@ -334,3 +334,23 @@ def test_passes_after_the_first_stop_near_the_target():
             assert r.stop_reason == "target_error" and r.estimated_error <= target
             if r.passes >= 3:
                 assert r.estimated_error >= 0.7 * target, (target, seed, r.passes, r.estimated_error)
+
+
+def test_pixel_errors_of_the_rendered_rows_equal_the_whole_map():
+    """Between passes only the pixels the last pass rendered are recomputed (``rows``): the map equals the one
+    computed on every pixel, bit for bit (pixels without both halves stay NaN)."""
+    rng = np.random.default_rng(3)
+    film, half = pyrt.core.film.Film(16, 8), pyrt.core.film.Film(16, 8)
+    film.weight[:] = rng.integers(0, 5, film.weight.shape) * 2
+    half.weight[:] = film.weight / 2
+    film.sum[:] = rng.random(film.sum.shape) * film.weight[:, None]
+    half.sum[:] = film.sum * rng.uniform(0.3, 0.7, film.sum.shape)
+    before = PP.pixel_errors(film, half)
+    rows = np.flatnonzero(rng.random(film.weight.shape) < 0.3)
+    film.weight[rows] += 4
+    half.weight[rows] += 2
+    film.sum[rows] += rng.random((rows.size, 3)) * 4
+    half.sum[rows] += rng.random((rows.size, 3)) * 2
+    whole = PP.pixel_errors(film, half)
+    assert np.isnan(whole).any() and not np.isnan(whole).all()
+    np.testing.assert_array_equal(PP.pixel_errors(film, half, rows, before.copy()), whole)

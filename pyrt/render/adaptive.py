@@ -13,7 +13,7 @@ How it works (:func:`render_adaptive`;
 2. **The error estimate** is the relMSE of :mod:`pyrt.core.metrics` with that variance:
    ``mean over pixels of mean over channels of var / (mean^2 + 1e-2)``, with each pixel's per-sample error
    ``a_p = var_p n_p / (mean^2 + 1e-2)`` raised to ``NEIGHBOURHOOD`` (0.6) of its 5 x 5 neighbourhood's mean where
-   that is higher (:func:`estimated_error`). It is what ``target_error`` is compared with. Why the neighbourhood:
+   that is higher (:func:`~pyrt.render.pass_plan.estimated_error`). It is what ``target_error`` is compared with. Why the neighbourhood:
    a pixel's two halves of 1-2 samples agree by chance more often than not on an edge (all its samples on one
    side), its estimate is then 0, the allocation gives it no more samples, and it stays 0 while its error is real.
    Measured (the scenes of ``tools/bench_mitsuba.py`` at 160 x 120, targets at Mitsuba llvm's 64- and 256-spp
@@ -29,20 +29,20 @@ How it works (:func:`render_adaptive`;
    the base pass (``min_spp`` everywhere) each pass computes ``a_p`` from the half-buffers, smooths it over
    5 x 5 pixels (one pixel's estimate has 3 degrees of freedom: too noisy alone; Dammertz et al. 2010 and
    pbrt's adaptive samplers likewise decide over blocks), dilates it (every pixel counts at least the largest
-   ``sqrt(a)`` of the 3 x 3 pixels around it, :data:`DILATE_RADIUS`), and gives every pixel what brings it towards its
+   ``sqrt(a)`` of the 3 x 3 pixels around it, :data:`~pyrt.render.pass_plan.DILATE_RADIUS`), and gives every pixel what brings it towards its
    share of the new total (90 % of it by ``sqrt(a_p)``, 10 % uniform: ``DEFENSIVE``, so no pixel is starved
    by an estimate that is 0 by chance), at most 3 x the samples it has (a pixel's estimate may be low by chance) and
    never past ``max_spp``. A pass at most doubles the samples. With a target, the first pass after the base asks
    for the samples the estimate predicts are needed (``M = (sum_p sqrt(a_p))^2 / (n target)``, the floored ``a_p``
    of step 2) and 10 % more, at least ``MIN_GROWTH`` (25 %) of the samples so far: with the raw ``a_p`` and 5 % the
    renders of ``tools/adaptive_chart.py`` ended in 9-13 passes of a few percent each, each pass a few ms of its own.
-   The later passes are sized by a prediction (:func:`plan_samples`): after an allocation ``new_p`` the estimate
+   The later passes are sized by a prediction (:func:`~pyrt.render.pass_plan.plan_samples`): after an allocation ``new_p`` the estimate
    would be ``mean_p a_p / (n_p + new_p)`` if each pixel's per-sample error stayed ``a_p``; it falls faster than
    that (stratified samples converge faster than ``1 / n``, and the floor's neighbourhoods converge with their
    pixels): as ``before (predicted / before)^k``, ``k`` 1.27-1.59 over the benchmark scenes' passes. Each pass
    measures its ``k`` against its own prediction, and the next takes the fewest samples whose prediction so
-   corrected (``k`` at most :data:`MAX_FALL_POWER`, 1.3) brings the estimate to :data:`PLAN_MARGIN` (0.85) of the
-   target, at least :data:`PLAN_MIN` (5 %) of the samples so far (where doubling would not reach it: the first
+   corrected (``k`` at most :data:`~pyrt.render.pass_plan.MAX_FALL_POWER`, 1.3) brings the estimate to :data:`~pyrt.render.pass_plan.PLAN_MARGIN` (0.85) of the
+   target, at least :data:`~pyrt.render.pass_plan.PLAN_MIN` (5 %) of the samples so far (where doubling would not reach it: the first
    pass's rule). With ``MIN_GROWTH`` alone the last pass often overshot (the diffuse bench scene: an estimate of
    3.5e-6 for a target of 1.27e-5 after a pass of 96 k samples where ~20 k did). Measured on the five scenes of
    ``tools/bench_mitsuba.py`` at 320 x 240, Mitsuba llvm's 64- and 256-spp errors as targets, seeds 1-3, one thread,
@@ -89,13 +89,14 @@ import numpy as np
 from pyrt.core import checks
 from pyrt.core.errors import RenderError
 from pyrt.core.film import Film
-from pyrt.core.metrics import relmse_per_pixel
 from pyrt.integrators import compiled
 from pyrt.integrators.prepared import PreparedScene, RenderStats
 from pyrt.integrators.whitted import DEFAULT_SPLIT_DEPTH
 from pyrt.render.chunks import shade_adaptive_chunk
 from pyrt.render.compiled import adaptive_task, check_backend
-from pyrt.render.image_maps import box_smooth, max_filter, water_fill
+from pyrt.render.image_maps import water_fill
+from pyrt.render.pass_plan import (MAX_FALL_POWER, MIN_GROWTH, PLAN_MIN, allocation_shares, estimated_error,
+                                   floored_errors, pixel_errors, plan_samples, predicted_error, smoothed_errors)
 from pyrt.render.distributed import DaskRunner, adaptive_group
 from pyrt.render.pool import ChunkPool, integrator_factory, merge_stats, progress_bar, use_processes
 from pyrt.render.options import check_image_memory, check_options, warn_smooth_lobes
@@ -105,33 +106,6 @@ from pyrt.render.result import RenderResult
 DEFAULT_MAX_SPP = 1 << 16
 #: why an adaptive render stopped
 STOP_REASONS = ("target_error", "time_budget", "max_spp", "cancelled")
-#: a pass gives a pixel at most this many times the samples it has
-GROWTH = 3
-#: half-width in pixels of the box the per-pixel error is smoothed over
-SMOOTH_RADIUS = 2
-#: share of every pass spread uniformly over the pixels: a pixel whose two halves agree by chance (error
-#: estimate 0: frequent where the integrand takes few values) still gets samples, so every pixel converges
-DEFENSIVE = 0.1
-#: a pass with a target adds at least this share of the samples so far (each pass costs a few ms of its own: at
-#: 0.05 the renders of tools/adaptive_chart.py's scenes ended in 9-13 passes of a few percent each)
-MIN_GROWTH = 0.25
-#: from the second pass after the base on, a pass with a target is sized to bring the estimate to this fraction of
-#: the target (:func:`plan_samples`), ...
-PLAN_MARGIN = 0.85
-#: ... and adds at least this share of the samples so far
-PLAN_MIN = 0.05
-#: :func:`plan_samples` predicts on every this-many-th pixel, in this many bisection steps of the fill level
-PLAN_STRIDE = 3
-PLAN_STEPS = 16
-#: the largest fall power :func:`plan_samples` takes from a pass (the estimate fell as the predicted error to it)
-MAX_FALL_POWER = 1.3
-#: the allocation gives a pixel at least the share of the neighbour with the most error within this many pixels (a
-#: max filter of ``sqrt(a_p)``): an edge pixel whose halves agreed by chance gets its detected neighbours' samples,
-#: and is found at the next pass (module notes, step 3)
-DILATE_RADIUS = 1
-#: :func:`estimated_error` counts a pixel at least at this fraction of its neighbourhood's mean per-sample error
-#: (module notes, step 2: chosen from true / estimated relMSE on the benchmark scenes and the edge test scene)
-NEIGHBOURHOOD = 0.6
 
 
 @dataclass
@@ -170,147 +144,6 @@ def _positive(name, v):
     if not x > 0:
         raise RenderError(f"render: {name} must be > 0, got {v!r}")
     return float(x)
-
-
-def pixel_errors(film, half):
-    """Per-pixel estimated relMSE of the film's mean (H*W,) from the half-buffers (``half`` holds half B);
-    NaN where a pixel has no sample: :func:`pyrt.core.metrics.relmse_per_pixel` of the variance
-    ``(mean_A - mean_B)^2 / 4``, computed on every pixel at once (masked rows cost more than the arithmetic), the
-    variance and the mean a channel at a time into two channel-major buffers ((N, 3) by (N, 1) broadcasts run three
-    elements at a time, and every fresh (N, 3) temporary page-faults: 1.5 -> 1.0-1.1 ms on 320 x 240)."""
-    wb = half.weight
-    w = film.weight
-    wa = w - wb
-    ok = (wa > 0) & (wb > 0)
-    if not ok.any():
-        return np.full(w.shape[0], np.nan)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ia, ib, iw = 1.0 / wa, 1.0 / wb, 1.0 / w
-        var, mean = np.empty(film.sum.shape[::-1]).T, np.empty(film.sum.shape[::-1]).T     # channel-major
-        for c in range(film.sum.shape[1]):
-            s, sb, d, m = film.sum[:, c], half.sum[:, c], var[:, c], mean[:, c]
-            np.subtract(s, sb, out=d)
-            d *= ia                                     # mean_A
-            np.multiply(sb, ib, out=m)
-            d -= m                                      # - mean_B
-            d *= d
-            d *= 0.25                                   # the variance of the mean
-            np.multiply(s, iw, out=m)                   # the mean
-        err = relmse_per_pixel(var, mean)
-    err[~ok] = np.nan
-    return err
-
-
-def floored_errors(film, err, shape, box=None):
-    """``(a, ok)``: the per-sample errors ``a_p = max(err_p n_p, NEIGHBOURHOOD box(err n)_p)`` (H*W,) that the
-    estimate and the samples a target needs are computed from, and ``ok`` (H*W,) the pixels with an estimate;
-    ``box``: :func:`smoothed_errors` of the same arguments if at hand."""
-    ok = np.isfinite(err)
-    a = np.where(ok, err, 0.0) * film.weight
-    box = smoothed_errors(film, err, shape) if box is None else box
-    return np.maximum(a, NEIGHBOURHOOD * box), ok
-
-
-def smoothed_errors(film, err, shape):
-    """``box(err n)`` (H*W,): the per-sample errors ``err_p n_p`` (0 where a pixel has no estimate) averaged over the
-    (2 SMOOTH_RADIUS + 1)^2 pixels around (:func:`box_smooth`), what :func:`floored_errors` and :func:`allocate`
-    both read."""
-    a = np.where(np.isfinite(err), err, 0.0) * film.weight
-    return box_smooth(a.reshape(shape), SMOOTH_RADIUS).ravel()
-
-
-def estimated_error(film, err, shape, floored=None):
-    """The image's estimated relMSE from the per-pixel estimates ``err`` (:func:`pixel_errors`): the mean over the
-    pixels with samples of ``max(a_p, NEIGHBOURHOOD box(a)_p) / n_p``, ``a_p = err_p n_p`` the per-sample error
-    and ``box`` its mean over the (2 SMOOTH_RADIUS + 1)^2 pixels around (:func:`box_smooth`, the allocation's
-    smoothing): a pixel whose halves agree by chance is counted at 0.6 of its neighbourhood's error (module notes,
-    step 2); ``floored``: :func:`floored_errors` of the same arguments if at hand. ``inf`` when no pixel has an
-    estimate."""
-    a, ok = floored if floored is not None else floored_errors(film, err, shape)
-    if not ok.any():
-        return math.inf
-    return float(np.mean(a[ok] / film.weight[ok]))
-
-
-def allocate(film, err, total_new, max_spp, cap, rng, shape, box=None):
-    """New samples per pixel (even ints, (H*W,)) for a pass of about ``total_new`` samples: towards
-    ``n_p`` proportional to ``sqrt(a_p)`` (``a_p = err_p n_p`` smoothed, then the largest ``sqrt(a)`` of the
-    3 x 3 pixels around: :data:`DILATE_RADIUS`), at most ``GROWTH x`` a pixel's
-    samples, ``cap`` per pass and ``max_spp`` in all; randomised rounding to even counts from ``rng``. ``box``:
-    :func:`smoothed_errors` of ``film`` and ``err`` if at hand."""
-    share, room = allocation_shares(film, err, max_spp, cap, shape, box)
-    new = water_fill(share, film.weight, room, total_new)
-    even = 2 * np.floor(new / 2 + rng.random(new.shape[0]))
-    limit = 2 * np.floor(room / 2)
-    return np.minimum(even, limit).astype(np.int64)
-
-
-def allocation_shares(film, err, max_spp, cap, shape, box=None):
-    """``(share, room)`` (H*W,) of :func:`allocate`: each pixel's share of a pass (90 % by its dilated ``sqrt(a_p)``,
-    10 % uniform) and the samples it may take (``GROWTH x`` its own, ``cap``, ``max_spp``)."""
-    w = film.weight
-    a = smoothed_errors(film, err, shape) if box is None else box
-    mean_a = a.mean()
-    if not mean_a > 0:                        # no error anywhere: spread uniformly
-        a = np.ones_like(a)
-    else:
-        a = np.maximum(a, 1e-3 * mean_a)
-    s = np.sqrt(a)
-    s = max_filter(s.reshape(shape), DILATE_RADIUS).ravel()
-    room = np.minimum(np.minimum(max_spp - w, GROWTH * w), cap)
-    room = np.maximum(room, 0.0)
-    share = (1.0 - DEFENSIVE) * s / s.sum() + DEFENSIVE / s.shape[0]
-    return share, room
-
-
-def predicted_error(floored, w, new):
-    """The estimate :func:`estimated_error` expects after ``new`` (H*W,) more samples if every pixel's per-sample
-    error stayed ``a_p`` (``floored``: :func:`floored_errors`): the mean of ``a_p / (n_p + new_p)``."""
-    a, ok = floored
-    return float(np.mean(a[ok] / (w[ok] + new[ok])))
-
-
-def plan_samples(floored, w, share, room, est, target, k, lo, hi):
-    """The samples of the next pass, in ``[lo, hi]``: about the fewest whose allocation (:func:`allocation_shares`,
-    water filling: every pixel towards ``lam`` times its share, capped by its room) brings the estimate to
-    ``PLAN_MARGIN target`` by ``est (p / est)^k``, ``p`` the :func:`predicted_error` of the allocation; ``k`` >= 1
-    how much faster than ``1 / n`` the estimate fell in the last pass (a pixel's stratified samples, its
-    neighbourhood converging: module notes, step 3). ``lam`` is found by bisection on every :data:`PLAN_STRIDE`-th
-    pixel (the sums scaled up). None when ``hi`` samples would not do (the pass is then sized as the first one)."""
-    goal = est * (PLAN_MARGIN * target / est) ** (1.0 / k)
-    a, ok = floored
-    sl = slice(None, None, PLAN_STRIDE)
-    a, ok, w, share, room = a[sl], ok[sl], w[sl], share[sl], room[sl]
-    scale = PLAN_STRIDE * 1.0
-    buf = np.empty_like(share)
-
-    def at(lam):        # (predicted estimate, samples) of the allocation at level lam
-        np.multiply(share, lam, out=buf)
-        np.subtract(buf, w, out=buf)
-        np.clip(buf, 0.0, room, out=buf)
-        return predicted_error((a, ok), w, buf), scale * float(buf.sum())
-
-    if not ok.any() or hi <= lo:
-        return lo
-    pos = share > 0
-    top = float(np.max((w[pos] + room[pos]) / share[pos]))      # every pixel at its cap
-    p_top, n_top = at(top)
-    if p_top > goal or n_top <= lo:
-        return None if p_top > goal else lo
-    below, above = 0.0, top
-    for _ in range(PLAN_STEPS):
-        mid = 0.5 * (below + above)
-        p, n = at(mid)
-        if n > hi:
-            above = mid
-        elif p <= goal:
-            above = mid
-        else:
-            below = mid
-    p, n = at(above)
-    if p > goal:
-        return None
-    return min(max(n, lo), hi)
 
 
 def _chunks(counts, chunk_samples):
@@ -501,8 +334,10 @@ def _passes(cam, ps, pool, t_start, target_error, time_budget, max_spp, min_spp,
     pixels_filled = 0
     try:
         run_pass(counts, 0, timed=False)
+        err = None
         while True:
-            err = pixel_errors(film, half)
+            # after the base pass only the pixels the last pass rendered have changed
+            err = pixel_errors(film, half, None if err is None else np.flatnonzero(counts), err)
             box = smoothed_errors(film, err, (H, W))
             floored = floored_errors(film, err, (H, W), box)
             est = estimated_error(film, err, (H, W), floored)
