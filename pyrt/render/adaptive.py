@@ -94,9 +94,9 @@ from pyrt.integrators.prepared import PreparedScene, RenderStats
 from pyrt.integrators.whitted import DEFAULT_SPLIT_DEPTH
 from pyrt.render.chunks import shade_adaptive_chunk
 from pyrt.render.compiled import adaptive_task, check_backend
-from pyrt.render.image_maps import water_fill
 from pyrt.render.pass_plan import (MAX_FALL_POWER, MIN_GROWTH, PLAN_MIN, allocation_shares, estimated_error,
-                                   floored_errors, pixel_errors, plan_samples, predicted_error, smoothed_errors)
+                                   floored_errors, pass_counts, pixel_errors, plan_samples, predicted_error,
+                                   smoothed_errors)
 from pyrt.render.distributed import DaskRunner, adaptive_group
 from pyrt.render.pool import ChunkPool, integrator_factory, merge_stats, progress_bar, use_processes
 from pyrt.render.options import check_image_memory, check_options, warn_smooth_lobes
@@ -378,8 +378,7 @@ def _passes(cam, ps, pool, t_start, target_error, time_budget, max_spp, min_spp,
                 stop = "time_budget"
                 break
             rng = np.random.default_rng([seed, 0xADA, index + 1, 1 << 21])
-            new = water_fill(share, film.weight, room, total_new)
-            counts = np.minimum(2 * np.floor(new / 2 + rng.random(n_pix)), 2 * np.floor(room / 2)).astype(np.int64)
+            counts = pass_counts(share, room, film.weight, total_new, rng)
             plan, est_before = predicted_error(floored, film.weight, counts), est
             if not counts.any():
                 stop = "max_spp"

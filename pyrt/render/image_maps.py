@@ -61,6 +61,21 @@ def max_filter(a, radius):
     return out if out is not a else a.copy()
 
 
+def fill_level(share, have, room, lam, out):
+    """``clip(lam share - have, 0, room)`` into ``out``: what every pixel takes to reach ``lam`` times its share,
+    capped by its room (one level of :func:`water_fill`); returns ``out``."""
+    np.multiply(share, lam, out=out)
+    np.subtract(out, have, out=out)
+    np.clip(out, 0.0, room, out=out)
+    return out
+
+
+def full_level(share, have, room):
+    """The smallest level of :func:`fill_level` at which every pixel with a share is at its cap."""
+    ok = share > 0
+    return float(np.max((have[ok] + room[ok]) / share[ok]))
+
+
 def water_fill(share, have, room, total):
     """``clip(lam share - have, 0, room)`` (the samples that bring every pixel towards ``lam share`` samples, capped by
     its ``room``) with ``lam`` such that they add up to ``total`` (to 0.5 %; all the room if that is less). Every
@@ -72,16 +87,12 @@ def water_fill(share, have, room, total):
     (fresh temporaries page-faulted: 0.6 ms an evaluation on a 320 x 240 film against 0.1)."""
     if room.sum() <= total:
         return room.copy()
-    ok = share > 0
     buf = np.empty_like(share, dtype=np.float64)
 
     def excess(lam):
-        np.multiply(share, lam, out=buf)
-        np.subtract(buf, have, out=buf)
-        np.clip(buf, 0.0, room, out=buf)
-        return float(buf.sum()) - total
+        return float(fill_level(share, have, room, lam, buf).sum()) - total
 
-    lo, hi = 0.0, float(np.max((have[ok] + room[ok]) / share[ok]))   # at hi every pixel is at its cap
+    lo, hi = 0.0, full_level(share, have, room)
     f_lo, f_hi = excess(lo), excess(hi)
     side = 0
     for _ in range(60):

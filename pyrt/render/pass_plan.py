@@ -9,7 +9,7 @@ import math
 import numpy as np
 
 from pyrt.core.metrics import relmse_per_pixel
-from pyrt.render.image_maps import box_smooth, max_filter, water_fill
+from pyrt.render.image_maps import box_smooth, fill_level, full_level, max_filter, water_fill
 
 #: a pass gives a pixel at most this many times the samples it has
 GROWTH = 3
@@ -115,10 +115,16 @@ def allocate(film, err, total_new, max_spp, cap, rng, shape, box=None):
     samples, ``cap`` per pass and ``max_spp`` in all; randomised rounding to even counts from ``rng``. ``box``:
     :func:`smoothed_errors` of ``film`` and ``err`` if at hand."""
     share, room = allocation_shares(film, err, max_spp, cap, shape, box)
-    new = water_fill(share, film.weight, room, total_new)
+    return pass_counts(share, room, film.weight, total_new, rng)
+
+
+def pass_counts(share, room, have, total, rng):
+    """The pass's new samples per pixel (even ints) for about ``total`` samples over the shares and rooms of
+    :func:`allocation_shares`: water filling (:func:`pyrt.render.image_maps.water_fill`), then a randomised rounding
+    to even counts from ``rng``, within each room."""
+    new = water_fill(share, have, room, total)
     even = 2 * np.floor(new / 2 + rng.random(new.shape[0]))
-    limit = 2 * np.floor(room / 2)
-    return np.minimum(even, limit).astype(np.int64)
+    return np.minimum(even, 2 * np.floor(room / 2)).astype(np.int64)
 
 
 def allocation_shares(film, err, max_spp, cap, shape, box=None):
@@ -162,15 +168,12 @@ def plan_samples(floored, w, share, room, est, target, k, lo, hi):
     buf = np.empty_like(share)
 
     def at(lam):        # (predicted estimate, samples) of the allocation at level lam
-        np.multiply(share, lam, out=buf)
-        np.subtract(buf, w, out=buf)
-        np.clip(buf, 0.0, room, out=buf)
+        fill_level(share, w, room, lam, buf)
         return predicted_error((a, ok), w, buf), scale * float(buf.sum())
 
     if not ok.any() or hi <= lo:
         return lo
-    pos = share > 0
-    top = float(np.max((w[pos] + room[pos]) / share[pos]))      # every pixel at its cap
+    top = full_level(share, w, room)
     p_top, n_top = at(top)
     if p_top > goal or n_top <= lo:
         return None if p_top > goal else lo
@@ -178,9 +181,7 @@ def plan_samples(floored, w, share, room, est, target, k, lo, hi):
     for _ in range(PLAN_STEPS):
         mid = 0.5 * (below + above)
         p, n = at(mid)
-        if n > hi:
-            above = mid
-        elif p <= goal:
+        if n > hi or p <= goal:
             above = mid
         else:
             below = mid
