@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import pyrt
-from pyrt.core.metrics import relmse
+from pyrt.core.metrics import relmse, relmse_per_pixel
 from pyrt.core.sampler import isqrt_array, sobol_owen_2d, strata_points
 from pyrt.apps.cli import main
 from pyrt.render import adaptive as A, image_maps, pass_plan as PP
@@ -88,13 +88,6 @@ def test_allocation_respects_caps_and_is_even():
     assert counts[0] <= 4                                         # max_spp 64 - 60
     assert np.all(counts <= PP.GROWTH * film.weight)
     assert counts.sum() > 0
-
-
-def test_box_smooth_matches_brute_force():
-    a = np.random.default_rng(1).random((7, 9))
-    s = image_maps.box_smooth(a, 2)
-    for i, j in [(0, 0), (3, 4), (6, 8), (2, 7)]:
-        assert s[i, j] == pytest.approx(a[max(0, i - 2):i + 3, max(0, j - 2):j + 3].mean())
 
 
 def test_chunks_hold_whole_pixels_and_bounded_samples():
@@ -252,15 +245,6 @@ def test_estimate_is_calibrated_where_only_edges_are_noisy():
     assert 0.5 <= min(ratios) and max(ratios) <= 2.0, ratios
 
 
-def test_max_filter_matches_brute_force():
-    a = np.random.default_rng(3).random((7, 9))
-    for radius in (1, 2):
-        m = image_maps.max_filter(a, radius)
-        for i in range(7):
-            for j in range(9):
-                assert m[i, j] == a[max(0, i - radius):i + radius + 1, max(0, j - radius):j + radius + 1].max()
-
-
 def test_allocation_reaches_edge_pixels_whose_estimate_is_zero():
     """Along an edge a run of five pixels had halves that agreed by chance (estimate 0). Box smoothing alone gives
     the middle column nothing (its 5 x 5 boxes hold no detected pixel); the dilation gives it part of a detected
@@ -354,3 +338,39 @@ def test_pixel_errors_of_the_rendered_rows_equal_the_whole_map():
     whole = PP.pixel_errors(film, half)
     assert np.isnan(whole).any() and not np.isnan(whole).all()
     np.testing.assert_array_equal(PP.pixel_errors(film, half, rows, before.copy()), whole)
+
+
+def test_pixel_errors_are_the_relmse_of_the_half_buffers_variance():
+    """The compiled pixel errors are :func:`pyrt.core.metrics.relmse_per_pixel` of ``(mean_A - mean_B)^2 / 4``
+    and the film's mean, bit for bit, NaN where a half has no sample."""
+    rng = np.random.default_rng(4)
+    film, half = pyrt.core.film.Film(32, 16), pyrt.core.film.Film(32, 16)
+    film.weight[:] = rng.integers(0, 6, film.weight.shape) * 2
+    half.weight[:] = film.weight / 2
+    half.weight[:40] = film.weight[:40]                     # half A empty there
+    film.sum[:] = rng.random(film.sum.shape) ** 3 * film.weight[:, None]
+    half.sum[:] = film.sum * rng.uniform(0.2, 0.8, film.sum.shape)
+    wa, wb = film.weight - half.weight, half.weight
+    ok = (wa > 0) & (wb > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ma = (film.sum - half.sum) * (1.0 / wa)[:, None]
+        d = ma - half.sum * (1.0 / wb)[:, None]
+        want = relmse_per_pixel(d * d * 0.25, film.sum * (1.0 / film.weight)[:, None])
+    got = PP.pixel_errors(film, half)
+    assert ok.any() and not ok.all()
+    assert np.all(np.isnan(got[~ok]))
+    np.testing.assert_array_equal(got[ok], want[ok])
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (1, 7), (7, 1), (3, 2), (61, 40)])
+@pytest.mark.parametrize("radius", [1, 2, 3])
+def test_box_and_max_filters_match_brute_force_on_every_shape(shape, radius):
+    """The compiled box mean and box maximum against a brute-force loop over the clipped boxes, maps smaller than
+    the box included."""
+    a = np.random.default_rng(radius).random(shape) ** 3
+    s, m = image_maps.box_smooth(a, radius), image_maps.max_filter(a, radius)
+    for i in range(shape[0]):
+        for j in range(shape[1]):
+            box = a[max(0, i - radius):i + radius + 1, max(0, j - radius):j + radius + 1]
+            assert s[i, j] == pytest.approx(box.mean(), rel=1e-12)
+            assert m[i, j] == box.max()

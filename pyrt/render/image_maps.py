@@ -1,79 +1,113 @@
 """Whole-image arithmetic of the adaptive passes (:mod:`pyrt.render.adaptive`) on per-pixel maps: box means, box
 maxima and the water fill that turns a pass's per-pixel shares into sample counts.
 
-Each runs a few vector operations over the whole map and no fresh temporary per step: on a 320 x 240 film NumPy's
-cumulative sums (``add.accumulate``: one element at a time), ``(N, 3)`` by ``(N, 1)`` broadcasts (three elements
-at a time) and freshly allocated maps (their pages faulted in on first touch) cost more than the arithmetic.
+Compiled loops (Numba, cached with the render kernels: :func:`pyrt.integrators.kernel_cache.use_cache_dir`), each one
+or two passes over the map and no temporary per step: on a 320 x 240 film the same arithmetic as NumPy vector
+operations took ~20 ms of the ~70 ms of an adaptive render of the diffuse benchmark scene to Mitsuba's 64-spp error
+(every operation a pass over memory, temporaries page-faulted on first touch). The functions here call only each
+other (Numba's cache sees edits to this file alone).
 """
 from __future__ import annotations
 
 import numpy as np
 
+from pyrt.integrators import kernel_cache
+
+kernel_cache.use_cache_dir()      # before the decorators below run
+
+import numba  # noqa: E402
+
+#: a compiled map loop (no Python objects, no bounds checks; a division by 0 gives inf or NaN as in NumPy)
+_jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+
 
 def box_smooth(a, radius):
     """Mean of ``a`` (H, W) over the (2 radius + 1)^2 box around each pixel (the box clipped at the border): window
-    sums along the rows, then along the columns (:func:`_window_sums`), over the boxes' pixel counts."""
-    H, W = a.shape
-    s = _window_sums(_window_sums(np.asarray(a, dtype=np.float64), radius, 0), radius, 1)
-    s /= _window_counts(H, radius)[:, None]
-    s /= _window_counts(W, radius)[None, :]
-    return s
-
-
-def _window_sums(a, radius, axis):
-    """Sums of ``a`` (H, W) over the windows ``[i - radius, i + radius]`` (clipped) along ``axis``: ``a`` plus its
-    shifts by 1 .. ``radius`` either way, added slice by slice (2 radius vector additions, ~0.016 ms each on a
-    320 x 240 map; a cumulative sum along the rows, NumPy's ``add.accumulate``, runs one element at a time: 0.57 ms.
-    The box mean of a 2-D cumulative sum's corners gathered by index arrays took 1.3 ms, this one 0.46)."""
-    out = np.array(a, dtype=np.float64)
-    n = out.shape[axis]
-    for d in range(1, min(radius, n - 1) + 1):
-        lo, hi = [slice(None)] * 2, [slice(None)] * 2
-        lo[axis], hi[axis] = slice(0, n - d), slice(d, n)
-        lo, hi = tuple(lo), tuple(hi)
-        out[hi] += a[lo]
-        out[lo] += a[hi]
+    sums along the columns, then along the rows, over the boxes' pixel counts (a fresh (H, W) array)."""
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    out = np.empty_like(a)
+    _box_smooth(a, int(radius), out)
     return out
 
 
-def _window_counts(n, radius):
-    """The number of indices in each clipped window ``[i - radius, i + radius]`` of ``range(n)``."""
-    i = np.arange(n)
-    return (np.minimum(i + radius + 1, n) - np.maximum(i - radius, 0)).astype(np.float64)
+@_jit
+def _box_smooth(a, radius, out):
+    """:func:`box_smooth` of ``a`` (H, W) into ``out`` (H, W). Each window sum adds the centre, then the
+    neighbours at distance 1, 2, ... before (above, left) and after (below, right); the sums are divided by the
+    window's rows, then its columns (the order fixes the bits). The loops run along the rows (they vectorise)."""
+    H, W = a.shape
+    row = np.empty(W)
+    for y in range(H):
+        o = out[y]
+        o[:] = a[y]
+        for d in range(1, radius + 1):
+            if y - d >= 0:
+                o += a[y - d]
+            if y + d < H:
+                o += a[y + d]
+        row[:] = o
+        for d in range(1, min(radius, W - 1) + 1):
+            for x in range(d, W):
+                o[x] += row[x - d]
+            for x in range(W - d):
+                o[x] += row[x + d]
+        rows = min(y + radius + 1, H) - max(y - radius, 0)
+        for x in range(W):
+            o[x] = o[x] / rows / (min(x + radius + 1, W) - max(x - radius, 0))
 
 
 def max_filter(a, radius):
     """Maximum of ``a`` (H, W) over the (2 radius + 1)^2 box around each pixel (the box clipped at the border):
-    along the rows, then along the columns (a box's maximum is the maximum of its rows' maxima: the same values as
-    the (2 radius + 1)^2 shifts, in 4 radius)."""
-    out = a
-    for axis in (0, 1):
-        src, out = out, out.copy()
-        n = src.shape[axis]
-        for d in range(1, radius + 1):
-            if d >= n:
-                break
-            a_lo, a_hi = [slice(None)] * 2, [slice(None)] * 2
-            a_lo[axis], a_hi[axis] = slice(0, n - d), slice(d, n)
-            a_lo, a_hi = tuple(a_lo), tuple(a_hi)
-            np.maximum(out[a_hi], src[a_lo], out=out[a_hi])
-            np.maximum(out[a_lo], src[a_hi], out=out[a_lo])
-    return out if out is not a else a.copy()
-
-
-def fill_level(share, have, room, lam, out):
-    """``clip(lam share - have, 0, room)`` into ``out``: what every pixel takes to reach ``lam`` times its share,
-    capped by its room (one level of :func:`water_fill`); returns ``out``."""
-    np.multiply(share, lam, out=out)
-    np.subtract(out, have, out=out)
-    np.clip(out, 0.0, room, out=out)
+    along the columns, then along the rows (a box's maximum is the maximum of its rows' maxima); a fresh array."""
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    out = np.empty_like(a)
+    _max_filter(a, int(radius), out)
     return out
 
 
+@_jit
+def _max_filter(a, radius, out):
+    H, W = a.shape
+    row = np.empty(W)
+    for y in range(H):
+        o = out[y]
+        o[:] = a[y]
+        for yy in range(max(y - radius, 0), min(y + radius + 1, H)):
+            np.maximum(o, a[yy], o)
+        row[:] = o
+        for d in range(1, min(radius, W - 1) + 1):
+            for x in range(d, W):
+                o[x] = max(o[x], row[x - d])
+            for x in range(W - d):
+                o[x] = max(o[x], row[x + d])
+
+
+@_jit
+def fill_level(share, have, room, lam, out):
+    """``clip(lam share - have, 0, room)`` into ``out``: what every pixel takes to reach ``lam`` times its share,
+    capped by its room (one level of :func:`water_fill`); returns ``out``."""
+    for i in range(share.shape[0]):
+        out[i] = min(max(share[i] * lam - have[i], 0.0), room[i])
+    return out
+
+
+@_jit
+def fill_sum(share, have, room, lam, stride):
+    """The sum of :func:`fill_level` at ``lam`` over every ``stride``-th pixel, without the map."""
+    s = 0.0
+    for i in range(0, share.shape[0], stride):
+        s += min(max(share[i] * lam - have[i], 0.0), room[i])
+    return s
+
+
+@_jit
 def full_level(share, have, room):
     """The smallest level of :func:`fill_level` at which every pixel with a share is at its cap."""
-    ok = share > 0
-    return float(np.max((have[ok] + room[ok]) / share[ok]))
+    top = -np.inf
+    for i in range(share.shape[0]):
+        if share[i] > 0.0:
+            top = max(top, (have[i] + room[i]) / share[i])
+    return top
 
 
 def water_fill(share, have, room, total):
@@ -83,23 +117,27 @@ def water_fill(share, have, room, total):
     others, as rescaling only the uncapped pixels did (0 for all of them once the capped ones took the total).
 
     The sum is piecewise linear and increasing in ``lam``: regula falsi with the Illinois rule (on the diffuse bench
-    scene's passes ~7 evaluations where bisection took ~21; 13-23 on random shares), each evaluated in one buffer
-    (fresh temporaries page-faulted: 0.6 ms an evaluation on a 320 x 240 film against 0.1)."""
+    scene's passes ~7 evaluations where bisection took ~21; 13-23 on random shares)."""
+    share, have, room = (np.ascontiguousarray(x, dtype=np.float64) for x in (share, have, room))
+    out = np.empty_like(share)
+    _water_fill(share, have, room, float(total), out)
+    return out
+
+
+@_jit
+def _water_fill(share, have, room, total, out):
     if room.sum() <= total:
-        return room.copy()
-    buf = np.empty_like(share, dtype=np.float64)
-
-    def excess(lam):
-        return float(fill_level(share, have, room, lam, buf).sum()) - total
-
+        out[:] = room
+        return
     lo, hi = 0.0, full_level(share, have, room)
-    f_lo, f_hi = excess(lo), excess(hi)
+    f_lo, f_hi = fill_sum(share, have, room, lo, 1) - total, fill_sum(share, have, room, hi, 1) - total
     side = 0
+    lam = lo
     for _ in range(60):
         lam = hi - f_hi * (hi - lo) / (f_hi - f_lo) if f_hi != f_lo else 0.5 * (lo + hi)
         if not lo < lam < hi:
             lam = 0.5 * (lo + hi)
-        got = excess(lam)
+        got = fill_sum(share, have, room, lam, 1) - total
         if abs(got) <= 0.005 * total:
             break
         if got < 0.0:
@@ -112,4 +150,7 @@ def water_fill(share, have, room, total):
             if side > 0:
                 f_lo *= 0.5
             side = 1
-    return buf
+    fill_level(share, have, room, lam, out)
+
+
+kernel_cache.restore()

@@ -1,15 +1,19 @@
 """The adaptive passes' arithmetic between two passes (:mod:`pyrt.render.adaptive`, whose module notes give the
 method): each pixel's estimated error from the half-buffers, the image's estimate with its neighbourhood floor, the
-allocation of a pass's samples over the pixels and the size of the next pass. NumPy over the film's per-pixel arrays
-(H*W,); no rendering."""
+allocation of a pass's samples over the pixels and the size of the next pass: compiled loops over the film's
+per-pixel arrays (H*W,), as in :mod:`pyrt.render.image_maps`; no rendering."""
 from __future__ import annotations
 
 import math
 
 import numpy as np
 
-from pyrt.core.metrics import relmse_per_pixel
-from pyrt.render.image_maps import box_smooth, fill_level, full_level, max_filter, water_fill
+from pyrt.core.metrics import RELMSE_EPS
+from pyrt.integrators import kernel_cache
+
+kernel_cache.use_cache_dir()      # before the decorators below run
+
+from pyrt.render.image_maps import _jit, box_smooth, full_level, max_filter, water_fill  # noqa: E402
 
 #: a pass gives a pixel at most this many times the samples it has
 GROWTH = 3
@@ -44,55 +48,62 @@ NEIGHBOURHOOD = 0.6
 def pixel_errors(film, half, rows=None, out=None):
     """Per-pixel estimated relMSE of the film's mean (H*W,) from the half-buffers (``half`` holds half B);
     NaN where a pixel has no sample: :func:`pyrt.core.metrics.relmse_per_pixel` of the variance
-    ``(mean_A - mean_B)^2 / 4``, computed on every pixel at once (masked rows cost more than the arithmetic), the
-    variance and the mean a channel at a time into two channel-major buffers ((N, 3) by (N, 1) broadcasts run three
-    elements at a time, and every fresh (N, 3) temporary page-faults: 1.5 -> 1.0-1.1 ms on 320 x 240). With ``rows``
-    (the pixels the last pass rendered: only theirs changed) those alone, written into ``out`` (the errors before the
-    pass) and returned: the same values (tested), 0.2-0.9 ms a pass where the whole map took 1-5.7."""
-    if rows is not None:
-        out[rows] = _pixel_errors(film.weight[rows], half.weight[rows], film.sum[rows], half.sum[rows])
-        return out
-    return _pixel_errors(film.weight, half.weight, film.sum, half.sum)
+    ``(mean_A - mean_B)^2 / 4`` (the same bits, tested). With ``rows`` (the pixels the last pass rendered: only theirs
+    changed) those alone, written into ``out`` (the errors before the pass) and returned."""
+    if rows is None:
+        out, rows = np.empty(film.weight.shape[0]), np.arange(film.weight.shape[0])
+    _pixel_errors(film.weight, half.weight, film.sum, half.sum, np.asarray(rows, dtype=np.int64), out, RELMSE_EPS)
+    return out
 
 
-def _pixel_errors(w, wb, sums, sums_b):
-    wa = w - wb
-    ok = (wa > 0) & (wb > 0)
-    if not ok.any():
-        return np.full(w.shape[0], np.nan)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ia, ib, iw = 1.0 / wa, 1.0 / wb, 1.0 / w
-        var, mean = np.empty(sums.shape[::-1]).T, np.empty(sums.shape[::-1]).T     # channel-major
+@_jit
+def _pixel_errors(w, wb, sums, sums_b, rows, out, eps):
+    for r in range(rows.shape[0]):
+        i = rows[r]
+        wa = w[i] - wb[i]
+        if not (wa > 0.0 and wb[i] > 0.0):
+            out[i] = np.nan
+            continue
+        ia, ib, iw = 1.0 / wa, 1.0 / wb[i], 1.0 / w[i]
+        acc = 0.0
         for c in range(sums.shape[1]):
-            s, sb, d, m = sums[:, c], sums_b[:, c], var[:, c], mean[:, c]
-            np.subtract(s, sb, out=d)
-            d *= ia                                     # mean_A
-            np.multiply(sb, ib, out=m)
-            d -= m                                      # - mean_B
-            d *= d
-            d *= 0.25                                   # the variance of the mean
-            np.multiply(s, iw, out=m)                   # the mean
-        err = relmse_per_pixel(var, mean)
-    err[~ok] = np.nan
-    return err
+            d = (sums[i, c] - sums_b[i, c]) * ia - sums_b[i, c] * ib       # mean_A - mean_B
+            d = d * d * 0.25                                                # the variance of the mean
+            m = sums[i, c] * iw                                             # the mean
+            acc += d / (m * m + eps)
+        out[i] = acc / sums.shape[1]
 
 
 def floored_errors(film, err, shape, box=None):
     """``(a, ok)``: the per-sample errors ``a_p = max(err_p n_p, NEIGHBOURHOOD box(err n)_p)`` (H*W,) that the
     estimate and the samples a target needs are computed from, and ``ok`` (H*W,) the pixels with an estimate;
     ``box``: :func:`smoothed_errors` of the same arguments if at hand."""
-    ok = np.isfinite(err)
-    a = np.where(ok, err, 0.0) * film.weight
     box = smoothed_errors(film, err, shape) if box is None else box
-    return np.maximum(a, NEIGHBOURHOOD * box), ok
+    a, ok = np.empty_like(box), np.empty(box.shape[0], dtype=np.bool_)
+    _floored(err, film.weight, box, NEIGHBOURHOOD, a, ok)
+    return a, ok
+
+
+@_jit
+def _floored(err, w, box, floor, a, ok):
+    for i in range(err.shape[0]):
+        ok[i] = np.isfinite(err[i])
+        a[i] = max(err[i] * w[i] if ok[i] else 0.0, floor * box[i])
 
 
 def smoothed_errors(film, err, shape):
     """``box(err n)`` (H*W,): the per-sample errors ``err_p n_p`` (0 where a pixel has no estimate) averaged over the
     (2 SMOOTH_RADIUS + 1)^2 pixels around (:func:`box_smooth`), what :func:`floored_errors` and :func:`allocate`
     both read."""
-    a = np.where(np.isfinite(err), err, 0.0) * film.weight
-    return box_smooth(a.reshape(shape), SMOOTH_RADIUS).ravel()
+    a = np.empty(shape)
+    _per_sample(err, film.weight, a.ravel())
+    return box_smooth(a, SMOOTH_RADIUS).ravel()
+
+
+@_jit
+def _per_sample(err, w, out):
+    for i in range(err.shape[0]):
+        out[i] = err[i] * w[i] if np.isfinite(err[i]) else 0.0
 
 
 def estimated_error(film, err, shape, floored=None):
@@ -103,9 +114,22 @@ def estimated_error(film, err, shape, floored=None):
     (:mod:`pyrt.render.adaptive`'s notes, step 2); ``floored``: :func:`floored_errors` of the same arguments if at
     hand. ``inf`` when no pixel has an estimate."""
     a, ok = floored if floored is not None else floored_errors(film, err, shape)
-    if not ok.any():
-        return math.inf
-    return float(np.mean(a[ok] / film.weight[ok]))
+    return _mean_over(a, ok, film.weight, None, 1)
+
+
+@_jit
+def _mean_over(a, ok, w, new, stride):
+    """The mean of ``a_p / (w_p + new_p)`` (``new`` None: 0) over every ``stride``-th pixel where ``ok``; inf when
+    there is none."""
+    s, n = 0.0, 0
+    for i in range(0, a.shape[0], stride):
+        if ok[i]:
+            if new is None:
+                s += a[i] / w[i]
+            else:
+                s += a[i] / (w[i] + new[i])
+            n += 1
+    return s / n if n else np.inf
 
 
 def allocate(film, err, total_new, max_spp, cap, rng, shape, box=None):
@@ -123,33 +147,50 @@ def pass_counts(share, room, have, total, rng):
     :func:`allocation_shares`: water filling (:func:`pyrt.render.image_maps.water_fill`), then a randomised rounding
     to even counts from ``rng``, within each room."""
     new = water_fill(share, have, room, total)
-    even = 2 * np.floor(new / 2 + rng.random(new.shape[0]))
-    return np.minimum(even, 2 * np.floor(room / 2)).astype(np.int64)
+    out = np.empty(new.shape[0], dtype=np.int64)
+    _even(new, rng.random(new.shape[0]), room, out)
+    return out
+
+
+@_jit
+def _even(new, u, room, out):
+    for i in range(new.shape[0]):
+        out[i] = int(min(2.0 * math.floor(new[i] / 2.0 + u[i]), 2.0 * math.floor(room[i] / 2.0)))
 
 
 def allocation_shares(film, err, max_spp, cap, shape, box=None):
     """``(share, room)`` (H*W,) of :func:`allocate`: each pixel's share of a pass (90 % by its dilated ``sqrt(a_p)``,
     10 % uniform) and the samples it may take (``GROWTH x`` its own, ``cap``, ``max_spp``)."""
-    w = film.weight
     a = smoothed_errors(film, err, shape) if box is None else box
-    mean_a = a.mean()
-    if not mean_a > 0:                        # no error anywhere: spread uniformly
-        a = np.ones_like(a)
-    else:
-        a = np.maximum(a, 1e-3 * mean_a)
-    s = np.sqrt(a)
-    s = max_filter(s.reshape(shape), DILATE_RADIUS).ravel()
-    room = np.minimum(np.minimum(max_spp - w, GROWTH * w), cap)
-    room = np.maximum(room, 0.0)
-    share = (1.0 - DEFENSIVE) * s / s.sum() + DEFENSIVE / s.shape[0]
+    s = np.empty(shape)
+    _roots(a, s.ravel())
+    s = max_filter(s, DILATE_RADIUS).ravel()
+    share, room = np.empty_like(s), np.empty_like(s)
+    _shares(s, film.weight, float(max_spp), float(cap), GROWTH, DEFENSIVE, share, room)
     return share, room
+
+
+@_jit
+def _roots(a, out):
+    """``sqrt(max(a, 1e-3 mean(a)))`` (1 everywhere when ``a`` has no error)."""
+    mean_a = a.sum() / a.shape[0]
+    for i in range(a.shape[0]):
+        out[i] = math.sqrt(max(a[i], 1e-3 * mean_a)) if mean_a > 0.0 else 1.0
+
+
+@_jit
+def _shares(s, w, max_spp, cap, growth, defensive, share, room):
+    total = s.sum()
+    for i in range(s.shape[0]):
+        room[i] = max(min(min(max_spp - w[i], growth * w[i]), cap), 0.0)
+        share[i] = (1.0 - defensive) * s[i] / total + defensive / s.shape[0]
 
 
 def predicted_error(floored, w, new):
     """The estimate :func:`estimated_error` expects after ``new`` (H*W,) more samples if every pixel's per-sample
     error stayed ``a_p`` (``floored``: :func:`floored_errors`): the mean of ``a_p / (n_p + new_p)``."""
     a, ok = floored
-    return float(np.mean(a[ok] / (w[ok] + new[ok])))
+    return _mean_over(a, ok, w, np.asarray(new, dtype=np.float64), 1)
 
 
 def plan_samples(floored, w, share, room, est, target, k, lo, hi):
@@ -160,32 +201,51 @@ def plan_samples(floored, w, share, room, est, target, k, lo, hi):
     neighbourhood converging: :mod:`pyrt.render.adaptive`'s notes, step 3). ``lam`` is found by bisection on every
     :data:`PLAN_STRIDE`-th pixel (the sums scaled up). None when ``hi`` samples would not do (the pass is then sized
     as the first one)."""
-    goal = est * (PLAN_MARGIN * target / est) ** (1.0 / k)
     a, ok = floored
-    sl = slice(None, None, PLAN_STRIDE)
-    a, ok, w, share, room = a[sl], ok[sl], w[sl], share[sl], room[sl]
-    scale = PLAN_STRIDE * 1.0
-    buf = np.empty_like(share)
-
-    def at(lam):        # (predicted estimate, samples) of the allocation at level lam
-        fill_level(share, w, room, lam, buf)
-        return predicted_error((a, ok), w, buf), scale * float(buf.sum())
-
-    if not ok.any() or hi <= lo:
+    if hi <= lo or not ok[::PLAN_STRIDE].any():
         return lo
+    goal = est * (PLAN_MARGIN * target / est) ** (1.0 / k)
     top = full_level(share, w, room)
-    p_top, n_top = at(top)
-    if p_top > goal or n_top <= lo:
-        return None if p_top > goal else lo
+    got = _plan(a, ok, w, share, room, goal, float(lo), float(hi), top, PLAN_STRIDE, PLAN_STEPS)
+    return None if got < 0.0 else got
+
+
+@_jit
+def _plan(a, ok, w, share, room, goal, lo, hi, top, stride, steps):
+    """:func:`plan_samples`' search up to the level ``top`` (:func:`pyrt.render.image_maps.full_level`): the
+    samples, or -1 for None. (The compiled functions here call only each other: Numba's cache sees edits to this
+    file alone.)"""
+    p_top, n_top = _at(a, ok, w, share, room, top, stride)
+    if p_top > goal:
+        return -1.0
+    if n_top <= lo:
+        return lo
     below, above = 0.0, top
-    for _ in range(PLAN_STEPS):
+    for _ in range(steps):
         mid = 0.5 * (below + above)
-        p, n = at(mid)
+        p, n = _at(a, ok, w, share, room, mid, stride)
         if n > hi or p <= goal:
             above = mid
         else:
             below = mid
-    p, n = at(above)
+    p, n = _at(a, ok, w, share, room, above, stride)
     if p > goal:
-        return None
+        return -1.0
     return min(max(n, lo), hi)
+
+
+@_jit
+def _at(a, ok, w, share, room, lam, stride):
+    """The predicted estimate and the samples (scaled up by ``stride``) of the water fill at level ``lam`` on every
+    ``stride``-th pixel."""
+    s, n, total = 0.0, 0, 0.0
+    for i in range(0, a.shape[0], stride):
+        new = min(max(share[i] * lam - w[i], 0.0), room[i])
+        total += new
+        if ok[i]:
+            s += a[i] / (w[i] + new)
+            n += 1
+    return (s / n if n else np.inf), stride * total
+
+
+kernel_cache.restore()

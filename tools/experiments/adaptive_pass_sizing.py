@@ -37,9 +37,12 @@ def main(argv=None):
     ap.add_argument("--scenes", default=",".join(TARGETS))
     ap.add_argument("--seeds", default="1,2,3")
     ap.add_argument("--cache", default=os.path.join("out", "adaptive_pass_sizing"))
+    ap.add_argument("--min-spp", type=int, default=None, help="the base pass's samples per pixel (default: pyrt's)")
+    ap.add_argument("--targets", default="64,256", help="which of Mitsuba's errors to aim at (64, 256)")
     args = ap.parse_args(argv)
     os.makedirs(args.cache, exist_ok=True)
     seeds = [int(s) for s in args.seeds.split(",")]
+    base = {} if args.min_spp is None else {"min_spp": args.min_spp}
     for name in args.scenes.split(","):
         scene = ms.SCENES[name][0](os.path.join(args.cache, name))
         prep = pyrt.PreparedScene(scene)
@@ -54,12 +57,12 @@ def main(argv=None):
         one = pyrt.Execution(prepared=prep, progress=False, threads=1)
         pyrt.render_full(scene, seed=0, sampling=pyrt.Sampling(target_error=1.0), execution=one,
                          **ms.PYRT_OPTIONS)                                  # the kernel's load, not timed
-        for target in TARGETS[name]:
+        for target in [t for t, spp in zip(TARGETS[name], (64, 256)) if str(spp) in args.targets.split(",")]:
             rows = []
             for seed in seeds:
                 t = time.process_time()
                 r = pyrt.render_full(scene, seed=seed, sampling=pyrt.Sampling(target_error=target, time_budget=600,
-                                                                              max_spp=4096),
+                                                                              max_spp=4096, **base),
                                      execution=one, **ms.PYRT_OPTIONS)
                 rows.append((time.process_time() - t, r.samples_done, r.passes, r.estimated_error,
                              relmse(r.image, ref) - noise))
