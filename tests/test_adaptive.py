@@ -340,6 +340,34 @@ def test_pixel_errors_of_the_rendered_rows_equal_the_whole_map():
     np.testing.assert_array_equal(PP.pixel_errors(film, half, rows, before.copy()), whole)
 
 
+def test_error_maps_are_the_maps_of_the_separate_functions():
+    """The passes' one compiled call after a pass gives what the separate functions give, with and without
+    ``rows``."""
+    rng = np.random.default_rng(5)
+    H, W = 12, 20
+    film, half = pyrt.core.film.Film(W, H), pyrt.core.film.Film(W, H)
+    film.weight[:] = rng.integers(0, 5, film.weight.shape) * 2
+    half.weight[:] = film.weight / 2
+    film.sum[:] = rng.random(film.sum.shape) * film.weight[:, None]
+    half.sum[:] = film.sum * rng.uniform(0.3, 0.7, film.sum.shape)
+    err, box, (a, ok), est = PP.error_maps(film, half, (H, W))
+    want = PP.pixel_errors(film, half)
+    np.testing.assert_array_equal(err, want)
+    np.testing.assert_array_equal(box, PP.smoothed_errors(film, want, (H, W)))
+    wa, wok = PP.floored_errors(film, want, (H, W))
+    np.testing.assert_array_equal(a, wa)
+    np.testing.assert_array_equal(ok, wok)
+    assert est == PP.estimated_error(film, want, (H, W)) and np.isfinite(est)
+    rows = np.flatnonzero(rng.random(film.weight.shape) < 0.3)
+    film.weight[rows] += 2
+    half.weight[rows] += 1
+    film.sum[rows] += rng.random((rows.size, 3)) * 2
+    again = PP.error_maps(film, half, (H, W), rows, err.copy())
+    whole = PP.error_maps(film, half, (H, W))
+    np.testing.assert_array_equal(again[0], whole[0])
+    assert again[3] == whole[3]
+
+
 def test_pixel_errors_are_the_relmse_of_the_half_buffers_variance():
     """The compiled pixel errors are :func:`pyrt.core.metrics.relmse_per_pixel` of ``(mean_A - mean_B)^2 / 4``
     and the film's mean, bit for bit, NaN where a half has no sample."""

@@ -46,7 +46,7 @@ KERNEL_SOURCES = ("pyrt.shaders.jit", "pyrt.shaders.jit_math", "pyrt.shaders.jit
                   "pyrt.integrators.compiled_env_stage", "pyrt.integrators.compiled_lighting",
                   "pyrt.integrators.compiled_mesh_stage", "pyrt.integrators.compiled_hit",
                   "pyrt.integrators.compiled_surface",
-                  "pyrt.integrators.compiled_kernel")
+                  "pyrt.integrators.compiled_kernel", "pyrt.render.image_maps", "pyrt.render.pass_plan")
 
 _saved = []
 

@@ -94,9 +94,8 @@ from pyrt.integrators.prepared import PreparedScene, RenderStats
 from pyrt.integrators.whitted import DEFAULT_SPLIT_DEPTH
 from pyrt.render.chunks import shade_adaptive_chunk
 from pyrt.render.compiled import adaptive_task, check_backend
-from pyrt.render.pass_plan import (MAX_FALL_POWER, MIN_GROWTH, PLAN_MIN, allocation_shares, estimated_error,
-                                   floored_errors, pass_counts, pixel_errors, plan_samples, predicted_error,
-                                   smoothed_errors)
+from pyrt.render.pass_plan import (MAX_FALL_POWER, MIN_GROWTH, PLAN_MIN, allocation_shares, error_maps, pass_counts,
+                                   plan_samples, predicted_error)
 from pyrt.render.distributed import DaskRunner, adaptive_group
 from pyrt.render.pool import ChunkPool, integrator_factory, merge_stats, progress_bar, use_processes
 from pyrt.render.options import check_image_memory, check_options, warn_smooth_lobes
@@ -337,10 +336,8 @@ def _passes(cam, ps, pool, t_start, target_error, time_budget, max_spp, min_spp,
         err = None
         while True:
             # after the base pass only the pixels the last pass rendered have changed
-            err = pixel_errors(film, half, None if err is None else np.flatnonzero(counts), err)
-            box = smoothed_errors(film, err, (H, W))
-            floored = floored_errors(film, err, (H, W), box)
-            est = estimated_error(film, err, (H, W), floored)
+            err, box, floored, est = error_maps(film, half, (H, W), None if err is None else np.flatnonzero(counts),
+                                                err)
             samples = int(film.weight.sum())
             bar.set_postfix_str(f"spp {samples / n_pix:.1f}, relMSE~{est:.3g}")
             if on_pass is not None:
@@ -393,7 +390,7 @@ def _passes(cam, ps, pool, t_start, target_error, time_budget, max_spp, min_spp,
                 run_pass(np.where(empty, 2, 0).astype(np.int64), index + 1, timed=False, honour_cancel=False,
                          stop_at=time.perf_counter() + fill_budget)      # no chunk starts after the budget
                 pixels_filled = int(np.count_nonzero(empty & (film.weight > 0)))
-                est = estimated_error(film, pixel_errors(film, half), (H, W))
+                est = error_maps(film, half, (H, W))[3]
     finally:
         bar.close()
     if stats.nonfinite_samples:

@@ -4,8 +4,9 @@ maxima and the water fill that turns a pass's per-pixel shares into sample count
 Compiled loops (Numba, cached with the render kernels: :func:`pyrt.integrators.kernel_cache.use_cache_dir`), each one
 or two passes over the map and no temporary per step: on a 320 x 240 film the same arithmetic as NumPy vector
 operations took ~20 ms of the ~70 ms of an adaptive render of the diffuse benchmark scene to Mitsuba's 64-spp error
-(every operation a pass over memory, temporaries page-faulted on first touch). The functions here call only each
-other (Numba's cache sees edits to this file alone).
+(every operation a pass over memory, temporaries page-faulted on first touch). This module and
+:mod:`pyrt.render.pass_plan` are kernel sources (:data:`pyrt.integrators.kernel_cache.KERNEL_SOURCES`): their
+compiled functions call each other, and an edit to either gives a new cache.
 """
 from __future__ import annotations
 

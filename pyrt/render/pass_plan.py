@@ -13,7 +13,8 @@ from pyrt.integrators import kernel_cache
 
 kernel_cache.use_cache_dir()      # before the decorators below run
 
-from pyrt.render.image_maps import _jit, box_smooth, full_level, max_filter, water_fill  # noqa: E402
+from pyrt.render import image_maps as IM  # noqa: E402
+from pyrt.render.image_maps import _jit, box_smooth  # noqa: E402
 
 #: a pass gives a pixel at most this many times the samples it has
 GROWTH = 3
@@ -43,6 +44,29 @@ DILATE_RADIUS = 1
 #: (:mod:`pyrt.render.adaptive`'s notes, step 2: chosen from true / estimated relMSE on the benchmark scenes and the
 #: edge test scene)
 NEIGHBOURHOOD = 0.6
+
+
+def error_maps(film, half, shape, rows=None, err=None):
+    """What the passes read after a pass, in one compiled call: ``(err, box, floored, est)``, the
+    :func:`pixel_errors` (with ``rows`` and ``err``: those of the pixels the last pass rendered, written into
+    ``err``), their :func:`smoothed_errors`, :func:`floored_errors` and :func:`estimated_error` (the same values as
+    those functions, tested)."""
+    n = film.weight.shape[0]
+    if rows is None:
+        err, rows = np.empty(n), np.arange(n)
+    box, a, ok = np.empty(n), np.empty(n), np.empty(n, dtype=np.bool_)
+    est = _error_maps(film.weight, half.weight, film.sum, half.sum, np.asarray(rows, dtype=np.int64), err,
+                      RELMSE_EPS, shape[0], shape[1], SMOOTH_RADIUS, NEIGHBOURHOOD, box, a, ok)
+    return err, box, (a, ok), est
+
+
+@_jit
+def _error_maps(w, wb, sums, sums_b, rows, err, eps, H, W, radius, floor, box, a, ok):
+    _pixel_errors(w, wb, sums, sums_b, rows, err, eps)
+    _per_sample(err, w, a)
+    IM._box_smooth(a.reshape((H, W)), radius, box.reshape((H, W)))
+    _floored(err, w, box, floor, a, ok)
+    return _mean_over(a, ok, w, None, 1)
 
 
 def pixel_errors(film, half, rows=None, out=None):
@@ -146,14 +170,16 @@ def pass_counts(share, room, have, total, rng):
     """The pass's new samples per pixel (even ints) for about ``total`` samples over the shares and rooms of
     :func:`allocation_shares`: water filling (:func:`pyrt.render.image_maps.water_fill`), then a randomised rounding
     to even counts from ``rng``, within each room."""
-    new = water_fill(share, have, room, total)
-    out = np.empty(new.shape[0], dtype=np.int64)
-    _even(new, rng.random(new.shape[0]), room, out)
+    share, have, room = (np.ascontiguousarray(x, dtype=np.float64) for x in (share, have, room))
+    out = np.empty(share.shape[0], dtype=np.int64)
+    _counts(share, have, room, float(total), rng.random(share.shape[0]), out)
     return out
 
 
 @_jit
-def _even(new, u, room, out):
+def _counts(share, have, room, total, u, out):
+    new = np.empty(share.shape[0])
+    IM._water_fill(share, have, room, total, new)
     for i in range(new.shape[0]):
         out[i] = int(min(2.0 * math.floor(new[i] / 2.0 + u[i]), 2.0 * math.floor(room[i] / 2.0)))
 
@@ -162,24 +188,22 @@ def allocation_shares(film, err, max_spp, cap, shape, box=None):
     """``(share, room)`` (H*W,) of :func:`allocate`: each pixel's share of a pass (90 % by its dilated ``sqrt(a_p)``,
     10 % uniform) and the samples it may take (``GROWTH x`` its own, ``cap``, ``max_spp``)."""
     a = smoothed_errors(film, err, shape) if box is None else box
-    s = np.empty(shape)
-    _roots(a, s.ravel())
-    s = max_filter(s, DILATE_RADIUS).ravel()
-    share, room = np.empty_like(s), np.empty_like(s)
-    _shares(s, film.weight, float(max_spp), float(cap), GROWTH, DEFENSIVE, share, room)
+    share, room = np.empty_like(a), np.empty_like(a)
+    _shares(a, film.weight, shape[0], shape[1], float(max_spp), float(cap), GROWTH, DEFENSIVE, DILATE_RADIUS, share,
+            room)
     return share, room
 
 
 @_jit
-def _roots(a, out):
-    """``sqrt(max(a, 1e-3 mean(a)))`` (1 everywhere when ``a`` has no error)."""
+def _shares(a, w, H, W, max_spp, cap, growth, defensive, dilate, share, room):
+    """:func:`allocation_shares`: ``s = sqrt(max(a, 1e-3 mean(a)))`` (1 everywhere when ``a`` has no error), its
+    box maximum, the shares and rooms."""
     mean_a = a.sum() / a.shape[0]
+    roots = np.empty(a.shape[0])
     for i in range(a.shape[0]):
-        out[i] = math.sqrt(max(a[i], 1e-3 * mean_a)) if mean_a > 0.0 else 1.0
-
-
-@_jit
-def _shares(s, w, max_spp, cap, growth, defensive, share, room):
+        roots[i] = math.sqrt(max(a[i], 1e-3 * mean_a)) if mean_a > 0.0 else 1.0
+    s = np.empty(a.shape[0])
+    IM._max_filter(roots.reshape((H, W)), dilate, s.reshape((H, W)))
     total = s.sum()
     for i in range(s.shape[0]):
         room[i] = max(min(min(max_spp - w[i], growth * w[i]), cap), 0.0)
@@ -205,16 +229,14 @@ def plan_samples(floored, w, share, room, est, target, k, lo, hi):
     if hi <= lo or not ok[::PLAN_STRIDE].any():
         return lo
     goal = est * (PLAN_MARGIN * target / est) ** (1.0 / k)
-    top = full_level(share, w, room)
-    got = _plan(a, ok, w, share, room, goal, float(lo), float(hi), top, PLAN_STRIDE, PLAN_STEPS)
+    got = _plan(a, ok, w, share, room, goal, float(lo), float(hi), PLAN_STRIDE, PLAN_STEPS)
     return None if got < 0.0 else got
 
 
 @_jit
-def _plan(a, ok, w, share, room, goal, lo, hi, top, stride, steps):
-    """:func:`plan_samples`' search up to the level ``top`` (:func:`pyrt.render.image_maps.full_level`): the
-    samples, or -1 for None. (The compiled functions here call only each other: Numba's cache sees edits to this
-    file alone.)"""
+def _plan(a, ok, w, share, room, goal, lo, hi, stride, steps):
+    """:func:`plan_samples`' search up to the level at which every pixel is full: the samples, or -1 for None."""
+    top = IM.full_level(share, w, room)
     p_top, n_top = _at(a, ok, w, share, room, top, stride)
     if p_top > goal:
         return -1.0

@@ -55,6 +55,8 @@ def compile_fixed():
 
 
 def compile_adaptive():
-    """Compile (or load) the adaptive passes' entry (:func:`pyrt.integrators.compiled_kernel.render_pixels`)."""
+    """Compile (or load) the adaptive passes' entry (:func:`pyrt.integrators.compiled_kernel.render_pixels`) and the
+    compiled arithmetic between passes (:mod:`pyrt.render.pass_plan`: a target out of reach, so that every step of
+    the pass loop runs)."""
     render_full(warmup_scene(), execution=Execution(backend="compiled", progress=False),
-                sampling=Sampling(target_error=1.0, max_spp=4))
+                sampling=Sampling(target_error=1e-12, max_spp=64))
