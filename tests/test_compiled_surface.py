@@ -30,7 +30,7 @@ ALBEDO, LE_FRONT, LE_BACK, MAT = (0.25, 0.5, 0.75), (1.0, 2.0, 3.0), (4.0, 5.0, 
 
 
 @numba.njit(cache=True)
-def _packets(scene, geo_f, geo_i, o, d, fallback, terminator):
+def _packets(scene, geo_f, geo_i, o, d, fallback, terminator, masked):
     """Packets of 16 rays from ``o`` along ``d`` (rows): per ray the stage's fields and hit_surface's (nan where the
     packet was not on one face), and each packet's uniform_face."""
     n_rays = d.shape[0]
@@ -54,8 +54,9 @@ def _packets(scene, geo_f, geo_i, o, d, fallback, terminator):
             continue
         face = geo_i[1][geoms[0], 0] + prims[0]
         faces[b // LANES] = face
-        # masked as for a packet of several faces: every lane is on it, so every lane is written
-        uniform_surface(G, face, geoms[0], prims[0], True, pk, LANES, Vp, LANES, fallback, terminator, MAT, ALBEDO,
+        # masked (as for a packet of several faces: every lane is on it, so every lane is written) or not (the
+        # stage's loop of plain stores)
+        uniform_surface(G, face, geoms[0], prims[0], masked, pk, LANES, Vp, LANES, fallback, terminator, MAT, ALBEDO,
                         LE_FRONT, LE_BACK)
         for lane in range(LANES):
             for k in range(len(FIELDS)):
@@ -98,15 +99,16 @@ def _rays_at_faces(ps, o, rng, n_packets):
     return d / np.linalg.norm(d, axis=1, keepdims=True)
 
 
+@pytest.mark.parametrize("masked", [True, False])
 @pytest.mark.parametrize("fallback", [True, False])
 @pytest.mark.parametrize("terminator", [True, False])
-def test_uniform_surface_is_hit_surface_bit_for_bit(fallback, terminator):
+def test_uniform_surface_is_hit_surface_bit_for_bit(fallback, terminator, masked):
     ps = pyrt.PreparedScene(_scene(fallback))
     cs = CompiledScene(ps)
     rng = np.random.default_rng(5)
     o = np.array([0.3, 1.1, 2.5])
     d = _rays_at_faces(ps, o, rng, 400)
-    got, want, faces = _packets(cs.scene, cs.geo_f, cs.geo_i, o, d, fallback, terminator)
+    got, want, faces = _packets(cs.scene, cs.geo_f, cs.geo_i, o, d, fallback, terminator, masked)
     uniform = faces >= 0
     assert 0.2 < uniform.mean() < 0.95                  # packets on one face, and packets that are not
     rows = np.repeat(uniform, LANES)

@@ -134,47 +134,35 @@ def uniform_surface(G, face, geom, prim, masked, pk, w, V, n, fallback, terminat
     fa = (fabs[3 * face], fabs[3 * face + 1], fabs[3 * face + 2])
     ext = 8.0 * EPS32 * fext[face]
     smooth = fsmooth[face] != 0
-    every = not masked
+    if not masked:
+        # every lane hit this face (most packets): plain vector stores. The selects of the other loop compile to
+        # masked stores (vmaskmovpd without AVX-512), slow on AMD's AVX2 CPUs (on an AVX2 EPYC ~12 % of the shadowed
+        # bench scene's render time, perf); one loop for both, branching on the flag, was if-converted into masked
+        # stores for both
+        for lane in range(n):
+            p, ng, ns, nv, lift, le, mg, ml, fr, cos_o, t = _lane_surface(
+                pk, w, lane, V, v0, v1, v2, n0_, n1_, n2_, fn, fa, ext, g4, smooth, fallback, terminator, le_front,
+                le_back)
+            for c in range(3):
+                V[(V_P + c) * LANES + lane] = p[c]
+                V[(V_NG + c) * LANES + lane] = ng[c]
+                V[(V_NS + c) * LANES + lane] = ns[c]
+                V[(V_NV + c) * LANES + lane] = nv[c]
+                V[(V_LIFT + c) * LANES + lane] = lift[c]
+                V[(V_A + c) * LANES + lane] = albedo[c]
+                V[(V_L + c) * LANES + lane] = le[c]
+            V[V_MAG * LANES + lane] = mg
+            V[V_MAG_LIFT * LANES + lane] = ml
+            V[V_FRONT * LANES + lane] = fr
+            V[V_MAT * LANES + lane] = m
+            V[V_COSO * LANES + lane] = cos_o
+            V[V_T * LANES + lane] = t
+        return
     for lane in range(n):
         g, q = E.packet_geom_prim(pk, w, lane)
-        sel = every | ((g == geom) & (q == prim))
-        b1u, b2u = E.packet_uv(pk, w, lane)
-        b1, b2 = np.float64(b1u), np.float64(b2u)
-        b0 = 1.0 - b1 - b2
-        p = bary3(b0, b1, b2, v0, v1, v2)
-        wo = (-V[V_D * LANES + lane], -V[(V_D + 1) * LANES + lane], -V[(V_D + 2) * LANES + lane])
-        front = dot(fn, wo) >= 0.0
-        sign = 1.0 if front else -1.0
-        ng = (sign * fn[0], sign * fn[1], sign * fn[2])
-        n0, n1, n2 = bary3(b0, b1, b2, n0_, n1_, n2_)
-        ln = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-        k = sign / ln if ln > 0.0 else 1.0
-        n0, n1, n2 = n0 * k, n1 * k, n2 * k
-        bad = (n0 * n0 + n1 * n1 + n2 * n2 == 0.0) | (fallback & (n0 * wo[0] + n1 * wo[1] + n2 * wo[2] <= 0.0))
-        use = smooth & ~bad
-        ns = (n0 if use else ng[0], n1 if use else ng[1], n2 if use else ng[2])
-        nv = (n0 if smooth else ng[0], n1 if smooth else ng[1], n2 if smooth else ng[2])
-        l0, l1, l2 = p              # Hanika's terminator lift (hit_surface's loop, unrolled)
-        for j in range(3):
-            vk, nk = (v0, n0_) if j == 0 else ((v1, n1_) if j == 1 else (v2, n2_))
-            bk = b0 if j == 0 else (b1 if j == 1 else b2)
-            h = sign * ((p[0] - vk[0]) * nk[0] + (p[1] - vk[1]) * nk[1] + (p[2] - vk[2]) * nk[2])
-            wk = bk * min(h, 0.0) * sign
-            l0 -= nk[0] * wk
-            l1 -= nk[1] * wk
-            l2 -= nk[2] * wk
-        up = smooth & terminator
-        lift = (l0 if up else p[0], l1 if up else p[1], l2 if up else p[2])
-        mg = 0.0
-        ml = 0.0
-        for c in range(3):
-            mg += abs(ng[c]) * g4 * fa[c]
-            ml += abs(ng[c]) * g4 * (fa[c] + abs(lift[c] - p[c]))
-        le = (le_front[0] if front else le_back[0], le_front[1] if front else le_back[1],
-              le_front[2] if front else le_back[2])
-        fr = 0.5 * (sign + 1.0)          # the front flag (1.0 or 0.0) without a conditional expression
-        cos_o = dot(wo, ns)
-        t = np.float64(E.packet_tfar(pk, w, lane))
+        sel = (g == geom) & (q == prim)
+        p, ng, ns, nv, lift, le, mg, ml, fr, cos_o, t = _lane_surface(
+            pk, w, lane, V, v0, v1, v2, n0_, n1_, n2_, fn, fa, ext, g4, smooth, fallback, terminator, le_front, le_back)
         # masked stores written out (a helper that Numba inlines, given conditional expressions, lost the front
         # flag's stores: it stayed 0; tests/test_compiled_surface.py)
         for c in range(3):
@@ -193,9 +181,9 @@ def uniform_surface(G, face, geom, prim, masked, pk, w, V, n, fallback, terminat
             i = (V_L + c) * LANES + lane
             V[i] = le[c] if sel else V[i]
         i = V_MAG * LANES + lane
-        V[i] = mg + ext if sel else V[i]
+        V[i] = mg if sel else V[i]
         i = V_MAG_LIFT * LANES + lane
-        V[i] = ml + ext if sel else V[i]
+        V[i] = ml if sel else V[i]
         i = V_FRONT * LANES + lane
         V[i] = fr if sel else V[i]
         i = V_MAT * LANES + lane
@@ -204,5 +192,50 @@ def uniform_surface(G, face, geom, prim, masked, pk, w, V, n, fallback, terminat
         V[i] = cos_o if sel else V[i]
         i = V_T * LANES + lane
         V[i] = t if sel else V[i]
+
+
+@_njit
+def _lane_surface(pk, w, lane, V, v0, v1, v2, n0_, n1_, n2_, fn, fa, ext, g4, smooth, fallback, terminator, le_front,
+                  le_back):
+    """One lane of :func:`uniform_surface` (inlined by LLVM): ``(p, ng, ns, nv, lift, le, magnitude, lifted
+    magnitude, front flag, ns . wo, hit distance)``; no stores."""
+    b1u, b2u = E.packet_uv(pk, w, lane)
+    b1, b2 = np.float64(b1u), np.float64(b2u)
+    b0 = 1.0 - b1 - b2
+    p = bary3(b0, b1, b2, v0, v1, v2)
+    wo = (-V[V_D * LANES + lane], -V[(V_D + 1) * LANES + lane], -V[(V_D + 2) * LANES + lane])
+    front = dot(fn, wo) >= 0.0
+    sign = 1.0 if front else -1.0
+    ng = (sign * fn[0], sign * fn[1], sign * fn[2])
+    n0, n1, n2 = bary3(b0, b1, b2, n0_, n1_, n2_)
+    ln = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    k = sign / ln if ln > 0.0 else 1.0
+    n0, n1, n2 = n0 * k, n1 * k, n2 * k
+    bad = (n0 * n0 + n1 * n1 + n2 * n2 == 0.0) | (fallback & (n0 * wo[0] + n1 * wo[1] + n2 * wo[2] <= 0.0))
+    use = smooth & ~bad
+    ns = (n0 if use else ng[0], n1 if use else ng[1], n2 if use else ng[2])
+    nv = (n0 if smooth else ng[0], n1 if smooth else ng[1], n2 if smooth else ng[2])
+    l0, l1, l2 = p              # Hanika's terminator lift (hit_surface's loop, unrolled)
+    for j in range(3):
+        vk, nk = (v0, n0_) if j == 0 else ((v1, n1_) if j == 1 else (v2, n2_))
+        bk = b0 if j == 0 else (b1 if j == 1 else b2)
+        h = sign * ((p[0] - vk[0]) * nk[0] + (p[1] - vk[1]) * nk[1] + (p[2] - vk[2]) * nk[2])
+        wk = bk * min(h, 0.0) * sign
+        l0 -= nk[0] * wk
+        l1 -= nk[1] * wk
+        l2 -= nk[2] * wk
+    up = smooth & terminator
+    lift = (l0 if up else p[0], l1 if up else p[1], l2 if up else p[2])
+    mg = 0.0
+    ml = 0.0
+    for c in range(3):
+        mg += abs(ng[c]) * g4 * fa[c]
+        ml += abs(ng[c]) * g4 * (fa[c] + abs(lift[c] - p[c]))
+    le = (le_front[0] if front else le_back[0], le_front[1] if front else le_back[1],
+          le_front[2] if front else le_back[2])
+    fr = 0.5 * (sign + 1.0)          # the front flag (1.0 or 0.0) without a conditional expression
+    return (p, ng, ns, nv, lift, le, mg + ext, ml + ext, fr, dot(wo, ns),
+            np.float64(E.packet_tfar(pk, w, lane)))
+
 
 kernel_cache.restore()
