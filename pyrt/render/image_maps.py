@@ -83,12 +83,22 @@ def _max_filter(a, radius, out):
                 o[x] = max(o[x], row[x + d])
 
 
+#: a scalar helper of the map loops (inlined into them)
+_inline = numba.njit(cache=True, nogil=True, error_model="numpy", forceinline=True)
+
+
+@_inline
+def fill_at(share, have, room, lam):
+    """What one pixel takes at level ``lam`` of :func:`water_fill`: ``clip(lam share - have, 0, room)``."""
+    return min(max(share * lam - have, 0.0), room)
+
+
 @_jit
 def fill_level(share, have, room, lam, out):
-    """``clip(lam share - have, 0, room)`` into ``out``: what every pixel takes to reach ``lam`` times its share,
-    capped by its room (one level of :func:`water_fill`); returns ``out``."""
+    """:func:`fill_at` of every pixel into ``out``: what every pixel takes to reach ``lam`` times its share, capped
+    by its room (one level of :func:`water_fill`); returns ``out``."""
     for i in range(share.shape[0]):
-        out[i] = min(max(share[i] * lam - have[i], 0.0), room[i])
+        out[i] = fill_at(share[i], have[i], room[i], lam)
     return out
 
 
@@ -97,7 +107,7 @@ def fill_sum(share, have, room, lam, stride):
     """The sum of :func:`fill_level` at ``lam`` over every ``stride``-th pixel, without the map."""
     s = 0.0
     for i in range(0, share.shape[0], stride):
-        s += min(max(share[i] * lam - have[i], 0.0), room[i])
+        s += fill_at(share[i], have[i], room[i], lam)
     return s
 
 

@@ -262,7 +262,7 @@ def _at(a, ok, w, share, room, lam, stride):
     ``stride``-th pixel."""
     s, n, total = 0.0, 0, 0.0
     for i in range(0, a.shape[0], stride):
-        new = min(max(share[i] * lam - w[i], 0.0), room[i])
+        new = IM.fill_at(share[i], w[i], room[i], lam)
         total += new
         if ok[i]:
             s += a[i] / (w[i] + new)
