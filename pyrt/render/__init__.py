@@ -9,7 +9,7 @@
   :class:`Output`, :class:`Execution`).
 """
 from pyrt.render.fixed import INTEGRATORS, render, render_full
-from pyrt.render.pool import SAMPLERS
+from pyrt.integrators.whitted import SAMPLERS
 from pyrt.render.result import RenderResult
 from pyrt.render.settings import Execution, Glossy, Output, Sampling, Whitted
 

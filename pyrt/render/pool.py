@@ -31,7 +31,7 @@ import warnings
 from pyrt.core.errors import RenderError
 from pyrt.core.memory import release_free_memory
 from pyrt.integrators.glossy import GlossyIntegrator
-from pyrt.integrators.whitted import DEFAULT_SPLIT_DEPTH, SAMPLERS, Integrator
+from pyrt.integrators.whitted import DEFAULT_SPLIT_DEPTH, Integrator
 
 class _NoBar:
     """What :func:`progress_bar` returns when no bar is wanted: the calls the renderers make, doing nothing."""
