@@ -145,8 +145,8 @@ def machine():
             lines = fh.read().splitlines()
         info["cpu"] = next((ln.split(":", 1)[1].strip() for ln in lines if ln.startswith("model name")), "?")
         flags = set(next((ln.split(":", 1)[1].split() for ln in lines if ln.startswith("flags")), []))
-        # the vector ISA: Embree's packet width and the kernel's vector code follow it (AVX2 machines ran the
-        # benchmarks ~2x slower per sample than AVX-512 ones, both renderers)
+        # the vector ISA: Embree's packet width and the kernel's vector code follow it (tables from machines of
+        # different ISAs are not comparable in ns per sample)
         info["cpu"] += " (AVX-512)" if "avx512f" in flags else " (AVX2)" if "avx2" in flags else ""
     except OSError:
         info["cpu"] = "?"
