@@ -277,8 +277,9 @@ def test_the_kernel_cache_is_keyed_on_every_kernel_source():
         if name in seen:
             continue
         seen.add(name)
-        rel = name.replace("pyrt.shaders", "shaders").replace(".", "/") + ".py"
-        text = (root / rel).read_text()
+        rel = name.replace("pyrt.shaders", "shaders").replace(".", "/")
+        path = root / (rel + ".py") if (root / (rel + ".py")).exists() else root / rel / "__init__.py"  # a package
+        text = path.read_text()
         if "numba" not in text:          # plain Python (e.g. the accelerator): no code of it is compiled in
             seen.discard(name)
             continue

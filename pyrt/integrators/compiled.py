@@ -13,9 +13,10 @@ integrator (glossy rays with MIS against the area lights whose meshes they reach
 :mod:`pyrt.integrators.compiled_hit`), both with the light choice
 (``light_select_depth``); Lambert (constant,
 unfiltered-checker or nearest / bilinear / trilinear image albedo, constant emission), normalised Blinn-Phong,
-Mirror, Glass (one dielectric, no nested media), smooth Conductor, the library models with constant parameters and
+Mirror, Glass, smooth Conductor, the library models with constant parameters and
 the glTF metallic-roughness family (textured MetallicRoughness, isotropic GltfPBR opaque or smooth-transmitting, glTF
-emission and occlusion: :mod:`pyrt.materials.gltf_record`), vertex colours in a colour slot 0 (:mod:`pyrt.integrators.
+emission and occlusion: :mod:`pyrt.materials.gltf_record`), nested dielectrics and Beer-Lambert absorption
+(:mod:`pyrt.integrators.compiled_media`; not beside alpha masks or blending), vertex colours in a colour slot 0 (:mod:`pyrt.integrators.
 compiled_vertex`); tangent-space normal maps (in the frame of the mesh's vertex tangents where it has them); point
 and spot lights (every spot and distance falloff), directional lights; rectangle, disk and sphere lights (light
 samples stratified per hit and padded over a pixel's samples, BSDF samples beside them with MIS) with their visible
@@ -28,7 +29,7 @@ constant or nearest / bilinear / trilinear opacity, no environment light but a p
 :mod:`pyrt.integrators.compiled_coverage`); fixed spp and adaptive passes
 (:func:`pyrt.integrators.compiled_passes.render_pixels`). Not yet: other environments and strategies, emissive-mesh
 lights over textured emission, the other materials (and per-face colours), anisotropic and bicubic texture filters,
-nested media and ray recording (transparent shadows through Glass:
+ray recording (transparent shadows through dielectrics:
 :mod:`pyrt.integrators.compiled_shadows`; AOVs: fixed spp, not on Dask workers; the
 glossy integrator and the light choice not on Dask workers).
 """
@@ -49,6 +50,7 @@ from pyrt.geometry import embree_jit
 from pyrt.integrators import compiled_coverage as CC
 from pyrt.integrators import compiled_kernel as K
 from pyrt.integrators import compiled_layout as KL
+from pyrt.integrators import compiled_media
 from pyrt.integrators import compiled_vertex as CV
 from pyrt.integrators import kernel_cache
 from pyrt.integrators import light_choice
@@ -78,8 +80,8 @@ _DIELECTRIC_LOBES = (" (a dielectric with a BSDF lobe, e.g. glTF KHR_materials_t
 _MESH_EMISSION = (" (an emitter whose emission is not a constant the kernel reads: textured, vertex colours, alpha "
                   "masks or blending)")
 #: ... and to the reason of a smooth transmitting material it cannot pack
-_SMOOTH_TEXTURED = (" (smooth glTF transmission: the kernel reads it with constant base colour, metallic, "
-                    "transmission, specular and specular colour, isotropic)")
+_SMOOTH_TEXTURED = (" (smooth glTF transmission: the kernel reads it with constant metallic, transmission, specular "
+                    "and specular colour, isotropic)")
 
 
 def glossy_reasons(scene):
@@ -140,8 +142,8 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
     if cover is not None and cover.shadows and any(_traces_environment(lt) for lt in scene.lights):
         reasons.append("alpha masks or blend materials with an environment light (its shadow rays would not pass "
                        "them)")
-    if facts.media is not None:
-        reasons.append(media_reason(facts.media, scene.materials))
+    if facts.media is not None and cover is not None and cover.shadows:
+        reasons.append(facts.media.describe(scene.materials) + " with alpha masks or blend materials")
     if (ps.face_gouraud is not None) if ps is not None else facts.gouraud:
         reasons.append("Gouraud shading")
     if ps is not None and ps.accel.buffers != "shared":
@@ -168,20 +170,6 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
     reasons += CV.vertex_colors(scene.meshes, CV.vertex_color_textures(records, textures.objects))[1]
 
     return reasons
-
-
-def media_reason(media, materials):
-    """The reason for a scene with interface stacks (:class:`pyrt.integrators.media.NestedMedia`): which dielectrics
-    bound volumes (nested media: more than one) and which absorb (Beer-Lambert, e.g. glTF KHR_materials_volume's
-    attenuation)."""
-    labels = [m.label for m, p in zip(materials, media.participates) if p]
-    absorbing = [m.label for m, p, s in zip(materials, media.participates, media.sigma_a) if p and np.any(s > 0)]
-    parts = []
-    if len(labels) > 1:
-        parts.append(f"{len(labels)} volume dielectrics: {', '.join(labels)}")
-    if absorbing:
-        parts.append(f"absorbing: {', '.join(absorbing)}")
-    return f"nested dielectrics or absorption ({'; '.join(parts)})"
 
 
 def _traces_environment(light):
@@ -346,6 +334,8 @@ class CompiledScene:
         traced = emitter_lights(ps.scene)
         for k, lts in traced.items():
             mats[k][1][MC.TRACED] = 1.0 + next(j for j, lt in enumerate(ps.scene.lights) if lt is lts[0])
+        #: whether the rays carry interface stacks (:data:`pyrt.integrators.compiled_layout.O_MEDIA`)
+        self.media = compiled_media.medium_fields(ps.scene.materials, mats)
         self.materials = _table([t for t, _ in mats], [r for _, r in mats], MC.RECORD)
         self.textures = texture_table(ps, textures)
         #: whether the rays carry differentials (a texture reads footprints); whether a material has a normal map
@@ -574,6 +564,7 @@ def kernel_options(cs, spp, seed, max_depth, throughput_cutoff, split_depth, ter
     opts[KL.O_LAYERS] = MAX_LAYERS
     opts[KL.O_ROULETTE] = 1 if cs.roulette else 0
     opts[KL.O_TRANSPARENT] = cs.transparent
+    opts[KL.O_MEDIA] = 1 if cs.media else 0
     (opts[KL.O_GLOSSY_N], opts[KL.O_GLOSSY_DEPTH], opts[KL.O_SELECT], opts[KL.O_GLOSSY_ENV]), (threshold, clamp) = \
         cs.integrator
     optf = np.zeros(KL.F_ENV + compiled_env.RECORD)

@@ -40,11 +40,11 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     TILE, LANES, V_D, V_P, V_NG, V_NS, V_NV, V_LIFT, V_MAG, V_MAG_LIFT, V_FRONT, V_MAT, V_L, V_COSO, C_POS, C_FWD,
     C_RIGHT, C_UP, C_TAN, C_W, C_H, C_JITTER, C_K, C_AX, O_SEED, O_SPP, O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS,
     O_SPP_LO, O_FALLBACK, O_GRID, F_CUTOFF, F_BG, N_PRIMARY, N_SECONDARY, O_COVER, O_LAYERS, N_SHADOW, N_NONFINITE,
-    STACK, STACK_ROW, STACK_PDF, STACK_TB, STACK_LAYER, T_INF, DIM_LOBE, O_GLOSSY_N, O_GLOSSY_DEPTH, O_SELECT,
+    STACK, STACK_ROW, STACK_PDF, STACK_TB, STACK_LAYER, T_INF, DIM_LOBE, MED_ROW, O_MEDIA, O_GLOSSY_N, O_GLOSSY_DEPTH, O_SELECT,
     F_GLOSSY_T, F_GLOSSY_CLAMP, V_GL, O_GLOSSY_ENV, O_ROULETTE, ADAPTIVE_KEYS, O_ENV, O_AOV, O_SQ, N_AOV, V_T, O_DIFFS,
     TILES_PER_TASK, _njit, add_aovs, buffer_pointers, film_add, geometry_pointers, lane_vec, packet_buffers, pass_add,
-    release, set_lane_inputs, set_lane_vec, table_pointers)
-from pyrt.integrators import compiled_diffs as D, compiled_mesh_stage as MS  # noqa: E402
+    lane_inputs, release, set_lane_inputs, set_lane_vec, table_pointers)
+from pyrt.integrators import compiled_diffs as D, compiled_media as CMD, compiled_mesh_stage as MS  # noqa: E402
 from pyrt.integrators.compiled_coverage import (  # noqa: E402
     MASKS, cover_finish, cover_packet, cover_single, lane_through, split_blend)
 from pyrt.integrators.compiled_shadows import keep_rays, packet_walk, shadow_options, walks  # noqa: E402
@@ -81,14 +81,16 @@ def camera_dir(cam, x, y):
 
 
 @_njit
-def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, thr, depth, split, cutoff, rr, key, dim, stack, top, V, lane,
-          diffs):
+def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, albedo, eta_in, thr, depth, split, cutoff, rr, key, dim, stack,
+          top, V, lane, diffs):
     """Push the delta lobes of a hit of material ``m`` (reached with throughput ``thr``, a 3-tuple, at bounce
     ``depth``) onto ``stack`` (rows: origin, direction, throughput, depth) from row ``top``; returns ``(top, dim)``
     (:meth:`pyrt.integrators.whitted.Integrator._spawn_specular`: mirror reflections the shading normal sends below
     the geometric surface are dropped; from the split depth (``split`` >= 0) on a dielectric follows one lobe, chosen
     by weight; a lobe at or below ``cutoff`` is dropped, or with ``rr`` continues by Russian roulette,
-    :func:`pyrt.integrators.compiled_hit.survive`, its number the sample's next dimension ``dim``)."""
+    :func:`pyrt.integrators.compiled_hit.survive`, its number the sample's next dimension ``dim``). ``albedo``: the
+    hit's inputs (a GLTF hit's base colour tints its transmission); ``eta_in`` > 0: the refraction's relative index
+    from the ray's interface stack (:mod:`pyrt.integrators.compiled_media`)."""
     cos_o = dot(wo, ns)
     wr = (2.0 * cos_o * ns[0] - wo[0], 2.0 * cos_o * ns[1] - wo[1], 2.0 * cos_o * ns[2] - wo[2])
     if not MC.is_dielectric(mtag, mpars, m):   # mirror-like: one reflection lobe (MC.mirror_weight)
@@ -100,7 +102,7 @@ def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, thr, depth, split, cutoff, 
             top = push(p, ng, mag, stack, top, wr, t, depth + 1, V, lane, diffs, ns, wo, 0.0, 0.0)
         return top, dim
     # a dielectric (GLASS, smooth glTF transmission): reflection and refraction (MC.dielectric_lobes)
-    eta, fr, ft = MC.dielectric_lobes(mtag, mpars, m, cos_o, front)
+    eta, fr, ft = MC.dielectric_lobes(mtag, mpars, m, cos_o, front, eta_in, (albedo[3], albedo[4], albedo[5]))
     sin2_t = max(0.0, 1.0 - cos_o * cos_o) / (eta * eta)
     cos_t = math.sqrt(max(0.0, 1.0 - sin2_t))
     k = cos_o / eta - cos_t
@@ -148,10 +150,16 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
     etag = opts[O_ENV]
     cover, masks, layers = opts[O_COVER] != 0, opts[O_COVER] == MASKS, opts[O_LAYERS]
     sopt = shadow_options(opts)
+    media = opts[O_MEDIA] != 0
     n_sec = n_sh = n_re = 0
     while top > 0:
         top -= 1
         row = STACK_ROW * top
+        if media:       # the ray's interface stack in hand (its children's rows overwrite this one)
+            CMD.copy(stack, top, MED_ROW)
+            if CMD.lost(stack, MED_ROW):
+                continue
+        top0 = top
         thr = (stack[row + 6], stack[row + 7], stack[row + 8])
         depth = int(stack[row + 9])
         bpdf, tb, layer = stack[row + STACK_PDF], stack[row + STACK_TB], stack[row + STACK_LAYER]
@@ -169,9 +177,20 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
             layer += n_skip + 1.0
             if dropped:
                 continue
+        o_seg, length = o, 0.0
+        if media:       # false hits crossed (nested dielectrics), compiled_media
+            hit, prim, geom, u, v, o_seg, length, ok, n_skip = CMD.skip_false(
+                scene, G, fallback, mats_par, tex_tag, tex_par, layers, cover, stack, hit, prim, geom, u, v, o,
+                (d0, d1, d2), ray_buf, V, lane, diffs)
+            n_re += n_skip
+            if not ok:
+                continue
         if not hit:     # (a camera ray's continuation, bounce 0, sees what a camera ray sees)
             bg = CE.missed(etag, erec, edata, d0, d1, d2, depth == 0) if etag else (optf[F_BG], optf[F_BG + 1],
                                                                                    optf[F_BG + 2])
+            if media:   # escaped from inside an absorbing medium: 0 in its absorbing channels
+                k = CMD.attenuation(stack, MED_ROW, mats_par, math.inf)
+                bg = (bg[0] * k[0], bg[1] * k[1], bg[2] * k[2])
             if bpdf > 0.0:      # an escaped glossy ray: MIS against the map's samples at glossy hits
                 k = escape_weight(etag, erec, edata, opts[O_GLOSSY_ENV], (d0, d1, d2), bpdf)
                 bg = (bg[0] * k, bg[1] * k, bg[2] * k)
@@ -182,6 +201,13 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
         wo = (-d0, -d1, -d2)
         p, ng, ns, nv, lift, mag, mag_lift, front, face, uv = J.hit_surface(G, fallback, terminator, geom, prim, u, v,
                                                                           wo)
+        eta_in = 0.0
+        if media:       # Beer-Lambert over the ray's length in its current medium; the index it refracts by
+            k = CMD.attenuation(stack, MED_ROW, mats_par, length + math.sqrt(
+                (p[0] - o_seg[0]) ** 2 + (p[1] - o_seg[1]) ** 2 + (p[2] - o_seg[2]) ** 2))
+            thr = (thr[0] * k[0], thr[1] * k[1], thr[2] * k[2])
+            if CMD.participates(mats_par, G[8][face]):
+                eta_in = CMD.classify(stack, MED_ROW, mats_par, G[8][face], front)[1]
         if a < 1.0:             # a blend surface: this hit weighted a, the ray continued past it with 1 - a
             top, thr = split_blend(stack, top, p, ng, mag, o, (d0, d1, d2), thr, depth, bpdf, tb, layer, a, cutoff,
                                    V, lane, diffs)
@@ -213,8 +239,10 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
             top = spawn_glossy(p, ng, ns, wo, mag, mtag, mats_par, m, albedo, thr, depth, gl_n if depth == 0 else 1,
                                cutoff, rr, J.sample_key(key, n_sec), stack, top, V, lane, diffs)
         if depth < max_depth and MC.has_delta(mtag, mats_par, m):
-            top, dim = spawn(p, ng, ns, wo, front, mag, mtag, mats_par, m, thr, depth, split, cutoff, rr, key, dim,
-                             stack, top, V, lane, diffs)
+            top, dim = spawn(p, ng, ns, wo, front, mag, mtag, mats_par, m, albedo, eta_in, thr, depth, split, cutoff,
+                             rr, key, dim, stack, top, V, lane, diffs)
+        if media:       # the spawned rays' interface stacks
+            CMD.spawned(stack, MED_ROW, top0, top, mats_par, m, front, ng)
     counters[N_SECONDARY] += n_sec + n_re
     counters[N_SHADOW] += n_sh
     return r0, r1, r2
@@ -362,8 +390,13 @@ def shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k3
             d = lane_vec(V, V_D, lane)
             top, dim = spawn(lane_vec(V, V_P, lane), lane_vec(V, V_NG, lane), lane_vec(V, V_NS, lane),
                              (-d[0], -d[1], -d[2]), V[V_FRONT * LANES + lane] != 0.0,
-                             V[V_MAG * LANES + lane], mats_tag[m], mats_par, m, (a, a, a), 0, split, cutoff,
-                             opts[O_ROULETTE] != 0, keys[lane], DIM_LOBE, stack, top, V, lane, opts[O_DIFFS] != 0)
+                             V[V_MAG * LANES + lane], mats_tag[m], mats_par, m, lane_inputs(V, lane), 0.0, (a, a, a),
+                             0, split, cutoff, opts[O_ROULETTE] != 0, keys[lane], DIM_LOBE, stack, top, V, lane,
+                             opts[O_DIFFS] != 0)
+        if opts[O_MEDIA] != 0 and m >= 0:   # the camera ray's stack is empty (vacuum); its children's
+            CMD.clear(stack, MED_ROW)
+            CMD.spawned(stack, MED_ROW, 0, top, mats_par, m, V[V_FRONT * LANES + lane] != 0.0,
+                        lane_vec(V, V_NG, lane))
         if top > 0:
             l0, l1, l2 = trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag,
                                      lights_par, erec, edata, opts, optf, keys[lane], dim, stack, top, ray_buf,

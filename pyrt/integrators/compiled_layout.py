@@ -95,8 +95,10 @@ O_ROULETTE = 20
 #: (:data:`pyrt.integrators.shadows.MAX_INTERFACES`, :data:`pyrt.integrators.coverage.MAX_LAYERS` in a scene with
 #: masks); 0: off (dielectrics block)
 O_TRANSPARENT = 21
+#: 1 when the rays carry interface stacks (nested dielectrics or absorption: :mod:`pyrt.integrators.compiled_media`)
+O_MEDIA = 22
 #: length of the integer options
-N_OPTS = 22
+N_OPTS = 23
 #: consecutive tiles of a call's list that one thread renders with one set of packet buffers
 #: (:func:`pyrt.integrators.compiled_kernel.render_tiles`; also the unit of the threads' dynamic scheduling)
 TILES_PER_TASK = 4
@@ -118,8 +120,13 @@ STACK = 64
 #: the ray's differentials (x origin, x direction, y origin, y direction), then (at :data:`STACK_PDF`) the density
 #: ``n p`` of a BSDF-sampled (glossy) ray's direction, 0 for a delta ray; then (:data:`STACK_TB`, :data:`STACK_LAYER`)
 #: for a blend continuation (:mod:`pyrt.integrators.compiled_coverage`) the distance along the direction from the
-#: ray's first origin to the row's origin and the surfaces the ray has skipped or split so far (0 for a spawned ray)
-STACK_ROW, STACK_DIFF, STACK_PDF, STACK_TB, STACK_LAYER = 25, 10, 22, 23, 24
+#: ray's first origin to the row's origin and the surfaces the ray has skipped or split so far (0 for a spawned ray);
+#: then (:data:`STACK_MED`, with ``opts[O_MEDIA]``) the ray's interface stack: its count and up to :data:`MED_K`
+#: material ids (:mod:`pyrt.integrators.compiled_media`)
+STACK_ROW, STACK_DIFF, STACK_PDF, STACK_TB, STACK_LAYER, STACK_MED = 32, 10, 22, 23, 24, 25
+#: the most volumes a ray's interface stack holds; the stack row past the last (row :data:`STACK`) keeps the stack of
+#: the ray in hand
+MED_K, MED_ROW = 6, STACK
 #: Embree's "unbounded" tfar (:data:`pyrt.geometry.accel.T_INFINITE`)
 T_INF = 1e37
 #: the first random dimension of the glass lobe choice (0, 1: the pixel position)
@@ -234,7 +241,7 @@ def packet_buffers(width):
     corner. Returned as owners: their pointers come from :func:`buffer_pointers`; :func:`release` at the end of the
     entry keeps them alive until then."""
     return (E.packet_alloc(width), E.packet_alloc(width), E.ray_alloc(), np.zeros(V_SIZE * LANES),
-            np.zeros(STACK * STACK_ROW), np.zeros(LANES, dtype=np.uint64), np.zeros(2 * LANES, dtype=np.int64),
+            np.zeros((STACK + 1) * STACK_ROW), np.zeros(LANES, dtype=np.uint64), np.zeros(2 * LANES, dtype=np.int64),
             np.zeros(2 * LANES, dtype=np.uint64), np.zeros(2 * LANES))
 
 

@@ -16,8 +16,9 @@ origin toward the light, and at each surface
 
 ``tmax`` shortened to the same end point each time. After ``layers + 1`` queries a ray still crossing counts as
 blocked (:data:`pyrt.integrators.shadows.MAX_INTERFACES`, or :data:`pyrt.integrators.coverage.MAX_LAYERS` in a
-scene with masks, as on the NumPy path). Absorption inside dielectrics is not modelled here: the kernel renders no
-absorbing medium (:func:`pyrt.integrators.compiled.unsupported`).
+scene with masks, as on the NumPy path). A segment that ends on a dielectric's back (the ray was inside) is absorbed
+by its Beer-Lambert coefficient (:func:`pyrt.integrators.compiled_media.absorbed`) over the segment's length plus the
+re-offset lead, as :func:`pyrt.integrators.shadows._cross` counts it.
 
 The walk's options travel as one tuple (:func:`shadow_options`): ``(mask layers, masks, transparent layers,
 fallback)``; masks 1: the scene has mask or blend surfaces; transparent layers 0: transparent shadows off.
@@ -32,13 +33,17 @@ from pyrt.integrators import kernel_cache
 kernel_cache.use_cache_dir()      # before the decorators below run
 
 from pyrt.geometry import embree_jit as E  # noqa: E402
+from pyrt.integrators import compiled_diffs as D  # noqa: E402
 from pyrt.integrators.compiled_coverage import MASKS, MODE_MASK, opacity, through  # noqa: E402
+from pyrt.integrators.compiled_media import absorbed  # noqa: E402
 from pyrt.integrators.compiled_layout import (  # noqa: E402
     LANES, O_COVER, O_FALLBACK, O_LAYERS, O_TRANSPARENT, V_F, V_LIT, V_SO, V_TMAX, V_WI, _njit, lane_vec,
     set_lane_vec)
+from pyrt.integrators.shadows import GRAZING_COS  # noqa: E402
 from pyrt.materials import compiled as MC  # noqa: E402
 from pyrt.shaders import jit as J  # noqa: E402
 from pyrt.shaders.jit import dot, row3  # noqa: E402
+from pyrt.textures import compiled as TC  # noqa: E402
 
 
 @_njit
@@ -65,8 +70,10 @@ def walk(scene, G, mats_tag, mats_par, tex_tag, tex_par, sopt, o, wi, tmax, ray_
     wo = (-wi[0], -wi[1], -wi[2])
     ox, oy, oz = o
     t0 = t1 = t2 = 1.0
+    lead = 0.0          # how far past its last interface the origin was re-offset (absorbed too)
     for k in range(layers + 1):
-        hit, _, prim, geom, u, v, _, _, _ = E.intersect1(scene, ox, oy, oz, wi[0], wi[1], wi[2], 0.0, tmax, ray_buf)
+        hit, t_hit, prim, geom, u, v, _, _, _ = E.intersect1(scene, ox, oy, oz, wi[0], wi[1], wi[2], 0.0, tmax,
+                                                             ray_buf)
         if not hit:
             return t0, t1, t2, k + 1
         face = foff[geom] + prim
@@ -74,12 +81,16 @@ def walk(scene, G, mats_tag, mats_par, tex_tag, tex_par, sopt, o, wi, tmax, ray_
         mtag = mats_tag[m]
         rb = m * MC.RECORD
         if transparent and MC.is_dielectric(mtag, mats_par, m):
-            p, ng, ns, _, _, mag, _, _, _, _ = J.hit_surface(G, sopt[3] != 0, False, geom, prim, u, v, wo)
-            f = MC.shadow_transmission(mtag, mats_par, m, abs(dot(wi, ns)))
-            t0, t1, t2 = t0 * f[0], t1 * f[1], t2 * f[2]
+            p, ng, ns, _, _, mag, _, front, _, uv = J.hit_surface(G, sopt[3] != 0, False, geom, prim, u, v, wo)
+            f = MC.shadow_transmission(mtag, mats_par, m, abs(dot(wi, ns)),
+                                       tint_base(G, mats_tag, mats_par, tex_tag, tex_par, m, face, u, v, uv))
+            a = absorbed(mats_par, m, front, t_hit + lead)
+            t0, t1, t2 = t0 * f[0] * a[0], t1 * f[1] * a[1], t2 * f[2] * a[2]
             if not max(t0, t1, t2) > 0.0:
                 return 0.0, 0.0, 0.0, k + 1
             nx, ny, nz = J.round_away(p, mag, 1.0 if dot(wi, ng) >= 0.0 else -1.0, ng)
+            lead = abs((nx - p[0]) * ng[0] + (ny - p[1]) * ng[1] + (nz - p[2]) * ng[2]) / max(abs(dot(wi, ng)),
+                                                                                               GRAZING_COS)
         elif masks and mats_par[rb + MC.MASK] != 0.0:
             b1, b2 = np.float64(u), np.float64(v)
             b0 = 1.0 - b1 - b2
@@ -92,11 +103,27 @@ def walk(scene, G, mats_tag, mats_par, tex_tag, tex_par, sopt, o, wi, tmax, ray_
                 if not max(t0, t1, t2) > 0.0:
                     return 0.0, 0.0, 0.0, k + 1
             nx, ny, nz = through(G, face, b0, b1, b2, row3(fnorm, face), wi)
+            lead = 0.0      # (no absorbing medium beside masks: pyrt.integrators.compiled.unsupported)
         else:
             return 0.0, 0.0, 0.0, k + 1
         tmax = max(tmax - ((nx - ox) * wi[0] + (ny - oy) * wi[1] + (nz - oz) * wi[2]), 0.0)
         ox, oy, oz = nx, ny, nz
     return 0.0, 0.0, 0.0, layers + 1
+
+
+@_njit
+def tint_base(G, mats_tag, mats_par, tex_tag, tex_par, m, face, bu, bv, uv):
+    """The base colour a shadow ray reads where it crosses a GLTF dielectric ``m`` (its transmission's tint:
+    :func:`pyrt.materials.compiled.shadow_transmission`) at barycentrics ``(bu, bv)`` of ``face``, uv ``uv``: the
+    constant, or the texture (no footprint: shadow rays carry none) times the vertex colour; ones for the others."""
+    b = m * MC.RECORD
+    if mats_tag[m] != MC.GLTF:
+        return 1.0, 1.0, 1.0
+    if mats_par[b] < 0.0 and mats_par[b + MC.VERTEX_COLOR] == 0.0:
+        return mats_par[b + 1], mats_par[b + 2], mats_par[b + 3]
+    a = MC.albedo_at(MC.GLTF, mats_par, m, tex_tag, tex_par, uv[0], uv[1],
+                     D.hit_footprint(G, face, bu, bv, TC.NO_DIFFS), D.vertex_color(G, mats_par, m, face, bu, bv))
+    return a[3], a[4], a[5]
 
 
 @_njit

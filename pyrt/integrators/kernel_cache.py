@@ -38,7 +38,7 @@ KERNEL_SOURCES = ("pyrt.shaders.jit", "pyrt.shaders.jit_math", "pyrt.shaders.jit
                   "pyrt.core.unmanaged",
                   "pyrt.geometry.embree_jit", "pyrt.textures.compiled_mip", "pyrt.textures.compiled",
                   "pyrt.textures.compiled_normal_map", "pyrt.materials.compiled", "pyrt.integrators.compiled_coverage",
-                  "pyrt.integrators.compiled_shadows",
+                  "pyrt.integrators.compiled_media", "pyrt.integrators.compiled_shadows",
                   "pyrt.materials.compiled_sampling", "pyrt.lights.compiled", "pyrt.lights.compiled_tables",
                   "pyrt.lights.compiled_env", "pyrt.lights.compiled_env_preview", "pyrt.lights.compiled_mesh",
                   "pyrt.integrators.compiled_preview",

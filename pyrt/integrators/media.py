@@ -108,6 +108,18 @@ class NestedMedia:
             return media
         return None
 
+    def describe(self, materials):
+        """Which of ``materials`` bound volumes (nested media: more than one) and which absorb (Beer-Lambert, e.g.
+        glTF KHR_materials_volume's attenuation), for a render's fallback reason."""
+        labels = [m.label for m, p in zip(materials, self.participates) if p]
+        absorbing = [m.label for m, p, s in zip(materials, self.participates, self.sigma_a) if p and np.any(s > 0)]
+        parts = []
+        if len(labels) > 1:
+            parts.append(f"{len(labels)} volume dielectrics: {', '.join(labels)}")
+        if absorbing:
+            parts.append(f"absorbing: {', '.join(absorbing)}")
+        return f"nested dielectrics or absorption ({'; '.join(parts)})"
+
     # -- stacks ---------------------------------------------------------------------------------
     @staticmethod
     def empty(n, capacity=2):

@@ -42,6 +42,8 @@ GLTF (clear coat)    45-56 (:data:`COAT`) a :class:`pyrt.Clearcoat` over an opaq
                      the clear coat's scalar slot ``[row or -1, factor, channel]``, 49-51 the coat roughness's, 52-55
                      the coat's normal map (as :data:`NORMAL_MAP`; row 0: none), 56 the coat's F0
                      (:func:`pyrt.materials.gltf_record.clearcoat_record`)
+(every material)     57-62 (:data:`MEDIUM`) its medium: 1 when it takes part in nested media, its priority rank, its
+                     ``ior``, its absorption (RGB), written by the compiled scene (:mod:`pyrt.integrators.compiled_media`)
 ===================  ============================================================================================
 
 The models after BLINN_PHONG but GLTF have constant parameters only (a textured one is not compiled); their formulas
@@ -80,7 +82,7 @@ from pyrt.textures.compiled import texture_rgb
 from pyrt.textures.normal_map import NormalMap
 
 #: parameters per material record
-RECORD = 57
+RECORD = 63
 #: where every record keeps its normal map (:func:`pyrt.integrators.compiled_diffs.mapped_normal`): the map's row in the
 #: texture table plus one (0: none), its strength, 1 for green = -v (DirectX), 1 to bend reflections above the surface
 NORMAL_MAP = 24
@@ -110,6 +112,10 @@ SPECULAR = 41
 #: where a GLTF record keeps its clear coat (module notes; :func:`pyrt.materials.gltf_record.clearcoat_record`): 1 when
 #: coated, the clear coat's and the coat roughness's scalar slots, the coat's normal map fields, the coat's F0
 COAT = 45
+#: where every record keeps its medium (:mod:`pyrt.integrators.compiled_media`): 1 when it takes part in the
+#: interface stacks of nested dielectrics, its priority's rank, its ``ior``, then its absorption coefficient (RGB; a
+#: dielectric's, zeros otherwise)
+MEDIUM = 57
 #: the vertex colour of a hit whose material reads none (a multiplication by it is exact)
 WHITE = (1.0, 1.0, 1.0)
 #: type tags (0 is no material)
@@ -154,28 +160,30 @@ def is_dielectric(tag, pars, m):
 
 
 @register_jitable(forceinline=True)
-def shadow_transmission(tag, pars, m, cos):
+def shadow_transmission(tag, pars, m, cos, base):
     """The factor (an RGB tuple) by which a shadow ray's light is multiplied where it crosses the dielectric ``m``
     at ``cos = |wi . ns|`` (:func:`pyrt.integrators.shadows.transmittance`): ``tint (1 - R)``, ``R`` the Fresnel
     reflectance for ``eta = ior``; GLASS's tint, GLTF's ``base_color w`` (:attr:`pyrt.GltfPBR.tint`, thin or
-    not)."""
+    not; ``base`` the base colour at the hit)."""
     b = m * RECORD
     if tag == GLTF:
         k = (1.0 - J.fr_dielectric(cos, pars[b + TRANSMISSION + 3])) * pars[b + TRANSMISSION]
-        return pars[b + 1] * k, pars[b + 2] * k, pars[b + 3] * k
+        return base[0] * k, base[1] * k, base[2] * k
     k = 1.0 - J.fr_dielectric(cos, pars[b])
     return pars[b + 1] * k, pars[b + 2] * k, pars[b + 3] * k
 
 
 @register_jitable(forceinline=True)
-def dielectric_lobes(tag, pars, m, cos_o, front):
+def dielectric_lobes(tag, pars, m, cos_o, front, eta_in, base):
     """The two delta lobes of the dielectric ``m`` (:func:`is_dielectric`) at ``cos_o = n.wo`` > 0 seen from its front
     (``front``) or back: ``(eta, reflection weight, refraction weight)``, the weights RGB tuples, ``eta`` the relative
-    index the refraction bends by (1: straight through). The refraction weight is 0 under total internal reflection.
+    index the refraction bends by (1: straight through; ``eta_in`` > 0: that index, from the ray's interface stack,
+    :mod:`pyrt.integrators.compiled_media`). The refraction weight is 0 under total internal reflection. ``base``: a
+    GLTF hit's base colour (:func:`gltf_inputs`).
 
     - GLASS (:meth:`pyrt.Glass.delta_lobes`): ``eta = ior`` (``1 / ior`` from the back), ``tint R`` and ``tint (1 -
       R) / eta^2``, ``R`` the exact Fresnel reflectance (1 under total internal reflection);
-    - GLTF (:meth:`pyrt.GltfPBR.delta_lobes`, constant ``w``, base colour and record fields :data:`TRANSMISSION`): a
+    - GLTF (:meth:`pyrt.GltfPBR.delta_lobes`, constant ``w``, record fields :data:`TRANSMISSION`): a
       volume as GLASS but the reflection untinted, ``w R`` and ``base w (1 - R) / eta^2``; a thin wall ``eta = 1``,
       ``w F`` and ``base w (1 - max F)``, ``F = specular x`` Schlick of the dielectric F0 at ``cos_o`` (the
       constants of :func:`gltf_specular`: a transmitting record's specular slots hold no texture)."""
@@ -186,16 +194,16 @@ def dielectric_lobes(tag, pars, m, cos_o, front):
                       s * JB.fr_schlick(cos_o, min(f * pars[b + 22], 1.0)),
                       s * JB.fr_schlick(cos_o, min(f * pars[b + 23], 1.0)))
         t = w * (1.0 - max(f0, f1, f2))
-        return 1.0, (w * f0, w * f1, w * f2), (pars[b + 1] * t, pars[b + 2] * t, pars[b + 3] * t)
+        return 1.0, (w * f0, w * f1, w * f2), (base[0] * t, base[1] * t, base[2] * t)
     ior = pars[b + TRANSMISSION + 3] if tag == GLTF else pars[b]
-    eta = ior if front else 1.0 / ior
+    eta = eta_in if eta_in > 0.0 else (ior if front else 1.0 / ior)
     R = J.fr_dielectric(cos_o, eta)
     if max(0.0, 1.0 - cos_o * cos_o) / (eta * eta) >= 1.0:
         R = 1.0
     if tag == GLTF:
         w = pars[b + TRANSMISSION]
         t = w * (1.0 - R) / (eta * eta)
-        return eta, (w * R, w * R, w * R), (pars[b + 1] * t, pars[b + 2] * t, pars[b + 3] * t)
+        return eta, (w * R, w * R, w * R), (base[0] * t, base[1] * t, base[2] * t)
     t = (1.0 - R) / (eta * eta)
     return eta, (pars[b + 1] * R, pars[b + 2] * R, pars[b + 3] * R), (pars[b + 1] * t, pars[b + 2] * t,
                                                                      pars[b + 3] * t)

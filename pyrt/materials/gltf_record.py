@@ -86,14 +86,15 @@ def gltf_record(material, pack_texture, *, model, geometry, specular=1.0, specul
 def gltf_pbr_record(material, pack_texture, *, emission=0.0, occlusion=None, occlusion_strength=1.0):
     """``(GLTF, record)`` of a :class:`pyrt.GltfPBR` (:data:`GLTF_PBR`, its ``specular`` and ``specular_color``
     constants or textures, ``f0(ior)``) that is isotropic, opaque or of :attr:`~pyrt.GltfPBR.smooth_transmission`
-    with constant ``base_color``, ``metallic``, ``transmission``, ``specular`` and ``specular_color``: then
+    with constant ``metallic``, ``transmission``, ``specular`` and ``specular_color`` (the base colour, which tints the
+    transmission, may be a texture or vertex colours: read per hit): then
     ``[(1 - metallic) transmission, transmission, thin, ior]`` at :data:`pyrt.materials.compiled.TRANSMISSION`;
     None otherwise (rough or textured transmission, anisotropy) or when a texture is not readable by the kernel."""
     m = material
     if m.anisotropic:
         return None
     if m.transmits and (not m.smooth_transmission or any(is_texture(v) for v in (
-            m.base_color, m.metallic, m.transmission, m.specular, m.specular_color))):
+            m.metallic, m.transmission, m.specular, m.specular_color))):
         return None
     out = gltf_record(m, pack_texture, model=GLTF_PBR, geometry=m.geometry, specular=m.specular,
                       specular_color=m.specular_color, f0_ior=float(fresnel.f0_from_ior(m.ior_value)),
