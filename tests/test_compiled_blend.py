@@ -19,7 +19,7 @@ from pyrt.apps.preview.studio import StudioEnvironment
 from pyrt.integrators import compiled
 from pyrt.integrators.coverage import MAX_LAYERS
 from test_compiled_coverage import _both, _close, _objects, _one_sided, _quad, _render, _uv_quad
-from test_compiled_glossy import _renders
+from test_compiled_glossy import _add_sky, _renders, _z_agree
 from test_compiled_preview_env import _assert_equal_images
 
 
@@ -216,15 +216,21 @@ class _Ramp(pyrt.Texture):
         return ctx.uv[:, :1].copy()
 
 
-@pytest.mark.parametrize("case", ["environment", "opacity"])
-def test_what_blending_does_not_cover_falls_back_and_says_why(case):
+def test_blending_under_a_sampled_environment_agrees_with_numpy():
+    """The sampled sky's shadow rays are multiplied by ``1 - a`` through the veils, as the point lights' are: the
+    image agrees with the NumPy path's in distribution (the glossy integrator's rays: tests/test_compiled_coverage.py's
+    masks)."""
+    s = _add_sky(_veil(width=40, height=30, spp=16, jitter=True))
+    mc, vc, pc = _renders(s, "compiled", range(100, 104))
+    mn, vn, pn = _renders(s, "numpy", range(200, 204))
+    assert pc == {"compiled"} and pn == {"numpy"}
+    _z_agree(mc, vc, mn, vn)
+
+
+def test_an_opacity_the_kernel_cannot_read_falls_back_and_says_why():
     s = _veil(width=8, height=6)
-    if case == "environment":
-        pyrt.set_environment(s, pyrt.ConstantEnvironment(0.3))
-        reason = "alpha masks or blend materials with an environment light"
-    else:
-        s.materials[-2].set_coverage(opacity=_Ramp())
-        reason = "alpha blend of material"
+    s.materials[-2].set_coverage(opacity=_Ramp())
+    reason = "alpha blend of material"
     r = pyrt.render_full(s, execution=pyrt.Execution(progress=False))
     assert r.stats.backend == "numpy"
     assert any(reason in x for x in r.stats.fallback_reasons), r.stats.fallback_reasons

@@ -20,6 +20,7 @@ import trimesh
 import pyrt
 from pyrt.integrators import compiled
 from pyrt.integrators.coverage import MAX_LAYERS
+from test_compiled_glossy import _add_sky, _renders, _z_agree
 from test_compiled_render import assert_aovs_agree
 
 
@@ -267,11 +268,13 @@ def test_leaf_holes_show_what_is_behind_and_its_shadow_has_holes():
     assert floor.sum() > 20
 
 
-def test_masks_with_an_environment_light_fall_back_and_say_why():
-    s = _objects(width=8, height=6)
-    s.materials[0].set_coverage(opacity=0.5, alpha_mode="mask")
-    pyrt.set_environment(s, pyrt.ConstantEnvironment(0.3))
-    r = pyrt.render_full(s, execution=pyrt.Execution(progress=False))
-    assert r.stats.backend == "numpy"
-    reason = "alpha masks or blend materials with an environment light"
-    assert any(reason in x for x in r.stats.fallback_reasons), r.stats.fallback_reasons
+@pytest.mark.parametrize("integrator", [pyrt.Whitted(), pyrt.Glossy(samples=4, depth=2)])
+def test_masks_under_a_sampled_environment_agree_with_numpy(integrator):
+    """The sampled sky's shadow rays (the packet rounds, the specular tree's and glossy hits' single rays) walk
+    through the leaf's cut-outs as the point lights' do: the image agrees with the NumPy path's in distribution."""
+    s = _add_sky(_leaves(width=40, height=30, spp=16, jitter=True))
+    assert compiled.unsupported(None, scene=s) == []
+    mc, vc, pc = _renders(s, "compiled", range(100, 104), integrator=integrator)
+    mn, vn, pn = _renders(s, "numpy", range(200, 204), integrator=integrator)
+    assert pc == {"compiled"} and pn == {"numpy"}
+    _z_agree(mc, vc, mn, vn)

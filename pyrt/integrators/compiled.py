@@ -25,7 +25,7 @@ rays and lighting by ``strategy="mis"`` or ``"preview"`` (:mod:`pyrt.integrators
 light over constant emission (:mod:`pyrt.integrators.compiled_mesh_stage`); a constant
 background and ambient term; smooth and flat shading with or without the back-facing-normal fallback; the ``robust``
 and ``robust_no_terminator`` offsets; back-face culling (single-sided materials), alpha masks and blending (a
-constant or nearest / bilinear / trilinear opacity, no environment light but a preview:
+constant or nearest / bilinear / trilinear opacity, under any light:
 :mod:`pyrt.integrators.compiled_coverage`); fixed spp and adaptive passes
 (:func:`pyrt.integrators.compiled_passes.render_pixels`). Not yet: other environments and strategies, emissive-mesh
 lights over textured emission, the other materials (and per-face colours), anisotropic and bicubic texture filters,
@@ -61,7 +61,6 @@ from pyrt.integrators.shadows import MAX_INTERFACES
 from pyrt.lights import compiled as LC
 from pyrt.lights import compiled_env, compiled_env_preview
 from pyrt.lights import compiled_mesh as CM
-from pyrt.lights.environment_light import EnvironmentLight
 from pyrt.materials import compiled as MC
 from pyrt.materials.gltf_record import scalar_slot
 from pyrt.textures import compiled as TC
@@ -139,9 +138,6 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
     if scene.environment is not None and not compiled_env.packable(scene.environment):
         reasons.append(f"environment {type(scene.environment).__name__}")
     cover = facts.coverage
-    if cover is not None and cover.shadows and any(_traces_environment(lt) for lt in scene.lights):
-        reasons.append("alpha masks or blend materials with an environment light (its shadow rays would not pass "
-                       "them)")
     if facts.media is not None and cover is not None and cover.shadows:
         reasons.append(facts.media.describe(scene.materials) + " with alpha masks or blend materials")
     if (ps.face_gouraud is not None) if ps is not None else facts.gouraud:
@@ -170,13 +166,6 @@ def unsupported(ps, *, integrator="whitted", offset=None, transparent_shadows=Fa
     reasons += CV.vertex_colors(scene.meshes, CV.vertex_color_textures(records, textures.objects))[1]
 
     return reasons
-
-
-def _traces_environment(light):
-    """True for a light that traces shadow rays toward an environment (an :class:`pyrt.EnvironmentLight` but with
-    ``strategy="preview"``, which traces none: masks then only cut camera and specular rays, which the kernel
-    covers)."""
-    return light.environment is not None and not (isinstance(light, EnvironmentLight) and light.strategy == "preview")
 
 
 class _SceneFacts:
