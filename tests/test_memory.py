@@ -4,6 +4,7 @@ import os
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from pyrt.core import memory
@@ -76,3 +77,17 @@ print(json.dumps({"ok": ok, "before": before, "after": rss()}))
     if not r["ok"]:
         pytest.skip("not glibc")
     assert r["before"] - r["after"] > 500, r
+
+
+def test_zeroed_pages_are_a_writable_zero_array_that_owns_its_mapping():
+    """memory.zeroed: ``n`` float64 zeros (one word for ``n`` 0), writable through a float32 view as the texture
+    table is written, kept mapped by the array alone (the mapping object is not referenced elsewhere)."""
+    import gc
+    a = memory.zeroed(3_000_000)
+    assert a.dtype == np.float64 and a.shape == (3_000_000,) and a.flags.writeable and a.flags.c_contiguous
+    assert not a.any()
+    f = a.view(np.float32)
+    f[1::1000] = 2.5
+    gc.collect()
+    assert np.count_nonzero(a) == 6000 and f[1] == 2.5      # one float64 word per float32 written
+    assert memory.zeroed(0).shape == (1,)

@@ -91,13 +91,15 @@ def light_cells(erec, edata, V, o):
     for lane in range(LANES):
         V[V_ECELL * LANES + lane] = 0.0
         V[(V_ECELL + 1) * LANES + lane] = 0.0
-    # the marginal: the largest row whose cdf <= u1 (0 if none), every lane one step at a time
+    # the marginal: the largest row whose cdf <= u1 (0 if none), every lane one step at a time. A lane that moves
+    # adds the step to its (integral) cell, one that does not adds 0: a store in every lane (a store only where it
+    # moves compiles to masked stores, vmaskmovpd, slow on AMD's AVX2 CPUs)
     step = _top(rows)
     while step >= 1:
         for lane in range(LANES):
             k = int(V[V_ECELL * LANES + lane]) + step
             ok = (k < rows) & (edata[o_marg + min(k, rows - 1)] + 0.0 <= V[(V_EU + 1) * LANES + lane] + 0.0)
-            V[V_ECELL * LANES + lane] = float(k) if ok else V[V_ECELL * LANES + lane]
+            V[V_ECELL * LANES + lane] += float(step) if ok else 0.0
         step >>= 1
     # the row's conditional CDF, compared shifted by the row's index as the NumPy path compares it
     step = _top(w)
@@ -107,7 +109,7 @@ def light_cells(erec, edata, V, o):
             oc = o_cond + int(row) * (w + 1)
             k = int(V[(V_ECELL + 1) * LANES + lane]) + step
             ok = (k < w) & (edata[oc + min(k, w - 1)] + row <= V[V_EU * LANES + lane] + row)
-            V[(V_ECELL + 1) * LANES + lane] = float(k) if ok else V[(V_ECELL + 1) * LANES + lane]
+            V[(V_ECELL + 1) * LANES + lane] += float(step) if ok else 0.0
         step >>= 1
     for lane in range(LANES):
         k, i = int(V[V_ECELL * LANES + lane]), int(V[(V_ECELL + 1) * LANES + lane])

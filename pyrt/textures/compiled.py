@@ -43,6 +43,7 @@ import math
 import numpy as np
 from numba.extending import register_jitable
 
+from pyrt.core.memory import zeroed
 from pyrt.core.unmanaged import float32_pointer
 from pyrt.textures.compiled_mip import WRAPS, TexelBlock, bilinear_rgb, mip_record, mip_rgb, wrap_index  # noqa: F401
 
@@ -147,7 +148,7 @@ def pack_table(tags, records, texels, uv_sets=None):
         at += 2 * uv_sets[k].shape[0]
     words = at                                       # float64 words before the texels
     total = words + (sum(map(sum, sizes)) + 1) // 2
-    flat = np.zeros(total + (-total % RECORD))       # calloc: pages are mapped as the texels are written
+    flat = zeroed(total + (-total % RECORD))         # pages mapped as the texels are written (no huge-page stalls)
     flat32 = flat.view(np.float32)
     for k in sets:
         flat[set_at[k]:set_at[k] + 2 * uv_sets[k].shape[0]] = np.asarray(uv_sets[k], dtype=np.float64).ravel()
