@@ -40,10 +40,10 @@ from pyrt.integrators.compiled_layout import (  # noqa: E402
     TILE, LANES, V_D, V_P, V_NG, V_NS, V_NV, V_LIFT, V_MAG, V_MAG_LIFT, V_FRONT, V_MAT, V_L, V_COSO, C_POS, C_FWD,
     C_RIGHT, C_UP, C_TAN, C_W, C_H, C_JITTER, C_K, C_AX, O_SEED, O_SPP, O_MAX_DEPTH, O_SPLIT, O_TERMINATOR, O_NLIGHTS,
     O_SPP_LO, O_FALLBACK, O_GRID, F_CUTOFF, F_BG, N_PRIMARY, N_SECONDARY, O_COVER, O_LAYERS, N_SHADOW, N_NONFINITE,
-    STACK, STACK_ROW, STACK_PDF, STACK_TB, STACK_LAYER, T_INF, DIM_LOBE, MED_ROW, O_MEDIA, O_GLOSSY_N, O_GLOSSY_DEPTH, O_SELECT,
+    STACK, STACK_ROW, STACK_PDF, STACK_TB, STACK_LAYER, T_INF, DIM_LOBE, MED_ROW, O_MEDIA, V_X, O_GLOSSY_N, O_GLOSSY_DEPTH, O_SELECT,
     F_GLOSSY_T, F_GLOSSY_CLAMP, V_GL, O_GLOSSY_ENV, O_ROULETTE, ADAPTIVE_KEYS, O_ENV, O_AOV, O_SQ, N_AOV, V_T, O_DIFFS,
     TILES_PER_TASK, _njit, add_aovs, buffer_pointers, film_add, geometry_pointers, lane_vec, packet_buffers, pass_add,
-    lane_inputs, release, set_lane_inputs, set_lane_vec, table_pointers)
+    release, set_lane_inputs, set_lane_vec, table_pointers)
 from pyrt.integrators import compiled_diffs as D, compiled_media as CMD, compiled_mesh_stage as MS  # noqa: E402
 from pyrt.integrators.compiled_coverage import (  # noqa: E402
     MASKS, cover_finish, cover_packet, cover_single, lane_through, split_blend)
@@ -81,16 +81,17 @@ def camera_dir(cam, x, y):
 
 
 @_njit
-def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, albedo, eta_in, thr, depth, split, cutoff, rr, key, dim, stack,
+def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, base, eta_in, thr, depth, split, cutoff, rr, key, dim, stack,
           top, V, lane, diffs):
     """Push the delta lobes of a hit of material ``m`` (reached with throughput ``thr``, a 3-tuple, at bounce
     ``depth``) onto ``stack`` (rows: origin, direction, throughput, depth) from row ``top``; returns ``(top, dim)``
     (:meth:`pyrt.integrators.whitted.Integrator._spawn_specular`: mirror reflections the shading normal sends below
     the geometric surface are dropped; from the split depth (``split`` >= 0) on a dielectric follows one lobe, chosen
     by weight; a lobe at or below ``cutoff`` is dropped, or with ``rr`` continues by Russian roulette,
-    :func:`pyrt.integrators.compiled_hit.survive`, its number the sample's next dimension ``dim``). ``albedo``: the
-    hit's inputs (a GLTF hit's base colour tints its transmission); ``eta_in`` > 0: the refraction's relative index
-    from the ray's interface stack (:mod:`pyrt.integrators.compiled_media`)."""
+    :func:`pyrt.integrators.compiled_hit.survive`, its number the sample's next dimension ``dim``). ``base``: a GLTF
+    hit's base colour (RGB, its inputs' :func:`pyrt.materials.compiled.gltf_inputs`: the tint of its transmission);
+    ``eta_in`` > 0: the refraction's relative index from the ray's interface stack
+    (:mod:`pyrt.integrators.compiled_media`)."""
     cos_o = dot(wo, ns)
     wr = (2.0 * cos_o * ns[0] - wo[0], 2.0 * cos_o * ns[1] - wo[1], 2.0 * cos_o * ns[2] - wo[2])
     if not MC.is_dielectric(mtag, mpars, m):   # mirror-like: one reflection lobe (MC.mirror_weight)
@@ -102,7 +103,7 @@ def spawn(p, ng, ns, wo, front, mag, mtag, mpars, m, albedo, eta_in, thr, depth,
             top = push(p, ng, mag, stack, top, wr, t, depth + 1, V, lane, diffs, ns, wo, 0.0, 0.0)
         return top, dim
     # a dielectric (GLASS, smooth glTF transmission): reflection and refraction (MC.dielectric_lobes)
-    eta, fr, ft = MC.dielectric_lobes(mtag, mpars, m, cos_o, front, eta_in, (albedo[3], albedo[4], albedo[5]))
+    eta, fr, ft = MC.dielectric_lobes(mtag, mpars, m, cos_o, front, eta_in, base)
     sin2_t = max(0.0, 1.0 - cos_o * cos_o) / (eta * eta)
     cos_t = math.sqrt(max(0.0, 1.0 - sin2_t))
     k = cos_o / eta - cos_t
@@ -239,8 +240,8 @@ def trace_stack(scene, G, mats_tag, mats_par, tex_tag, tex_par, lights_tag, ligh
             top = spawn_glossy(p, ng, ns, wo, mag, mtag, mats_par, m, albedo, thr, depth, gl_n if depth == 0 else 1,
                                cutoff, rr, J.sample_key(key, n_sec), stack, top, V, lane, diffs)
         if depth < max_depth and MC.has_delta(mtag, mats_par, m):
-            top, dim = spawn(p, ng, ns, wo, front, mag, mtag, mats_par, m, albedo, eta_in, thr, depth, split, cutoff,
-                             rr, key, dim, stack, top, V, lane, diffs)
+            top, dim = spawn(p, ng, ns, wo, front, mag, mtag, mats_par, m, (albedo[3], albedo[4], albedo[5]), eta_in,
+                             thr, depth, split, cutoff, rr, key, dim, stack, top, V, lane, diffs)
         if media:       # the spawned rays' interface stacks
             CMD.spawned(stack, MED_ROW, top0, top, mats_par, m, front, ng)
     counters[N_SECONDARY] += n_sec + n_re
@@ -390,9 +391,9 @@ def shade_packet(scene, G, cam, pk, sh, ray_buf, V, stack, keys, lane_s, lane_k3
             d = lane_vec(V, V_D, lane)
             top, dim = spawn(lane_vec(V, V_P, lane), lane_vec(V, V_NG, lane), lane_vec(V, V_NS, lane),
                              (-d[0], -d[1], -d[2]), V[V_FRONT * LANES + lane] != 0.0,
-                             V[V_MAG * LANES + lane], mats_tag[m], mats_par, m, lane_inputs(V, lane), 0.0, (a, a, a),
-                             0, split, cutoff, opts[O_ROULETTE] != 0, keys[lane], DIM_LOBE, stack, top, V, lane,
-                             opts[O_DIFFS] != 0)
+                             V[V_MAG * LANES + lane], mats_tag[m], mats_par, m, lane_vec(V, V_X, lane), 0.0,
+                             (a, a, a), 0, split, cutoff, opts[O_ROULETTE] != 0, keys[lane], DIM_LOBE, stack, top, V,
+                             lane, opts[O_DIFFS] != 0)
         if opts[O_MEDIA] != 0 and m >= 0:   # the camera ray's stack is empty (vacuum); its children's
             CMD.clear(stack, MED_ROW)
             CMD.spawned(stack, MED_ROW, 0, top, mats_par, m, V[V_FRONT * LANES + lane] != 0.0,

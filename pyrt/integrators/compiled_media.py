@@ -22,7 +22,8 @@ At a hit of a popped ray (:func:`pyrt.integrators.compiled_kernel.trace_stack`) 
 - :func:`spawned`: a spawned ray's stack is its parent's, crossed where it leaves below the geometric surface of a
   participating material.
 
-The stack in hand is kept in the scratch row :data:`~pyrt.integrators.compiled_layout.MED_ROW` (the rows the ray's
+The functions the kernel calls are compiled apart (not inlined: inlined, their loops cost the kernel's ray loop
+registers even in scenes without media). The stack in hand is kept in the scratch row :data:`~pyrt.integrators.compiled_layout.MED_ROW` (the rows the ray's
 children are pushed to overwrite its own). Where the NumPy path widens its stacks without bound, a ray that would enter
 more than :data:`~pyrt.integrators.compiled_layout.MED_K` volumes at once is dropped (radiance 0; its count is set to
 -1).
@@ -123,7 +124,7 @@ def _ior(pars, e):
     return pars[e * MC.RECORD + MC.MEDIUM + 2] if e >= 0 else 1.0
 
 
-@_njit
+@_own
 def classify(stack, row, pars, m, front):
     """``(true hit, eta)`` of a hit on the participating material ``m`` from its front (``front``) or back, for the
     ray whose stack is row ``row`` (``NestedMedia.classify``): entering, true when ``m``'s rank is at least the
@@ -164,7 +165,7 @@ def cross(stack, src, dst, m, front):
     stack[b] = k - 1.0
 
 
-@_njit
+@_own
 def attenuation(stack, row, pars, dist):
     """Beer-Lambert transmittance ``exp(-sigma_a d)`` (RGB) of the current medium of row ``row``'s stack over the
     length ``dist`` (``inf`` for a miss: 0 where a channel absorbs, 1 where it does not), ``NestedMedia.attenuation``."""
@@ -181,7 +182,7 @@ def _beer(sigma, dist):
     return math.exp(-(sigma * dist)) if sigma > 0.0 else 1.0
 
 
-@_njit
+@_own
 def spawned(stack, src, lo, hi, pars, m, front, ng):
     """The stacks of the rays pushed into rows ``[lo, hi)`` at a hit on material ``m`` (viewer-side geometric normal
     ``ng``, seen from its front or not) by a ray whose stack is row ``src``: the parent's, crossed where the ray
